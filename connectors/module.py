@@ -1,0 +1,143 @@
+"""The module base class: declared ports and parameters, and a start / step / stop lifecycle.
+
+A module type is a subclass with a registered type name, typed ports, declared parameters and
+three methods. The declaration is the documentation: ``umbra describe TYPE`` prints it.
+
+    class Gain(Module):
+        \"\"\"Scales a scalar.\"\"\"
+
+        class Params(Parameters):
+            gain: float = param(2.0, "factor", unit="1")
+
+        input = Input(Scalar, trigger=True, doc="value to scale")
+        output = Output(Scalar, doc="scaled value")
+
+        def step(self, now: float) -> None:
+            sample = self.input.get(now)
+            if sample is not None:
+                self.output.send(Scalar(value=self.params.gain * sample.value))
+
+``step`` must never block: a device that blocks reads in its own thread and hands over its latest
+value. Time comes from the scheduler's clock (``now``, seconds), never from ``time.time()``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from connectors.frames import FrameTree
+from connectors.params import Parameters
+from connectors.ports import Input, Output, OutputPort, Register
+
+
+@dataclass
+class ModuleContext:
+    """What the runtime gives a module instance besides its parameters.
+
+    ``frames``: the graph's static frames. ``output_dir``: where the module may write files (videos,
+    recordings). ``rng``: a random generator seeded from the graph seed and the module name, so a sim
+    run is reproducible. ``clock``: "sim" or "real". ``request_stop(reason, exit_code)`` ends the run
+    after the current tick (a simulated world that judged the grasp, a file that ended).
+    ``link_alive(input)`` tells whether the producer of an input (in another process) is alive.
+    """
+
+    graph: str = "graph"
+    frames: FrameTree = field(default_factory=FrameTree)
+    output_dir: Path = field(default_factory=lambda: Path("."))
+    rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+    clock: str = "sim"
+    log: logging.Logger = field(default_factory=lambda: logging.getLogger("umbra"))
+    request_stop: Callable[[str, int], None] = field(default=lambda reason, code: None)
+    process: str = "main"
+
+
+class Module:
+    """Base class of every module type. Subclasses declare ``Params``, ``Input``s, ``Output``s."""
+
+    #: Registered type name (as in graphs); defaults to the class name.
+    TYPE: ClassVar[str] = ""
+    #: The module's parameter schema.
+    Params: ClassVar[type[Parameters]] = Parameters
+    #: True for safety guards (watchdog registers): command paths to guarded inputs must pass one.
+    SAFETY_GUARD: ClassVar[bool] = False
+
+    def __init__(self, name: str, params: Parameters, context: ModuleContext | None = None):
+        self.name = name
+        self.params = params
+        self.context = context or ModuleContext()
+        self.log = self.context.log.getChild(name)
+        self._registers: dict[str, Register[Any]] = {}
+        self._outputs: dict[str, OutputPort] = {}
+
+    # -- declarations -------------------------------------------------------------------------
+    @classmethod
+    def type_name(cls) -> str:
+        """The type name used in graphs."""
+        return cls.TYPE or cls.__name__
+
+    @classmethod
+    def input_decls(cls, params: Parameters | None = None) -> dict[str, Input]:
+        """Declared inputs in declaration order, plus ``dynamic_inputs(params)`` when given."""
+        found = _collect(cls, Input)
+        if params is not None:
+            for name, decl in cls.dynamic_inputs(params).items():
+                decl.name = name
+                found[name] = decl
+        return found
+
+    @classmethod
+    def dynamic_inputs(cls, params: Parameters) -> dict[str, Input]:
+        """Inputs that depend on parameters (a recorder's channels); none by default."""
+        return {}
+
+    @classmethod
+    def output_decls(cls) -> dict[str, Output]:
+        """Declared outputs in declaration order."""
+        return _collect(cls, Output)
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Acquire resources (open devices, files). Raise ``UserError`` for bad configuration."""
+
+    def step(self, now: float) -> None:
+        """Do one period's work at time ``now`` [s]; read inputs, send outputs; never block."""
+
+    def stop(self) -> None:
+        """Release resources; always called once the module has started, even after an error."""
+
+    def summary(self) -> dict[str, Any]:
+        """Figures for the end-of-run summary (counts, results); empty by default."""
+        return {}
+
+    # -- wiring (used by the runtime and the harness) -------------------------------------------
+    def bind_ports(self, clock: Callable[[], float]) -> None:
+        """Create this instance's input registers and output ports."""
+        for name, decl in self.input_decls(self.params).items():
+            self._registers[name] = Register(name, decl.max_age)
+        for name, decl in self.output_decls().items():
+            self._outputs[name] = OutputPort(name, decl.msg_type, clock)
+
+    @property
+    def registers(self) -> dict[str, Register[Any]]:
+        """Input registers by port name."""
+        return self._registers
+
+    @property
+    def outputs(self) -> dict[str, OutputPort]:
+        """Output ports by port name."""
+        return self._outputs
+
+
+def _collect(cls: type, kind: type) -> dict[str, Any]:
+    found: dict[str, Any] = {}
+    for klass in reversed(cls.__mro__):
+        for name, value in vars(klass).items():
+            if isinstance(value, kind):
+                found[name] = value
+    return found

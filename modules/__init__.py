@@ -1,0 +1,1 @@
+"""Module types of umbra, grouped by domain; the pure math lives beside each module."""

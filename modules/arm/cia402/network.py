@@ -1,0 +1,590 @@
+"""CANopen master for an arm of CiA 402 drives in profile velocity mode.
+
+`Cia402Arm` owns one canopen `Network` on one python-can bus:
+
+- `start()` (blocking, SDO): opens the bus, and for each drive: NMT PRE-OPERATIONAL,
+  identity check, producer heartbeat (0x1017), PDO mapping (written, or read and
+  checked), mode 3 (profile velocity), NMT OPERATIONAL, power state machine to
+  Operation enabled. Then SYNC starts at `sync_period_s` (python-can's periodic send:
+  the kernel's broadcast manager on socketcan) and a monitor thread starts.
+- `set_velocities(rad/s)` (never blocks on SDO): converts to counts/s and sends one RPDO
+  per drive (controlword "enable operation" + target velocity); drives apply it on SYNC.
+- `read()`: latest feedback, filled by TPDO callbacks on the bus thread (registers).
+- Supervision: a statusword fault bit, an EMCY, a drive leaving Operation enabled or NMT
+  OPERATIONAL (TPDO / heartbeat callbacks), a heartbeat or TPDO older than its timeout,
+  a dead receive thread, a failed send, a bus-off error frame (monitor thread) each trip
+  the arm: every drive gets target velocity 0 with a quick stop, later commands are
+  ignored, and `status()` names the drive and the cause. With no command for
+  `command_timeout_s`, targets drop to zero (not a trip).
+- `stop()`: quick stop, wait (bounded) for the drives to stand still, stop SYNC, NMT
+  PRE-OPERATIONAL, release the bus.
+
+Units at this interface: rad, rad/s, seconds; the drives see counts and counts/s.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
+from types import TracebackType
+
+import can
+import canopen
+import numpy as np
+from canopen.emcy import EmcyError
+from canopen.pdo import PdoMap
+from numpy.typing import ArrayLike
+
+from modules.arm.cia402 import bring_up
+from modules.arm.cia402 import objects as obj
+from modules.arm.cia402.bring_up import DriveStartError, PdoLayout
+from modules.arm.cia402.config import BusSpecError, Cia402ArmConfig, JointDrive
+from modules.arm.cia402.state_machine import (
+    SW_FAULT,
+    Command,
+    State,
+    StatuswordError,
+    controlword_for,
+    state_from_statusword,
+)
+from modules.arm.cia402.status import (
+    ArmState,
+    ArmStatus,
+    DriveTrip,
+    JointFeedback,
+    TripCause,
+    describe_error_code,
+)
+from modules.arm.cia402.units import counts_s_to_rates, counts_to_angles, rates_to_counts_s
+
+logger = logging.getLogger(__name__)
+
+NMT_OPERATIONAL = 5
+NMT_BOOT_UP = 0
+NMT_STATE_NAMES = {
+    0: "boot-up (the drive reset)",
+    4: "STOPPED",
+    5: "OPERATIONAL",
+    127: "PRE-OPERATIONAL",
+}
+CAN_ERR_BUSOFF = 0x40  # error class bit of a socketcan error frame
+
+
+@dataclass
+class _Drive:
+    """Master-side registers of one drive; guarded by the arm's lock."""
+
+    joint: JointDrive
+    node: canopen.RemoteNode
+    layout: PdoLayout | None = None
+    statusword: int | None = None
+    position_counts: int | None = None
+    velocity_counts_s: int | None = None
+    mode_display: int | None = None
+    error_code: int | None = None
+    feedback_time: float | None = None
+    heartbeat_time: float | None = None
+    nmt_state: int | None = None
+
+    @property
+    def label(self) -> str:
+        return f"joint {self.joint.name!r} (node {self.joint.node_id})"
+
+
+class _BusWatch(can.Listener):
+    """Sees error frames and the death of the receive thread."""
+
+    def __init__(
+        self, on_error_frame: Callable[[can.Message], None], on_dead: Callable[[Exception], None]
+    ):
+        self._on_error_frame = on_error_frame
+        self._on_dead = on_dead
+
+    def on_message_received(self, msg: can.Message) -> None:
+        if msg.is_error_frame:
+            self._on_error_frame(msg)
+
+    def on_error(self, exc: Exception) -> None:
+        self._on_dead(exc)
+
+    def stop(self) -> None:
+        pass
+
+
+class Cia402Arm:
+    """N joints on CiA 402 drives over one CAN bus (see the module docstring)."""
+
+    def __init__(self, config: Cia402ArmConfig) -> None:
+        self.config = config
+        self._lock = threading.Lock()
+        self._state = ArmState.IDLE
+        self._trips: list[DriveTrip] = []
+        self._trip_keys: set[tuple[int | None, TripCause]] = set()
+        self._network: canopen.Network | None = None
+        self._drives: list[_Drive] = []
+        self._monitor: threading.Thread | None = None
+        self._monitor_stop = threading.Event()
+        self._last_command = 0.0
+        self._command_stale = False
+        self._error_frames = 0
+        cpr = [j.counts_per_rad for j in config.joints]
+        self._counts_per_rad = np.asarray(cpr, dtype=float)
+        self._zero_counts = np.asarray([j.zero_counts for j in config.joints], dtype=float)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.config.joints)
+
+    # -- lifecycle -------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Open the bus and bring every drive to Operation enabled (blocks; SDO)."""
+        with self._lock:
+            if self._state is ArmState.RUNNING or self._state is ArmState.TRIPPED:
+                raise RuntimeError("the arm is already started; stop() it first")
+            self._trips = []
+            self._trip_keys = set()
+            self._command_stale = False
+            self._error_frames = 0
+        network = self._open_bus()
+        try:
+            self._drives = [self._add_drive(network, joint) for joint in self.config.joints]
+            for drive in self._drives:
+                self._bring_up(drive)
+            self._go_running(network)
+        except BaseException:
+            self._close_bus()
+            raise
+
+    def stop(self) -> None:
+        """Quick stop every drive, wait for standstill (bounded), release the bus."""
+        with self._lock:
+            if self._network is None:
+                self._state = ArmState.STOPPED if self._state is not ArmState.IDLE else self._state
+                return
+            if self._state is ArmState.RUNNING:
+                self._quick_stop_all_locked()
+            self._state = ArmState.STOPPED
+        self._wait_standstill()
+        self._close_bus()
+
+    def __enter__(self) -> Cia402Arm:
+        self.start()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.stop()
+
+    # -- servo interface (never blocks on SDO) ---------------------------------------
+
+    def set_velocities(self, rates_rad_s: ArrayLike) -> bool:
+        """Command joint rates (rad/s, joint order). False if not running (tripped, stopped)."""
+        rates = np.asarray(rates_rad_s, dtype=float)
+        if rates.shape != (len(self.config.joints),):
+            raise ValueError(
+                f"expected {len(self.config.joints)} joint rates {self.joint_names}, "
+                f"got shape {rates.shape}"
+            )
+        with self._lock:
+            if self._state is not ArmState.RUNNING:
+                return False
+            bad = [self.config.joints[i].name for i in np.flatnonzero(~np.isfinite(rates))]
+            if bad:
+                self._trip_locked(
+                    DriveTrip(TripCause.BAD_COMMAND, f"non-finite joint rate for {bad}")
+                )
+                return False
+            counts = rates_to_counts_s(rates, self._counts_per_rad)
+            self._last_command = time.monotonic()
+            self._command_stale = False
+            enable = controlword_for(Command.ENABLE_OPERATION)
+            try:
+                for drive, target in zip(self._drives, counts, strict=True):
+                    self._write_rpdo(drive, enable, int(target))
+            except (can.CanError, OSError, RuntimeError) as exc:
+                self._trip_locked(DriveTrip(TripCause.BUS_ERROR, f"sending targets failed: {exc}"))
+                return False
+        return True
+
+    def read(self) -> JointFeedback:
+        """Latest joint angles (rad), rates (rad/s), their ages (s) and drive states."""
+        now = time.monotonic()
+        with self._lock:
+            drives = list(self._drives)
+            pos = [np.nan if d.position_counts is None else d.position_counts for d in drives]
+            vel = [np.nan if d.velocity_counts_s is None else d.velocity_counts_s for d in drives]
+            ages = [np.inf if d.feedback_time is None else now - d.feedback_time for d in drives]
+            words = [d.statusword for d in drives]
+        if not drives:
+            n = len(self.config.joints)
+            pos, vel, ages, words = [np.nan] * n, [np.nan] * n, [np.inf] * n, [None] * n
+        return JointFeedback(
+            positions_rad=counts_to_angles(pos, self._counts_per_rad, self._zero_counts),
+            velocities_rad_s=counts_s_to_rates(vel, self._counts_per_rad),
+            ages_s=np.asarray(ages, dtype=float),
+            states=tuple(_state_or_none(w) for w in words),
+        )
+
+    def status(self) -> ArmStatus:
+        with self._lock:
+            return ArmStatus(
+                state=self._state,
+                trips=tuple(self._trips),
+                command_stale=self._command_stale,
+                error_frames=self._error_frames,
+            )
+
+    # -- bring-up (blocking) ---------------------------------------------------------
+
+    def _open_bus(self) -> canopen.Network:
+        spec = self.config.bus
+        network = canopen.Network()
+        network.listeners.append(_BusWatch(self._on_error_frame, self._on_receive_dead))
+        try:
+            network.connect(interface=spec.interface, channel=spec.channel, bitrate=spec.bitrate)
+        except Exception as exc:  # python-can raises many types here; all mean "no such bus"
+            raise BusSpecError(
+                f"cannot open CAN bus {spec.describe()}: {type(exc).__name__}: {exc}"
+            ) from exc
+        self._network = network
+        return network
+
+    def _add_drive(self, network: canopen.Network, joint: JointDrive) -> _Drive:
+        od = canopen.import_od(str(self.config.eds), joint.node_id)
+        node = network.add_node(joint.node_id, od)
+        node.sdo.RESPONSE_TIMEOUT = self.config.sdo_timeout_s
+        drive = _Drive(joint=joint, node=node)
+        node.nmt.add_heartbeat_callback(partial(self._on_heartbeat, drive))
+        node.emcy.add_callback(partial(self._on_emcy, drive))
+        return drive
+
+    def _bring_up(self, drive: _Drive) -> None:
+        cfg, node, label = self.config, drive.node, drive.label
+        node.nmt.state = "PRE-OPERATIONAL"
+        bring_up.check_identity(node, label)
+        heartbeat_ms = round(cfg.heartbeat_period_s * 1000)
+        bring_up.write_parameter(node, label, obj.PRODUCER_HEARTBEAT_TIME, heartbeat_ms)
+        self._wait_for(
+            lambda: drive.heartbeat_time is not None,
+            cfg.heartbeat_timeout_s,
+            f"{label}: no heartbeat within {cfg.heartbeat_timeout_s} s after setting its "
+            f"producer heartbeat time (0x1017) to {heartbeat_ms} ms",
+        )
+        if cfg.configure_pdos:
+            layout = bring_up.configure_pdos(node, label)
+        else:
+            layout = bring_up.read_pdos(node, label)
+        for pdo_map in layout.tpdos:
+            pdo_map.add_callback(partial(self._on_tpdo, drive))
+        with self._lock:
+            drive.layout = layout
+        cpr = abs(drive.joint.counts_per_rad)
+        od = node.object_dictionary
+        if cfg.acceleration_rad_s2 is not None:
+            counts = max(1, round(cfg.acceleration_rad_s2 * cpr))
+            for index in (obj.PROFILE_ACCELERATION, obj.PROFILE_DECELERATION):
+                if index in od:
+                    bring_up.write_parameter(node, label, index, counts)
+        if cfg.quick_stop_deceleration_rad_s2 is not None and obj.QUICK_STOP_DECELERATION in od:
+            counts = max(1, round(cfg.quick_stop_deceleration_rad_s2 * cpr))
+            bring_up.write_parameter(node, label, obj.QUICK_STOP_DECELERATION, counts)
+        bring_up.set_profile_velocity_mode(node, label)
+        node.nmt.state = "OPERATIONAL"
+        self._wait_for(
+            lambda: drive.nmt_state == NMT_OPERATIONAL,
+            cfg.heartbeat_timeout_s + cfg.heartbeat_period_s,
+            f"{label}: its heartbeat did not report NMT OPERATIONAL after the start command",
+        )
+        bring_up.enable_operation(node, label, cfg.enable_timeout_s)
+        bring_up.check_mode_display(node, label)
+
+    def _wait_for(self, predicate: Callable[[], bool], timeout_s: float, message: str) -> None:
+        deadline = time.monotonic() + timeout_s
+        while True:
+            with self._lock:
+                if predicate():
+                    return
+            if time.monotonic() > deadline:
+                raise DriveStartError(message)
+            time.sleep(min(0.005, self.config.monitor_period_s))
+
+    def _go_running(self, network: canopen.Network) -> None:
+        enable = controlword_for(Command.ENABLE_OPERATION)
+        with self._lock:
+            for drive in self._drives:
+                self._write_rpdo(drive, enable, 0)
+        network.sync.start(self.config.sync_period_s)
+        now = time.monotonic()
+        with self._lock:
+            for drive in self._drives:
+                drive.feedback_time = now  # grace: the first TPDOs come with the first SYNCs
+            self._last_command = now
+            self._state = ArmState.RUNNING
+        self._monitor_stop.clear()
+        self._monitor = threading.Thread(
+            target=self._monitor_loop, name="cia402-monitor", daemon=True
+        )
+        self._monitor.start()
+
+    def _wait_standstill(self) -> None:
+        deadline = time.monotonic() + self.config.stop_timeout_s
+        while time.monotonic() < deadline:
+            now = time.monotonic()
+            with self._lock:
+                moving = [
+                    d
+                    for d in self._drives
+                    if d.feedback_time is not None
+                    and now - d.feedback_time < self.config.feedback_timeout_s
+                    and (
+                        d.velocity_counts_s != 0
+                        or _state_or_none(d.statusword) is State.OPERATION_ENABLED
+                    )
+                ]
+            if not moving:
+                return
+            time.sleep(self.config.monitor_period_s)
+        logger.warning("drives still moving %s s after the quick stop", self.config.stop_timeout_s)
+
+    def _close_bus(self) -> None:
+        self._monitor_stop.set()
+        if self._monitor is not None and self._monitor is not threading.current_thread():
+            self._monitor.join(timeout=1.0)
+        self._monitor = None
+        network, self._network = self._network, None
+        if network is None:
+            return
+        try:
+            network.sync.stop()
+            if network.bus is not None:
+                for drive in self._drives:
+                    drive.node.nmt.state = "PRE-OPERATIONAL"
+        except (can.CanError, OSError, RuntimeError) as exc:
+            logger.warning("could not release the drives cleanly: %s", exc)
+        try:
+            network.disconnect()
+        except (can.CanError, OSError, RuntimeError) as exc:
+            logger.warning("closing the CAN bus: %s", exc)
+
+    # -- RPDO ------------------------------------------------------------------------
+
+    def _write_rpdo(self, drive: _Drive, controlword: int, target_counts_s: int) -> None:
+        """Fill and send the drive's RPDOs (caller holds the lock)."""
+        if drive.layout is None:
+            return
+        for pdo_map in drive.layout.rpdos:
+            for var in pdo_map.map:
+                if not var.length:
+                    continue
+                if var.index == obj.CONTROLWORD:
+                    var.raw = controlword
+                elif var.index == obj.TARGET_VELOCITY:
+                    var.raw = target_counts_s
+                elif var.index == obj.MODES_OF_OPERATION:
+                    var.raw = obj.PROFILE_VELOCITY_MODE
+            pdo_map.transmit()
+
+    def _quick_stop_all_locked(self) -> None:
+        quick_stop = controlword_for(Command.QUICK_STOP)
+        for drive in self._drives:
+            try:
+                self._write_rpdo(drive, quick_stop, 0)
+            except (can.CanError, OSError, RuntimeError) as exc:
+                self._record_locked(
+                    DriveTrip(TripCause.BUS_ERROR, f"could not send the quick stop: {exc}")
+                )
+
+    # -- trips -----------------------------------------------------------------------
+
+    def _record_locked(self, trip: DriveTrip) -> None:
+        key = (trip.node_id, trip.cause)
+        if key in self._trip_keys:
+            return
+        self._trip_keys.add(key)
+        self._trips.append(trip)
+        logger.warning("CANopen arm: %s", trip)
+
+    def _trip_locked(self, trip: DriveTrip) -> None:
+        """Record why, and stop every joint (target 0 + quick stop) if still running."""
+        self._record_locked(trip)
+        if self._state is ArmState.RUNNING:
+            self._state = ArmState.TRIPPED
+            self._quick_stop_all_locked()
+
+    def _drive_trip(
+        self, drive: _Drive, cause: TripCause, detail: str, code: int | None = None
+    ) -> DriveTrip:
+        return DriveTrip(cause, detail, drive.joint.name, drive.joint.node_id, code)
+
+    # -- bus thread callbacks --------------------------------------------------------
+
+    def _on_tpdo(self, drive: _Drive, pdo_map: PdoMap) -> None:
+        values = {var.index: var.raw for var in pdo_map.map if var.length}
+        with self._lock:
+            drive.feedback_time = time.monotonic()
+            if obj.STATUSWORD in values:
+                drive.statusword = int(values[obj.STATUSWORD])
+            if obj.POSITION_ACTUAL in values:
+                drive.position_counts = int(values[obj.POSITION_ACTUAL])
+            if obj.VELOCITY_ACTUAL in values:
+                drive.velocity_counts_s = int(values[obj.VELOCITY_ACTUAL])
+            if obj.MODES_OF_OPERATION_DISPLAY in values:
+                drive.mode_display = int(values[obj.MODES_OF_OPERATION_DISPLAY])
+            if values.get(obj.ERROR_CODE):
+                drive.error_code = int(values[obj.ERROR_CODE])
+            if self._state not in (ArmState.RUNNING, ArmState.TRIPPED):
+                return
+            word = drive.statusword
+            if word is not None and word & SW_FAULT:
+                code = drive.error_code
+                detail = f"fault bit set in statusword 0x{word:04X}"
+                if code is not None:
+                    detail += f", error code {describe_error_code(code)}"
+                self._trip_locked(self._drive_trip(drive, TripCause.FAULT, detail, code))
+                return
+            if self._state is not ArmState.RUNNING:
+                return
+            if word is not None and _state_or_none(word) is not State.OPERATION_ENABLED:
+                state = _state_or_none(word)
+                name = state.value if state is not None else "an undefined state"
+                self._trip_locked(
+                    self._drive_trip(
+                        drive, TripCause.STATE_LOST, f"now in {name} (statusword 0x{word:04X})"
+                    )
+                )
+            elif drive.mode_display is not None and drive.mode_display != obj.PROFILE_VELOCITY_MODE:
+                self._trip_locked(
+                    self._drive_trip(
+                        drive,
+                        TripCause.STATE_LOST,
+                        f"mode of operation display is {drive.mode_display}, expected "
+                        f"{obj.PROFILE_VELOCITY_MODE} (profile velocity)",
+                    )
+                )
+
+    def _on_heartbeat(self, drive: _Drive, nmt_state: int) -> None:
+        with self._lock:
+            drive.heartbeat_time = time.monotonic()
+            drive.nmt_state = nmt_state
+            if self._state is ArmState.RUNNING and nmt_state != NMT_OPERATIONAL:
+                name = NMT_STATE_NAMES.get(nmt_state, f"state {nmt_state}")
+                self._trip_locked(
+                    self._drive_trip(drive, TripCause.NMT_STATE, f"drive reports NMT {name}")
+                )
+
+    def _on_emcy(self, drive: _Drive, emcy: EmcyError) -> None:
+        if emcy.code & 0xFF00 == 0:
+            return  # error reset / no error
+        with self._lock:
+            drive.error_code = emcy.code
+            if self._state in (ArmState.RUNNING, ArmState.TRIPPED):
+                detail = (
+                    f"error code {describe_error_code(emcy.code)}, "
+                    f"error register 0x{emcy.register:02X}"
+                )
+                self._trip_locked(self._drive_trip(drive, TripCause.EMERGENCY, detail, emcy.code))
+
+    def _on_error_frame(self, msg: can.Message) -> None:
+        with self._lock:
+            self._error_frames += 1
+            if msg.arbitration_id & CAN_ERR_BUSOFF and self._state in (
+                ArmState.RUNNING,
+                ArmState.TRIPPED,
+            ):
+                self._trip_locked(
+                    DriveTrip(TripCause.BUS_ERROR, "the CAN controller reports bus-off")
+                )
+
+    def _on_receive_dead(self, exc: Exception) -> None:
+        with self._lock:
+            if self._state in (ArmState.RUNNING, ArmState.TRIPPED):
+                self._trip_locked(
+                    DriveTrip(
+                        TripCause.BUS_ERROR, f"receiving stopped: {type(exc).__name__}: {exc}"
+                    )
+                )
+
+    # -- monitor thread --------------------------------------------------------------
+
+    def _monitor_loop(self) -> None:
+        cfg = self.config
+        while not self._monitor_stop.wait(cfg.monitor_period_s):
+            now = time.monotonic()
+            with self._lock:
+                if self._state not in (ArmState.RUNNING, ArmState.TRIPPED):
+                    continue
+                self._check_bus_locked()
+                for drive in self._drives:
+                    self._check_drive_locked(drive, now)
+                if (
+                    self._state is ArmState.RUNNING
+                    and cfg.command_timeout_s is not None
+                    and not self._command_stale
+                    and now - self._last_command > cfg.command_timeout_s
+                ):
+                    self._command_stale = True
+                    enable = controlword_for(Command.ENABLE_OPERATION)
+                    try:
+                        for drive in self._drives:
+                            self._write_rpdo(drive, enable, 0)
+                    except (can.CanError, OSError, RuntimeError) as exc:
+                        self._trip_locked(
+                            DriveTrip(TripCause.BUS_ERROR, f"sending targets failed: {exc}")
+                        )
+
+    def _check_bus_locked(self) -> None:
+        network = self._network
+        if network is None:
+            return
+        notifier = network.notifier
+        if notifier is not None and notifier.exception is not None:
+            exc = notifier.exception
+            self._trip_locked(
+                DriveTrip(TripCause.BUS_ERROR, f"receiving stopped: {type(exc).__name__}: {exc}")
+            )
+        bus = network.bus
+        if bus is not None and bus.state is can.BusState.ERROR:
+            self._trip_locked(
+                DriveTrip(TripCause.BUS_ERROR, "the CAN interface reports an error state")
+            )
+
+    def _check_drive_locked(self, drive: _Drive, now: float) -> None:
+        cfg = self.config
+        if drive.heartbeat_time is not None:
+            silent = now - drive.heartbeat_time
+            if silent > cfg.heartbeat_timeout_s:
+                self._trip_locked(
+                    self._drive_trip(
+                        drive,
+                        TripCause.HEARTBEAT_LOST,
+                        f"no heartbeat for {silent:.3f} s (timeout {cfg.heartbeat_timeout_s} s)",
+                    )
+                )
+        if drive.feedback_time is not None:
+            stale = now - drive.feedback_time
+            if stale > cfg.feedback_timeout_s:
+                self._trip_locked(
+                    self._drive_trip(
+                        drive,
+                        TripCause.FEEDBACK_LOST,
+                        f"no TPDO for {stale:.3f} s (timeout {cfg.feedback_timeout_s} s)",
+                    )
+                )
+
+
+def _state_or_none(statusword: int | None) -> State | None:
+    if statusword is None:
+        return None
+    try:
+        return state_from_statusword(statusword)
+    except StatuswordError:
+        return None

@@ -1,0 +1,145 @@
+"""A simulated arm's joints: commanded rates in, joint angles out, with a drive's imperfections.
+
+Per step of ``dt`` seconds, for each joint:
+
+1. the commanded rate is clipped to the joint's rate limit (a drive saturates joint by joint);
+2. a first-order lag with time constant ``lag_tau`` pulls the actual rate towards it;
+3. the change of rate is limited to ``accel_max * dt``;
+4. the angle integrates the rate (trapezoid rule) and is clamped at the joint limits, where
+   the rate drops to zero.
+
+Calibration error: the joint angles that the arm *reports* (and that the controller believes)
+differ from the *true* ones by fixed unknown offsets, ``q_true = q_reported + calibration_error``.
+The plant (rendering, the true tool pose) uses ``q_true``; kinematics run on ``q_reported``.
+This is what makes an open-loop grab miss and a visual servo necessary.
+
+The gripper opening goes from 0 (closed) to 1 (open) in ``gripper_travel_time`` seconds.
+Units: radians (metres for prismatic joints), seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from modules.arm.dh import DHTable
+
+FloatArray = NDArray[np.float64]
+
+GRIPPER_COMMANDS = ("open", "close")
+
+
+@dataclass(frozen=True)
+class SimJointSettings:
+    """Drive model of the simulated joints.
+
+    Attributes:
+        accel_max: acceleration limit per joint (rad/s^2), a scalar for all joints.
+        lag_tau: time constant of the rate response (s); 0 for none.
+        calibration_error: offsets ``q_true - q_reported`` per joint (rad); empty for none.
+        gripper_travel_time: time for a full open or close (s).
+    """
+
+    accel_max: float = 8.0
+    lag_tau: float = 0.02
+    calibration_error: tuple[float, ...] = ()
+    gripper_travel_time: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not self.accel_max > 0:
+            raise ValueError(f"accel_max must be positive, got {self.accel_max}")
+        if self.lag_tau < 0:
+            raise ValueError(f"lag_tau must be >= 0, got {self.lag_tau}")
+        if not self.gripper_travel_time > 0:
+            raise ValueError(
+                f"gripper_travel_time must be positive, got {self.gripper_travel_time}"
+            )
+
+
+class SimJoints:
+    """State of a simulated arm; call :meth:`step` with commanded rates each tick."""
+
+    def __init__(
+        self,
+        table: DHTable,
+        q0: ArrayLike | None = None,
+        settings: SimJointSettings = SimJointSettings(),
+        gripper_opening: float = 1.0,
+    ) -> None:
+        self.table = table
+        self.settings = settings
+        q = np.zeros(table.n) if q0 is None else table.check_q(q0)
+        if np.any(q < table.q_min) or np.any(q > table.q_max):
+            raise ValueError(f"initial joint values {q.tolist()} are outside the joint limits")
+        error = np.asarray(settings.calibration_error, dtype=float)
+        if error.size == 0:
+            error = np.zeros(table.n)
+        if error.shape != (table.n,):
+            raise ValueError(
+                f"calibration_error needs {table.n} offsets (one per joint), got {error.size}"
+            )
+        self._calibration_error = error
+        self._q = q.copy()
+        self._qd = np.zeros(table.n)
+        self._gripper = float(np.clip(gripper_opening, 0.0, 1.0))
+        self._gripper_target = self._gripper
+        self.time = 0.0
+
+    @property
+    def q_reported(self) -> FloatArray:
+        """Joint angles as the encoders report them (what the controller sees)."""
+        return self._q.copy()
+
+    @property
+    def q_true(self) -> FloatArray:
+        """Joint angles the arm really has (reported + calibration error)."""
+        return self._q + self._calibration_error
+
+    @property
+    def qd(self) -> FloatArray:
+        """Actual joint rates."""
+        return self._qd.copy()
+
+    @property
+    def gripper_opening(self) -> float:
+        """Gripper opening, 0 closed .. 1 open."""
+        return self._gripper
+
+    @property
+    def gripper_moving(self) -> bool:
+        """True while the gripper travels towards its commanded opening."""
+        return self._gripper != self._gripper_target
+
+    def command_gripper(self, command: str) -> None:
+        """Start opening (``"open"``) or closing (``"close"``) the gripper."""
+        if command not in GRIPPER_COMMANDS:
+            raise ValueError(f"gripper command must be 'open' or 'close', got {command!r}")
+        self._gripper_target = 1.0 if command == "open" else 0.0
+
+    def step(self, commanded_rates: ArrayLike, dt: float) -> None:
+        """Advance the joints by ``dt`` seconds under ``commanded_rates`` (rad/s)."""
+        if dt <= 0:
+            return
+        table = self.table
+        command = np.clip(table.check_q(commanded_rates), -table.qd_max, table.qd_max)
+        tau = self.settings.lag_tau
+        blend = 1.0 if tau == 0 else 1.0 - np.exp(-dt / tau)
+        wanted = self._qd + (command - self._qd) * blend
+        max_change = self.settings.accel_max * dt
+        qd_new = self._qd + np.clip(wanted - self._qd, -max_change, max_change)
+        q_new = self._q + 0.5 * (self._qd + qd_new) * dt
+        low = q_new <= table.q_min
+        high = q_new >= table.q_max
+        q_new = np.clip(q_new, table.q_min, table.q_max)
+        qd_new[(low & (qd_new < 0)) | (high & (qd_new > 0))] = 0.0
+        self._q = q_new
+        self._qd = qd_new
+        step = dt / self.settings.gripper_travel_time
+        delta = self._gripper_target - self._gripper
+        if abs(delta) <= step:
+            self._gripper = self._gripper_target
+        else:
+            self._gripper += float(np.sign(delta)) * step
+        self.time += dt

@@ -1,0 +1,134 @@
+"""The velocity register (REG_VEL) logic: hold the latest twist, drop to zero on any doubt.
+
+The register passes the latest commanded twist through, with its linear and angular speeds
+clamped (each part scaled as a vector, so the direction is kept). It outputs zero, and says
+why, when:
+
+* no command has arrived yet;
+* the latest command is older than ``timeout`` (its age is ``now - stamp``);
+* the producer is gone (the caller says so, e.g. from link liveliness);
+* the caller names another reason to halt (e.g. a failed sanity check upstream);
+* the command is not a finite 6-vector.
+
+Pure: time comes in as arguments, there is no clock or thread here. Units: m/s, rad/s, seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+_ZERO = np.zeros(6)
+_ZERO.setflags(write=False)
+
+
+@dataclass(frozen=True)
+class RegisterSettings:
+    """Watchdog and clamps of the register.
+
+    Attributes:
+        timeout: largest accepted command age (s).
+        max_linear: largest linear speed |v| (m/s).
+        max_angular: largest angular speed |w| (rad/s).
+    """
+
+    timeout: float = 0.2
+    max_linear: float = 0.1
+    max_angular: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not (self.timeout > 0 and self.max_linear >= 0 and self.max_angular >= 0):
+            raise ValueError(
+                "register settings: timeout must be > 0 and speed limits >= 0, got "
+                f"timeout={self.timeout}, max_linear={self.max_linear}, "
+                f"max_angular={self.max_angular}"
+            )
+
+
+@dataclass(frozen=True)
+class RegisterOutput:
+    """What the register emits: ``twist`` ``[v; w]``; ``zero_reason`` is empty when it passes.
+
+    ``clamped`` tells that a speed limit scaled the command; ``age`` is the command's age (s),
+    or infinity when there is none.
+    """
+
+    twist: FloatArray
+    zero_reason: str
+    clamped: bool
+    age: float
+
+    @property
+    def passing(self) -> bool:
+        """True when the output is the (possibly clamped) command, not a forced zero."""
+        return not self.zero_reason
+
+
+def clamp_twist(twist: ArrayLike, max_linear: float, max_angular: float) -> tuple[FloatArray, bool]:
+    """Scale the linear and the angular part of ``[v; w]`` to at most the given norms."""
+    xi = np.array(twist, dtype=float).reshape(6)
+    clamped = False
+    for part, limit in ((slice(0, 3), max_linear), (slice(3, 6), max_angular)):
+        norm = float(np.linalg.norm(xi[part]))
+        if norm > limit:
+            xi[part] *= limit / norm
+            clamped = True
+    return xi, clamped
+
+
+class VelocityRegister:
+    """Latest twist command and its stamp; :meth:`output` applies the watchdog and clamps."""
+
+    def __init__(self, settings: RegisterSettings = RegisterSettings()) -> None:
+        self.settings = settings
+        self._twist: FloatArray | None = None
+        self._stamp = -np.inf
+        self._bad = ""
+
+    def put(self, twist: ArrayLike, stamp: float) -> None:
+        """Store a command ``[v; w]`` sampled at ``stamp`` (seconds on the run's clock)."""
+        xi = np.asarray(twist, dtype=float).reshape(-1)
+        if xi.shape != (6,) or not np.all(np.isfinite(xi)):
+            self._twist = None
+            self._bad = f"command rejected: expected 6 finite numbers, got {xi.tolist()}"
+        else:
+            self._twist = xi.copy()
+            self._bad = ""
+        self._stamp = float(stamp)
+
+    def clear(self) -> None:
+        """Forget the held command (output is zero until the next :meth:`put`)."""
+        self._twist = None
+        self._stamp = -np.inf
+        self._bad = ""
+
+    def output(self, now: float, producer_alive: bool = True, halt: str = "") -> RegisterOutput:
+        """The twist to pass on at time ``now``, or zero with the reason.
+
+        Args:
+            now: current time (s), same clock as the stamps.
+            producer_alive: False when the command's producer has disappeared.
+            halt: a non-empty reason forces zero (e.g. an upstream failure).
+        """
+        age = now - self._stamp
+        reason = ""
+        if halt:
+            reason = halt
+        elif not producer_alive:
+            reason = "command producer is gone"
+        elif self._bad:
+            reason = self._bad
+        elif self._twist is None:
+            reason = "no command received yet"
+        elif age > self.settings.timeout:
+            reason = f"command is {age:.3f} s old (timeout {self.settings.timeout:.3f} s)"
+        if reason:
+            return RegisterOutput(_ZERO, reason, False, float(age))
+        twist, clamped = clamp_twist(
+            self._twist, self.settings.max_linear, self.settings.max_angular
+        )
+        return RegisterOutput(twist, "", clamped, float(age))

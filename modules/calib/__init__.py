@@ -1,0 +1,1 @@
+"""Camera calibration: zoom camera models, calibration math and the Sony FCB zoom driver."""

@@ -1,0 +1,255 @@
+"""Appendix C of the Sandia report: the non-perspective n-point pose problem (nPnP).
+
+Unknown: a rigid transform ``T = (R, d)`` taking points from an *input* frame to an *output*
+frame (``y = R x + d``). Known: one or more views; view ``i`` is a calibrated camera whose
+extrinsics ``(R_i, d_i)`` take output-frame points into that camera's frame, with pixels measured
+for points given in the input frame. The rays of different views do not meet at one point, so
+this is not the PnP problem of a single perspective camera.
+
+Gauss-Newton (as in Appendix C): linearize the pose about the current estimate with a
+small-angle update ``R <- exp([dtheta]_x) R``, ``d <- d + dd`` (first order ``(I + [dtheta]_x) R``,
+equation 37), solve the stacked linear equations of all views for ``(dtheta, dd)`` by least
+squares, and rebuild ``R`` exactly from the axis-angle ``dtheta`` (equations 49-51). The residual
+is the ideal-pixel reprojection error; measured pixels are undistorted first. A step that raises
+the cost is halved (backtracking), which keeps the iteration from diverging on a poor start.
+
+Initial guess, if none is given: ``cv2.solvePnP`` (SQPnP) on the view with the most points
+(at least four), moved into the output frame; otherwise a linear generalized-camera solution
+(``[w]_x (R x + d - o) = 0`` for each ray ``o + s w``, at least six points on rays from more
+than one centre), projected onto the rotations.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from modules.calib.camera_model import PinholeCamera
+from modules.calib.errors import DegenerateGeometryError, NotConvergedError
+from modules.calib.rotations import nearest_rotation, rotation_from_vector, skew, transform
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class View:
+    """Pixels of input-frame points seen by a camera whose extrinsics are relative to the output
+    frame (``camera.R``, ``camera.d`` take output-frame points, metres, into the camera frame)."""
+
+    camera: PinholeCamera
+    points: FloatArray
+    pixels: FloatArray
+
+    def __post_init__(self) -> None:
+        points = np.asarray(self.points, dtype=float).reshape(-1, 3)
+        pixels = np.asarray(self.pixels, dtype=float).reshape(-1, 2)
+        if len(points) != len(pixels):
+            raise DegenerateGeometryError(f"view has {len(points)} points but {len(pixels)} pixels")
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "pixels", pixels)
+
+
+@dataclass(frozen=True, eq=False)
+class PoseResult:
+    """The solved transform (``y = R x + d``; metres), residual pixels per view, their RMS."""
+
+    R: FloatArray
+    d: FloatArray
+    rms_px: float
+    residuals: list[FloatArray]
+    iterations: int
+
+    @property
+    def T(self) -> FloatArray:
+        """4x4 homogeneous form of ``(R, d)``."""
+        return transform(self.R, self.d)
+
+
+@dataclass(frozen=True, eq=False)
+class _Prepared:
+    K2: FloatArray  # 2x2 upper-left block of K
+    principal: FloatArray
+    A_R: FloatArray
+    A_t: FloatArray
+    points: FloatArray
+    ideal: FloatArray
+
+
+def _prepare(views: Sequence[View]) -> list[_Prepared]:
+    prepared = []
+    for view in views:
+        if len(view.points) == 0:
+            continue
+        K = view.camera.K
+        ideal = view.camera.ideal_pixels(view.pixels)
+        if not np.all(np.isfinite(ideal)):
+            raise DegenerateGeometryError("a pixel cannot be undistorted (outside the lens model)")
+        prepared.append(
+            _Prepared(K[:2, :2], K[:2, 2], view.camera.R, view.camera.d, view.points, ideal)
+        )
+    total = sum(len(p.points) for p in prepared)
+    if total < 3:
+        raise DegenerateGeometryError(f"a pose needs at least 3 point/pixel pairs, got {total}")
+    return prepared
+
+
+def _residuals_and_jacobian(
+    prepared: list[_Prepared], R: FloatArray, d: FloatArray, with_jacobian: bool = True
+) -> tuple[FloatArray, FloatArray | None, float]:
+    residual_blocks, jacobian_blocks = [], []
+    min_depth = np.inf
+    for p in prepared:
+        rotated = p.points @ R.T
+        c = (rotated + d) @ p.A_R.T + p.A_t
+        z = c[:, 2]
+        min_depth = min(min_depth, float(z.min()))
+        normalized = c[:, :2] / z[:, None]
+        predicted = normalized @ p.K2.T + p.principal
+        residual_blocks.append(predicted - p.ideal)
+        if with_jacobian:
+            n = len(c)
+            dp_dc = np.zeros((n, 2, 3))
+            dp_dc[:, 0, 0] = 1.0 / z
+            dp_dc[:, 1, 1] = 1.0 / z
+            dp_dc[:, :, 2] = -normalized / z[:, None]
+            dpix_dc = np.einsum("ij,njk->nik", p.K2, dp_dc)
+            dc_dtheta = -np.einsum("ij,njk->nik", p.A_R, np.stack([skew(r) for r in rotated]))
+            dc_dd = np.broadcast_to(p.A_R, (n, 3, 3))
+            J = np.concatenate(
+                [dpix_dc @ dc_dtheta, np.einsum("nij,njk->nik", dpix_dc, dc_dd)], axis=2
+            )
+            jacobian_blocks.append(J.reshape(2 * n, 6))
+    r = np.concatenate([b.ravel() for b in residual_blocks])
+    J = np.vstack(jacobian_blocks) if with_jacobian else None
+    return r, J, min_depth
+
+
+def initial_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
+    """Starting pose for :func:`solve_npnp` (see module docstring)."""
+    prepared = _prepare(views)
+    best = max(prepared, key=lambda p: len(p.points))
+    if len(best.points) >= 4:
+        return _single_view_pose(best)
+    return linear_generalized_pose(views)
+
+
+def _single_view_pose(p: _Prepared) -> tuple[FloatArray, FloatArray]:
+    normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
+    ok, rvec, tvec = cv2.solvePnP(
+        p.points.astype(np.float64),
+        normalized.astype(np.float64),
+        np.eye(3),
+        None,
+        flags=cv2.SOLVEPNP_SQPNP,
+    )
+    if not ok:
+        raise DegenerateGeometryError("single-view PnP found no pose for the initial guess")
+    R_cam_in = rotation_from_vector(rvec.ravel())
+    # camera <- output (A) <- input (T):  T = A^-1 T_cam_in
+    R = p.A_R.T @ R_cam_in
+    d = p.A_R.T @ (tvec.ravel() - p.A_t)
+    return R, d
+
+
+def linear_generalized_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
+    """Linear pose from rays of several centres: ``[w]_x (R x + d - o) = 0`` per ray.
+
+    Needs at least six points not all on one plane, seen from more than one camera centre.
+    """
+    prepared = _prepare(views)
+    rows, rhs = [], []
+    for p in prepared:
+        origin = -p.A_R.T @ p.A_t
+        normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
+        directions = np.hstack([normalized, np.ones((len(normalized), 1))]) @ p.A_R
+        for x, w in zip(p.points, directions, strict=True):
+            W = skew(w / np.linalg.norm(w))
+            rows.append(W @ np.hstack([np.kron(np.eye(3), x[None, :]), np.eye(3)]))
+            rhs.append(W @ origin)
+    A = np.vstack(rows)
+    b = np.concatenate(rhs)
+    singular = np.linalg.svd(A, compute_uv=False)
+    if len(singular) < 12 or singular[11] <= 1e-9 * singular[0]:
+        raise DegenerateGeometryError(
+            "cannot find an initial pose: no view has 4 points and the rays do not determine a "
+            "linear solution (need >= 6 non-coplanar points from more than one camera centre); "
+            "give an initial pose"
+        )
+    solution = np.linalg.lstsq(A, b, rcond=None)[0]
+    R = nearest_rotation(solution[:9].reshape(3, 3))
+    translation_rows = np.vstack([r[:, 9:] for r in rows])
+    translation_rhs = np.concatenate(
+        [rh - r[:, :9] @ R.ravel() for r, rh in zip(rows, rhs, strict=True)]
+    )
+    d = np.linalg.lstsq(translation_rows, translation_rhs, rcond=None)[0]
+    return R, d
+
+
+def solve_npnp(
+    views: Sequence[View],
+    initial: ArrayLike | tuple[ArrayLike, ArrayLike] | None = None,
+    max_iterations: int = 100,
+    step_tolerance: float = 1e-12,
+) -> PoseResult:
+    """Solve the non-perspective n-point problem by Gauss-Newton.
+
+    Args:
+        views: one or more :class:`View`; at least three pairs in all.
+        initial: starting pose, a 4x4 transform or ``(R, d)``; default :func:`initial_pose`.
+        max_iterations: Gauss-Newton iterations before giving up.
+        step_tolerance: stop when the update is smaller than this (radians and metres).
+
+    Raises:
+        DegenerateGeometryError: too few pairs or a configuration that does not fix the pose.
+        NotConvergedError: no convergence, or points end up behind a camera.
+    """
+    prepared = _prepare(views)
+    if initial is None:
+        R, d = initial_pose(views)
+    elif isinstance(initial, tuple):
+        R, d = np.asarray(initial[0], dtype=float), np.asarray(initial[1], dtype=float)
+    else:
+        T0 = np.asarray(initial, dtype=float)
+        R, d = T0[:3, :3], T0[:3, 3]
+    R = nearest_rotation(R)
+    r, J, _ = _residuals_and_jacobian(prepared, R, d)
+    cost = float(r @ r)
+    iterations = 0
+    for iterations in range(1, max_iterations + 1):  # noqa: B007
+        singular = np.linalg.svd(J, compute_uv=False)
+        if singular[-1] <= 1e-12 * singular[0]:
+            raise DegenerateGeometryError(
+                "the observations do not determine all six pose parameters "
+                "(need >= 3 points not on one line, seen with enough parallax)"
+            )
+        step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        scale = 1.0
+        for _ in range(30):
+            R_new = rotation_from_vector(scale * step[:3]) @ R
+            d_new = d + scale * step[3:]
+            r_new, _, _ = _residuals_and_jacobian(prepared, R_new, d_new, with_jacobian=False)
+            cost_new = float(r_new @ r_new)
+            if cost_new <= cost or not np.isfinite(cost):
+                break
+            scale *= 0.5
+        else:
+            break  # no descent along the Gauss-Newton step: at a minimum to machine precision
+        R, d = R_new, d_new
+        r, J, _ = _residuals_and_jacobian(prepared, R, d)
+        previous, cost = cost, float(r @ r)
+        if np.max(np.abs(scale * step)) < step_tolerance or previous - cost <= 1e-14 * previous:
+            break
+    else:
+        raise NotConvergedError(f"nPnP did not converge in {max_iterations} iterations")
+    _, _, min_depth = _residuals_and_jacobian(prepared, R, d, with_jacobian=False)
+    if not min_depth > 0:
+        raise NotConvergedError(
+            "nPnP converged to a pose with points behind a camera: give a better initial pose"
+        )
+    blocks = np.split(r.reshape(-1, 2), np.cumsum([len(p.points) for p in prepared])[:-1])
+    rms_px = float(np.sqrt(np.mean(np.sum(r.reshape(-1, 2) ** 2, axis=1))))
+    return PoseResult(R, d, rms_px, blocks, iterations)

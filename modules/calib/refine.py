@@ -1,0 +1,137 @@
+"""Full calibration from 3-D/2-D pairs: DLT, decomposition, then nonlinear refinement.
+
+The refinement (the "Levenberg-Marquardt" step suggested at the end of Appendix A) minimizes the
+pixel reprojection error over all camera parameters at once: ``fx, fy, skew, u0, v0``, the
+distortion ``k1, k2, p1, p2`` (optionally ``k3``), and the pose ``R, d``. ``R`` is updated by a
+rotation vector about the current estimate (``R = exp([w]_x) R0``), so it stays a rotation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+
+from modules.calib.camera_model import Intrinsics, PinholeCamera
+from modules.calib.decompose import decompose_camera_matrix
+from modules.calib.dlt import check_correspondences, dlt_camera_matrix, rms
+from modules.calib.errors import DegenerateGeometryError
+from modules.calib.rotations import rotation_from_vector
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationResult:
+    """A fitted camera, its reprojection residuals (pixels, ``(n, 2)``) and their RMS (pixels)."""
+
+    camera: PinholeCamera
+    residuals: FloatArray
+    rms_px: float
+    linear_rms_px: float
+    evaluations: int
+
+
+def _unpack(
+    params: FloatArray, base_R: FloatArray, distortion_terms: int, fix_skew: bool
+) -> PinholeCamera:
+    fx, fy = float(params[0]), float(params[1])
+    i = 2
+    skew = 0.0 if fix_skew else float(params[i])
+    i += 0 if fix_skew else 1
+    u0, v0 = float(params[i]), float(params[i + 1])
+    i += 2
+    distortion = np.zeros(5)
+    distortion[:distortion_terms] = params[i : i + distortion_terms]
+    i += distortion_terms
+    R = rotation_from_vector(params[i : i + 3]) @ base_R
+    d = params[i + 3 : i + 6]
+    return PinholeCamera(Intrinsics(fx, fy, skew, u0, v0), R, d, distortion)
+
+
+def _pack(camera: PinholeCamera, distortion_terms: int, fix_skew: bool) -> FloatArray:
+    f = camera.intrinsics
+    head = [f.fx, f.fy] + ([] if fix_skew else [f.skew]) + [f.u0, f.v0]
+    return np.concatenate(
+        [head, camera.distortion[:distortion_terms], np.zeros(3), camera.d]
+    ).astype(float)
+
+
+def refine_camera(
+    camera: PinholeCamera,
+    points: ArrayLike,
+    pixels: ArrayLike,
+    distortion_terms: int = 4,
+    fix_skew: bool = False,
+) -> CalibrationResult:
+    """Refine every parameter of ``camera`` on measured pixels (``scipy.optimize.least_squares``).
+
+    Args:
+        camera: initial guess (e.g. from :func:`calibrate`'s linear step).
+        points: ``(n, 3)`` points in metres, reference frame.
+        pixels: ``(n, 2)`` measured (distorted) pixels.
+        distortion_terms: 0 (none), 2 (k1 k2), 4 (k1 k2 p1 p2, the report's model) or 5 (+k3).
+        fix_skew: hold skew at 0 (OpenCV's model) instead of fitting the report's ``fxy``.
+    """
+    if distortion_terms not in (0, 2, 4, 5):
+        raise ValueError(f"distortion_terms must be 0, 2, 4 or 5, got {distortion_terms}")
+    X, uv = check_correspondences(points, pixels)
+    unknowns = 6 + (4 if fix_skew else 5) + distortion_terms
+    if 2 * len(X) < unknowns:
+        raise DegenerateGeometryError(
+            f"refining {unknowns} parameters needs at least {(unknowns + 1) // 2} pairs, "
+            f"got {len(X)}"
+        )
+    base_R = camera.R
+
+    def residuals(params: FloatArray) -> FloatArray:
+        model = _unpack(params, base_R, distortion_terms, fix_skew)
+        return (model.project(X) - uv).ravel()
+
+    start = _pack(camera, distortion_terms, fix_skew)
+    solution = least_squares(residuals, start, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12)
+    fitted = _unpack(solution.x, base_R, distortion_terms, fix_skew)
+    if fitted.intrinsics.fx <= 0 or fitted.intrinsics.fy <= 0:
+        raise DegenerateGeometryError("refinement diverged to a non-positive focal length")
+    r = solution.fun.reshape(-1, 2)
+    start_r = residuals(start).reshape(-1, 2)
+    return CalibrationResult(
+        camera=fitted,
+        residuals=r,
+        rms_px=rms(np.linalg.norm(r, axis=1)),
+        linear_rms_px=rms(np.linalg.norm(start_r, axis=1)),
+        evaluations=int(solution.nfev),
+    )
+
+
+def linear_camera(points: ArrayLike, pixels: ArrayLike) -> PinholeCamera:
+    """The DLT camera (no distortion), decomposed into intrinsics and extrinsics."""
+    intrinsics, R, d = decompose_camera_matrix(dlt_camera_matrix(points, pixels))
+    return PinholeCamera(intrinsics, R, d)
+
+
+def calibrate(
+    points: ArrayLike,
+    pixels: ArrayLike,
+    distortion_terms: int = 4,
+    fix_skew: bool = False,
+    refine: bool = True,
+) -> CalibrationResult:
+    """Calibrate one camera from ``n >= 6`` non-coplanar points (metres) and measured pixels.
+
+    DLT with Hartley normalization, Appendix B decomposition, then (if ``refine``) nonlinear
+    refinement of all parameters including distortion. Without ``refine`` the result is the
+    linear camera and its residuals.
+    """
+    X, uv = check_correspondences(points, pixels)
+    camera = linear_camera(X, uv)
+    if fix_skew:
+        f = camera.intrinsics
+        camera = PinholeCamera(Intrinsics(f.fx, f.fy, 0.0, f.u0, f.v0), camera.R, camera.d)
+    if refine:
+        return refine_camera(camera, X, uv, distortion_terms, fix_skew)
+    r = camera.project(X) - uv
+    error = rms(np.linalg.norm(r, axis=1))
+    return CalibrationResult(camera, r, error, error, 0)

@@ -1,0 +1,63 @@
+"""Rotation helpers: skew matrices, rotation vectors and the x-y-z angles of the zoom file.
+
+All angles are radians. ``R`` is a proper rotation matrix (orthonormal, ``det R = +1``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+FloatArray = NDArray[np.float64]
+
+
+def skew(v: ArrayLike) -> FloatArray:
+    """Skew-symmetric matrix ``[v]_x`` with ``[v]_x w = v x w``."""
+    x, y, z = np.asarray(v, dtype=float)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_from_vector(rotation_vector: ArrayLike) -> FloatArray:
+    """Rotation matrix of an axis-angle vector (axis times angle in radians; Rodrigues)."""
+    return Rotation.from_rotvec(np.asarray(rotation_vector, dtype=float)).as_matrix()
+
+
+def vector_from_rotation(R: ArrayLike) -> FloatArray:
+    """Axis-angle vector (radians) of a rotation matrix."""
+    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_rotvec()
+
+
+def rotation_from_xyz(angles_rad: ArrayLike) -> FloatArray:
+    """``R = Rz(tz) Ry(ty) Rx(tx)``: rotations about the fixed x, then y, then z axes.
+
+    This is the reading used for the zoom file's ``thetax thetay thetaz``.
+    """
+    return Rotation.from_euler("xyz", np.asarray(angles_rad, dtype=float)).as_matrix()
+
+
+def xyz_from_rotation(R: ArrayLike) -> FloatArray:
+    """Inverse of :func:`rotation_from_xyz` (radians, ``ty`` in ``[-pi/2, pi/2]``)."""
+    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler("xyz")
+
+
+def nearest_rotation(M: ArrayLike) -> FloatArray:
+    """Closest proper rotation to a 3x3 matrix in the Frobenius norm (SVD projection)."""
+    U, _, Vt = np.linalg.svd(np.asarray(M, dtype=float))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    return U @ D @ Vt
+
+
+def transform(R: ArrayLike, d: ArrayLike) -> FloatArray:
+    """4x4 homogeneous transform ``[[R, d], [0, 1]]``."""
+    T = np.eye(4)
+    T[:3, :3] = np.asarray(R, dtype=float)
+    T[:3, 3] = np.asarray(d, dtype=float)
+    return T
+
+
+def invert_transform(T: ArrayLike) -> FloatArray:
+    """Inverse of a rigid 4x4 transform."""
+    T = np.asarray(T, dtype=float)
+    R = T[:3, :3]
+    return transform(R.T, -R.T @ T[:3, 3])

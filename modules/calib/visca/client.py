@@ -1,0 +1,577 @@
+"""Client for a Sony FCB zoom camera over VISCA on a serial port (pyserial, 9600 8N1 by default).
+
+All serial traffic happens in one device thread, the only thread here: it sets the address and
+clears the interface at start (address set broadcast, then IF_Clear), sends zoom direct commands
+and tracks their ACK and completion, and polls the zoom position at ``poll_period_s``. Callers
+never block: :meth:`ViscaZoomClient.zoom_to` stores a target (a register: the latest wins) and
+:meth:`ViscaZoomClient.latest` returns the latest :class:`ZoomReading`.
+
+A misbehaving camera never raises. Every request waits ``reply_timeout_s`` for its answer and is
+sent again up to ``retries`` times; what went wrong is kept in the reading's ``status``:
+
+* ``ok``
+* ``starting: ...`` address set and IF_Clear not done yet
+* ``no_reply: ...`` the camera said nothing (powered off, cable out, wrong port or baud rate)
+* ``garbled: ...`` bytes came back but no reply could be decoded from them (noise, wrong baud)
+* ``camera_error: ...`` the camera answered with a VISCA error (syntax, buffer full, ...)
+* ``port_error: ...`` the serial port itself failed (USB adapter unplugged); it is reopened
+
+A problem clears as soon as the request that had it succeeds. After ``reinit_after_failures``
+consecutive failed requests the client sets the address and clears the interface again (a
+camera that lost power forgets its address). Only :meth:`ViscaZoomClient.start` raises:
+:class:`connectors.errors.UserError` when the port cannot be opened.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import serial
+
+from connectors.errors import UserError
+from modules.calib.visca import protocol as vp
+
+
+class LinkStatus(enum.Enum):
+    """Health of the link to the camera; the value is the prefix of the status text."""
+
+    OK = "ok"
+    STARTING = "starting"
+    NO_REPLY = "no_reply"
+    GARBLED = "garbled"
+    CAMERA_ERROR = "camera_error"
+    PORT_ERROR = "port_error"
+
+
+@dataclass(frozen=True)
+class ViscaSettings:
+    """How to reach the camera and how patient to be. Times in seconds."""
+
+    port: str
+    address: int = 1
+    baudrate: int = 9600
+    poll_period_s: float = 0.1
+    reply_timeout_s: float = 0.3
+    retries: int = 2
+    completion_timeout_s: float = 6.0
+    """Longest a zoom may take from ACK to completion (full travel is ~2.4 s on an FCB)."""
+    retry_backoff_s: float = 0.5
+    """Wait before repeating a failed initialisation or a refused zoom command."""
+    reinit_after_failures: int = 3
+    arrival_tolerance_raw: int = 16
+    """A polled position this close to the commanded one counts as arrived (lost completion)."""
+    read_slice_s: float = 0.02
+
+    def __post_init__(self) -> None:
+        problems = []
+        if not 1 <= self.address <= 7:
+            problems.append(f"address must be 1..7, got {self.address}")
+        if self.retries < 0:
+            problems.append(f"retries must be >= 0, got {self.retries}")
+        for name in ("poll_period_s", "reply_timeout_s", "completion_timeout_s", "read_slice_s"):
+            if not getattr(self, name) > 0:
+                problems.append(f"{name} must be > 0, got {getattr(self, name)}")
+        if problems:
+            raise UserError("VISCA settings: " + "; ".join(problems))
+
+
+@dataclass(frozen=True)
+class ZoomReading:
+    """Latest knowledge of the camera's zoom.
+
+    ``zoom`` normalized 0 (wide) .. 1 (optical tele), NaN until the first position reply; ``raw``
+    the FCB's zoom position (-1 until known); ``moving`` while a zoom command runs or the polled
+    position changes; ``target`` the last requested normalized zoom (None if none);
+    ``position_time`` ``time.monotonic()`` [s] of the last position reply (NaN if none).
+    """
+
+    zoom: float
+    raw: int
+    moving: bool
+    target: float | None
+    status: str
+    link: LinkStatus
+    ready: bool
+    position_time: float
+
+    @property
+    def ok(self) -> bool:
+        return self.link is LinkStatus.OK
+
+
+@dataclass
+class ViscaCounters:
+    """What happened on the wire since start."""
+
+    packets_sent: int = 0
+    replies: int = 0
+    timeouts: int = 0
+    retries: int = 0
+    garbled: int = 0
+    """Runs of bytes thrown away by the splitter plus framed packets that did not decode."""
+    camera_errors: int = 0
+    zoom_commands: int = 0
+    zoom_completions: int = 0
+    polls: int = 0
+    initialisations: int = 0
+    foreign_replies: int = 0
+
+
+@dataclass
+class _Problem:
+    link: LinkStatus
+    detail: str
+
+
+# Precedence of problems in the status text: the link first, then the camera's answers.
+_PRECEDENCE = (
+    LinkStatus.PORT_ERROR,
+    LinkStatus.NO_REPLY,
+    LinkStatus.GARBLED,
+    LinkStatus.CAMERA_ERROR,
+    LinkStatus.STARTING,
+)
+
+
+@dataclass
+class _State:
+    """Everything shared between the device thread and callers (guarded by the client's lock)."""
+
+    target_raw: int | None = None
+    target_zoom: float | None = None
+    raw: int = -1
+    position_time: float = math.nan
+    position_changed: bool = False
+    inflight_socket: int | None = None
+    inflight_raw: int | None = None
+    inflight_since: float = 0.0
+    commanded_raw: int | None = None
+    problems: dict[str, _Problem] = field(default_factory=dict)
+    ready: bool = False
+
+
+class _RequestFailedError(Exception):
+    """A request got no good answer after all its tries (internal to the device thread)."""
+
+    def __init__(self, link: LinkStatus, detail: str) -> None:
+        super().__init__(detail)
+        self.link = link
+        self.detail = detail
+
+
+class ViscaZoomClient:
+    """Drive and watch the zoom of one FCB camera on a serial port (see the module docstring)."""
+
+    def __init__(self, settings: ViscaSettings) -> None:
+        self.settings = settings
+        self.counters = ViscaCounters()
+        self._lock = threading.Lock()
+        self._state = _State(problems={"init": _Problem(LinkStatus.STARTING, "not started")})
+        self._splitter = vp.PacketSplitter()
+        self._serial: serial.Serial | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._ready_event = threading.Event()
+        self._consecutive_failures = 0
+        self._zoom_retry_at = 0.0
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Open the port and start the device thread. Raises ``UserError`` if the port fails."""
+        if self._thread is not None:
+            return
+        self._serial = self._open_port()
+        self._stop.clear()
+        self._set_problem("init", LinkStatus.STARTING, "setting address and clearing interface")
+        self._thread = threading.Thread(
+            target=self._run, name=f"visca-io:{self.settings.port}", daemon=True
+        )
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop the device thread and close the port (idempotent)."""
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+        if self._serial is not None:
+            self._serial.close()
+            self._serial = None
+
+    def __enter__(self) -> ViscaZoomClient:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def wait_ready(self, timeout_s: float) -> bool:
+        """Block up to ``timeout_s`` until address set and IF_Clear succeeded (for start-up)."""
+        return self._ready_event.wait(timeout_s)
+
+    # -- caller side (never blocks on the device) --------------------------------------------
+
+    def zoom_to(self, zoom: float) -> None:
+        """Request normalized zoom ``zoom`` (clamped to 0..1); the device thread sends it."""
+        raw = vp.zoom_normalized_to_raw(zoom)
+        with self._lock:
+            self._state.target_raw = raw
+            self._state.target_zoom = vp.zoom_raw_to_normalized(raw)
+        self._wake.set()
+
+    def latest(self) -> ZoomReading:
+        """The latest zoom reading and link status."""
+        with self._lock:
+            s = self._state
+            link, status = _status_text(s.problems)
+            moving = s.inflight_socket is not None or s.position_changed
+            return ZoomReading(
+                zoom=vp.zoom_raw_to_normalized(s.raw) if s.raw >= 0 else math.nan,
+                raw=s.raw,
+                moving=moving,
+                target=s.target_zoom,
+                status=status,
+                link=link,
+                ready=s.ready,
+                position_time=s.position_time,
+            )
+
+    # -- device thread -----------------------------------------------------------------------
+
+    def _open_port(self) -> serial.Serial:
+        s = self.settings
+        try:
+            return serial.Serial(
+                port=s.port,
+                baudrate=s.baudrate,
+                bytesize=serial.EIGHTBITS,
+                parity=serial.PARITY_NONE,
+                stopbits=serial.STOPBITS_ONE,
+                timeout=s.read_slice_s,
+                write_timeout=1.0,
+            )
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise UserError(
+                f"cannot open VISCA serial port {s.port!r} at {s.baudrate} baud: {exc} "
+                "(expected a serial device such as /dev/ttyUSB0, or 'sim' for the simulated camera)"
+            ) from exc
+
+    def _run(self) -> None:
+        next_poll = 0.0
+        while not self._stop.is_set():
+            try:
+                if not self._is_ready():
+                    if not self._initialise():
+                        self._idle(time.monotonic() + self.settings.retry_backoff_s)
+                        continue
+                    next_poll = 0.0
+                self._send_zoom_if_needed()
+                if time.monotonic() >= next_poll:
+                    next_poll = time.monotonic() + self.settings.poll_period_s
+                    self._poll_position()
+                self._idle(next_poll)
+            except (serial.SerialException, OSError) as exc:
+                self._port_failed(exc)
+
+    def _is_ready(self) -> bool:
+        with self._lock:
+            return self._state.ready
+
+    def _initialise(self) -> bool:
+        address = self.settings.address
+        try:
+            reply = self._request(
+                vp.encode_address_set(),
+                "address set",
+                lambda r: isinstance(r, vp.AddressSetReply),
+            )
+            assert isinstance(reply, vp.AddressSetReply)
+            if reply.camera_count < address:
+                raise _RequestFailedError(
+                    LinkStatus.CAMERA_ERROR,
+                    f"address set found {reply.camera_count} camera(s) on {self.settings.port}, "
+                    f"but the configured address is {address}",
+                )
+            self._request(
+                vp.encode_if_clear(address),
+                "IF_Clear",
+                lambda r: _is_empty_completion(r, address),
+                error_filter=lambda e: e.address == address and e.socket == 0,
+            )
+        except _RequestFailedError as failure:
+            self._set_problem("init", failure.link, failure.detail)
+            return False
+        self.counters.initialisations += 1
+        with self._lock:
+            self._state.ready = True
+            self._state.inflight_socket = None
+            self._state.commanded_raw = None
+        self._clear_problem("init")
+        self._ready_event.set()
+        return True
+
+    def _send_zoom_if_needed(self) -> None:
+        self._check_completion_timeout()
+        with self._lock:
+            target = self._state.target_raw
+            wanted = target is not None and target != self._state.commanded_raw
+            old_socket = self._state.inflight_socket
+        if not wanted or time.monotonic() < self._zoom_retry_at:
+            return
+        assert target is not None
+        address = self.settings.address
+
+        def ours(error: vp.ErrorReply) -> bool:
+            superseded = error.code in (vp.ErrorCode.CANCELLED, vp.ErrorCode.NO_SOCKET)
+            return error.address == address and not (superseded and error.socket == old_socket)
+
+        self.counters.zoom_commands += 1
+        try:
+            ack = self._request(
+                vp.encode_zoom_direct(address, target),
+                f"zoom direct to raw {target:#06x}",
+                lambda r: isinstance(r, vp.Ack) and r.address == address,
+                error_filter=ours,
+            )
+        except _RequestFailedError as failure:
+            self._zoom_retry_at = time.monotonic() + self.settings.retry_backoff_s
+            self._set_problem("zoom", failure.link, failure.detail)
+            return
+        assert isinstance(ack, vp.Ack)
+        with self._lock:
+            self._state.inflight_socket = ack.socket
+            self._state.inflight_raw = target
+            self._state.inflight_since = time.monotonic()
+            self._state.commanded_raw = target
+        self._clear_problem("zoom")
+
+    def _check_completion_timeout(self) -> None:
+        late_raw: int | None = None
+        with self._lock:
+            s = self._state
+            if (
+                s.inflight_socket is not None
+                and time.monotonic() - s.inflight_since > self.settings.completion_timeout_s
+            ):
+                s.inflight_socket = None
+                late_raw = s.inflight_raw
+        if late_raw is not None:
+            self._set_problem(
+                "zoom",
+                LinkStatus.NO_REPLY,
+                f"no completion for zoom direct to raw {late_raw:#06x} within "
+                f"{self.settings.completion_timeout_s:.1f} s",
+            )
+
+    def _poll_position(self) -> None:
+        address = self.settings.address
+        self.counters.polls += 1
+        try:
+            self._request(
+                vp.encode_zoom_position_inquiry(address),
+                "zoom position inquiry",
+                lambda r: _is_position_reply(r, address),
+                error_filter=lambda e: e.address == address and e.socket == 0,
+            )
+        except _RequestFailedError as failure:
+            self._set_problem("poll", failure.link, failure.detail)
+            return
+        self._clear_problem("poll")
+
+    def _idle(self, until: float) -> None:
+        """Read and handle unsolicited replies (completions) until ``until`` or a new target."""
+        self._wake.clear()
+        while not self._stop.is_set() and time.monotonic() < until:
+            self._read_replies()
+            if self._wake.is_set():
+                return
+
+    # -- requests ----------------------------------------------------------------------------
+
+    def _request(
+        self,
+        packet: bytes,
+        what: str,
+        accept: Callable[[vp.Reply], bool],
+        error_filter: Callable[[vp.ErrorReply], bool] | None = None,
+    ) -> vp.Reply:
+        """Send ``packet`` until a reply passes ``accept``; raise ``_RequestFailedError`` if none.
+
+        ``error_filter`` says which error replies answer this request (others are stale).
+        """
+        s = self.settings
+        tries = 1 + s.retries
+        last: _RequestFailedError | None = None
+        for attempt in range(tries):
+            if attempt:
+                self.counters.retries += 1
+            garbled_before = self._garbled_total()
+            self._write(packet)
+            deadline = time.monotonic() + s.reply_timeout_s
+            answer: vp.Reply | None = None
+            while answer is None and time.monotonic() < deadline and not self._stop.is_set():
+                for reply in self._read_replies():
+                    if accept(reply):
+                        answer = reply
+                        break
+                    if isinstance(reply, vp.ErrorReply) and error_filter and error_filter(reply):
+                        answer = reply
+                        break
+            if answer is not None and not isinstance(answer, vp.ErrorReply):
+                self._consecutive_failures = 0
+                return answer
+            if isinstance(answer, vp.ErrorReply):
+                self.counters.camera_errors += 1
+                last = _RequestFailedError(
+                    LinkStatus.CAMERA_ERROR,
+                    f"camera answered {what} ({vp.hex_bytes(packet)}) with "
+                    f"{answer.description} (error {int(answer.code):02X}, socket {answer.socket})",
+                )
+                if answer.code is vp.ErrorCode.BUFFER_FULL:
+                    self._stop.wait(s.reply_timeout_s)
+            elif self._garbled_total() > garbled_before:
+                self.counters.timeouts += 1
+                last = _RequestFailedError(
+                    LinkStatus.GARBLED,
+                    f"unreadable reply to {what} ({vp.hex_bytes(packet)}) on {s.port}",
+                )
+            else:
+                self.counters.timeouts += 1
+                last = _RequestFailedError(
+                    LinkStatus.NO_REPLY,
+                    f"no reply to {what} ({vp.hex_bytes(packet)}) on {s.port} "
+                    f"within {s.reply_timeout_s:.2f} s",
+                )
+            if self._stop.is_set():
+                break
+        assert last is not None
+        last = _RequestFailedError(last.link, f"{last.detail} ({tries} tries)")
+        self._consecutive_failures += 1
+        if self._consecutive_failures >= s.reinit_after_failures:
+            self._consecutive_failures = 0
+            with self._lock:
+                self._state.ready = False
+        raise last
+
+    def _write(self, packet: bytes) -> None:
+        assert self._serial is not None
+        self._serial.write(packet)
+        self.counters.packets_sent += 1
+
+    def _read_replies(self) -> list[vp.Reply]:
+        """Read what the port has (waiting at most one read slice), decode and handle it."""
+        assert self._serial is not None
+        data = self._serial.read(max(1, self._serial.in_waiting))
+        replies: list[vp.Reply] = []
+        errors_before = self._splitter.errors
+        packets = self._splitter.feed(data)
+        self.counters.garbled += self._splitter.errors - errors_before
+        for packet in packets:
+            try:
+                reply = vp.decode_reply(packet)
+            except vp.ViscaDecodeError:
+                self.counters.garbled += 1
+                continue
+            self.counters.replies += 1
+            self._handle(reply)
+            replies.append(reply)
+        return replies
+
+    def _garbled_total(self) -> int:
+        return self.counters.garbled
+
+    def _handle(self, reply: vp.Reply) -> None:
+        """Update the shared state from any reply, whichever request is waiting."""
+        address = self.settings.address
+        if isinstance(reply, vp.NetworkChange):
+            with self._lock:
+                self._state.ready = False
+            return
+        if isinstance(reply, vp.AddressSetReply | vp.IfClearBroadcastReply):
+            return
+        if reply.address != address:
+            self.counters.foreign_replies += 1
+            return
+        now = time.monotonic()
+        with self._lock:
+            s = self._state
+            if _is_position_reply(reply, address):
+                raw = vp.decode_zoom_position(reply)
+                s.position_changed = s.raw >= 0 and raw != s.raw
+                s.raw = raw
+                s.position_time = now
+                if (
+                    s.inflight_socket is not None
+                    and s.inflight_raw is not None
+                    and abs(raw - s.inflight_raw) <= self.settings.arrival_tolerance_raw
+                    and not s.position_changed
+                ):
+                    s.inflight_socket = None
+            elif isinstance(reply, vp.Completion) and reply.socket == s.inflight_socket:
+                s.inflight_socket = None
+                self.counters.zoom_completions += 1
+            elif (
+                isinstance(reply, vp.ErrorReply)
+                and reply.socket != 0
+                and reply.socket == s.inflight_socket
+            ):
+                s.inflight_socket = None
+
+    def _port_failed(self, exc: BaseException) -> None:
+        self._set_problem("port", LinkStatus.PORT_ERROR, f"serial port {self.settings.port}: {exc}")
+        with self._lock:
+            self._state.ready = False
+        if self._serial is not None:
+            self._serial.close()
+        while not self._stop.wait(self.settings.retry_backoff_s):
+            try:
+                self._serial = self._open_port()
+            except UserError:
+                continue
+            self._clear_problem("port")
+            return
+
+    # -- status ------------------------------------------------------------------------------
+
+    def _set_problem(self, key: str, link: LinkStatus, detail: str) -> None:
+        with self._lock:
+            self._state.problems[key] = _Problem(link, detail)
+
+    def _clear_problem(self, key: str) -> None:
+        with self._lock:
+            self._state.problems.pop(key, None)
+
+
+def _status_text(problems: dict[str, _Problem]) -> tuple[LinkStatus, str]:
+    for link in _PRECEDENCE:
+        for problem in problems.values():
+            if problem.link is link:
+                return link, f"{link.value}: {problem.detail}"
+    return LinkStatus.OK, LinkStatus.OK.value
+
+
+def _is_position_reply(reply: vp.Reply, address: int) -> bool:
+    return (
+        isinstance(reply, vp.Completion)
+        and reply.address == address
+        and reply.socket == 0
+        and len(reply.payload) == 4
+        and all(b <= 0x0F for b in reply.payload)
+    )
+
+
+def _is_empty_completion(reply: vp.Reply, address: int) -> bool:
+    return (
+        isinstance(reply, vp.Completion)
+        and reply.address == address
+        and reply.socket == 0
+        and not reply.payload
+    )

@@ -1,0 +1,1 @@
+"""Generic modules every dataflow tool has: sources, sinks, a recorder."""

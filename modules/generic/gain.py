@@ -1,0 +1,23 @@
+"""Gain: scales a scalar (the smallest useful transform, for chains and tests)."""
+
+from __future__ import annotations
+
+from connectors import Input, Module, Output, Parameters, param
+from connectors.messages import Scalar
+
+
+class Gain(Module):
+    """output = gain * input + bias, on every new input."""
+
+    class Params(Parameters):
+        gain: float = param(1.0, "factor")
+        bias: float = param(0.0, "added after scaling")
+
+    input = Input(Scalar, trigger=True, doc="value to scale")
+    output = Output(Scalar, doc="scaled value")
+
+    def step(self, now: float) -> None:
+        sample = self.input.get(now)
+        if sample is not None:
+            p = self.params
+            self.output.send(Scalar(value=p.gain * sample.value + p.bias, stamp=sample.stamp))

@@ -1,0 +1,54 @@
+"""Printer: logs samples of any type, at most ``max_rate_hz`` lines per second."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Parameters, param
+from connectors.messages import Message
+
+
+def format_sample(sample: Message, precision: int = 4) -> str:
+    """A one-line, human-readable form of a sample (arrays shortened)."""
+    parts = []
+    for field in sample.__struct_fields__:
+        if field == "stamp":
+            continue
+        value = getattr(sample, field)
+        if isinstance(value, np.ndarray):
+            text = (np.array2string(value, precision=precision, separator=",", threshold=8)
+                    if value.size <= 16 else f"array{list(value.shape)}")
+        elif isinstance(value, float):
+            text = f"{value:.{precision}g}"
+        else:
+            text = repr(value)
+        parts.append(f"{field}={text}")
+    return f"t={sample.stamp:.3f} {type(sample).__name__}(" + ", ".join(parts) + ")"
+
+
+class Printer(Module):
+    """Prints each new sample on its input (rate-limited), for watching a connector."""
+
+    class Params(Parameters):
+        max_rate_hz: float = param(10.0, "at most this many lines per second", unit="Hz", gt=0)
+        precision: int = param(4, "significant digits", ge=1, le=17)
+
+    value = Input(Message, trigger=True, doc="any sample")
+
+    def start(self) -> None:
+        self._last = -float("inf")
+        self.printed = 0
+        self.seen = 0
+
+    def step(self, now: float) -> None:
+        sample = self.value.get(now)
+        if sample is None:
+            return
+        self.seen += 1
+        if now - self._last >= 1.0 / self.params.max_rate_hz:
+            self._last = now
+            self.printed += 1
+            print(f"[{self.name}] {format_sample(sample, self.params.precision)}", flush=True)
+
+    def summary(self) -> dict[str, object]:
+        return {"seen": self.seen, "printed": self.printed}

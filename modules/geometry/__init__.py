@@ -1,0 +1,1 @@
+"""Geometry shared by several domains: rays, triangulation and epipolar lines."""

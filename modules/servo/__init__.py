@@ -1,0 +1,1 @@
+"""Image-moment visual servoing (vsServo): features, the 4-DOF law, goals and grab stages."""

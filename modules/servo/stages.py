@@ -1,0 +1,219 @@
+"""Stages of an automated grab (LDRD report section 2.5, Figure 8), as an explicit state machine.
+
+::
+
+    acquire ──(snake healthy for N frames)──> approach
+    approach ──(every error within tolerance for M frames)──> final_grab
+    final_grab: advance ``grab_distance`` along the optical axis at ``grab_speed`` (open loop),
+                then close the gripper and wait ``gripper_close_time``  ──> done
+    any active stage ──(snake failure / no contour)──> assist  (zero velocity at once)
+    assist ──operator "resume"──> acquire        any stage ──operator "abort"──> aborted
+    done / aborted ──operator "resume"──> acquire (a new grab)
+
+The machine is pure: each :meth:`ServoStages.step` takes the time and the latest observation and
+returns the camera twist and the status; nothing here reads a clock.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from modules.servo.features import MomentFeatures
+from modules.servo.law import ServoGains, servo_twist
+
+FloatArray = NDArray[np.float64]
+
+ACQUIRE = "acquire"
+APPROACH = "approach"
+FINAL_GRAB = "final_grab"
+DONE = "done"
+ASSIST = "assist"
+ABORTED = "aborted"
+STAGES = (ACQUIRE, APPROACH, FINAL_GRAB, DONE, ASSIST, ABORTED)
+ACTIVE_STAGES = (ACQUIRE, APPROACH, FINAL_GRAB)
+
+OPERATOR_COMMANDS = ("resume", "abort")
+
+
+@dataclass(frozen=True)
+class StageSettings:
+    """Thresholds of the stage machine.
+
+    Attributes:
+        acquire_frames: healthy snake frames needed before the approach (N).
+        settle_frames: consecutive in-tolerance frames that end the approach (M).
+        tolerance: per-axis error tolerance ``(x m, y m, z m, roll rad)``.
+        grab_distance: open-loop advance along the optical axis in the final grab (m).
+        grab_speed: speed of that advance (m/s).
+        gripper_close_time: wait after the close command (s).
+        max_contour_age: a contour older than this counts as a snake failure (s).
+    """
+
+    acquire_frames: int = 5
+    settle_frames: int = 5
+    tolerance: tuple[float, float, float, float] = (0.002, 0.002, 0.003, np.radians(1.0))
+    grab_distance: float = 0.05
+    grab_speed: float = 0.02
+    gripper_close_time: float = 0.5
+    max_contour_age: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.acquire_frames < 1 or self.settle_frames < 1:
+            raise ValueError("acquire_frames and settle_frames must be >= 1")
+        if len(self.tolerance) != 4 or any(not t > 0 for t in self.tolerance):
+            raise ValueError(f"tolerance must be 4 positive numbers, got {self.tolerance}")
+        if self.grab_distance < 0 or not self.grab_speed > 0:
+            raise ValueError("grab_distance must be >= 0 and grab_speed > 0")
+        if self.gripper_close_time < 0 or not self.max_contour_age > 0:
+            raise ValueError("gripper_close_time must be >= 0 and max_contour_age > 0")
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What the snake said this tick.
+
+    ``features`` is None when there is no usable contour; ``healthy`` is False on a failed
+    sanity check, with ``reason``; ``stamp`` is the contour's sample time (s).
+    """
+
+    features: MomentFeatures | None
+    healthy: bool
+    stamp: float
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class ServoOutput:
+    """One tick's result: camera twist ``[v; w]`` (camera frame), stage and operator status."""
+
+    camera_twist: FloatArray
+    stage: str
+    assist: bool = False
+    reason: str = ""
+    message: str = ""
+    gripper: str = ""  #: "", "open" or "close": a command to send this tick
+    error: FloatArray = field(default_factory=lambda: np.full(4, np.nan))
+
+
+_ZERO_TWIST = np.zeros(6)
+_ZERO_TWIST.setflags(write=False)
+
+
+class ServoStages:
+    """The grab's state: stage, counters and timers. Feed it with :meth:`step` every tick."""
+
+    def __init__(
+        self,
+        goal: MomentFeatures,
+        gains: ServoGains = ServoGains(),  # noqa: B008 - frozen default
+        settings: StageSettings = StageSettings(),
+    ) -> None:
+        self.goal = goal
+        self.gains = gains
+        self.settings = settings
+        self.stage = ACQUIRE
+        self.reason = ""
+        self._healthy_frames = 0
+        self._settled_frames = 0
+        self._grab_start: float | None = None
+        self._close_start: float | None = None
+        self._pending_gripper = "open"
+
+    # -- operator -------------------------------------------------------------------------
+    def operator(self, command: str) -> None:
+        """Apply an operator command: ``"resume"`` (back to acquire) or ``"abort"``."""
+        command = command.strip().lower()
+        if command not in OPERATOR_COMMANDS:
+            raise ValueError(
+                f"operator command must be one of {OPERATOR_COMMANDS}, got {command!r}"
+            )
+        if command == "abort":
+            self._enter(ABORTED, "aborted by the operator")
+        elif self.stage not in ACTIVE_STAGES:
+            self._enter(ACQUIRE, "")
+            self._pending_gripper = "open"
+
+    # -- tick -----------------------------------------------------------------------------
+    def step(self, now: float, observation: Observation | None) -> ServoOutput:
+        """Advance the machine to time ``now`` (s) with the latest observation (or None)."""
+        if self.stage in ACTIVE_STAGES:
+            failure = self._failure(now, observation)
+            if failure:
+                self._enter(ASSIST, failure)
+            elif self.stage == ACQUIRE:
+                self._healthy_frames += 1
+        gripper, self._pending_gripper = self._pending_gripper, ""
+        if self.stage == ACQUIRE:
+            return self._acquire(gripper)
+        if self.stage == APPROACH:
+            assert observation is not None and observation.features is not None
+            return self._approach(observation.features, gripper)
+        if self.stage == FINAL_GRAB:
+            return self._final_grab(now, gripper)
+        message = {
+            DONE: "grab complete",
+            ASSIST: "operator assistance requested",
+            ABORTED: "aborted",
+        }[self.stage]
+        return ServoOutput(
+            _ZERO_TWIST, self.stage, self.stage == ASSIST, self.reason, message, gripper
+        )
+
+    def _failure(self, now: float, observation: Observation | None) -> str:
+        if observation is None:
+            return "no contour from the snake"
+        if not observation.healthy:
+            return f"snake failure: {observation.reason or 'sanity check failed'}"
+        if observation.features is None:
+            return "snake reported no usable contour"
+        age = now - observation.stamp
+        if age > self.settings.max_contour_age:
+            return f"contour is {age:.3f} s old (max {self.settings.max_contour_age:.3f} s)"
+        return ""
+
+    def _enter(self, stage: str, reason: str) -> None:
+        self.stage = stage
+        self.reason = reason
+        self._healthy_frames = 0
+        self._settled_frames = 0
+        self._grab_start = None
+        self._close_start = None
+
+    def _acquire(self, gripper: str) -> ServoOutput:
+        count = self._healthy_frames
+        if count >= self.settings.acquire_frames:
+            self._enter(APPROACH, "")
+        return ServoOutput(
+            _ZERO_TWIST, ACQUIRE, message=f"snake healthy {count} frame(s)", gripper=gripper
+        )
+
+    def _approach(self, features: MomentFeatures, gripper: str) -> ServoOutput:
+        twist, error = servo_twist(features, self.goal, self.gains)
+        if np.all(np.abs(error) <= np.asarray(self.settings.tolerance)):
+            self._settled_frames += 1
+        else:
+            self._settled_frames = 0
+        if self._settled_frames >= self.settings.settle_frames:
+            self._enter(FINAL_GRAB, "")
+            return ServoOutput(
+                _ZERO_TWIST, FINAL_GRAB, message="goal reached", gripper=gripper, error=error
+            )
+        return ServoOutput(twist, APPROACH, message="approaching", gripper=gripper, error=error)
+
+    def _final_grab(self, now: float, gripper: str) -> ServoOutput:
+        if self._grab_start is None:
+            self._grab_start = now
+        advance_time = self.settings.grab_distance / self.settings.grab_speed
+        if now - self._grab_start < advance_time:
+            twist = np.array([0.0, 0.0, self.settings.grab_speed, 0.0, 0.0, 0.0])
+            return ServoOutput(twist, FINAL_GRAB, message="advancing", gripper=gripper)
+        if self._close_start is None:
+            self._close_start = now
+            return ServoOutput(_ZERO_TWIST, FINAL_GRAB, message="closing gripper", gripper="close")
+        if now - self._close_start >= self.settings.gripper_close_time:
+            self._enter(DONE, "")
+            return ServoOutput(_ZERO_TWIST, DONE, message="grab complete", gripper=gripper)
+        return ServoOutput(_ZERO_TWIST, FINAL_GRAB, message="closing gripper", gripper=gripper)

@@ -1,0 +1,1 @@
+"""Vision: the statistical pressure snake, its features and sanity checks, a simulated camera."""

@@ -1,0 +1,87 @@
+"""Sensor and lighting effects of the simulated camera: gain, color cast, motion blur, noise.
+
+All effects work on an H x W x 3 BGR image; gains are unitless, lengths in pixels, noise in
+gray levels (0..255). Effects are applied in the order of the physics: the scene radiance is
+scaled by the lighting (gain times per-channel cast), smeared by motion during the exposure,
+then the sensor adds noise and quantizes to 8 bits with clipping at 0 and 255.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+from scipy.special import ndtri
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """Lighting and sensor: ``gain`` (overall), ``cast_rgb`` (per-channel gains, R G B order),
+    ``noise_sigma`` [gray levels], motion blur ``blur_length_px`` [px] along ``blur_angle_rad``
+    (from the u axis towards v)."""
+
+    gain: float = 1.0
+    cast_rgb: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    noise_sigma: float = 0.0
+    blur_length_px: float = 0.0
+    blur_angle_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.gain < 0 or min(self.cast_rgb) < 0:
+            raise ValueError("lighting gains must be non-negative")
+        if self.noise_sigma < 0 or self.blur_length_px < 0:
+            raise ValueError("noise sigma and blur length must be non-negative")
+
+
+def motion_blur_kernel(length_px: float, angle_rad: float) -> NDArray[np.float32]:
+    """Normalized kernel of a straight motion of ``length_px`` along ``angle_rad``."""
+    size = 2 * int(np.ceil(length_px / 2.0)) + 3
+    kernel = np.zeros((size, size), dtype=np.float64)
+    centre = size // 2
+    t = np.linspace(-length_px / 2.0, length_px / 2.0, max(int(8 * length_px), 2))
+    x = centre + t * np.cos(angle_rad)
+    y = centre + t * np.sin(angle_rad)
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - x0, y - y0
+    for dx, dy, w in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy)):
+        np.add.at(kernel, (y0 + dy, x0 + dx), w)
+    np.add.at(kernel, (y0 + 1, x0 + 1), fx * fy)
+    return (kernel / kernel.sum()).astype(np.float32)
+
+
+def _noise_table() -> NDArray[np.float32]:
+    """256 equiprobable standard-normal quantiles, rescaled to unit variance."""
+    quantiles = ndtri((np.arange(256) + 0.5) / 256.0)
+    table = (quantiles / quantiles.std()).astype(np.float32).reshape(1, 256)
+    table.flags.writeable = False
+    return table
+
+
+_UNIT_NOISE = _noise_table()
+
+
+def apply_lighting(
+    image_bgr: NDArray[np.uint8], lighting: Lighting, rng: np.random.Generator
+) -> NDArray[np.uint8]:
+    """The image as the sensor records it under ``lighting``; noise drawn from ``rng``.
+
+    Noise is Gaussian with ``noise_sigma`` gray levels, drawn per pixel and channel by picking one
+    of 256 equiprobable normal quantiles (8 random bits per sample: a 3x faster draw than
+    ``standard_normal`` that keeps the variance exact and the tails to 2.9 sigma).
+    """
+    cast_bgr = np.array(lighting.cast_rgb[::-1], dtype=np.float32) * np.float32(lighting.gain)
+    plain = lighting.noise_sigma == 0 and lighting.blur_length_px < 0.5
+    if plain and np.all(cast_bgr == 1.0):
+        return image_bgr.copy()
+    scaled = cv2.multiply(image_bgr, (*cast_bgr.tolist(), 0.0), dtype=cv2.CV_32F)
+    if lighting.blur_length_px >= 0.5:
+        kernel = motion_blur_kernel(lighting.blur_length_px, lighting.blur_angle_rad)
+        scaled = cv2.filter2D(scaled, -1, kernel, borderType=cv2.BORDER_REFLECT)
+    if lighting.noise_sigma > 0:
+        picks = np.frombuffer(rng.bytes(scaled.size), dtype=np.uint8).reshape(scaled.shape)
+        noise = cv2.LUT(picks, _UNIT_NOISE * np.float32(lighting.noise_sigma))
+        scaled = cv2.add(scaled, noise)
+    # Saturating conversion: rounds to the nearest gray level and clips to 0..255.
+    return cv2.add(scaled, 0.0, dtype=cv2.CV_8U)

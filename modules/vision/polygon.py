@@ -1,0 +1,73 @@
+"""Closed polygons in image coordinates: signed area, orientation, arc-length resampling.
+
+A polygon is an (N, 2) float array of vertices ``(u, v)`` in pixels (u right, v down), closed
+implicitly (the last vertex joins the first). The signed area follows the shoelace formula in the
+``(u, v)`` axes, so a positive area means counter-clockwise in those axes, which is clockwise as
+seen on screen (v points down).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def as_polygon(points: ArrayLike) -> FloatArray:
+    """``points`` as an (N, 2) float64 array; raises ValueError if the shape is wrong."""
+    polygon = np.asarray(points, dtype=np.float64)
+    if polygon.ndim != 2 or polygon.shape[1] != 2:
+        raise ValueError(
+            f"a polygon is an (N, 2) array of (u, v) pixels, got shape {polygon.shape}"
+        )
+    return polygon
+
+
+def signed_area(polygon: FloatArray) -> float:
+    """Shoelace signed area [px²]; positive for counter-clockwise order in (u, v) axes."""
+    u = polygon[:, 0]
+    v = polygon[:, 1]
+    return 0.5 * float(np.dot(u, np.roll(v, -1)) - np.dot(np.roll(u, -1), v))
+
+
+def with_positive_area(polygon: FloatArray) -> FloatArray:
+    """The polygon in the vertex order that gives a positive signed area."""
+    return polygon if signed_area(polygon) >= 0.0 else polygon[::-1].copy()
+
+
+def segment_lengths(polygon: FloatArray) -> FloatArray:
+    """Length [px] of each segment ``i -> i+1`` (the last one closes the polygon)."""
+    return np.hypot(*(np.roll(polygon, -1, axis=0) - polygon).T)
+
+
+def resample_uniform(polygon: FloatArray, count: int) -> FloatArray:
+    """``count`` vertices evenly spaced by arc length along the closed polygon, from vertex 0."""
+    if count < 3:
+        raise ValueError(f"a closed polygon needs at least 3 vertices, asked for {count}")
+    closed = np.vstack([polygon, polygon[:1]])
+    arc = np.concatenate([[0.0], np.cumsum(segment_lengths(polygon))])
+    if arc[-1] <= 0.0:
+        return np.repeat(polygon[:1], count, axis=0)
+    s = np.linspace(0.0, arc[-1], count, endpoint=False)
+    return np.column_stack([np.interp(s, arc, closed[:, 0]), np.interp(s, arc, closed[:, 1])])
+
+
+def circle(center_uv: ArrayLike, radius_px: float, count: int) -> FloatArray:
+    """A regular ``count``-gon of radius ``radius_px`` around ``center_uv``, positive area."""
+    center = np.asarray(center_uv, dtype=np.float64).reshape(2)
+    angle = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
+    return center + radius_px * np.column_stack([np.cos(angle), np.sin(angle)])
+
+
+def rectangle(center_uv: ArrayLike, size_px: ArrayLike, angle_rad: float = 0.0) -> FloatArray:
+    """The 4 corners of a rectangle (sides ``size_px`` = [along the angle, across]), positive area.
+
+    ``angle_rad`` is measured from the u axis towards the v axis (clockwise on screen).
+    """
+    center = np.asarray(center_uv, dtype=np.float64).reshape(2)
+    half = 0.5 * np.asarray(size_px, dtype=np.float64).reshape(2)
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    axes = np.array([[c, s], [-s, c]])  # rows: along, across
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=np.float64) * half
+    return center + corners @ axes

@@ -1,0 +1,39 @@
+"""``umbra check GRAPH...``: report every problem of each graph, and what becomes a zenoh link."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from connectors.errors import CheckFailed
+from runtime.graph.check import load_graph
+from runtime.registry import Registry
+
+NAME = "check"
+HELP = "check graph files: report every problem as FILE:LINE:COL, list links"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("graphs", nargs="+", metavar="GRAPH", help="graph files (.yaml)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print only problems")
+
+
+def main(args: argparse.Namespace) -> int:
+    registry = Registry()
+    failed = False
+    for path in args.graphs:
+        try:
+            plan = load_graph(path, registry)
+        except CheckFailed as exc:
+            failed = True
+            print(str(exc), file=sys.stderr)
+            continue
+        if args.quiet:
+            continue
+        print(f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
+              f"{len(plan.connections)} connections, processes: {', '.join(plan.processes)}")
+        for link in plan.links:
+            mode = "reliable" if link.reliable else "drop-oldest"
+            print(f"  link {link.connection} ({link.msg_type.__name__}, {mode}): "
+                  f"key `{link.key}`")
+    return 2 if failed else 0

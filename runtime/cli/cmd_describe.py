@@ -1,0 +1,61 @@
+"""``umbra describe TYPE``: ports and parameters, generated from the module's declarations."""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+
+from connectors.params import describe_params
+from runtime.registry import Registry
+
+NAME = "describe"
+HELP = "print a module type's ports and parameters"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("type", metavar="TYPE", help="module type name (see `umbra modules`)")
+
+
+def describe(cls: type) -> str:
+    """The text ``umbra describe`` prints for module class ``cls``."""
+    lines = [f"{cls.type_name()}  ({cls.__module__}.{cls.__qualname__})"]
+    if cls.SAFETY_GUARD:
+        lines.append("safety guard: command paths through this module count as guarded")
+    doc = inspect.cleandoc(cls.__doc__ or "")
+    if doc:
+        lines += ["", *("  " + d for d in doc.splitlines())]
+    for title, decls in (("inputs", cls.input_decls()), ("outputs", cls.output_decls())):
+        lines += ["", f"{title}:"]
+        if not decls:
+            lines.append("  (none)")
+        for name, d in decls.items():
+            flags = []
+            frame = d.describe_frame()
+            if frame:
+                flags.append(f"frame {frame}")
+            if d.joints is not None:
+                flags.append(f"joints {d.joints}")
+            for attr in ("trigger", "feedback", "requires_guard"):
+                if getattr(d, attr, False):
+                    flags.append(attr.replace("_", " "))
+            if getattr(d, "max_age", None) is not None:
+                flags.append(f"max age {d.max_age} s")
+            if getattr(d, "required", True) is False:
+                flags.append("optional")
+            extra = f" [{', '.join(flags)}]" if flags else ""
+            lines.append(f"  {name}: {d.msg_type.__name__}{extra}  {d.doc}")
+    lines += ["", "parameters:"]
+    params = describe_params(cls.Params)
+    if not params:
+        lines.append("  (none)")
+    for p in params:
+        unit = f" [{p.unit}]" if p.unit else ""
+        cons = f" ({p.constraints})" if p.constraints else ""
+        lines.append(f"  {p.name}: {p.type} = {p.default!r}{unit}{cons}  {p.doc}")
+    return "\n".join(lines)
+
+
+def main(args: argparse.Namespace) -> int:
+    cls = Registry().require(args.type)
+    print(describe(cls))
+    return 0

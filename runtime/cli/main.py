@@ -1,0 +1,71 @@
+"""Entry point of the ``umbra`` command.
+
+Exit status: 0 success, 1 the run failed, 2 bad input (graph, parameters, files, command line),
+130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from types import ModuleType
+
+from connectors.errors import UserError
+
+#: Sub-command files, in the order ``umbra --help`` lists them.
+COMMANDS = (
+    "cmd_run", "cmd_check", "cmd_modules", "cmd_describe", "cmd_graph", "cmd_trials",
+    "cmd_snake", "cmd_arm", "cmd_calib", "cmd_bench",
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # usage message and exit 2 on a bad command line
+        self.print_usage(sys.stderr)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _load_commands() -> list[ModuleType]:
+    found = []
+    for name in COMMANDS:
+        try:
+            found.append(importlib.import_module(f"runtime.cli.{name}"))
+        except ModuleNotFoundError as exc:
+            if exc.name != f"runtime.cli.{name}":
+                raise
+    return found
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="umbra", description="Dataflow connector framework for vision-guided "
+                                               "robots (Umbra/SMART).")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for cmd in _load_commands():
+        p = sub.add_parser(cmd.NAME, help=cmd.HELP, description=cmd.HELP)
+        cmd.configure(p)
+        p.set_defaults(_main=cmd.main)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_main", None):
+        parser.print_help(sys.stderr)
+        return 2
+    try:
+        return int(args._main(args))
+    except UserError as exc:
+        print(f"umbra {args.command}: error: {exc}" if "error:" not in str(exc) else str(exc),
+              file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"umbra {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

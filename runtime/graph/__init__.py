@@ -1,0 +1,1 @@
+"""Graph files: loading with source locations, checking, planning."""

@@ -1,0 +1,333 @@
+"""Semantic checks of a graph: every problem at the YAML node at fault, all reported at once.
+
+Beyond types, this holds contracts that other frameworks leave to run time: frames on
+frame-bearing types, joint names on joint vectors, the largest sample age an input accepts, and
+safety guards on the command path to a joint driver.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pydantic
+
+from connectors.errors import CheckFailed, Diagnostic, Location
+from connectors.frames import FrameTree
+from connectors.ports import Input
+from runtime.graph.order import find_cycle, topological_order
+from runtime.graph.parse import parse_graph_file
+from runtime.graph.plan import GraphPlan, LinkPlan, ModulePlan, PortInfo
+from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
+from runtime.hints import did_you_mean
+from runtime.registry import Registry
+
+#: Frames every graph knows without declaring them.
+WELL_KNOWN_FRAMES = ("base", "world", "lab", "tool", "flange", "camera")
+#: Message types whose links must never drop a sample (commands); others may drop old samples.
+BEST_EFFORT_TYPES = ("Image",)
+
+
+class _Checker:
+    def __init__(self, spec: GraphSpec, registry: Registry) -> None:
+        self.spec = spec
+        self.registry = registry
+        self.problems: list[Diagnostic] = []
+        self.modules: dict[str, ModulePlan] = {}
+        self.connections: list[ConnectionSpec] = []
+
+    def error(self, loc: Location, message: str, hint: str = "") -> None:
+        self.problems.append(Diagnostic(loc, message, hint))
+
+    def run(self) -> GraphPlan | None:
+        for mspec in self.spec.modules.values():
+            plan = self.module(mspec)
+            if plan is not None:
+                self.modules[mspec.name] = plan
+        frames = self.static_frames()
+        self.check_frames(frames)
+        self.check_connections()
+        self.check_required_inputs()
+        self.check_scheduling()
+        order = self.check_loops()
+        self.check_guards()
+        if self.problems:
+            return None
+        plan = GraphPlan(self.spec, self.modules, self.connections, order, frames)
+        plan.links = self.links(plan)
+        return plan
+
+    # -- modules --------------------------------------------------------------------------------
+    def module(self, mspec: ModuleSpec) -> ModulePlan | None:
+        cls = self.registry.get(mspec.type)
+        if cls is None:
+            if mspec.type in self.registry.broken:
+                self.error(mspec.type_loc, f"module type `{mspec.type}` failed to load: "
+                                           f"{self.registry.broken[mspec.type]}")
+            else:
+                self.error(mspec.type_loc, f"unknown module type `{mspec.type}`"
+                                           f"{did_you_mean(mspec.type, self.registry.names())}")
+            return None
+        params = self.params(mspec, cls.Params)
+        if params is None:
+            return None
+        in_decls = cls.input_decls(params)
+        inputs = {
+            name: PortInfo(name, d.msg_type, d.resolve_frame(params), d.resolve_joints(params))
+            for name, d in in_decls.items()
+        }
+        outputs = {
+            name: PortInfo(name, d.msg_type, d.resolve_frame(params), d.resolve_joints(params))
+            for name, d in cls.output_decls().items()
+        }
+        triggers = [n for n, d in in_decls.items() if d.trigger]
+        if mspec.trigger is not None:
+            triggers = []
+            for name in mspec.trigger:
+                if name not in inputs:
+                    self.error(mspec.trigger_loc, f"`trigger` names `{name}`, which is not an input "
+                                                  f"of `{mspec.name}` ({mspec.type})"
+                                                  f"{did_you_mean(name, inputs)}")
+                else:
+                    triggers.append(name)
+        return ModulePlan(mspec, cls, params, inputs, outputs, triggers, in_decls)
+
+    def params(self, mspec: ModuleSpec, params_cls: type) -> Any:
+        try:
+            return params_cls(**mspec.params)
+        except pydantic.ValidationError as exc:
+            fields = list(params_cls.model_fields)
+            for err in exc.errors():
+                loc = err.get("loc") or ()
+                key = str(loc[0]) if loc else ""
+                if err["type"] == "extra_forbidden":
+                    self.error(mspec.param_key_loc.get(key, mspec.params_loc),
+                               f"unknown parameter `{key}` for {mspec.type} `{mspec.name}`"
+                               f"{did_you_mean(key, fields)}")
+                elif err["type"] == "missing":
+                    self.error(mspec.params_loc, f"{mspec.type} `{mspec.name}` needs parameter "
+                                                 f"`{key}`")
+                else:
+                    where = ".".join(str(p) for p in loc)
+                    self.error(mspec.param_val_loc.get(key, mspec.params_loc),
+                               f"parameter `{where}` of `{mspec.name}`: {err['msg']}, "
+                               f"found {err.get('input')!r}"[:300])
+            return None
+        except (TypeError, ValueError) as exc:  # a module's own validator
+            self.error(mspec.params_loc, f"parameters of `{mspec.name}`: {exc}")
+            return None
+
+    # -- frames ---------------------------------------------------------------------------------
+    def static_frames(self) -> FrameTree:
+        tree = FrameTree()
+        seen: dict[tuple[str, str], Location] = {}
+        for f in self.spec.frames:
+            pair = (f.parent, f.child)
+            if pair in seen or (f.child, f.parent) in seen:
+                self.error(f.loc, f"frame `{f.parent}->{f.child}` declared twice")
+                continue
+            if tree.has(f.parent, f.child):
+                self.error(f.loc, f"frame `{f.parent}->{f.child}` closes a loop of static frames")
+                continue
+            seen[pair] = f.loc
+            tree.add(f.parent, f.child, f.T_parent_child)
+        return tree
+
+    def check_frames(self, tree: FrameTree) -> None:
+        known = set(WELL_KNOWN_FRAMES) | tree.names
+        for plan in self.modules.values():
+            for decl in [*plan.input_decls.values(), *plan.cls.output_decls().values()]:
+                if isinstance(decl.frame, str):
+                    known.add(decl.frame)
+                    known.update(decl.frame.split("->"))
+        for plan in self.modules.values():
+            for key, value in plan.spec.params.items():
+                if not (key == "frame" or key.endswith("_frame")) or not isinstance(value, str):
+                    continue
+                if value and value not in known:
+                    self.error(plan.spec.param_val_loc.get(key, plan.spec.params_loc),
+                               f"unknown frame `{value}` in parameter `{key}` of `{plan.name}`"
+                               f"{did_you_mean(value, sorted(known))}",
+                               "declare it under `frames:` as `parent->child`")
+
+    # -- connections ----------------------------------------------------------------------------
+    def check_connections(self) -> None:
+        producers: dict[tuple[str, str], ConnectionSpec] = {}
+        for conn in self.spec.connections:
+            src = self.port(conn.src, "output")
+            dst = self.port(conn.dst, "input")
+            if src is None or dst is None:
+                continue
+            key = (conn.dst.module, conn.dst.port)
+            if key in producers:
+                first = producers[key]
+                self.error(conn.dst.module_loc, f"input `{conn.dst}` has two producers: "
+                                                f"`{first.src}` (line {first.loc.line}) and "
+                                                f"`{conn.src}`")
+                continue
+            producers[key] = conn
+            if not issubclass(src.msg_type, dst.msg_type):
+                self.error(conn.src.port_loc, f"type mismatch: `{conn.src}` sends "
+                                              f"{src.msg_type.__name__}, `{conn.dst}` expects "
+                                              f"{dst.msg_type.__name__}")
+                continue
+            kind = src.msg_type.FRAME_KIND
+            if kind and dst.frame is not None and src.frame != dst.frame:
+                found = src.frame or "no frame"
+                self.error(conn.src.port_loc, f"frame mismatch: `{conn.src}` is a "
+                                              f"{src.msg_type.__name__} in `{found}`, `{conn.dst}` "
+                                              f"wants `{dst.frame}`",
+                           "transform it first (e.g. ROTATE_KIN) or fix the frame parameter")
+                continue
+            if src.msg_type.HAS_JOINTS and src.joints is not None and dst.joints is not None \
+                    and src.joints != dst.joints:
+                self.error(conn.src.port_loc, f"joint mismatch: `{conn.src}` carries joints "
+                                              f"{list(src.joints)}, `{conn.dst}` expects "
+                                              f"{list(dst.joints)}")
+                continue
+            self.check_max_age(conn)
+            self.connections.append(conn)
+
+    def port(self, end: Any, kind: str) -> PortInfo | None:
+        plan = self.modules.get(end.module)
+        if plan is None:
+            if end.module not in self.spec.modules:
+                self.error(end.module_loc, f"unknown module `{end.module}`"
+                                           f"{did_you_mean(end.module, self.spec.modules)}")
+            return None
+        ports = plan.outputs if kind == "output" else plan.inputs
+        if end.port in ports:
+            return ports[end.port]
+        other = plan.inputs if kind == "output" else plan.outputs
+        if end.port in other:
+            self.error(end.port_loc, f"`{end}` is an {'input' if kind == 'output' else 'output'}; "
+                                     f"a connection goes from an output to an input")
+        else:
+            self.error(end.port_loc, f"{plan.spec.type} `{end.module}` has no {kind} `{end.port}`"
+                                     f"{did_you_mean(end.port, ports)}")
+        return None
+
+    def check_max_age(self, conn: ConnectionSpec) -> None:
+        decl: Input = self.modules[conn.dst.module].input_decls[conn.dst.port]
+        rate = self.modules[conn.src.module].spec.rate
+        if decl.max_age is not None and rate is not None and 1.0 / rate > decl.max_age:
+            self.error(conn.src.module_loc, f"`{conn.dst}` accepts samples up to {decl.max_age} s "
+                                            f"old, but `{conn.src.module}` runs at {rate:g} Hz "
+                                            f"(every {1.0 / rate:g} s)")
+
+    def check_required_inputs(self) -> None:
+        connected = {(c.dst.module, c.dst.port) for c in self.connections}
+        attempted = {(c.dst.module, c.dst.port) for c in self.spec.connections}
+        for plan in self.modules.values():
+            for name, decl in plan.input_decls.items():
+                if decl.required and (plan.name, name) not in attempted | connected:
+                    self.error(plan.spec.loc, f"required input `{plan.name}.{name}` "
+                                              f"({decl.msg_type.__name__}) is not connected")
+
+    def check_scheduling(self) -> None:
+        connected = {(c.dst.module, c.dst.port) for c in self.spec.connections}
+        for plan in self.modules.values():
+            if plan.spec.rate is not None:
+                continue
+            live = [t for t in plan.triggers if (plan.name, t) in connected]
+            if not live:
+                self.error(plan.spec.loc, f"module `{plan.name}` needs `rate: HZ` or a connected "
+                                          f"trigger input")
+
+    def check_loops(self) -> list[str]:
+        names = [n for n in self.spec.modules if n in self.modules]
+        edges: dict[str, list[str]] = {n: [] for n in names}
+        by_pair: dict[tuple[str, str], ConnectionSpec] = {}
+        for conn in self.connections:
+            if not conn.delayed:
+                edges[conn.src.module].append(conn.dst.module)
+                by_pair[(conn.src.module, conn.dst.module)] = conn
+        cycle = find_cycle(names, edges)
+        if cycle is not None:
+            last = by_pair[(cycle[-2], cycle[-1])]
+            self.error(last.loc, f"loop {' -> '.join(cycle)} has no delayed connection",
+                       "write one of its connections with `~>` so it reads the previous tick")
+            return names
+        return topological_order(names, edges)
+
+    def check_guards(self) -> None:
+        feeding: dict[str, list[ConnectionSpec]] = {}
+        for conn in self.connections:
+            decl = self.modules[conn.dst.module].input_decls[conn.dst.port]
+            if not decl.feedback:
+                feeding.setdefault(conn.dst.module, []).append(conn)
+        for conn in self.connections:
+            decl = self.modules[conn.dst.module].input_decls[conn.dst.port]
+            if not decl.requires_guard:
+                continue
+            path = self.unguarded_path(conn.src.module, feeding, {conn.dst.module})
+            if path is not None:
+                chain = " -> ".join([*reversed(path), str(conn.dst)])
+                self.error(conn.loc, f"`{conn.dst}` must be fed through a safety guard, but the "
+                                     f"command path {chain} has none",
+                           "put a watchdog register (e.g. REG_VEL) on that path")
+
+    def unguarded_path(
+        self, module: str, feeding: dict[str, list[ConnectionSpec]], seen: set[str]
+    ) -> list[str] | None:
+        if module in seen:
+            return None
+        plan = self.modules[module]
+        if plan.cls.SAFETY_GUARD:
+            return None
+        upstream = feeding.get(module, [])
+        if not upstream:
+            return [module]
+        for conn in upstream:
+            path = self.unguarded_path(conn.src.module, feeding, seen | {module})
+            if path is not None:
+                return [module, *path]
+        return None
+
+    # -- links ----------------------------------------------------------------------------------
+    def links(self, plan: GraphPlan) -> list[LinkPlan]:
+        out = []
+        for conn in self.connections:
+            if plan.modules[conn.src.module].process == plan.modules[conn.dst.module].process:
+                continue
+            msg_type = plan.modules[conn.src.module].outputs[conn.src.port].msg_type
+            key = f"{plan.key_prefix}/{conn.src.module}/{conn.src.port}"
+            out.append(LinkPlan(conn, key, msg_type, msg_type.__name__ not in BEST_EFFORT_TYPES))
+        return out
+
+
+def relink(plan: GraphPlan) -> None:
+    """Recompute link keys after the key prefix changed."""
+    for link in plan.links:
+        conn = link.connection
+        link.key = f"{plan.key_prefix}/{conn.src.module}/{conn.src.port}"
+
+
+def check_spec(spec: GraphSpec, registry: Registry | None = None) -> GraphPlan:
+    """Check a parsed graph; raises CheckFailed with every problem."""
+    checker = _Checker(spec, registry or Registry())
+    plan = checker.run()
+    if plan is None:
+        raise CheckFailed(checker.problems)
+    return plan
+
+
+def load_graph(path: str, registry: Registry | None = None,
+               overrides: dict[str, dict[str, Any]] | None = None) -> GraphPlan:
+    """Parse and check a graph file, with ``--set`` overrides ``{module: {param: value}}``."""
+    spec = parse_graph_file(path)
+    apply_overrides(spec, overrides or {})
+    return check_spec(spec, registry)
+
+
+def apply_overrides(spec: GraphSpec, overrides: dict[str, dict[str, Any]]) -> None:
+    """Apply ``--set module.param=value`` overrides; UserError for an unknown module."""
+    from connectors.errors import UserError
+
+    for module, values in overrides.items():
+        if module not in spec.modules:
+            raise UserError(f"--set: unknown module `{module}`{did_you_mean(module, spec.modules)}")
+        spec.modules[module].params.update(values)
+        for key in values:
+            where = Location(f"--set {module}.{key}", 0, 0)
+            spec.modules[module].param_val_loc[key] = where
+            spec.modules[module].param_key_loc[key] = where

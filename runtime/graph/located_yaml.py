@@ -1,0 +1,139 @@
+"""A safe YAML reader that keeps the source location of every mapping key, value and list item.
+
+Guards against hostile input: files over ``MAX_BYTES``, bytes that are not UTF-8, nesting deeper
+than ``MAX_DEPTH``, and alias ("billion laughs") expansion beyond ``MAX_NODES``. Every failure is a
+:class:`~connectors.errors.CheckFailed` with ``FILE:LINE:COL``; nothing else escapes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import yaml
+
+from connectors.errors import CheckFailed, Diagnostic, Location
+
+MAX_BYTES = 1_000_000
+MAX_DEPTH = 64
+MAX_NODES = 100_000
+
+
+class YMap(dict):
+    """A mapping with the location of itself, of each key and of each value."""
+
+    loc: Location
+    key_loc: dict[Any, Location]
+    val_loc: dict[Any, Location]
+
+
+class YList(list):
+    """A list with the location of itself and of each item."""
+
+    loc: Location
+    item_loc: list[Location]
+
+
+def _loc(file: str, node: yaml.Node) -> Location:
+    mark = node.start_mark
+    return Location(file, mark.line + 1, mark.column + 1)
+
+
+class _Builder:
+    def __init__(self, file: str) -> None:
+        self.file = file
+        self.nodes = 0
+        self.constructor = yaml.SafeLoader("")  # only its scalar constructors are used
+
+    def build(self, node: yaml.Node, depth: int = 0) -> Any:
+        self.nodes += 1
+        if self.nodes > MAX_NODES:
+            raise _TooBig(node, f"more than {MAX_NODES} YAML nodes (after expanding aliases)")
+        if depth > MAX_DEPTH:
+            raise _TooBig(node, f"nesting deeper than {MAX_DEPTH} levels")
+        if isinstance(node, yaml.MappingNode):
+            out = YMap()
+            out.loc, out.key_loc, out.val_loc = _loc(self.file, node), {}, {}
+            self.constructor.flatten_mapping(node)
+            for key_node, value_node in node.value:
+                key = self.build(key_node, depth + 1)
+                if isinstance(key, dict | list):
+                    raise _Bad(key_node, "a mapping key must be a plain value")
+                if key in out:
+                    first = out.key_loc[key]
+                    raise _Bad(key_node, f"duplicate key `{key}` (first at line {first.line})")
+                out[key] = self.build(value_node, depth + 1)
+                out.key_loc[key] = _loc(self.file, key_node)
+                out.val_loc[key] = _loc(self.file, value_node)
+            return out
+        if isinstance(node, yaml.SequenceNode):
+            items = YList()
+            items.loc, items.item_loc = _loc(self.file, node), []
+            for item in node.value:
+                items.append(self.build(item, depth + 1))
+                items.item_loc.append(_loc(self.file, item))
+            return items
+        try:
+            return self.constructor.construct_object(node, deep=True)
+        except yaml.YAMLError as exc:
+            raise _Bad(node, f"bad value: {_problem(exc)}") from None
+
+
+class _Bad(Exception):
+    def __init__(self, node: yaml.Node, message: str) -> None:
+        self.node, self.message = node, message
+
+
+class _TooBig(_Bad):
+    pass
+
+
+def _problem(exc: yaml.YAMLError) -> str:
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    return str(problem)
+
+
+def load_located(text_or_bytes: str | bytes, file: str) -> Any:
+    """Parse one YAML document into YMap/YList/scalars with locations; CheckFailed on any problem."""
+
+    def fail(line: int, col: int, message: str) -> CheckFailed:
+        return CheckFailed([Diagnostic(Location(file, line, col), message)])
+
+    if isinstance(text_or_bytes, bytes):
+        if len(text_or_bytes) > MAX_BYTES:
+            raise fail(1, 1, f"file is {len(text_or_bytes)} bytes; a graph file is at most {MAX_BYTES}")
+        try:
+            text = text_or_bytes.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = text_or_bytes[: exc.start].count(b"\n") + 1
+            raise fail(line, 1, f"not UTF-8 text (byte {exc.start} is 0x{text_or_bytes[exc.start]:02x})")
+    else:
+        text = text_or_bytes
+        if len(text) > MAX_BYTES:
+            raise fail(1, 1, f"file is {len(text)} characters; a graph file is at most {MAX_BYTES}")
+    if "\x00" in text:
+        line = text[: text.index("\x00")].count("\n") + 1
+        raise fail(line, 1, "not a text file (contains a NUL byte)")
+    try:
+        loader = yaml.SafeLoader(text)
+        try:
+            node = loader.get_single_node()
+        finally:
+            loader.dispose()
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        raise fail(line, col, f"YAML syntax: {exc.problem or exc.context}") from None
+    except yaml.YAMLError as exc:
+        raise fail(1, 1, f"YAML: {_problem(exc)}") from None
+    except RecursionError:
+        raise fail(1, 1, "YAML nesting is too deep") from None
+    if node is None:
+        return None
+    builder = _Builder(file)
+    try:
+        return builder.build(node)
+    except _Bad as exc:
+        loc = _loc(file, exc.node)
+        raise fail(loc.line, loc.column, exc.message) from None
+    except RecursionError:
+        raise fail(1, 1, "YAML nesting is too deep") from None

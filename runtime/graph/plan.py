@@ -1,0 +1,78 @@
+"""A checked graph, ready to run: module classes, validated parameters, resolved ports, order."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from connectors.frames import FrameTree
+from connectors.module import Module
+from connectors.params import Parameters
+from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
+
+
+@dataclass
+class PortInfo:
+    """A port of a module instance with its frame and joint names resolved from parameters."""
+
+    name: str
+    msg_type: type
+    frame: str | None
+    joints: tuple[str, ...] | None
+
+
+@dataclass
+class ModulePlan:
+    """One module instance as checked."""
+
+    spec: ModuleSpec
+    cls: type[Module]
+    params: Parameters
+    inputs: dict[str, PortInfo]
+    outputs: dict[str, PortInfo]
+    triggers: list[str]
+    input_decls: dict[str, Any]
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def process(self) -> str:
+        return self.spec.process
+
+
+@dataclass
+class LinkPlan:
+    """A connection that crosses processes and becomes a zenoh link on ``key``."""
+
+    connection: ConnectionSpec
+    key: str
+    msg_type: type
+    reliable: bool
+
+
+@dataclass
+class GraphPlan:
+    """Everything the scheduler and the launcher need."""
+
+    spec: GraphSpec
+    modules: dict[str, ModulePlan]
+    connections: list[ConnectionSpec]
+    order: list[str]
+    frames: FrameTree
+    links: list[LinkPlan] = field(default_factory=list)
+
+    @property
+    def processes(self) -> list[str]:
+        """Process names in declaration order (``main`` when the graph declares none)."""
+        names = list(self.spec.processes) or sorted({m.process for m in self.modules.values()})
+        return names
+
+    def modules_in(self, process: str | None) -> list[str]:
+        """Module names of ``process`` in data order (all modules when ``process`` is None)."""
+        return [n for n in self.order if process is None or self.modules[n].process == process]
+
+    @property
+    def key_prefix(self) -> str:
+        return self.spec.links.prefix or f"umbra/{self.spec.name}"

@@ -1,0 +1,96 @@
+"""What a graph file says, with the source location of every part (before semantic checks)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from connectors.errors import Location
+
+DEFAULT_PROCESS = "main"
+
+
+@dataclass
+class Endpoint:
+    """``module.port`` in a connection, with the location of the module and of the port names."""
+
+    module: str
+    port: str
+    module_loc: Location
+    port_loc: Location
+
+    def __str__(self) -> str:
+        return f"{self.module}.{self.port}"
+
+
+@dataclass
+class ConnectionSpec:
+    """``src -> dst`` (or ``src ~> dst`` when delayed: dst reads the previous tick's value)."""
+
+    src: Endpoint
+    dst: Endpoint
+    delayed: bool
+    loc: Location
+
+    def __str__(self) -> str:
+        return f"{self.src} {'~>' if self.delayed else '->'} {self.dst}"
+
+
+@dataclass
+class ModuleSpec:
+    """One module instance: type, process, rate [Hz] or trigger inputs, raw parameters."""
+
+    name: str
+    type: str
+    process: str
+    rate: float | None
+    trigger: list[str] | None
+    params: dict[str, Any]
+    loc: Location
+    type_loc: Location
+    process_loc: Location
+    trigger_loc: Location
+    params_loc: Location
+    param_key_loc: dict[str, Location] = field(default_factory=dict)
+    param_val_loc: dict[str, Location] = field(default_factory=dict)
+
+
+@dataclass
+class StaticFrameSpec:
+    """``parent->child`` with T_parent_child (metres)."""
+
+    parent: str
+    child: str
+    T_parent_child: np.ndarray
+    loc: Location
+
+
+@dataclass
+class LinkSettings:
+    """Zenoh link settings: key prefix, endpoints, optional zenoh JSON5 configuration file."""
+
+    prefix: str = ""
+    listen: list[str] = field(default_factory=list)
+    connect: list[str] = field(default_factory=list)
+    zenoh_config: str = ""
+    loc: Location | None = None
+
+
+@dataclass
+class GraphSpec:
+    """A whole graph file."""
+
+    name: str
+    file: str
+    description: str = ""
+    seed: int = 0
+    clock: str = "sim"
+    duration: float | None = None
+    processes: dict[str, Location] = field(default_factory=dict)
+    modules: dict[str, ModuleSpec] = field(default_factory=dict)
+    connections: list[ConnectionSpec] = field(default_factory=list)
+    frames: list[StaticFrameSpec] = field(default_factory=list)
+    links: LinkSettings = field(default_factory=LinkSettings)
+    loc: Location | None = None

@@ -1,0 +1,40 @@
+"""The interface between the scheduler and a link transport (zenoh between processes).
+
+The scheduler owns registers and output ports; a transport turns a cross-process connection into
+a publisher (an output sink) on the producer's side and a subscription on the consumer's side.
+Samples arrive on the transport's threads; ``deliver`` only queues them, and the scheduler's loop
+writes them into registers at the start of its next tick, so modules never see concurrency.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+from connectors.messages import Message
+from connectors.ports import Sink
+from runtime.graph.plan import LinkPlan
+
+
+class LinkTransport(Protocol):
+    """What a process needs from its links."""
+
+    def publisher(self, link: LinkPlan) -> Sink:
+        """A sink that publishes samples of ``link`` (producer side)."""
+        ...
+
+    def subscribe(self, link: LinkPlan, deliver: Callable[[Message], None]) -> None:
+        """Call ``deliver(sample)`` for each decoded sample of ``link`` (consumer side)."""
+        ...
+
+    def producer_alive(self, link: LinkPlan) -> bool:
+        """Whether the process producing ``link`` is alive (liveliness)."""
+        ...
+
+    def stats(self) -> dict[str, object]:
+        """Counters for the run summary (samples, decode errors...)."""
+        ...
+
+    def close(self) -> None:
+        """Undeclare everything and close the session."""
+        ...

@@ -1,0 +1,70 @@
+"""Module types by name, from the ``umbra.modules`` entry-point group.
+
+A third-party package adds module types by declaring, in its own pyproject.toml::
+
+    [project.entry-points."umbra.modules"]
+    MyFilter = "my_package.filter:MyFilter"
+
+The runtime never imports a concrete module by name; it asks the registry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+
+from connectors.errors import UserError
+from connectors.module import Module
+
+GROUP = "umbra.modules"
+
+
+@dataclass
+class Registry:
+    """Module classes by type name, loaded lazily from entry points (plus any added directly)."""
+
+    _types: dict[str, type[Module]] = field(default_factory=dict)
+    _entry_points: dict[str, object] | None = None
+    broken: dict[str, str] = field(default_factory=dict)
+
+    def _eps(self) -> dict[str, object]:
+        if self._entry_points is None:
+            self._entry_points = {ep.name: ep for ep in entry_points(group=GROUP)}
+        return self._entry_points
+
+    def add(self, cls: type[Module], name: str | None = None) -> None:
+        """Register ``cls`` under ``name`` (default: its type name) — for tests and plug-ins."""
+        self._types[name or cls.type_name()] = cls
+
+    def names(self) -> list[str]:
+        """All known type names, sorted."""
+        return sorted(set(self._types) | set(self._eps()))
+
+    def get(self, name: str) -> type[Module] | None:
+        """The class for ``name``, or None when unknown. Import failures are kept in ``broken``."""
+        if name in self._types:
+            return self._types[name]
+        ep = self._eps().get(name)
+        if ep is None:
+            return None
+        try:
+            cls = ep.load()  # type: ignore[attr-defined]
+        except Exception as exc:  # a broken plug-in must not take the CLI down
+            self.broken[name] = f"{type(exc).__name__}: {exc}"
+            return None
+        if not (isinstance(cls, type) and issubclass(cls, Module)):
+            self.broken[name] = f"entry point does not name a Module subclass: {cls!r}"
+            return None
+        self._types[name] = cls
+        return cls
+
+    def require(self, name: str) -> type[Module]:
+        """The class for ``name``; ``UserError`` when unknown or broken."""
+        cls = self.get(name)
+        if cls is None:
+            if name in self.broken:
+                raise UserError(f"module type `{name}` failed to load: {self.broken[name]}")
+            from runtime.hints import did_you_mean
+
+            raise UserError(f"unknown module type `{name}`{did_you_mean(name, self.names())}")
+        return cls

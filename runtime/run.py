@@ -1,0 +1,40 @@
+"""Running one process of a checked graph and reporting how it ended."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from runtime.graph.plan import GraphPlan
+from runtime.links_api import LinkTransport
+from runtime.scheduler import Scheduler, SchedulerOptions
+from runtime.stats import RunResult
+
+
+def default_output_dir(plan: GraphPlan) -> Path:
+    """``runs/<graph>-<YYYYmmdd-HHMMSS>`` under the current folder."""
+    return Path("runs") / f"{plan.spec.name}-{time.strftime('%Y%m%d-%H%M%S')}"
+
+
+def run_process(plan: GraphPlan, options: SchedulerOptions,
+                transport: LinkTransport | None = None) -> RunResult:
+    """Build and run one process (every module when ``options.process`` is None); always writes
+    ``summary[-PROCESS].json`` into the output folder, whatever the outcome."""
+    options.output_dir.mkdir(parents=True, exist_ok=True)
+    scheduler = Scheduler(plan, options, transport)
+    try:
+        result = scheduler.run()
+    finally:
+        if transport is not None:
+            transport.close()
+    write_summary(result, options.output_dir, options.process)
+    return result
+
+
+def write_summary(result: RunResult, output_dir: Path, process: str | None) -> Path:
+    """Write the run summary as JSON; returns the file's path."""
+    name = "summary.json" if process is None else f"summary-{process}.json"
+    path = output_dir / name
+    path.write_text(json.dumps(result.as_dict(), indent=2, default=str))
+    return path

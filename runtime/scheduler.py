@@ -1,0 +1,324 @@
+"""One loop per process: modules at their rate or on their triggers, in data order.
+
+Every tick, in the graph's data order, a module runs when its rate makes it due or when one of its
+trigger inputs received a new sample earlier in the same tick — so a sample crosses a chain in one
+tick. Delayed connections (``~>``) are written after the tick, so their consumers read the previous
+tick's value. Link samples from other processes are written into registers at the start of a tick.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import threading
+import time
+import zlib
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from connectors.errors import ModuleFailed, UserError
+from connectors.messages import Message
+from connectors.module import Module, ModuleContext
+from connectors.ports import Register
+from runtime.clock import RealClock, SimClock
+from runtime.graph.plan import GraphPlan
+from runtime.links_api import LinkTransport
+from runtime.stats import ModuleStats, RunResult
+
+INTERRUPTED = 130
+
+
+@dataclass
+class _Slot:
+    """A module in the loop: its schedule and counters."""
+
+    module: Module
+    stats: ModuleStats
+    period: float | None
+    next_due: float
+    k: int
+    trigger_regs: list[Register[Any]]
+    all_regs: list[Register[Any]]
+
+
+@dataclass
+class StopRequest:
+    """Why the loop should end after the current tick, and with which exit status."""
+
+    reason: str
+    exit_code: int
+
+
+@dataclass
+class SchedulerOptions:
+    """How to run: clock, duration [s], output folder, process, signal handling."""
+
+    clock: str = "sim"
+    duration: float | None = None
+    output_dir: Path = field(default_factory=lambda: Path("."))
+    process: str | None = None  # None: every module (single process)
+    handle_signals: bool = False
+    max_ticks: int | None = None
+    log: Any = None
+
+
+class Scheduler:
+    """Builds the modules of one process from a checked graph and runs them."""
+
+    def __init__(self, plan: GraphPlan, options: SchedulerOptions,
+                 transport: LinkTransport | None = None) -> None:
+        self.plan = plan
+        self.options = options
+        self.clock = SimClock() if options.clock == "sim" else RealClock()
+        self.transport = transport
+        self.process_name = options.process or "main"
+        self._stop: StopRequest | None = None
+        self._pending: list[tuple[Register[Any], Message, float]] = []
+        self._inbound: deque[tuple[Register[Any], Message]] = deque()
+        self._wake = threading.Event() if transport is not None else None
+        self._link_regs: list[tuple[Register[Any], Any]] = []
+        self.modules: dict[str, Module] = {}
+        self._slots: list[_Slot] = []
+        self._build()
+
+    # -- construction ----------------------------------------------------------------------------
+    def _build(self) -> None:
+        import logging
+
+        log = self.options.log or logging.getLogger("umbra")
+        names = self.plan.modules_in(self.options.process)
+        if not names:
+            raise UserError(f"process `{self.options.process}` has no modules "
+                            f"(processes: {', '.join(self.plan.processes)})")
+        for name in names:
+            mplan = self.plan.modules[name]
+            seed = (self.plan.spec.seed * 1_000_003 + zlib.crc32(name.encode())) % 2**32
+            context = ModuleContext(
+                graph=self.plan.spec.name,
+                frames=self.plan.frames,
+                output_dir=self.options.output_dir,
+                rng=np.random.default_rng(seed),
+                clock=self.clock.kind,
+                log=log,
+                request_stop=self.request_stop,
+                process=mplan.process,
+            )
+            module = mplan.cls(name, mplan.params, context)
+            module.bind_ports(self.clock.now)
+            self.modules[name] = module
+        self._wire()
+        for name in names:
+            mplan = self.plan.modules[name]
+            module = self.modules[name]
+            period = 1.0 / mplan.spec.rate if mplan.spec.rate else None
+            self._slots.append(_Slot(
+                module=module,
+                stats=ModuleStats(name, mplan.spec.type),
+                period=period,
+                next_due=0.0,
+                k=0,
+                trigger_regs=[module.registers[t] for t in mplan.triggers],
+                all_regs=list(module.registers.values()),
+            ))
+
+    def _wire(self) -> None:
+        local = set(self.modules)
+        links = {id(link.connection): link for link in self.plan.links}
+        for conn in self.plan.connections:
+            src_here, dst_here = conn.src.module in local, conn.dst.module in local
+            link = links.get(id(conn)) if self.options.process is not None else None
+            if src_here and dst_here and link is None:
+                out = self.modules[conn.src.module].outputs[conn.src.port]
+                reg = self.modules[conn.dst.module].registers[conn.dst.port]
+                if conn.delayed:
+                    out.sinks.append(self._delayed_writer(reg))
+                else:
+                    out.sinks.append(reg.write)
+            elif link is not None and self.transport is not None:
+                if src_here:
+                    out = self.modules[conn.src.module].outputs[conn.src.port]
+                    out.sinks.append(self.transport.publisher(link))
+                if dst_here:
+                    reg = self.modules[conn.dst.module].registers[conn.dst.port]
+                    self.transport.subscribe(link, self._deliverer(reg))
+                    self._link_regs.append((reg, link))
+
+    def _delayed_writer(self, reg: Register[Any]) -> Callable[[Message, float], None]:
+        pending = self._pending
+
+        def write_later(sample: Message, now: float) -> None:
+            pending.append((reg, sample, now))
+
+        return write_later
+
+    def _deliverer(self, reg: Register[Any]) -> Callable[[Message], None]:
+        inbound, wake = self._inbound, self._wake
+
+        def deliver(sample: Message) -> None:
+            inbound.append((reg, sample))
+            if wake is not None:
+                wake.set()
+
+        return deliver
+
+    # -- control ---------------------------------------------------------------------------------
+    def request_stop(self, reason: str, exit_code: int = 0) -> None:
+        """End the run after the current tick (first request wins)."""
+        if self._stop is None:
+            self._stop = StopRequest(reason, exit_code)
+
+    # -- the loop --------------------------------------------------------------------------------
+    def run(self) -> RunResult:
+        """Start every module, loop until a stop, stop every started module; never raises for a
+        module's failure (the result says what happened)."""
+        wall0 = time.monotonic()
+        started: list[_Slot] = []
+        old_handlers = self._install_signals()
+        lateness: list[float] = []
+        ticks = 0
+        failure: ModuleFailed | None = None
+        user_error: UserError | None = None
+        t0 = self.clock.now()
+        try:
+            for slot in self._slots:
+                try:
+                    slot.module.start()
+                except UserError as exc:
+                    user_error = exc
+                    break
+                except Exception as exc:
+                    failure = ModuleFailed(slot.module.name, slot.stats.type_name, "start", 0, exc)
+                    break
+                started.append(slot)
+            if failure is None and user_error is None:
+                for slot in self._slots:
+                    slot.next_due = t0
+                ticks, failure = self._loop(t0, lateness)
+        finally:
+            for slot in reversed(started):
+                try:
+                    slot.module.stop()
+                except Exception as exc:  # stop must run for every module
+                    if failure is None:
+                        failure = ModuleFailed(slot.module.name, slot.stats.type_name, "stop",
+                                               ticks, exc)
+            self._restore_signals(old_handlers)
+        if user_error is not None:
+            raise user_error
+        for slot in self._slots:
+            slot.stats.violations = sum(r.violations for r in slot.all_regs)
+            try:
+                slot.stats.extra = dict(slot.module.summary())
+            except Exception as exc:
+                slot.stats.extra = {"summary_error": f"{type(exc).__name__}: {exc}"}
+        if failure is not None:
+            code, reason = 1, str(failure)
+        elif self._stop is not None:
+            code, reason = self._stop.exit_code, self._stop.reason
+        else:
+            code, reason = 0, "finished"
+        extra = {"links": self.transport.stats()} if self.transport is not None else {}
+        return RunResult(
+            process=self.process_name, exit_code=code, reason=reason, ticks=ticks,
+            sim_time=self.clock.now() - t0, wall_time=time.monotonic() - wall0,
+            modules=[s.stats for s in self._slots],
+            lateness_s=np.asarray(lateness), extra=extra,
+        )
+
+    def _loop(self, t0: float, lateness: list[float]) -> tuple[int, ModuleFailed | None]:
+        clock, slots = self.clock, self._slots
+        duration = self.options.duration
+        end = t0 + duration if duration is not None else math.inf
+        max_ticks = self.options.max_ticks or math.inf
+        rated = [s for s in slots if s.period is not None]
+        real = clock.kind == "real"
+        perf = time.perf_counter_ns
+        inbound, pending = self._inbound, self._pending
+        ticks = 0
+        if not rated and self.transport is None:
+            self.request_stop("nothing to schedule (no module has a rate)", 0)
+        while self._stop is None and ticks < max_ticks:
+            due = min((s.next_due for s in rated), default=clock.now() + 0.01)
+            if due > end:
+                if real:
+                    clock.wait_until(end, self._wake)
+                self.request_stop(f"duration {duration:g} s reached", 0)
+                break
+            clock.wait_until(due, self._wake)
+            now = clock.now()
+            if real and rated:
+                lateness.append(max(0.0, now - due))
+            if inbound:
+                self._drain(now)
+            ticks += 1
+            for slot in slots:
+                run_it = False
+                if slot.period is not None and slot.next_due <= now + 1e-12:
+                    run_it = True
+                    slot.k += 1
+                    slot.next_due = t0 + slot.k * slot.period
+                    if slot.next_due <= now:  # fell a whole period behind: count and skip ahead
+                        missed = int((now - slot.next_due) / slot.period) + 1
+                        slot.stats.misses += missed
+                        slot.k += missed
+                        slot.next_due = t0 + slot.k * slot.period
+                if not run_it:
+                    for reg in slot.trigger_regs:
+                        if reg.fresh:
+                            run_it = True
+                            break
+                if not run_it:
+                    continue
+                start = perf()
+                try:
+                    slot.module.step(now)
+                except Exception as exc:
+                    return ticks, ModuleFailed(slot.module.name, slot.stats.type_name, "step",
+                                               ticks, exc)
+                spent = perf() - start
+                stats = slot.stats
+                stats.calls += 1
+                stats.total_ns += spent
+                if spent > stats.max_ns:
+                    stats.max_ns = spent
+                for reg in slot.all_regs:
+                    reg.fresh = False
+            if pending:
+                for reg, sample, when in pending:
+                    reg.write(sample, when)
+                pending.clear()
+            if self._link_regs:
+                for reg, link in self._link_regs:
+                    reg.link_alive = self.transport.producer_alive(link)  # type: ignore[union-attr]
+        return ticks, None
+
+    def _drain(self, now: float) -> None:
+        inbound = self._inbound
+        while inbound:
+            reg, sample = inbound.popleft()
+            reg.write(sample, now)
+
+    # -- signals ---------------------------------------------------------------------------------
+    def _install_signals(self) -> dict[int, Any]:
+        if not self.options.handle_signals or threading.current_thread() is not threading.main_thread():
+            return {}
+        old = {}
+
+        def on_signal(signum: int, frame: Any) -> None:
+            self.request_stop(f"interrupted by {signal.Signals(signum).name}", INTERRUPTED)
+            if self._wake is not None:
+                self._wake.set()
+
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old[sig] = signal.signal(sig, on_signal)
+        return old
+
+    @staticmethod
+    def _restore_signals(old: dict[int, Any]) -> None:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)

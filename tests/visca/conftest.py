@@ -1,0 +1,63 @@
+"""Fixtures for the VISCA tests: a simulated FCB camera on a real pty and a client on it."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from typing import TypeVar
+
+import pytest
+
+from modules.calib.visca.client import ViscaSettings, ViscaZoomClient
+from modules.calib.visca.sim_camera import SimFcbCamera
+
+T = TypeVar("T")
+
+#: Short timeouts so fault tests take a fraction of a second each.
+FAST = {
+    "poll_period_s": 0.05,
+    "reply_timeout_s": 0.1,
+    "retries": 1,
+    "retry_backoff_s": 0.1,
+    "reinit_after_failures": 2,
+}
+
+
+def wait_for(probe: Callable[[], T], ok: Callable[[T], bool], timeout_s: float) -> T:
+    """Poll ``probe`` until ``ok`` holds; return the last value (the caller asserts on it)."""
+    deadline = time.monotonic() + timeout_s
+    value = probe()
+    while not ok(value) and time.monotonic() < deadline:
+        time.sleep(0.02)
+        value = probe()
+    return value
+
+
+@pytest.fixture(name="wait_for")
+def wait_for_fixture() -> Callable[..., object]:
+    """:func:`wait_for` for tests (test files cannot import a conftest)."""
+    return wait_for
+
+
+@pytest.fixture
+def sim() -> Iterator[SimFcbCamera]:
+    camera = SimFcbCamera(full_range_s=1.0, seed=7)
+    camera.start()
+    yield camera
+    camera.stop()
+
+
+@pytest.fixture
+def client_on(request: pytest.FixtureRequest) -> Iterator[Callable[..., ViscaZoomClient]]:
+    clients: list[ViscaZoomClient] = []
+
+    def make(camera: SimFcbCamera, **overrides: object) -> ViscaZoomClient:
+        settings = ViscaSettings(port=camera.path, **{**FAST, **overrides})  # type: ignore[arg-type]
+        client = ViscaZoomClient(settings)
+        client.start()
+        clients.append(client)
+        return client
+
+    yield make
+    for client in clients:
+        client.stop()

@@ -1,0 +1,197 @@
+"""The VISCA zoom client against the simulated FCB camera on a real pty."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import pytest
+
+from connectors.errors import UserError
+from modules.calib.visca import protocol as vp
+from modules.calib.visca.client import LinkStatus, ViscaSettings, ViscaZoomClient, ZoomReading
+from modules.calib.visca.sim_camera import Fault, SimFcbCamera
+
+MakeClient = Callable[..., ViscaZoomClient]
+Wait = Callable[..., ZoomReading]
+
+
+def settled_at(raw: int) -> Callable[[ZoomReading], bool]:
+    return lambda r: r.raw == raw and not r.moving and r.ok
+
+
+def test_start_sets_the_address_and_clears_the_interface(
+    client_on: MakeClient, wait_for: Wait
+) -> None:
+    with SimFcbCamera(address=4) as camera:
+        client = client_on(camera)
+        assert client.wait_ready(3.0)
+        assert camera.address == 1
+        reading = wait_for(client.latest, lambda r: r.raw >= 0, 2.0)
+        assert reading.ok and reading.ready
+        assert reading.raw == 0 and reading.zoom == 0.0
+        assert client.counters.initialisations == 1
+
+
+def test_zoom_to_half_travels_and_the_polled_position_converges(
+    client_on: MakeClient, wait_for: Wait
+) -> None:
+    with SimFcbCamera(full_range_s=2.4) as camera:  # the FCB's own pace
+        client = client_on(camera)
+        assert client.wait_ready(3.0)
+        client.zoom_to(0.5)
+        seen: list[ZoomReading] = []
+
+        def probe() -> ZoomReading:
+            seen.append(client.latest())
+            return seen[-1]
+
+        final = wait_for(probe, settled_at(0x2000), 2.4 * 0.5 * 3 + 2.0)
+        assert final.raw == 0x2000 and final.zoom == 0.5 and final.target == 0.5
+        assert camera.position_raw() == 0x2000
+        travelling = [r.raw for r in seen if 0 < r.raw < 0x2000]
+        assert travelling, "the polls should see the zoom on its way"
+        assert all(r.moving for r in seen if 0 < r.raw < 0x2000)
+        raws = [r.raw for r in seen if r.raw >= 0]
+        assert raws == sorted(raws)  # monotonic travel toward the target
+        assert client.counters.zoom_completions == 1
+        assert client.counters.garbled == 0 and client.counters.timeouts == 0
+
+
+def test_a_new_target_during_a_move_wins(
+    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+) -> None:
+    client = client_on(sim)
+    assert client.wait_ready(3.0)
+    client.zoom_to(1.0)
+    wait_for(client.latest, lambda r: r.raw > 0x0800, 3.0)
+    client.zoom_to(0.25)
+    final = wait_for(client.latest, settled_at(0x1000), 4.0)
+    assert final.raw == 0x1000 and final.ok, final.status
+    assert sim.position_raw() == 0x1000
+    assert sim.target_raw() == 0x1000
+
+
+def test_out_of_range_requests_are_clamped(
+    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+) -> None:
+    client = client_on(sim)
+    client.zoom_to(3.0)
+    final = wait_for(client.latest, settled_at(0x4000), 4.0)
+    assert final.zoom == 1.0 and final.target == 1.0
+
+
+@pytest.mark.parametrize(
+    ("fault", "prefix", "words"),
+    [
+        (Fault.GARBLE, "garbled: ", "unreadable reply"),
+        (Fault.SILENT, "no_reply: ", "no reply"),
+    ],
+)
+def test_a_broken_link_gives_a_clear_status_then_recovers(
+    sim: SimFcbCamera, client_on: MakeClient, fault: Fault, prefix: str, words: str, wait_for: Wait
+) -> None:
+    client = client_on(sim)
+    assert client.wait_ready(3.0)
+    wait_for(client.latest, lambda r: r.raw == 0, 2.0)
+    retries_before = client.counters.retries
+    sim.inject(fault)
+    broken = wait_for(client.latest, lambda r: not r.ok, 3.0)
+    assert broken.status.startswith(prefix), broken.status
+    assert words in broken.status and sim.path in broken.status
+    assert "tries" in broken.status
+    assert client.counters.retries > retries_before
+    client.zoom_to(0.75)  # requested while broken: must not raise, must happen after healing
+    sim.heal()
+    healed = wait_for(client.latest, settled_at(0x3000), 5.0)
+    assert healed.ok and healed.raw == 0x3000, healed.status
+    assert sim.position_raw() == 0x3000
+
+
+def test_garbage_is_counted(sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait) -> None:
+    client = client_on(sim)
+    assert client.wait_ready(3.0)
+    sim.inject(Fault.GARBLE)
+    wait_for(client.latest, lambda r: r.link is LinkStatus.GARBLED, 3.0)
+    assert client.counters.garbled > 0
+
+
+def test_a_silent_camera_is_set_up_again_after_it_returns(
+    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+) -> None:
+    client = client_on(sim)
+    assert client.wait_ready(3.0)
+    sim.inject(Fault.SILENT)
+    wait_for(client.latest, lambda r: not r.ready, 3.0)
+    assert not client.latest().ready
+    sim.heal()
+    healed = wait_for(client.latest, lambda r: r.ready and r.ok, 3.0)
+    assert healed.ready and healed.ok, healed.status
+    assert client.counters.initialisations >= 2
+
+
+@pytest.mark.parametrize(
+    ("code", "words"),
+    [
+        (vp.ErrorCode.NOT_EXECUTABLE, "command not executable (error 41"),
+        (vp.ErrorCode.SYNTAX, "syntax error (error 02"),
+        (vp.ErrorCode.BUFFER_FULL, "command buffer full (error 03"),
+    ],
+)
+def test_an_error_reply_gives_a_clear_status_then_recovers(
+    sim: SimFcbCamera, client_on: MakeClient, code: vp.ErrorCode, words: str, wait_for: Wait
+) -> None:
+    client = client_on(sim)
+    assert client.wait_ready(3.0)
+    sim.inject(Fault.ERROR, code)
+    client.zoom_to(0.3)
+    refused = wait_for(client.latest, lambda r: r.link is LinkStatus.CAMERA_ERROR, 3.0)
+    assert refused.status.startswith("camera_error: camera answered"), refused.status
+    assert words in refused.status
+    assert client.counters.camera_errors >= 2  # the first answer and at least one retry
+    assert sim.position_raw() == 0
+    sim.heal()
+    raw = vp.zoom_normalized_to_raw(0.3)
+    healed = wait_for(client.latest, settled_at(raw), 5.0)
+    assert healed.ok and healed.raw == raw, healed.status
+
+
+def test_wrong_address_is_reported(
+    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+) -> None:
+    client = client_on(sim, address=2)
+    reading = wait_for(client.latest, lambda r: r.link is LinkStatus.CAMERA_ERROR, 3.0)
+    assert "found 1 camera(s)" in reading.status and "address is 2" in reading.status
+    assert not reading.ready and math.isnan(reading.zoom)
+
+
+def test_camera_vanishing_gives_port_error_and_stop_still_works(
+    client_on: MakeClient, wait_for: Wait
+) -> None:
+    camera = SimFcbCamera(full_range_s=1.0)
+    camera.start()
+    client = client_on(camera)
+    assert client.wait_ready(3.0)
+    camera.stop()  # the pty disappears: reads on the client's side fail
+    gone = wait_for(client.latest, lambda r: r.link is LinkStatus.PORT_ERROR, 3.0)
+    assert gone.status.startswith("port_error: serial port /dev/"), gone.status
+    client.zoom_to(0.5)  # still no exception
+    client.stop()
+
+
+@pytest.mark.parametrize("port", ["/nonexistent/ttyFCB0", "/dev/null", __file__])
+def test_a_port_that_cannot_be_opened_is_a_user_error(port: str) -> None:
+    client = ViscaZoomClient(ViscaSettings(port=port))
+    with pytest.raises(UserError, match="cannot open VISCA serial port") as info:
+        client.start()
+    assert port in str(info.value)
+    client.stop()
+
+
+@pytest.mark.parametrize(
+    ("overrides", "words"),
+    [({"address": 9}, "address must be 1..7"), ({"reply_timeout_s": 0}, "reply_timeout_s")],
+)
+def test_bad_settings_are_user_errors(overrides: dict, words: str) -> None:
+    with pytest.raises(UserError, match=words.replace(".", r"\.")):
+        ViscaSettings(port="/dev/ttyUSB0", **overrides)
