@@ -244,7 +244,7 @@ class Scheduler:
             self.request_stop("nothing to schedule (no module has a rate)", 0)
         while self._stop is None and ticks < max_ticks:
             due = min((s.next_due for s in rated), default=clock.now() + 0.01)
-            if due > end:
+            if due >= end - 1e-9:
                 if real:
                     clock.wait_until(end, self._wake)
                 self.request_stop(f"duration {duration:g} s reached", 0)

@@ -11,7 +11,7 @@ Pixels are ``u = fx x + skew y + u0``, ``v = fy y + v0`` (``skew`` is 0 in OpenC
 
 Undistortion inverts the model by Newton's method to ``1e-14`` in normalized coordinates (OpenCV's
 ``undistortPoints`` runs a fixed number of fixed-point iterations). A point with no inverse (beyond
-the fold of a strong barrel distortion) comes back as NaN.
+the fold of a strong barrel distortion, where the map stops being one-to-one) comes back as NaN.
 """
 
 from __future__ import annotations
@@ -78,7 +78,11 @@ def undistort_normalized(
         step_y = (a * residual[..., 1] - c * residual[..., 0]) / det
         xy = xy - np.stack([step_x, step_y], axis=-1)
     residual = np.abs(distort_normalized(xy, coefficients) - target).max(axis=-1)
-    xy[~(residual < 1e-9)] = np.nan
+    a, b, c, d = _jacobian(xy[..., 0], xy[..., 1], coefficients)
+    # Beyond the fold the map reverses (an eigenvalue of its Jacobian turns negative): a solution
+    # there is not the preimage the lens formed; the Jacobian must have det > 0 and trace > 0.
+    unfolded = (a * d - b * c > 0) & (a + d > 0)
+    xy[~((residual < 1e-9) & unfolded)] = np.nan
     return xy
 
 

@@ -92,8 +92,9 @@ def interpolate(
     intr = np.asarray(intrinsics, dtype=float)
     extr = np.asarray(extrinsics, dtype=float)
     z = _check_query(z_tab, zoom)
-    if len(z_tab) == 1:
-        return intr[0].copy(), extr[0].copy()
+    exact = np.flatnonzero(z_tab == z)
+    if len(exact):  # a tabulated zoom: the table's own values, bit for bit
+        return intr[exact[0]].copy(), extr[exact[0]].copy()
     out_intr = _linear(z_tab, intr, z)
     out_extr = _linear(z_tab, extr, z)
     if method != "linear":

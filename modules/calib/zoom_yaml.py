@@ -26,73 +26,23 @@ import numpy as np
 import yaml
 
 from connectors.errors import UserError
+from modules.calib import yaml_nodes as yn
+from modules.calib.yaml_nodes import SpotError
 from modules.calib.zoom_table import EXTRINSIC_KEYS, INTRINSIC_KEYS, ZoomFile, ZoomTable
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 
 
-class _SpotError(Exception):
-    def __init__(self, node: yaml.Node, message: str) -> None:
-        super().__init__(message)
-        self.line = node.start_mark.line + 1
-        self.message = message
-
-
-def _mapping(
-    node: yaml.Node, what: str, required: tuple[str, ...], optional: tuple[str, ...] = ()
-) -> dict[str, yaml.Node]:
-    if not isinstance(node, yaml.MappingNode):
-        raise _SpotError(node, f"{what} must be a mapping with keys {', '.join(required)}")
-    found: dict[str, yaml.Node] = {}
-    for key, value in node.value:
-        name = key.value if isinstance(key, yaml.ScalarNode) else str(key)
-        if name not in required and name not in optional:
-            raise _SpotError(
-                key, f"unknown key {name!r} in {what}; expected {', '.join(required + optional)}"
-            )
-        if name in found:
-            raise _SpotError(key, f"duplicate key {name!r} in {what}")
-        found[name] = value
-    missing = [k for k in required if k not in found]
-    if missing:
-        raise _SpotError(node, f"{what} is missing {', '.join(repr(k) for k in missing)}")
-    return found
-
-
-def _sequence(node: yaml.Node, what: str) -> list[yaml.Node]:
-    if not isinstance(node, yaml.SequenceNode) or not node.value:
-        raise _SpotError(node, f"{what} must be a non-empty list")
-    return list(node.value)
-
-
-def _text(node: yaml.Node, what: str) -> str:
-    if not isinstance(node, yaml.ScalarNode):
-        raise _SpotError(node, f"{what} must be text")
-    return str(node.value)
-
-
-def _number(node: yaml.Node, what: str) -> float:
-    if not isinstance(node, yaml.ScalarNode):
-        raise _SpotError(node, f"{what} must be a number")
-    try:
-        value = float(node.value)
-    except ValueError:
-        raise _SpotError(node, f"bad number {node.value!r} for {what}") from None
-    if not math.isfinite(value):
-        raise _SpotError(node, f"bad number {node.value!r} for {what} (must be finite)")
-    return value
-
-
 def _units(node: yaml.Node | None) -> tuple[float, float]:
     if node is None:
         return 1.0, 1.0
-    fields = _mapping(node, "units", (), ("length", "angle"))
+    fields = yn.mapping(node, "units", (), ("length", "angle"))
     scales = []
     for key, table, default in (("length", LENGTH_UNITS, "m"), ("angle", ANGLE_UNITS, "rad")):
-        unit = _text(fields[key], f"units.{key}") if key in fields else default
+        unit = yn.text(fields[key], f"units.{key}") if key in fields else default
         if unit not in table:
-            raise _SpotError(
+            raise SpotError.at(
                 fields[key], f"units.{key} must be one of {', '.join(table)}, got {unit!r}"
             )
         scales.append(table[unit])
@@ -100,28 +50,28 @@ def _units(node: yaml.Node | None) -> tuple[float, float]:
 
 
 def _camera(node: yaml.Node, length: float, angle: float) -> ZoomTable:
-    fields = _mapping(node, "a camera", ("name", "zooms"))
-    name = _text(fields["name"], "camera name")
+    fields = yn.mapping(node, "a camera", ("name", "zooms"))
+    name = yn.text(fields["name"], "camera name")
     zooms, intrinsics, extrinsics = [], [], []
     previous_line = 0
-    for entry in _sequence(fields["zooms"], f"zooms of camera {name!r}"):
-        parts = _mapping(entry, "a zoom entry", ("zoom", "intrinsics", "extrinsics"))
-        zoom = _number(parts["zoom"], "zoom")
+    for entry in yn.sequence(fields["zooms"], f"zooms of camera {name!r}"):
+        parts = yn.mapping(entry, "a zoom entry", ("zoom", "intrinsics", "extrinsics"))
+        zoom = yn.number(parts["zoom"], "zoom")
         if not 0.0 <= zoom <= 1.0:
-            raise _SpotError(parts["zoom"], f"zoom {zoom:g} is outside the normalized range 0..1")
+            raise SpotError.at(parts["zoom"], f"zoom {zoom:g} is outside the normalized range 0..1")
         if zooms and zoom <= zooms[-1]:
-            raise _SpotError(
+            raise SpotError.at(
                 parts["zoom"],
                 f"zoom {zoom:g} does not increase from the previous zoom {zooms[-1]:g} "
                 f"(line {previous_line}); list zooms in increasing order",
             )
         previous_line = parts["zoom"].start_mark.line + 1
-        intr_fields = _mapping(parts["intrinsics"], "intrinsics", INTRINSIC_KEYS)
-        intr = [_number(intr_fields[k], f"intrinsics.{k}") for k in INTRINSIC_KEYS]
+        intr_fields = yn.mapping(parts["intrinsics"], "intrinsics", INTRINSIC_KEYS)
+        intr = [yn.number(intr_fields[k], f"intrinsics.{k}") for k in INTRINSIC_KEYS]
         if intr[0] <= 0 or intr[1] <= 0:
-            raise _SpotError(parts["intrinsics"], "focal lengths fx, fy must be positive")
-        extr_fields = _mapping(parts["extrinsics"], "extrinsics", EXTRINSIC_KEYS)
-        extr = [_number(extr_fields[k], f"extrinsics.{k}") for k in EXTRINSIC_KEYS]
+            raise SpotError.at(parts["intrinsics"], "focal lengths fx, fy must be positive")
+        extr_fields = yn.mapping(parts["extrinsics"], "extrinsics", EXTRINSIC_KEYS)
+        extr = [yn.number(extr_fields[k], f"extrinsics.{k}") for k in EXTRINSIC_KEYS]
         extr = [v * length for v in extr[:3]] + [v * angle for v in extr[3:]]
         zooms.append(zoom)
         intrinsics.append(intr)
@@ -129,46 +79,34 @@ def _camera(node: yaml.Node, length: float, angle: float) -> ZoomTable:
     return ZoomTable(name, np.array(zooms), np.array(intrinsics), np.array(extrinsics))
 
 
-def parse_zoom_yaml(text: str, source: str = "<string>") -> ZoomFile:
+def parse_zoom_yaml(content: str, source: str = "<string>") -> ZoomFile:
     """Parse the YAML form; errors are ``UserError("SOURCE:LINE: error: ...")``."""
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.MarkedYAMLError as error:
-        mark = error.problem_mark or error.context_mark
-        line = mark.line + 1 if mark else 1
-        raise UserError(f"{source}:{line}: error: invalid YAML: {error.problem}") from None
-    except yaml.YAMLError as error:
-        raise UserError(f"{source}:1: error: invalid YAML: {error}") from None
+    root = yn.compose(content, source)
     if root is None:
         raise UserError(f"{source}:1: error: the file is empty; expected a 'cameras' list")
     try:
-        fields = _mapping(root, "the file", ("cameras",), ("units", "comment", "recorded_path"))
+        fields = yn.mapping(root, "the file", ("cameras",), ("units", "comment", "recorded_path"))
         length, angle = _units(fields.get("units"))
         cameras = []
         seen: set[str] = set()
-        for node in _sequence(fields["cameras"], "cameras"):
+        for node in yn.sequence(fields["cameras"], "cameras"):
             table = _camera(node, length, angle)
             if table.name in seen:
-                raise _SpotError(node, f"second camera named {table.name!r}")
+                raise SpotError.at(node, f"second camera named {table.name!r}")
             seen.add(table.name)
             cameras.append(table)
-        comment = _text(fields["comment"], "comment") if "comment" in fields else ""
+        comment = yn.text(fields["comment"], "comment") if "comment" in fields else ""
         recorded = (
-            _text(fields["recorded_path"], "recorded_path") if "recorded_path" in fields else ""
+            yn.text(fields["recorded_path"], "recorded_path") if "recorded_path" in fields else ""
         )
-    except _SpotError as failure:
+    except SpotError as failure:
         raise UserError(f"{source}:{failure.line}: error: {failure.message}") from None
     return ZoomFile(tuple(cameras), comment.strip(), recorded.strip())
 
 
 def read_zoom_yaml(path: str | Path) -> ZoomFile:
     """Read the YAML form of a zoom calibration file."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise UserError(f"{path}: error: cannot read zoom calibration file: {error}") from None
-    return parse_zoom_yaml(text, str(path))
+    return parse_zoom_yaml(yn.read_text(path, "zoom calibration file"), str(path))
 
 
 def _flow(values: dict[str, float]) -> str:

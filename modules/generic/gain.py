@@ -18,6 +18,6 @@ class Gain(Module):
 
     def step(self, now: float) -> None:
         sample = self.input.get(now)
-        if sample is not None:
+        if sample is not None and self.input.fresh:
             p = self.params
             self.output.send(Scalar(value=p.gain * sample.value + p.bias, stamp=sample.stamp))

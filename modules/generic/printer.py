@@ -42,7 +42,7 @@ class Printer(Module):
 
     def step(self, now: float) -> None:
         sample = self.value.get(now)
-        if sample is None:
+        if sample is None or not self.value.fresh:
             return
         self.seen += 1
         if now - self._last >= 1.0 / self.params.max_rate_hz:

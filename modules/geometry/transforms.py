@@ -192,6 +192,33 @@ def twist_matrix(twist: ArrayLike) -> FloatArray:
     return hat
 
 
+def twist_exponential(twist: ArrayLike, dt: float) -> FloatArray:
+    """``exp(hat(xi) dt)``: the rigid motion of constant twist ``xi`` over ``dt`` seconds.
+
+    Closed form: the rotation from the rotation vector ``w dt`` (scipy), the translation
+    ``V v dt`` with ``V = I + (1 - cos t)/t^2 K + (t - sin t)/t^3 K^2``, ``K = [w dt]x``,
+    ``t = |w dt|`` (series near ``t = 0``). Agrees with ``scipy.linalg.expm`` of the 4x4.
+    """
+    xi = np.asarray(twist, dtype=float).reshape(6) * dt
+    rotvec = xi[3:]
+    theta = float(np.linalg.norm(rotvec))
+    K = skew(rotvec)
+    if theta < 1e-6:
+        c1, c2 = 0.5 - theta**2 / 24.0, 1.0 / 6.0 - theta**2 / 120.0
+    else:
+        c1 = (1.0 - np.cos(theta)) / theta**2
+        c2 = (theta - np.sin(theta)) / theta**3
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
+    T[:3, 3] = (np.eye(3) + c1 * K + c2 * (K @ K)) @ xi[:3]
+    return T
+
+
+def twist_exponential_expm(twist: ArrayLike, dt: float) -> FloatArray:
+    """``exp(hat(xi) dt)`` by the general matrix exponential (reference for tests)."""
+    return expm(twist_matrix(twist) * dt)
+
+
 def integrate_body_twist(T_a_b: ArrayLike, body_twist: ArrayLike, dt: float) -> FloatArray:
     """Pose of frame ``b`` after moving with constant body twist ``body_twist`` for ``dt`` s."""
-    return np.asarray(T_a_b, dtype=float) @ expm(twist_matrix(body_twist) * dt)
+    return np.asarray(T_a_b, dtype=float) @ twist_exponential(body_twist, dt)

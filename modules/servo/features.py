@@ -97,7 +97,8 @@ def polygon_moments(vertices: ArrayLike) -> PolygonMoments:
     x1, y1 = np.roll(x, -1), np.roll(y, -1)
     cross = x * y1 - x1 * y
     m00 = cross.sum() / 2.0
-    if abs(m00) < 1e-300 or not np.isfinite(m00):
+    extent = float(np.ptp(x) * np.ptp(y))
+    if not np.isfinite(m00) or abs(m00) <= 1e-12 * extent:
         raise FeatureError("the contour encloses no area")
     m10 = ((x + x1) * cross).sum() / 6.0
     m01 = ((y + y1) * cross).sum() / 6.0

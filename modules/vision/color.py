@@ -102,6 +102,27 @@ def from_rgb(
     return ColorModel(np.array([red / total, green / total]), spread * np.eye(2))
 
 
+def gate_matrix(model: ColorModel, k_sigma: float) -> NDArray[np.float32]:
+    """A 3x3 matrix ``M`` that turns the Mahalanobis gate into one product per pixel.
+
+    For a BGR pixel ``p`` (row vector, float), ``[y0, y1, s] = p @ M`` has ``s = R + G + B`` and
+    ``y0² + y1² <= s²`` exactly when the pixel's chromaticity is within ``k_sigma`` of the model:
+    ``(r - mean) * s`` is linear in ``p``, and the Cholesky factor of the inverse covariance,
+    divided by ``k_sigma``, whitens it. No division per pixel.
+    """
+    mean_r, mean_g = model.mean
+    # Rows: B, G, R. Columns: (r - mean_r) s, (g - mean_g) s.
+    deviation = np.array(
+        [[-mean_r, -mean_g], [-mean_r, 1.0 - mean_g], [1.0 - mean_r, -mean_g]], dtype=np.float64
+    )
+    a, b, c = model.information
+    cholesky = np.linalg.cholesky(np.array([[a, b], [b, c]]))  # inverse covariance = C C^T
+    matrix = np.empty((3, 3), dtype=np.float64)
+    matrix[:, :2] = deviation @ cholesky / k_sigma
+    matrix[:, 2] = 1.0
+    return matrix.astype(np.float32)
+
+
 def mahalanobis_squared(model: ColorModel, r: NDArray, g: NDArray) -> NDArray:
     """Squared Mahalanobis distance of chromaticities (r, g) to the model (unitless)."""
     a, b, c = model.information

@@ -71,3 +71,38 @@ def rectangle(center_uv: ArrayLike, size_px: ArrayLike, angle_rad: float = 0.0) 
     axes = np.array([[c, s], [-s, c]])  # rows: along, across
     corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=np.float64) * half
     return center + corners @ axes
+
+
+def is_convex(polygon: FloatArray) -> bool:
+    """True if the turns at all vertices have the same sign (collinear vertices allowed)."""
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    turns = (
+        edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1]
+        - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+    )
+    return bool(np.all(turns >= -1e-12) or np.all(turns <= 1e-12))
+
+
+def inset_convex(polygon: FloatArray, distance_px: float) -> FloatArray:
+    """Move every edge of a convex polygon inwards by ``distance_px`` (outwards if negative).
+
+    Each new vertex is the intersection of its two neighbouring offset edges. Degenerate edges
+    (zero length) are dropped first.
+    """
+    points = with_positive_area(polygon)
+    keep = segment_lengths(points) > 1e-9
+    points = points[keep]
+    edges = np.roll(points, -1, axis=0) - points
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
+    normals /= np.hypot(normals[:, 0], normals[:, 1])[:, None]  # outward for positive area
+    offsets = np.einsum("ij,ij->i", normals, points) - distance_px
+    n_prev, c_prev = np.roll(normals, 1, axis=0), np.roll(offsets, 1)
+    det = n_prev[:, 0] * normals[:, 1] - n_prev[:, 1] * normals[:, 0]
+    parallel = np.abs(det) < 1e-12
+    det = np.where(parallel, 1.0, det)
+    u = (c_prev * normals[:, 1] - n_prev[:, 1] * offsets) / det
+    v = (n_prev[:, 0] * offsets - c_prev * normals[:, 0]) / det
+    moved = np.column_stack([u, v])
+    # Between two parallel edges (a collinear vertex) just shift the vertex along the normal.
+    moved[parallel] = points[parallel] - distance_px * normals[parallel]
+    return moved

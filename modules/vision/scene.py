@@ -23,7 +23,8 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.lighting import Lighting, apply_lighting
+from modules.vision.lighting import Lighting, Sensor
+from modules.vision.polygon import inset_convex, is_convex
 from modules.vision.projection import (
     CameraIntrinsics,
     Distortion,
@@ -40,6 +41,12 @@ LABEL_NONE, LABEL_PATCH, LABEL_DISTRACTOR, LABEL_OCCLUDER = 0, 1, 2, 3
 
 _NEAR_M = 1e-3
 _SUBPIXEL_BITS = 4
+#: cv2.fillPoly covers the pixels an edge touches, so a filled polygon comes out larger than the
+#: polygon by about this much on every side [px] (measured on random rectangles: 0.66 px with
+#: LINE_AA, 0.45 px with LINE_8). Convex polygons are inset by it before filling, so that the
+#: drawn area matches the true area and the ground truth agrees with the image.
+_FILL_GROWTH_AA_PX = 0.65
+_FILL_GROWTH_LABEL_PX = 0.45
 
 
 def pose(xyz: ArrayLike = (0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> FloatArray:
@@ -195,7 +202,8 @@ class SceneRenderer:
     """Renders :class:`Scene` through one camera; the distortion maps are computed once here.
 
     ``intrinsics`` in pixels; ``distortion`` OpenCV's coefficients. Rendering is deterministic
-    given the ``rng`` passed to :meth:`render` (only the sensor noise is random).
+    given the ``rng`` passed to :meth:`render` (only the sensor noise is random). It keeps
+    scratch buffers between frames, so one renderer serves one thread.
     """
 
     def __init__(self, intrinsics: CameraIntrinsics, distortion: Distortion | None = None) -> None:
@@ -218,6 +226,11 @@ class SceneRenderer:
             self._maps = cv2.convertMaps(
                 map_u + np.float32(margin[0]), map_v + np.float32(margin[1]), cv2.CV_16SC2
             )
+        self._sensor = Sensor((height, width, 3))
+        canvas_width, canvas_height = self._canvas_size
+        self._canvas = np.empty((canvas_height, canvas_width, 3), dtype=np.uint8)
+        self._canvas_labels = np.empty((canvas_height, canvas_width), dtype=np.uint8)
+        self._distorted = np.empty((height, width, 3), dtype=np.uint8)
         K = intrinsics.matrix()
         K[0, 2] += self._offset[0]
         K[1, 2] += self._offset[1]
@@ -298,9 +311,13 @@ class SceneRenderer:
         if len(polygon_px) < 3:
             return
         image, labels = canvases
-        points = [_fixed_point(polygon_px)]
-        cv2.fillPoly(image, points, color_bgr, cv2.LINE_AA, _SUBPIXEL_BITS)
-        cv2.fillPoly(labels, points, label, cv2.LINE_8, _SUBPIXEL_BITS)
+        if is_convex(polygon_px):
+            drawn = [_fixed_point(inset_convex(polygon_px, _FILL_GROWTH_AA_PX))]
+            labelled = [_fixed_point(inset_convex(polygon_px, _FILL_GROWTH_LABEL_PX))]
+        else:
+            drawn = labelled = [_fixed_point(polygon_px)]
+        cv2.fillPoly(image, drawn, color_bgr, cv2.LINE_AA, _SUBPIXEL_BITS)
+        cv2.fillPoly(labels, labelled, label, cv2.LINE_8, _SUBPIXEL_BITS)
 
     def render(
         self,
@@ -314,9 +331,9 @@ class SceneRenderer:
         lighting = lighting or Lighting()
         rng = rng if rng is not None else np.random.default_rng(0)
         T_camera_world = np.linalg.inv(np.asarray(T_world_camera, dtype=np.float64))
-        width, height = self._canvas_size
-        canvas = np.empty((height, width, 3), dtype=np.uint8)
-        labels = np.zeros((height, width), dtype=np.uint8)
+        canvas = self._canvas
+        labels = self._canvas_labels
+        labels.fill(LABEL_NONE)
         canvases = (canvas, labels)
         self._draw_table(canvas, scene, T_camera_world)
         tray = _rectangle_3d(
@@ -351,16 +368,21 @@ class SceneRenderer:
                 self._fill(canvases, polygon, _rgb_to_bgr(occluder.rgb), LABEL_OCCLUDER)
         if self._maps is not None:
             image = cv2.remap(
-                canvas, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+                canvas,
+                *self._maps,
+                cv2.INTER_LINEAR,
+                dst=self._distorted,
+                borderMode=cv2.BORDER_REPLICATE,
             )
             labels = cv2.remap(labels, *self._maps, cv2.INTER_NEAREST)
         else:
             image = canvas
+            labels = labels.copy()
         for occluder in scene.occluders:
             if occluder.frame == "image":
                 polygon = np.asarray(occluder.polygon, dtype=np.float64).reshape(-1, 2)
                 self._fill((image, labels), polygon, _rgb_to_bgr(occluder.rgb), LABEL_OCCLUDER)
-        image = apply_lighting(image, lighting, rng)
+        image = self._sensor.apply(image, lighting, rng)
         return self._with_ground_truth(
             scene, T_camera_world, image, labels, outline_points_per_edge
         )

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.color import ColorModel, chromaticity, mahalanobis_squared
+from modules.vision.color import ColorModel, gate_matrix
 from modules.vision.polygon import (
     as_polygon,
     circle,
@@ -147,11 +147,45 @@ def pressure(
     image: NDArray[np.uint8], vertices: FloatArray, model: ColorModel, params: SnakeParams
 ) -> FloatArray:
     """Pressure in [-1, 1] at each vertex: 2 x (weighted fraction of target pixels) - 1."""
-    pixels, weights = window_blocks(image, vertices, params.window_radius_px)
-    r, g, gray = chromaticity(pixels)
-    target = (mahalanobis_squared(model, r, g) <= params.k_sigma**2) & (gray >= params.min_gray)
-    fraction = (weights * target).sum(axis=(1, 2)) / weights.sum(axis=(1, 2))
-    return 2.0 * fraction.astype(np.float64) - 1.0
+    gate = gate_matrix(model, params.k_sigma)
+    return _pressure(image.reshape(-1, image.shape[2]), image.shape, vertices, gate, params)
+
+
+def _pressure(
+    flat: NDArray[np.uint8],
+    shape: tuple[int, ...],
+    vertices: FloatArray,
+    gate: NDArray[np.float32],
+    params: SnakeParams,
+) -> FloatArray:
+    """:func:`pressure` on the image viewed as (H W) x 3 with a precomputed gate matrix."""
+    height, width = shape[:2]
+    radius = params.window_radius_px
+    span = 2 * radius + 2
+    base = np.floor(vertices)
+    frac = vertices - base
+    base = base.astype(np.intp) - radius
+    steps = np.arange(span)
+    cols = np.clip(base[:, 0:1] + steps, 0, width - 1)
+    rows = np.clip(base[:, 1:2] + steps, 0, height - 1) * width
+    index = (rows[:, :, None] + cols[:, None, :]).ravel()
+    pixels = np.take(flat, index, axis=0).astype(np.float32)
+    whitened = pixels @ gate  # (N B B, 3): two whitened deviations and the channel sum
+    squares = whitened * whitened
+    target = (squares[:, 0] + squares[:, 1] <= squares[:, 2]) & (
+        whitened[:, 2] >= 3.0 * params.min_gray
+    )
+    target = target.reshape(len(vertices), span, span)
+    # Area weights of the box window: 1 - f on the first row/column, f on the last.
+    w_u = np.ones((len(vertices), span))
+    w_v = np.ones((len(vertices), span))
+    w_u[:, 0] = 1.0 - frac[:, 0]
+    w_u[:, -1] = frac[:, 0]
+    w_v[:, 0] = 1.0 - frac[:, 1]
+    w_v[:, -1] = frac[:, 1]
+    per_row = np.einsum("nij,nj->ni", target.astype(np.float64), w_u)
+    fraction = np.einsum("ni,ni->n", per_row, w_v) / float((2 * radius + 1) ** 2)
+    return 2.0 * fraction - 1.0
 
 
 def step(
@@ -161,15 +195,35 @@ def step(
 
     The motion is measured before resampling; the vertices are kept inside the image.
     """
-    height, width = image.shape[:2]
-    p = pressure(image, vertices, model, params)
-    normals = outward_normals(vertices)
-    midpoint = 0.5 * (np.roll(vertices, 1, axis=0) + np.roll(vertices, -1, axis=0))
-    motion = (params.step_px * p)[:, None] * normals + params.tension * (midpoint - vertices)
+    gate = gate_matrix(model, params.k_sigma)
+    return _step(image.reshape(-1, image.shape[2]), image.shape, vertices, gate, params)
+
+
+def _step(
+    flat: NDArray[np.uint8],
+    shape: tuple[int, ...],
+    vertices: FloatArray,
+    gate: NDArray[np.float32],
+    params: SnakeParams,
+) -> tuple[FloatArray, float]:
+    height, width = shape[:2]
+    p = _pressure(flat, shape, vertices, gate, params)
+    before = np.roll(vertices, 1, axis=0)
+    after = np.roll(vertices, -1, axis=0)
+    chord = after - before
+    # Shoelace sign: positive area means the outward normal is (chord_v, -chord_u).
+    twice_area = np.dot(vertices[:, 0], after[:, 1]) - np.dot(after[:, 0], vertices[:, 1])
+    length = np.hypot(chord[:, 0], chord[:, 1])
+    scale = params.step_px * p / np.maximum(length, 1e-12)
+    if twice_area < 0.0:
+        scale = -scale
+    motion = params.tension * (0.5 * (before + after) - vertices)
+    motion[:, 0] += scale * chord[:, 1]
+    motion[:, 1] -= scale * chord[:, 0]
     moved = vertices + motion
     np.clip(moved[:, 0], 0.0, width - 1.0, out=moved[:, 0])
     np.clip(moved[:, 1], 0.0, height - 1.0, out=moved[:, 1])
-    largest = float(np.sqrt(np.max(np.einsum("ij,ij->i", motion, motion))))
+    largest = float(np.sqrt(np.max(motion[:, 0] ** 2 + motion[:, 1] ** 2)))
     return moved, largest
 
 
@@ -212,10 +266,12 @@ def evolve(
         raise ValueError(f"a snake needs at least 3 vertices, got {current.shape[0]}")
     if needs_resampling(current, params):
         current = _resample(current, params)
+    flat = image.reshape(-1, image.shape[2])
+    gate = gate_matrix(model, params.k_sigma)
     motion = np.inf
     iterations = 0
     for iterations in range(1, budget + 1):
-        current, motion = step(image, current, model, params)
+        current, motion = _step(flat, image.shape, current, gate, params)
         if is_collapsed(current, params):
             return SnakeResult(current, iterations, False, motion, collapsed=True)
         if needs_resampling(current, params):

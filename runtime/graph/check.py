@@ -15,7 +15,7 @@ from connectors.errors import CheckFailed, Diagnostic, Location
 from connectors.frames import FrameTree
 from connectors.ports import Input
 from runtime.graph.order import find_cycle, topological_order
-from runtime.graph.parse import parse_graph_file
+from runtime.graph.parse import ShapeProblems, parse_graph_file, parse_graph_text
 from runtime.graph.plan import GraphPlan, LinkPlan, ModulePlan, PortInfo
 from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
 from runtime.hints import did_you_mean
@@ -190,7 +190,7 @@ class _Checker:
     def port(self, end: Any, kind: str) -> PortInfo | None:
         plan = self.modules.get(end.module)
         if plan is None:
-            if end.module not in self.spec.modules:
+            if end.module not in self.spec.modules and end.module not in self.spec.broken_modules:
                 self.error(end.module_loc, f"unknown module `{end.module}`"
                                            f"{did_you_mean(end.module, self.spec.modules)}")
             return None
@@ -229,7 +229,8 @@ class _Checker:
             if plan.spec.rate is not None:
                 continue
             live = [t for t in plan.triggers if (plan.name, t) in connected]
-            if not live:
+            reported = any(plan.input_decls[t].required for t in plan.triggers if t not in live)
+            if not live and not reported:
                 self.error(plan.spec.loc, f"module `{plan.name}` needs `rate: HZ` or a connected "
                                           f"trigger input")
 
@@ -302,21 +303,40 @@ def relink(plan: GraphPlan) -> None:
         link.key = f"{plan.key_prefix}/{conn.src.module}/{conn.src.port}"
 
 
-def check_spec(spec: GraphSpec, registry: Registry | None = None) -> GraphPlan:
-    """Check a parsed graph; raises CheckFailed with every problem."""
+def check_spec(spec: GraphSpec, registry: Registry | None = None,
+               earlier: list[Diagnostic] | None = None) -> GraphPlan:
+    """Check a parsed graph; raises CheckFailed with every problem (``earlier`` ones first)."""
     checker = _Checker(spec, registry or Registry())
     plan = checker.run()
-    if plan is None:
-        raise CheckFailed(checker.problems)
+    problems = [*(earlier or []), *checker.problems]
+    if plan is None or problems:
+        raise CheckFailed(problems)
     return plan
+
+
+def check_text(text: str | bytes, file: str, registry: Registry | None = None) -> GraphPlan:
+    """Parse and check graph text, reporting shape and semantic problems together."""
+    try:
+        spec = parse_graph_text(text, file)
+    except ShapeProblems as exc:
+        if exc.spec is None:
+            raise
+        return check_spec(exc.spec, registry, exc.diagnostics)
+    return check_spec(spec, registry)
 
 
 def load_graph(path: str, registry: Registry | None = None,
                overrides: dict[str, dict[str, Any]] | None = None) -> GraphPlan:
     """Parse and check a graph file, with ``--set`` overrides ``{module: {param: value}}``."""
-    spec = parse_graph_file(path)
+    earlier: list[Diagnostic] = []
+    try:
+        spec = parse_graph_file(path)
+    except ShapeProblems as exc:
+        if exc.spec is None:
+            raise
+        spec, earlier = exc.spec, exc.diagnostics
     apply_overrides(spec, overrides or {})
-    return check_spec(spec, registry)
+    return check_spec(spec, registry, earlier)
 
 
 def apply_overrides(spec: GraphSpec, overrides: dict[str, dict[str, Any]]) -> None:

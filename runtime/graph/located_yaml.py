@@ -16,6 +16,7 @@ from connectors.errors import CheckFailed, Diagnostic, Location
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64
 MAX_NODES = 100_000
+_PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
 
 
 class YMap(dict):
@@ -50,6 +51,8 @@ class _Builder:
             raise _TooBig(node, f"more than {MAX_NODES} YAML nodes (after expanding aliases)")
         if depth > MAX_DEPTH:
             raise _TooBig(node, f"nesting deeper than {MAX_DEPTH} levels")
+        if isinstance(node, yaml.MappingNode | yaml.SequenceNode) and node.tag not in _PLAIN_TAGS:
+            raise _Bad(node, f"unsupported YAML tag `{node.tag}`")
         if isinstance(node, yaml.MappingNode):
             out = YMap()
             out.loc, out.key_loc, out.val_loc = _loc(self.file, node), {}, {}

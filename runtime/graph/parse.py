@@ -57,6 +57,7 @@ class _Parser:
         self.file = file
         self.lines = text.splitlines()
         self.problems: list[Diagnostic] = []
+        self.broken: set[str] = set()
 
     def error(self, loc: Location | None, message: str, hint: str = "") -> None:
         self.problems.append(Diagnostic(loc or Location(self.file, 1, 1), message, hint))
@@ -198,11 +199,11 @@ class _Parser:
                 self.error(key_loc, f"module name must be an identifier, found {name!r}")
                 continue
             body_map = self.expect_map(body, section.val_loc[name], f"module `{name}`")
-            if body_map is None:
-                continue
-            module = self.module(name, body_map, key_loc, processes)
+            module = None if body_map is None else self.module(name, body_map, key_loc, processes)
             if module is not None:
                 out[name] = module
+            else:
+                self.broken.add(str(name))
         return out
 
     def module(
@@ -361,8 +362,17 @@ def _plain(value: Any) -> Any:
     return value
 
 
+class ShapeProblems(CheckFailed):
+    """Shape problems, with the part of the graph that could still be read (``spec``), so the
+    semantic checks can report their problems too."""
+
+    def __init__(self, diagnostics: list[Diagnostic], spec: GraphSpec | None) -> None:
+        super().__init__(diagnostics)
+        self.spec = spec
+
+
 def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
-    """Parse graph text; raises CheckFailed listing every shape problem."""
+    """Parse graph text; raises ShapeProblems (a CheckFailed) listing every shape problem."""
     doc = load_located(text, file)
     as_text = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
     parser = _Parser(file, as_text)
@@ -370,8 +380,10 @@ def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
         raise CheckFailed([Diagnostic(Location(file, 1, 1), "empty graph file: expected a mapping "
                                       "with `graph`, `modules` and `connections`")])
     spec = parser.parse(doc)
+    if spec is not None:
+        spec.broken_modules = parser.broken
     if parser.problems or spec is None:
-        raise CheckFailed(parser.problems)
+        raise ShapeProblems(parser.problems, spec)
     return spec
 
 

@@ -94,3 +94,5 @@ class GraphSpec:
     frames: list[StaticFrameSpec] = field(default_factory=list)
     links: LinkSettings = field(default_factory=LinkSettings)
     loc: Location | None = None
+    #: modules whose declaration was broken (already reported); later checks stay quiet on them
+    broken_modules: set[str] = field(default_factory=set)

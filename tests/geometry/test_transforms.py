@@ -41,9 +41,9 @@ def test_transform_points_matches_homogeneous_product():
 
 def test_xyz_rpy_deg_round_trip_and_convention():
     T = tf.transform_from_xyz_rpy_deg([0.1, 0.2, 0.3], [10, 20, 30])
-    R_expected = (
-        tf.rot_z(np.radians(30)) @ tf.rot_y(np.radians(20)) @ tf.rot_x(np.radians(10))
-    )[:3, :3]
+    R_expected = (tf.rot_z(np.radians(30)) @ tf.rot_y(np.radians(20)) @ tf.rot_x(np.radians(10)))[
+        :3, :3
+    ]
     np.testing.assert_allclose(T[:3, :3], R_expected, atol=1e-12)
     xyz, rpy = tf.xyz_rpy_deg_from_transform(T)
     np.testing.assert_allclose(xyz, [0.1, 0.2, 0.3])
@@ -83,6 +83,16 @@ def test_twist_transform_moves_the_camera_as_asked():
         v = delta[:3, 3] / dt
         w = Rotation.from_matrix(delta[:3, :3]).as_rotvec() / dt
         np.testing.assert_allclose(np.r_[v, w], camera_twist, atol=1e-3)
+
+
+def test_closed_form_exponential_matches_expm():
+    rng = np.random.default_rng(4)
+    for scale in (1.0, 1e-3, 1e-8, 0.0):
+        for _ in range(20):
+            xi = rng.normal(size=6) * scale
+            np.testing.assert_allclose(
+                tf.twist_exponential(xi, 0.7), tf.twist_exponential_expm(xi, 0.7), atol=1e-13
+            )
 
 
 def test_adjoint_matches_the_function_and_inverts():

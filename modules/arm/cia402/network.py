@@ -72,6 +72,7 @@ NMT_STATE_NAMES = {
     127: "PRE-OPERATIONAL",
 }
 CAN_ERR_BUSOFF = 0x40  # error class bit of a socketcan error frame
+RECEIVE_POLL_S = 0.05  # receive thread's wait per poll: bounds how long closing the bus takes
 
 
 @dataclass
@@ -248,6 +249,7 @@ class Cia402Arm:
     def _open_bus(self) -> canopen.Network:
         spec = self.config.bus
         network = canopen.Network()
+        network.NOTIFIER_CYCLE = RECEIVE_POLL_S
         network.listeners.append(_BusWatch(self._on_error_frame, self._on_receive_dead))
         try:
             network.connect(interface=spec.interface, channel=spec.channel, bitrate=spec.bitrate)
@@ -307,27 +309,45 @@ class Cia402Arm:
         bring_up.enable_operation(node, label, cfg.enable_timeout_s)
         bring_up.check_mode_display(node, label)
 
-    def _wait_for(self, predicate: Callable[[], bool], timeout_s: float, message: str) -> None:
+    def _wait_for(
+        self, predicate: Callable[[], bool], timeout_s: float, message: str | Callable[[], str]
+    ) -> None:
+        """Poll `predicate` under the lock; DriveStartError(message) after `timeout_s`."""
         deadline = time.monotonic() + timeout_s
         while True:
             with self._lock:
                 if predicate():
                     return
             if time.monotonic() > deadline:
-                raise DriveStartError(message)
+                with self._lock:
+                    text = message if isinstance(message, str) else message()
+                raise DriveStartError(text)
             time.sleep(min(0.005, self.config.monitor_period_s))
 
     def _go_running(self, network: canopen.Network) -> None:
         enable = controlword_for(Command.ENABLE_OPERATION)
         with self._lock:
             for drive in self._drives:
+                drive.statusword = drive.position_counts = drive.velocity_counts_s = None
+                drive.feedback_time = None
                 self._write_rpdo(drive, enable, 0)
         network.sync.start(self.config.sync_period_s)
-        now = time.monotonic()
+        self._wait_for(
+            lambda: all(
+                d.statusword is not None
+                and d.position_counts is not None
+                and d.velocity_counts_s is not None
+                for d in self._drives
+            ),
+            self.config.feedback_timeout_s,
+            lambda: (
+                "no feedback (TPDO with statusword, position and velocity) from "
+                + ", ".join(d.label for d in self._drives if d.position_counts is None)
+                + f" within {self.config.feedback_timeout_s} s of the first SYNC"
+            ),
+        )
         with self._lock:
-            for drive in self._drives:
-                drive.feedback_time = now  # grace: the first TPDOs come with the first SYNCs
-            self._last_command = now
+            self._last_command = time.monotonic()
             self._state = ArmState.RUNNING
         self._monitor_stop.clear()
         self._monitor = threading.Thread(

@@ -92,6 +92,7 @@ class SimDrive:
     ) -> SimDrive:
         """Join the bus, boot (boot-up message, PRE-OPERATIONAL) and power the drive up."""
         network = canopen.Network()
+        network.NOTIFIER_CYCLE = 0.05  # bounds how long close() waits for the receive thread
         network.connect(interface=interface, channel=channel, bitrate=bitrate)
         network.add_node(self.node)
         network.subscribe(obj.SYNC_COB_ID, self._on_sync)

@@ -1,0 +1,51 @@
+"""Shared helpers for benchmarks: tables, JSON results, percentiles."""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def percentiles(values: Any, qs: tuple[float, ...] = (50, 99)) -> dict[str, float]:
+    """``{"p50": ..., "p99": ..., "max": ...}`` of ``values``."""
+    arr = np.asarray(values, dtype=float)
+    out = {f"p{q:g}": float(np.percentile(arr, q)) for q in qs}
+    out["max"] = float(arr.max())
+    return out
+
+
+def table(rows: list[list[Any]], header: list[str]) -> str:
+    """A plain-text table."""
+    text = [[str(h) for h in header]] + [[_fmt(c) for c in row] for row in rows]
+    widths = [max(len(r[i]) for r in text) for i in range(len(header))]
+    lines = []
+    for i, row in enumerate(text):
+        lines.append("  ".join(c.rjust(w) if j else c.ljust(w)
+                               for j, (c, w) in enumerate(zip(row, widths, strict=True))))
+        if i == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def write_results(name: str, data: dict[str, Any]) -> Path:
+    """Write ``benchmarks/results/<name>.json`` with machine information."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / f"{name}.json"
+    payload = {"benchmark": name, "when": time.strftime("%Y-%m-%dT%H:%M:%S"),
+               "machine": {"python": platform.python_version(), "cpu": platform.processor()
+                           or platform.machine()}, **data}
+    path.write_text(json.dumps(payload, indent=2, default=float))
+    return path

@@ -1,0 +1,108 @@
+"""CamCalib: the camera model at the current zoom, from a zoom calibration file.
+
+As in section 5.6 of the Sandia report: the SONY module reports the normalized zoom; CamCalib
+interpolates the bench calibration (Appendix D file) at that zoom and publishes the camera model
+for the targeting code, as if a fixed camera had taken the snapshot.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+from connectors import Input, Module, Output, Parameters, param
+from connectors.messages import CameraModel, ZoomState
+from modules.calib.camera_message import camera_message
+from modules.calib.zoom_interp import DEFAULT_METHOD
+from modules.calib.zoom_io import load_zoom_table
+from modules.calib.zoom_table import ZoomTable
+
+#: The report's own calibration file, shipped with the project.
+REPORT_FILE = Path(__file__).resolve().parents[2] / "data" / "zoom_cam.xml"
+
+
+class CamCalib(Module):
+    """Camera model (intrinsics, distortion, extrinsics in its mount) at the current zoom.
+
+    Reads the zoom calibration file at start (Appendix D XML, or its YAML form); on each new zoom
+    sample whose zoom differs from the last one used by more than ``zoom_tolerance`` it
+    interpolates the table and publishes a ``CameraModel``. Zooms outside the tabulated range are
+    clamped to it (and counted); samples without a known zoom (NaN) are ignored.
+    """
+
+    TYPE = "CamCalib"
+
+    class Params(Parameters):
+        calibration_file: str = param(
+            "", "zoom calibration file (.xml as Appendix D, or .yaml); empty: the report's file"
+        )
+        camera: str = param("", "camera name in the file (<SR_cam>); empty: its only camera")
+        method: Literal["linear", "geometric", "pchip"] = param(
+            DEFAULT_METHOD, "interpolation between tabulated zooms (linear is the report's)"
+        )
+        zoom_tolerance: float = param(
+            1e-6, "smallest zoom change that recomputes the model", unit="1", ge=0, le=0.1
+        )
+        width: int = param(640, "image width", unit="px", gt=0)
+        height: int = param(480, "image height", unit="px", gt=0)
+        mount_frame: str = param("tool", "frame the file's extrinsics are relative to")
+        camera_frame: str = param("camera", "name of the camera frame")
+
+    zoom = Input(ZoomState, trigger=True, doc="normalized zoom 0 (wide) .. 1 (tele)")
+    camera = Output(CameraModel, doc="camera model at the zoom (published when it changes)")
+
+    def start(self) -> None:
+        path = Path(self.params.calibration_file) if self.params.calibration_file else REPORT_FILE
+        self.table: ZoomTable = load_zoom_table(path, self.params.camera or None)
+        self._last_zoom: float | None = None
+        self._computed = 0
+        self._clamped = 0
+        self._ignored = 0
+
+    def step(self, now: float) -> None:
+        if not self.zoom.fresh:
+            return
+        sample = self.zoom.get(now)
+        if sample is None:
+            return
+        if not math.isfinite(sample.zoom):
+            self._ignored += 1
+            return
+        zoom = self._clamp(sample.zoom)
+        if self._last_zoom is not None and abs(zoom - self._last_zoom) <= (
+            self.params.zoom_tolerance
+        ):
+            return
+        self._last_zoom = zoom
+        self._computed += 1
+        model = self.table.sample(zoom, self.params.method).camera()
+        self.camera.send(
+            camera_message(
+                model,
+                zoom=zoom,
+                width=self.params.width,
+                height=self.params.height,
+                mount=self.params.mount_frame,
+                frame=self.params.camera_frame,
+                stamp=sample.stamp,
+            )
+        )
+
+    def _clamp(self, zoom: float) -> float:
+        low, high = float(self.table.zooms[0]), float(self.table.zooms[-1])
+        if low <= zoom <= high:
+            return zoom
+        self._clamped += 1
+        if self._clamped == 1:
+            self.log.warning(
+                "zoom %.4f outside the calibrated range %g..%g: clamped", zoom, low, high
+            )
+        return min(max(zoom, low), high)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "models_computed": self._computed,
+            "zoom_clamped": self._clamped,
+            "zoom_unknown": self._ignored,
+        }

@@ -1,0 +1,57 @@
+"""Between the calibration math's :class:`PinholeCamera` and the ``CameraModel`` message.
+
+``PinholeCamera`` extrinsics ``(R, d)`` take reference-frame points into the camera frame
+(``T_cam_ref``); the message carries the camera's pose in its mount, ``T_mount_camera``, which is
+the inverse. Distortion in the message is ``[k1, k2, p1, p2, k3]``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from connectors.messages import CameraModel
+from modules.calib.camera_model import Intrinsics, PinholeCamera
+from modules.calib.rotations import invert_transform, transform
+
+
+def camera_message(
+    camera: PinholeCamera,
+    *,
+    zoom: float = 0.0,
+    width: int = 640,
+    height: int = 480,
+    mount: str = "tool",
+    frame: str = "camera",
+    stamp: float = 0.0,
+) -> CameraModel:
+    """A ``CameraModel`` message whose mount is the frame ``camera``'s extrinsics start from."""
+    f = camera.intrinsics
+    return CameraModel(
+        stamp=stamp,
+        fx=f.fx,
+        fy=f.fy,
+        skew=f.skew,
+        u0=f.u0,
+        v0=f.v0,
+        dist=camera.distortion.copy(),
+        width=width,
+        height=height,
+        T_mount_camera=invert_transform(transform(camera.R, camera.d)),
+        mount=mount,
+        frame=frame,
+        zoom=float(zoom),
+    )
+
+
+def pinhole_from_message(
+    message: CameraModel, T_ref_mount: ArrayLike | None = None
+) -> PinholeCamera:
+    """The camera of a message, with extrinsics relative to frame ``ref`` given ``T_ref_mount``
+    (the mount's pose in ``ref``; identity: extrinsics relative to the mount)."""
+    T_ref_camera = np.asarray(message.T_mount_camera, dtype=float)
+    if T_ref_mount is not None:
+        T_ref_camera = np.asarray(T_ref_mount, dtype=float) @ T_ref_camera
+    T_camera_ref = invert_transform(T_ref_camera)
+    intrinsics = Intrinsics(message.fx, message.fy, message.skew, message.u0, message.v0)
+    return PinholeCamera(intrinsics, T_camera_ref[:3, :3], T_camera_ref[:3, 3], message.dist)

@@ -1,0 +1,156 @@
+"""SONY: the zoom of a Sony FCB block camera over VISCA, as a module (the SMART SONY module).
+
+Takes the operator's (or the targeting system's) zoom request, normalized 0 (full wide) .. 1
+(full optical tele), and publishes the camera's zoom as :class:`ZoomState` each time a position
+poll comes back, so CamCalib can interpolate the calibration at the zoom the camera really has.
+With ``port: sim`` the module serves a simulated FCB on a pseudo-terminal and talks to it through
+the same serial client, so graphs run without hardware.
+
+The serial port is served by the client's device thread; ``step`` only hands over the latest
+request and reads the latest reading, and never blocks. The camera runs on wall time whatever the
+graph's clock: under ``--clock sim`` the zoom still takes its real travel time.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from connectors import Input, Module, Output, Parameters, param
+from connectors.messages import Scalar, ZoomState
+from modules.calib.visca.client import ViscaSettings, ViscaZoomClient, ZoomReading
+from modules.calib.visca.sim_camera import Fault, SimFcbCamera
+
+
+class Sony(Module):
+    """Sony FCB zoom camera over VISCA (serial, or `sim` on a pty): zoom commands, position polls.
+
+    ``zoom.status`` is "ok" or "<problem>: <detail>" with problem one of starting, no_reply,
+    garbled, camera_error, port_error; ``zoom.zoom`` is NaN and ``zoom.raw`` -1 until the camera
+    has reported a position. Device trouble never stops the run; a port that cannot be opened at
+    start is a user error.
+    """
+
+    TYPE = "SONY"
+
+    class Params(Parameters):
+        port: str = param("sim", "serial device (/dev/ttyUSB0) or `sim` for a simulated FCB")
+        address: int = param(1, "VISCA address of the camera on the chain", ge=1, le=7)
+        baudrate: Literal[9600, 19200, 38400] = param(9600, "serial speed (8N1)", unit="baud")
+        poll_rate_hz: float = param(10.0, "zoom position polls per second", unit="Hz", gt=0, le=50)
+        reply_timeout_s: float = param(0.3, "wait for each reply", unit="s", gt=0, le=10)
+        retries: int = param(2, "resends of a request that got no good reply", ge=0, le=10)
+        completion_timeout_s: float = param(
+            6.0, "longest zoom travel before completion is given up", unit="s", gt=0
+        )
+        retry_backoff_s: float = param(
+            0.5, "pause before repeating a failed set-up or refused zoom", unit="s", gt=0
+        )
+        start_timeout_s: float = param(
+            2.0,
+            "how long start waits for the camera to answer (it never fails on this)",
+            unit="s",
+            ge=0,
+        )
+        sim_full_range_s: float = param(
+            2.4, "simulated camera: wide-to-tele travel time", unit="s", gt=0
+        )
+        sim_fault: Literal["none", "garble", "silent", "error"] = param(
+            "none", "simulated camera: misbehave from the start (for tests and demos)"
+        )
+
+    zoom_command = Input(
+        Scalar, required=False, doc="requested zoom, normalized 0 (wide)..1 (tele); clamped"
+    )
+    zoom = Output(ZoomState, doc="camera zoom at each position poll, with link status")
+
+    def start(self) -> None:
+        p = self.params
+        self._sim: SimFcbCamera | None = None
+        self._last_key: tuple[Any, ...] | None = None
+        self._published = 0
+        self._ignored_commands = 0
+        port = p.port
+        if port == "sim":
+            self._sim = SimFcbCamera(full_range_s=p.sim_full_range_s, seed=0)
+            port = self._sim.start()
+            self._sim.inject(Fault(p.sim_fault))
+        settings = ViscaSettings(
+            port=port,
+            address=p.address,
+            baudrate=p.baudrate,
+            poll_period_s=1.0 / p.poll_rate_hz,
+            reply_timeout_s=p.reply_timeout_s,
+            retries=p.retries,
+            completion_timeout_s=p.completion_timeout_s,
+            retry_backoff_s=p.retry_backoff_s,
+        )
+        self._client = ViscaZoomClient(settings)
+        try:
+            self._client.start()
+        except Exception:
+            self._stop_sim()
+            raise
+        if not self._client.wait_ready(p.start_timeout_s):
+            self.log.warning(
+                "camera not ready after %.1f s: %s", p.start_timeout_s, self._client.latest().status
+            )
+
+    def step(self, now: float) -> None:
+        if self.zoom_command.fresh:
+            command = self.zoom_command.get(now)
+            if command is not None:
+                if math.isfinite(command.value):
+                    self._client.zoom_to(command.value)
+                else:
+                    self._ignored_commands += 1
+        reading = self._client.latest()
+        key = (reading.position_time, reading.raw, reading.moving, reading.status)
+        if key == self._last_key:
+            return
+        self._last_key = key
+        self._published += 1
+        self.zoom.send(self._zoom_state(reading))
+
+    def _zoom_state(self, reading: ZoomReading) -> ZoomState:
+        # On the real clock (time.monotonic) the sample is stamped when the position arrived.
+        real = self.context.clock == "real" and math.isfinite(reading.position_time)
+        return ZoomState(
+            stamp=reading.position_time if real else 0.0,
+            zoom=reading.zoom,
+            raw=reading.raw,
+            moving=reading.moving,
+            status=reading.status,
+        )
+
+    def stop(self) -> None:
+        client = getattr(self, "_client", None)
+        if client is not None:
+            client.stop()
+        self._stop_sim()
+
+    def _stop_sim(self) -> None:
+        if getattr(self, "_sim", None) is not None:
+            assert self._sim is not None
+            self._sim.stop()
+            self._sim = None
+
+    def summary(self) -> dict[str, Any]:
+        client = getattr(self, "_client", None)
+        if client is None:
+            return {}
+        c = client.counters
+        reading = client.latest()
+        return {
+            "status": reading.status,
+            "zoom": reading.zoom,
+            "published": self._published,
+            "polls": c.polls,
+            "zoom_commands": c.zoom_commands,
+            "zoom_completions": c.zoom_completions,
+            "timeouts": c.timeouts,
+            "retries": c.retries,
+            "garbled": c.garbled,
+            "camera_errors": c.camera_errors,
+            "ignored_commands": self._ignored_commands,
+        }

@@ -1,0 +1,195 @@
+"""Sanity checks of a tracked contour (Sandia report, section 2.3).
+
+A snake that tracks a rectangular patch looks like a rounded rectangle. It must lie inside a
+slightly larger rectangle and outside a slightly smaller ellipse, both built from the
+contour's own moments: the rectangle with the same second moments as the contour (sides
+``sqrt(12 eigenvalue)``, see :func:`modules.vision.features.equivalent_rectangle_sides`), scaled
+up by ``1 + rectangle_margin``; and the ellipse inscribed in that same equivalent rectangle,
+scaled down by ``ellipse_scale``. On top of that the area and the aspect ratio must stay within
+bounds, and so must the rates of change from the previous frame (centroid jump, relative area
+change, rotation, relative aspect change). Any failed check means the snake may no longer be on
+the patch: the servo stops and the operator is asked.
+
+Units: pixels, px², radians; image frame u right, v down.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from modules.vision.features import (
+    PolygonFeatures,
+    angle_difference,
+    equivalent_rectangle_sides,
+    polygon_features,
+)
+from modules.vision.polygon import as_polygon
+
+FloatArray = NDArray[np.float64]
+
+TRACKING = "tracking"
+FAILED = "failed"
+
+
+@dataclass(frozen=True)
+class SanityLimits:
+    """Bounds of the sanity checks.
+
+    - ``rectangle_margin``: the outer rectangle is the equivalent rectangle scaled by 1 + this.
+    - ``ellipse_scale``: the inner ellipse is the one inscribed in the equivalent rectangle,
+      scaled by this (< 1).
+    - ``min_area_px2`` / ``max_area_px2``: area bounds [px²].
+    - ``min_aspect`` / ``max_aspect``: bounds on major / minor axis length.
+    - ``max_centroid_jump_px``: largest centroid motion between two frames [px].
+    - ``max_area_change``: largest relative area change between two frames (0.3 = 30 %).
+    - ``max_rotation_rad``: largest change of the principal axis between two frames [rad].
+    - ``max_aspect_change``: largest relative change of the aspect ratio between two frames
+      (approach and roll leave a patch's aspect alone; a leak into a neighbour does not).
+    - ``min_vertices``: fewest vertices of a usable contour.
+    """
+
+    rectangle_margin: float = 0.12
+    ellipse_scale: float = 0.85
+    min_area_px2: float = 150.0
+    max_area_px2: float = 250_000.0
+    min_aspect: float = 1.0
+    max_aspect: float = 4.0
+    max_centroid_jump_px: float = 40.0
+    max_area_change: float = 0.25
+    max_rotation_rad: float = np.deg2rad(20.0)
+    max_aspect_change: float = 0.12
+    min_vertices: int = 4
+
+    def __post_init__(self) -> None:
+        if self.rectangle_margin < 0 or not 0 < self.ellipse_scale <= 1:
+            raise ValueError("need rectangle_margin >= 0 and 0 < ellipse_scale <= 1")
+        if not 0 <= self.min_area_px2 < self.max_area_px2:
+            raise ValueError("need 0 <= min_area_px2 < max_area_px2")
+        if not 1.0 <= self.min_aspect <= self.max_aspect:
+            raise ValueError("need 1 <= min_aspect <= max_aspect")
+
+
+@dataclass(frozen=True, eq=False)
+class OrientedBox:
+    """A rectangle or ellipse: centre [px], half-sizes along/across the axis [px], axis angle
+    [rad] from u towards v."""
+
+    center_uv: tuple[float, float]
+    half_sizes: tuple[float, float]
+    angle_rad: float
+
+    def local(self, points: FloatArray) -> FloatArray:
+        """Points (N x 2) in the box frame: coordinates along and across the axis [px]."""
+        c, s = np.cos(self.angle_rad), np.sin(self.angle_rad)
+        d = points - np.asarray(self.center_uv)
+        return np.column_stack([d[:, 0] * c + d[:, 1] * s, -d[:, 0] * s + d[:, 1] * c])
+
+    def corners(self) -> FloatArray:
+        """The 4 corners (u, v) of the rectangle [px]."""
+        c, s = np.cos(self.angle_rad), np.sin(self.angle_rad)
+        a, b = self.half_sizes
+        local = np.array([[-a, -b], [a, -b], [a, b], [-a, b]])
+        return np.asarray(self.center_uv) + local @ np.array([[c, s], [-s, c]])
+
+
+@dataclass(frozen=True, eq=False)
+class SanityResult:
+    """Outcome of the checks: ``status`` "tracking" or "failed"; ``reason`` all failed checks in
+    words ("" when tracking); ``reasons`` one string per failed check; ``offending`` indices of
+    vertices outside the rectangle or inside the ellipse; the ``outer_rectangle`` and
+    ``inner_ellipse`` (None if the contour had no area); the contour's ``features``."""
+
+    status: str
+    reason: str
+    reasons: tuple[str, ...]
+    offending: NDArray[np.intp]
+    outer_rectangle: OrientedBox | None
+    inner_ellipse: OrientedBox | None
+    features: PolygonFeatures | None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == TRACKING
+
+
+def bounding_shapes(
+    features: PolygonFeatures, limits: SanityLimits
+) -> tuple[OrientedBox, OrientedBox]:
+    """Outer rectangle and inner ellipse of a contour with these features."""
+    along, across = equivalent_rectangle_sides(features)
+    grow = 1.0 + limits.rectangle_margin
+    rectangle = OrientedBox(
+        features.centroid_uv, (0.5 * along * grow, 0.5 * across * grow), features.orientation_rad
+    )
+    shrink = limits.ellipse_scale
+    ellipse = OrientedBox(
+        features.centroid_uv,
+        (0.5 * along * shrink, 0.5 * across * shrink),
+        features.orientation_rad,
+    )
+    return rectangle, ellipse
+
+
+def check_contour(
+    vertices: ArrayLike,
+    limits: SanityLimits,
+    previous: PolygonFeatures | None = None,
+) -> SanityResult:
+    """Run all checks on a contour (N x 2 vertices [px]); ``previous`` are the features of the
+    last frame's contour (None for the first frame: no rate-of-change checks)."""
+    polygon = as_polygon(vertices)
+    no_offenders = np.empty(0, dtype=np.intp)
+    if polygon.shape[0] < limits.min_vertices:
+        reason = f"only {polygon.shape[0]} vertices (need {limits.min_vertices})"
+        return SanityResult(FAILED, reason, (reason,), no_offenders, None, None, None)
+    try:
+        features = polygon_features(polygon)
+    except ValueError:
+        reason = "contour has collapsed (zero area)"
+        return SanityResult(FAILED, reason, (reason,), no_offenders, None, None, None)
+    rectangle, ellipse = bounding_shapes(features, limits)
+    reasons: list[str] = []
+
+    area = features.area_px2
+    if area < limits.min_area_px2:
+        reasons.append(f"area {area:.0f} px² below the minimum {limits.min_area_px2:.0f} px²")
+    if area > limits.max_area_px2:
+        reasons.append(f"area {area:.0f} px² above the maximum {limits.max_area_px2:.0f} px²")
+    aspect = features.aspect_ratio
+    if not limits.min_aspect <= aspect <= limits.max_aspect:
+        reasons.append(
+            f"aspect ratio {aspect:.2f} outside [{limits.min_aspect:g}, {limits.max_aspect:g}]"
+        )
+
+    along_across = rectangle.local(polygon)
+    outside = np.any(np.abs(along_across) > np.asarray(rectangle.half_sizes), axis=1)
+    a, b = ellipse.half_sizes
+    e_local = ellipse.local(polygon)
+    inside = (e_local[:, 0] / a) ** 2 + (e_local[:, 1] / b) ** 2 < 1.0
+    if np.any(outside):
+        reasons.append(f"{int(outside.sum())} vertices outside the outer rectangle")
+    if np.any(inside):
+        reasons.append(f"{int(inside.sum())} vertices inside the inner ellipse")
+
+    if previous is not None:
+        jump = float(np.hypot(*np.subtract(features.centroid_uv, previous.centroid_uv)))
+        if jump > limits.max_centroid_jump_px:
+            reasons.append(f"centroid jumped {jump:.0f} px in one frame")
+        change = area / previous.area_px2 - 1.0 if previous.area_px2 > 0 else np.inf
+        if abs(change) > limits.max_area_change:
+            reasons.append(f"area changed {100 * change:+.0f}% in one frame")
+        turn = angle_difference(features.orientation_rad, previous.orientation_rad)
+        if turn > limits.max_rotation_rad:
+            reasons.append(f"rotated {np.rad2deg(turn):.0f} deg in one frame")
+        aspect_change = aspect / previous.aspect_ratio - 1.0
+        if abs(aspect_change) > limits.max_aspect_change:
+            reasons.append(f"aspect ratio changed {100 * aspect_change:+.0f}% in one frame")
+
+    offending = np.flatnonzero(outside | inside).astype(np.intp)
+    status = FAILED if reasons else TRACKING
+    return SanityResult(
+        status, "; ".join(reasons), tuple(reasons), offending, rectangle, ellipse, features
+    )

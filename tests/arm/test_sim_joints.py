@@ -1,0 +1,82 @@
+"""The simulated joints: rate and acceleration limits, lag, joint limits, calibration error."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modules.arm.dh import puma560
+from modules.arm.sim_joints import SimJoints, SimJointSettings
+
+PUMA = puma560()
+Q0 = np.radians([0, 45, -180, 0, 45, 0])
+
+
+def run(sim: SimJoints, rates, seconds: float, dt: float = 0.001) -> None:
+    for _ in range(round(seconds / dt)):
+        sim.step(rates, dt)
+
+
+def test_constant_rate_integrates_after_the_lag():
+    sim = SimJoints(PUMA, Q0, SimJointSettings(lag_tau=0.02, accel_max=100.0))
+    rates = np.array([0.1, -0.2, 0.3, 0.0, 0.1, -0.1])
+    run(sim, rates, 1.0)
+    np.testing.assert_allclose(sim.qd, rates, atol=1e-9)
+    # A first-order lag loses tau * rate of travel compared with an ideal integrator.
+    np.testing.assert_allclose(sim.q_reported - Q0, rates * (1.0 - 0.02), atol=2e-4)
+
+
+def test_lag_reaches_63_percent_after_one_time_constant():
+    sim = SimJoints(PUMA, Q0, SimJointSettings(lag_tau=0.05, accel_max=1e6))
+    run(sim, np.r_[1.0, np.zeros(5)], 0.05, dt=0.0005)
+    assert sim.qd[0] == pytest.approx(1 - np.exp(-1), abs=1e-3)
+
+
+def test_rate_and_acceleration_limits():
+    sim = SimJoints(PUMA, Q0, SimJointSettings(lag_tau=0.0, accel_max=20.0))
+    sim.step(np.full(6, 100.0), 0.01)
+    np.testing.assert_allclose(sim.qd, 0.2)  # accel_max * dt
+    run(sim, np.full(6, 100.0), 0.3, dt=0.01)
+    np.testing.assert_allclose(sim.qd[3:], PUMA.qd_max[3:])  # clipped at each joint's limit
+
+
+def test_joint_limits_clamp_and_stop_the_joint():
+    start = Q0.copy()
+    start[4] = np.radians(95)
+    sim = SimJoints(PUMA, start, SimJointSettings(lag_tau=0.0, accel_max=50.0))
+    run(sim, np.r_[0, 0, 0, 0, 1.0, 0], 1.0)
+    assert sim.q_reported[4] == pytest.approx(PUMA.q_max[4])
+    assert sim.qd[4] == 0.0
+    run(sim, np.r_[0, 0, 0, 0, -1.0, 0], 0.1)  # it can leave the limit again
+    assert sim.q_reported[4] < PUMA.q_max[4]
+
+
+def test_calibration_error_separates_true_from_reported_angles():
+    error = (0.01, -0.02, 0.015, 0.0, 0.0, 0.0)
+    sim = SimJoints(PUMA, Q0, SimJointSettings(calibration_error=error))
+    np.testing.assert_allclose(sim.q_true - sim.q_reported, error)
+    run(sim, np.r_[0.1, 0, 0, 0, 0, 0], 0.5)
+    np.testing.assert_allclose(sim.q_true - sim.q_reported, error, atol=1e-15)
+    # The true flange is centimetres away from where the controller believes it is.
+    miss = np.linalg.norm(PUMA.fk(sim.q_true)[:3, 3] - PUMA.fk(sim.q_reported)[:3, 3])
+    assert 0.005 < miss < 0.05
+
+
+def test_gripper_travels_in_its_travel_time():
+    sim = SimJoints(PUMA, Q0, SimJointSettings(gripper_travel_time=0.5), gripper_opening=1.0)
+    sim.command_gripper("close")
+    run(sim, np.zeros(6), 0.25)
+    assert sim.gripper_opening == pytest.approx(0.5, abs=1e-9)
+    assert sim.gripper_moving
+    run(sim, np.zeros(6), 0.3)
+    assert sim.gripper_opening == 0.0
+    assert not sim.gripper_moving
+    with pytest.raises(ValueError, match="open' or 'close"):
+        sim.command_gripper("squeeze")
+
+
+def test_bad_setup_is_rejected():
+    with pytest.raises(ValueError, match="6 offsets"):
+        SimJoints(PUMA, Q0, SimJointSettings(calibration_error=(0.1,)))
+    with pytest.raises(ValueError, match="outside the joint limits"):
+        SimJoints(PUMA, np.radians([0, 45, 180, 0, 45, 0]))

@@ -1,0 +1,64 @@
+"""REG_VEL logic: the watchdog drops to zero and says why; clamps keep direction."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modules.arm.velocity_register import RegisterSettings, VelocityRegister, clamp_twist
+
+SETTINGS = RegisterSettings(timeout=0.2, max_linear=0.1, max_angular=0.5)
+
+
+def test_passes_a_fresh_command_and_zeroes_it_after_the_timeout():
+    register = VelocityRegister(SETTINGS)
+    command = np.array([0.01, 0.02, -0.03, 0.0, 0.0, 0.1])
+    register.put(command, stamp=1.0)
+    out = register.output(now=1.1)
+    assert out.passing
+    np.testing.assert_array_equal(out.twist, command)
+    assert out.age == pytest.approx(0.1)
+    out = register.output(now=1.2)  # exactly the timeout: still accepted
+    assert out.passing
+    out = register.output(now=1.2001)
+    assert not out.passing
+    np.testing.assert_array_equal(out.twist, np.zeros(6))
+    assert "old (timeout 0.200 s)" in out.zero_reason
+
+
+def test_zero_before_any_command_and_when_the_producer_is_gone():
+    register = VelocityRegister(SETTINGS)
+    assert register.output(now=0.0).zero_reason == "no command received yet"
+    register.put(np.r_[0.01, 0, 0, 0, 0, 0], stamp=0.0)
+    out = register.output(now=0.01, producer_alive=False)
+    assert out.zero_reason == "command producer is gone"
+    assert not np.any(out.twist)
+    out = register.output(now=0.01, halt="snake failure: outside outer rectangle")
+    assert out.zero_reason.startswith("snake failure")
+    register.clear()
+    assert register.output(now=0.01).zero_reason == "no command received yet"
+
+
+def test_bad_command_is_rejected_not_held():
+    register = VelocityRegister(SETTINGS)
+    register.put(np.r_[0.01, 0, 0, 0, 0, 0], stamp=0.0)
+    register.put([np.nan, 0, 0, 0, 0, 0], stamp=0.05)
+    out = register.output(now=0.06)
+    assert "command rejected" in out.zero_reason
+    assert not np.any(out.twist)
+
+
+def test_clamps_scale_linear_and_angular_parts_keeping_direction():
+    register = VelocityRegister(SETTINGS)
+    register.put([0.3, 0.4, 0.0, 0.0, 0.0, -2.0], stamp=0.0)
+    out = register.output(now=0.0)
+    assert out.passing and out.clamped
+    np.testing.assert_allclose(out.twist, [0.06, 0.08, 0.0, 0.0, 0.0, -0.5])
+    twist, clamped = clamp_twist([0.01, 0, 0, 0, 0.1, 0], 0.1, 0.5)
+    assert not clamped
+    np.testing.assert_array_equal(twist, [0.01, 0, 0, 0, 0.1, 0])
+
+
+def test_settings_are_validated():
+    with pytest.raises(ValueError, match="timeout"):
+        RegisterSettings(timeout=0.0)

@@ -1,0 +1,224 @@
+"""The CANopen master against four simulated CiA 402 drives on a virtual bus."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import can
+import numpy as np
+import pytest
+
+from modules.arm.cia402 import ArmState, Cia402Arm, SimDrive, TripCause
+from modules.arm.cia402.state_machine import State
+
+from .conftest import COUNTS_PER_RAD, wait_until
+
+NODES = (1, 2, 3, 4)
+MakeDrives = Callable[..., list[SimDrive]]
+MakeArm = Callable[..., Cia402Arm]
+
+
+def drive_for(arm: Cia402Arm, rates: np.ndarray, duration_s: float) -> float:
+    """Command `rates` every 10 ms for `duration_s`, then zero; return the time it ran."""
+    start = time.monotonic()
+    while time.monotonic() - start < duration_s:
+        assert arm.set_velocities(rates)
+        time.sleep(0.01)
+    arm.set_velocities(np.zeros_like(rates))
+    return time.monotonic() - start
+
+
+def stopped(drives: list[SimDrive]) -> bool:
+    return all(d.velocity_counts_s == 0 and d.state is not State.OPERATION_ENABLED for d in drives)
+
+
+@pytest.mark.timeout(15)
+def test_enable_drive_read_back_and_stop(sim_drives: MakeDrives, make_arm: MakeArm) -> None:
+    drives = sim_drives(*NODES)
+    arm = make_arm(NODES)
+    arm.start()
+    assert arm.status().ok
+    assert all(d.state is State.OPERATION_ENABLED for d in drives)
+    assert all(d.mode == 3 and d.nmt_state == "OPERATIONAL" for d in drives)
+    assert arm.read().states == (State.OPERATION_ENABLED,) * 4
+
+    rates = np.array([0.8, -0.5, 0.25, 0.0])
+    before = arm.read().positions_rad
+    # While moving, velocity actual comes back as commanded (after the drives' ramps).
+    for _ in range(20):
+        arm.set_velocities(rates)
+        time.sleep(0.01)
+    wait_until(
+        lambda: arm.set_velocities(rates) and np.allclose(arm.read().velocities_rad_s, rates),
+        2.0,
+        "velocity actual to reach the commanded rates",
+    )
+    ran_s = 0.2 + drive_for(arm, rates, 0.4)
+    wait_until(lambda: np.all(arm.read().velocities_rad_s == 0), 2.0, "standstill")
+    time.sleep(0.05)  # one more TPDO after standstill
+    after = arm.read()
+    travelled = after.positions_rad - before
+
+    # Positions integrate the commanded rates (ramps up and down cancel: equal accel/decel);
+    # the tolerance covers the SYNC/thread latencies at start and end of the motion.
+    np.testing.assert_allclose(travelled, rates * ran_s, rtol=0.15, atol=0.01)
+    assert travelled[3] == 0.0
+    # The master reads exactly what the drives hold (to one count).
+    truth = np.array([d.position_counts for d in drives]) / COUNTS_PER_RAD
+    np.testing.assert_allclose(after.positions_rad, truth, atol=1.0 / COUNTS_PER_RAD)
+    assert np.all(after.ages_s < 1.0)
+
+    arm.stop()
+    assert arm.status().state is ArmState.STOPPED and not arm.status().trips
+    assert stopped(drives)
+    assert all(d.nmt_state == "PRE-OPERATIONAL" for d in drives)
+    assert not arm.set_velocities(rates)
+
+
+@pytest.mark.timeout(15)
+def test_fault_on_one_drive_stops_all_and_names_it(
+    sim_drives: MakeDrives, make_arm: MakeArm
+) -> None:
+    drives = sim_drives(*NODES)
+    arm = make_arm(NODES)
+    arm.start()
+    rates = np.array([0.5, 0.5, -0.5, 0.5])
+    drive_for(arm, rates, 0.1)
+    for _ in range(5):
+        arm.set_velocities(rates)
+    wait_until(lambda: all(d.velocity_counts_s != 0 for d in drives), 2.0, "motion")
+
+    drives[2].inject_fault(0x2310)
+    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_until(
+        lambda: any(t.cause is TripCause.FAULT for t in arm.status().trips), 2.0, "the fault bit"
+    )
+    status = arm.status()
+    assert {t.node_id for t in status.trips} == {3}
+    assert {t.joint for t in status.trips} == {"j3"}
+    assert {t.cause for t in status.trips} <= {TripCause.FAULT, TripCause.EMERGENCY}
+    assert all(t.error_code == 0x2310 for t in status.trips)
+    assert "joint 'j3' (node 3)" in status.message and "0x2310" in status.message
+
+    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    assert all(d.target_velocity_counts_s == 0 for d in drives)
+    assert drives[2].state is State.FAULT
+    assert not arm.set_velocities(rates)
+    assert all(d.target_velocity_counts_s == 0 for d in drives)
+
+
+@pytest.mark.timeout(15)
+def test_lost_heartbeat_is_detected_and_stops_all(
+    sim_drives: MakeDrives, make_arm: MakeArm
+) -> None:
+    drives = sim_drives(*NODES)
+    timeout_s = 0.25
+    arm = make_arm(NODES, heartbeat_period_s=0.05, heartbeat_timeout_s=timeout_s)
+    arm.start()
+    rates = np.array([0.3, 0.3, 0.3, 0.3])
+    drive_for(arm, rates, 0.3)
+    for _ in range(3):
+        arm.set_velocities(rates)
+    assert arm.status().ok  # healthy heartbeats never tripped it
+
+    silenced_at = time.monotonic()
+    drives[1].go_silent(heartbeat_only=True)  # PDOs and SDO still work: only the heartbeat
+    while arm.status().state is ArmState.RUNNING:
+        arm.set_velocities(rates)
+        if time.monotonic() - silenced_at > timeout_s + 2.0:
+            pytest.fail("the lost heartbeat was not detected")
+        time.sleep(0.005)
+    detected_after = time.monotonic() - silenced_at
+
+    (trip,) = arm.status().trips
+    assert (trip.cause, trip.node_id, trip.joint) == (TripCause.HEARTBEAT_LOST, 2, "j2")
+    assert "no heartbeat for" in trip.detail
+    # Not before its timeout (the last heartbeat may predate the silence by one period).
+    assert detected_after >= timeout_s - 0.05
+    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+
+
+@pytest.mark.timeout(15)
+def test_dead_transmitter_is_detected_and_stops_all(
+    sim_drives: MakeDrives, make_arm: MakeArm
+) -> None:
+    drives = sim_drives(*NODES)
+    arm = make_arm(NODES, heartbeat_timeout_s=0.2, feedback_timeout_s=0.2)
+    arm.start()
+    drive_for(arm, np.full(4, 0.2), 0.1)
+    drives[3].go_silent()
+    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_until(
+        lambda: any(t.cause is TripCause.HEARTBEAT_LOST for t in arm.status().trips),
+        2.0,
+        "the heartbeat loss",
+    )
+    # The silent drive still receives: it got the quick stop too.
+    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    arm.stop()  # does not hang on the silent drive
+    status = arm.status()
+    assert status.state is ArmState.STOPPED  # and the reasons are kept for the operator
+    assert {t.node_id for t in status.trips} == {4}
+    assert {t.cause for t in status.trips} <= {TripCause.HEARTBEAT_LOST, TripCause.FEEDBACK_LOST}
+
+
+@pytest.mark.timeout(15)
+def test_bus_off_error_frame_stops_all(
+    channel: str, sim_drives: MakeDrives, make_arm: MakeArm
+) -> None:
+    drives = sim_drives(1, 2)
+    arm = make_arm((1, 2))
+    arm.start()
+    drive_for(arm, np.array([0.4, -0.4]), 0.1)
+    with can.Bus(interface="virtual", channel=channel) as other:
+        other.send(can.Message(is_error_frame=True, arbitration_id=0x40, data=bytes(8)))
+    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    (trip,) = arm.status().trips
+    assert trip.cause is TripCause.BUS_ERROR and trip.node_id is None
+    assert "bus-off" in trip.detail and arm.status().error_frames == 1
+    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+
+
+@pytest.mark.timeout(15)
+def test_drives_own_pdo_mapping_and_command_watchdog(
+    sim_drives: MakeDrives, make_arm: MakeArm
+) -> None:
+    drives = sim_drives(1, 2)
+    arm = make_arm((1, 2), configure_pdos=False, command_timeout_s=0.1)
+    arm.start()
+    arm.set_velocities([0.5, 0.5])
+    wait_until(lambda: np.allclose(arm.read().velocities_rad_s, 0.5), 2.0, "motion")
+    # No further command: after the command timeout the targets drop to zero, no trip.
+    wait_until(lambda: arm.status().command_stale, 2.0, "the command watchdog")
+    wait_until(lambda: all(d.velocity_counts_s == 0 for d in drives), 2.0, "standstill")
+    assert arm.status().state is ArmState.RUNNING and not arm.status().trips
+    assert all(d.state is State.OPERATION_ENABLED for d in drives)
+    assert arm.set_velocities([-0.2, 0.1]) and not arm.status().command_stale
+
+
+@pytest.mark.timeout(15)
+def test_non_finite_rate_trips(sim_drives: MakeDrives, make_arm: MakeArm) -> None:
+    drives = sim_drives(1, 2)
+    arm = make_arm((1, 2))
+    arm.start()
+    with pytest.raises(ValueError, match=r"expected 2 joint rates \('j1', 'j2'\)"):
+        arm.set_velocities([0.1, 0.2, 0.3])
+    assert not arm.set_velocities([0.1, np.nan])
+    (trip,) = arm.status().trips
+    assert trip.cause is TripCause.BAD_COMMAND and "j2" in trip.detail
+    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+
+
+@pytest.mark.timeout(15)
+def test_restart_after_a_fault_resets_the_drive(sim_drives: MakeDrives, make_arm: MakeArm) -> None:
+    drives = sim_drives(1, 2)
+    arm = make_arm((1, 2))
+    arm.start()
+    drives[0].inject_fault(0x4310)  # overtemperature
+    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    arm.stop()
+    arm.start()  # fault reset, state machine again
+    assert arm.status().ok
+    assert all(d.state is State.OPERATION_ENABLED for d in drives)
+    assert drives[0].error_code == 0

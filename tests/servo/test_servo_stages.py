@@ -1,0 +1,120 @@
+"""The grab's stage machine, driven by the simulated camera and a scripted snake."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modules.servo.goal import goal_from_standoff
+from modules.servo.stages import (
+    ABORTED,
+    ACQUIRE,
+    APPROACH,
+    ASSIST,
+    DONE,
+    FINAL_GRAB,
+    Observation,
+    ServoStages,
+    StageSettings,
+)
+from tests.servo.servo_scene import INTRINSICS, camera_above, features_seen, move
+
+DT = 0.02
+GOAL = goal_from_standoff(0.2, INTRINSICS)
+SETTINGS = StageSettings(acquire_frames=3, settle_frames=4, grab_distance=0.05, grab_speed=0.025)
+
+
+def healthy(T, now):
+    return Observation(features_seen(T), healthy=True, stamp=now)
+
+
+def run_grab(machine, T, now=0.0, fail_at=None, max_steps=3000):
+    """Tick the machine with a camera that follows its twist; returns (T, now, outputs)."""
+    outputs = []
+    for _ in range(max_steps):
+        failing = fail_at is not None and fail_at(machine, now)
+        observation = (
+            Observation(None, healthy=False, stamp=now, reason="point outside outer rectangle")
+            if failing
+            else healthy(T, now)
+        )
+        out = machine.step(now, observation)
+        outputs.append(out)
+        T = move(T, out.camera_twist, DT)
+        now += DT
+        if out.stage in (DONE, ASSIST, ABORTED):
+            break
+    return T, now, outputs
+
+
+def test_a_full_grab_goes_through_every_stage_in_order():
+    machine = ServoStages(GOAL, settings=SETTINGS)
+    T_start = camera_above(0.04, -0.03, 0.4, 25.0)
+    T, _, outputs = run_grab(machine, T_start)
+    stages = [o.stage for o in outputs]
+    first = {s: stages.index(s) for s in (ACQUIRE, APPROACH, FINAL_GRAB, DONE)}
+    assert first[ACQUIRE] < first[APPROACH] < first[FINAL_GRAB] < first[DONE]
+    # Acquisition holds still for the N healthy frames.
+    assert stages[: SETTINGS.acquire_frames] == [ACQUIRE] * SETTINGS.acquire_frames
+    assert all(not np.any(o.camera_twist) for o in outputs if o.stage == ACQUIRE)
+    # The gripper is opened at the start and closed once, during the final grab.
+    assert outputs[0].gripper == "open"
+    closes = [o for o in outputs if o.gripper == "close"]
+    assert len(closes) == 1 and closes[0].stage == FINAL_GRAB
+    # Final grab: straight along the optical axis, by the set distance (standoff 0.2 -> 0.15).
+    advancing = [o.camera_twist for o in outputs if o.message == "advancing"]
+    assert advancing and all(np.allclose(t, [0, 0, 0.025, 0, 0, 0]) for t in advancing)
+    assert T[2, 3] == pytest.approx(0.2 - 0.05, abs=3e-3)
+    np.testing.assert_allclose(T[:2, 3], 0.0, atol=3e-3)
+
+
+def test_snake_failure_stops_at_once_and_asks_the_operator():
+    machine = ServoStages(GOAL, settings=SETTINGS)
+    # Fail during the approach, while the camera is moving.
+    fail = lambda m, now: m.stage == APPROACH and now > 1.0  # noqa: E731
+    _, now, outputs = run_grab(machine, camera_above(0.04, -0.03, 0.4, 25.0), fail_at=fail)
+    assert np.any(outputs[-2].camera_twist)  # it was moving the tick before
+    last = outputs[-1]
+    assert last.stage == ASSIST and last.assist
+    assert not np.any(last.camera_twist)
+    assert last.reason == "snake failure: point outside outer rectangle"
+    # It stays stopped, even if the snake recovers, until the operator says so.
+    T = camera_above(0.0, 0.0, 0.3, 0.0)
+    assert machine.step(now + DT, healthy(T, now + DT)).stage == ASSIST
+    machine.operator("resume")
+    assert machine.stage == ACQUIRE
+    out = machine.step(now + 2 * DT, healthy(T, now + 2 * DT))
+    assert out.stage == ACQUIRE and not np.any(out.camera_twist)
+
+
+def test_failure_during_the_final_grab_also_stops():
+    machine = ServoStages(GOAL, settings=SETTINGS)
+    fail = lambda m, now: m.stage == FINAL_GRAB  # noqa: E731
+    _, _, outputs = run_grab(machine, camera_above(0.0, 0.0, 0.25, 5.0), fail_at=fail)
+    assert outputs[-1].stage == ASSIST
+    assert not np.any(outputs[-1].camera_twist)
+
+
+def test_stale_or_missing_contours_count_as_failures():
+    machine = ServoStages(GOAL, settings=StageSettings(max_contour_age=0.1))
+    T = camera_above(0.0, 0.0, 0.3, 0.0)
+    out = machine.step(1.0, Observation(features_seen(T), healthy=True, stamp=0.8))
+    assert out.stage == ASSIST and "0.200 s old" in out.reason
+    machine.operator("resume")
+    assert machine.step(2.0, None).reason == "no contour from the snake"
+
+
+def test_abort_from_any_stage_and_resume_starts_a_new_grab():
+    machine = ServoStages(GOAL, settings=SETTINGS)
+    T = camera_above(0.02, 0.0, 0.3, 0.0)
+    for i in range(5):
+        machine.step(i * DT, healthy(T, i * DT))
+    assert machine.stage == APPROACH
+    machine.operator("abort")
+    out = machine.step(1.0, healthy(T, 1.0))
+    assert out.stage == ABORTED and not np.any(out.camera_twist)
+    assert out.reason == "aborted by the operator"
+    machine.operator("resume")
+    assert machine.step(1.1, healthy(T, 1.1)).gripper == "open"
+    with pytest.raises(ValueError, match="resume"):
+        machine.operator("jump")

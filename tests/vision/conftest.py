@@ -1,0 +1,26 @@
+"""Shared scene set-up for the vision tests: one distorted 640x480 camera above the patch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modules.vision.projection import CameraIntrinsics, Distortion
+from modules.vision.scene import SceneRenderer, camera_looking_down
+
+INTRINSICS = CameraIntrinsics(fx=600.0, fy=600.0, skew=0.0, u0=320.0, v0=240.0)
+DISTORTION = Distortion(k1=-0.12, k2=0.03, p1=0.001, p2=-0.0007, k3=0.0)
+#: The camera 0.22 m above the patch (patch plane at z = 0.03 m), looking straight down.
+T_WORLD_CAMERA = camera_looking_down((0.0, 0.0, 0.03), 0.22)
+#: World metres per image pixel at the patch's depth (0.22 m / 600 px focal length).
+METRES_PER_PIXEL = 0.22 / 600.0
+
+
+@pytest.fixture(scope="session")
+def renderer() -> SceneRenderer:
+    return SceneRenderer(INTRINSICS, DISTORTION)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20240611)

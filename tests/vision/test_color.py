@@ -1,0 +1,83 @@
+"""Chromaticity statistics: gain invariance, fitting, the whitened gate, online adaptation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modules.vision import color
+
+
+def test_chromaticity_is_invariant_to_a_lighting_gain() -> None:
+    rng = np.random.default_rng(1)
+    bgr = rng.integers(10, 160, size=(500, 3)).astype(np.float64)
+    r1, g1, gray1 = color.chromaticity(bgr)
+    r2, g2, gray2 = color.chromaticity(1.6 * bgr)
+    np.testing.assert_allclose(r1, r2, rtol=1e-6)
+    np.testing.assert_allclose(g1, g2, rtol=1e-6)
+    np.testing.assert_allclose(gray2, 1.6 * gray1, rtol=1e-6)
+    # BGR order: a pure red pixel has r = 1.
+    r, g, _ = color.chromaticity(np.array([[0, 0, 200]]))
+    assert (r[0], g[0]) == (1.0, 0.0)
+
+
+def test_fit_matches_numpy_statistics_and_skips_dark_pixels() -> None:
+    rng = np.random.default_rng(2)
+    bright = np.clip(rng.normal([60, 170, 30], 6, size=(400, 3)), 0, 255)
+    dark = np.full((50, 3), 5.0)
+    model = color.fit(np.vstack([bright, dark]), min_gray=20.0, sigma_floor=0.0)
+    total = bright.sum(axis=1)
+    rg = np.column_stack([bright[:, 2] / total, bright[:, 1] / total])
+    np.testing.assert_allclose(model.mean, rg.mean(axis=0), rtol=1e-5)
+    np.testing.assert_allclose(model.covariance, np.cov(rg, rowvar=False), rtol=1e-4)
+
+
+def test_fit_needs_enough_bright_pixels() -> None:
+    with pytest.raises(ValueError, match="at least 3 seed pixels"):
+        color.fit(np.full((20, 3), 4))
+
+
+def test_covariance_must_be_positive_definite() -> None:
+    with pytest.raises(ValueError, match="positive definite"):
+        color.ColorModel(np.zeros(2), np.array([[1.0, 2.0], [2.0, 1.0]]))
+
+
+def test_gate_matrix_agrees_with_mahalanobis_distance() -> None:
+    rng = np.random.default_rng(3)
+    model = color.ColorModel(np.array([0.2, 0.6]), np.array([[1e-3, 4e-4], [4e-4, 2e-3]]))
+    pixels = rng.integers(0, 256, size=(50_000, 3)).astype(np.float32)
+    for k in (2.0, 3.0, 5.0):
+        whitened = pixels @ color.gate_matrix(model, k)
+        fast = whitened[:, 0] ** 2 + whitened[:, 1] ** 2 <= whitened[:, 2] ** 2
+        r, g, _ = color.chromaticity(pixels)
+        slow = color.mahalanobis_squared(model, r, g) <= k * k
+        # Float32 rounding may flip a pixel that sits on the gate itself, nothing more.
+        assert np.count_nonzero(fast != slow) <= 2
+        assert 100 < np.count_nonzero(slow) < len(pixels) - 100
+
+
+def test_is_target_separates_patch_from_tray() -> None:
+    model = color.from_rgb((30, 170, 60), sigma=0.02)
+    patch_bgr = np.array([[60, 170, 30], [30, 85, 15]])  # same color at half the light
+    tray_bgr = np.array([[200, 205, 205], [10, 40, 8]])  # gray tray; a too-dark green
+    assert color.is_target(model, patch_bgr).all()
+    assert not color.is_target(model, tray_bgr).any()
+
+
+def test_adapt_follows_a_color_cast_and_ignores_outliers() -> None:
+    rng = np.random.default_rng(4)
+    patch = np.clip(rng.normal([60, 170, 30], 5, size=(300, 3)), 0, 255)
+    model = color.fit(patch)
+    cast = patch * np.array([0.8, 1.0, 1.3])  # BGR gains: warmer light
+    tray = np.full((100, 3), 200.0)
+    samples = np.vstack([cast, tray])
+    target_mean = color.fit(cast).mean
+    adapted = model
+    for _ in range(40):
+        adapted = color.adapt(adapted, samples, rate=0.2)
+    np.testing.assert_allclose(adapted.mean, target_mean, atol=2e-3)
+    assert np.linalg.norm(model.mean - target_mean) > 0.02
+    unchanged = color.adapt(model, tray, rate=0.5)
+    np.testing.assert_array_equal(unchanged.mean, model.mean)
+    with pytest.raises(ValueError, match="rate"):
+        color.adapt(model, samples, rate=1.5)
