@@ -20,12 +20,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks.common import percentiles, table, write_results  # noqa: E402
-from connectors import Input, Module, Output  # noqa: E402
-from connectors.messages import Scalar  # noqa: E402
-from runtime.graph.check import check_text  # noqa: E402
-from runtime.registry import Registry  # noqa: E402
-from runtime.scheduler import Scheduler, SchedulerOptions  # noqa: E402
+from benchmarks.common import percentiles, table, write_results
+from connectors import Input, Module, Output
+from connectors.messages import Scalar
+from runtime.graph.check import check_text
+from runtime.registry import Registry
+from runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class Source(Module):
@@ -79,10 +79,16 @@ def dispatch(ticks: int, n: int = 10) -> dict[str, float]:
     assert result.ticks == ticks and all(m.calls == ticks for m in result.modules)
     per_step_plain = plain / (ticks * n) * 1e6
     per_step_ours = ours / (ticks * n) * 1e6
-    return {"ticks": ticks, "modules": n, "plain_loop_s": plain, "scheduler_s": ours,
-            "plain_us_per_step": per_step_plain, "scheduler_us_per_step": per_step_ours,
-            "overhead_us_per_step": per_step_ours - per_step_plain,
-            "ratio": ours / plain}
+    return {
+        "ticks": ticks,
+        "modules": n,
+        "plain_loop_s": plain,
+        "scheduler_s": ours,
+        "plain_us_per_step": per_step_plain,
+        "scheduler_us_per_step": per_step_ours,
+        "overhead_us_per_step": per_step_ours - per_step_plain,
+        "ratio": ours / plain,
+    }
 
 
 def bare_loop(rate: float, seconds: float) -> np.ndarray:
@@ -121,12 +127,17 @@ def our_loop(rate: float, seconds: float) -> tuple[np.ndarray, int]:
 def timing(rate: float, seconds: float) -> dict[str, dict[str, float]]:
     period = 1.0 / rate
     out = {}
-    for name, periods, misses in (("bare sleep loop", bare_loop(rate, seconds), 0),
-                                  ("umbra scheduler", *our_loop(rate, seconds))):
+    for name, periods, misses in (
+        ("bare sleep loop", bare_loop(rate, seconds), 0),
+        ("umbra scheduler", *our_loop(rate, seconds)),
+    ):
         err = np.abs(periods - period)
-        out[name] = {**{k: v * 1e3 for k, v in percentiles(err).items()},
-                     "late_share": float(np.mean(err > 0.1 * period)), "periods": int(periods.size),
-                     "misses": misses}
+        out[name] = {
+            **{k: v * 1e3 for k, v in percentiles(err).items()},
+            "late_share": float(np.mean(err > 0.1 * period)),
+            "periods": int(periods.size),
+            "misses": misses,
+        }
     return out
 
 
@@ -138,9 +149,15 @@ def main() -> None:
     seconds = 2.0 if args.quick else 10.0
     d = dispatch(ticks)
     print(f"\nDispatch: chain of {d['modules']} modules, {ticks} ticks, sim clock")
-    print(table([["plain Python loop", d["plain_us_per_step"], 1.0],
-                 ["umbra scheduler", d["scheduler_us_per_step"], d["ratio"]]],
-                ["", "µs per step", "ratio"]))
+    print(
+        table(
+            [
+                ["plain Python loop", d["plain_us_per_step"], 1.0],
+                ["umbra scheduler", d["scheduler_us_per_step"], d["ratio"]],
+            ],
+            ["", "µs per step", "ratio"],
+        )
+    )
     print(f"overhead per step: {d['overhead_us_per_step']:.3f} µs (goal < 3 µs)")
     t = timing(1000.0, seconds)
     print(f"\nReal clock: 1 kHz for {seconds:g} s, period error (ms)")
@@ -148,8 +165,9 @@ def main() -> None:
     print(table(rows, ["", "p50 ms", "p99 ms", "max ms", "late share"]))
     ratio = t["umbra scheduler"]["p99"] / max(t["bare sleep loop"]["p99"], 1e-9)
     print(f"p99 ratio umbra / bare: {ratio:.2f} (goal <= 1.2)")
-    path = write_results("scheduler", {"dispatch": d, "real_clock_1khz": t, "p99_ratio": ratio,
-                                       "quick": args.quick})
+    path = write_results(
+        "scheduler", {"dispatch": d, "real_clock_1khz": t, "p99_ratio": ratio, "quick": args.quick}
+    )
     print(f"\nwrote {path}")
 
 

@@ -27,8 +27,12 @@ def table(rows: list[list[Any]], header: list[str]) -> str:
     widths = [max(len(r[i]) for r in text) for i in range(len(header))]
     lines = []
     for i, row in enumerate(text):
-        lines.append("  ".join(c.rjust(w) if j else c.ljust(w)
-                               for j, (c, w) in enumerate(zip(row, widths, strict=True))))
+        lines.append(
+            "  ".join(
+                c.rjust(w) if j else c.ljust(w)
+                for j, (c, w) in enumerate(zip(row, widths, strict=True))
+            )
+        )
         if i == 0:
             lines.append("  ".join("-" * w for w in widths))
     return "\n".join(lines)
@@ -44,8 +48,14 @@ def write_results(name: str, data: dict[str, Any]) -> Path:
     """Write ``benchmarks/results/<name>.json`` with machine information."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / f"{name}.json"
-    payload = {"benchmark": name, "when": time.strftime("%Y-%m-%dT%H:%M:%S"),
-               "machine": {"python": platform.python_version(), "cpu": platform.processor()
-                           or platform.machine()}, **data}
+    payload = {
+        "benchmark": name,
+        "when": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        "machine": {
+            "python": platform.python_version(),
+            "cpu": platform.processor() or platform.machine(),
+        },
+        **data,
+    }
     path.write_text(json.dumps(payload, indent=2, default=float))
     return path

@@ -29,8 +29,11 @@ def _enc_hook(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
         arr = np.ascontiguousarray(obj)
         dtype = arr.dtype.str.encode()
-        head = bytes([len(dtype)]) + dtype + bytes([arr.ndim]) + struct.pack(
-            f"<{arr.ndim}Q", *arr.shape
+        head = (
+            bytes([len(dtype)])
+            + dtype
+            + bytes([arr.ndim])
+            + struct.pack(f"<{arr.ndim}Q", *arr.shape)
         )
         return msgspec.msgpack.Ext(_EXT_NDARRAY, head + arr.tobytes())
     if isinstance(obj, np.generic):
@@ -71,9 +74,7 @@ class Codec:
     def __init__(self) -> None:
         self._types = message_types()
         self._encoder = msgspec.msgpack.Encoder(enc_hook=_enc_hook)
-        self._envelope = msgspec.msgpack.Decoder(
-            tuple[str, int, str, msgspec.Raw]
-        )
+        self._envelope = msgspec.msgpack.Decoder(tuple[str, int, str, msgspec.Raw])
         self._decoders = {
             name: msgspec.msgpack.Decoder(cls, ext_hook=_ext_hook, dec_hook=_dec_hook)
             for name, cls in self._types.items()
@@ -100,6 +101,12 @@ class Codec:
             raise DecodeError(f"expected {expected.__name__}, found {name}")
         try:
             return decoder.decode(raw)
-        except (msgspec.DecodeError, msgspec.ValidationError, DecodeError, NotImplementedError,
-                TypeError, ValueError) as exc:
+        except (
+            msgspec.DecodeError,
+            msgspec.ValidationError,
+            DecodeError,
+            NotImplementedError,
+            TypeError,
+            ValueError,
+        ) as exc:
             raise DecodeError(f"bad {name}: {exc}") from None

@@ -1,6 +1,7 @@
 """Errors a user can cause, and how they are reported.
 
-A :class:`UserError` is raised for anything the user can fix (a graph file, a parameter, a calibration
+A :class:`UserError` is raised for anything the user can fix (a graph file, a parameter, a
+calibration
 file, a command line). The CLI prints its message without a traceback and exits with status 2.
 """
 

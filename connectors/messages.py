@@ -89,7 +89,7 @@ class Twist(Message, frozen=True, kw_only=True):
 
 
 class Pose(Message, frozen=True, kw_only=True):
-    """A rigid transform ``matrix`` (4 x 4, metres): pose of ``child`` in ``parent``, T_parent_child."""
+    """Rigid transform ``matrix`` (4 x 4, m): pose of ``child`` in ``parent``, T_parent_child."""
 
     matrix: np.ndarray
     parent: str

@@ -41,10 +41,10 @@ class ModuleContext:
     """What the runtime gives a module instance besides its parameters.
 
     ``frames``: the graph's static frames. ``output_dir``: where the module may write files (videos,
-    recordings). ``rng``: a random generator seeded from the graph seed and the module name, so a sim
-    run is reproducible. ``clock``: "sim" or "real". ``request_stop(reason, exit_code)`` ends the run
-    after the current tick (a simulated world that judged the grasp, a file that ended).
-    ``link_alive(input)`` tells whether the producer of an input (in another process) is alive.
+    recordings). ``rng``: a random generator seeded from the graph seed and the module name, so a
+    sim run is reproducible. ``clock``: "sim" or "real". ``request_stop(reason, exit_code)`` ends
+    the run after the current tick (a simulated world that judged the grasp, a file that ended).
+    Whether an input's producer (in another process) is alive: ``self.<input>.link_alive``.
     """
 
     graph: str = "graph"

@@ -197,7 +197,7 @@ class OutputPort:
         self._clock = clock
 
     def send(self, msg: Message) -> Message:
-        """Publish ``msg``; returns the stamped sample. ``msg.stamp`` is kept when set (non-zero)."""
+        """Publish ``msg``; returns the stamped sample (``msg.stamp`` kept when non-zero)."""
         if type(msg) is not self.msg_type and not isinstance(msg, self.msg_type):
             raise TypeError(
                 f"output `{self.name}` carries {self.msg_type.__name__}, "

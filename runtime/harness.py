@@ -44,8 +44,11 @@ class ModuleHarness:
         output_dir: str | Path | None = None,
         registry: Registry | None = None,
     ) -> None:
-        cls = (registry or Registry()).require(module_type) if isinstance(module_type, str) \
+        cls = (
+            (registry or Registry()).require(module_type)
+            if isinstance(module_type, str)
             else module_type
+        )
         try:
             validated = cls.Params(**(params or {}))
         except pydantic.ValidationError as exc:
@@ -62,8 +65,12 @@ class ModuleHarness:
         self.clock = SimClock()
         self.stop_request: tuple[str, int] | None = None
         context = ModuleContext(
-            graph="harness", frames=frames or FrameTree(), output_dir=Path(output_dir),
-            rng=np.random.default_rng(seed), clock="sim", request_stop=self._request_stop,
+            graph="harness",
+            frames=frames or FrameTree(),
+            output_dir=Path(output_dir),
+            rng=np.random.default_rng(seed),
+            clock="sim",
+            request_stop=self._request_stop,
         )
         self.module = cls(name, validated, context)
         self.module.bind_ports(self.clock.now)
@@ -97,8 +104,10 @@ class ModuleHarness:
     def push(self, input_name: str, sample: Message) -> Message:
         """Write ``sample`` into input ``input_name`` as if a producer had sent it now."""
         if input_name not in self.module.registers:
-            raise KeyError(f"{self.module.type_name()} has no input `{input_name}` "
-                           f"(inputs: {', '.join(self.module.registers)})")
+            raise KeyError(
+                f"{self.module.type_name()} has no input `{input_name}` "
+                f"(inputs: {', '.join(self.module.registers)})"
+            )
         seq = self._seq.get(input_name, 0) + 1
         self._seq[input_name] = seq
         stamped = msgspec.structs.replace(sample, seq=seq, stamp=sample.stamp or self.now)
@@ -114,7 +123,7 @@ class ModuleHarness:
         self.module.step(self.now)
         for reg in self.module.registers.values():
             reg.fresh = False
-        return {n: v[before[n]:] for n, v in self._sent.items() if len(v) > before[n]}
+        return {n: v[before[n] :] for n, v in self._sent.items() if len(v) > before[n]}
 
     def run(self, steps: int, dt: float) -> None:
         """``steps`` steps ``dt`` apart."""

@@ -17,8 +17,9 @@ def default_output_dir(plan: GraphPlan) -> Path:
     return Path("runs") / f"{plan.spec.name}-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
-def run_process(plan: GraphPlan, options: SchedulerOptions,
-                transport: LinkTransport | None = None) -> RunResult:
+def run_process(
+    plan: GraphPlan, options: SchedulerOptions, transport: LinkTransport | None = None
+) -> RunResult:
     """Build and run one process (every module when ``options.process`` is None); always writes
     ``summary[-PROCESS].json`` into the output folder, whatever the outcome."""
     options.output_dir.mkdir(parents=True, exist_ok=True)

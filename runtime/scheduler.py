@@ -70,8 +70,9 @@ class SchedulerOptions:
 class Scheduler:
     """Builds the modules of one process from a checked graph and runs them."""
 
-    def __init__(self, plan: GraphPlan, options: SchedulerOptions,
-                 transport: LinkTransport | None = None) -> None:
+    def __init__(
+        self, plan: GraphPlan, options: SchedulerOptions, transport: LinkTransport | None = None
+    ) -> None:
         self.plan = plan
         self.options = options
         self.clock = SimClock() if options.clock == "sim" else RealClock()
@@ -93,8 +94,10 @@ class Scheduler:
         log = self.options.log or logging.getLogger("umbra")
         names = self.plan.modules_in(self.options.process)
         if not names:
-            raise UserError(f"process `{self.options.process}` has no modules "
-                            f"(processes: {', '.join(self.plan.processes)})")
+            raise UserError(
+                f"process `{self.options.process}` has no modules "
+                f"(processes: {', '.join(self.plan.processes)})"
+            )
         for name in names:
             mplan = self.plan.modules[name]
             seed = (self.plan.spec.seed * 1_000_003 + zlib.crc32(name.encode())) % 2**32
@@ -116,15 +119,17 @@ class Scheduler:
             mplan = self.plan.modules[name]
             module = self.modules[name]
             period = 1.0 / mplan.spec.rate if mplan.spec.rate else None
-            self._slots.append(_Slot(
-                module=module,
-                stats=ModuleStats(name, mplan.spec.type),
-                period=period,
-                next_due=0.0,
-                k=0,
-                trigger_regs=[module.registers[t] for t in mplan.triggers],
-                all_regs=list(module.registers.values()),
-            ))
+            self._slots.append(
+                _Slot(
+                    module=module,
+                    stats=ModuleStats(name, mplan.spec.type),
+                    period=period,
+                    next_due=0.0,
+                    k=0,
+                    trigger_regs=[module.registers[t] for t in mplan.triggers],
+                    all_regs=list(module.registers.values()),
+                )
+            )
 
     def _wire(self) -> None:
         local = set(self.modules)
@@ -205,8 +210,9 @@ class Scheduler:
                     slot.module.stop()
                 except Exception as exc:  # stop must run for every module
                     if failure is None:
-                        failure = ModuleFailed(slot.module.name, slot.stats.type_name, "stop",
-                                               ticks, exc)
+                        failure = ModuleFailed(
+                            slot.module.name, slot.stats.type_name, "stop", ticks, exc
+                        )
             self._restore_signals(old_handlers)
         if user_error is not None:
             raise user_error
@@ -224,10 +230,15 @@ class Scheduler:
             code, reason = 0, "finished"
         extra = {"links": self.transport.stats()} if self.transport is not None else {}
         return RunResult(
-            process=self.process_name, exit_code=code, reason=reason, ticks=ticks,
-            sim_time=self.clock.now() - t0, wall_time=time.monotonic() - wall0,
+            process=self.process_name,
+            exit_code=code,
+            reason=reason,
+            ticks=ticks,
+            sim_time=self.clock.now() - t0,
+            wall_time=time.monotonic() - wall0,
             modules=[s.stats for s in self._slots],
-            lateness_s=np.asarray(lateness), extra=extra,
+            lateness_s=np.asarray(lateness),
+            extra=extra,
         )
 
     def _loop(self, t0: float, lateness: list[float]) -> tuple[int, ModuleFailed | None]:
@@ -278,8 +289,9 @@ class Scheduler:
                 try:
                     slot.module.step(now)
                 except Exception as exc:
-                    return ticks, ModuleFailed(slot.module.name, slot.stats.type_name, "step",
-                                               ticks, exc)
+                    return ticks, ModuleFailed(
+                        slot.module.name, slot.stats.type_name, "step", ticks, exc
+                    )
                 spent = perf() - start
                 stats = slot.stats
                 stats.calls += 1
@@ -305,7 +317,10 @@ class Scheduler:
 
     # -- signals ---------------------------------------------------------------------------------
     def _install_signals(self) -> dict[int, Any]:
-        if not self.options.handle_signals or threading.current_thread() is not threading.main_thread():
+        if (
+            not self.options.handle_signals
+            or threading.current_thread() is not threading.main_thread()
+        ):
             return {}
         old = {}
 

@@ -24,9 +24,14 @@ class ModuleStats:
     def as_dict(self) -> dict[str, Any]:
         mean_us = self.total_ns / self.calls / 1e3 if self.calls else 0.0
         return {
-            "module": self.name, "type": self.type_name, "calls": self.calls,
-            "mean_step_us": round(mean_us, 3), "max_step_us": round(self.max_ns / 1e3, 3),
-            "misses": self.misses, "stale_samples": self.violations, **self.extra,
+            "module": self.name,
+            "type": self.type_name,
+            "calls": self.calls,
+            "mean_step_us": round(mean_us, 3),
+            "max_step_us": round(self.max_ns / 1e3, 3),
+            "misses": self.misses,
+            "stale_samples": self.violations,
+            **self.extra,
         }
 
 
@@ -54,10 +59,15 @@ class RunResult:
                 "lateness_max_ms": float(late.max() * 1e3),
             }
         return {
-            "process": self.process, "exit_code": self.exit_code, "reason": self.reason,
-            "ticks": self.ticks, "clock_time_s": round(self.sim_time, 6),
-            "wall_time_s": round(self.wall_time, 3), **timing,
-            "modules": [m.as_dict() for m in self.modules], **self.extra,
+            "process": self.process,
+            "exit_code": self.exit_code,
+            "reason": self.reason,
+            "ticks": self.ticks,
+            "clock_time_s": round(self.sim_time, 6),
+            "wall_time_s": round(self.wall_time, 3),
+            **timing,
+            "modules": [m.as_dict() for m in self.modules],
+            **self.extra,
         }
 
     def table(self) -> str:
@@ -65,14 +75,30 @@ class RunResult:
         rows = [("module", "type", "calls", "mean µs", "max µs", "misses", "stale")]
         for m in self.modules:
             d = m.as_dict()
-            rows.append((m.name, m.type_name, str(m.calls), f"{d['mean_step_us']:.1f}",
-                         f"{d['max_step_us']:.1f}", str(m.misses), str(m.violations)))
+            rows.append(
+                (
+                    m.name,
+                    m.type_name,
+                    str(m.calls),
+                    f"{d['mean_step_us']:.1f}",
+                    f"{d['max_step_us']:.1f}",
+                    str(m.misses),
+                    str(m.violations),
+                )
+            )
         widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-        lines = [f"process `{self.process}`: {self.reason} after {self.ticks} ticks, "
-                 f"{self.sim_time:.3f} s clock time, {self.wall_time:.2f} s wall time"]
+        lines = [
+            f"process `{self.process}`: {self.reason} after {self.ticks} ticks, "
+            f"{self.sim_time:.3f} s clock time, {self.wall_time:.2f} s wall time"
+        ]
         for i, row in enumerate(rows):
-            lines.append("  " + "  ".join(
-                c.ljust(w) if j < 2 else c.rjust(w) for j, (c, w) in enumerate(zip(row, widths, strict=True))))
+            lines.append(
+                "  "
+                + "  ".join(
+                    c.ljust(w) if j < 2 else c.rjust(w)
+                    for j, (c, w) in enumerate(zip(row, widths, strict=True))
+                )
+            )
             if i == 0:
                 lines.append("  " + "  ".join("-" * w for w in widths))
         for m in self.modules:

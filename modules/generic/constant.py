@@ -24,8 +24,9 @@ class TwistSource(Module):
     """Sends a constant twist [vx, vy, vz, wx, wy, wz] (m/s, rad/s) in frame ``frame``."""
 
     class Params(Parameters):
-        twist: list[float] = param([0.0] * 6, "twist [vx vy vz wx wy wz]", unit="m/s, rad/s",
-                                   min_length=6, max_length=6)
+        twist: list[float] = param(
+            [0.0] * 6, "twist [vx vy vz wx wy wz]", unit="m/s, rad/s", min_length=6, max_length=6
+        )
         frame: str = param("camera", "frame the twist is expressed in")
 
     twist = Output(Twist, frame=from_param("frame"), doc="the constant twist")

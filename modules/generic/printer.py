@@ -16,8 +16,11 @@ def format_sample(sample: Message, precision: int = 4) -> str:
             continue
         value = getattr(sample, field)
         if isinstance(value, np.ndarray):
-            text = (np.array2string(value, precision=precision, separator=",", threshold=8)
-                    if value.size <= 16 else f"array{list(value.shape)}")
+            text = (
+                np.array2string(value, precision=precision, separator=",", threshold=8)
+                if value.size <= 16
+                else f"array{list(value.shape)}"
+            )
         elif isinstance(value, float):
             text = f"{value:.{precision}g}"
         else:

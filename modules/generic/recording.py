@@ -50,8 +50,11 @@ class RecordingWriter:
             )
         stamp_ns = max(0, int(sample.stamp * 1e9))
         self._writer.add_message(
-            channel_id=self._channels[channel], log_time=stamp_ns, publish_time=stamp_ns,
-            data=self._codec.encode(sample), sequence=sample.seq & 0xFFFFFFFF,
+            channel_id=self._channels[channel],
+            log_time=stamp_ns,
+            publish_time=stamp_ns,
+            data=self._codec.encode(sample),
+            sequence=sample.seq & 0xFFFFFFFF,
         )
         self.count += 1
 

@@ -142,14 +142,21 @@ def features_from_normalized(
     return MomentFeatures(x_n=a_n * float(xg), y_n=a_n * float(yg), a_n=a_n, alpha=float(alpha))
 
 
-def features_from_contour(
-    vertices_px: ArrayLike, intrinsics: Intrinsics, patch_area_m2: float
+def features_from_normalized_contour(
+    vertices_normalized: ArrayLike, patch_area_m2: float
 ) -> MomentFeatures:
-    """Servo features of a contour given in pixels (see the module docstring)."""
-    moments = polygon_moments(intrinsics.normalize(vertices_px))
+    """Servo features of a contour already in normalized image coordinates (undistorted)."""
+    moments = polygon_moments(vertices_normalized)
     return features_from_normalized(
         moments.area, moments.centroid, moments.orientation, patch_area_m2
     )
+
+
+def features_from_contour(
+    vertices_px: ArrayLike, intrinsics: Intrinsics, patch_area_m2: float
+) -> MomentFeatures:
+    """Servo features of a contour given in (ideal, undistorted) pixels; see module docstring."""
+    return features_from_normalized_contour(intrinsics.normalize(vertices_px), patch_area_m2)
 
 
 def wrap_roll_error(angle: float) -> float:

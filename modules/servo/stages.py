@@ -2,11 +2,13 @@
 
 ::
 
-    acquire ──(snake healthy for N frames)──> approach
+    acquire ──(snake healthy for N consecutive frames)──> approach
+             (no contour yet, or a stale one: keep waiting; a failed snake: assist)
     approach ──(every error within tolerance for M frames)──> final_grab
     final_grab: advance ``grab_distance`` along the optical axis at ``grab_speed`` (open loop),
                 then close the gripper and wait ``gripper_close_time``  ──> done
-    any active stage ──(snake failure / no contour)──> assist  (zero velocity at once)
+    any active stage ──(snake failure)──> assist  (zero velocity at once)
+    approach / final_grab ──(no contour, or one older than max_contour_age)──> assist
     assist ──operator "resume"──> acquire        any stage ──operator "abort"──> aborted
     done / aborted ──operator "resume"──> acquire (a new grab)
 
@@ -75,8 +77,9 @@ class StageSettings:
 class Observation:
     """What the snake said this tick.
 
-    ``features`` is None when there is no usable contour; ``healthy`` is False on a failed
-    sanity check, with ``reason``; ``stamp`` is the contour's sample time (s).
+    ``healthy`` is False when the snake failed (a sanity check; ``reason`` says which);
+    ``features`` is None when the snake has no contour yet (idle); ``stamp`` is the time (s)
+    the contour was produced or received, on the caller's clock.
     """
 
     features: MomentFeatures | None
@@ -139,15 +142,19 @@ class ServoStages:
     # -- tick -----------------------------------------------------------------------------
     def step(self, now: float, observation: Observation | None) -> ServoOutput:
         """Advance the machine to time ``now`` (s) with the latest observation (or None)."""
+        waiting = ""
         if self.stage in ACTIVE_STAGES:
-            failure = self._failure(now, observation)
-            if failure:
-                self._enter(ASSIST, failure)
-            elif self.stage == ACQUIRE:
-                self._healthy_frames += 1
+            if observation is not None and not observation.healthy:
+                self._enter(ASSIST, f"snake failure: {observation.reason or 'sanity check failed'}")
+            else:
+                waiting = self._unusable(now, observation)
+                if waiting and self.stage != ACQUIRE:
+                    self._enter(ASSIST, waiting)
+                elif self.stage == ACQUIRE:
+                    self._healthy_frames = 0 if waiting else self._healthy_frames + 1
         gripper, self._pending_gripper = self._pending_gripper, ""
         if self.stage == ACQUIRE:
-            return self._acquire(gripper)
+            return self._acquire(gripper, waiting)
         if self.stage == APPROACH:
             assert observation is not None and observation.features is not None
             return self._approach(observation.features, gripper)
@@ -162,13 +169,12 @@ class ServoStages:
             _ZERO_TWIST, self.stage, self.stage == ASSIST, self.reason, message, gripper
         )
 
-    def _failure(self, now: float, observation: Observation | None) -> str:
+    def _unusable(self, now: float, observation: Observation | None) -> str:
+        """Why a healthy-flagged observation cannot be used ("" when it can)."""
         if observation is None:
             return "no contour from the snake"
-        if not observation.healthy:
-            return f"snake failure: {observation.reason or 'sanity check failed'}"
         if observation.features is None:
-            return "snake reported no usable contour"
+            return "snake has no contour"
         age = now - observation.stamp
         if age > self.settings.max_contour_age:
             return f"contour is {age:.3f} s old (max {self.settings.max_contour_age:.3f} s)"
@@ -182,13 +188,12 @@ class ServoStages:
         self._grab_start = None
         self._close_start = None
 
-    def _acquire(self, gripper: str) -> ServoOutput:
+    def _acquire(self, gripper: str, waiting: str) -> ServoOutput:
         count = self._healthy_frames
         if count >= self.settings.acquire_frames:
             self._enter(APPROACH, "")
-        return ServoOutput(
-            _ZERO_TWIST, ACQUIRE, message=f"snake healthy {count} frame(s)", gripper=gripper
-        )
+        message = f"waiting: {waiting}" if waiting else f"snake healthy {count} frame(s)"
+        return ServoOutput(_ZERO_TWIST, ACQUIRE, message=message, gripper=gripper)
 
     def _approach(self, features: MomentFeatures, gripper: str) -> ServoOutput:
         twist, error = servo_twist(features, self.goal, self.gains)

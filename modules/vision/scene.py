@@ -215,6 +215,7 @@ class SceneRenderer:
             self._offset = np.zeros(2)
             self._canvas_size = (width, height)
             self._maps: tuple[NDArray, NDArray] | None = None
+            self._nearest_maps: tuple[NDArray, NDArray] | None = None
         else:
             map_u, map_v = ideal_pixels_of_distorted_grid(intrinsics, self.distortion)
             span = np.array([map_u.max() - (width - 1), map_v.max() - (height - 1)])
@@ -223,9 +224,9 @@ class SceneRenderer:
             margin = np.ceil(np.clip(np.maximum(span, low), 0.0, limit)) + 2.0
             self._offset = margin
             self._canvas_size = (int(width + 2 * margin[0]), int(height + 2 * margin[1]))
-            self._maps = cv2.convertMaps(
-                map_u + np.float32(margin[0]), map_v + np.float32(margin[1]), cv2.CV_16SC2
-            )
+            shifted = (map_u + np.float32(margin[0]), map_v + np.float32(margin[1]))
+            self._maps = cv2.convertMaps(*shifted, cv2.CV_16SC2)
+            self._nearest_maps = cv2.convertMaps(*shifted, cv2.CV_16SC2, nninterpolation=True)
         self._sensor = Sensor((height, width, 3))
         canvas_width, canvas_height = self._canvas_size
         self._canvas = np.empty((canvas_height, canvas_width, 3), dtype=np.uint8)
@@ -374,7 +375,7 @@ class SceneRenderer:
                 dst=self._distorted,
                 borderMode=cv2.BORDER_REPLICATE,
             )
-            labels = cv2.remap(labels, *self._maps, cv2.INTER_NEAREST)
+            labels = cv2.remap(labels, *self._nearest_maps, cv2.INTER_NEAREST)
         else:
             image = canvas
             labels = labels.copy()

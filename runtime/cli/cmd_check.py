@@ -30,10 +30,11 @@ def main(args: argparse.Namespace) -> int:
             continue
         if args.quiet:
             continue
-        print(f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
-              f"{len(plan.connections)} connections, processes: {', '.join(plan.processes)}")
+        print(
+            f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
+            f"{len(plan.connections)} connections, processes: {', '.join(plan.processes)}"
+        )
         for link in plan.links:
             mode = "reliable" if link.reliable else "drop-oldest"
-            print(f"  link {link.connection} ({link.msg_type.__name__}, {mode}): "
-                  f"key `{link.key}`")
+            print(f"  link {link.connection} ({link.msg_type.__name__}, {mode}): key `{link.key}`")
     return 2 if failed else 0

@@ -30,9 +30,10 @@ def to_dot(plan: GraphPlan) -> str:
             style.append("style=dashed")
         if id(c) in links:
             style.append("color=blue")
-        attrs = f', {", ".join(style)}' if style else ""
-        lines.append(f'  "{c.src.module}" -> "{c.dst.module}" '
-                     f'[label="{c.src.port} → {c.dst.port}"{attrs}];')
+        attrs = f", {', '.join(style)}" if style else ""
+        lines.append(
+            f'  "{c.src.module}" -> "{c.dst.module}" [label="{c.src.port} → {c.dst.port}"{attrs}];'
+        )
     lines.append("}")
     return "\n".join(lines)
 

@@ -21,17 +21,36 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("graph", metavar="GRAPH", help="graph file (.yaml)")
     parser.add_argument("--clock", choices=("sim", "real"), help="override the graph's clock")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-    parser.add_argument("--set", action="append", metavar="MODULE.PARAM=VALUE", default=[],
-                        help="override a parameter (repeatable)")
-    parser.add_argument("--out", type=Path, metavar="DIR",
-                        help="output folder (default runs/<graph>-<time>)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="MODULE.PARAM=VALUE",
+        default=[],
+        help="override a parameter (repeatable)",
+    )
+    parser.add_argument(
+        "--out", type=Path, metavar="DIR", help="output folder (default runs/<graph>-<time>)"
+    )
     parser.add_argument("--process", metavar="NAME", help="run only this process (another host)")
-    parser.add_argument("--single-process", action="store_true",
-                        help="run every module in this process (links become local)")
-    parser.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                        help="zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447")
-    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                        help="zenoh endpoint to connect to")
+    parser.add_argument(
+        "--single-process",
+        action="store_true",
+        help="run every module in this process (links become local)",
+    )
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447",
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to",
+    )
     parser.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 configuration")
     parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
     parser.add_argument("--quiet", action="store_true", help="no summary table")
@@ -49,12 +68,14 @@ def main(args: argparse.Namespace) -> int:
     clock = args.clock or plan.spec.clock
     duration = args.duration if args.duration is not None else plan.spec.duration
     out = args.out or default_output_dir(plan)
-    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s",
-                        stream=sys.stderr)
+    logging.basicConfig(
+        level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr
+    )
     single = args.single_process or (len(plan.processes) == 1 and not args.process)
     if single:
-        options = SchedulerOptions(clock=clock, duration=duration, output_dir=out,
-                                   handle_signals=True)
+        options = SchedulerOptions(
+            clock=clock, duration=duration, output_dir=out, handle_signals=True
+        )
         result = run_process(plan, options)
         if not args.quiet:
             print(result.table(), file=sys.stderr)
@@ -65,6 +86,8 @@ def main(args: argparse.Namespace) -> int:
     except ModuleNotFoundError as exc:
         if exc.name != "runtime.launcher":
             raise
-        raise UserError("running a graph split over processes needs the zenoh launcher "
-                        "(not built yet); use --single-process") from None
+        raise UserError(
+            "running a graph split over processes needs the zenoh launcher "
+            "(not built yet); use --single-process"
+        ) from None
     return launcher.main(plan, args, clock=clock, duration=duration, out=out)

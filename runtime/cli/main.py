@@ -15,8 +15,16 @@ from connectors.errors import UserError
 
 #: Sub-command files, in the order ``umbra --help`` lists them.
 COMMANDS = (
-    "cmd_run", "cmd_check", "cmd_modules", "cmd_describe", "cmd_graph", "cmd_trials",
-    "cmd_snake", "cmd_arm", "cmd_calib", "cmd_bench",
+    "cmd_run",
+    "cmd_check",
+    "cmd_modules",
+    "cmd_describe",
+    "cmd_graph",
+    "cmd_trials",
+    "cmd_snake",
+    "cmd_arm",
+    "cmd_calib",
+    "cmd_bench",
 )
 
 
@@ -38,8 +46,10 @@ def _load_commands() -> list[ModuleType]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="umbra", description="Dataflow connector framework for vision-guided "
-                                               "robots (Umbra/SMART).")
+    parser = _Parser(
+        prog="umbra",
+        description="Dataflow connector framework for vision-guided robots (Umbra/SMART).",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for cmd in _load_commands():
         p = sub.add_parser(cmd.NAME, help=cmd.HELP, description=cmd.HELP)
@@ -57,8 +67,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args._main(args))
     except UserError as exc:
-        print(f"umbra {args.command}: error: {exc}" if "error:" not in str(exc) else str(exc),
-              file=sys.stderr)
+        print(
+            f"umbra {args.command}: error: {exc}" if "error:" not in str(exc) else str(exc),
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print(f"umbra {args.command}: interrupted", file=sys.stderr)

@@ -61,11 +61,17 @@ class _Checker:
         cls = self.registry.get(mspec.type)
         if cls is None:
             if mspec.type in self.registry.broken:
-                self.error(mspec.type_loc, f"module type `{mspec.type}` failed to load: "
-                                           f"{self.registry.broken[mspec.type]}")
+                self.error(
+                    mspec.type_loc,
+                    f"module type `{mspec.type}` failed to load: "
+                    f"{self.registry.broken[mspec.type]}",
+                )
             else:
-                self.error(mspec.type_loc, f"unknown module type `{mspec.type}`"
-                                           f"{did_you_mean(mspec.type, self.registry.names())}")
+                self.error(
+                    mspec.type_loc,
+                    f"unknown module type `{mspec.type}`"
+                    f"{did_you_mean(mspec.type, self.registry.names())}",
+                )
             return None
         params = self.params(mspec, cls.Params)
         if params is None:
@@ -84,9 +90,12 @@ class _Checker:
             triggers = []
             for name in mspec.trigger:
                 if name not in inputs:
-                    self.error(mspec.trigger_loc, f"`trigger` names `{name}`, which is not an input "
-                                                  f"of `{mspec.name}` ({mspec.type})"
-                                                  f"{did_you_mean(name, inputs)}")
+                    self.error(
+                        mspec.trigger_loc,
+                        f"`trigger` names `{name}`, which is not an input "
+                        f"of `{mspec.name}` ({mspec.type})"
+                        f"{did_you_mean(name, inputs)}",
+                    )
                 else:
                     triggers.append(name)
         return ModulePlan(mspec, cls, params, inputs, outputs, triggers, in_decls)
@@ -100,17 +109,22 @@ class _Checker:
                 loc = err.get("loc") or ()
                 key = str(loc[0]) if loc else ""
                 if err["type"] == "extra_forbidden":
-                    self.error(mspec.param_key_loc.get(key, mspec.params_loc),
-                               f"unknown parameter `{key}` for {mspec.type} `{mspec.name}`"
-                               f"{did_you_mean(key, fields)}")
+                    self.error(
+                        mspec.param_key_loc.get(key, mspec.params_loc),
+                        f"unknown parameter `{key}` for {mspec.type} `{mspec.name}`"
+                        f"{did_you_mean(key, fields)}",
+                    )
                 elif err["type"] == "missing":
-                    self.error(mspec.params_loc, f"{mspec.type} `{mspec.name}` needs parameter "
-                                                 f"`{key}`")
+                    self.error(
+                        mspec.params_loc, f"{mspec.type} `{mspec.name}` needs parameter `{key}`"
+                    )
                 else:
                     where = ".".join(str(p) for p in loc)
-                    self.error(mspec.param_val_loc.get(key, mspec.params_loc),
-                               f"parameter `{where}` of `{mspec.name}`: {err['msg']}, "
-                               f"found {err.get('input')!r}"[:300])
+                    self.error(
+                        mspec.param_val_loc.get(key, mspec.params_loc),
+                        f"parameter `{where}` of `{mspec.name}`: {err['msg']}, "
+                        f"found {err.get('input')!r}"[:300],
+                    )
             return None
         except (TypeError, ValueError) as exc:  # a module's own validator
             self.error(mspec.params_loc, f"parameters of `{mspec.name}`: {exc}")
@@ -144,10 +158,12 @@ class _Checker:
                 if not (key == "frame" or key.endswith("_frame")) or not isinstance(value, str):
                     continue
                 if value and value not in known:
-                    self.error(plan.spec.param_val_loc.get(key, plan.spec.params_loc),
-                               f"unknown frame `{value}` in parameter `{key}` of `{plan.name}`"
-                               f"{did_you_mean(value, sorted(known))}",
-                               "declare it under `frames:` as `parent->child`")
+                    self.error(
+                        plan.spec.param_val_loc.get(key, plan.spec.params_loc),
+                        f"unknown frame `{value}` in parameter `{key}` of `{plan.name}`"
+                        f"{did_you_mean(value, sorted(known))}",
+                        "declare it under `frames:` as `parent->child`",
+                    )
 
     # -- connections ----------------------------------------------------------------------------
     def check_connections(self) -> None:
@@ -160,29 +176,45 @@ class _Checker:
             key = (conn.dst.module, conn.dst.port)
             if key in producers:
                 first = producers[key]
-                self.error(conn.dst.module_loc, f"input `{conn.dst}` has two producers: "
-                                                f"`{first.src}` (line {first.loc.line}) and "
-                                                f"`{conn.src}`")
+                self.error(
+                    conn.dst.module_loc,
+                    f"input `{conn.dst}` has two producers: "
+                    f"`{first.src}` (line {first.loc.line}) and "
+                    f"`{conn.src}`",
+                )
                 continue
             producers[key] = conn
             if not issubclass(src.msg_type, dst.msg_type):
-                self.error(conn.src.port_loc, f"type mismatch: `{conn.src}` sends "
-                                              f"{src.msg_type.__name__}, `{conn.dst}` expects "
-                                              f"{dst.msg_type.__name__}")
+                self.error(
+                    conn.src.port_loc,
+                    f"type mismatch: `{conn.src}` sends "
+                    f"{src.msg_type.__name__}, `{conn.dst}` expects "
+                    f"{dst.msg_type.__name__}",
+                )
                 continue
             kind = src.msg_type.FRAME_KIND
             if kind and dst.frame is not None and src.frame != dst.frame:
                 found = src.frame or "no frame"
-                self.error(conn.src.port_loc, f"frame mismatch: `{conn.src}` is a "
-                                              f"{src.msg_type.__name__} in `{found}`, `{conn.dst}` "
-                                              f"wants `{dst.frame}`",
-                           "transform it first (e.g. ROTATE_KIN) or fix the frame parameter")
+                self.error(
+                    conn.src.port_loc,
+                    f"frame mismatch: `{conn.src}` is a "
+                    f"{src.msg_type.__name__} in `{found}`, `{conn.dst}` "
+                    f"wants `{dst.frame}`",
+                    "transform it first (e.g. ROTATE_KIN) or fix the frame parameter",
+                )
                 continue
-            if src.msg_type.HAS_JOINTS and src.joints is not None and dst.joints is not None \
-                    and src.joints != dst.joints:
-                self.error(conn.src.port_loc, f"joint mismatch: `{conn.src}` carries joints "
-                                              f"{list(src.joints)}, `{conn.dst}` expects "
-                                              f"{list(dst.joints)}")
+            if (
+                src.msg_type.HAS_JOINTS
+                and src.joints is not None
+                and dst.joints is not None
+                and src.joints != dst.joints
+            ):
+                self.error(
+                    conn.src.port_loc,
+                    f"joint mismatch: `{conn.src}` carries joints "
+                    f"{list(src.joints)}, `{conn.dst}` expects "
+                    f"{list(dst.joints)}",
+                )
                 continue
             self.check_max_age(conn)
             self.connections.append(conn)
@@ -191,28 +223,39 @@ class _Checker:
         plan = self.modules.get(end.module)
         if plan is None:
             if end.module not in self.spec.modules and end.module not in self.spec.broken_modules:
-                self.error(end.module_loc, f"unknown module `{end.module}`"
-                                           f"{did_you_mean(end.module, self.spec.modules)}")
+                self.error(
+                    end.module_loc,
+                    f"unknown module `{end.module}`{did_you_mean(end.module, self.spec.modules)}",
+                )
             return None
         ports = plan.outputs if kind == "output" else plan.inputs
         if end.port in ports:
             return ports[end.port]
         other = plan.inputs if kind == "output" else plan.outputs
         if end.port in other:
-            self.error(end.port_loc, f"`{end}` is an {'input' if kind == 'output' else 'output'}; "
-                                     f"a connection goes from an output to an input")
+            self.error(
+                end.port_loc,
+                f"`{end}` is an {'input' if kind == 'output' else 'output'}; "
+                f"a connection goes from an output to an input",
+            )
         else:
-            self.error(end.port_loc, f"{plan.spec.type} `{end.module}` has no {kind} `{end.port}`"
-                                     f"{did_you_mean(end.port, ports)}")
+            self.error(
+                end.port_loc,
+                f"{plan.spec.type} `{end.module}` has no {kind} `{end.port}`"
+                f"{did_you_mean(end.port, ports)}",
+            )
         return None
 
     def check_max_age(self, conn: ConnectionSpec) -> None:
         decl: Input = self.modules[conn.dst.module].input_decls[conn.dst.port]
         rate = self.modules[conn.src.module].spec.rate
         if decl.max_age is not None and rate is not None and 1.0 / rate > decl.max_age:
-            self.error(conn.src.module_loc, f"`{conn.dst}` accepts samples up to {decl.max_age} s "
-                                            f"old, but `{conn.src.module}` runs at {rate:g} Hz "
-                                            f"(every {1.0 / rate:g} s)")
+            self.error(
+                conn.src.module_loc,
+                f"`{conn.dst}` accepts samples up to {decl.max_age} s "
+                f"old, but `{conn.src.module}` runs at {rate:g} Hz "
+                f"(every {1.0 / rate:g} s)",
+            )
 
     def check_required_inputs(self) -> None:
         connected = {(c.dst.module, c.dst.port) for c in self.connections}
@@ -220,8 +263,11 @@ class _Checker:
         for plan in self.modules.values():
             for name, decl in plan.input_decls.items():
                 if decl.required and (plan.name, name) not in attempted | connected:
-                    self.error(plan.spec.loc, f"required input `{plan.name}.{name}` "
-                                              f"({decl.msg_type.__name__}) is not connected")
+                    self.error(
+                        plan.spec.loc,
+                        f"required input `{plan.name}.{name}` "
+                        f"({decl.msg_type.__name__}) is not connected",
+                    )
 
     def check_scheduling(self) -> None:
         connected = {(c.dst.module, c.dst.port) for c in self.spec.connections}
@@ -231,8 +277,10 @@ class _Checker:
             live = [t for t in plan.triggers if (plan.name, t) in connected]
             reported = any(plan.input_decls[t].required for t in plan.triggers if t not in live)
             if not live and not reported:
-                self.error(plan.spec.loc, f"module `{plan.name}` needs `rate: HZ` or a connected "
-                                          f"trigger input")
+                self.error(
+                    plan.spec.loc,
+                    f"module `{plan.name}` needs `rate: HZ` or a connected trigger input",
+                )
 
     def check_loops(self) -> list[str]:
         names = [n for n in self.spec.modules if n in self.modules]
@@ -245,8 +293,11 @@ class _Checker:
         cycle = find_cycle(names, edges)
         if cycle is not None:
             last = by_pair[(cycle[-2], cycle[-1])]
-            self.error(last.loc, f"loop {' -> '.join(cycle)} has no delayed connection",
-                       "write one of its connections with `~>` so it reads the previous tick")
+            self.error(
+                last.loc,
+                f"loop {' -> '.join(cycle)} has no delayed connection",
+                "write one of its connections with `~>` so it reads the previous tick",
+            )
             return names
         return topological_order(names, edges)
 
@@ -263,9 +314,12 @@ class _Checker:
             path = self.unguarded_path(conn.src.module, feeding, {conn.dst.module})
             if path is not None:
                 chain = " -> ".join([*reversed(path), str(conn.dst)])
-                self.error(conn.loc, f"`{conn.dst}` must be fed through a safety guard, but the "
-                                     f"command path {chain} has none",
-                           "put a watchdog register (e.g. REG_VEL) on that path")
+                self.error(
+                    conn.loc,
+                    f"`{conn.dst}` must be fed through a safety guard, but the "
+                    f"command path {chain} has none",
+                    "put a watchdog register (e.g. REG_VEL) on that path",
+                )
 
     def unguarded_path(
         self, module: str, feeding: dict[str, list[ConnectionSpec]], seen: set[str]
@@ -303,8 +357,9 @@ def relink(plan: GraphPlan) -> None:
         link.key = f"{plan.key_prefix}/{conn.src.module}/{conn.src.port}"
 
 
-def check_spec(spec: GraphSpec, registry: Registry | None = None,
-               earlier: list[Diagnostic] | None = None) -> GraphPlan:
+def check_spec(
+    spec: GraphSpec, registry: Registry | None = None, earlier: list[Diagnostic] | None = None
+) -> GraphPlan:
     """Check a parsed graph; raises CheckFailed with every problem (``earlier`` ones first)."""
     checker = _Checker(spec, registry or Registry())
     plan = checker.run()
@@ -325,8 +380,9 @@ def check_text(text: str | bytes, file: str, registry: Registry | None = None) -
     return check_spec(spec, registry)
 
 
-def load_graph(path: str, registry: Registry | None = None,
-               overrides: dict[str, dict[str, Any]] | None = None) -> GraphPlan:
+def load_graph(
+    path: str, registry: Registry | None = None, overrides: dict[str, dict[str, Any]] | None = None
+) -> GraphPlan:
     """Parse and check a graph file, with ``--set`` overrides ``{module: {param: value}}``."""
     earlier: list[Diagnostic] = []
     try:

@@ -96,19 +96,23 @@ def _problem(exc: yaml.YAMLError) -> str:
 
 
 def load_located(text_or_bytes: str | bytes, file: str) -> Any:
-    """Parse one YAML document into YMap/YList/scalars with locations; CheckFailed on any problem."""
+    """One YAML document as YMap/YList/scalars with locations; CheckFailed on any problem."""
 
     def fail(line: int, col: int, message: str) -> CheckFailed:
         return CheckFailed([Diagnostic(Location(file, line, col), message)])
 
     if isinstance(text_or_bytes, bytes):
         if len(text_or_bytes) > MAX_BYTES:
-            raise fail(1, 1, f"file is {len(text_or_bytes)} bytes; a graph file is at most {MAX_BYTES}")
+            raise fail(
+                1, 1, f"file is {len(text_or_bytes)} bytes; a graph file is at most {MAX_BYTES}"
+            )
         try:
             text = text_or_bytes.decode("utf-8")
         except UnicodeDecodeError as exc:
             line = text_or_bytes[: exc.start].count(b"\n") + 1
-            raise fail(line, 1, f"not UTF-8 text (byte {exc.start} is 0x{text_or_bytes[exc.start]:02x})")
+            raise fail(
+                line, 1, f"not UTF-8 text (byte {exc.start} is 0x{text_or_bytes[exc.start]:02x})"
+            ) from None
     else:
         text = text_or_bytes
         if len(text) > MAX_BYTES:

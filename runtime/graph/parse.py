@@ -41,8 +41,16 @@ from runtime.graph.spec import (
 from runtime.hints import did_you_mean
 
 TOP_KEYS = (
-    "graph", "description", "seed", "clock", "duration", "processes", "frames", "modules",
-    "connections", "links",
+    "graph",
+    "description",
+    "seed",
+    "clock",
+    "duration",
+    "processes",
+    "frames",
+    "modules",
+    "connections",
+    "links",
 )
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
 LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config")
@@ -106,12 +114,16 @@ class _Parser:
         if "seed" in doc:
             seed = doc["seed"]
             if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-                self.error(doc.val_loc["seed"], f"seed must be a non-negative integer, found {seed!r}")
+                self.error(
+                    doc.val_loc["seed"], f"seed must be a non-negative integer, found {seed!r}"
+                )
             else:
                 spec.seed = seed
         if "clock" in doc:
             if doc["clock"] not in ("sim", "real"):
-                self.error(doc.val_loc["clock"], f"clock must be `sim` or `real`, found {doc['clock']!r}")
+                self.error(
+                    doc.val_loc["clock"], f"clock must be `sim` or `real`, found {doc['clock']!r}"
+                )
             else:
                 spec.clock = doc["clock"]
         if "duration" in doc:
@@ -124,8 +136,12 @@ class _Parser:
         return spec
 
     def positive(self, value: Any, loc: Location, what: str) -> float | None:
-        if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0 \
-                or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not value > 0
+            or not math.isfinite(value)
+        ):
             self.error(loc, f"{what} must be a positive number, found {value!r}")
             return None
         return float(value)
@@ -139,10 +155,14 @@ class _Parser:
         out: dict[str, Location] = {}
         for name, body in section.items():
             if not isinstance(name, str) or not NAME_RE.match(name):
-                self.error(section.key_loc[name], f"process name must be an identifier, found {name!r}")
+                self.error(
+                    section.key_loc[name], f"process name must be an identifier, found {name!r}"
+                )
                 continue
             if body is not None and not isinstance(body, YMap):
-                self.error(section.val_loc[name], f"process `{name}` must map to {{}}, found {_kind(body)}")
+                self.error(
+                    section.val_loc[name], f"process `{name}` must map to {{}}, found {_kind(body)}"
+                )
             out[name] = section.key_loc[name]
         return out
 
@@ -175,8 +195,13 @@ class _Parser:
         if key not in body:
             return [0.0, 0.0, 0.0]
         value = body[key]
-        ok = isinstance(value, YList) and len(value) == 3 and all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value
+        ok = (
+            isinstance(value, YList)
+            and len(value) == 3
+            and all(
+                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                for v in value
+            )
         )
         if not ok:
             self.error(body.val_loc[key], f"`{key}` of {what} must be 3 numbers, found {value!r}")
@@ -191,7 +216,9 @@ class _Parser:
         if section is None:
             return {}
         if not section:
-            self.error(doc.val_loc["modules"], "`modules` is empty: a graph needs at least one module")
+            self.error(
+                doc.val_loc["modules"], "`modules` is empty: a graph needs at least one module"
+            )
         out: dict[str, ModuleSpec] = {}
         for name, body in section.items():
             key_loc = section.key_loc[name]
@@ -211,7 +238,9 @@ class _Parser:
     ) -> ModuleSpec | None:
         self.unknown_keys(body, MODULE_KEYS, f"module `{name}`")
         if "type" not in body or not isinstance(body["type"], str):
-            self.error(body.val_loc.get("type", key_loc), f"module `{name}` needs `type: TYPE_NAME`")
+            self.error(
+                body.val_loc.get("type", key_loc), f"module `{name}` needs `type: TYPE_NAME`"
+            )
             return None
         process = DEFAULT_PROCESS
         process_loc = body.val_loc.get("process", key_loc)
@@ -229,7 +258,9 @@ class _Parser:
             self.error(key_loc, f"module `{name}` needs `process:` (one of {', '.join(processes)})")
         rate = None
         if "rate" in body:
-            rate = self.positive(body["rate"], body.val_loc["rate"], f"rate [Hz] of module `{name}`")
+            rate = self.positive(
+                body["rate"], body.val_loc["rate"], f"rate [Hz] of module `{name}`"
+            )
         trigger = None
         trigger_loc = body.val_loc.get("trigger", key_loc)
         if "trigger" in body:
@@ -239,7 +270,9 @@ class _Parser:
             elif isinstance(value, YList) and all(isinstance(v, str) for v in value) and value:
                 trigger = list(value)
             else:
-                self.error(trigger_loc, f"`trigger` must name input(s) of `{name}`, found {value!r}")
+                self.error(
+                    trigger_loc, f"`trigger` must name input(s) of `{name}`, found {value!r}"
+                )
         params: dict[str, Any] = {}
         params_loc = body.val_loc.get("params", key_loc)
         key_locs: dict[str, Location] = {}
@@ -271,7 +304,9 @@ class _Parser:
             return []
         section = doc["connections"]
         if not isinstance(section, YList):
-            self.error(doc.val_loc["connections"], f"`connections` must be a list, found {_kind(section)}")
+            self.error(
+                doc.val_loc["connections"], f"`connections` must be a list, found {_kind(section)}"
+            )
             return []
         out = []
         for item, loc in zip(section, section.item_loc, strict=True):
@@ -287,25 +322,34 @@ class _Parser:
             dst = self.endpoint(item.get("to"), item.val_loc.get("to", loc), "to")
             delayed = item.get("delayed", False)
             if not isinstance(delayed, bool):
-                self.error(item.val_loc["delayed"], f"`delayed` must be true or false, found {delayed!r}")
+                self.error(
+                    item.val_loc["delayed"], f"`delayed` must be true or false, found {delayed!r}"
+                )
                 delayed = False
             if src is None or dst is None:
                 return None
             return ConnectionSpec(src, dst, delayed, loc)
         if not isinstance(item, str):
-            self.error(loc, f"a connection is written `module.output -> module.input`, found {_kind(item)}")
+            self.error(
+                loc, f"a connection is written `module.output -> module.input`, found {_kind(item)}"
+            )
             return None
         match = CONNECTION_RE.match(item)
         if match is None:
-            self.error(loc, f"a connection is written `module.output -> module.input` "
-                            f"(or `~>` when delayed), found `{item}`")
+            self.error(
+                loc,
+                f"a connection is written `module.output -> module.input` "
+                f"(or `~>` when delayed), found `{item}`",
+            )
             return None
         lead = len(item) - len(item.lstrip())
         src = Endpoint(
             match["sm"], match["sp"], self.col_of(loc, lead), self.col_of(loc, match.start("sp"))
         )
         dst = Endpoint(
-            match["dm"], match["dp"], self.col_of(loc, match.start("dm")),
+            match["dm"],
+            match["dp"],
+            self.col_of(loc, match.start("dm")),
             self.col_of(loc, match.start("dp")),
         )
         return ConnectionSpec(src, dst, match["arrow"] == "~>", loc)
@@ -330,8 +374,11 @@ class _Parser:
             if isinstance(value, str):
                 value = [value]
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-                self.error(section.val_loc[key], f"`links.{key}` must be endpoint strings "
-                                                 f"like `tcp/127.0.0.1:7447`, found {value!r}")
+                self.error(
+                    section.val_loc[key],
+                    f"`links.{key}` must be endpoint strings "
+                    f"like `tcp/127.0.0.1:7447`, found {value!r}",
+                )
                 continue
             setattr(settings, key, list(value))
         for key in ("prefix", "zenoh_config"):
@@ -377,8 +424,15 @@ def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
     as_text = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
     parser = _Parser(file, as_text)
     if doc is None:
-        raise CheckFailed([Diagnostic(Location(file, 1, 1), "empty graph file: expected a mapping "
-                                      "with `graph`, `modules` and `connections`")])
+        raise CheckFailed(
+            [
+                Diagnostic(
+                    Location(file, 1, 1),
+                    "empty graph file: expected a mapping "
+                    "with `graph`, `modules` and `connections`",
+                )
+            ]
+        )
     spec = parser.parse(doc)
     if spec is not None:
         spec.broken_modules = parser.broken
@@ -395,8 +449,14 @@ def parse_graph_file(path: str | Path) -> GraphSpec:
     try:
         size = path.stat().st_size
         if size > 1_000_000:
-            raise CheckFailed([Diagnostic(Location(str(path), 1, 1),
-                                          f"file is {size} bytes; a graph file is at most 1000000")])
+            raise CheckFailed(
+                [
+                    Diagnostic(
+                        Location(str(path), 1, 1),
+                        f"file is {size} bytes; a graph file is at most 1000000",
+                    )
+                ]
+            )
         data = path.read_bytes()
     except IsADirectoryError:
         raise UserError(f"{path}: error: is a directory, expected a graph file (.yaml)") from None

@@ -9,7 +9,7 @@ import can
 import numpy as np
 import pytest
 
-from modules.arm.cia402 import ArmState, Cia402Arm, SimDrive, TripCause
+from modules.arm.cia402 import ArmState, Cia402Arm, DriveStartError, SimDrive, TripCause
 from modules.arm.cia402.state_machine import State
 
 from .conftest import COUNTS_PER_RAD, wait_until
@@ -222,3 +222,31 @@ def test_restart_after_a_fault_resets_the_drive(sim_drives: MakeDrives, make_arm
     assert arm.status().ok
     assert all(d.state is State.OPERATION_ENABLED for d in drives)
     assert drives[0].error_code == 0
+
+
+@pytest.mark.timeout(15)
+def test_failed_start_names_the_drive_and_disables_the_others(
+    sim_drives: MakeDrives, make_arm: MakeArm
+) -> None:
+    drives = sim_drives(1, 2)
+    arm = make_arm((1, 2, 9), sdo_timeout_s=0.05)
+    with pytest.raises(DriveStartError, match=r"joint 'j9' \(node 9\): no SDO answer"):
+        arm.start()
+    assert arm.status().state is ArmState.IDLE
+    assert all(d.state is State.SWITCH_ON_DISABLED for d in drives)  # quick-stopped by SDO
+    assert all(d.nmt_state == "PRE-OPERATIONAL" for d in drives)
+
+
+@pytest.mark.timeout(15)
+def test_drive_leaving_nmt_operational_stops_all(sim_drives: MakeDrives, make_arm: MakeArm) -> None:
+    drives = sim_drives(1, 2)
+    arm = make_arm((1, 2))
+    arm.start()
+    drive_for(arm, np.array([0.3, 0.3]), 0.05)
+    drives[0].node.nmt.state = "PRE-OPERATIONAL"  # as after a drive-side NMT change
+    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    (trip,) = arm.status().trips
+    assert (trip.cause, trip.node_id) == (TripCause.NMT_STATE, 1)
+    assert "PRE-OPERATIONAL" in trip.detail
+    # The drive in PRE-OPERATIONAL ignores PDOs: only the other one is quick-stopped by PDO.
+    wait_until(lambda: stopped(drives[1:]), 2.0, "the other drive to stop")

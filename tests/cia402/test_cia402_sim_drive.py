@@ -56,10 +56,9 @@ def test_state_machine_and_mode_by_sdo(bus: tuple[SimDrive, canopen.RemoteNode, 
     for word, state in zip((0x06, 0x07, 0x0F), expected, strict=True):
         node.sdo[obj.CONTROLWORD].raw = word
         assert sdo_state(node) is state
-    node.sdo[obj.CONTROLWORD].raw = 0x02  # quick stop
-    assert sdo_state(node) is State.QUICK_STOP_ACTIVE
-    drive.advance(0.001)  # standing still: option code 2 ends in switch on disabled
-    assert sdo_state(node) is State.SWITCH_ON_DISABLED
+    node.sdo[obj.CONTROLWORD].raw = 0x02  # quick stop at standstill: option code 2 ends
+    assert sdo_state(node) is State.SWITCH_ON_DISABLED  # in switch on disabled at once
+    assert drive.state is State.SWITCH_ON_DISABLED
     with pytest.raises(SdoAbortedError):
         node.sdo[obj.STATUSWORD].raw = 0  # read-only
 
@@ -82,6 +81,7 @@ def test_velocity_ramp_and_position_integral(
     assert node.sdo[obj.POSITION_ACTUAL].raw == 950
     assert node.sdo[obj.VELOCITY_ACTUAL].raw == 10_000
     node.sdo[obj.CONTROLWORD].raw = 0x02
+    assert drive.state is State.QUICK_STOP_ACTIVE  # while it ramps down
     for _ in range(20):
         drive.advance(0.001)
     # Quick stop ramp at 2e6 counts/s^2 from 10000 counts/s: v^2 / 2a = 25 counts.

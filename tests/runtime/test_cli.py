@@ -31,8 +31,12 @@ def graph(tmp_path: Path) -> Path:
 
 
 def umbra(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "runtime.cli.main", *args], capture_output=True,
-                          text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def test_run_check_graph_describe_modules(graph: Path, tmp_path: Path, capsys) -> None:
@@ -78,8 +82,9 @@ def test_set_overrides_a_parameter(graph: Path, tmp_path: Path) -> None:
         (["check", "missing.yaml"], "missing.yaml: error: no such graph file"),
     ],
 )
-def test_bad_command_lines_exit_2_without_traceback(graph: Path, args: list[str],
-                                                     fragment: str) -> None:
+def test_bad_command_lines_exit_2_without_traceback(
+    graph: Path, args: list[str], fragment: str
+) -> None:
     args = [str(graph) if a == "GRAPH" else a for a in args]
     proc = umbra(*args)
     assert proc.returncode == 2, proc.stderr
@@ -97,8 +102,10 @@ def test_help_on_every_command() -> None:
 
 def test_failed_run_exits_1(tmp_path: Path) -> None:
     graph = tmp_path / "bad.yaml"
-    graph.write_text("graph: g\nmodules:\n  p: {type: Printer}\n  s: {type: TwistSource, rate: 1}\n"
-                     "connections: [s.twist -> p.value]\n")
+    graph.write_text(
+        "graph: g\nmodules:\n  p: {type: Printer}\n  s: {type: TwistSource, rate: 1}\n"
+        "connections: [s.twist -> p.value]\n"
+    )
     # TwistSource with a twist of the wrong length is rejected before start
     proc = umbra("run", str(graph), "--out", str(tmp_path / "o"), "--set", "s.twist=[1, 2]")
     assert proc.returncode == 2 and "twist" in proc.stderr
@@ -108,10 +115,13 @@ def test_third_party_package_adds_a_module_type(tmp_path: Path) -> None:
     site = tmp_path / "site"
     (site / "acme_filters-0.1.dist-info").mkdir(parents=True)
     (site / "acme_filters-0.1.dist-info" / "METADATA").write_text(
-        "Metadata-Version: 2.1\nName: acme-filters\nVersion: 0.1\n")
+        "Metadata-Version: 2.1\nName: acme-filters\nVersion: 0.1\n"
+    )
     (site / "acme_filters-0.1.dist-info" / "entry_points.txt").write_text(
-        "[umbra.modules]\nAcmeDouble = acme_filters:AcmeDouble\n")
-    (site / "acme_filters.py").write_text(textwrap.dedent('''
+        "[umbra.modules]\nAcmeDouble = acme_filters:AcmeDouble\n"
+    )
+    (site / "acme_filters.py").write_text(
+        textwrap.dedent('''
         from connectors import Input, Module, Output
         from connectors.messages import Scalar
 
@@ -124,16 +134,29 @@ def test_third_party_package_adds_a_module_type(tmp_path: Path) -> None:
                 s = self.x.get(now)
                 if s is not None:
                     self.y.send(Scalar(value=2 * s.value))
-        '''))
+        ''')
+    )
     graph = tmp_path / "g.yaml"
-    graph.write_text("graph: g\nmodules:\n  c: {type: Counter, rate: 10, params: {stop_after: 3}}\n"
-                     "  d: {type: AcmeDouble}\n  p: {type: Printer, params: {max_rate_hz: 100}}\n"
-                     "connections: [c.count -> d.x, d.y -> p.value]\n")
+    graph.write_text(
+        "graph: g\nmodules:\n  c: {type: Counter, rate: 10, params: {stop_after: 3}}\n"
+        "  d: {type: AcmeDouble}\n  p: {type: Printer, params: {max_rate_hz: 100}}\n"
+        "connections: [c.count -> d.x, d.y -> p.value]\n"
+    )
     env = {"PYTHONPATH": f"{site}:{Path.cwd()}", "PATH": "/usr/bin:/bin"}
-    proc = subprocess.run([sys.executable, "-m", "runtime.cli.main", "modules", "--json"],
-                          capture_output=True, text=True, env=env, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", "modules", "--json"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
     assert json.loads(proc.stdout)["AcmeDouble"] == "Doubles a scalar (a third-party module)."
-    proc = subprocess.run([sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--out",
-                           str(tmp_path / "o")], capture_output=True, text=True, env=env, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "value=4" in proc.stdout

@@ -30,12 +30,24 @@ def test_counter_counts_and_stops() -> None:
         assert h.stop_request == ("`module` sent 3 values", 0)
 
 
-@pytest.mark.parametrize(("waveform", "t", "expected"), [
-    ("sine", 0.25, 2.0 + 3.0), ("square", 0.75, 2.0 - 3.0), ("triangle", 0.25, 5.0),
-    ("step", 0.3, 5.0), ("step", 0.1, 2.0)])
+@pytest.mark.parametrize(
+    ("waveform", "t", "expected"),
+    [
+        ("sine", 0.25, 2.0 + 3.0),
+        ("square", 0.75, 2.0 - 3.0),
+        ("triangle", 0.25, 5.0),
+        ("step", 0.3, 5.0),
+        ("step", 0.1, 2.0),
+    ],
+)
 def test_signal_waveforms(waveform: str, t: float, expected: float) -> None:
-    params = {"waveform": waveform, "amplitude": 3.0, "offset": 2.0, "frequency_hz": 1.0,
-              "t_step": 0.2}
+    params = {
+        "waveform": waveform,
+        "amplitude": 3.0,
+        "offset": 2.0,
+        "frequency_hz": 1.0,
+        "t_step": 0.2,
+    }
     with ModuleHarness("Signal", params) as h:
         h.step(0.0)
         h.step(t)
@@ -75,8 +87,9 @@ def test_recorder_writes_mcap_that_reads_back(tmp_path: Path) -> None:
         "status": Status(stage="approach", values={"ex": 0.5}),
         "joints": JointState(names=("j1", "j2"), position=np.array([0.1, -0.2])),
     }
-    with ModuleHarness("Recorder", {"channels": list(samples), "path": "r/x.mcap"},
-                       output_dir=tmp_path) as h:
+    with ModuleHarness(
+        "Recorder", {"channels": list(samples), "path": "r/x.mcap"}, output_dir=tmp_path
+    ) as h:
         for name, sample in samples.items():
             h.push(name, sample)
         h.step(0.5)

@@ -42,8 +42,9 @@ def test_random_text(text: str) -> None:
 
 yaml_values = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=20),
-    lambda children: st.lists(children, max_size=5)
-    | st.dictionaries(st.text(max_size=10), children, max_size=5),
+    lambda children: (
+        st.lists(children, max_size=5) | st.dictionaries(st.text(max_size=10), children, max_size=5)
+    ),
     max_leaves=40,
 )
 graph_like = st.fixed_dictionaries(
@@ -56,14 +57,30 @@ graph_like = st.fixed_dictionaries(
                 st.sampled_from(["a", "b", "c"]),
                 st.fixed_dictionaries(
                     {"type": st.sampled_from(["Counter", "Gain", "Printer", "Nope", "Recorder"])},
-                    optional={"rate": yaml_values | st.floats(), "params": yaml_values,
-                              "trigger": yaml_values, "process": yaml_values},
+                    optional={
+                        "rate": yaml_values | st.floats(),
+                        "params": yaml_values,
+                        "trigger": yaml_values,
+                        "process": yaml_values,
+                    },
                 ),
             ),
         ),
-        "connections": st.one_of(yaml_values, st.lists(st.sampled_from(
-            ["a.count -> b.input", "b.output ~> a.input", "a.x -> c.value", "b.output -> c.value",
-             "c.y -> a.z"]), max_size=5)),
+        "connections": st.one_of(
+            yaml_values,
+            st.lists(
+                st.sampled_from(
+                    [
+                        "a.count -> b.input",
+                        "b.output ~> a.input",
+                        "a.x -> c.value",
+                        "b.output -> c.value",
+                        "c.y -> a.z",
+                    ]
+                ),
+                max_size=5,
+            ),
+        ),
         "frames": yaml_values,
         "processes": yaml_values,
         "links": yaml_values,
@@ -104,8 +121,12 @@ def test_ten_megabyte_file(tmp_path: Path) -> None:
 def test_binary_garbage_file_via_cli(tmp_path: Path) -> None:
     junk = tmp_path / "junk.yaml"
     junk.write_bytes(bytes(range(256)) * 10)
-    proc = subprocess.run([sys.executable, "-m", "runtime.cli.main", "check", str(junk)],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", "check", str(junk)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     assert f"{junk}:2:1: error: not UTF-8 text (byte 128 is 0x80)" in proc.stderr

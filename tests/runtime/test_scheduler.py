@@ -138,7 +138,9 @@ connections: [n.out -> rec.x]
 
 def _noise(tmp_path: Path, seed: int, name: str) -> list[float]:
     out = tmp_path / name
-    run_process(plan_of(GRAPH_NOISE.format(seed=seed)), SchedulerOptions(duration=1.0, output_dir=out))
+    run_process(
+        plan_of(GRAPH_NOISE.format(seed=seed)), SchedulerOptions(duration=1.0, output_dir=out)
+    )
     return [m.value for _, m in read_recording(out / "recording.mcap")]
 
 
@@ -152,7 +154,9 @@ def test_sim_clock_is_deterministic_for_a_seed(tmp_path: Path) -> None:
 def test_real_clock_paces_to_wall_time(tmp_path: Path) -> None:
     plan = plan_of("graph: t\nmodules:\n  c: {type: Counter, rate: 100}\n")
     t0 = time.monotonic()
-    result = Scheduler(plan, SchedulerOptions(clock="real", duration=0.3, output_dir=tmp_path)).run()
+    result = Scheduler(
+        plan, SchedulerOptions(clock="real", duration=0.3, output_dir=tmp_path)
+    ).run()
     elapsed = time.monotonic() - t0
     assert elapsed >= 0.29  # it waited for the wall clock instead of racing ahead
     assert 20 <= result.modules[0].calls <= 31
@@ -191,13 +195,18 @@ def test_max_age_violations_are_counted_and_not_delivered(tmp_path: Path) -> Non
 
 def test_sigint_stops_with_130_and_writes_summary(tmp_path: Path) -> None:
     graph = tmp_path / "g.yaml"
-    graph.write_text("graph: g\nclock: real\nmodules:\n  c: {type: Counter, rate: 50}\n"
-                     "  rec: {type: Recorder, params: {channels: [x]}}\n"
-                     "connections: [c.count -> rec.x]\n")
+    graph.write_text(
+        "graph: g\nclock: real\nmodules:\n  c: {type: Counter, rate: 50}\n"
+        "  rec: {type: Recorder, params: {channels: [x]}}\n"
+        "connections: [c.count -> rec.x]\n"
+    )
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "runtime.cli.main", "run", str(graph),
-                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 30
     while not (out / "recording.mcap").exists() and time.monotonic() < deadline:
         time.sleep(0.05)

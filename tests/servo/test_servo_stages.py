@@ -95,13 +95,35 @@ def test_failure_during_the_final_grab_also_stops():
     assert not np.any(outputs[-1].camera_twist)
 
 
-def test_stale_or_missing_contours_count_as_failures():
-    machine = ServoStages(GOAL, settings=StageSettings(max_contour_age=0.1))
+def test_acquisition_waits_for_a_contour_and_restarts_its_count():
+    machine = ServoStages(GOAL, settings=StageSettings(acquire_frames=3, max_contour_age=0.1))
     T = camera_above(0.0, 0.0, 0.3, 0.0)
-    out = machine.step(1.0, Observation(features_seen(T), healthy=True, stamp=0.8))
-    assert out.stage == ASSIST and "0.200 s old" in out.reason
-    machine.operator("resume")
-    assert machine.step(2.0, None).reason == "no contour from the snake"
+    out = machine.step(0.0, None)
+    assert out.stage == ACQUIRE and out.message == "waiting: no contour from the snake"
+    machine.step(0.1, healthy(T, 0.1))
+    machine.step(0.2, healthy(T, 0.2))
+    out = machine.step(0.3, Observation(None, healthy=True, stamp=0.3))  # snake went idle
+    assert out.stage == ACQUIRE and out.message == "waiting: snake has no contour"
+    machine.step(0.4, healthy(T, 0.4))
+    machine.step(0.5, healthy(T, 0.5))
+    assert machine.stage == ACQUIRE  # the count started again
+    machine.step(0.6, healthy(T, 0.6))
+    assert machine.stage == APPROACH
+
+
+def test_stale_or_missing_contours_stop_the_approach():
+    settings = StageSettings(acquire_frames=1, max_contour_age=0.1)
+    T = camera_above(0.05, 0.0, 0.3, 0.0)
+    for bad, reason in (
+        (Observation(features_seen(T), healthy=True, stamp=0.8), "0.200 s old"),
+        (None, "no contour from the snake"),
+    ):
+        machine = ServoStages(GOAL, settings=settings)
+        machine.step(0.9, healthy(T, 0.9))
+        assert np.any(machine.step(0.95, healthy(T, 0.95)).camera_twist)
+        out = machine.step(1.0, bad)
+        assert out.stage == ASSIST and reason in out.reason
+        assert not np.any(out.camera_twist)
 
 
 def test_abort_from_any_stage_and_resume_starts_a_new_grab():

@@ -157,7 +157,7 @@ def test_an_error_reply_gives_a_clear_status_then_recovers(
     refused = wait_for(client.latest, lambda r: r.link is LinkStatus.CAMERA_ERROR, 3.0)
     assert refused.status.startswith("camera_error: camera answered"), refused.status
     assert words in refused.status
-    assert client.counters.camera_errors >= 2  # the first answer and at least one retry
+    assert client.counters.camera_errors >= 1 and client.counters.retries >= 1
     assert sim.position_raw() == 0
     sim.heal()
     raw = vp.zoom_normalized_to_raw(0.3)

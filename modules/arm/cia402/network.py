@@ -151,6 +151,7 @@ class Cia402Arm:
             self._trip_keys = set()
             self._command_stale = False
             self._error_frames = 0
+        self._drives = []
         network = self._open_bus()
         try:
             self._drives = [self._add_drive(network, joint) for joint in self.config.joints]
@@ -158,6 +159,7 @@ class Cia402Arm:
                 self._bring_up(drive)
             self._go_running(network)
         except BaseException:
+            self._abort_start()
             self._close_bus()
             raise
 
@@ -308,6 +310,16 @@ class Cia402Arm:
         )
         bring_up.enable_operation(node, label, cfg.enable_timeout_s)
         bring_up.check_mode_display(node, label)
+
+    def _abort_start(self) -> None:
+        """Start failed: quick stop (by SDO) the drives already set up, best effort."""
+        for drive in self._drives:
+            if drive.layout is None:
+                continue
+            try:
+                bring_up.write_controlword(drive.node, drive.label, Command.QUICK_STOP)
+            except DriveStartError as exc:
+                logger.warning("while aborting the start: %s", exc)
 
     def _wait_for(
         self, predicate: Callable[[], bool], timeout_s: float, message: str | Callable[[], str]

@@ -304,8 +304,13 @@ class SimDrive:
             if not self._silent:
                 self.node.emcy.reset()
         if self._state is State.QUICK_STOP_ACTIVE and option == 0:
-            self._velocity = 0.0
-            self._state = State.SWITCH_ON_DISABLED
+            self._velocity = 0.0  # option 0: disable the drive function at once
+        if (
+            self._state is State.QUICK_STOP_ACTIVE
+            and self._velocity == 0.0
+            and option in _QUICK_STOP_TO_DISABLED
+        ):
+            self._state = State.SWITCH_ON_DISABLED  # already standing still
         if command is Command.ENABLE_OPERATION and old is not State.OPERATION_ENABLED:
             self._last_sync = None
 
