@@ -1,8 +1,10 @@
 """Binary, versioned, typed encoding of messages — for links between processes and for recordings.
 
 Layout: msgpack (msgspec) of ``[MAGIC, VERSION, type_name, fields]``; numpy arrays travel as a
-msgpack extension holding dtype, shape and the raw buffer (no pickle, ever). Decoding an array
-does not copy its buffer: the array is a read-only view on the received bytes.
+msgpack extension holding dtype, shape and the raw buffer (no pickle, ever). Only plain numeric
+dtypes are accepted (bool, integers, floats, complex). Encoding copies an array's buffer once into
+the extension and once into the output bytes; decoding does not copy it: the array is a read-only
+view on the received bytes (numpy keeps those bytes alive through ``.base``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,12 @@ MAGIC = "umbra"
 VERSION = 1
 _EXT_NDARRAY = 1
 _HEADER = struct.Struct("<B")  # length of the dtype string, then dtype, ndim (u1), shape (u8 each)
+_NUMERIC_KINDS = "biufc"  # bool, signed, unsigned, float, complex: nothing that runs code or points
+
+
+def _raw_view(arr: np.ndarray) -> memoryview:
+    """The bytes of a C-contiguous array, without copying them."""
+    return memoryview(arr.reshape(-1).view(np.uint8))
 
 
 class DecodeError(ValueError):
@@ -28,6 +36,8 @@ class DecodeError(ValueError):
 def _enc_hook(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
         arr = np.ascontiguousarray(obj)
+        if arr.dtype.kind not in _NUMERIC_KINDS:
+            raise NotImplementedError(f"cannot encode arrays of dtype {arr.dtype}")
         dtype = arr.dtype.str.encode()
         head = (
             bytes([len(dtype)])
@@ -35,7 +45,8 @@ def _enc_hook(obj: Any) -> Any:
             + bytes([arr.ndim])
             + struct.pack(f"<{arr.ndim}Q", *arr.shape)
         )
-        return msgspec.msgpack.Ext(_EXT_NDARRAY, head + arr.tobytes())
+        # one copy of the buffer: join reads the array's memory directly (no tobytes())
+        return msgspec.msgpack.Ext(_EXT_NDARRAY, b"".join((head, _raw_view(arr))))
     if isinstance(obj, np.generic):
         return obj.item()
     raise NotImplementedError(f"cannot encode {type(obj).__name__}")
@@ -47,8 +58,8 @@ def _ext_hook(code: int, data: memoryview) -> Any:
     try:
         n = data[0]
         dtype = np.dtype(bytes(data[1 : 1 + n]).decode())
-        if dtype.hasobject:
-            raise DecodeError("object arrays are not accepted")
+        if dtype.kind not in _NUMERIC_KINDS:
+            raise DecodeError(f"arrays of dtype {dtype} are not accepted")
         ndim = data[1 + n]
         start = 2 + n
         shape = struct.unpack_from(f"<{ndim}Q", data, start)

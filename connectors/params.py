@@ -14,7 +14,7 @@ Degrees and millimetres appear only in parameters named so (``roll_tolerance_deg
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, get_args, get_origin
 
 import pydantic
 from pydantic import ConfigDict, Field
@@ -78,5 +78,9 @@ def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
 
 
 def _type_name(annotation: Any) -> str:
+    if get_origin(annotation) is Literal:
+        return "one of " + "|".join(str(a) for a in get_args(annotation))
+    if get_origin(annotation) is not None:
+        return repr(annotation).replace("typing.", "")
     text = getattr(annotation, "__name__", None) or repr(annotation)
     return text.replace("typing.", "")

@@ -3,7 +3,15 @@
 Every tick, in the graph's data order, a module runs when its rate makes it due or when one of its
 trigger inputs received a new sample earlier in the same tick — so a sample crosses a chain in one
 tick. Delayed connections (``~>``) are written after the tick, so their consumers read the previous
-tick's value. Link samples from other processes are written into registers at the start of a tick.
+tick's value. Link samples from other processes are written into registers at the start of a tick:
+on a reliable link one sample per register per tick, in order (the rest wait for the next tick,
+which follows at once), so a consumer sees every command as it would in one process; on a
+best-effort link (video) the latest sample wins.
+
+When the loop ends, for any reason, the runtime first puts outputs in a safe state, then stops the
+modules: each module that defines ``safe_stop(now)`` has it called (in data order), each
+``SAFETY_GUARD`` module without one has its numeric-array outputs (a twist, joint rates) sent
+once more as zeros, and the modules those samples trigger run once so the zero reaches the drives.
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from connectors.errors import ModuleFailed, UserError
@@ -80,7 +89,7 @@ class Scheduler:
         self.process_name = options.process or "main"
         self._stop: StopRequest | None = None
         self._pending: list[tuple[Register[Any], Message, float]] = []
-        self._inbound: deque[tuple[Register[Any], Message]] = deque()
+        self._inbound: deque[tuple[Register[Any], Message, bool]] = deque()
         self._wake = threading.Event() if transport is not None else None
         self._link_regs: list[tuple[Register[Any], Any]] = []
         self.modules: dict[str, Module] = {}
@@ -150,7 +159,7 @@ class Scheduler:
                     out.sinks.append(self.transport.publisher(link))
                 if dst_here:
                     reg = self.modules[conn.dst.module].registers[conn.dst.port]
-                    self.transport.subscribe(link, self._deliverer(reg))
+                    self.transport.subscribe(link, self._deliverer(reg, link.reliable))
                     self._link_regs.append((reg, link))
 
     def _delayed_writer(self, reg: Register[Any]) -> Callable[[Message, float], None]:
@@ -161,11 +170,11 @@ class Scheduler:
 
         return write_later
 
-    def _deliverer(self, reg: Register[Any]) -> Callable[[Message], None]:
+    def _deliverer(self, reg: Register[Any], in_order: bool = True) -> Callable[[Message], None]:
         inbound, wake = self._inbound, self._wake
 
         def deliver(sample: Message) -> None:
-            inbound.append((reg, sample))
+            inbound.append((reg, sample, in_order))
             if wake is not None:
                 wake.set()
 
@@ -173,9 +182,17 @@ class Scheduler:
 
     # -- control ---------------------------------------------------------------------------------
     def request_stop(self, reason: str, exit_code: int = 0) -> None:
-        """End the run after the current tick (first request wins)."""
+        """End the run after the current tick (first request wins). Safe from any thread: a loop
+        waiting for its next tick wakes up."""
         if self._stop is None:
             self._stop = StopRequest(reason, exit_code)
+        if self._wake is not None:
+            self._wake.set()
+
+    @property
+    def pending_link_samples(self) -> int:
+        """Link samples received but not yet written into registers."""
+        return len(self._inbound)
 
     # -- the loop --------------------------------------------------------------------------------
     def run(self) -> RunResult:
@@ -205,6 +222,7 @@ class Scheduler:
                     slot.next_due = t0
                 ticks, failure = self._loop(t0, lateness)
         finally:
+            self._safe_stop(started)
             for slot in reversed(started):
                 try:
                     slot.module.stop()
@@ -311,9 +329,61 @@ class Scheduler:
 
     def _drain(self, now: float) -> None:
         inbound = self._inbound
-        while inbound:
-            reg, sample = inbound.popleft()
+        written: set[int] = set()
+        held = []
+        for _ in range(len(inbound)):  # samples arriving meanwhile wait for the next tick
+            item = inbound.popleft()
+            reg, sample, in_order = item
+            if in_order and id(reg) in written:
+                held.append(item)
+                continue
             reg.write(sample, now)
+            written.add(id(reg))
+        if held:
+            inbound.extendleft(reversed(held))
+            if self._wake is not None:
+                self._wake.set()
+
+    # -- safe stop -------------------------------------------------------------------------------
+    def _safe_stop(self, started: list[_Slot]) -> None:
+        """Zero commands before anything stops: ``safe_stop`` hooks, zeros from safety guards, then
+        one pass of the modules those samples trigger. Failures are logged, never raised."""
+        import logging
+
+        log = self.options.log or logging.getLogger("umbra")
+        now = self.clock.now()
+        sent = False
+        for slot in started:
+            module = slot.module
+            hook = getattr(module, "safe_stop", None)
+            try:
+                if callable(hook):
+                    hook(now)
+                    sent = True
+                elif module.SAFETY_GUARD:
+                    for port in module.outputs.values():
+                        zero = _zeroed(port.last)
+                        if zero is not None:
+                            port.send(zero)
+                            sent = True
+                            log.info("safe stop: `%s.%s` sent zero", module.name, port.name)
+            except Exception as exc:
+                log.error("safe stop of `%s` failed: %s: %s", module.name, type(exc).__name__, exc)
+        if not sent:
+            return
+        for slot in started:
+            if any(reg.fresh for reg in slot.trigger_regs):
+                try:
+                    slot.module.step(now)
+                except Exception as exc:
+                    log.error(
+                        "safe stop: `%s` failed passing the zero on: %s: %s",
+                        slot.module.name,
+                        type(exc).__name__,
+                        exc,
+                    )
+                for reg in slot.all_regs:
+                    reg.fresh = False
 
     # -- signals ---------------------------------------------------------------------------------
     def _install_signals(self) -> dict[int, Any]:
@@ -337,3 +407,18 @@ class Scheduler:
     def _restore_signals(old: dict[int, Any]) -> None:
         for sig, handler in old.items():
             signal.signal(sig, handler)
+
+
+def _zeroed(sample: Message | None) -> Message | None:
+    """``sample`` with every floating-point array zeroed and a fresh stamp, or None when it has
+    no such array (text, status: nothing to zero, nothing re-sent)."""
+    if sample is None:
+        return None
+    zeros = {
+        name: np.zeros_like(value)
+        for name in sample.__struct_fields__
+        if isinstance(value := getattr(sample, name), np.ndarray) and value.dtype.kind in "fc"
+    }
+    if not zeros:
+        return None
+    return msgspec.structs.replace(sample, stamp=0.0, **zeros)

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from modules.arm.dh import DHTable
+from modules.geometry.transforms import cross3
 
 FloatArray = NDArray[np.float64]
 
@@ -29,7 +30,7 @@ def jacobian_and_pose(
     o = T[:-1, :3, 3]  # (n, 3) origins o_{i-1}
     J = np.empty((6, table.n))
     revolute = table.revolute
-    J[:3] = np.where(revolute[:, None], np.cross(z, T_end[:3, 3] - o), z).T
+    J[:3] = np.where(revolute[:, None], cross3(z, T_end[:3, 3] - o), z).T
     J[3:] = np.where(revolute[:, None], z, 0.0).T
     return J, T_end
 

@@ -100,6 +100,11 @@ class VelocityRegister:
             self._bad = ""
         self._stamp = float(stamp)
 
+    @property
+    def empty(self) -> bool:
+        """True when no command is held (none yet, cleared, or rejected)."""
+        return self._twist is None
+
     def clear(self) -> None:
         """Forget the held command (output is zero until the next :meth:`put`)."""
         self._twist = None

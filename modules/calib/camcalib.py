@@ -19,7 +19,7 @@ from modules.calib.zoom_io import load_zoom_table
 from modules.calib.zoom_table import ZoomTable
 
 #: The report's own calibration file, shipped with the project.
-REPORT_FILE = Path(__file__).resolve().parents[2] / "data" / "zoom_cam.xml"
+REPORT_FILE = Path(__file__).resolve().parent / "data" / "zoom_cam.xml"
 
 
 class CamCalib(Module):
@@ -47,7 +47,9 @@ class CamCalib(Module):
         width: int = param(640, "image width", unit="px", gt=0)
         height: int = param(480, "image height", unit="px", gt=0)
         mount_frame: str = param("tool", "frame the file's extrinsics are relative to")
-        camera_frame: str = param("camera", "name of the camera frame")
+        camera_name: str = param(
+            "camera", "frame name carried in the model (zoom-dependent, so not a static frame)"
+        )
 
     zoom = Input(ZoomState, trigger=True, doc="normalized zoom 0 (wide) .. 1 (tele)")
     camera = Output(CameraModel, doc="camera model at the zoom (published when it changes)")
@@ -84,7 +86,7 @@ class CamCalib(Module):
                 width=self.params.width,
                 height=self.params.height,
                 mount=self.params.mount_frame,
-                frame=self.params.camera_frame,
+                frame=self.params.camera_name,
                 stamp=sample.stamp,
             )
         )

@@ -104,7 +104,7 @@ def dlt_camera_matrix(points: ArrayLike, pixels: ArrayLike) -> FloatArray:
     Xn = (np.hstack([X, np.ones((len(X), 1))]) @ T3.T)[:, :3]
     uvn = (np.hstack([uv, np.ones((len(uv), 1))]) @ T2.T)[:, :2]
     A = design_matrix(Xn, uvn)
-    _, singular, Vt = np.linalg.svd(A)
+    _, singular, Vt = np.linalg.svd(A, full_matrices=False)
     if singular[10] <= RANK_TOLERANCE * singular[0]:
         raise DegenerateGeometryError(
             "the DLT system has rank < 11: the points do not determine a unique camera "

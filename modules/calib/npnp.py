@@ -117,7 +117,7 @@ def _residuals_and_jacobian(
             dp_dc[:, 1, 1] = 1.0 / z
             dp_dc[:, :, 2] = -normalized / z[:, None]
             dpix_dc = np.einsum("ij,njk->nik", p.K2, dp_dc)
-            dc_dtheta = -np.einsum("ij,njk->nik", p.A_R, np.stack([skew(r) for r in rotated]))
+            dc_dtheta = -np.einsum("ij,njk->nik", p.A_R, _skews(rotated))
             dc_dd = np.broadcast_to(p.A_R, (n, 3, 3))
             J = np.concatenate(
                 [dpix_dc @ dc_dtheta, np.einsum("nij,njk->nik", dpix_dc, dc_dd)], axis=2
@@ -126,6 +126,15 @@ def _residuals_and_jacobian(
     r = np.concatenate([b.ravel() for b in residual_blocks])
     J = np.vstack(jacobian_blocks) if with_jacobian else None
     return r, J, min_depth
+
+
+def _skews(vectors: FloatArray) -> FloatArray:
+    """``[v]_x`` for each row of ``vectors`` ``(n, 3)`` -> ``(n, 3, 3)``."""
+    out = np.zeros((len(vectors), 3, 3))
+    x, y, z = vectors[:, 0], vectors[:, 1], vectors[:, 2]
+    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -z, y, -x
+    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = z, -y, x
+    return out
 
 
 def initial_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
@@ -227,13 +236,15 @@ def solve_npnp(
                 "(need >= 3 points not on one line, seen with enough parallax)"
             )
         step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        if np.max(np.abs(step)) < step_tolerance:
+            break
         scale = 1.0
-        for _ in range(30):
+        for _ in range(20):
             R_new = rotation_from_vector(scale * step[:3]) @ R
             d_new = d + scale * step[3:]
             r_new, _, _ = _residuals_and_jacobian(prepared, R_new, d_new, with_jacobian=False)
             cost_new = float(r_new @ r_new)
-            if cost_new <= cost or not np.isfinite(cost):
+            if cost_new <= cost * (1.0 + 1e-12) or not np.isfinite(cost):
                 break
             scale *= 0.5
         else:

@@ -20,7 +20,15 @@ def skew(v: ArrayLike) -> FloatArray:
 
 def rotation_from_vector(rotation_vector: ArrayLike) -> FloatArray:
     """Rotation matrix of an axis-angle vector (axis times angle in radians; Rodrigues)."""
-    return Rotation.from_rotvec(np.asarray(rotation_vector, dtype=float)).as_matrix()
+    w = np.asarray(rotation_vector, dtype=float).reshape(3)
+    theta2 = float(w @ w)
+    W = skew(w)
+    if theta2 < 1e-12:  # series of sin(t)/t and (1 - cos t)/t^2, exact to double precision here
+        a, b = 1.0 - theta2 / 6.0, 0.5 - theta2 / 24.0
+    else:
+        theta = np.sqrt(theta2)
+        a, b = np.sin(theta) / theta, (1.0 - np.cos(theta)) / theta2
+    return np.eye(3) + a * W + b * (W @ W)
 
 
 def vector_from_rotation(R: ArrayLike) -> FloatArray:

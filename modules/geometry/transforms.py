@@ -132,6 +132,17 @@ def xyz_rpy_deg_from_transform(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
     return T[:3, 3].copy(), rpy
 
 
+def cross3(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """Cross product of 3-vectors (or stacks ``(..., 3)``); ``numpy.cross`` without its overhead."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def skew(v: ArrayLike) -> FloatArray:
     """3x3 cross-product matrix ``[v]x`` with ``[v]x @ u == cross(v, u)``."""
     x, y, z = np.asarray(v, dtype=float)
@@ -174,7 +185,7 @@ def twist_tool_from_camera(T_tool_camera: ArrayLike, camera_twist: ArrayLike) ->
         raise TransformError(f"camera_twist must have 6 entries [v; w], got {xi.shape}")
     R = T[:3, :3]
     w_tool = R @ xi[3:]
-    v_tool = R @ xi[:3] + np.cross(w_tool, -T[:3, 3])
+    v_tool = R @ xi[:3] + cross3(w_tool, -T[:3, 3])
     return np.concatenate([v_tool, w_tool])
 
 

@@ -1,8 +1,8 @@
-"""Color statistics of the tracked patch: normalized chromaticity, mean, covariance, Mahalanobis.
+"""Color statistics of the tracked patch: normalized chromaticity, its spread, Mahalanobis gate.
 
 Color space. A pixel (R, G, B) is reduced to its normalized chromaticity
 
-    (r, g) = (R, G) / (R + G + B)
+    (r, g) = (R, G) / s,   s = R + G + B
 
 which is exactly invariant to a lighting gain (auto-iris, exposure, distance to the lamp all
 scale R, G and B together): the Sandia authors moved the snake to color precisely because
@@ -11,13 +11,20 @@ illuminant) moves the chromaticity of a patch by a small, smooth shift; rather t
 that is invariant to casts too (log-chromaticity ratios are, in theory, but they explode on the
 near-zero channels of a saturated patch under sensor noise), the statistics are adapted online
 from pixels just inside the tracked contour (:func:`adapt`), which absorbs a slow cast or an
-illuminant drift while the snake is tracking. Dark pixels carry no usable chromaticity (the
-ratio of noise to noise), so pixels whose mean gray level is below ``min_gray`` never count as
-the target. Saturation (a channel clipped at 255) also moves the chromaticity; adaptation
-follows that too.
+illuminant drift while the snake is tracking.
 
-The model is the mean and covariance of (r, g) over the seed pixels; a pixel belongs to the
-target when its Mahalanobis distance to the mean is within ``k`` standard deviations.
+Spread. Sensor noise is additive in gray levels, so the chromaticity of a dim pixel scatters
+more than that of a bright one: ``(r, g) - mean`` scales as 1/s. The model therefore keeps the
+covariance of ``x = ((r, g) - mean) * s`` -- the pixel's offset from the patch's color ray
+through black, in gray levels -- which stays the same at any gain, plus a small chromaticity
+floor for the patch's own color variation (texture, clipping), which scales with ``s``. A pixel
+with offset ``x`` and sum ``s`` belongs to the target when
+
+    x^T (A + s² f I)^-1 x <= k²
+
+with ``A`` the offset covariance [gray levels²] and ``f`` the floor [chromaticity²]. A model
+learned at one gain thus holds at another. Dark pixels carry no usable chromaticity, so pixels
+whose mean gray level is below ``min_gray`` never count as the target.
 
 Images are H x W x 3 uint8 in BGR order (OpenCV's).
 """
@@ -31,54 +38,64 @@ from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
 
-#: Smallest standard deviation of a chromaticity coordinate the model will assume. Without it a
-#: noiseless synthetic seed would give a singular covariance that rejects the patch's own edges.
-DEFAULT_SIGMA_FLOOR = 0.006
+#: Default chromaticity floor (standard deviation of the patch's own chromaticity, unitless).
+DEFAULT_CHROMA_FLOOR = 0.006
+#: Default smallest offset spread [gray levels]: a noiseless synthetic seed would otherwise give a
+#: singular covariance that rejects the patch's own anti-aliased edges.
+DEFAULT_NOISE_FLOOR = 1.5
 
 
 @dataclass(frozen=True, eq=False)
 class ColorModel:
-    """Gaussian model of the target's chromaticity: ``mean`` (r, g) and 2x2 ``covariance``."""
+    """Target color: ``mean`` chromaticity (r, g); ``offset_covariance`` (2x2, gray levels²) of
+    ``((r, g) - mean) * (R + G + B)``; ``chroma_floor`` (standard deviation, unitless)."""
 
     mean: FloatArray
-    covariance: FloatArray
+    offset_covariance: FloatArray
+    chroma_floor: float = DEFAULT_CHROMA_FLOOR
 
     def __post_init__(self) -> None:
         mean = np.asarray(self.mean, dtype=np.float64).reshape(2)
-        cov = np.asarray(self.covariance, dtype=np.float64).reshape(2, 2)
+        cov = np.asarray(self.offset_covariance, dtype=np.float64).reshape(2, 2)
+        cov = 0.5 * (cov + cov.T)
         if not np.all(np.isfinite(cov)) or np.linalg.det(cov) <= 0.0 or cov[0, 0] <= 0.0:
             raise ValueError(f"color covariance must be positive definite, got {cov.tolist()}")
+        if self.chroma_floor < 0:
+            raise ValueError(f"chroma floor must be >= 0, got {self.chroma_floor}")
         object.__setattr__(self, "mean", mean)
-        object.__setattr__(self, "covariance", 0.5 * (cov + cov.T))
+        object.__setattr__(self, "offset_covariance", cov)
 
-    @property
-    def information(self) -> tuple[float, float, float]:
-        """Entries (a, b, c) of the inverse covariance [[a, b], [b, c]]."""
-        (s_rr, s_rg), (_, s_gg) = self.covariance
-        det = s_rr * s_gg - s_rg * s_rg
-        return s_gg / det, -s_rg / det, s_rr / det
+    def covariance_at(self, total: float) -> FloatArray:
+        """Chromaticity covariance (2x2, unitless) expected for pixels with R + G + B = total."""
+        return self.offset_covariance / total**2 + self.chroma_floor**2 * np.eye(2)
 
 
 def chromaticity(bgr: ArrayLike) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray]:
-    """(r, g, gray) of BGR pixels (any leading shape, last axis 3): chromaticity and mean gray."""
+    """(r, g, s) of BGR pixels (any leading shape, last axis 3): chromaticity and R + G + B."""
     pixels = np.asarray(bgr, dtype=np.float32)
     total = pixels.sum(axis=-1)
     safe = np.maximum(total, 1.0)
-    return pixels[..., 2] / safe, pixels[..., 1] / safe, total / 3.0
+    return pixels[..., 2] / safe, pixels[..., 1] / safe, total
+
+
+def _offsets(rg: FloatArray, total: FloatArray, mean: FloatArray) -> FloatArray:
+    return (rg - mean) * total[:, None]
 
 
 def fit(
     bgr_samples: ArrayLike,
     min_gray: float = 20.0,
-    sigma_floor: float = DEFAULT_SIGMA_FLOOR,
+    noise_floor: float = DEFAULT_NOISE_FLOOR,
+    chroma_floor: float = DEFAULT_CHROMA_FLOOR,
 ) -> ColorModel:
-    """Mean and covariance of the chromaticity of ``bgr_samples`` (K x 3, or any shape ending in 3).
+    """Learn the model from ``bgr_samples`` (K x 3, or any shape ending in 3): the mean
+    chromaticity and the covariance of the offsets, plus ``noise_floor``² [gray levels²].
 
     Dark samples (mean gray below ``min_gray``) are left out. Raises ValueError if fewer than 3
     usable samples remain.
     """
-    r, g, gray = chromaticity(np.asarray(bgr_samples).reshape(-1, 3))
-    usable = gray >= min_gray
+    r, g, total = chromaticity(np.asarray(bgr_samples).reshape(-1, 3))
+    usable = total >= 3.0 * min_gray
     if int(usable.sum()) < 3:
         raise ValueError(
             f"need at least 3 seed pixels brighter than gray level {min_gray:g}, "
@@ -86,57 +103,75 @@ def fit(
         )
     rg = np.column_stack([r[usable], g[usable]]).astype(np.float64)
     mean = rg.mean(axis=0)
-    cov = np.cov(rg, rowvar=False) if rg.shape[0] > 1 else np.zeros((2, 2))
-    return ColorModel(mean, cov + sigma_floor**2 * np.eye(2))
+    offsets = _offsets(rg, total[usable].astype(np.float64), mean)
+    cov = np.cov(offsets, rowvar=False)
+    return ColorModel(mean, cov + noise_floor**2 * np.eye(2), chroma_floor)
 
 
 def from_rgb(
-    rgb: ArrayLike, sigma: float = 0.02, sigma_floor: float = DEFAULT_SIGMA_FLOOR
+    rgb: ArrayLike, noise_gray: float = 6.0, chroma_floor: float = DEFAULT_CHROMA_FLOOR
 ) -> ColorModel:
-    """A model centred on the chromaticity of one RGB color (0..255), isotropic spread ``sigma``."""
+    """A model centred on the chromaticity of one RGB color (0..255), with an isotropic offset
+    spread of ``noise_gray`` gray levels."""
     red, green, blue = (float(c) for c in np.asarray(rgb, dtype=np.float64).reshape(3))
     total = red + green + blue
     if total <= 0.0:
         raise ValueError("a black target color has no chromaticity")
-    spread = max(sigma, sigma_floor) ** 2
-    return ColorModel(np.array([red / total, green / total]), spread * np.eye(2))
-
-
-def gate_matrix(model: ColorModel, k_sigma: float) -> NDArray[np.float32]:
-    """A 3x3 matrix ``M`` that turns the Mahalanobis gate into one product per pixel.
-
-    For a BGR pixel ``p`` (row vector, float), ``[y0, y1, s] = p @ M`` has ``s = R + G + B`` and
-    ``y0² + y1² <= s²`` exactly when the pixel's chromaticity is within ``k_sigma`` of the model:
-    ``(r - mean) * s`` is linear in ``p``, and the Cholesky factor of the inverse covariance,
-    divided by ``k_sigma``, whitens it. No division per pixel.
-    """
-    mean_r, mean_g = model.mean
-    # Rows: B, G, R. Columns: (r - mean_r) s, (g - mean_g) s.
-    deviation = np.array(
-        [[-mean_r, -mean_g], [-mean_r, 1.0 - mean_g], [1.0 - mean_r, -mean_g]], dtype=np.float64
+    if noise_gray <= 0:
+        raise ValueError(f"noise_gray must be > 0, got {noise_gray}")
+    return ColorModel(
+        np.array([red / total, green / total]), noise_gray**2 * np.eye(2), chroma_floor
     )
-    a, b, c = model.information
-    cholesky = np.linalg.cholesky(np.array([[a, b], [b, c]]))  # inverse covariance = C C^T
-    matrix = np.empty((3, 3), dtype=np.float64)
-    matrix[:, :2] = deviation @ cholesky / k_sigma
-    matrix[:, 2] = 1.0
-    return matrix.astype(np.float32)
 
 
-def mahalanobis_squared(model: ColorModel, r: NDArray, g: NDArray) -> NDArray:
-    """Squared Mahalanobis distance of chromaticities (r, g) to the model (unitless)."""
-    a, b, c = model.information
-    dr = r - model.mean[0]
-    dg = g - model.mean[1]
-    return a * dr * dr + 2.0 * b * dr * dg + c * dg * dg
+def mahalanobis_squared(model: ColorModel, r: NDArray, g: NDArray, total: NDArray) -> NDArray:
+    """Squared Mahalanobis distance (unitless) of pixels with chromaticity (r, g) and sum
+    ``total`` = R + G + B to the model, with the spread expected at that brightness."""
+    x1 = (r - model.mean[0]) * total
+    x2 = (g - model.mean[1]) * total
+    floor = model.chroma_floor**2 * np.square(total)
+    (a11, a12), (_, a22) = model.offset_covariance
+    q11, q22 = a11 + floor, a22 + floor
+    det = q11 * q22 - a12 * a12
+    return (q22 * x1 * x1 - 2.0 * a12 * x1 * x2 + q11 * x2 * x2) / det
 
 
 def is_target(
     model: ColorModel, bgr: ArrayLike, k_sigma: float = 3.0, min_gray: float = 20.0
 ) -> NDArray[np.bool_]:
     """True where a BGR pixel is within ``k_sigma`` Mahalanobis of the model and not dark."""
-    r, g, gray = chromaticity(bgr)
-    return (mahalanobis_squared(model, r, g) <= k_sigma * k_sigma) & (gray >= min_gray)
+    r, g, total = chromaticity(bgr)
+    inside = mahalanobis_squared(model, r, g, total) <= k_sigma * k_sigma
+    return inside & (total >= 3.0 * min_gray)
+
+
+def offset_matrix(model: ColorModel) -> NDArray[np.float32]:
+    """3x3 matrix ``M`` with ``p @ M = [x1, x2, s]`` for a BGR row vector ``p``: the two offsets
+    ``((r, g) - mean) * s`` are linear in the pixel (no division), and ``s = R + G + B``."""
+    mean_r, mean_g = model.mean
+    # Rows: B, G, R. Columns: (r - mean_r) s, (g - mean_g) s, s.
+    return np.array(
+        [[-mean_r, -mean_g, 1.0], [-mean_r, 1.0 - mean_g, 1.0], [1.0 - mean_r, -mean_g, 1.0]],
+        dtype=np.float32,
+    )
+
+
+def gate_test(
+    model: ColorModel,
+    offsets: NDArray[np.float32],
+    k_sigma: float,
+    min_gray: float,
+) -> NDArray[np.bool_]:
+    """Target test for rows ``[x1, x2, s]`` from :func:`offset_matrix`, without division."""
+    x1, x2, total = offsets[:, 0], offsets[:, 1], offsets[:, 2]
+    (a11, a12), (_, a22) = model.offset_covariance
+    floor = np.float32(model.chroma_floor**2) * total * total
+    q11 = floor + np.float32(a11)
+    q22 = floor + np.float32(a22)
+    a12 = np.float32(a12)
+    lhs = q22 * x1 * x1 - 2.0 * a12 * x1 * x2 + q11 * x2 * x2
+    rhs = np.float32(k_sigma * k_sigma) * (q11 * q22 - a12 * a12)
+    return (lhs <= rhs) & (total >= np.float32(3.0 * min_gray))
 
 
 def adapt(
@@ -145,7 +180,7 @@ def adapt(
     rate: float,
     gate_sigma: float = 6.0,
     min_gray: float = 20.0,
-    sigma_floor: float = DEFAULT_SIGMA_FLOOR,
+    noise_floor: float = DEFAULT_NOISE_FLOOR,
 ) -> ColorModel:
     """Blend the statistics of new target samples into the model (exponential forgetting).
 
@@ -155,15 +190,18 @@ def adapt(
     """
     if not 0.0 <= rate <= 1.0:
         raise ValueError(f"adaptation rate must be within [0, 1], got {rate}")
-    r, g, gray = chromaticity(np.asarray(bgr_samples).reshape(-1, 3))
-    keep = (mahalanobis_squared(model, r, g) <= gate_sigma * gate_sigma) & (gray >= min_gray)
+    r, g, total = chromaticity(np.asarray(bgr_samples).reshape(-1, 3))
+    distance = mahalanobis_squared(model, r, g, total)
+    keep = (distance <= gate_sigma * gate_sigma) & (total >= 3.0 * min_gray)
     if rate == 0.0 or int(keep.sum()) < 8:
         return model
     rg = np.column_stack([r[keep], g[keep]]).astype(np.float64)
+    sums = total[keep].astype(np.float64)
     sample_mean = rg.mean(axis=0)
-    sample_cov = np.cov(rg, rowvar=False) + sigma_floor**2 * np.eye(2)
     mean = (1.0 - rate) * model.mean + rate * sample_mean
-    shift_old = np.outer(model.mean - mean, model.mean - mean)
-    shift_new = np.outer(sample_mean - mean, sample_mean - mean)
-    cov = (1.0 - rate) * (model.covariance + shift_old) + rate * (sample_cov + shift_new)
-    return ColorModel(mean, cov)
+    # Both covariances are taken about the blended mean, in offset units (gray levels²).
+    sample_cov = np.cov(_offsets(rg, sums, mean), rowvar=False, bias=True)
+    shift = (model.mean - mean) * float(np.mean(sums))
+    old_cov = model.offset_covariance + np.outer(shift, shift)
+    cov = (1.0 - rate) * old_cov + rate * (sample_cov + noise_floor**2 * np.eye(2))
+    return ColorModel(mean, cov, model.chroma_floor)

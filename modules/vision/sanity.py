@@ -7,8 +7,9 @@ contour's own moments: the rectangle with the same second moments as the contour
 up by ``1 + rectangle_margin``; and the ellipse inscribed in that same equivalent rectangle,
 scaled down by ``ellipse_scale``. On top of that the area and the aspect ratio must stay within
 bounds, and so must the rates of change from the previous frame (centroid jump, relative area
-change, rotation, relative aspect change). Any failed check means the snake may no longer be on
-the patch: the servo stops and the operator is asked.
+change, rotation, relative aspect change) and the drift of the aspect ratio from the contour
+acquired at the seed (approach and roll keep a patch's aspect ratio). Any failed check means
+the snake may no longer be on the patch: the servo stops and the operator is asked.
 
 Units: pixels, px², radians; image frame u right, v down.
 """
@@ -48,7 +49,9 @@ class SanityLimits:
     - ``max_rotation_rad``: largest change of the principal axis between two frames [rad].
     - ``max_aspect_change``: largest relative change of the aspect ratio between two frames
       (approach and roll leave a patch's aspect alone; a leak into a neighbour does not).
-    - ``min_vertices``: fewest vertices of a usable contour.
+    - ``max_aspect_drift``: largest relative difference of the aspect ratio from the reference
+      contour (the one acquired at the seed), for leaks too slow for the per-frame check.
+    - ``min_contour_vertices``: fewest vertices of a usable contour.
     """
 
     rectangle_margin: float = 0.12
@@ -61,7 +64,8 @@ class SanityLimits:
     max_area_change: float = 0.25
     max_rotation_rad: float = np.deg2rad(20.0)
     max_aspect_change: float = 0.12
-    min_vertices: int = 4
+    max_aspect_drift: float = 0.25
+    min_contour_vertices: int = 4
 
     def __post_init__(self) -> None:
         if self.rectangle_margin < 0 or not 0 < self.ellipse_scale <= 1:
@@ -137,13 +141,15 @@ def check_contour(
     vertices: ArrayLike,
     limits: SanityLimits,
     previous: PolygonFeatures | None = None,
+    reference: PolygonFeatures | None = None,
 ) -> SanityResult:
     """Run all checks on a contour (N x 2 vertices [px]); ``previous`` are the features of the
-    last frame's contour (None for the first frame: no rate-of-change checks)."""
+    last frame's contour (None for the first frame: no rate-of-change checks), ``reference``
+    those of the contour acquired at the seed (None: no drift check)."""
     polygon = as_polygon(vertices)
     no_offenders = np.empty(0, dtype=np.intp)
-    if polygon.shape[0] < limits.min_vertices:
-        reason = f"only {polygon.shape[0]} vertices (need {limits.min_vertices})"
+    if polygon.shape[0] < limits.min_contour_vertices:
+        reason = f"only {polygon.shape[0]} vertices (need {limits.min_contour_vertices})"
         return SanityResult(FAILED, reason, (reason,), no_offenders, None, None, None)
     try:
         features = polygon_features(polygon)
@@ -166,7 +172,7 @@ def check_contour(
 
     along_across = rectangle.local(polygon)
     outside = np.any(np.abs(along_across) > np.asarray(rectangle.half_sizes), axis=1)
-    a, b = ellipse.half_sizes
+    a, b = (max(half, 1e-9) for half in ellipse.half_sizes)
     e_local = ellipse.local(polygon)
     inside = (e_local[:, 0] / a) ** 2 + (e_local[:, 1] / b) ** 2 < 1.0
     if np.any(outside):
@@ -187,6 +193,13 @@ def check_contour(
         aspect_change = aspect / previous.aspect_ratio - 1.0
         if abs(aspect_change) > limits.max_aspect_change:
             reasons.append(f"aspect ratio changed {100 * aspect_change:+.0f}% in one frame")
+
+    if reference is not None:
+        drift = aspect / reference.aspect_ratio - 1.0
+        if abs(drift) > limits.max_aspect_drift:
+            reasons.append(
+                f"aspect ratio {100 * drift:+.0f}% from the acquired {reference.aspect_ratio:.2f}"
+            )
 
     offending = np.flatnonzero(outside | inside).astype(np.intp)
     status = FAILED if reasons else TRACKING

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.color import ColorModel, gate_matrix
+from modules.vision.color import ColorModel, gate_test, offset_matrix
 from modules.vision.polygon import (
     as_polygon,
     circle,
@@ -147,18 +147,17 @@ def pressure(
     image: NDArray[np.uint8], vertices: FloatArray, model: ColorModel, params: SnakeParams
 ) -> FloatArray:
     """Pressure in [-1, 1] at each vertex: 2 x (weighted fraction of target pixels) - 1."""
-    gate = gate_matrix(model, params.k_sigma)
-    return _pressure(image.reshape(-1, image.shape[2]), image.shape, vertices, gate, params)
+    return _pressure(image.reshape(-1, image.shape[2]), image.shape, vertices, model, params)
 
 
 def _pressure(
     flat: NDArray[np.uint8],
     shape: tuple[int, ...],
     vertices: FloatArray,
-    gate: NDArray[np.float32],
+    model: ColorModel,
     params: SnakeParams,
 ) -> FloatArray:
-    """:func:`pressure` on the image viewed as (H W) x 3 with a precomputed gate matrix."""
+    """:func:`pressure` on the image viewed as (H W) x 3."""
     height, width = shape[:2]
     radius = params.window_radius_px
     span = 2 * radius + 2
@@ -170,11 +169,8 @@ def _pressure(
     rows = np.clip(base[:, 1:2] + steps, 0, height - 1) * width
     index = (rows[:, :, None] + cols[:, None, :]).ravel()
     pixels = np.take(flat, index, axis=0).astype(np.float32)
-    whitened = pixels @ gate  # (N B B, 3): two whitened deviations and the channel sum
-    squares = whitened * whitened
-    target = (squares[:, 0] + squares[:, 1] <= squares[:, 2]) & (
-        whitened[:, 2] >= 3.0 * params.min_gray
-    )
+    offsets = pixels @ offset_matrix(model)  # (N B B, 3): offsets from the color ray, and sum
+    target = gate_test(model, offsets, params.k_sigma, params.min_gray)
     target = target.reshape(len(vertices), span, span)
     # Area weights of the box window: 1 - f on the first row/column, f on the last.
     w_u = np.ones((len(vertices), span))
@@ -195,19 +191,18 @@ def step(
 
     The motion is measured before resampling; the vertices are kept inside the image.
     """
-    gate = gate_matrix(model, params.k_sigma)
-    return _step(image.reshape(-1, image.shape[2]), image.shape, vertices, gate, params)
+    return _step(image.reshape(-1, image.shape[2]), image.shape, vertices, model, params)
 
 
 def _step(
     flat: NDArray[np.uint8],
     shape: tuple[int, ...],
     vertices: FloatArray,
-    gate: NDArray[np.float32],
+    model: ColorModel,
     params: SnakeParams,
 ) -> tuple[FloatArray, float]:
     height, width = shape[:2]
-    p = _pressure(flat, shape, vertices, gate, params)
+    p = _pressure(flat, shape, vertices, model, params)
     before = np.roll(vertices, 1, axis=0)
     after = np.roll(vertices, -1, axis=0)
     chord = after - before
@@ -267,11 +262,10 @@ def evolve(
     if needs_resampling(current, params):
         current = _resample(current, params)
     flat = image.reshape(-1, image.shape[2])
-    gate = gate_matrix(model, params.k_sigma)
     motion = np.inf
     iterations = 0
     for iterations in range(1, budget + 1):
-        current, motion = _step(flat, image.shape, current, gate, params)
+        current, motion = _step(flat, image.shape, current, model, params)
         if is_collapsed(current, params):
             return SnakeResult(current, iterations, False, motion, collapsed=True)
         if needs_resampling(current, params):

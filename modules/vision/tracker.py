@@ -67,6 +67,7 @@ class SnakeTracker:
         self.model: ColorModel | None = None
         self.vertices: FloatArray | None = None
         self._previous: PolygonFeatures | None = None
+        self._reference: PolygonFeatures | None = None
         self._acquiring = False
         self._latched: SanityResult | None = None
 
@@ -91,6 +92,7 @@ class SnakeTracker:
         self.model = model
         self.vertices = vertices
         self._previous = None
+        self._reference = None
         self._acquiring = True
         self._latched = None
 
@@ -104,7 +106,7 @@ class SnakeTracker:
         elapsed = time.perf_counter() - start
         self._acquiring = False
         self.vertices = result.vertices
-        sanity = check_contour(result.vertices, self.limits, self._previous)
+        sanity = check_contour(result.vertices, self.limits, self._previous, self._reference)
         if result.collapsed and sanity.ok:
             reason = "snake collapsed: no target color left under it"
             sanity = SanityResult(
@@ -118,6 +120,8 @@ class SnakeTracker:
             )
         if sanity.features is not None:
             self._previous = sanity.features
+            if self._reference is None and sanity.ok:
+                self._reference = sanity.features
         if self._latched is None and not sanity.ok:
             self._latched = sanity
         if self._latched is not None:

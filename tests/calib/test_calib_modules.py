@@ -27,8 +27,9 @@ def test_camcalib_publishes_model_at_zoom_and_only_on_change() -> None:
         assert model.fx == pytest.approx((1004.12 + 1208.51) / 2)
         assert model.zoom == 0.125 and model.mount == "tool" and model.frame == "camera"
         expected = table.sample(0.125, "linear").camera()
-        np.testing.assert_allclose(model.T_mount_camera, invert_transform(
-            transform(expected.R, expected.d)))
+        np.testing.assert_allclose(
+            model.T_mount_camera, invert_transform(transform(expected.R, expected.d))
+        )
         # Same zoom again: no recomputation, nothing sent.
         h.push("zoom", ZoomState(zoom=0.125, moving=False))
         assert "camera" not in h.step(0.1)
@@ -89,12 +90,15 @@ def test_targeting_triangulates_through_static_frames() -> None:
     T_base_ptu_a = transform(rotation_from_vector([0, 0, 0.2]), [0.1, 0.0, 0.05])
     T_base_ptu_b = transform(np.eye(3), [-0.05, 0.02, 0.0])
     models = []
-    for cam, T_base_mount, mount in ((cam_a, T_base_ptu_a, "ptu_a"), (cam_b, T_base_ptu_b,
-                                                                         "ptu_b")):
+    for cam, T_base_mount, mount in (
+        (cam_a, T_base_ptu_a, "ptu_a"),
+        (cam_b, T_base_ptu_b, "ptu_b"),
+    ):
         T_cam_base = transform(cam.R, cam.d)
         T_cam_mount = T_cam_base @ T_base_mount
-        relative = PinholeCamera(cam.intrinsics, T_cam_mount[:3, :3], T_cam_mount[:3, 3],
-                                 cam.distortion)
+        relative = PinholeCamera(
+            cam.intrinsics, T_cam_mount[:3, :3], T_cam_mount[:3, 3], cam.distortion
+        )
         models.append(camera_message(relative, mount=mount))
     frames = {"base->ptu_a": T_base_ptu_a, "base->ptu_b": T_base_ptu_b}
     with ModuleHarness(Targeting, {"reference_frame": "base"}, frames=frames) as h:
@@ -107,7 +111,7 @@ def test_targeting_triangulates_through_static_frames() -> None:
         assert sent["gap"][0].value < 1e-9
         assert sent["status"][0].stage == "ok"
         # A mismatched pixel pair: a large gap, reported as a mismatch.
-        h.push("pixel_b", Vector(values=cam_b.project(target) + [0.0, 25.0]))
+        h.push("pixel_b", Vector(values=cam_b.project(target) + np.array([0.0, 25.0])))
         sent = h.step(0.1)
         assert sent["gap"][0].value > 0.01
         assert sent["status"][0].stage == "mismatch"
@@ -118,8 +122,9 @@ def test_targeting_with_moving_mount_pose_and_errors() -> None:
     target = np.array([-0.1, 0.05, 1.5])
     T_base_head = transform(rotation_from_vector([0.0, 0.3, 0.0]), [0.0, 0.5, 0.0])
     T_cam_head = transform(cam_a.R, cam_a.d) @ T_base_head
-    on_head = PinholeCamera(cam_a.intrinsics, T_cam_head[:3, :3], T_cam_head[:3, 3],
-                            cam_a.distortion)
+    on_head = PinholeCamera(
+        cam_a.intrinsics, T_cam_head[:3, :3], T_cam_head[:3, 3], cam_a.distortion
+    )
     with ModuleHarness(Targeting, {"method": "linear"}) as h:
         h.push("camera_a", camera_message(on_head, mount="head"))
         h.push("camera_b", camera_message(cam_b, mount="base"))

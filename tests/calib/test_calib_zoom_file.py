@@ -13,7 +13,7 @@ from modules.calib.zoom_xml import format_zoom_xml, parse_zoom_xml
 from modules.calib.zoom_yaml import parse_zoom_yaml
 
 REPO = Path(__file__).resolve().parents[2]
-REPORT_FILE = REPO / "data" / "zoom_cam.xml"
+REPORT_FILE = REPO / "modules" / "calib" / "data" / "zoom_cam.xml"
 SHARED_FILE = Path("/work/shared/data/zoom_cam.xml")
 
 
@@ -96,7 +96,7 @@ def test_xml_and_yaml_round_trip_exactly(tmp_path: Path) -> None:
 
 def test_shipped_yaml_matches_xml() -> None:
     xml = load_zoom_table(REPORT_FILE)
-    yml = load_zoom_table(REPO / "data" / "zoom_cam.yaml")
+    yml = load_zoom_table(REPO / "modules" / "calib" / "data" / "zoom_cam.yaml")
     np.testing.assert_array_equal(xml.intrinsics, yml.intrinsics)
     np.testing.assert_array_equal(xml.extrinsics, yml.extrinsics)
 

@@ -48,7 +48,7 @@ def sim() -> Iterator[SimFcbCamera]:
 
 
 @pytest.fixture
-def client_on(request: pytest.FixtureRequest) -> Iterator[Callable[..., ViscaZoomClient]]:
+def client_on() -> Iterator[Callable[..., ViscaZoomClient]]:
     clients: list[ViscaZoomClient] = []
 
     def make(camera: SimFcbCamera, **overrides: object) -> ViscaZoomClient:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
 import pytest
 
@@ -23,7 +24,9 @@ FAST = {
 }
 
 
-def step_until(h: ModuleHarness, done, timeout_s: float, dt: float = 0.01) -> ZoomState | None:
+def step_until(
+    h: ModuleHarness, done: Callable[[ZoomState], bool], timeout_s: float, dt: float = 0.01
+) -> ZoomState | None:
     """Step the module (sim clock ``dt`` per step, ~dt of real time) until ``done(latest)``."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:

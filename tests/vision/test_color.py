@@ -25,11 +25,29 @@ def test_fit_matches_numpy_statistics_and_skips_dark_pixels() -> None:
     rng = np.random.default_rng(2)
     bright = np.clip(rng.normal([60, 170, 30], 6, size=(400, 3)), 0, 255)
     dark = np.full((50, 3), 5.0)
-    model = color.fit(np.vstack([bright, dark]), min_gray=20.0, sigma_floor=0.0)
+    model = color.fit(np.vstack([bright, dark]), min_gray=20.0, noise_floor=0.0)
     total = bright.sum(axis=1)
     rg = np.column_stack([bright[:, 2] / total, bright[:, 1] / total])
     np.testing.assert_allclose(model.mean, rg.mean(axis=0), rtol=1e-5)
-    np.testing.assert_allclose(model.covariance, np.cov(rg, rowvar=False), rtol=1e-4)
+    offsets = (rg - rg.mean(axis=0)) * total[:, None]
+    np.testing.assert_allclose(model.offset_covariance, np.cov(offsets, rowvar=False), rtol=1e-4)
+    # Offsets from the color ray are sensor noise: a few gray levels, whatever the brightness.
+    assert 3.0 < np.sqrt(model.offset_covariance[0, 0]) < 9.0
+
+
+def test_a_model_learned_in_bright_light_holds_in_dim_light() -> None:
+    """Noise is additive in gray levels: at half the light the chromaticity scatters twice as
+    much, and the model expects exactly that."""
+    rng = np.random.default_rng(12)
+    patch = np.array([60.0, 170.0, 30.0])
+    bright = np.clip(patch + rng.normal(0, 8, size=(2000, 3)), 0, 255)
+    dim = np.clip(0.5 * patch + rng.normal(0, 8, size=(2000, 3)), 0, 255)
+    model = color.fit(bright)
+    for pixels in (bright, dim):
+        r, g, total = color.chromaticity(pixels)
+        inside = color.mahalanobis_squared(model, r, g, total) <= 9.0
+        assert inside.mean() > 0.97  # chi-square, 2 dof: 98.9 % within 3 sigma
+    assert color.is_target(model, dim).mean() > 0.97
 
 
 def test_fit_needs_enough_bright_pixels() -> None:
@@ -40,24 +58,25 @@ def test_fit_needs_enough_bright_pixels() -> None:
 def test_covariance_must_be_positive_definite() -> None:
     with pytest.raises(ValueError, match="positive definite"):
         color.ColorModel(np.zeros(2), np.array([[1.0, 2.0], [2.0, 1.0]]))
+    with pytest.raises(ValueError, match="floor"):
+        color.ColorModel(np.zeros(2), np.eye(2), chroma_floor=-1.0)
 
 
-def test_gate_matrix_agrees_with_mahalanobis_distance() -> None:
+def test_gate_test_agrees_with_mahalanobis_distance() -> None:
     rng = np.random.default_rng(3)
-    model = color.ColorModel(np.array([0.2, 0.6]), np.array([[1e-3, 4e-4], [4e-4, 2e-3]]))
+    model = color.ColorModel(np.array([0.2, 0.6]), np.array([[40.0, 15.0], [15.0, 90.0]]), 0.01)
     pixels = rng.integers(0, 256, size=(50_000, 3)).astype(np.float32)
+    r, g, total = color.chromaticity(pixels)
     for k in (2.0, 3.0, 5.0):
-        whitened = pixels @ color.gate_matrix(model, k)
-        fast = whitened[:, 0] ** 2 + whitened[:, 1] ** 2 <= whitened[:, 2] ** 2
-        r, g, _ = color.chromaticity(pixels)
-        slow = color.mahalanobis_squared(model, r, g) <= k * k
+        fast = color.gate_test(model, pixels @ color.offset_matrix(model), k, min_gray=0.0)
+        slow = color.mahalanobis_squared(model, r, g, total) <= k * k
         # Float32 rounding may flip a pixel that sits on the gate itself, nothing more.
         assert np.count_nonzero(fast != slow) <= 2
         assert 100 < np.count_nonzero(slow) < len(pixels) - 100
 
 
 def test_is_target_separates_patch_from_tray() -> None:
-    model = color.from_rgb((30, 170, 60), sigma=0.02)
+    model = color.from_rgb((30, 170, 60), noise_gray=8.0)
     patch_bgr = np.array([[60, 170, 30], [30, 85, 15]])  # same color at half the light
     tray_bgr = np.array([[200, 205, 205], [10, 40, 8]])  # gray tray; a too-dark green
     assert color.is_target(model, patch_bgr).all()

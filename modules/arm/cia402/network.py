@@ -64,7 +64,6 @@ from modules.arm.cia402.units import counts_s_to_rates, counts_to_angles, rates_
 logger = logging.getLogger(__name__)
 
 NMT_OPERATIONAL = 5
-NMT_BOOT_UP = 0
 NMT_STATE_NAMES = {
     0: "boot-up (the drive reset)",
     4: "STOPPED",

@@ -61,7 +61,9 @@ class SimDrive:
     (SDO, PDO, SYNC) and the caller (fault injection, inspection) share one lock.
     """
 
-    def __init__(self, node_id: int, *, eds: str | Path = obj.EDS_PATH) -> None:
+    def __init__(
+        self, node_id: int, *, eds: str | Path = obj.EDS_PATH, position_counts: float = 0.0
+    ) -> None:
         if not 1 <= node_id <= 127:
             raise ValueError(f"node id must be 1..127, got {node_id}")
         od = canopen.import_od(str(eds), node_id)
@@ -73,7 +75,7 @@ class SimDrive:
         self._mode = 0
         self._target_velocity = 0
         self._velocity = 0.0  # counts/s
-        self._position = 0.0  # counts
+        self._position = float(position_counts)  # counts
         self._error_code = 0
         self._error_register = 0
         self._silent = False

@@ -280,6 +280,15 @@ class ViscaZoomClient:
                 self._idle(next_poll)
             except (serial.SerialException, OSError) as exc:
                 self._port_failed(exc)
+            except Exception as exc:  # a bug here must show in the status, not vanish silently
+                self._set_problem(
+                    "thread",
+                    LinkStatus.PORT_ERROR,
+                    f"VISCA device thread stopped: {type(exc).__name__}: {exc}",
+                )
+                with self._lock:
+                    self._state.ready = False
+                return
 
     def _is_ready(self) -> bool:
         with self._lock:
@@ -536,6 +545,7 @@ class ViscaZoomClient:
                 self._serial = self._open_port()
             except UserError:
                 continue
+            self._splitter = vp.PacketSplitter()  # drop half a packet from before the failure
             self._clear_problem("port")
             return
 

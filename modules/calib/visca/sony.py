@@ -28,7 +28,8 @@ class Sony(Module):
     ``zoom.status`` is "ok" or "<problem>: <detail>" with problem one of starting, no_reply,
     garbled, camera_error, port_error; ``zoom.zoom`` is NaN and ``zoom.raw`` -1 until the camera
     has reported a position. Device trouble never stops the run; a port that cannot be opened at
-    start is a user error.
+    start is a user error. Give it a graph rate of about twice ``poll_rate_hz``: it publishes one
+    sample per poll and runs on new commands too.
     """
 
     TYPE = "SONY"
@@ -60,7 +61,10 @@ class Sony(Module):
         )
 
     zoom_command = Input(
-        Scalar, required=False, doc="requested zoom, normalized 0 (wide)..1 (tele); clamped"
+        Scalar,
+        trigger=True,
+        required=False,
+        doc="requested zoom, normalized 0 (wide)..1 (tele); clamped",
     )
     zoom = Output(ZoomState, doc="camera zoom at each position poll, with link status")
 

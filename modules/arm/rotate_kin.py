@@ -1,0 +1,81 @@
+"""ROTATE_KIN: a camera-frame twist becomes the tool-frame twist that moves the camera so."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors.messages import Twist
+from modules.geometry.transforms import (
+    is_rigid,
+    transform_from_xyz_rpy_deg,
+    twist_tool_from_camera,
+)
+
+
+class RotateKin(Module):
+    """Transforms a twist from the camera frame into the tool frame (full rigid transform).
+
+    ``w_tool = R w_cam`` and ``v_tool = R v_cam + w_tool x (p_tool - p_cam)``: when the camera
+    is offset from the tool point, turning the camera about its own axis needs a tool
+    translation too (the lever-arm term), not only a rotation of the vector. The camera mount
+    ``T_tool_camera`` comes from the graph's static frames (``tool->camera``) unless
+    ``mount_xyz`` / ``mount_rpy_deg`` are given.
+    """
+
+    TYPE = "ROTATE_KIN"
+
+    class Params(Parameters):
+        camera_frame: str = param("camera", "frame of the incoming twist")
+        tool_frame: str = param("tool", "frame of the outgoing twist")
+        mount_xyz: list[float] | None = param(
+            None, "camera origin in the tool frame (default: graph frames)", unit="m"
+        )
+        mount_rpy_deg: list[float] | None = param(
+            None, "camera roll, pitch, yaw in the tool frame (default: graph frames)", unit="deg"
+        )
+
+    camera_twist = Input(Twist, frame=from_param("camera_frame"), trigger=True, doc="camera twist")
+    tool_twist = Output(Twist, frame=from_param("tool_frame"), doc="tool twist")
+
+    def start(self) -> None:
+        p = self.params
+        if (p.mount_xyz is None) != (p.mount_rpy_deg is None):
+            raise UserError(
+                f"ROTATE_KIN `{self.name}`: give both mount_xyz and mount_rpy_deg, or neither "
+                "(then the graph's static frames are used)"
+            )
+        if p.mount_xyz is not None:
+            if len(p.mount_xyz) != 3 or len(p.mount_rpy_deg or ()) != 3:
+                raise UserError(
+                    f"ROTATE_KIN `{self.name}`: mount_xyz and mount_rpy_deg take 3 numbers each, "
+                    f"got {p.mount_xyz} and {p.mount_rpy_deg}"
+                )
+            self.T_tool_camera = transform_from_xyz_rpy_deg(p.mount_xyz, p.mount_rpy_deg)
+        else:
+            try:
+                self.T_tool_camera = self.context.frames.lookup(p.tool_frame, p.camera_frame)
+            except KeyError:
+                raise UserError(
+                    f"ROTATE_KIN `{self.name}`: no static frame `{p.tool_frame}->"
+                    f"{p.camera_frame}` in the graph; add it under `frames:` or set mount_xyz "
+                    "and mount_rpy_deg"
+                ) from None
+        if not is_rigid(self.T_tool_camera, 1e-6):
+            raise UserError(f"ROTATE_KIN `{self.name}`: the camera mount is not a rigid transform")
+        self._rejected = 0
+
+    def step(self, now: float) -> None:
+        sample = self.camera_twist.get(now)
+        if sample is None or not self.camera_twist.fresh:
+            return
+        if sample.frame != self.params.camera_frame:
+            # A wrong frame at run time is a bug upstream; never move on it.
+            self._rejected += 1
+            vector = np.zeros(6)
+        else:
+            vector = twist_tool_from_camera(self.T_tool_camera, sample.vector)
+        self.tool_twist.send(Twist(vector=vector, frame=self.params.tool_frame, stamp=sample.stamp))
+
+    def summary(self) -> dict[str, int]:
+        return {"rejected_frames": self._rejected}

@@ -1,0 +1,203 @@
+"""vsServo: snake contour in, 4-DOF camera velocity out, through the stages of a grab."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import cv2
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors.messages import CameraModel, Contour, Status, Text, Twist
+from modules.servo.features import (
+    FeatureError,
+    Intrinsics,
+    MomentFeatures,
+    features_from_normalized_contour,
+)
+from modules.servo.goal import goal_from_pixels, goal_from_standoff
+from modules.servo.law import ServoGains
+from modules.servo.stages import (
+    OPERATOR_COMMANDS,
+    Observation,
+    ServoOutput,
+    ServoStages,
+    StageSettings,
+)
+
+ERROR_NAMES = ("error_x", "error_y", "error_z", "error_roll")
+
+
+class VsServo(Module):
+    """Visual servo on a rectangular colored patch of known size (image-moment features).
+
+    From each contour: normalized area (depth: the patch size is known), centroid (x, y) and
+    principal-axis angle (roll) give a 4-DOF error; ``v = -lambda L^-1 e`` gives the camera
+    twist (x right, y down, z along the optical axis), clamped in speed. Stages: acquire (snake
+    healthy for ``acquire_frames``), approach (until every error is within tolerance for
+    ``settle_frames``), final grab (advance ``grab_distance`` along the optical axis at
+    ``grab_speed``, close the gripper), done. Any snake failure stops at once (zero twist) and
+    asks for the operator; ``resume`` on the operator input restarts acquisition, ``abort``
+    aborts. The goal is a standoff in metres (patch centred on ``goal_u``, ``goal_v``, default
+    the principal point) or, with ``goal_area_px``, a target image of the patch in pixels.
+    Intrinsics come from the ``camera`` input when connected (undistorting the contour), else
+    from ``fx``, ``fy``, ``u0``, ``v0``.
+    """
+
+    TYPE = "vsServo"
+
+    class Params(Parameters):
+        patch_width: float = param(0.08, "patch long side", unit="m", gt=0)
+        patch_height: float = param(0.05, "patch short side", unit="m", gt=0)
+        fx: float = param(
+            600.0, "focal length x (unused when `camera` is connected)", unit="px", gt=0
+        )
+        fy: float = param(
+            600.0, "focal length y (unused when `camera` is connected)", unit="px", gt=0
+        )
+        u0: float = param(320.0, "principal point u (unused when `camera` is connected)", unit="px")
+        v0: float = param(240.0, "principal point v (unused when `camera` is connected)", unit="px")
+        goal_mode: Literal["standoff", "pixels"] = param("standoff", "how the goal is given")
+        standoff: float = param(0.2, "goal depth of the patch (goal_mode standoff)", unit="m", gt=0)
+        goal_area_px: float = param(
+            20000.0, "goal patch area in the image (goal_mode pixels)", unit="px^2", gt=0
+        )
+        goal_u: float | None = param(
+            None, "goal patch centre u (default principal point)", unit="px"
+        )
+        goal_v: float | None = param(
+            None, "goal patch centre v (default principal point)", unit="px"
+        )
+        goal_roll_deg: float = param(0.0, "goal principal-axis angle from +u", unit="deg")
+        gains: list[float] = param([0.8, 0.8, 0.6, 0.8], "gains x, y, z, roll", unit="1/s")
+        max_linear: float = param(0.05, "linear speed clamp", unit="m/s", gt=0)
+        max_angular: float = param(0.3, "angular speed clamp", unit="rad/s", gt=0)
+        acquire_frames: int = param(5, "healthy frames before the approach", ge=1)
+        settle_frames: int = param(5, "in-tolerance frames that end the approach", ge=1)
+        tolerance_xy: float = param(0.002, "x, y tolerance", unit="m", gt=0)
+        tolerance_z: float = param(0.003, "depth tolerance", unit="m", gt=0)
+        tolerance_roll_deg: float = param(1.0, "roll tolerance", unit="deg", gt=0)
+        grab_distance: float = param(0.05, "final open-loop advance", unit="m", ge=0)
+        grab_speed: float = param(0.02, "speed of the final advance", unit="m/s", gt=0)
+        gripper_close_time: float = param(0.5, "wait after closing the gripper", unit="s", ge=0)
+        max_contour_age: float = param(0.5, "older contours count as lost", unit="s", gt=0)
+        camera_frame: str = param("camera", "frame of the output twist")
+
+    contour = Input(Contour, trigger=True, doc="tracked patch from vsSnake")
+    operator = Input(Text, required=False, doc="operator: resume / abort")
+    camera = Input(CameraModel, required=False, feedback=True, doc="calibrated camera (zoom)")
+    twist = Output(Twist, frame=from_param("camera_frame"), doc="camera velocity command")
+    status = Output(Status, doc="stage, errors, operator-assistance requests")
+    gripper = Output(Text, doc="gripper command: open / close")
+
+    def start(self) -> None:
+        p = self.params
+        if len(p.gains) != 4:
+            raise UserError(f"vsServo `{self.name}`: gains takes 4 numbers (x, y, z, roll)")
+        self.patch_area = p.patch_width * p.patch_height
+        self._camera_seq = -1
+        self._intrinsics = Intrinsics(fx=p.fx, fy=p.fy, u0=p.u0, v0=p.v0)
+        self._distortion: np.ndarray | None = None
+        gains = ServoGains(tuple(p.gains), p.max_linear, p.max_angular)  # type: ignore[arg-type]
+        settings = StageSettings(
+            acquire_frames=p.acquire_frames,
+            settle_frames=p.settle_frames,
+            tolerance=(
+                p.tolerance_xy,
+                p.tolerance_xy,
+                p.tolerance_z,
+                np.radians(p.tolerance_roll_deg),
+            ),
+            grab_distance=p.grab_distance,
+            grab_speed=p.grab_speed,
+            gripper_close_time=p.gripper_close_time,
+            max_contour_age=p.max_contour_age,
+        )
+        self.stages = ServoStages(self._goal(), gains, settings)
+        self._last_key: tuple[str, str, str] | None = None
+        self._assists = 0
+
+    def _goal(self) -> MomentFeatures:
+        p = self.params
+        K = self._intrinsics
+        centre = (
+            (K.u0 if p.goal_u is None else p.goal_u),
+            (K.v0 if p.goal_v is None else p.goal_v),
+        )
+        roll = float(np.radians(p.goal_roll_deg))
+        if p.goal_mode == "pixels":
+            return goal_from_pixels(p.goal_area_px, centre, roll, K, self.patch_area)
+        return goal_from_standoff(p.standoff, K, centre, roll)
+
+    def _update_camera(self, now: float) -> None:
+        model = self.camera.get(now)
+        if model is None or model.seq == self._camera_seq:
+            return
+        self._camera_seq = model.seq
+        self._intrinsics = Intrinsics(
+            fx=model.fx, fy=model.fy, u0=model.u0, v0=model.v0, skew=model.skew
+        )
+        dist = np.asarray(model.dist, dtype=float)
+        self._distortion = dist if np.any(dist) else None
+        self._K = model.K
+        self.stages.goal = self._goal()
+
+    def _normalized(self, vertices: np.ndarray) -> np.ndarray:
+        if self._distortion is None:
+            return self._intrinsics.normalize(vertices)
+        points = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 1, 2)
+        return cv2.undistortPoints(points, self._K, self._distortion).reshape(-1, 2)
+
+    def _observe(self, now: float) -> Observation | None:
+        contour = self.contour.get(now)
+        if contour is None:
+            return None
+        received = now - self.contour.age(now)
+        if contour.status == "failed":
+            return Observation(None, healthy=False, stamp=received, reason=contour.reason)
+        if contour.status != "tracking":
+            return Observation(None, healthy=True, stamp=received)
+        try:
+            normalized = self._normalized(np.asarray(contour.vertices, dtype=float))
+            features = features_from_normalized_contour(normalized, self.patch_area)
+        except FeatureError as exc:
+            return Observation(None, healthy=False, stamp=received, reason=str(exc))
+        return Observation(features, healthy=True, stamp=received)
+
+    def step(self, now: float) -> None:
+        self._update_camera(now)
+        command = self.operator.get(now)
+        if command is not None and self.operator.fresh:
+            text = command.text.strip().lower()
+            if text in OPERATOR_COMMANDS:
+                self.stages.operator(text)
+            else:
+                self.log.warning("ignoring operator input %r (expected resume or abort)", text)
+        out = self.stages.step(now, self._observe(now))
+        self.twist.send(Twist(vector=out.camera_twist, frame=self.params.camera_frame))
+        if out.gripper:
+            self.gripper.send(Text(text=out.gripper))
+        self._report(out)
+
+    def _report(self, out: ServoOutput) -> None:
+        values = {
+            name: float(value)
+            for name, value in zip(ERROR_NAMES, out.error, strict=True)
+            if np.isfinite(value)
+        }
+        key = (out.stage, out.message, out.reason)
+        if key != self._last_key and out.assist:
+            self._assists += 1
+        self._last_key = key
+        self.status.send(
+            Status(
+                stage=out.stage,
+                message=out.message,
+                assist=out.assist,
+                reason=out.reason,
+                values=values,
+            )
+        )
+
+    def summary(self) -> dict[str, object]:
+        return {"stage": self.stages.stage, "assist_requests": self._assists}

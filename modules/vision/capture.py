@@ -1,0 +1,202 @@
+"""Frames from OpenCV capture (device index, video file, stream URL), read in a thread.
+
+The reader thread is the only place that blocks on the device; the owner takes frames without
+waiting. A device or a stream keeps only its latest frame (old frames are dropped, as a frame
+grabber does); a video file keeps every frame, in order, in a short queue, so that playback
+delivers each frame once. At the end of a file the reader loops, or stops and says so.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import queue
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+SourceKind = Literal["device", "file", "url"]
+
+
+class CaptureError(ValueError):
+    """A capture source could not be opened or read."""
+
+
+@dataclass(frozen=True)
+class CaptureSource:
+    """Where frames come from: ``kind`` and ``target`` (device index, file path or URL)."""
+
+    kind: SourceKind
+    target: int | str
+
+    @classmethod
+    def parse(cls, text: str) -> CaptureSource:
+        """A device index (``"0"``), a URL (``"rtsp://..."``), or else a file path."""
+        stripped = text.strip()
+        if stripped.isdigit():
+            return cls("device", int(stripped))
+        if "://" in stripped:
+            return cls("url", stripped)
+        return cls("file", stripped)
+
+    def describe(self) -> str:
+        return {"device": "camera device", "file": "video file", "url": "stream"}[
+            self.kind
+        ] + f" {self.target}"
+
+
+def _as_bgr(frame: NDArray[np.uint8], size_wh: tuple[int, int] | None) -> NDArray[np.uint8]:
+    if frame.ndim == 2:
+        frame = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
+    elif frame.shape[2] == 4:
+        frame = cv2.cvtColor(frame, cv2.COLOR_BGRA2BGR)
+    if size_wh is not None and (frame.shape[1], frame.shape[0]) != size_wh:
+        frame = cv2.resize(frame, size_wh, interpolation=cv2.INTER_AREA)
+    return np.ascontiguousarray(frame)
+
+
+class CaptureReader:
+    """Opens ``source`` at once (raising :class:`CaptureError` if it cannot deliver a frame) and
+    reads it in a daemon thread after :meth:`start`.
+
+    ``size_wh``: frames are resized to this (width, height) when given (and a device is asked
+    for it); ``fps``: frame rate asked of a device (0: its own); ``loop``: a file starts over at
+    its end instead of ending; ``open_timeout_s``: how long a stream may take to open.
+    """
+
+    def __init__(
+        self,
+        source: CaptureSource,
+        size_wh: tuple[int, int] | None = None,
+        fps: float = 0.0,
+        loop: bool = True,
+        open_timeout_s: float = 5.0,
+        file_queue: int = 4,
+    ) -> None:
+        self.source = source
+        self.size_wh = size_wh
+        self.loop = loop
+        self.frames_read = 0
+        self.ended = threading.Event()
+        self.failed_reads = 0
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._latest: tuple[int, NDArray[np.uint8]] | None = None
+        self._queue: queue.Queue[NDArray[np.uint8]] = queue.Queue(maxsize=max(file_queue, 1))
+        self._thread: threading.Thread | None = None
+        self._capture = self._open(open_timeout_s, fps)
+        ok, first = self._capture.read()
+        if not ok or first is None:
+            self._capture.release()
+            raise CaptureError(f"{source.describe()} opened but delivered no frame")
+        self._first: NDArray[np.uint8] | None = _as_bgr(first, size_wh)
+
+    def _open(self, open_timeout_s: float, fps: float) -> cv2.VideoCapture:
+        source = self.source
+        if source.kind == "file" and not Path(str(source.target)).is_file():
+            raise CaptureError(f"video file {source.target} not found")
+        if source.kind == "url":
+            capture = cv2.VideoCapture(
+                str(source.target),
+                cv2.CAP_ANY,
+                [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, int(1000 * open_timeout_s)],
+            )
+        else:
+            capture = cv2.VideoCapture(source.target)
+        if not capture.isOpened():
+            capture.release()
+            reason = "no such device or it is busy" if source.kind == "device" else "cannot decode"
+            raise CaptureError(f"cannot open {source.describe()} ({reason})")
+        if source.kind == "device":
+            if self.size_wh is not None:
+                capture.set(cv2.CAP_PROP_FRAME_WIDTH, self.size_wh[0])
+                capture.set(cv2.CAP_PROP_FRAME_HEIGHT, self.size_wh[1])
+            if fps > 0:
+                capture.set(cv2.CAP_PROP_FPS, fps)
+        return capture
+
+    @property
+    def is_file(self) -> bool:
+        return self.source.kind == "file"
+
+    def start(self) -> None:
+        """Start the reader thread."""
+        self._thread = threading.Thread(
+            target=self._run, name=f"capture-{self.source.target}", daemon=True
+        )
+        self._thread.start()
+
+    def _publish(self, frame: NDArray[np.uint8]) -> bool:
+        """Hand a frame over; False when asked to stop while waiting for queue space."""
+        self.frames_read += 1
+        if not self.is_file:
+            with self._lock:
+                self._latest = (self.frames_read, frame)
+            return True
+        while not self._stop.is_set():
+            try:
+                self._queue.put(frame, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _run(self) -> None:
+        first, self._first = self._first, None
+        if first is not None and not self._publish(first):
+            return
+        while not self._stop.is_set():
+            ok, frame = self._capture.read()
+            if ok and frame is not None:
+                self.failed_reads = 0
+                if not self._publish(_as_bgr(frame, self.size_wh)):
+                    return
+                continue
+            if self.is_file:
+                if self.loop and self.frames_read > 0 and self._rewind():
+                    continue
+                self.ended.set()
+                return
+            # A device or stream that fails to deliver: keep trying, gently.
+            self.failed_reads += 1
+            self._stop.wait(0.01)
+
+    def _rewind(self) -> bool:
+        if self._capture.set(cv2.CAP_PROP_POS_FRAMES, 0):
+            return True
+        self._capture.release()
+        self._capture = cv2.VideoCapture(str(self.source.target))
+        return self._capture.isOpened()
+
+    def latest(self) -> tuple[int, NDArray[np.uint8]] | None:
+        """(frame number, frame) of the newest frame of a device or stream; None before one."""
+        with self._lock:
+            return self._latest
+
+    def next_frame(self, timeout_s: float = 0.0) -> NDArray[np.uint8] | None:
+        """The next frame of a file in order; None when none is ready within ``timeout_s``."""
+        try:
+            if timeout_s > 0:
+                return self._queue.get(timeout=timeout_s)
+            return self._queue.get_nowait()
+        except queue.Empty:
+            return None
+
+    def drained(self) -> bool:
+        """A file that has ended and whose frames have all been taken."""
+        return self.ended.is_set() and self._queue.empty()
+
+    def close(self) -> None:
+        """Stop the thread and release the device (idempotent)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            if self._thread.is_alive():
+                return  # stuck in a driver call: releasing under it could crash; it is a daemon
+            self._thread = None
+        with contextlib.suppress(cv2.error):
+            self._capture.release()

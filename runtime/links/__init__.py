@@ -1,0 +1,21 @@
+"""Zenoh links between the processes of a graph.
+
+``config`` builds safe zenoh configurations (peer mode, scouting off, explicit endpoints),
+``session`` opens them, ``transport`` is the :class:`runtime.links_api.LinkTransport` over zenoh
+(publishers, subscribers, liveliness, counters), ``shm`` puts large samples in shared memory and
+``process`` runs one process of a split graph with its links.
+"""
+
+from runtime.links.config import Endpoints, build_config, free_loopback_ports, loopback_mesh
+from runtime.links.session import open_session
+from runtime.links.transport import ZenohTransport, alive_key
+
+__all__ = [
+    "Endpoints",
+    "ZenohTransport",
+    "alive_key",
+    "build_config",
+    "free_loopback_ports",
+    "loopback_mesh",
+    "open_session",
+]

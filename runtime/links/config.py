@@ -1,0 +1,167 @@
+"""Zenoh configuration for links: safe defaults, explicit endpoints, an optional user file.
+
+Every configuration built here:
+
+* runs in peer mode unless a user file names another mode (client, router);
+* turns multicast and gossip scouting off — always, whatever a user file says — because zenoh's
+  stock default multicasts out of the machine's network interface;
+* lists its listen and connect endpoints explicitly (zenoh's own default listens on every
+  interface): on one host the defaults are loopback ``tcp/127.0.0.1:PORT`` endpoints;
+* retries connect endpoints quickly (a peer that comes back, or a link that returns, is rejoined
+  without restarting anything) and uses a short lease, so a silent peer is declared gone within
+  about a second (``LEASE_MS``);
+* keeps zenoh's shared-memory transport on, so large samples between processes on one host travel
+  as shared-memory references (see ``runtime.links.shm``).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import socket
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import zenoh
+
+from connectors.errors import UserError
+
+#: Lease of a zenoh link [ms]: a peer that sends nothing for this long is declared gone.
+LEASE_MS = 1000
+#: Keep-alive messages per lease period.
+KEEP_ALIVE = 4
+#: First base port of the default loopback mesh of ``umbra run GRAPH --process NAME``.
+DEFAULT_BASE_PORT = 7447
+LOOPBACK = "127.0.0.1"
+_ENDPOINT_RE = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
+
+
+@dataclass
+class Endpoints:
+    """Where one process listens and what it connects to (zenoh locators, ``tcp/HOST:PORT``)."""
+
+    listen: list[str] = field(default_factory=list)
+    connect: list[str] = field(default_factory=list)
+
+    @property
+    def empty(self) -> bool:
+        return not self.listen and not self.connect
+
+
+def check_endpoint(text: str, where: str) -> str:
+    """``text`` when it looks like a zenoh endpoint (``tcp/127.0.0.1:7447``); UserError if not."""
+    if not isinstance(text, str) or not _ENDPOINT_RE.match(text.strip()):
+        raise UserError(
+            f"{where}: expected a zenoh endpoint like `tcp/127.0.0.1:7447`, found {text!r}"
+        )
+    return text.strip()
+
+
+def loopback_mesh(processes: list[str], ports: list[int]) -> dict[str, Endpoints]:
+    """Loopback endpoints joining every pair of ``processes``: process i listens on
+    ``tcp/127.0.0.1:ports[i]`` and connects to every process before it (peers do not route for
+    each other, so a graph of three processes needs all three pairs)."""
+    if len(ports) < len(processes):
+        raise ValueError(f"need {len(processes)} ports, got {len(ports)}")
+    mesh = {}
+    for i, name in enumerate(processes):
+        mesh[name] = Endpoints(
+            listen=[f"tcp/{LOOPBACK}:{ports[i]}"],
+            connect=[f"tcp/{LOOPBACK}:{ports[j]}" for j in range(i)],
+        )
+    return mesh
+
+
+def default_mesh(processes: list[str], base_port: int = DEFAULT_BASE_PORT) -> dict[str, Endpoints]:
+    """The fixed loopback mesh used by ``--process NAME`` without endpoints: process i of the graph
+    listens on ``base_port + i``, so processes started by hand on one host find each other."""
+    return loopback_mesh(processes, [base_port + i for i in range(len(processes))])
+
+
+def free_loopback_ports(count: int) -> list[int]:
+    """``count`` distinct TCP ports free on 127.0.0.1 right now (the OS picks them)."""
+    sockets = []
+    try:
+        for _ in range(count):
+            s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            s.bind((LOOPBACK, 0))
+            sockets.append(s)
+        return [s.getsockname()[1] for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
+
+
+def _json(value: object) -> str:
+    return json.dumps(value)
+
+
+def _user_config(path: str) -> zenoh.Config:
+    file = Path(path)
+    if not file.is_file():
+        raise UserError(f"{path}: error: no such zenoh configuration file (JSON5)")
+    try:
+        return zenoh.Config.from_file(str(file))
+    except Exception as exc:  # zenoh raises ZError with its parser's message
+        raise UserError(f"{path}: error: not a valid zenoh configuration: {exc}") from None
+
+
+def file_endpoints(path: str) -> Endpoints:
+    """The listen/connect endpoints a zenoh configuration file sets (empty when it sets none)."""
+    cfg, stock = _user_config(path), zenoh.Config()
+    found = Endpoints()
+    for key, attr in (("listen/endpoints", "listen"), ("connect/endpoints", "connect")):
+        value = json.loads(cfg.get_json(key))
+        if value != json.loads(stock.get_json(key)):
+            if isinstance(value, dict):  # per-mode form {"peer": [...], "router": [...]}
+                value = value.get("peer", [])
+            setattr(found, attr, list(value))
+    return found
+
+
+def build_config(endpoints: Endpoints, config_file: str | None = None) -> zenoh.Config:
+    """A zenoh configuration for one process: ``config_file`` (JSON5, for TLS, access control,
+    routers) when given, then our safety settings and exactly ``endpoints``."""
+    stock = zenoh.Config()
+    cfg = _user_config(config_file) if config_file else zenoh.Config()
+
+    def unchanged(key: str) -> bool:
+        return cfg.get_json(key) == stock.get_json(key)
+
+    for i, text in enumerate(endpoints.listen + endpoints.connect):
+        check_endpoint(text, f"endpoint {i + 1}")
+    if unchanged("mode"):
+        cfg.insert_json5("mode", _json("peer"))
+    cfg.insert_json5("scouting/multicast/enabled", "false")
+    cfg.insert_json5("scouting/gossip/enabled", "false")
+    cfg.insert_json5("listen/endpoints", _json(endpoints.listen))
+    cfg.insert_json5("connect/endpoints", _json(endpoints.connect))
+    if unchanged("connect/retry"):
+        cfg.insert_json5(
+            "connect/retry",
+            _json(
+                {
+                    "period_init_ms": 250,
+                    "period_max_ms": 1000,
+                    "period_increase_factor": 2,
+                }
+            ),
+        )
+    if unchanged("transport/link/tx/lease"):
+        cfg.insert_json5("transport/link/tx/lease", _json(LEASE_MS))
+    if unchanged("transport/link/tx/keep_alive"):
+        cfg.insert_json5("transport/link/tx/keep_alive", _json(KEEP_ALIVE))
+    if unchanged("transport/shared_memory/enabled"):
+        cfg.insert_json5("transport/shared_memory/enabled", "true")
+    return cfg
+
+
+def describe(cfg: zenoh.Config) -> str:
+    """One line naming mode and endpoints, for the log."""
+    mode = json.loads(cfg.get_json("mode")) or "peer"
+    listen = json.loads(cfg.get_json("listen/endpoints"))
+    connect = json.loads(cfg.get_json("connect/endpoints"))
+    return (
+        f"zenoh {mode}: listen {', '.join(listen) or '-'}; "
+        f"connect {', '.join(connect) or '-'}; scouting off"
+    )

@@ -1,0 +1,74 @@
+"""Counters of one link end, for the run summary and for a consumer's view of the link."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class PublishStats:
+    """Producer side of a key: samples and bytes sent, how, and failures."""
+
+    key: str
+    links: list[str] = field(default_factory=list)
+    reliable: bool = True
+    sent: int = 0
+    bytes: int = 0
+    shm_samples: int = 0
+    put_errors: int = 0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "key": self.key,
+            "side": "publish",
+            "links": self.links,
+            "mode": "reliable/block" if self.reliable else "best-effort/drop",
+            "sent": self.sent,
+            "bytes": self.bytes,
+            "shm_samples": self.shm_samples,
+            "put_errors": self.put_errors,
+        }
+
+
+@dataclass
+class SubscribeStats:
+    """Consumer side of a key: samples received, what was wrong with the others, and when the
+    latest arrived (``time.monotonic()`` seconds)."""
+
+    key: str
+    producer: str
+    links: list[str] = field(default_factory=list)
+    received: int = 0
+    bytes: int = 0
+    decode_errors: int = 0
+    missing: int = 0  #: sequence numbers skipped (samples lost on the way or dropped as old)
+    stale_dropped: int = 0  #: samples older than one already delivered (dropped)
+    restarts: int = 0  #: the producer started again from sequence number 1
+    ended: int = 0  #: end-of-stream markers received (the producer stopped cleanly)
+    last_seq: int = 0
+    last_arrival: float = -math.inf
+    last_error: str = ""
+
+    def age(self, now: float | None = None) -> float:
+        """Seconds since the latest sample arrived (infinite when none has)."""
+        return (time.monotonic() if now is None else now) - self.last_arrival
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "key": self.key,
+            "side": "subscribe",
+            "producer": self.producer,
+            "links": self.links,
+            "received": self.received,
+            "bytes": self.bytes,
+            "decode_errors": self.decode_errors,
+            "missing": self.missing,
+            "stale_dropped": self.stale_dropped,
+            "restarts": self.restarts,
+            "ended": self.ended,
+            "last_seq": self.last_seq,
+            "last_error": self.last_error,
+        }

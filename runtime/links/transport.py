@@ -1,0 +1,327 @@
+"""The zenoh link transport: publishers, subscribers, liveliness and counters of one process.
+
+Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overridden):
+
+* ``P/<module>/<port>`` — samples of one output, one publisher per output whatever the number of
+  consumers; a ``delete`` on it marks the end of the stream (the producer stopped cleanly);
+* ``P/_alive/<process>`` — a liveliness token held by each running process of the graph. Zenoh
+  removes it when the process's session ends for any reason (exit, crash, kill -9, lost link
+  after the lease), which is how consumers learn that a producing process is gone.
+
+Commands never drop: a reliable link (every type but ``Image``) publishes with congestion control
+BLOCK; video may drop old frames: best-effort links use DROP. Both are ``express`` (no batching
+delay). Samples are decoded on zenoh's threads; a sample that does not decode is counted and
+dropped with one log line (rate-limited), and the process keeps running.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import zenoh
+
+from connectors.codec import Codec, DecodeError
+from connectors.messages import Message
+from connectors.ports import Sink
+from runtime.graph.plan import GraphPlan, LinkPlan
+from runtime.links.shm import ShmWriter
+from runtime.links.stats import PublishStats, SubscribeStats
+
+ALIVE = "_alive"
+#: At most one log line per key and this many seconds about undecodable samples.
+ERROR_LOG_PERIOD = 5.0
+
+
+def alive_key(prefix: str, process: str) -> str:
+    """Key of the liveliness token of ``process``."""
+    return f"{prefix}/{ALIVE}/{process}"
+
+
+def _no_sink(sample: Message, now: float) -> None:
+    """Second and later links of one output: the output's publisher already sends the sample."""
+
+
+class ZenohTransport:
+    """Links of process ``process`` of ``plan`` over an open zenoh ``session``.
+
+    Order of use: construct (declares the liveliness subscriber), let the scheduler wire
+    ``publisher``/``subscribe``, then ``announce()`` (declares this process's liveliness token:
+    a token seen means the process's subscriptions exist), ``wait_ready`` (producers wait for
+    their consumers, so no sample is lost at start), run, ``close()``.
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        plan: GraphPlan,
+        process: str,
+        *,
+        log: logging.Logger | None = None,
+        shm: ShmWriter | None = None,
+    ) -> None:
+        self._session = session
+        self.prefix = plan.key_prefix
+        self.process = process
+        self._log = log or logging.getLogger("umbra.links")
+        self._shm = shm if shm is not None else ShmWriter(log=self._log)
+        self._codec = Codec()  # publishing happens on the scheduler's thread only
+        self._local = threading.local()  # one decoder per zenoh thread
+        self._lock = threading.Lock()
+        self._producer_of: dict[str, str] = {}
+        self._consumers_of: dict[str, set[str]] = {}
+        for link in plan.links:
+            self._producer_of[link.key] = plan.modules[link.connection.src.module].process
+            self._consumers_of.setdefault(link.key, set()).add(
+                plan.modules[link.connection.dst.module].process
+            )
+        self._pubs: dict[str, tuple[Any, PublishStats]] = {}
+        self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
+        self._alive: set[str] = set()
+        self._ended: set[str] = set()
+        self._last_error_log: dict[str, tuple[float, int]] = {}
+        self._token: Any = None
+        self._closed = False
+        self._alive_sub = session.liveliness().declare_subscriber(
+            f"{self.prefix}/{ALIVE}/*", self._on_liveliness, history=True
+        )
+
+    # -- liveliness -----------------------------------------------------------------------------
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        name = str(sample.key_expr).rsplit("/", 1)[-1]
+        if name == self.process:
+            return
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                known = name in self._alive
+                self._alive.add(name)
+            else:
+                known = name in self._alive
+                self._alive.discard(name)
+        if sample.kind == zenoh.SampleKind.PUT and not known:
+            self._log.info("process `%s` is up", name)
+        elif sample.kind != zenoh.SampleKind.PUT and known:
+            self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
+
+    def announce(self) -> None:
+        """Declare this process's liveliness token (after every subscription is declared)."""
+        if self._token is None:
+            self._token = self._session.liveliness().declare_token(
+                alive_key(self.prefix, self.process)
+            )
+
+    def alive_processes(self) -> set[str]:
+        """Other processes of the graph whose liveliness token is visible now."""
+        with self._lock:
+            return set(self._alive)
+
+    # -- producer side --------------------------------------------------------------------------
+    def publisher(self, link: LinkPlan) -> Sink:
+        """A sink publishing the samples of ``link``'s output (once per output)."""
+        if link.key in self._pubs:
+            self._pubs[link.key][1].links.append(str(link.connection))
+            return _no_sink
+        if link.reliable:
+            pub = self._session.declare_publisher(
+                link.key,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+                priority=zenoh.Priority.DATA_HIGH,
+                express=True,
+            )
+        else:
+            pub = self._session.declare_publisher(
+                link.key,
+                congestion_control=zenoh.CongestionControl.DROP,
+                priority=zenoh.Priority.DATA,
+                express=True,
+            )
+        stats = PublishStats(link.key, [str(link.connection)], link.reliable)
+        self._pubs[link.key] = (pub, stats)
+        encode, wrap, put, log = self._codec.encode, self._shm.payload, pub.put, self._log
+        counters = self._shm.counters
+
+        def publish(sample: Message, now: float) -> None:
+            data = encode(sample)
+            before = counters.shm_samples
+            try:
+                put(wrap(data))
+            except Exception as exc:  # session closing, or a zenoh error: count, never raise
+                stats.put_errors += 1
+                if stats.put_errors == 1:
+                    log.warning("link `%s`: publishing failed: %s", stats.key, exc)
+                return
+            stats.sent += 1
+            stats.bytes += len(data)
+            stats.shm_samples += counters.shm_samples - before
+
+        return publish
+
+    def consumers_ready(self) -> list[str]:
+        """What producers still wait for: one line per output whose consumers are not all up."""
+        alive = self.alive_processes()
+        waiting = []
+        for key, (pub, _stats) in self._pubs.items():
+            missing = sorted(self._consumers_of.get(key, set()) - alive)
+            status = pub.matching_status
+            matching = getattr(status, "matching", status)
+            if missing or not matching:
+                who = ", ".join(f"`{p}`" for p in missing) or "a subscriber"
+                waiting.append(f"{key} (waiting for {who})")
+        return waiting
+
+    def wait_ready(
+        self, stop: threading.Event, timeout: float | None, report_every: float = 5.0
+    ) -> bool:
+        """Wait until every consumer process of this process's outputs is up and subscribed.
+        False when ``stop`` was set first; TimeoutError after ``timeout`` seconds (None: never)."""
+        start = last_report = time.monotonic()
+        while True:
+            waiting = self.consumers_ready()
+            if not waiting:
+                return True
+            now = time.monotonic()
+            if timeout is not None and now - start > timeout:
+                raise TimeoutError("; ".join(waiting))
+            if now - last_report >= report_every:
+                last_report = now
+                self._log.info("waiting for consumers: %s", "; ".join(waiting))
+            if stop.wait(0.005):
+                return False
+
+    # -- consumer side --------------------------------------------------------------------------
+    def _decoder(self) -> Codec:
+        codec = getattr(self._local, "codec", None)
+        if codec is None:
+            codec = self._local.codec = Codec()
+        return codec
+
+    def subscribe(self, link: LinkPlan, deliver: Callable[[Message], None]) -> None:
+        """Call ``deliver(sample)`` for each decoded, in-order sample of ``link``."""
+        if link.key in self._subs:
+            _sub, stats, delivers = self._subs[link.key]
+            stats.links.append(str(link.connection))
+            delivers.append(deliver)
+            return
+        stats = SubscribeStats(
+            link.key, self._producer_of.get(link.key, "?"), [str(link.connection)]
+        )
+        delivers = [deliver]
+        expected, key, ended = link.msg_type, link.key, self._ended
+        put_kind = zenoh.SampleKind.PUT
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
+                stats.ended += 1
+                ended.add(key)
+                return
+            try:
+                data = sample.payload.to_bytes()
+                msg = self._decoder().decode(data)
+                if not isinstance(msg, expected):
+                    raise DecodeError(f"expected {expected.__name__}, found {type(msg).__name__}")
+            except Exception as exc:  # DecodeError, or anything a foreign payload provokes
+                self._bad_sample(stats, exc)
+                return
+            seq, last = msg.seq, stats.last_seq
+            if last and seq <= last:
+                if seq != 1:
+                    stats.stale_dropped += 1
+                    return
+                stats.restarts += 1
+            elif last and seq > last + 1:
+                stats.missing += seq - last - 1
+            stats.last_seq = seq
+            stats.received += 1
+            stats.bytes += len(data)
+            stats.last_arrival = time.monotonic()
+            ended.discard(key)
+            for d in delivers:
+                d(msg)
+
+        sub = self._session.declare_subscriber(link.key, on_sample)
+        self._subs[link.key] = (sub, stats, delivers)
+
+    def _bad_sample(self, stats: SubscribeStats, exc: Exception) -> None:
+        stats.decode_errors += 1
+        reason = str(exc) if isinstance(exc, DecodeError) else f"{type(exc).__name__}: {exc}"
+        stats.last_error = reason[:300]
+        now = time.monotonic()
+        last, quiet = self._last_error_log.get(stats.key, (-ERROR_LOG_PERIOD, 0))
+        if now - last >= ERROR_LOG_PERIOD:
+            more = f" ({quiet} more since the last report)" if quiet else ""
+            self._log.warning(
+                "link `%s`: dropped a sample that does not decode: %s; "
+                "%d dropped so far%s, the link keeps running",
+                stats.key,
+                stats.last_error,
+                stats.decode_errors,
+                more,
+            )
+            self._last_error_log[stats.key] = (now, 0)
+        else:
+            self._last_error_log[stats.key] = (last, quiet + 1)
+
+    def producer_alive(self, link: LinkPlan) -> bool:
+        """Whether the process producing ``link`` is up and has not ended the stream."""
+        with self._lock:
+            up = self._producer_of.get(link.key) in self._alive
+        return up and link.key not in self._ended
+
+    def link_age(self, link: LinkPlan, now: float | None = None) -> float:
+        """Seconds since the latest sample of ``link`` arrived (monotonic; inf when none)."""
+        entry = self._subs.get(link.key)
+        return entry[1].age(now) if entry else float("inf")
+
+    def inputs_ended(self) -> bool:
+        """True when no more samples will come: every subscribed stream ended or its producing
+        process is gone."""
+        alive = self.alive_processes()
+        return all(
+            key in self._ended or stats.producer not in alive
+            for key, (_s, stats, _d) in self._subs.items()
+        )
+
+    # -- summary and shutdown -------------------------------------------------------------------
+    def stats(self) -> dict[str, object]:
+        """Counters of every link end of this process."""
+        return {
+            "process": self.process,
+            "prefix": self.prefix,
+            "publish": [s.as_dict() for _p, s in self._pubs.values()],
+            "subscribe": [s.as_dict() for _s, s, _d in self._subs.values()],
+            "shm_pool_full": self._shm.counters.pool_full,
+        }
+
+    def summary_lines(self) -> list[str]:
+        """One readable line per link end."""
+        lines = []
+        for _p, s in self._pubs.values():
+            lines.append(
+                f"  link {s.key}: sent {s.sent} ({s.shm_samples} via shared memory), "
+                f"{s.put_errors} errors"
+            )
+        for _s, s, _d in self._subs.values():
+            lines.append(
+                f"  link {s.key}: received {s.received}, missing {s.missing}, "
+                f"undecodable {s.decode_errors}, old dropped {s.stale_dropped}"
+            )
+        return lines
+
+    def close(self) -> None:
+        """Mark the end of every output stream, undeclare everything, close the session."""
+        if self._closed:
+            return
+        self._closed = True
+        for pub, _stats in self._pubs.values():
+            try:
+                pub.delete()
+            except Exception as exc:
+                self._log.debug("end of stream on %s failed: %s", pub.key_expr, exc)
+        try:
+            if self._token is not None:
+                self._token.undeclare()
+        finally:
+            self._session.close()
