@@ -101,6 +101,9 @@ class WolverineKin(Module):
             return f"joint state is {age:.3f} s old (max {self.params.max_state_age:.3f} s)"
         if tuple(state.names) != self.table.names:
             return f"joint state names {list(state.names)} differ from {list(self.table.names)}"
+        position = np.asarray(state.position, dtype=float)
+        if position.shape != (self.table.n,) or not np.all(np.isfinite(position)):
+            return f"joint state has unknown angles: {position.tolist()}"
         return ""
 
     def _send(

@@ -146,6 +146,11 @@ def test_wolverine_kin_sends_zero_without_a_usable_joint_state():
         h.push("joint_state", joint_state(Q_NOMINAL, names=("a", "b", "c", "d", "e", "f")))
         h.push("tool_twist", Twist(vector=np.ones(6) * 0.01, frame="tool"))
         assert "differ from" in h.step(0.01)["status"][0].reason
+        h.push("joint_state", joint_state([0.1, np.nan, 0, 0, 0, 0]))
+        h.push("tool_twist", Twist(vector=np.ones(6) * 0.01, frame="tool"))
+        sent = h.step(0.01)
+        assert "unknown angles" in sent["status"][0].reason
+        assert not np.any(sent["joint_rates"][0].rates)
         h.push("joint_state", joint_state(Q_NOMINAL))
         h.step(0.1)
         h.push("tool_twist", Twist(vector=np.ones(6) * 0.01, frame="tool"))

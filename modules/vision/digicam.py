@@ -1,0 +1,293 @@
+"""DigiCam: camera frames from OpenCV capture or from the simulated wrist camera."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors.messages import CameraModel, Contour, Image, Pose
+from modules.vision.capture import CaptureError, CaptureReader, CaptureSource
+from modules.vision.features import polygon_features
+from modules.vision.lighting import Lighting
+from modules.vision.scene import Scene, camera_looking_down, pose
+from modules.vision.sim_camera import CameraSpec, SimulatedCamera
+
+
+class DigiCam(Module):
+    """Frames from a camera device, a video file, a stream URL, or the simulated wrist camera.
+
+    ``source``: ``sim``, a device index (``0``), a video file path, or a stream URL (``rtsp://``,
+    ``http://``). A device or stream is read in its own thread and each step sends the newest
+    frame once; a video file plays one frame per step, in order (set the module's rate to the
+    file's frame rate for real-time playback; on the sim clock the step waits for the decoder,
+    which costs no simulated time), and at its end loops, holds its last frame, or stops the run
+    (``at_end``). A source that cannot be opened is an error at start. A source that stops
+    delivering for ``stale_after`` seconds is reported once, and its last frame is sent again
+    marked ``stale``; the run goes on and recovers when frames come back.
+
+    ``sim`` renders the scene (table, tray, tool, colored patch) through the camera model of the
+    ``camera_model`` input (else the intrinsics parameters) from the camera pose of the
+    ``camera_pose`` input (else straight down from ``camera_height_m`` above the patch). The
+    pose input may be the camera's pose in the world, or a mount's pose (``tool`` in ``base``):
+    it is completed with the camera model's mount transform or the graph's static frames. The
+    ``truth`` output carries the patch outline in the image (ground truth, sim only).
+    """
+
+    TYPE = "DigiCam"
+
+    class Params(Parameters):
+        source: str = param("sim", "`sim`, a device index, a video file or a stream URL")
+        width: int = param(0, "frame width; 0: the source's (sim: 640)", unit="px", ge=0)
+        height: int = param(0, "frame height; 0: the source's (sim: 480)", unit="px", ge=0)
+        fps: float = param(0.0, "frame rate asked of a device; 0: its own", unit="Hz", ge=0)
+        at_end: Literal["loop", "hold", "stop"] = param("loop", "what a video file does at its end")
+        stale_after: float = param(1.0, "no new frame this long marks output stale", unit="s", gt=0)
+        open_timeout: float = param(5.0, "how long a stream may take to open", unit="s", gt=0)
+        camera_frame: str = param("camera", "frame name of the images")
+        world_frame: str = param("world", "frame of the simulated scene (sim)")
+        fx: float = param(600.0, "focal length in x without a camera_model (sim)", unit="px", gt=0)
+        fy: float = param(600.0, "focal length in y without a camera_model (sim)", unit="px", gt=0)
+        skew: float = param(0.0, "skew without a camera_model (sim)", unit="px")
+        u0: float = param(320.0, "principal point u without a camera_model (sim)", unit="px")
+        v0: float = param(240.0, "principal point v without a camera_model (sim)", unit="px")
+        dist: list[float] = param([0.0, 0.0, 0.0, 0.0, 0.0], "k1 k2 p1 p2 k3 (sim)")
+        camera_height_m: float = param(
+            0.22, "camera above the patch without a pose input (sim)", unit="m", gt=0
+        )
+        patch_xyz_m: list[float] = param([0.0, 0.0, 0.03], "patch centre in the world (sim)")
+        patch_yaw_deg: float = param(0.0, "patch yaw about world z (sim)", unit="deg")
+        patch_size_m: list[float] = param([0.06, 0.04], "patch sides x, y (sim)", unit="m")
+        patch_rgb: list[int] = param([30, 170, 60], "patch color, RGB 0..255 (sim)")
+        patch_present: bool = param(True, "whether the patch is there (sim)")
+        background: Literal["flat", "photo"] = param("flat", "table: flat color or a photo (sim)")
+        gain: float = param(1.0, "lighting gain (sim)", ge=0)
+        cast_rgb: list[float] = param([1.0, 1.0, 1.0], "per-channel lighting gains R G B (sim)")
+        noise_sigma: float = param(0.0, "sensor noise (sim)", unit="gray levels", ge=0)
+        blur_length_px: float = param(0.0, "motion blur length (sim)", unit="px", ge=0)
+        blur_angle_deg: float = param(0.0, "motion blur direction from u (sim)", unit="deg")
+
+    camera_pose = Input(
+        Pose, required=False, feedback=True, doc="camera (or its mount) pose, for sim"
+    )
+    camera_model = Input(CameraModel, required=False, feedback=True, doc="intrinsics, for sim")
+    patch_pose = Input(Pose, required=False, feedback=True, doc="T_world_patch, for sim")
+    image = Output(Image, frame=from_param("camera_frame"), doc="BGR frames")
+    truth = Output(Contour, doc="sim only: the patch outline in the image (ground truth)")
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        p = self.params
+        self._reader: CaptureReader | None = None
+        self._sim: SimulatedCamera | None = None
+        self._last: Image | None = None
+        self._last_new_at = -np.inf
+        self._stale = False
+        self._stale_events = 0
+        self._sent = 0
+        self._ended_reported = False
+        self._last_number: int | None = None
+        size = (p.width, p.height) if p.width and p.height else None
+        if (p.width == 0) != (p.height == 0):
+            raise UserError(f"{self.name}: give both width and height, or neither (0)")
+        if p.source.strip() == "sim":
+            self._check_sim_params()
+            self._sim = SimulatedCamera()
+            return
+        source = CaptureSource.parse(p.source)
+        try:
+            self._reader = CaptureReader(
+                source, size, p.fps, loop=p.at_end == "loop", open_timeout_s=p.open_timeout
+            )
+        except CaptureError as exc:
+            raise UserError(f"{self.name}: {exc} (parameter source: {p.source!r})") from None
+        self._reader.start()
+
+    def _check_sim_params(self) -> None:
+        p = self.params
+        problems = []
+        if len(p.patch_xyz_m) != 3:
+            problems.append(f"patch_xyz_m needs 3 values, got {len(p.patch_xyz_m)}")
+        if len(p.patch_size_m) != 2 or min(p.patch_size_m) <= 0:
+            problems.append(f"patch_size_m needs 2 positive values, got {p.patch_size_m}")
+        if len(p.patch_rgb) != 3 or not all(0 <= c <= 255 for c in p.patch_rgb):
+            problems.append(f"patch_rgb needs 3 values in 0..255, got {p.patch_rgb}")
+        if len(p.cast_rgb) != 3 or min(p.cast_rgb) < 0:
+            problems.append(f"cast_rgb needs 3 non-negative values, got {p.cast_rgb}")
+        if len(p.dist) not in (4, 5):
+            problems.append(f"dist needs 4 or 5 coefficients, got {len(p.dist)}")
+        if problems:
+            raise UserError(f"{self.name}: " + "; ".join(problems))
+
+    def stop(self) -> None:
+        if getattr(self, "_reader", None) is not None:
+            self._reader.close()
+
+    def summary(self) -> dict[str, object]:
+        out: dict[str, object] = {"frames": self._sent, "stale_events": self._stale_events}
+        if self._sim is not None:
+            out["renderers_built"] = self._sim.renderers_built
+        return out
+
+    # -- behaviour ------------------------------------------------------------------------------
+
+    def step(self, now: float) -> None:
+        if self._sim is not None:
+            self._step_sim(now)
+        else:
+            self._step_capture(now)
+
+    def _send(self, pixels: np.ndarray, now: float) -> None:
+        self._last = Image(pixels=pixels, frame=self.params.camera_frame, stamp=now)
+        self.image.send(self._last)
+        self._sent += 1
+        self._last_new_at = now
+        if self._stale:
+            self._stale = False
+            self.log.info("%s: frames are coming again", self.name)
+
+    def _step_capture(self, now: float) -> None:
+        reader = self._reader
+        assert reader is not None
+        if reader.is_file:
+            wait = 1.0 if self.context.clock == "sim" and not reader.ended.is_set() else 0.0
+            frame = reader.next_frame(timeout_s=wait)
+            if frame is not None:
+                self._send(frame, now)
+                return
+            if reader.drained() and not self._ended_reported:
+                self._ended_reported = True
+                if self.params.at_end == "stop":
+                    self.context.request_stop(f"{self.name}: video file ended", 0)
+                    return
+                self.log.info("%s: video file ended; holding its last frame", self.name)
+        else:
+            latest = reader.latest()
+            if latest is not None and latest[0] != self._last_number:
+                self._last_number = latest[0]
+                self._send(latest[1], now)
+                return
+        self._check_stale(now)
+
+    def _check_stale(self, now: float) -> None:
+        if self._stale or self._last is None:
+            return
+        if now - self._last_new_at >= self.params.stale_after:
+            self._stale = True
+            self._stale_events += 1
+            self.log.warning(
+                "%s: no new frame for %.2f s from %s; marking its output stale",
+                self.name,
+                now - self._last_new_at,
+                self.params.source,
+            )
+            self.image.send(
+                Image(pixels=self._last.pixels, frame=self._last.frame, stale=True, stamp=now)
+            )
+
+    # -- simulation -----------------------------------------------------------------------------
+
+    def _camera_spec(self) -> CameraSpec:
+        p = self.params
+        model = self.camera_model.value
+        try:
+            if model is not None:
+                return CameraSpec.from_values(
+                    model.fx, model.fy, model.skew, model.u0, model.v0,
+                    model.width, model.height, model.dist,
+                )  # fmt: skip
+            return CameraSpec.from_values(
+                p.fx, p.fy, p.skew, p.u0, p.v0, p.width or 640, p.height or 480, p.dist
+            )
+        except ValueError as exc:
+            raise UserError(f"{self.name}: bad camera model: {exc}") from None
+
+    def _patch_pose(self) -> np.ndarray:
+        sample = self.patch_pose.value
+        if sample is None:
+            p = self.params
+            return pose(p.patch_xyz_m, float(np.deg2rad(p.patch_yaw_deg)))
+        return self._in_world(sample, "patch_pose")
+
+    def _in_world(self, sample: Pose, port: str) -> np.ndarray:
+        world = self.params.world_frame
+        if sample.parent == world:
+            return np.asarray(sample.matrix, dtype=float)
+        try:
+            return self.context.frames.lookup(world, sample.parent) @ sample.matrix
+        except KeyError:
+            raise UserError(
+                f"{self.name}: input `{port}` is a pose in `{sample.parent}`, and no static "
+                f"frames lead from `{world}` to it (declare `{world}->{sample.parent}`)"
+            ) from None
+
+    def _camera_pose(self, T_world_patch: np.ndarray) -> np.ndarray:
+        sample = self.camera_pose.value
+        if sample is None:
+            return camera_looking_down(T_world_patch[:3, 3], self.params.camera_height_m)
+        T_world_child = self._in_world(sample, "camera_pose")
+        camera = self.params.camera_frame
+        if sample.child == camera:
+            return T_world_child
+        model = self.camera_model.value
+        if model is not None and model.mount == sample.child:
+            return T_world_child @ np.asarray(model.T_mount_camera, dtype=float)
+        try:
+            return T_world_child @ self.context.frames.lookup(sample.child, camera)
+        except KeyError:
+            raise UserError(
+                f"{self.name}: input `camera_pose` gives `{sample.child}`, and neither the "
+                f"camera model's mount nor static frames lead to `{camera}` "
+                f"(declare `{sample.child}->{camera}`)"
+            ) from None
+
+    def _step_sim(self, now: float) -> None:
+        p = self.params
+        T_world_patch = self._patch_pose()
+        scene = Scene(
+            T_world_patch=T_world_patch,
+            patch_size_m=(float(p.patch_size_m[0]), float(p.patch_size_m[1])),
+            patch_rgb=tuple(int(c) for c in p.patch_rgb),  # type: ignore[arg-type]
+            patch_present=p.patch_present,
+            background=p.background,
+        )
+        lighting = Lighting(
+            gain=p.gain,
+            cast_rgb=tuple(float(c) for c in p.cast_rgb),  # type: ignore[arg-type]
+            noise_sigma=p.noise_sigma,
+            blur_length_px=p.blur_length_px,
+            blur_angle_rad=float(np.deg2rad(p.blur_angle_deg)),
+        )
+        assert self._sim is not None
+        frame = self._sim.render(
+            self._camera_spec(),
+            scene,
+            self._camera_pose(T_world_patch),
+            lighting,
+            self.context.rng,
+        )
+        self._send(frame.image, now)
+        self.truth.send(self._truth(frame.patch_polygon, frame.patch_visible_fraction, now))
+
+    @staticmethod
+    def _truth(polygon: np.ndarray, visible: float, now: float) -> Contour:
+        reason = f"{100 * visible:.0f}% of the patch visible"
+        if len(polygon) < 3:
+            empty = np.zeros(0)
+            return Contour(
+                vertices=np.zeros((0, 2)), centroid=empty, area=0.0, orientation=0.0,
+                axes=empty, status="idle", reason="no patch in view", stamp=now,
+            )  # fmt: skip
+        features = polygon_features(polygon)
+        return Contour(
+            vertices=polygon,
+            centroid=np.array(features.centroid_uv),
+            area=features.area_px2,
+            orientation=features.orientation_rad,
+            axes=np.array([features.major_axis_px, features.minor_axis_px]),
+            status="tracking" if visible > 0 else "idle",
+            reason=reason,
+            stamp=now,
+        )

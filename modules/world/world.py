@@ -1,0 +1,130 @@
+"""World: the simulated plant of the tool pick-up — where the tool really is, where the camera
+really is, and whether the grasp succeeded.
+
+It knows the truth the controller never sees: the true joint angles (from the simulated joints,
+calibration error included), hence the true camera pose, and the true pose of the tool's patch on
+its tray. It publishes both for the simulated camera, and when the gripper closes it judges the
+grasp against the truth and ends the run: exit 0 when grasped within tolerance, 1 otherwise.
+
+Frames: ``base`` (robot base), ``flange``, ``tool`` (gripper centre point; the graph's static
+frame ``flange->tool``), ``camera`` (``flange->camera`` through the static frames), ``table``
+(the table top, z up, ``table_height_m`` above the base), ``patch`` (centre of the patch on the
+tool's top face, x along its long side).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, UserError, param
+from connectors.messages import JointState, Pose, Status
+from modules.arm.arm_params import ArmParams
+from modules.world.grasp import grasp_error
+
+
+def T_base_patch_of(
+    table_height_m: float, tool_xy_m: list[float], tool_yaw_rad: float, patch_height_m: float
+) -> np.ndarray:
+    """Pose of the patch in the base frame: on the table, turned by ``tool_yaw_rad`` about z."""
+    c, s = np.cos(tool_yaw_rad), np.sin(tool_yaw_rad)
+    T = np.eye(4)
+    T[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    T[:3, 3] = [tool_xy_m[0], tool_xy_m[1], table_height_m + patch_height_m]
+    return T
+
+
+class WorldParams(ArmParams):
+    """Parameters of the simulated world (the arm's DH table comes from ArmParams)."""
+
+    table_height_m: float = param(0.25, "table top above the robot base", unit="m", ge=0, le=1.5)
+    tool_xy_m: list[float] = param([0.6, 0.0], "tool (patch centre) x, y in the base frame",
+                                   unit="m", min_length=2, max_length=2)
+    tool_yaw_deg: float = param(0.0, "tool rotation about the vertical", unit="deg",
+                                ge=-180, le=180)
+    patch_height_m: float = param(0.03, "patch top face above the table", unit="m", ge=0, le=0.3)
+    position_tolerance_mm: float = param(2.0, "grasped when the tool point is this close",
+                                         unit="mm", gt=0)
+    roll_tolerance_deg: float = param(1.0, "grasped when the roll error is this small",
+                                      unit="deg", gt=0)
+    timeout_s: float = param(60.0, "end the run as failed when no grasp by then", unit="s",
+                             gt=0)
+    end_run: bool = param(True, "end the run when the grasp is judged")
+
+
+class SimWorld(Module):
+    """The simulated plant: true camera and patch poses out, grasp judged when the gripper closes."""
+
+    TYPE = "World"
+    Params = WorldParams
+
+    joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper of the arm")
+    camera_pose = Output(Pose, frame="base->camera", doc="true T_base_camera")
+    patch_pose = Output(Pose, frame="base->patch", doc="true T_base_patch")
+    status = Output(Status, doc="world state: running, grasped or missed, with errors")
+
+    def start(self) -> None:
+        p = self.params
+        frames = self.context.frames
+        try:
+            self.T_flange_camera = frames.lookup("flange", "camera")
+            self.T_flange_tool = frames.lookup("flange", "tool")
+        except KeyError as exc:
+            raise UserError(f"World `{self.name}` needs the static frames flange->tool and "
+                            f"tool->camera (or flange->camera) in the graph: {exc}") from None
+        self.T_base_patch = T_base_patch_of(
+            p.table_height_m, p.tool_xy_m, np.radians(p.tool_yaw_deg), p.patch_height_m
+        )
+        self.t0: float | None = None
+        self.result: dict[str, object] = {"grasped": False, "verdict": "no grasp attempted"}
+        self._closing_seen = False
+        self._judged = False
+
+    def step(self, now: float) -> None:
+        if self.t0 is None:
+            self.t0 = now
+        state = self.joint_state.get(now)
+        self.patch_pose.send(Pose(matrix=self.T_base_patch, parent="base", child="patch"))
+        if state is None:
+            return
+        T_base_flange = self.params.table.fk(state.position)
+        self.camera_pose.send(Pose(matrix=T_base_flange @ self.T_flange_camera, parent="base",
+                                   child="camera", stamp=state.stamp))
+        if self._judged:
+            return
+        if state.gripper < 0.99:
+            self._closing_seen = True
+        if self._closing_seen and state.gripper <= 0.0:
+            self._judge(now, T_base_flange @ self.T_flange_tool)
+        elif now - self.t0 > self.params.timeout_s:
+            self._finish(now, False, f"no grasp within {self.params.timeout_s:g} s")
+
+    def _judge(self, now: float, T_base_tool: np.ndarray) -> None:
+        err = grasp_error(T_base_tool, self.T_base_patch)
+        p = self.params
+        ok = err.position_mm <= p.position_tolerance_mm and abs(err.roll_deg) <= p.roll_tolerance_deg
+        self.result.update({
+            "position_error_mm": round(err.position_mm, 4),
+            "roll_error_deg": round(err.roll_deg, 4),
+            "tilt_deg": round(float(np.degrees(err.tilt)), 4),
+            "offset_patch_mm": [round(v * 1e3, 3) for v in err.offset_patch],
+        })
+        verdict = (f"grasped: tool point {err.position_mm:.2f} mm from the grasp point, roll "
+                   f"error {err.roll_deg:.2f} deg" if ok else
+                   f"missed: tool point {err.position_mm:.2f} mm from the grasp point, roll "
+                   f"error {err.roll_deg:.2f} deg (tolerance {p.position_tolerance_mm:g} mm, "
+                   f"{p.roll_tolerance_deg:g} deg)")
+        self._finish(now, ok, verdict)
+
+    def _finish(self, now: float, grasped: bool, verdict: str) -> None:
+        self._judged = True
+        self.result.update({"grasped": grasped, "verdict": verdict,
+                            "time_s": round(now - (self.t0 or now), 3)})
+        values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
+        self.status.send(Status(stage="grasped" if grasped else "missed", message=verdict,
+                                values=values))
+        self.log.info(verdict)
+        if self.params.end_run:
+            self.context.request_stop(verdict, 0 if grasped else 1)
+
+    def summary(self) -> dict[str, object]:
+        return dict(self.result)

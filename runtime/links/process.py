@@ -1,0 +1,151 @@
+"""One process of a split graph: its zenoh session and links, its scheduler, its control channel.
+
+Started by the launcher (``supervised``: commands arrive one per line on stdin) or by hand with
+``umbra run GRAPH --process NAME`` (on another host, say). The order is always:
+
+1. open the zenoh session and build the modules; subscriptions and publishers are declared;
+2. declare this process's liveliness token (consumers now know it is up);
+3. wait until the consumers of every output of this process are up and subscribed, so that no
+   sample is lost at start (under the launcher for at most ``ready_timeout``; by hand, forever,
+   saying what it waits for every few seconds);
+4. run the scheduler until the run ends; the safety guards zero their outputs first;
+5. end every output stream, withdraw the token, close the session; write ``summary-NAME.json``.
+
+Control commands (supervised): ``finish REASON`` — another process ended normally: keep running
+until every input stream has ended (or its producer is gone) and every received sample has been
+handled, then stop with status 0; ``abort REASON`` — the run failed elsewhere or was interrupted:
+stop now. End of input (the launcher is gone) aborts too.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from runtime.graph.plan import GraphPlan
+from runtime.links.config import Endpoints, build_config, describe
+from runtime.links.session import open_session
+from runtime.links.transport import ZenohTransport
+from runtime.run import write_summary
+from runtime.scheduler import INTERRUPTED, Scheduler, SchedulerOptions
+from runtime.stats import RunResult
+
+#: How long a process told to ``finish`` waits for its input streams to end [s].
+FINISH_GRACE = 5.0
+#: Exit status of a process stopped because the run failed elsewhere.
+ABORTED = 1
+
+
+@dataclass
+class ProcessOptions:
+    """How to run one process of a split graph."""
+
+    process: str
+    output_dir: Path
+    endpoints: Endpoints
+    clock: str = "real"
+    duration: float | None = None
+    zenoh_config: str | None = None
+    ready_timeout: float | None = None  # None: wait for consumers forever
+    quiet: bool = False
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class _Control:
+    """Reads launcher commands from ``stream`` on its own thread and acts on the scheduler."""
+
+    def __init__(self, stream: TextIO, scheduler: Scheduler, transport: ZenohTransport,
+                 stop: threading.Event, log: logging.Logger) -> None:
+        self._stream, self._scheduler, self._transport = stream, scheduler, transport
+        self._stop, self._log = stop, log
+        self._thread = threading.Thread(target=self._read, name="umbra-control", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def _read(self) -> None:
+        for line in self._stream:
+            command, _, reason = line.strip().partition(" ")
+            if command == "finish":
+                self._finish(reason or "another process finished")
+            elif command == "abort":
+                self._abort(reason or "stopped by the launcher")
+            elif command:
+                self._log.warning("unknown launcher command %r ignored", command)
+        self._abort("the launcher is gone (its control pipe closed)")
+
+    def _abort(self, reason: str) -> None:
+        self._scheduler.request_stop(reason, ABORTED)
+        self._stop.set()
+
+    def _finish(self, reason: str) -> None:
+        deadline = time.monotonic() + FINISH_GRACE
+        while time.monotonic() < deadline and not self._stop.is_set():
+            if self._transport.inputs_ended() and self._scheduler.pending_link_samples == 0:
+                break
+            time.sleep(0.005)
+        else:
+            if not self._stop.is_set():
+                self._log.warning("input streams still open %.0f s after: %s", FINISH_GRACE, reason)
+        self._scheduler.request_stop(f"finished: {reason}", 0)
+        self._stop.set()
+
+
+def _interruptible(stop: threading.Event, scheduler: Scheduler) -> dict[int, Any]:
+    """SIGINT/SIGTERM while waiting for consumers: stop cleanly (exit 130)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def on_signal(signum: int, frame: Any) -> None:
+        scheduler.request_stop(f"interrupted by {signal.Signals(signum).name}", INTERRUPTED)
+        stop.set()
+
+    return {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def run_linked_process(plan: GraphPlan, options: ProcessOptions, control: TextIO | None = None,
+                       log: logging.Logger | None = None) -> RunResult:
+    """Run process ``options.process`` of ``plan`` with zenoh links; always writes
+    ``summary-<process>.json``. UserError for a bad configuration (nothing started then)."""
+    log = log or logging.getLogger("umbra")
+    options.output_dir.mkdir(parents=True, exist_ok=True)
+    config = build_config(options.endpoints, options.zenoh_config)
+    session = open_session(config)
+    log.info("process `%s`: %s", options.process, describe(config))
+    transport = ZenohTransport(session, plan, options.process, log=log.getChild("links"))
+    try:
+        scheduler = Scheduler(plan, SchedulerOptions(
+            clock=options.clock, duration=options.duration, output_dir=options.output_dir,
+            process=options.process, handle_signals=True, log=log,
+        ), transport)
+    except BaseException:
+        transport.close()
+        raise
+    stop = threading.Event()
+    try:
+        transport.announce()
+        if control is not None:
+            _Control(control, scheduler, transport, stop, log).start()
+        old = _interruptible(stop, scheduler)
+        try:
+            ready = transport.wait_ready(stop, options.ready_timeout)
+        except TimeoutError as exc:
+            scheduler.request_stop(f"consumers did not come within "
+                                   f"{options.ready_timeout:g} s: {exc}", 1)
+            ready = False
+        finally:
+            for sig, handler in old.items():
+                signal.signal(sig, handler)
+        if ready:
+            log.info("process `%s`: links ready, running", options.process)
+        result = scheduler.run()
+    finally:
+        transport.close()
+    result.extra.update(options.extra)
+    write_summary(result, options.output_dir, options.process)
+    return result
