@@ -193,14 +193,18 @@ def main(argv: list[str] | None = None) -> int:
 
     floor = rows["numpy floor (6x 4x4 matmul + 6x6 SVD)"]["median_us"]
     pure = rows["pure functions tick"]["median_us"]
-    print(f"servo tick benchmark ({'quick' if args.quick else 'full'}: "
-          f"{repeats} x {iterations} calls; median per call)")
+    print(
+        f"servo tick benchmark ({'quick' if args.quick else 'full'}: "
+        f"{repeats} x {iterations} calls; median per call)"
+    )
     print(f"{'what':42s} {'median us':>10s} {'best us':>9s} {'x floor':>8s} {'x pure':>7s}")
     for name, row in rows.items():
         row["ratio_to_floor"] = row["median_us"] / floor
         row["ratio_to_pure"] = row["median_us"] / pure
-        print(f"{name:42s} {row['median_us']:10.1f} {row['best_us']:9.1f} "
-              f"{row['ratio_to_floor']:8.2f} {row['ratio_to_pure']:7.2f}")
+        print(
+            f"{name:42s} {row['median_us']:10.1f} {row['best_us']:9.1f} "
+            f"{row['ratio_to_floor']:8.2f} {row['ratio_to_pure']:7.2f}"
+        )
     module_us = rows["modules tick (4 modules, ports)"]["median_us"]
     verdict = "meets" if module_us < GOAL_US else "MISSES"
     print(f"module tick {module_us:.1f} us {verdict} the {GOAL_US:.0f} us goal")

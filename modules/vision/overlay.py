@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from modules.vision.features import PolygonFeatures
-from modules.vision.sanity import SanityResult
+from modules.vision.sanity import OrientedBox, SanityResult
 
 _SHIFT = 4
 CONTOUR_BGR = (0, 255, 255)
@@ -40,43 +40,48 @@ def draw_overlay(
     sanity: SanityResult | None = None,
     lines: Sequence[str] = (),
     features: PolygonFeatures | None = None,
+    *,
+    offending: ArrayLike | None = None,
+    outer_rectangle: OrientedBox | None = None,
+    inner_ellipse: OrientedBox | None = None,
 ) -> NDArray[np.uint8]:
     """A copy of ``image`` (H x W x 3 BGR) with the snake and its checks drawn on it.
 
     ``vertices`` N x 2 [px]; ``sanity`` supplies the outer rectangle, inner ellipse, offending
-    vertices and features (``features`` overrides them); ``lines`` are text lines written at the
-    top left (stage, status, errors).
+    vertices and features, each of which the keyword of the same name overrides; ``lines`` are
+    text lines written at the top left (stage, status, errors).
     """
     canvas = np.ascontiguousarray(image).copy()
     if canvas.ndim == 2:
         canvas = cv2.cvtColor(canvas, cv2.COLOR_GRAY2BGR)
-    offending = np.empty(0, dtype=np.intp)
     if sanity is not None:
-        offending = sanity.offending
+        offending = sanity.offending if offending is None else offending
         features = features or sanity.features
-        if sanity.outer_rectangle is not None:
-            corners = sanity.outer_rectangle.corners()
-            cv2.polylines(canvas, [_fixed(corners)], True, RECTANGLE_BGR, 1, cv2.LINE_AA, _SHIFT)
-        if sanity.inner_ellipse is not None:
-            box = sanity.inner_ellipse
-            cv2.ellipse(
-                canvas,
-                _point(box.center_uv),
-                _point(box.half_sizes),
-                float(np.rad2deg(box.angle_rad)),
-                0.0,
-                360.0,
-                ELLIPSE_BGR,
-                1,
-                cv2.LINE_AA,
-                _SHIFT,
-            )
+        outer_rectangle = outer_rectangle or sanity.outer_rectangle
+        inner_ellipse = inner_ellipse or sanity.inner_ellipse
+    offending = np.asarray([] if offending is None else offending, dtype=np.intp).ravel()
+    if outer_rectangle is not None:
+        corners = outer_rectangle.corners()
+        cv2.polylines(canvas, [_fixed(corners)], True, RECTANGLE_BGR, 1, cv2.LINE_AA, _SHIFT)
+    if inner_ellipse is not None:
+        cv2.ellipse(
+            canvas,
+            _point(inner_ellipse.center_uv),
+            _point(inner_ellipse.half_sizes),
+            float(np.rad2deg(inner_ellipse.angle_rad)),
+            0.0,
+            360.0,
+            ELLIPSE_BGR,
+            1,
+            cv2.LINE_AA,
+            _SHIFT,
+        )
     if vertices is not None:
         polygon = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
         if len(polygon) >= 2:
             cv2.polylines(canvas, [_fixed(polygon)], True, CONTOUR_BGR, 1, cv2.LINE_AA, _SHIFT)
         bad = np.zeros(len(polygon), dtype=bool)
-        bad[offending[offending < len(polygon)]] = True
+        bad[offending[(offending >= 0) & (offending < len(polygon))]] = True
         for index, uv in enumerate(polygon):
             color = OFFENDING_BGR if bad[index] else VERTEX_BGR
             radius = 3 if bad[index] else 2

@@ -31,7 +31,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", type=Path, metavar="DIR", help="output folder (default runs/<graph>-<time>)"
     )
-    parser.add_argument("--process", metavar="NAME", help="run only this process (another host)")
+    parser.add_argument(
+        "--process",
+        metavar="NAME",
+        help="run only this process, e.g. on another host (default endpoints: a loopback mesh "
+        "on tcp/127.0.0.1:7447+i for the i-th process)",
+    )
     parser.add_argument(
         "--single-process",
         action="store_true",
@@ -42,18 +47,22 @@ def configure(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help="zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447",
+        help="zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable; with all processes "
+        "on this host: for the first one)",
     )
     parser.add_argument(
         "--connect",
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help="zenoh endpoint to connect to",
+        help="zenoh endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable; with all "
+        "processes on this host: for every one)",
     )
     parser.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 configuration")
     parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
     parser.add_argument("--quiet", action="store_true", help="no summary table")
+    # a process started by the launcher: commands on stdin, bounded wait for its consumers
+    parser.add_argument("--supervised", action="store_true", help=argparse.SUPPRESS)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -81,13 +90,6 @@ def main(args: argparse.Namespace) -> int:
             print(result.table(), file=sys.stderr)
             print(f"summary written to {out}", file=sys.stderr)
         return result.exit_code
-    try:
-        from runtime import launcher
-    except ModuleNotFoundError as exc:
-        if exc.name != "runtime.launcher":
-            raise
-        raise UserError(
-            "running a graph split over processes needs the zenoh launcher "
-            "(not built yet); use --single-process"
-        ) from None
+    from runtime import launcher
+
     return launcher.main(plan, args, clock=clock, duration=duration, out=out)

@@ -59,8 +59,14 @@ class ProcessOptions:
 class _Control:
     """Reads launcher commands from ``stream`` on its own thread and acts on the scheduler."""
 
-    def __init__(self, stream: TextIO, scheduler: Scheduler, transport: ZenohTransport,
-                 stop: threading.Event, log: logging.Logger) -> None:
+    def __init__(
+        self,
+        stream: TextIO,
+        scheduler: Scheduler,
+        transport: ZenohTransport,
+        stop: threading.Event,
+        log: logging.Logger,
+    ) -> None:
         self._stream, self._scheduler, self._transport = stream, scheduler, transport
         self._stop, self._log = stop, log
         self._thread = threading.Thread(target=self._read, name="umbra-control", daemon=True)
@@ -108,8 +114,12 @@ def _interruptible(stop: threading.Event, scheduler: Scheduler) -> dict[int, Any
     return {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
-def run_linked_process(plan: GraphPlan, options: ProcessOptions, control: TextIO | None = None,
-                       log: logging.Logger | None = None) -> RunResult:
+def run_linked_process(
+    plan: GraphPlan,
+    options: ProcessOptions,
+    control: TextIO | None = None,
+    log: logging.Logger | None = None,
+) -> RunResult:
     """Run process ``options.process`` of ``plan`` with zenoh links; always writes
     ``summary-<process>.json``. UserError for a bad configuration (nothing started then)."""
     log = log or logging.getLogger("umbra")
@@ -119,10 +129,18 @@ def run_linked_process(plan: GraphPlan, options: ProcessOptions, control: TextIO
     log.info("process `%s`: %s", options.process, describe(config))
     transport = ZenohTransport(session, plan, options.process, log=log.getChild("links"))
     try:
-        scheduler = Scheduler(plan, SchedulerOptions(
-            clock=options.clock, duration=options.duration, output_dir=options.output_dir,
-            process=options.process, handle_signals=True, log=log,
-        ), transport)
+        scheduler = Scheduler(
+            plan,
+            SchedulerOptions(
+                clock=options.clock,
+                duration=options.duration,
+                output_dir=options.output_dir,
+                process=options.process,
+                handle_signals=True,
+                log=log,
+            ),
+            transport,
+        )
     except BaseException:
         transport.close()
         raise
@@ -135,8 +153,9 @@ def run_linked_process(plan: GraphPlan, options: ProcessOptions, control: TextIO
         try:
             ready = transport.wait_ready(stop, options.ready_timeout)
         except TimeoutError as exc:
-            scheduler.request_stop(f"consumers did not come within "
-                                   f"{options.ready_timeout:g} s: {exc}", 1)
+            scheduler.request_stop(
+                f"consumers did not come within {options.ready_timeout:g} s: {exc}", 1
+            )
             ready = False
         finally:
             for sig, handler in old.items():

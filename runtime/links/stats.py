@@ -72,3 +72,20 @@ class SubscribeStats:
             "last_seq": self.last_seq,
             "last_error": self.last_error,
         }
+
+
+def link_lines(stats: dict[str, Any]) -> list[str]:
+    """Readable lines for the ``links`` part of a process summary (``ZenohTransport.stats()``)."""
+    lines = []
+    for s in stats.get("publish", []):
+        lines.append(
+            f"  link {s['key']} ({s['mode']}): sent {s['sent']}, "
+            f"{s['shm_samples']} through shared memory, {s['put_errors']} errors"
+        )
+    for s in stats.get("subscribe", []):
+        lines.append(
+            f"  link {s['key']} (from `{s['producer']}`): received {s['received']}, "
+            f"missing {s['missing']}, undecodable {s['decode_errors']}, "
+            f"old dropped {s['stale_dropped']}"
+        )
+    return lines

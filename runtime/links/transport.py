@@ -104,7 +104,11 @@ class ZenohTransport:
         if sample.kind == zenoh.SampleKind.PUT and not known:
             self._log.info("process `%s` is up", name)
         elif sample.kind != zenoh.SampleKind.PUT and known:
-            self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
+            mine = [k for k, p in self._producer_of.items() if p == name and k in self._subs]
+            if mine and all(k in self._ended for k in mine):
+                self._log.info("process `%s` stopped (its streams ended)", name)
+            else:
+                self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
 
     def announce(self) -> None:
         """Declare this process's liveliness token (after every subscription is declared)."""
@@ -294,21 +298,6 @@ class ZenohTransport:
             "subscribe": [s.as_dict() for _s, s, _d in self._subs.values()],
             "shm_pool_full": self._shm.counters.pool_full,
         }
-
-    def summary_lines(self) -> list[str]:
-        """One readable line per link end."""
-        lines = []
-        for _p, s in self._pubs.values():
-            lines.append(
-                f"  link {s.key}: sent {s.sent} ({s.shm_samples} via shared memory), "
-                f"{s.put_errors} errors"
-            )
-        for _s, s, _d in self._subs.values():
-            lines.append(
-                f"  link {s.key}: received {s.received}, missing {s.missing}, "
-                f"undecodable {s.decode_errors}, old dropped {s.stale_dropped}"
-            )
-        return lines
 
     def close(self) -> None:
         """Mark the end of every output stream, undeclare everything, close the session."""

@@ -1,0 +1,134 @@
+"""Overlay: draws the snake, its sanity shapes and the servo stage on the camera image."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, UserError, param
+from connectors.messages import Contour, Image, Status
+from modules.vision.features import polygon_features
+from modules.vision.overlay import draw_overlay
+from modules.vision.sanity import SanityLimits, bounding_shapes
+from modules.vision.video import VideoFileError, VideoWriter
+
+
+class Overlay(Module):
+    """The operator's view: each image with the snake drawn on it, and optionally a video file.
+
+    Draws the contour (offending vertices in red), the outer rectangle and inner ellipse of the
+    sanity check (rebuilt from the contour with ``rectangle_margin`` and ``ellipse_scale``; keep
+    them equal to the snake's), the centroid and principal axes, and text lines: the contour's
+    status and reason, and the servo's stage and message when ``status`` is connected. With
+    ``video`` set, every drawn image is also written to that file in the run's output folder
+    (``.avi``: Motion-JPEG, ``.mp4``: MPEG-4), at ``video_fps``.
+    """
+
+    TYPE = "Overlay"
+
+    class Params(Parameters):
+        video: str = param("", "video file to write (.avi or .mp4); empty: none")
+        video_fps: float = param(30.0, "frame rate written in the video file", unit="Hz", gt=0)
+        rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
+        ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
+        max_contour_age: float = param(0.5, "older contours are not drawn", unit="s", gt=0)
+
+    image = Input(Image, trigger=True, doc="camera frames (BGR)")
+    contour = Input(Contour, required=False, doc="tracked contour from vsSnake")
+    status = Input(Status, required=False, doc="stage and messages from vsServo")
+    overlay = Output(Image, doc="the image with the drawing")
+
+    def start(self) -> None:
+        self._limits = SanityLimits(
+            rectangle_margin=self.params.rectangle_margin, ellipse_scale=self.params.ellipse_scale
+        )
+        self._writer: VideoWriter | None = None
+        self._path = None
+        if self.params.video:
+            self._path = self.context.output_dir / self.params.video
+            if self._path.suffix.lower() not in (".avi", ".mp4"):
+                raise UserError(
+                    f"{self.name}: parameter video must end in .avi or .mp4, got "
+                    f"{self.params.video!r}"
+                )
+            self._path.parent.mkdir(parents=True, exist_ok=True)
+        self._drawn = 0
+
+    def stop(self) -> None:
+        if self._writer is not None:
+            self._writer.close()
+
+    def summary(self) -> dict[str, object]:
+        out: dict[str, object] = {"frames": self._drawn}
+        if self._writer is not None:
+            out["video"] = str(self._path)
+            out["video_frames"] = self._writer.frames
+        return out
+
+    def step(self, now: float) -> None:
+        if not self.image.fresh:
+            return
+        sample = self.image.get(now)
+        if sample is None:
+            return
+        contour = self.contour.get(now)
+        if contour is not None and self.contour.age(now) > self.params.max_contour_age:
+            contour = None
+        lines = self._lines(sample, contour, self.status.get(now))
+        drawn = self._draw(np.asarray(sample.pixels), contour, lines)
+        self.overlay.send(Image(pixels=drawn, frame=sample.frame, stamp=sample.stamp))
+        self._drawn += 1
+        if self._path is not None:
+            self._write(drawn)
+
+    @staticmethod
+    def _lines(sample: Image, contour: Contour | None, status: Status | None) -> list[str]:
+        lines = []
+        if status is not None:
+            text = f"stage: {status.stage}"
+            if status.message:
+                text += f" - {status.message}"
+            lines.append(text)
+            if status.assist:
+                lines.append(f"operator: {status.reason or 'assistance requested'}")
+        if contour is None:
+            lines.append("snake: no contour")
+        else:
+            text = f"snake: {contour.status}"
+            if contour.reason:
+                text += f" - {contour.reason}"
+            lines.append(text)
+        if sample.stale:
+            lines.append("camera: STALE (no new frames)")
+        return lines
+
+    def _draw(self, pixels: np.ndarray, contour: Contour | None, lines: list[str]) -> np.ndarray:
+        if contour is None or len(contour.vertices) < 3:
+            return draw_overlay(pixels, lines=lines)
+        vertices = np.asarray(contour.vertices, dtype=float)
+        try:
+            features = polygon_features(vertices)
+        except ValueError:
+            return draw_overlay(pixels, vertices, lines=lines, offending=contour.offending)
+        rectangle, ellipse = bounding_shapes(features, self._limits)
+        return draw_overlay(
+            pixels,
+            vertices,
+            lines=lines,
+            features=features,
+            offending=contour.offending,
+            outer_rectangle=rectangle,
+            inner_ellipse=ellipse,
+        )
+
+    def _write(self, drawn: np.ndarray) -> None:
+        if self._writer is None:
+            try:
+                self._writer = VideoWriter(
+                    self._path, self.params.video_fps, (drawn.shape[1], drawn.shape[0])
+                )
+            except VideoFileError as exc:
+                raise UserError(f"{self.name}: {exc}") from None
+        if (drawn.shape[1], drawn.shape[0]) != self._writer.size_wh:
+            self.log.warning("%s: image size changed; frame not written to the video", self.name)
+            return
+        self._writer.write(drawn)

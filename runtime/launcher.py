@@ -1,0 +1,480 @@
+"""``umbra run GRAPH`` for a graph split over processes: start, watch and stop one OS process each.
+
+Every process of the graph runs as ``umbra run GRAPH --process NAME`` in a child process. The
+launcher gives each a free loopback endpoint (process i listens on its own port and connects to
+the processes before it: peers do not route for each other), prefixes their output lines with
+``[NAME]``, and supervises them:
+
+* a process that ends normally (its duration, or a module asked to stop with status 0) ends the
+  run: the others are told to ``finish`` — each handles what its inputs already sent, then stops;
+* a process that fails or dies (exit status not 0, a signal, a crash) fails the run: the others
+  are told to ``abort``, the servo side first (processes holding a safety guard or a guarded
+  drive), which zeroes its outputs before it stops; then the rest. ``umbra run`` exits 1 naming
+  the process and the cause;
+* Ctrl-C (SIGINT) or SIGTERM stops every process in the same order; exit status 130.
+
+A process that does not stop within ``STOP_GRACE`` seconds of being told gets SIGTERM, then
+SIGKILL. Each process writes ``summary-NAME.json`` (the launcher writes it for a process that died
+without one) and the launcher writes ``summary.json`` for the whole run.
+
+Clock: sim time cannot be shared between processes, so a split graph runs on the real clock; a
+graph that declares ``clock: sim`` runs on the real clock with a notice, and ``--clock sim`` with a
+split run is an error (use ``--single-process`` to run on sim time).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from connectors.errors import UserError
+from runtime.graph.plan import GraphPlan
+from runtime.hints import did_you_mean
+from runtime.links.config import (
+    Endpoints,
+    check_endpoint,
+    default_mesh,
+    file_endpoints,
+    free_loopback_ports,
+    loopback_mesh,
+)
+from runtime.links.stats import link_lines
+from runtime.scheduler import INTERRUPTED
+
+#: Seconds a supervised process may wait for its consumers to come up.
+READY_TIMEOUT = 30.0
+#: Seconds a process has to stop once told (abort), before SIGTERM; SIGKILL after as long again.
+STOP_GRACE = 5.0
+#: Extra seconds given to a process told to ``finish`` (it drains its inputs first).
+FINISH_EXTRA = 6.0
+_POLL = 0.02
+
+
+def main(
+    plan: GraphPlan, args: argparse.Namespace, clock: str, duration: float | None, out: Path
+) -> int:
+    """Run a split graph: every process under supervision, or ``args.process`` alone."""
+    clock = split_clock(plan, args, clock)
+    if getattr(args, "process", None):
+        return run_one(plan, args, clock, duration, out)
+    return Supervisor(plan, args, duration, out).run()
+
+
+def split_clock(plan: GraphPlan, args: argparse.Namespace, clock: str) -> str:
+    """The clock of a split run: always real (see the module docstring)."""
+    if clock == "real":
+        return clock
+    if getattr(args, "clock", None) == "sim":
+        raise UserError(
+            "--clock sim: a graph split over processes runs on the real clock (sim time cannot "
+            "be shared between processes); use --single-process to run it on sim time"
+        )
+    if not getattr(args, "supervised", False):
+        print(
+            f"umbra run: note: graph `{plan.spec.name}` declares clock: sim; split over "
+            f"processes it runs on the real clock (use --single-process for sim time)",
+            file=sys.stderr,
+        )
+    return "real"
+
+
+def servo_processes(plan: GraphPlan) -> set[str]:
+    """Processes holding a safety guard or a drive that requires one: stopped first."""
+    return {
+        m.process
+        for m in plan.modules.values()
+        if m.cls.SAFETY_GUARD or any(d.requires_guard for d in m.input_decls.values())
+    }
+
+
+def _config_file(plan: GraphPlan, args: argparse.Namespace) -> str | None:
+    if getattr(args, "zenoh_config", None):
+        return str(args.zenoh_config)
+    if plan.spec.links.zenoh_config:
+        path = Path(plan.spec.links.zenoh_config)
+        if not path.is_absolute():  # relative to the graph file
+            path = Path(plan.spec.file).parent / path
+        return str(path)
+    return None
+
+
+def _endpoints(values: list[str], where: str) -> list[str]:
+    return [check_endpoint(v, where) for v in values]
+
+
+# -- one process ---------------------------------------------------------------------------------
+def run_one(
+    plan: GraphPlan, args: argparse.Namespace, clock: str, duration: float | None, out: Path
+) -> int:
+    """``umbra run GRAPH --process NAME``: one process with its links (by hand or supervised).
+
+    Endpoints: ``--listen``/``--connect`` when given, else the graph's ``links:``, else those of
+    the zenoh configuration file, else a fixed loopback mesh (process i of the graph listens on
+    tcp/127.0.0.1:7447+i and connects to the ones before it), so processes started by hand on one
+    host find each other with no flags."""
+    import logging
+
+    from runtime.links.process import ProcessOptions, run_linked_process
+
+    name = args.process
+    if name not in plan.processes or not plan.modules_in(name):
+        have = [p for p in plan.processes if plan.modules_in(p)]
+        raise UserError(
+            f"--process: graph `{plan.spec.name}` has no process `{name}` with "
+            f"modules (processes: {', '.join(have)}){did_you_mean(name, have)}"
+        )
+    config_file = _config_file(plan, args)
+    endpoints = Endpoints(
+        _endpoints(args.listen, "--listen"), _endpoints(args.connect, "--connect")
+    )
+    if endpoints.empty:
+        endpoints = Endpoints(
+            _endpoints(plan.spec.links.listen, "links.listen"),
+            _endpoints(plan.spec.links.connect, "links.connect"),
+        )
+    if endpoints.empty and config_file:
+        endpoints = file_endpoints(config_file)
+    if endpoints.empty:
+        processes = [p for p in plan.processes if plan.modules_in(p)]
+        endpoints = default_mesh(processes)[name]
+    supervised = bool(getattr(args, "supervised", False))
+    options = ProcessOptions(
+        process=name,
+        output_dir=out,
+        endpoints=endpoints,
+        clock=clock,
+        duration=duration,
+        zenoh_config=config_file,
+        ready_timeout=READY_TIMEOUT if supervised else None,
+        quiet=args.quiet,
+    )
+    result = run_linked_process(
+        plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")
+    )
+    if not args.quiet:
+        print(result.table(), file=sys.stderr)
+        for line in link_lines(result.extra.get("links", {})):
+            print(line, file=sys.stderr)
+        print(f"summary written to {out / f'summary-{name}.json'}", file=sys.stderr)
+    return result.exit_code
+
+
+# -- supervision ---------------------------------------------------------------------------------
+@dataclass
+class _Child:
+    name: str
+    endpoints: Endpoints
+    popen: subprocess.Popen[bytes]
+    servo: bool
+    tail: deque[str] = field(default_factory=lambda: deque(maxlen=8))
+    told_at: float | None = None
+    told: str = ""
+    termed: bool = False
+    code: int | None = None
+
+    @property
+    def running(self) -> bool:
+        return self.code is None
+
+
+class Supervisor:
+    """Starts every process of a split graph and sees the run through (see module docstring)."""
+
+    def __init__(
+        self, plan: GraphPlan, args: argparse.Namespace, duration: float | None, out: Path
+    ) -> None:
+        self.plan, self.args, self.duration, self.out = plan, args, duration, out
+        self.children: list[_Child] = []
+        self._lock = threading.Lock()
+        self._signals: list[str] = []
+        self._pumps: list[threading.Thread] = []
+
+    # -- output ------------------------------------------------------------------------------
+    def say(self, text: str) -> None:
+        self._write(sys.stderr, f"umbra run: {text}\n".encode())
+
+    def _write(self, stream: IO[str], data: bytes) -> None:
+        with self._lock:
+            buffer = getattr(stream, "buffer", None)
+            if buffer is not None:
+                buffer.write(data)
+            else:
+                stream.write(data.decode("utf-8", "replace"))
+            stream.flush()
+
+    def _pump(self, child: _Child, pipe: IO[bytes], stream: IO[str], prefix: bytes) -> None:
+        for line in iter(pipe.readline, b""):
+            if stream is sys.stderr:
+                child.tail.append(line.decode("utf-8", "replace").rstrip())
+            self._write(stream, prefix + (line if line.endswith(b"\n") else line + b"\n"))
+        pipe.close()
+
+    # -- start ---------------------------------------------------------------------------------
+    def _command(self, name: str, endpoints: Endpoints) -> list[str]:
+        args, plan = self.args, self.plan
+        cmd = [
+            sys.executable,
+            "-m",
+            "runtime.cli.main",
+            "run",
+            str(args.graph),
+            "--process",
+            name,
+            "--supervised",
+            "--clock",
+            "real",
+            "--out",
+            str(self.out),
+            "--prefix",
+            plan.key_prefix,
+        ]
+        if self.duration is not None:
+            cmd += ["--duration", repr(float(self.duration))]
+        for item in args.set:
+            cmd += ["--set", item]
+        for e in endpoints.listen:
+            cmd += ["--listen", e]
+        for e in endpoints.connect:
+            cmd += ["--connect", e]
+        config_file = _config_file(plan, args)
+        if config_file:
+            cmd += ["--zenoh-config", config_file]
+        if args.quiet:
+            cmd.append("--quiet")
+        return cmd
+
+    def _start(self) -> None:
+        plan, args = self.plan, self.args
+        names = [p for p in plan.processes if plan.modules_in(p)]
+        for p in plan.processes:
+            if p not in names:
+                self.say(f"process `{p}` has no modules; not started")
+        mesh = loopback_mesh(names, free_loopback_ports(len(names)))
+        extra_listen = _endpoints(args.listen, "--listen") or _endpoints(
+            plan.spec.links.listen, "links.listen"
+        )
+        extra_connect = _endpoints(args.connect, "--connect") or _endpoints(
+            plan.spec.links.connect, "links.connect"
+        )
+        servo = servo_processes(plan)
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        root = str(Path(__file__).resolve().parents[1])
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)
+        width = max(len(n) for n in names)
+        for i, name in enumerate(names):
+            endpoints = Endpoints(
+                mesh[name].listen + (extra_listen if i == 0 else []),
+                mesh[name].connect + extra_connect,
+            )
+            (self.out / f"summary-{name}.json").unlink(missing_ok=True)
+            popen = subprocess.Popen(
+                self._command(name, endpoints),
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                env=env,
+                start_new_session=True,
+            )
+            child = _Child(name, endpoints, popen, name in servo)
+            self.children.append(child)
+            prefix = f"[{name}]".ljust(width + 3).encode()
+            for pipe, stream in ((popen.stdout, sys.stdout), (popen.stderr, sys.stderr)):
+                t = threading.Thread(
+                    target=self._pump,
+                    args=(child, pipe, stream, prefix),
+                    name=f"umbra-pump-{name}",
+                    daemon=True,
+                )
+                t.start()
+                self._pumps.append(t)
+            role = " (servo side)" if child.servo else ""
+            self.say(
+                f"started process `{name}`{role}, pid {popen.pid}, "
+                f"listening on {', '.join(endpoints.listen)}"
+            )
+
+    # -- commands --------------------------------------------------------------------------------
+    def _tell(self, child: _Child, command: str, reason: str) -> None:
+        if not child.running or child.told_at is not None:
+            return
+        child.told_at, child.told = time.monotonic(), command
+        line = f"{command} {' '.join(reason.split())}\n".encode()
+        try:
+            assert child.popen.stdin is not None
+            child.popen.stdin.write(line)
+            child.popen.stdin.flush()
+        except (BrokenPipeError, OSError):
+            pass
+
+    def _escalate(self, now: float) -> None:
+        for child in self.children:
+            if not child.running or child.told_at is None:
+                continue
+            grace = STOP_GRACE + (FINISH_EXTRA if child.told == "finish" else 0.0)
+            waited = now - child.told_at
+            if waited > 2 * grace:
+                child.popen.kill()
+            elif waited > grace and not child.termed:
+                child.termed = True
+                self.say(f"process `{child.name}` did not stop within {grace:g} s; sending SIGTERM")
+                child.popen.terminate()
+
+    def _on_signal(self, signum: int, frame: Any) -> None:
+        self._signals.append(signal.Signals(signum).name)
+
+    # -- the run -------------------------------------------------------------------------------
+    def run(self) -> int:
+        self.out.mkdir(parents=True, exist_ok=True)
+        old = {}
+        if threading.current_thread() is threading.main_thread():
+            old = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        started = time.time()
+        try:
+            self._start()
+            code, reason = self._supervise()
+        finally:
+            for child in self.children:
+                if child.running:
+                    child.popen.kill()
+                    child.code = child.popen.wait()
+            for t in self._pumps:
+                t.join(timeout=2.0)
+            for s, handler in old.items():
+                signal.signal(s, handler)
+        self._write_summaries(code, reason, started)
+        self.say(reason if code == 0 else f"failed: {reason}" if code != INTERRUPTED else reason)
+        self.say(f"summary written to {self.out}")
+        return code
+
+    def _supervise(self) -> tuple[int, str]:
+        verdict: tuple[int, str] | None = None
+        abort_rest_at: float | None = None
+        interrupts_seen = 0
+        while True:
+            now = time.monotonic()
+            ended = []
+            for child in self.children:
+                if child.running and (rc := child.popen.poll()) is not None:
+                    child.code = rc
+                    ended.append(child)
+            if len(self._signals) > interrupts_seen:
+                interrupts_seen = len(self._signals)
+                if verdict is None or verdict[0] == 0:
+                    verdict = (
+                        INTERRUPTED,
+                        f"interrupted by {self._signals[0]}; every process "
+                        f"stopped, servo side first",
+                    )
+                    abort_rest_at = self._abort(verdict[1], now)
+                elif interrupts_seen > 1:
+                    self.say("interrupted again: terminating every process now")
+                    for child in self.children:
+                        if child.running:
+                            child.popen.terminate()
+            for child in ended:
+                if child.code == 0:
+                    if verdict is None:
+                        reason = f"process `{child.name}` finished: {self._reason(child)}"
+                        verdict = (0, reason)
+                        for other in self.children:
+                            self._tell(other, "finish", reason)
+                    continue
+                if verdict is not None and verdict[0] != 0:
+                    continue  # stopped as told, or died while stopping: the first cause stands
+                if child.told == "abort":
+                    continue
+                cause = self._cause(child)
+                code = 2 if child.code == 2 else 1
+                verdict = (code, f"process `{child.name}` {cause}")
+                abort_rest_at = self._abort(verdict[1], now)
+            if abort_rest_at is not None and (
+                now >= abort_rest_at or not any(c.running for c in self.children if c.servo)
+            ):
+                for child in self.children:
+                    if child.told != "abort":
+                        child.told_at = None  # a finishing process is now aborted
+                        self._tell(child, "abort", verdict[1] if verdict else "stopped")
+                abort_rest_at = None
+            if not any(c.running for c in self.children):
+                assert verdict is not None
+                return verdict
+            self._escalate(now)
+            time.sleep(_POLL)
+
+    def _abort(self, reason: str, now: float) -> float:
+        """Tell the servo side to stop now; the rest once it has (or after STOP_GRACE)."""
+        for child in self.children:
+            if child.servo:
+                child.told_at = None if child.told == "finish" else child.told_at
+                self._tell(child, "abort", reason)
+        return now if not any(c.servo and c.running for c in self.children) else now + STOP_GRACE
+
+    # -- causes and summaries ------------------------------------------------------------------
+    def _summary(self, child: _Child) -> dict[str, Any] | None:
+        path = self.out / f"summary-{child.name}.json"
+        try:
+            return json.loads(path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def _reason(self, child: _Child) -> str:
+        summary = self._summary(child)
+        if summary and summary.get("reason"):
+            return str(summary["reason"])
+        return child.tail[-1] if child.tail else "no reason given"
+
+    def _cause(self, child: _Child) -> str:
+        rc = child.code
+        assert rc is not None
+        if rc < 0:
+            try:
+                name = signal.Signals(-rc).name
+            except ValueError:
+                name = f"signal {-rc}"
+            return f"died: killed by {name}"
+        return f"failed (exit {rc}): {self._reason(child)}"
+
+    def _write_summaries(self, code: int, reason: str, started: float) -> None:
+        processes = []
+        for child in self.children:
+            summary = self._summary(child)
+            if summary is None:  # died before writing one
+                summary = {
+                    "process": child.name,
+                    "exit_code": child.code,
+                    "reason": self._cause(child) if child.code else "no summary written",
+                    "modules": [],
+                }
+                path = self.out / f"summary-{child.name}.json"
+                path.write_text(json.dumps(summary, indent=2))
+            processes.append(
+                {
+                    "process": child.name,
+                    "pid": child.popen.pid,
+                    "exit_code": child.code,
+                    "reason": summary.get("reason", ""),
+                    "servo_side": child.servo,
+                    "listen": child.endpoints.listen,
+                    "connect": child.endpoints.connect,
+                }
+            )
+        whole = {
+            "graph": self.plan.spec.name,
+            "mode": "split",
+            "exit_code": code,
+            "reason": reason,
+            "wall_time_s": round(time.time() - started, 3),
+            "key_prefix": self.plan.key_prefix,
+            "processes": processes,
+        }
+        (self.out / "summary.json").write_text(json.dumps(whole, indent=2))

@@ -1,0 +1,97 @@
+"""Fixtures for link tests: probe modules registered by entry point, and running ``umbra``."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+PROBES = {
+    "LinkWatch": "tests.links.probes:LinkWatch",
+    "ProbeGuard": "tests.links.probes:ProbeGuard",
+    "Boom": "tests.links.probes:Boom",
+}
+
+
+@pytest.fixture(scope="session")
+def plugin_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """Environment in which child processes see the probe modules, registered as a third-party
+    package would register them (a dist-info with ``umbra.modules`` entry points)."""
+    root = tmp_path_factory.mktemp("probe_plugin")
+    dist = root / "umbra_link_probes-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: umbra-link-probes\nVersion: 0.1\n")
+    lines = "".join(f"{name} = {target}\n" for name, target in PROBES.items())
+    (dist / "entry_points.txt").write_text(f"[umbra.modules]\n{lines}")
+    path = os.pathsep.join([str(root), str(REPO), os.environ.get("PYTHONPATH", "")])
+    return dict(os.environ, PYTHONPATH=path.rstrip(os.pathsep), PYTHONUNBUFFERED="1")
+
+
+@dataclass
+class Running:
+    """A running ``umbra`` command whose output lines are collected as they come."""
+
+    popen: subprocess.Popen[str]
+    stdout: list[str] = field(default_factory=list)
+    stderr: list[str] = field(default_factory=list)
+    threads: list[threading.Thread] = field(default_factory=list)
+
+    def wait_for(self, text: str, timeout: float = 20.0) -> str:
+        """The first stderr/stdout line containing ``text``; fails after ``timeout`` s."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            for line in self.stderr + self.stdout:
+                if text in line:
+                    return line
+            if self.popen.poll() is not None and all(not t.is_alive() for t in self.threads):
+                break
+            time.sleep(0.01)
+        raise AssertionError(f"no line with {text!r}; stderr:\n" + "\n".join(self.stderr[-40:]))
+
+    def finish(self, timeout: float = 60.0) -> int:
+        code = self.popen.wait(timeout=timeout)
+        for t in self.threads:
+            t.join(timeout=5)
+        return code
+
+    @property
+    def text(self) -> str:
+        return "\n".join(self.stdout + self.stderr)
+
+
+def _collect(stream: object, into: list[str]) -> None:
+    for line in stream:  # type: ignore[attr-defined]
+        into.append(line.rstrip("\n"))
+
+
+@pytest.fixture
+def umbra(plugin_env: dict[str, str], tmp_path: Path) -> Iterator[Callable[..., Running]]:
+    """Start ``umbra ARGS...`` in ``tmp_path`` (optionally through a prefix command, such as
+    ``ip netns exec NS``); every process still running at the end is killed."""
+    started: list[Running] = []
+
+    def start(*args: str, prefix: tuple[str, ...] = ()) -> Running:
+        cmd = [*prefix, sys.executable, "-m", "runtime.cli.main", *args]
+        popen = subprocess.Popen(cmd, cwd=tmp_path, env=plugin_env, stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+        run = Running(popen)
+        for stream, into in ((popen.stdout, run.stdout), (popen.stderr, run.stderr)):
+            t = threading.Thread(target=_collect, args=(stream, into), daemon=True)
+            t.start()
+            run.threads.append(t)
+        started.append(run)
+        return run
+
+    yield start
+    for run in started:
+        if run.popen.poll() is None:
+            run.popen.kill()
+            run.popen.wait()

@@ -1,0 +1,101 @@
+"""Modules that watch links from the consumer's side, for the link tests.
+
+They are registered in the test's child processes the way a third-party package registers its
+modules: through an ``umbra.modules`` entry point (see ``conftest.plugin_env``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, param
+from connectors.messages import Scalar, Twist
+
+
+class LinkWatch(Module):
+    """A watchdog on one input: healthy while the producer is alive and the latest sample is at
+    most ``timeout`` old. Counts firings and recoveries, and when each first happened [clock s]."""
+
+    TYPE = "LinkWatch"
+
+    class Params(Parameters):
+        timeout: float = param(0.2, "largest accepted sample age", unit="s", gt=0)
+
+    input = Input(Scalar, doc="the watched link")
+
+    def start(self) -> None:
+        self._healthy = False
+        self.fired = 0
+        self.revived = 0
+        self.first_up = math.nan
+        self.first_dead = math.nan  # first step that saw the producer gone (liveliness)
+        self.first_fired = math.nan
+        self.last_revived = math.nan
+        self.seq_at_revival = -1
+
+    def step(self, now: float) -> None:
+        reg = self.input
+        healthy = reg.value is not None and reg.link_alive and reg.age(now) <= self.params.timeout
+        if reg.value is not None and not reg.link_alive and math.isnan(self.first_dead):
+            self.first_dead = now
+        if healthy == self._healthy:
+            return
+        self._healthy = healthy
+        if healthy:
+            if math.isnan(self.first_up):
+                self.first_up = now
+                self.log.info("link up (seq %d)", reg.seq)
+            else:
+                self.revived += 1
+                self.last_revived = now
+                self.seq_at_revival = reg.seq
+                self.log.info("link healthy again (seq %d)", reg.seq)
+        else:
+            self.fired += 1
+            if math.isnan(self.first_fired):
+                self.first_fired = now
+            self.log.info("watchdog fired: producer alive %s, age %.3f s", reg.link_alive,
+                          reg.age(now))
+
+    def summary(self) -> dict[str, object]:
+        return {
+            "fired": self.fired, "revived": self.revived, "first_up": self.first_up,
+            "first_dead": self.first_dead, "first_fired": self.first_fired,
+            "last_revived": self.last_revived, "seq_at_revival": self.seq_at_revival,
+            "last_seq": self.input.seq,
+        }
+
+
+class ProbeGuard(Module):
+    """A safety guard: turns each scalar into a twist [value, 0, 0, 0, 0, 0] in ``camera``; the
+    runtime zeroes its output when the run stops."""
+
+    TYPE = "ProbeGuard"
+    SAFETY_GUARD = True
+
+    value = Input(Scalar, trigger=True, doc="speed along x")
+    twist = Output(Twist, frame="camera", doc="guarded twist")
+
+    def step(self, now: float) -> None:
+        sample = self.value.get(now)
+        if sample is not None:
+            self.twist.send(Twist(vector=np.array([sample.value, 0, 0, 0, 0, 0.0]),
+                                  frame="camera"))
+
+
+class Boom(Module):
+    """Fails in ``step`` once its input reaches ``at``."""
+
+    TYPE = "Boom"
+
+    class Params(Parameters):
+        at: float = param(10.0, "value that makes it fail")
+
+    value = Input(Scalar, trigger=True, doc="watched value")
+
+    def step(self, now: float) -> None:
+        sample = self.value.get(now)
+        if sample is not None and sample.value >= self.params.at:
+            raise RuntimeError(f"boom at {sample.value:g}")
