@@ -367,6 +367,8 @@ class Supervisor:
                 if child.running and (rc := child.popen.poll()) is not None:
                     child.code = rc
                     ended.append(child)
+                    how = f"exit {rc}" if rc >= 0 else self._cause(child)
+                    self.say(f"process `{child.name}` ended ({how})")
             if len(self._signals) > interrupts_seen:
                 interrupts_seen = len(self._signals)
                 if verdict is None or verdict[0] == 0:

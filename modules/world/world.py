@@ -8,8 +8,9 @@ grasp against the truth and ends the run: exit 0 when grasped within tolerance, 
 
 Frames: ``base`` (robot base), ``flange``, ``tool`` (gripper centre point; the graph's static
 frame ``flange->tool``), ``camera`` (``flange->camera`` through the static frames), ``table``
-(the table top, z up, ``table_height_m`` above the base), ``patch`` (centre of the patch on the
-tool's top face, x along its long side).
+(the table top, z up; the graph's static frame ``base->table``), ``patch`` (centre of the patch
+on the tool's top face, x along its long side). Poses are published in the table frame, the
+simulated camera's world.
 """
 
 from __future__ import annotations
@@ -22,22 +23,20 @@ from modules.arm.arm_params import ArmParams
 from modules.world.grasp import grasp_error
 
 
-def T_base_patch_of(
-    table_height_m: float, tool_xy_m: list[float], tool_yaw_rad: float, patch_height_m: float
-) -> np.ndarray:
-    """Pose of the patch in the base frame: on the table, turned by ``tool_yaw_rad`` about z."""
+def T_table_patch_of(tool_xy_m: list[float], tool_yaw_rad: float, patch_height_m: float
+                     ) -> np.ndarray:
+    """Pose of the patch on the table: at (x, y), ``patch_height_m`` up, turned about z."""
     c, s = np.cos(tool_yaw_rad), np.sin(tool_yaw_rad)
     T = np.eye(4)
     T[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-    T[:3, 3] = [tool_xy_m[0], tool_xy_m[1], table_height_m + patch_height_m]
+    T[:3, 3] = [tool_xy_m[0], tool_xy_m[1], patch_height_m]
     return T
 
 
 class WorldParams(ArmParams):
     """Parameters of the simulated world (the arm's DH table comes from ArmParams)."""
 
-    table_height_m: float = param(0.25, "table top above the robot base", unit="m", ge=0, le=1.5)
-    tool_xy_m: list[float] = param([0.6, 0.0], "tool (patch centre) x, y in the base frame",
+    tool_xy_m: list[float] = param([0.6, 0.0], "tool (patch centre) x, y in the table frame",
                                    unit="m", min_length=2, max_length=2)
     tool_yaw_deg: float = param(0.0, "tool rotation about the vertical", unit="deg",
                                 ge=-180, le=180)
@@ -58,8 +57,8 @@ class SimWorld(Module):
     Params = WorldParams
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper of the arm")
-    camera_pose = Output(Pose, frame="base->camera", doc="true T_base_camera")
-    patch_pose = Output(Pose, frame="base->patch", doc="true T_base_patch")
+    camera_pose = Output(Pose, frame="table->camera", doc="true T_table_camera")
+    patch_pose = Output(Pose, frame="table->patch", doc="true T_table_patch")
     status = Output(Status, doc="world state: running, grasped or missed, with errors")
 
     def start(self) -> None:
@@ -68,12 +67,12 @@ class SimWorld(Module):
         try:
             self.T_flange_camera = frames.lookup("flange", "camera")
             self.T_flange_tool = frames.lookup("flange", "tool")
+            self.T_table_base = frames.lookup("table", "base")
         except KeyError as exc:
-            raise UserError(f"World `{self.name}` needs the static frames flange->tool and "
-                            f"tool->camera (or flange->camera) in the graph: {exc}") from None
-        self.T_base_patch = T_base_patch_of(
-            p.table_height_m, p.tool_xy_m, np.radians(p.tool_yaw_deg), p.patch_height_m
-        )
+            raise UserError(f"World `{self.name}` needs the static frames base->table, "
+                            f"flange->tool and tool->camera in the graph: {exc}") from None
+        self.T_table_patch = T_table_patch_of(p.tool_xy_m, np.radians(p.tool_yaw_deg),
+                                              p.patch_height_m)
         self.t0: float | None = None
         self.result: dict[str, object] = {"grasped": False, "verdict": "no grasp attempted"}
         self._closing_seen = False
@@ -83,23 +82,23 @@ class SimWorld(Module):
         if self.t0 is None:
             self.t0 = now
         state = self.joint_state.get(now)
-        self.patch_pose.send(Pose(matrix=self.T_base_patch, parent="base", child="patch"))
+        self.patch_pose.send(Pose(matrix=self.T_table_patch, parent="table", child="patch"))
         if state is None:
             return
-        T_base_flange = self.params.table.fk(state.position)
-        self.camera_pose.send(Pose(matrix=T_base_flange @ self.T_flange_camera, parent="base",
+        T_table_flange = self.T_table_base @ self.params.table.fk(state.position)
+        self.camera_pose.send(Pose(matrix=T_table_flange @ self.T_flange_camera, parent="table",
                                    child="camera", stamp=state.stamp))
         if self._judged:
             return
         if state.gripper < 0.99:
             self._closing_seen = True
         if self._closing_seen and state.gripper <= 0.0:
-            self._judge(now, T_base_flange @ self.T_flange_tool)
+            self._judge(now, T_table_flange @ self.T_flange_tool)
         elif now - self.t0 > self.params.timeout_s:
             self._finish(now, False, f"no grasp within {self.params.timeout_s:g} s")
 
-    def _judge(self, now: float, T_base_tool: np.ndarray) -> None:
-        err = grasp_error(T_base_tool, self.T_base_patch)
+    def _judge(self, now: float, T_table_tool: np.ndarray) -> None:
+        err = grasp_error(T_table_tool, self.T_table_patch)
         p = self.params
         ok = err.position_mm <= p.position_tolerance_mm and abs(err.roll_deg) <= p.roll_tolerance_deg
         self.result.update({

@@ -72,26 +72,46 @@ def _collect(stream: object, into: list[str]) -> None:
         into.append(line.rstrip("\n"))
 
 
+def start_umbra(env: dict[str, str], cwd: Path, *args: str,
+                prefix: tuple[str, ...] = ()) -> Running:
+    """Start ``umbra ARGS...`` in ``cwd`` (optionally through a prefix command such as
+    ``ip netns exec NS``), collecting its output lines as they come."""
+    cmd = [*prefix, sys.executable, "-m", "runtime.cli.main", *args]
+    popen = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    run = Running(popen)
+    for stream, into in ((popen.stdout, run.stdout), (popen.stderr, run.stderr)):
+        t = threading.Thread(target=_collect, args=(stream, into), daemon=True)
+        t.start()
+        run.threads.append(t)
+    return run
+
+
+def stop_all(runs: list[Running]) -> None:
+    """Kill whatever is still running."""
+    for run in runs:
+        if run.popen.poll() is None:
+            run.popen.kill()
+            run.popen.wait()
+
+
 @pytest.fixture
 def umbra(plugin_env: dict[str, str], tmp_path: Path) -> Iterator[Callable[..., Running]]:
-    """Start ``umbra ARGS...`` in ``tmp_path`` (optionally through a prefix command, such as
-    ``ip netns exec NS``); every process still running at the end is killed."""
+    """Start ``umbra ARGS...`` in ``tmp_path``; every process still running at the end is killed."""
     started: list[Running] = []
 
     def start(*args: str, prefix: tuple[str, ...] = ()) -> Running:
-        cmd = [*prefix, sys.executable, "-m", "runtime.cli.main", *args]
-        popen = subprocess.Popen(cmd, cwd=tmp_path, env=plugin_env, stdout=subprocess.PIPE,
-                                 stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
-        run = Running(popen)
-        for stream, into in ((popen.stdout, run.stdout), (popen.stderr, run.stderr)):
-            t = threading.Thread(target=_collect, args=(stream, into), daemon=True)
-            t.start()
-            run.threads.append(t)
+        run = start_umbra(plugin_env, tmp_path, *args, prefix=prefix)
         started.append(run)
         return run
 
     yield start
-    for run in started:
-        if run.popen.poll() is None:
-            run.popen.kill()
-            run.popen.wait()
+    stop_all(started)
+
+
+def run_umbra(env: dict[str, str], cwd: Path, *args: str,
+              timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
+    """Run ``umbra ARGS...`` to completion in ``cwd``."""
+    return subprocess.run([sys.executable, "-m", "runtime.cli.main", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout,
+                          stdin=subprocess.DEVNULL)

@@ -1,0 +1,126 @@
+"""Two processes started by hand (``--process``), as on two hosts: liveliness and foreign samples.
+
+One run serves three tests: while the producer streams, a foreign publisher puts garbage on the
+link's key; then the producer is killed with SIGKILL and the consumer must see it gone.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import msgspec
+import numpy as np
+import pytest
+import zenoh
+
+from connectors.codec import Codec
+from connectors.messages import Scalar, Text
+from runtime.links.config import Endpoints, build_config, free_loopback_ports
+from tests.links.conftest import Running, start_umbra, stop_all
+
+GRAPH = """
+graph: byhand
+clock: real
+processes: {umbra: {}, smart: {}}
+modules:
+  counter: {type: Counter, process: umbra, rate: 100}
+  watch: {type: LinkWatch, process: smart, rate: 200, params: {timeout: 0.1}}
+connections:
+  - counter.count -> watch.input
+"""
+KEY = "umbra/byhand/counter/count"
+
+
+def garbage() -> list[bytes]:
+    """Payloads that are not Scalar samples of this build: each must be dropped and counted."""
+    codec = Codec()
+    good = codec.encode(Scalar(value=1.0, seq=10**6))
+    enc = msgspec.msgpack.Encoder()
+    return [
+        b"",
+        b"hello, world",
+        bytes(np.random.default_rng(0).integers(0, 256, 300, dtype=np.uint8)),
+        good[: len(good) // 2],  # truncated
+        good.replace(b"\xa5umbra\x01", b"\xa5umbra\x02"),  # another encoding version
+        codec.encode(Text(text="not a scalar", seq=10**6)),  # another type
+        enc.encode(["umbra", 1, "Scalar", {"value": "NaN?", "seq": 10**6}]),  # bad field
+        enc.encode(["umbra", 1, "Vector", {"values": msgspec.msgpack.Ext(1, b"\x03|O8\x01")}]),
+    ]
+
+
+@dataclass
+class Scene:
+    consumer: Running
+    summary: dict
+    killed_at: float
+    garbage_sent: int
+
+
+@pytest.fixture(scope="module")
+def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) -> Iterator[Scene]:
+    cwd = tmp_path_factory.mktemp("byhand")
+    (cwd / "byhand.yaml").write_text(GRAPH)
+    (port,) = free_loopback_ports(1)
+    endpoint = f"tcp/127.0.0.1:{port}"
+    runs: list[Running] = []
+    try:
+        consumer = start_umbra(plugin_env, cwd, "run", "byhand.yaml", "--process", "smart",
+                               "--listen", endpoint, "--out", "out", "--duration", "60")
+        runs.append(consumer)
+        producer = start_umbra(plugin_env, cwd, "run", "byhand.yaml", "--process", "umbra",
+                               "--connect", endpoint, "--out", "out", "--duration", "60")
+        runs.append(producer)
+        consumer.wait_for("link up")
+        payloads = garbage()
+        session = zenoh.open(build_config(Endpoints(connect=[endpoint])))
+        try:
+            pub = session.declare_publisher(KEY, congestion_control=zenoh.CongestionControl.BLOCK)
+            deadline = time.monotonic() + 10
+            while not pub.matching_status.matching and time.monotonic() < deadline:
+                time.sleep(0.01)
+            for payload in payloads:
+                pub.put(payload)
+            consumer.wait_for("does not decode", timeout=10)
+        finally:
+            session.close()
+        time.sleep(0.3)  # the producer keeps streaming after the garbage
+        killed_at = time.monotonic()
+        os.kill(producer.popen.pid, signal.SIGKILL)
+        consumer.wait_for("watchdog fired")
+        consumer.popen.send_signal(signal.SIGINT)
+        assert consumer.finish() == 130, consumer.text
+        summary = json.loads((cwd / "out" / "summary-smart.json").read_text())
+        yield Scene(consumer, summary, killed_at, len(payloads))
+    finally:
+        stop_all(runs)
+
+
+def _watch(summary: dict) -> dict:
+    return next(m for m in summary["modules"] if m["module"] == "watch")
+
+
+def test_garbage_on_a_link_key_is_dropped_counted_and_logged(scene: Scene) -> None:
+    (sub,) = scene.summary["links"]["subscribe"]
+    assert sub["decode_errors"] == scene.garbage_sent
+    assert sub["stale_dropped"] == 0 and sub["missing"] == 0
+    assert sub["received"] == _watch(scene.summary)["last_seq"] > 30  # kept running after it
+    logged = [line for line in scene.consumer.stderr if "does not decode" in line]
+    assert len(logged) == 1  # one line, then rate-limited
+    assert KEY in logged[0]
+
+
+def test_killed_producer_is_seen_by_the_consumer_within_half_a_second(scene: Scene) -> None:
+    watch = _watch(scene.summary)
+    assert watch["first_dead"] - scene.killed_at < 0.5
+    assert watch["first_dead"] > scene.killed_at
+    assert watch["fired"] == 1 and watch["first_fired"] <= watch["first_dead"] + 0.01
+
+
+def test_consumer_summary_names_the_interrupt(scene: Scene) -> None:
+    assert scene.summary["exit_code"] == 130
+    assert "interrupted by SIGINT" in scene.summary["reason"]

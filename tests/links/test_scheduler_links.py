@@ -1,0 +1,164 @@
+"""What the scheduler does with link samples and at stop (with an in-memory transport)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from connectors import Input, Module, Output
+from connectors.messages import Image, Message, Scalar
+from connectors.ports import Sink
+from modules.generic.recording import read_recording
+from runtime.graph.check import check_spec
+from runtime.graph.parse import parse_graph_text
+from runtime.graph.plan import GraphPlan, LinkPlan
+from runtime.registry import Registry
+from runtime.scheduler import Scheduler, SchedulerOptions
+from tests.links.probes import ProbeGuard
+
+
+class Frames(Module):
+    image = Output(Image, doc="frames")
+
+
+class Tally(Module):
+    """Remembers every value it was stepped with."""
+
+    value = Input(Scalar, trigger=True, required=False, doc="values")
+    image = Input(Image, trigger=True, required=False, doc="frames")
+
+    def start(self) -> None:
+        self.values: list[float] = []
+        self.frames: list[int] = []
+
+    def step(self, now: float) -> None:
+        if self.value.fresh:
+            self.values.append(self.value.value.value)
+        if self.image.fresh:
+            self.frames.append(self.image.value.seq)
+
+
+class Halting(Module):
+    """Has a ``safe_stop`` hook."""
+
+    out = Output(Scalar, doc="level")
+
+    def step(self, now: float) -> None:
+        self.out.send(Scalar(value=5.0))
+
+    def safe_stop(self, now: float) -> None:
+        self.out.send(Scalar(value=-1.0))
+
+
+GRAPH = """
+graph: inbound
+clock: real
+processes: {a: {}, b: {}}
+modules:
+  counter: {type: Counter, process: a, rate: 10}
+  frames: {type: Frames, process: a, rate: 10}
+  tally: {type: Tally, process: b}
+connections:
+  - counter.count -> tally.value
+  - frames.image -> tally.image
+"""
+
+
+class FakeTransport:
+    """Holds the consumer's deliver callbacks so a test can push samples as zenoh would."""
+
+    def __init__(self) -> None:
+        self.deliver: dict[str, Callable[[Message], None]] = {}
+
+    def publisher(self, link: LinkPlan) -> Sink:
+        return lambda sample, now: None
+
+    def subscribe(self, link: LinkPlan, deliver: Callable[[Message], None]) -> None:
+        self.deliver[link.connection.dst.port] = deliver
+
+    def producer_alive(self, link: LinkPlan) -> bool:
+        return True
+
+    def stats(self) -> dict[str, object]:
+        return {}
+
+    def close(self) -> None:
+        pass
+
+
+def _registry() -> Registry:
+    registry = Registry()
+    for cls in (Frames, Tally, ProbeGuard, Halting):
+        registry.add(cls)
+    return registry
+
+
+def _plan(text: str) -> GraphPlan:
+    return check_spec(parse_graph_text(text, "test.yaml"), _registry())
+
+
+def test_reliable_samples_each_get_a_step_and_video_keeps_the_latest(tmp_path: Path) -> None:
+    transport = FakeTransport()
+    sched = Scheduler(_plan(GRAPH), SchedulerOptions(
+        clock="real", duration=5.0, output_dir=tmp_path, process="b"), transport)
+    tally = sched.modules["tally"]
+    # everything arrives at once, before the first tick: as after a stall of the consumer
+    for i in range(1, 6):
+        transport.deliver["value"](Scalar(value=float(i), seq=i))
+        transport.deliver["image"](Image(pixels=np.zeros((2, 2, 3), np.uint8), seq=i))
+
+    def stop_when_done() -> None:
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and len(getattr(tally, "values", [])) < 5:
+            time.sleep(0.001)
+        sched.request_stop("test done", 0)  # from another thread: wakes the loop
+
+    threading.Thread(target=stop_when_done).start()
+    result = sched.run()
+    assert result.reason == "test done"
+    assert result.wall_time < 4.0
+    assert tally.values == [1.0, 2.0, 3.0, 4.0, 5.0]  # commands: every one, in order
+    assert tally.frames == [5]  # video: the latest frame wins
+
+
+GUARD_GRAPH = """
+graph: guarded
+modules:
+  counter: {type: Counter, rate: 100, params: {start: 1, stop_after: 20}}
+  guard: {type: ProbeGuard}
+  halting: {type: Halting, rate: 100}
+  record: {type: Recorder, params: {channels: [twist, level], path: rec.mcap}}
+connections:
+  - counter.count -> guard.value
+  - guard.twist -> record.twist
+  - halting.out -> record.level
+"""
+
+
+def test_stop_zeroes_safety_guards_and_calls_safe_stop_hooks(tmp_path: Path) -> None:
+    sched = Scheduler(_plan(GUARD_GRAPH), SchedulerOptions(output_dir=tmp_path))
+    result = sched.run()
+    assert result.exit_code == 0
+    rows = list(read_recording(tmp_path / "rec.mcap"))
+    twists = [s.vector for c, s in rows if c == "twist"]
+    levels = [s.value for c, s in rows if c == "level"]
+    assert len(twists) == 21 and [t[0] for t in twists[:-1]] == [float(i) for i in range(1, 21)]
+    np.testing.assert_array_equal(twists[-1], np.zeros(6))
+    assert levels[-1] == -1.0 and set(levels[:-1]) == {5.0}
+
+
+def test_zeroing_touches_float_arrays_only() -> None:
+    from connectors.messages import Text, Twist
+    from runtime.scheduler import _zeroed
+
+    twist = Twist(vector=np.arange(1.0, 7.0), frame="tool", stamp=3.0, seq=4)
+    zero = _zeroed(twist)
+    assert zero is not None and zero.frame == "tool" and zero.stamp == 0.0
+    np.testing.assert_array_equal(zero.vector, np.zeros(6))
+    assert _zeroed(Text(text="close")) is None  # a gripper command is not repeated
+    assert _zeroed(Scalar(value=1.0)) is None
+    assert _zeroed(None) is None

@@ -1,0 +1,191 @@
+"""The zenoh transport between two sessions in this process (real zenoh on loopback)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+import zenoh
+
+from connectors import Module, Output
+from connectors.messages import Image, Message, Scalar
+from runtime.graph.check import check_spec, load_graph
+from runtime.graph.parse import parse_graph_text
+from runtime.graph.plan import GraphPlan, LinkPlan
+from runtime.links.config import Endpoints, build_config, free_loopback_ports
+from runtime.links.transport import ZenohTransport
+from runtime.registry import Registry
+from tests.links.conftest import REPO
+
+
+class Camera(Module):
+    """Test source of images."""
+
+    image = Output(Image, doc="frames")
+
+
+class Viewer(Module):
+    from connectors import Input
+
+    image = Input(Image, trigger=True, doc="frames")
+
+
+IMAGE_GRAPH = """
+graph: video
+processes: {umbra: {}, smart: {}}
+modules:
+  cam: {type: Camera, process: umbra, rate: 30}
+  view: {type: Viewer, process: smart}
+connections:
+  - cam.image -> view.image
+"""
+
+
+@dataclass
+class Pair:
+    producer: ZenohTransport
+    consumer: ZenohTransport
+    consumer_endpoint: str
+
+
+def _pair(plan: GraphPlan) -> Pair:
+    port_a, port_b = free_loopback_ports(2)
+    a = zenoh.open(build_config(Endpoints(listen=[f"tcp/127.0.0.1:{port_a}"])))
+    b = zenoh.open(build_config(Endpoints([f"tcp/127.0.0.1:{port_b}"],
+                                          [f"tcp/127.0.0.1:{port_a}"])))
+    # peers do not route for each other: a foreign publisher must connect to the consumer
+    return Pair(ZenohTransport(a, plan, "umbra"), ZenohTransport(b, plan, "smart"),
+                f"tcp/127.0.0.1:{port_b}")
+
+
+def _until(check: Callable[[], bool], timeout: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if check():
+            return True
+        time.sleep(0.005)
+    return check()
+
+
+@pytest.fixture
+def counter_plan() -> GraphPlan:
+    return load_graph(str(REPO / "graphs" / "counter_split.yaml"))
+
+
+@pytest.fixture
+def pair(counter_plan: GraphPlan) -> Iterator[Pair]:
+    p = _pair(counter_plan)
+    yield p
+    p.producer.close()
+    p.consumer.close()
+
+
+def _ready(pair: Pair, links: list[LinkPlan], got: list[Message]) -> Callable[[Message], None]:
+    sinks = [pair.producer.publisher(link) for link in links]
+    for link in links:
+        pair.consumer.subscribe(link, got.append)
+    pair.producer.announce()
+    pair.consumer.announce()
+    assert pair.producer.wait_ready(threading.Event(), timeout=10)
+
+    def send(msg: Message) -> None:
+        for sink in sinks:
+            sink(msg, 0.0)
+
+    return send
+
+
+def test_samples_arrive_in_order_once_per_output(counter_plan: GraphPlan, pair: Pair) -> None:
+    links = counter_plan.links[:2]  # counter.count -> double.input and -> record.count
+    assert links[0].key == links[1].key == "umbra/counter_split/counter/count"
+    got: list[Message] = []
+    send = _ready(pair, links, got)
+    for i in range(1, 301):
+        send(Scalar(value=i * 0.5, seq=i, stamp=100.0 + i))
+    assert _until(lambda: len(got) >= 600)
+    time.sleep(0.05)
+    assert len(got) == 600  # one publication per output, delivered to both inputs
+    assert [m.seq for m in got[::2]] == list(range(1, 301))
+    assert [m.value for m in got[1::2]] == [i * 0.5 for i in range(1, 301)]
+    assert got[-1].stamp == 400.0
+    (pub,) = pair.producer.stats()["publish"]
+    (sub,) = pair.consumer.stats()["subscribe"]
+    assert pub["sent"] == 300 and sub["received"] == 300 and sub["missing"] == 0
+    assert pair.consumer.producer_alive(links[0])
+    assert pair.consumer.link_age(links[0]) < 5.0
+
+
+def test_foreign_and_old_samples_are_dropped_and_counted(
+    counter_plan: GraphPlan, pair: Pair
+) -> None:
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    foreign = zenoh.open(build_config(Endpoints(connect=[pair.consumer_endpoint])))
+    try:
+        raw = foreign.declare_publisher(link.key, congestion_control=zenoh.CongestionControl.BLOCK)
+        assert _until(lambda: raw.matching_status.matching)
+        send(Scalar(value=1.0, seq=5))
+        raw.put(b"\x00\x01garbage")
+        send(Scalar(value=2.0, seq=6))
+        send(Scalar(value=3.0, seq=4))  # older than one already delivered
+        send(Scalar(value=4.0, seq=9))  # 7 and 8 never came
+        assert _until(lambda: pair.consumer.stats()["subscribe"][0]["received"] == 3)
+        time.sleep(0.05)
+    finally:
+        foreign.close()
+    assert [m.value for m in got] == [1.0, 2.0, 4.0]
+    (sub,) = pair.consumer.stats()["subscribe"]
+    assert (sub["decode_errors"], sub["stale_dropped"], sub["missing"]) == (1, 1, 2)
+    assert "not an umbra sample" in sub["last_error"]
+
+
+def test_clean_end_and_death_of_the_producer(counter_plan: GraphPlan) -> None:
+    link = counter_plan.links[0]
+    pair = _pair(counter_plan)
+    try:
+        _ready(pair, [link], [])
+        assert _until(lambda: pair.consumer.producer_alive(link))
+        assert not pair.consumer.inputs_ended()
+        pair.producer.close()  # end of stream, token withdrawn, session closed
+        assert _until(lambda: not pair.consumer.producer_alive(link))
+        assert pair.consumer.inputs_ended()
+        assert pair.consumer.stats()["subscribe"][0]["ended"] == 1
+    finally:
+        pair.producer.close()
+        pair.consumer.close()
+
+
+def test_images_travel_through_shared_memory_and_decode_without_copy() -> None:
+    registry = Registry()
+    registry.add(Camera)
+    registry.add(Viewer)
+    plan = check_spec(parse_graph_text(IMAGE_GRAPH, "video.yaml"), registry)
+    (link,) = plan.links
+    assert not link.reliable  # video may drop old frames
+    pair = _pair(plan)
+    seen_shm: list[bool] = []
+    try:
+        spy = pair.consumer._session.declare_subscriber(
+            link.key, lambda s: seen_shm.append(s.payload.as_shm() is not None))
+        got: list[Message] = []
+        send = _ready(pair, [link], got)
+        frames = np.random.default_rng(1).integers(0, 256, (3, 480, 640, 3), dtype=np.uint8)
+        for i, pixels in enumerate(frames, 1):
+            send(Image(pixels=pixels, seq=i))
+            assert _until(lambda i=i: len(got) == i)
+        for frame, msg in zip(frames, got, strict=True):
+            np.testing.assert_array_equal(msg.pixels, frame)
+            assert not msg.pixels.flags.writeable  # a view on the received bytes
+        assert _until(lambda: len(seen_shm) == 3)
+        assert seen_shm == [True, True, True]
+        (pub,) = pair.producer.stats()["publish"]
+        assert pub["shm_samples"] == 3 and pub["mode"] == "best-effort/drop"
+        spy.undeclare()
+    finally:
+        pair.producer.close()
+        pair.consumer.close()
