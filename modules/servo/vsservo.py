@@ -82,6 +82,9 @@ class VsServo(Module):
         gripper_close_time: float = param(0.5, "wait after closing the gripper", unit="s", ge=0)
         max_contour_age: float = param(0.5, "older contours count as lost", unit="s", gt=0)
         camera_frame: str = param("camera", "frame of the output twist")
+        progress_period_s: float = param(
+            1.0, "log stage and errors this often (0: only stage changes)", unit="s", ge=0
+        )
 
     contour = Input(Contour, trigger=True, doc="tracked patch from vsSnake")
     operator = Input(Text, required=False, doc="operator: resume / abort")
@@ -95,6 +98,11 @@ class VsServo(Module):
         if len(p.gains) != 4:
             raise UserError(f"vsServo `{self.name}`: gains takes 4 numbers (x, y, z, roll)")
         self.patch_area = p.patch_width * p.patch_height
+        self._stage_entered: dict[str, float] = {}
+        self._stage_times: dict[str, float] = {}
+        self._current: tuple[str, float] | None = None
+        self._last_progress = -np.inf
+        self._last_reason = ""
         self._camera_seq = -1
         self._intrinsics = Intrinsics(fx=p.fx, fy=p.fy, u0=p.u0, v0=p.v0)
         self._distortion: np.ndarray | None = None
@@ -177,14 +185,36 @@ class VsServo(Module):
         self.twist.send(Twist(vector=out.camera_twist, frame=self.params.camera_frame))
         if out.gripper:
             self.gripper.send(Text(text=out.gripper))
-        self._report(out)
+        self._report(out, now)
 
-    def _report(self, out: ServoOutput) -> None:
+    def _track_stage(self, now: float, out: ServoOutput, values: dict[str, float]) -> None:
+        """Time spent per stage, and progress lines for the person watching the run."""
+        if self._current is None or self._current[0] != out.stage:
+            if self._current is not None:
+                stage, since = self._current
+                self._stage_times[stage] = self._stage_times.get(stage, 0.0) + now - since
+            self._current = (out.stage, now)
+            if out.assist:
+                self._last_reason = out.reason
+                self.log.warning("stage %s: %s (%s)", out.stage, out.message, out.reason)
+            else:
+                self.log.info("stage %s: %s", out.stage, out.message)
+        period = self.params.progress_period_s
+        if period and now - self._last_progress >= period:
+            self._last_progress = now
+            errors = ", ".join(f"{k[6:]} {v * (57.29578 if k == 'error_roll' else 1e3):+.1f}"
+                               f"{' deg' if k == 'error_roll' else ' mm'}"
+                               for k, v in values.items())
+            self.log.info("t=%.1f s stage %s%s", now, out.stage, f" errors {errors}" if errors
+                          else "")
+
+    def _report(self, out: ServoOutput, now: float = 0.0) -> None:
         values = {
             name: float(value)
             for name, value in zip(ERROR_NAMES, out.error, strict=True)
             if np.isfinite(value)
         }
+        self._track_stage(now, out, values)
         key = (out.stage, out.message, out.reason)
         if key != self._last_key and out.assist:
             self._assists += 1
@@ -200,4 +230,13 @@ class VsServo(Module):
         )
 
     def summary(self) -> dict[str, object]:
-        return {"stage": self.stages.stage, "assist_requests": self._assists}
+        times = dict(self._stage_times)
+        if self._current is not None:
+            stage, since = self._current
+            times[stage] = times.get(stage, 0.0)  # the final stage's time is open-ended
+        return {
+            "stage": self.stages.stage,
+            "assist_requests": self._assists,
+            "assist_reason": self._last_reason,
+            "stage_times_s": {k: round(v, 3) for k, v in times.items()},
+        }

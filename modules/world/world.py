@@ -117,7 +117,7 @@ class SimWorld(Module):
     def _finish(self, now: float, grasped: bool, verdict: str) -> None:
         self._judged = True
         self.result.update({"grasped": grasped, "verdict": verdict,
-                            "time_s": round(now - (self.t0 or now), 3)})
+                            "time_s": round(now - (self.t0 if self.t0 is not None else now), 3)})
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
         self.status.send(Status(stage="grasped" if grasped else "missed", message=verdict,
                                 values=values))

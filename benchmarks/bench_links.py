@@ -1,0 +1,560 @@
+"""Links between processes: round-trip time and image throughput, against baselines run here.
+
+Round trip (ping-pong between two processes) for a 48-byte twist (6 float64) and a 640x480x3
+uint8 image, p50 and p99:
+
+* umbra     — two modules in two processes of one graph, run by ``umbra run`` (zenoh links:
+              scheduler wake-up, codec, shared memory for the image; twist reliable/BLOCK, image
+              best-effort/DROP, both express);
+* zenoh     — raw zenoh-python with the same payloads and the same configuration (peer, loopback,
+              scouting off, shared memory on, same congestion control): ping puts and waits on a
+              channel, pong republishes from its callback;
+* tcp       — a raw loopback TCP socket echo (TCP_NODELAY), the floor;
+* dora      — dora-rs Python nodes, same ping-pong, ``dora run`` (skipped with the reason when
+              dora-rs is not installed: ``pip install dora-rs dora-rs-cli``).
+
+Throughput: images streamed as fast as the producer can for a few seconds, frames per second
+handled by the consumer — umbra (source module -> sink module) against raw zenoh (put loop ->
+counting callback that reads the bytes).
+
+    python benchmarks/bench_links.py [--quick]
+
+Prints a table with ratios and writes ``benchmarks/results/links.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(REPO))
+
+from connectors import Input, Module, Output, Parameters, param  # noqa: E402
+from connectors.messages import Image, Twist  # noqa: E402
+
+SMALL = 48
+IMAGE_SHAPE = (480, 640, 3)
+IMAGE = int(np.prod(IMAGE_SHAPE))
+
+
+# -- umbra modules (registered in the child processes through an entry point) --------------------
+class BenchPing(Module):
+    """Sends one sample, waits for it to come back, records the round trip [s]; resends a sample
+    lost on a best-effort link after 1 s."""
+
+    class Params(Parameters):
+        kind: Literal["small", "image"] = param("small", "payload")
+        rounds: int = param(1000, "round trips to record", gt=0)
+        warmup: int = param(50, "round trips not recorded", ge=0)
+        result: str = param("ping.json", "result file in the output folder")
+
+    twist_out = Output(Twist, frame="camera", doc="ping")
+    image_out = Output(Image, doc="ping")
+    twist_in = Input(Twist, frame="camera", trigger=True, required=False, doc="pong")
+    image_in = Input(Image, trigger=True, required=False, doc="pong")
+
+    def start(self) -> None:
+        self.rtts: list[float] = []
+        self._done = 0
+        self._sent_at: float | None = None
+        if self.params.kind == "small":
+            vector = np.arange(6, dtype=np.float64)
+            self._send = lambda: self.twist_out.send(Twist(vector=vector, frame="camera"))
+            self._reply = self.twist_in
+        else:
+            pixels = np.random.default_rng(0).integers(0, 256, IMAGE_SHAPE, dtype=np.uint8)
+            self._send = lambda: self.image_out.send(Image(pixels=pixels))
+            self._reply = self.image_in
+
+    def step(self, now: float) -> None:
+        t = time.perf_counter()
+        if self._sent_at is not None and self._reply.fresh:
+            self._done += 1
+            if self._done > self.params.warmup:
+                self.rtts.append(t - self._sent_at)
+            self._sent_at = None
+        if len(self.rtts) >= self.params.rounds:
+            self.context.request_stop(f"{len(self.rtts)} round trips", 0)
+            return
+        if self._sent_at is None or t - self._sent_at > 1.0:
+            self._sent_at = time.perf_counter()
+            self._send()
+
+    def stop(self) -> None:
+        path = self.context.output_dir / self.params.result
+        path.write_text(json.dumps(self.rtts))
+
+
+class BenchPong(Module):
+    """Sends every sample straight back."""
+
+    twist_in = Input(Twist, frame="camera", trigger=True, required=False, doc="ping")
+    image_in = Input(Image, trigger=True, required=False, doc="ping")
+    twist_out = Output(Twist, frame="camera", doc="pong")
+    image_out = Output(Image, doc="pong")
+
+    def step(self, now: float) -> None:
+        if self.twist_in.fresh:
+            t = self.twist_in.value
+            self.twist_out.send(Twist(vector=t.vector, frame=t.frame, stamp=t.stamp))
+        if self.image_in.fresh:
+            i = self.image_in.value
+            self.image_out.send(Image(pixels=i.pixels, stamp=i.stamp))
+
+
+class BenchSource(Module):
+    """Sends an image every step (give it a rate it cannot keep: as fast as it goes)."""
+
+    image = Output(Image, doc="frames")
+
+    def start(self) -> None:
+        self._pixels = np.random.default_rng(1).integers(0, 256, IMAGE_SHAPE, dtype=np.uint8)
+
+    def step(self, now: float) -> None:
+        self.image.send(Image(pixels=self._pixels))
+
+
+class BenchSink(Module):
+    """Counts the frames it handles; writes frames per second between its first and last."""
+
+    class Params(Parameters):
+        result: str = param("sink.json", "result file in the output folder")
+
+    image = Input(Image, trigger=True, doc="frames")
+
+    def start(self) -> None:
+        self._times: list[float] = []
+        self._check = 0
+
+    def step(self, now: float) -> None:
+        frame = self.image.value
+        if self.image.fresh and frame is not None:
+            self._check += int(frame.pixels[0, 0, 0])  # touch the frame
+            self._times.append(time.perf_counter())
+
+    def stop(self) -> None:
+        (self.context.output_dir / self.params.result).write_text(json.dumps(self._times))
+
+
+ENTRY_POINTS = {n: f"bench_links:{n}" for n in ("BenchPing", "BenchPong", "BenchSource",
+                                                  "BenchSink")}
+
+PINGPONG_GRAPH = """
+graph: bench_pingpong
+clock: real
+processes: {{a: {{}}, b: {{}}}}
+modules:
+  ping: {{type: BenchPing, process: a, rate: 10, params: {{kind: {kind}, rounds: {rounds},
+          warmup: {warmup}}}}}
+  pong: {{type: BenchPong, process: b}}
+connections:
+  - ping.{port}_out -> pong.{port}_in
+  - pong.{port}_out ~> ping.{port}_in
+"""
+STREAM_GRAPH = """
+graph: bench_stream
+clock: real
+processes: {a: {}, b: {}}
+modules:
+  source: {type: BenchSource, process: a, rate: 100000}
+  sink: {type: BenchSink, process: b}
+connections:
+  - source.image -> sink.image
+"""
+
+
+def _plugin_env(tmp: Path) -> dict[str, str]:
+    dist = tmp / "umbra_bench_links-0.1.dist-info"
+    dist.mkdir(exist_ok=True)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: umbra-bench-links\nVersion: 0.1\n")
+    lines = "".join(f"{k} = {v}\n" for k, v in ENTRY_POINTS.items())
+    (dist / "entry_points.txt").write_text(f"[umbra.modules]\n{lines}")
+    path = os.pathsep.join([str(tmp), str(HERE), str(REPO), os.environ.get("PYTHONPATH", "")])
+    return dict(os.environ, PYTHONPATH=path.rstrip(os.pathsep))
+
+
+def _umbra(tmp: Path, graph: str, name: str, *extra: str) -> Path:
+    path = tmp / f"{name}.yaml"
+    path.write_text(graph)
+    out = tmp / name
+    done = subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", "run", str(path), "--out", str(out),
+         "--quiet", *extra],
+        env=_plugin_env(tmp), capture_output=True, text=True, timeout=600,
+    )
+    if done.returncode != 0:
+        raise RuntimeError(f"umbra run {name} failed ({done.returncode}):\n{done.stderr[-3000:]}")
+    return out
+
+
+def umbra_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
+    graph = PINGPONG_GRAPH.format(kind=kind, rounds=rounds, warmup=warmup,
+                                  port="twist" if kind == "small" else "image")
+    out = _umbra(tmp, graph, f"pingpong_{kind}")
+    return np.array(json.loads((out / "ping.json").read_text()))
+
+
+def umbra_throughput(tmp: Path, seconds: float) -> float:
+    out = _umbra(tmp, STREAM_GRAPH, "stream", "--duration", str(seconds))
+    times = np.array(json.loads((out / "sink.json").read_text()))
+    times = times[len(times) // 10:]  # skip the start
+    return (len(times) - 1) / (times[-1] - times[0])
+
+
+# -- raw zenoh ---------------------------------------------------------------------------------
+def _zenoh_session(listen: list[str], connect: list[str]) -> Any:
+    import zenoh
+
+    from runtime.links.config import Endpoints, build_config
+
+    return zenoh.open(build_config(Endpoints(listen, connect)))
+
+
+def _zenoh_qos(kind: str) -> dict[str, Any]:
+    import zenoh
+
+    cc = zenoh.CongestionControl.BLOCK if kind == "small" else zenoh.CongestionControl.DROP
+    return {"congestion_control": cc, "express": True}
+
+
+def role_zenoh_pong(endpoint: str, kind: str) -> None:
+    session = _zenoh_session([endpoint], [])
+    pub = session.declare_publisher("bench/pong", **_zenoh_qos(kind))
+    sub = session.declare_subscriber("bench/ping", lambda s: pub.put(s.payload))
+    sys.stdout.write("ready\n")
+    sys.stdout.flush()
+    sys.stdin.read()  # until the parent closes stdin
+    sub.undeclare()
+    session.close()
+
+
+def role_zenoh_sink(endpoint: str, seconds: float) -> None:
+    session = _zenoh_session([endpoint], [])
+    times: list[float] = []
+
+    def on_frame(sample: Any) -> None:
+        data = sample.payload.to_bytes()  # a consumer reads the frame
+        if data[0] >= 0:
+            times.append(time.perf_counter())
+
+    sub = session.declare_subscriber("bench/stream", on_frame)
+    sys.stdout.write("ready\n")
+    sys.stdout.flush()
+    sys.stdin.read()
+    sub.undeclare()
+    session.close()
+    t = np.array(times[len(times) // 10:])
+    rate = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 2 else 0.0
+    sys.stdout.write(json.dumps({"fps": rate}) + "\n")
+
+
+def _child(*args: str) -> subprocess.Popen[str]:
+    popen = subprocess.Popen([sys.executable, __file__, *args], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, text=True, env=dict(os.environ))
+    assert popen.stdout is not None
+    line = popen.stdout.readline()
+    if line.strip() != "ready":
+        raise RuntimeError(f"helper {args} did not start: {line!r}")
+    return popen
+
+
+def zenoh_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
+    from runtime.links.config import free_loopback_ports
+
+    endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
+    pong = _child("--role", "zenoh-pong", "--endpoint", endpoint, "--kind", kind)
+    session = _zenoh_session([], [endpoint])
+    try:
+        pub = session.declare_publisher("bench/ping", **_zenoh_qos(kind))
+        sub = session.declare_subscriber("bench/pong")
+        while not pub.matching_status.matching:
+            time.sleep(0.01)
+        time.sleep(0.2)
+        size = SMALL if kind == "small" else IMAGE
+        payload = np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8).tobytes()
+        rtts = []
+        for i in range(rounds + warmup):
+            t0 = time.perf_counter()
+            pub.put(payload)
+            reply = sub.recv()
+            reply.payload.to_bytes()
+            if i >= warmup:
+                rtts.append(time.perf_counter() - t0)
+    finally:
+        session.close()
+        pong.communicate("", timeout=30)
+    return np.array(rtts)
+
+
+def zenoh_throughput(seconds: float) -> float:
+    from runtime.links.config import free_loopback_ports
+
+    endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
+    sink = _child("--role", "zenoh-sink", "--endpoint", endpoint)
+    session = _zenoh_session([], [endpoint])
+    try:
+        pub = session.declare_publisher("bench/stream", **_zenoh_qos("image"))
+        while not pub.matching_status.matching:
+            time.sleep(0.01)
+        pixels = np.random.default_rng(1).integers(0, 256, IMAGE, dtype=np.uint8)
+        end = time.perf_counter() + seconds
+        while time.perf_counter() < end:
+            pub.put(pixels.tobytes())  # a fresh frame's bytes each time, as a camera would
+        time.sleep(0.2)
+    finally:
+        session.close()
+    out, _ = sink.communicate("", timeout=30)
+    return float(json.loads(out.strip().splitlines()[-1])["fps"])
+
+
+# -- raw TCP -----------------------------------------------------------------------------------
+def _recv_exact(sock: socket.socket, buf: memoryview) -> None:
+    got = 0
+    while got < len(buf):
+        n = sock.recv_into(buf[got:])
+        if n == 0:
+            raise EOFError
+        got += n
+
+
+def role_tcp_pong(port: int) -> None:
+    server = socket.create_server(("127.0.0.1", port))
+    sys.stdout.write("ready\n")
+    sys.stdout.flush()
+    conn, _ = server.accept()
+    conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    head = bytearray(4)
+    buf = bytearray(IMAGE)
+    try:
+        while True:
+            _recv_exact(conn, memoryview(head))
+            (n,) = struct.unpack("<I", head)
+            view = memoryview(buf)[:n]
+            _recv_exact(conn, view)
+            conn.sendall(head)
+            conn.sendall(view)
+    except (EOFError, ConnectionError):
+        pass
+
+
+def tcp_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
+    from runtime.links.config import free_loopback_ports
+
+    (port,) = free_loopback_ports(1)
+    pong = _child("--role", "tcp-pong", "--port", str(port))
+    size = SMALL if kind == "small" else IMAGE
+    payload = np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8).tobytes()
+    head = struct.pack("<I", size)
+    back = bytearray(size + 4)
+    rtts = []
+    with socket.create_connection(("127.0.0.1", port)) as sock:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        for i in range(rounds + warmup):
+            t0 = time.perf_counter()
+            sock.sendall(head)
+            sock.sendall(payload)
+            _recv_exact(sock, memoryview(back))
+            if i >= warmup:
+                rtts.append(time.perf_counter() - t0)
+    pong.communicate("", timeout=30)
+    return np.array(rtts)
+
+
+# -- dora ----------------------------------------------------------------------------------------
+DORA_PING = """
+import json, os, time
+import numpy as np, pyarrow as pa
+from dora import Node
+rounds, warmup, size = (int(os.environ[k]) for k in ("ROUNDS", "WARMUP", "SIZE"))
+node = Node()
+payload = pa.array(np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8))
+rtts = []
+t0 = time.perf_counter()
+node.send_output("ping", payload)
+for event in node:
+    if event["type"] == "INPUT":
+        t = time.perf_counter()
+        event["value"].to_numpy(zero_copy_only=False)
+        rtts.append(t - t0)
+        if len(rtts) >= rounds + warmup:
+            break
+        t0 = time.perf_counter()
+        node.send_output("ping", payload)
+    elif event["type"] == "STOP":
+        break
+json.dump(rtts[warmup:], open(os.environ["RESULT"], "w"))
+"""
+DORA_PONG = """
+from dora import Node
+node = Node()
+for event in node:
+    if event["type"] == "INPUT":
+        node.send_output("pong", event["value"])
+    elif event["type"] == "STOP":
+        break
+"""
+DORA_FLOW = """
+nodes:
+  - id: ping
+    path: ping.py
+    inputs: {pong: pong/pong}
+    outputs: [ping]
+  - id: pong
+    path: pong.py
+    inputs: {ping: ping/ping}
+    outputs: [pong]
+"""
+
+
+def dora_missing() -> str | None:
+    if shutil.which("dora") is None:
+        return "dora CLI not found (pip install dora-rs dora-rs-cli)"
+    try:
+        import dora  # noqa: F401
+        import pyarrow  # noqa: F401
+    except ImportError as exc:
+        return f"dora-rs Python API not importable ({exc}); pip install dora-rs dora-rs-cli"
+    return None
+
+
+def dora_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
+    folder = tmp / f"dora_{kind}"
+    folder.mkdir(exist_ok=True)
+    (folder / "ping.py").write_text(DORA_PING)
+    (folder / "pong.py").write_text(DORA_PONG)
+    (folder / "dataflow.yml").write_text(DORA_FLOW)
+    result = folder / "rtts.json"
+    env = dict(os.environ, ROUNDS=str(rounds), WARMUP=str(warmup), RESULT=str(result),
+               SIZE=str(SMALL if kind == "small" else IMAGE))
+    done = subprocess.run(["dora", "run", "dataflow.yml"], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=600)
+    if done.returncode != 0 or not result.exists():
+        raise RuntimeError(f"dora run failed ({done.returncode}): {done.stderr[-2000:]}")
+    return np.array(json.loads(result.read_text()))
+
+
+# -- report ------------------------------------------------------------------------------------
+def _stats(rtts: np.ndarray) -> dict[str, float]:
+    return {"p50_us": float(np.percentile(rtts, 50) * 1e6),
+            "p99_us": float(np.percentile(rtts, 99) * 1e6), "n": int(rtts.size)}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="fewer round trips, shorter streams")
+    parser.add_argument("--role", help=argparse.SUPPRESS)
+    parser.add_argument("--endpoint", help=argparse.SUPPRESS)
+    parser.add_argument("--kind", default="small", help=argparse.SUPPRESS)
+    parser.add_argument("--port", type=int, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.role == "zenoh-pong":
+        role_zenoh_pong(args.endpoint, args.kind)
+        return 0
+    if args.role == "zenoh-sink":
+        role_zenoh_sink(args.endpoint, 0.0)
+        return 0
+    if args.role == "tcp-pong":
+        role_tcp_pong(args.port)
+        return 0
+
+    rounds = {"small": 300 if args.quick else 2000, "image": 100 if args.quick else 500}
+    warmup = {"small": 50 if args.quick else 200, "image": 20 if args.quick else 50}
+    seconds = 1.5 if args.quick else 4.0
+    dora_reason = dora_missing()
+    results: dict[str, Any] = {"rtt": {}, "throughput_fps": {}, "skipped": {}}
+    with tempfile.TemporaryDirectory(prefix="bench_links_") as tmpdir:
+        tmp = Path(tmpdir)
+        for kind in ("small", "image"):
+            n, w = rounds[kind], warmup[kind]
+            row = results["rtt"].setdefault(kind, {})
+            print(f"round trips, {kind}: ", end="", flush=True)
+            for name, run in (("umbra", lambda: umbra_rtt(tmp, kind, n, w)),
+                              ("zenoh", lambda: zenoh_rtt(kind, n, w)),
+                              ("tcp", lambda: tcp_rtt(kind, n, w)),
+                              ("dora", lambda: dora_rtt(tmp, kind, n, w))):
+                if name == "dora" and dora_reason:
+                    results["skipped"]["dora"] = dora_reason
+                    continue
+                try:
+                    row[name] = _stats(run())
+                except Exception as exc:  # a baseline that fails is reported, not fatal
+                    results["skipped"][f"{name}-{kind}"] = str(exc)[:500]
+                print(name, end=" ", flush=True)
+            print()
+        print("throughput: ", end="", flush=True)
+        results["throughput_fps"]["umbra"] = umbra_throughput(tmp, seconds)
+        print("umbra", end=" ", flush=True)
+        results["throughput_fps"]["zenoh"] = zenoh_throughput(seconds)
+        print("zenoh")
+    results["goals"] = _goals(results)
+    results["quick"] = args.quick
+    _print(results)
+    out = HERE / "results" / "links.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps(results, indent=2))
+    print(f"written {out.relative_to(REPO)}")
+    return 0
+
+
+def _goals(r: dict[str, Any]) -> dict[str, Any]:
+    goals: dict[str, Any] = {}
+    rtt = r["rtt"]
+
+    def p50(kind: str, name: str) -> float | None:
+        return rtt.get(kind, {}).get(name, {}).get("p50_us")
+
+    small_u, small_z, small_d = p50("small", "umbra"), p50("small", "zenoh"), p50("small", "dora")
+    image_u, image_d = p50("image", "umbra"), p50("image", "dora")
+    if small_u and small_z:
+        goals["small_within_1.2x_raw_zenoh"] = {"ratio": small_u / small_z,
+                                                "met": bool(small_u <= 1.2 * small_z)}
+    if small_u and small_d:
+        goals["small_faster_than_dora"] = {"ratio": small_u / small_d, "met": bool(small_u < small_d)}
+    if image_u and image_d:
+        goals["image_faster_than_dora"] = {"ratio": image_u / image_d, "met": bool(image_u < image_d)}
+    fps = r["throughput_fps"]
+    if fps.get("umbra") and fps.get("zenoh"):
+        ratio = fps["umbra"] / fps["zenoh"]
+        goals["image_throughput_0.8x_raw_zenoh"] = {"ratio": ratio, "met": bool(ratio >= 0.8)}
+    return goals
+
+
+def _print(r: dict[str, Any]) -> None:
+    print()
+    print(f"{'round trip':<12}{'method':<8}{'p50 µs':>10}{'p99 µs':>10}{'n':>7}"
+          f"{'÷ zenoh':>9}{'÷ dora':>8}{'÷ tcp':>8}")
+    for kind, row in r["rtt"].items():
+        for name, s in row.items():
+            ratios = []
+            for base in ("zenoh", "dora", "tcp"):
+                b = row.get(base, {}).get("p50_us")
+                ratios.append(f"{s['p50_us'] / b:.2f}" if b else "-")
+            label = "twist 48 B" if kind == "small" else "image 921 kB"
+            print(f"{label:<12}{name:<8}{s['p50_us']:>10.0f}{s['p99_us']:>10.0f}{s['n']:>7}"
+                  f"{ratios[0]:>9}{ratios[1]:>8}{ratios[2]:>8}")
+    fps = r["throughput_fps"]
+    print(f"image throughput: umbra {fps.get('umbra', 0):.0f} frames/s, raw zenoh "
+          f"{fps.get('zenoh', 0):.0f} frames/s")
+    for name, why in r["skipped"].items():
+        print(f"skipped {name}: {why}")
+    for name, g in r["goals"].items():
+        print(f"goal {name}: ratio {g['ratio']:.2f} -> {'met' if g['met'] else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,53 @@
+"""OperatorSim: a simulated operator who clicks on the patch to seed the snake.
+
+In the seeds the operator starts a grab by clicking on the colored patch in the live video. In a
+simulation the camera knows where the patch is (its ``truth`` output); this module "clicks" there,
+with a little hand jitter, once the image has been on screen for ``click_delay_s``. It never
+answers an assistance request: a stopped grab stays stopped, which is what the safety trials
+measure.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, param
+from connectors.messages import Contour, Vector
+
+
+class OperatorSim(Module):
+    """Clicks on the patch (seed point for vsSnake) from the simulated camera's ground truth."""
+
+    class Params(Parameters):
+        click_delay_s: float = param(0.2, "time looking at the video before clicking", unit="s",
+                                     ge=0)
+        click_noise_px: float = param(2.0, "standard deviation of the click position", unit="px",
+                                      ge=0)
+
+    truth = Input(Contour, trigger=True, doc="patch outline in the image (sim camera truth)")
+    seed = Output(Vector, doc="the click: seed point [u, v] for vsSnake")
+
+    def start(self) -> None:
+        self._first_seen: float | None = None
+        self.clicked_at: float | None = None
+        self.click: list[float] = []
+
+    def step(self, now: float) -> None:
+        if self.clicked_at is not None:
+            return
+        truth = self.truth.get(now)
+        if truth is None or truth.area <= 0:
+            return
+        if self._first_seen is None:
+            self._first_seen = now
+        if now - self._first_seen < self.params.click_delay_s:
+            return
+        jitter = self.context.rng.normal(0.0, self.params.click_noise_px, 2)
+        uv = np.asarray(truth.centroid, dtype=float) + jitter
+        self.seed.send(Vector(values=uv))
+        self.clicked_at = now
+        self.click = [round(float(v), 2) for v in uv]
+        self.log.info("operator clicked the patch at (%.1f, %.1f) px", uv[0], uv[1])
+
+    def summary(self) -> dict[str, object]:
+        return {"clicked_at_s": self.clicked_at, "click_uv": self.click}
