@@ -103,6 +103,7 @@ class VsServo(Module):
         self._current: tuple[str, float] | None = None
         self._last_progress = -np.inf
         self._last_reason = ""
+        self._t0: float | None = None
         self._camera_seq = -1
         self._intrinsics = Intrinsics(fx=p.fx, fy=p.fy, u0=p.u0, v0=p.v0)
         self._distortion: np.ndarray | None = None
@@ -199,13 +200,15 @@ class VsServo(Module):
                 self.log.warning("stage %s: %s (%s)", out.stage, out.message, out.reason)
             else:
                 self.log.info("stage %s: %s", out.stage, out.message)
+        if self._t0 is None:
+            self._t0 = now
         period = self.params.progress_period_s
         if period and now - self._last_progress >= period:
             self._last_progress = now
             errors = ", ".join(f"{k[6:]} {v * (57.29578 if k == 'error_roll' else 1e3):+.1f}"
                                f"{' deg' if k == 'error_roll' else ' mm'}"
                                for k, v in values.items())
-            self.log.info("t=%.1f s stage %s%s", now, out.stage, f" errors {errors}" if errors
+            self.log.info("t=%.1f s stage %s%s", now - self._t0, out.stage, f" errors {errors}" if errors
                           else "")
 
     def _report(self, out: ServoOutput, now: float = 0.0) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import msgspec
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
@@ -12,7 +13,7 @@ from modules.vision.capture import CaptureError, CaptureReader, CaptureSource
 from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting
 from modules.vision.scene import Scene, camera_looking_down, pose
-from modules.vision.sim_camera import CameraSpec, SimulatedCamera
+from modules.vision.sim_camera import CameraSpec, SceneFault, SimulatedCamera
 
 
 class DigiCam(Module):
@@ -33,6 +34,21 @@ class DigiCam(Module):
     pose input may be the camera's pose in the world, or a mount's pose (``tool`` in ``base``):
     it is completed with the camera model's mount transform or the graph's static frames. The
     ``truth`` output carries the patch outline in the image (ground truth, sim only).
+
+    Scheduled faults (``sim``, for failure-injection trials): ``fault`` begins ``fault_at_s``
+    seconds of the module's clock after its first step, and lasts to the end of the run.
+    ``occluder``: a flat slab of ``fault_rgb`` (skin by default), 2 mm above the patch, slides
+    over it from its ``fault_side`` at ``fault_speed_mps``, starting 5 mm outside it, and stays
+    once it covers it (at the default 0.05 m/s half of a 4 cm side is covered 0.5 s after the
+    fault began). ``remove_patch``: the patch is gone, the tool stays. ``distractor``: a second
+    patch of the same color and size lies against the patch side ``fault_side``. ``freeze``: a
+    frozen frame grabber: no new rendering, the last frame before the fault is sent again on
+    every step with new stamps (marked ``stale`` only with ``fault_frozen_stale``; with
+    ``fault_at_s`` 0 the first frame is the one held). The ``truth`` output keeps following the
+    world during a freeze (the true outline, computed without rendering). Being driven by the
+    parameters and the clock only, a fault plays the same in one process or split over many.
+    ``summary()`` reports ``fault`` and ``fault_started_at``, the clock time [s] of the first
+    frame showing the fault (None before).
     """
 
     TYPE = "DigiCam"
@@ -67,6 +83,22 @@ class DigiCam(Module):
         noise_sigma: float = param(0.0, "sensor noise (sim)", unit="gray levels", ge=0)
         blur_length_px: float = param(0.0, "motion blur length (sim)", unit="px", ge=0)
         blur_angle_deg: float = param(0.0, "motion blur direction from u (sim)", unit="deg")
+        fault: Literal["none", "occluder", "remove_patch", "distractor", "freeze"] = param(
+            "none", "scheduled fault: none, occluder, remove_patch, distractor, freeze (sim)"
+        )
+        fault_at_s: float = param(
+            3.0, "fault begins this long after the camera's first step (sim)", unit="s", ge=0
+        )
+        fault_speed_mps: float = param(
+            0.05, "occluder speed over the patch, in the patch plane (sim)", unit="m/s", gt=0
+        )
+        fault_side: Literal["+x", "-x", "+y", "-y"] = param(
+            "+y", "patch side the occluder comes from, or the distractor touches (sim)"
+        )
+        fault_rgb: list[int] = param([225, 180, 150], "occluder color, RGB 0..255 (sim)")
+        fault_frozen_stale: bool = param(
+            False, "freeze: mark the re-sent frames stale (a grabber that says so) (sim)"
+        )
 
     camera_pose = Input(
         Pose, required=False, feedback=True, doc="camera (or its mount) pose, for sim"
@@ -89,13 +121,28 @@ class DigiCam(Module):
         self._sent = 0
         self._ended_reported = False
         self._last_number: int | None = None
+        self._fault: SceneFault | None = None
+        self._first_step_at: float | None = None
+        self._fault_started_at: float | None = None
+        self._frozen: np.ndarray | None = None
         size = (p.width, p.height) if p.width and p.height else None
         if (p.width == 0) != (p.height == 0):
             raise UserError(f"{self.name}: give both width and height, or neither (0)")
         if p.source.strip() == "sim":
             self._check_sim_params()
             self._sim = SimulatedCamera()
+            self._fault = SceneFault(
+                kind=p.fault,
+                at_s=p.fault_at_s,
+                speed_mps=p.fault_speed_mps,
+                side=p.fault_side,
+                rgb=tuple(int(c) for c in p.fault_rgb),  # type: ignore[arg-type]
+            )
             return
+        if p.fault != "none":
+            raise UserError(
+                f"{self.name}: fault {p.fault!r} needs source `sim`, got source {p.source!r}"
+            )
         source = CaptureSource.parse(p.source)
         try:
             self._reader = CaptureReader(
@@ -116,6 +163,8 @@ class DigiCam(Module):
             problems.append(f"patch_rgb needs 3 values in 0..255, got {p.patch_rgb}")
         if len(p.cast_rgb) != 3 or min(p.cast_rgb) < 0:
             problems.append(f"cast_rgb needs 3 non-negative values, got {p.cast_rgb}")
+        if len(p.fault_rgb) != 3 or not all(0 <= c <= 255 for c in p.fault_rgb):
+            problems.append(f"fault_rgb needs 3 values in 0..255, got {p.fault_rgb}")
         if len(p.dist) not in (4, 5):
             problems.append(f"dist needs 4 or 5 coefficients, got {len(p.dist)}")
         if problems:
@@ -129,6 +178,8 @@ class DigiCam(Module):
         out: dict[str, object] = {"frames": self._sent, "stale_events": self._stale_events}
         if self._sim is not None:
             out["renderers_built"] = self._sim.renderers_built
+            out["fault"] = self.params.fault
+            out["fault_started_at"] = self._fault_started_at
         return out
 
     # -- behaviour ------------------------------------------------------------------------------
@@ -245,6 +296,14 @@ class DigiCam(Module):
 
     def _step_sim(self, now: float) -> None:
         p = self.params
+        fault = self._fault
+        assert self._sim is not None and fault is not None
+        if self._first_step_at is None:
+            self._first_step_at = now
+        faulted = fault.begun(now - self._first_step_at)
+        if faulted and self._fault_started_at is None:
+            self._fault_started_at = now
+            self.log.warning("%s: injected fault %r begins at %.3f s", self.name, p.fault, now)
         T_world_patch = self._patch_pose()
         scene = Scene(
             T_world_patch=T_world_patch,
@@ -253,6 +312,12 @@ class DigiCam(Module):
             patch_present=p.patch_present,
             background=p.background,
         )
+        T_world_camera = self._camera_pose(T_world_patch)
+        if faulted and p.fault == "freeze" and self._frozen is not None:
+            self._send_frozen(scene, T_world_camera, now)
+            return
+        if faulted:
+            scene = fault.apply(scene, now - self._fault_started_at)  # type: ignore[operator]
         lighting = Lighting(
             gain=p.gain,
             cast_rgb=tuple(float(c) for c in p.cast_rgb),  # type: ignore[arg-type]
@@ -260,16 +325,28 @@ class DigiCam(Module):
             blur_length_px=p.blur_length_px,
             blur_angle_rad=float(np.deg2rad(p.blur_angle_deg)),
         )
-        assert self._sim is not None
         frame = self._sim.render(
-            self._camera_spec(),
-            scene,
-            self._camera_pose(T_world_patch),
-            lighting,
-            self.context.rng,
+            self._camera_spec(), scene, T_world_camera, lighting, self.context.rng
         )
         self._send(frame.image, now)
+        self._frozen = frame.image
         self.truth.send(self._truth(frame.patch_polygon, frame.patch_visible_fraction, now))
+
+    def _send_frozen(self, scene: Scene, T_world_camera: np.ndarray, now: float) -> None:
+        """A frozen grabber: the held pixels again, newly stamped; the truth follows the world."""
+        assert self._sim is not None and self._frozen is not None
+        stale = self.params.fault_frozen_stale
+        self._last = Image(
+            pixels=self._frozen, frame=self.params.camera_frame, stale=stale, stamp=now
+        )
+        self.image.send(self._last)
+        self._sent += 1
+        polygon, inside = self._sim.patch_outline(self._camera_spec(), scene, T_world_camera)
+        truth = self._truth(polygon, inside, now)
+        if len(polygon) >= 3:
+            reason = f"camera frozen; {100 * inside:.0f}% of the true outline inside the image"
+            truth = msgspec.structs.replace(truth, reason=reason)
+        self.truth.send(truth)
 
     @staticmethod
     def _truth(polygon: np.ndarray, visible: float, now: float) -> Contour:

@@ -90,6 +90,8 @@ class Overlay(Module):
             lines.append(text)
             if status.assist:
                 lines.append(f"operator: {status.reason or 'assistance requested'}")
+            if status.values:
+                lines.append("  ".join(_figure(k, v) for k, v in status.values.items()))
         if contour is None:
             lines.append("snake: no contour")
         else:
@@ -132,3 +134,13 @@ class Overlay(Module):
             self.log.warning("%s: image size changed; frame not written to the video", self.name)
             return
         self._writer.write(drawn)
+
+
+def _figure(name: str, value: float) -> str:
+    """``error_x`` in m -> ``x +1.2 mm``; ``error_roll`` in rad -> ``roll -0.4 deg``."""
+    short = name.removeprefix("error_")
+    if name == "error_roll":
+        return f"{short} {np.degrees(value):+.2f} deg"
+    if name.startswith("error_"):
+        return f"{short} {value * 1e3:+.1f} mm"
+    return f"{short} {value:.4g}"

@@ -9,23 +9,16 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from importlib.metadata import entry_points
 from types import ModuleType
 
 from connectors.errors import UserError
 
-#: Sub-command files, in the order ``umbra --help`` lists them.
-COMMANDS = (
-    "cmd_run",
-    "cmd_check",
-    "cmd_modules",
-    "cmd_describe",
-    "cmd_graph",
-    "cmd_trials",
-    "cmd_snake",
-    "cmd_arm",
-    "cmd_calib",
-    "cmd_bench",
-)
+#: The runtime's own sub-commands, in the order ``umbra --help`` lists them. Domain commands
+#: (``snake``, ``arm``, ``calib``, ``trials``...) come from the ``umbra.commands`` entry-point group,
+#: so the runtime never imports a domain package by name.
+COMMANDS = ("cmd_run", "cmd_check", "cmd_modules", "cmd_describe", "cmd_graph")
+COMMAND_GROUP = "umbra.commands"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -35,13 +28,12 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _load_commands() -> list[ModuleType]:
-    found = []
-    for name in COMMANDS:
+    found = [importlib.import_module(f"runtime.cli.{name}") for name in COMMANDS]
+    for ep in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
         try:
-            found.append(importlib.import_module(f"runtime.cli.{name}"))
-        except ModuleNotFoundError as exc:
-            if exc.name != f"runtime.cli.{name}":
-                raise
+            found.append(ep.load())
+        except Exception as exc:  # a broken plug-in must not take the CLI down
+            print(f"umbra: warning: command `{ep.name}` failed to load: {exc}", file=sys.stderr)
     return found
 
 

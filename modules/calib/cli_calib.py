@@ -37,7 +37,7 @@ from modules.calib.zoom_table import (
     table_from_samples,
 )
 from modules.geometry.rays import RayGeometryError, triangulate_pixels
-from runtime.cli.common import print_json
+from connectors.cli_support import print_json
 
 NAME = "calib"
 HELP = "camera calibration: fit a camera, interpolate a zoom file, solve a pose, triangulate"

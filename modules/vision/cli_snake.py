@@ -23,7 +23,7 @@ from connectors.errors import UserError
 from modules.vision.overlay import draw_overlay
 from modules.vision.snake_config import SettingsError, settings_from
 from modules.vision.tracker import SnakeTracker
-from runtime.cli.common import parse_set, print_json
+from connectors.cli_support import parse_set, print_json
 
 NAME = "snake"
 HELP = "run the snake on one image until it converges"

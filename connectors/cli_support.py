@@ -1,0 +1,57 @@
+"""Helpers shared by CLI sub-commands, in the runtime and in domain packages."""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Any
+
+import yaml
+
+from connectors.errors import UserError
+
+
+def parse_value(text: str) -> Any:
+    """A command-line value as a YAML scalar or flow collection (``3``, ``true``, ``[1, 2]``)."""
+    try:
+        return yaml.safe_load(text) if text.strip() else ""
+    except yaml.YAMLError:
+        return text
+
+
+def parse_set(items: list[str] | None) -> dict[str, Any]:
+    """``["a=1", "b=x"]`` -> ``{"a": 1, "b": "x"}``; UserError on a malformed item."""
+    out: dict[str, Any] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise UserError(f"--set expects NAME=VALUE, found `{item}`")
+        out[name.strip()] = parse_value(value)
+    return out
+
+
+def parse_module_set(items: list[str] | None) -> dict[str, dict[str, Any]]:
+    """``["snake.k=2"]`` -> ``{"snake": {"k": 2}}``; UserError on a malformed item."""
+    out: dict[str, dict[str, Any]] = {}
+    for name, value in parse_set(items).items():
+        module, dot, param = name.partition(".")
+        if not dot or not module or not param:
+            raise UserError(f"--set expects MODULE.PARAM=VALUE, found `{name}=...`")
+        out.setdefault(module, {})[param] = value
+    return out
+
+
+def print_json(obj: Any) -> None:
+    """Print one JSON object on stdout (numpy values converted)."""
+    json.dump(obj, sys.stdout, default=_default)
+    sys.stdout.write("\n")
+
+
+def _default(obj: Any) -> Any:
+    import numpy as np
+
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
