@@ -151,8 +151,9 @@ class BenchSink(Module):
         (self.context.output_dir / self.params.result).write_text(json.dumps(self._times))
 
 
-ENTRY_POINTS = {n: f"bench_links:{n}" for n in ("BenchPing", "BenchPong", "BenchSource",
-                                                  "BenchSink")}
+ENTRY_POINTS = {
+    n: f"bench_links:{n}" for n in ("BenchPing", "BenchPong", "BenchSource", "BenchSink")
+}
 
 PINGPONG_GRAPH = """
 graph: bench_pingpong
@@ -193,9 +194,21 @@ def _umbra(tmp: Path, graph: str, name: str, *extra: str) -> Path:
     path.write_text(graph)
     out = tmp / name
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "run", str(path), "--out", str(out),
-         "--quiet", *extra],
-        env=_plugin_env(tmp), capture_output=True, text=True, timeout=600,
+        [
+            sys.executable,
+            "-m",
+            "runtime.cli.main",
+            "run",
+            str(path),
+            "--out",
+            str(out),
+            "--quiet",
+            *extra,
+        ],
+        env=_plugin_env(tmp),
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     if done.returncode != 0:
         raise RuntimeError(f"umbra run {name} failed ({done.returncode}):\n{done.stderr[-3000:]}")
@@ -203,8 +216,9 @@ def _umbra(tmp: Path, graph: str, name: str, *extra: str) -> Path:
 
 
 def umbra_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
-    graph = PINGPONG_GRAPH.format(kind=kind, rounds=rounds, warmup=warmup,
-                                  port="twist" if kind == "small" else "image")
+    graph = PINGPONG_GRAPH.format(
+        kind=kind, rounds=rounds, warmup=warmup, port="twist" if kind == "small" else "image"
+    )
     out = _umbra(tmp, graph, f"pingpong_{kind}")
     return np.array(json.loads((out / "ping.json").read_text()))
 
@@ -212,7 +226,7 @@ def umbra_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
 def umbra_throughput(tmp: Path, seconds: float) -> float:
     out = _umbra(tmp, STREAM_GRAPH, "stream", "--duration", str(seconds))
     times = np.array(json.loads((out / "sink.json").read_text()))
-    times = times[len(times) // 10:]  # skip the start
+    times = times[len(times) // 10 :]  # skip the start
     return (len(times) - 1) / (times[-1] - times[0])
 
 
@@ -258,14 +272,19 @@ def role_zenoh_sink(endpoint: str, seconds: float) -> None:
     sys.stdin.read()
     sub.undeclare()
     session.close()
-    t = np.array(times[len(times) // 10:])
+    t = np.array(times[len(times) // 10 :])
     rate = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 2 else 0.0
     sys.stdout.write(json.dumps({"fps": rate}) + "\n")
 
 
 def _child(*args: str) -> subprocess.Popen[str]:
-    popen = subprocess.Popen([sys.executable, __file__, *args], stdin=subprocess.PIPE,
-                             stdout=subprocess.PIPE, text=True, env=dict(os.environ))
+    popen = subprocess.Popen(
+        [sys.executable, __file__, *args],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ),
+    )
     assert popen.stdout is not None
     line = popen.stdout.readline()
     if line.strip() != "ready":
@@ -439,10 +458,21 @@ def dora_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
     (folder / "pong.py").write_text(DORA_PONG)
     (folder / "dataflow.yml").write_text(DORA_FLOW)
     result = folder / "rtts.json"
-    env = dict(os.environ, ROUNDS=str(rounds), WARMUP=str(warmup), RESULT=str(result),
-               SIZE=str(SMALL if kind == "small" else IMAGE))
-    done = subprocess.run(["dora", "run", "dataflow.yml"], cwd=folder, env=env,
-                          capture_output=True, text=True, timeout=600)
+    env = dict(
+        os.environ,
+        ROUNDS=str(rounds),
+        WARMUP=str(warmup),
+        RESULT=str(result),
+        SIZE=str(SMALL if kind == "small" else IMAGE),
+    )
+    done = subprocess.run(
+        ["dora", "run", "dataflow.yml"],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     if done.returncode != 0 or not result.exists():
         raise RuntimeError(f"dora run failed ({done.returncode}): {done.stderr[-2000:]}")
     return np.array(json.loads(result.read_text()))
@@ -450,8 +480,11 @@ def dora_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
 
 # -- report ------------------------------------------------------------------------------------
 def _stats(rtts: np.ndarray) -> dict[str, float]:
-    return {"p50_us": float(np.percentile(rtts, 50) * 1e6),
-            "p99_us": float(np.percentile(rtts, 99) * 1e6), "n": int(rtts.size)}
+    return {
+        "p50_us": float(np.percentile(rtts, 50) * 1e6),
+        "p99_us": float(np.percentile(rtts, 99) * 1e6),
+        "n": int(rtts.size),
+    }
 
 
 def main() -> int:
@@ -472,35 +505,48 @@ def main() -> int:
         role_tcp_pong(args.port)
         return 0
 
-    rounds = {"small": 300 if args.quick else 2000, "image": 100 if args.quick else 500}
-    warmup = {"small": 50 if args.quick else 200, "image": 20 if args.quick else 50}
-    seconds = 1.5 if args.quick else 4.0
+    rounds = {"small": 200 if args.quick else 1000, "image": 60 if args.quick else 250}
+    warmup = {"small": 50 if args.quick else 100, "image": 15 if args.quick else 30}
+    passes = 2 if args.quick else 3  # methods interleaved, pass after pass: this host is shared
+    seconds = 1.5 if args.quick else 3.0
     dora_reason = dora_missing()
-    results: dict[str, Any] = {"rtt": {}, "throughput_fps": {}, "skipped": {}}
+    results: dict[str, Any] = {"rtt": {}, "throughput_fps": {}, "skipped": {}, "passes": passes}
+    pooled: dict[str, dict[str, list[np.ndarray]]] = {"small": {}, "image": {}}
+    fps: dict[str, list[float]] = {"umbra": [], "zenoh": []}
+    if dora_reason:
+        results["skipped"]["dora"] = dora_reason
     with tempfile.TemporaryDirectory(prefix="bench_links_") as tmpdir:
         tmp = Path(tmpdir)
-        for kind in ("small", "image"):
-            n, w = rounds[kind], warmup[kind]
-            row = results["rtt"].setdefault(kind, {})
-            print(f"round trips, {kind}: ", end="", flush=True)
-            for name, run in (("umbra", lambda: umbra_rtt(tmp, kind, n, w)),
-                              ("zenoh", lambda: zenoh_rtt(kind, n, w)),
-                              ("tcp", lambda: tcp_rtt(kind, n, w)),
-                              ("dora", lambda: dora_rtt(tmp, kind, n, w))):
-                if name == "dora" and dora_reason:
-                    results["skipped"]["dora"] = dora_reason
-                    continue
-                try:
-                    row[name] = _stats(run())
-                except Exception as exc:  # a baseline that fails is reported, not fatal
-                    results["skipped"][f"{name}-{kind}"] = str(exc)[:500]
-                print(name, end=" ", flush=True)
-            print()
-        print("throughput: ", end="", flush=True)
-        results["throughput_fps"]["umbra"] = umbra_throughput(tmp, seconds)
-        print("umbra", end=" ", flush=True)
-        results["throughput_fps"]["zenoh"] = zenoh_throughput(seconds)
-        print("zenoh")
+        for p in range(passes):
+            for kind in ("small", "image"):
+                n, w = rounds[kind], warmup[kind]
+                print(f"pass {p + 1}/{passes}, round trips {kind}: ", end="", flush=True)
+                for name, run in (
+                    ("umbra", lambda: umbra_rtt(tmp, kind, n, w)),
+                    ("zenoh", lambda: zenoh_rtt(kind, n, w)),
+                    ("tcp", lambda: tcp_rtt(kind, n, w)),
+                    ("dora", lambda: dora_rtt(tmp, kind, n, w)),
+                ):
+                    if name == "dora" and dora_reason:
+                        continue
+                    try:
+                        pooled[kind].setdefault(name, []).append(run())
+                    except Exception as exc:  # a baseline that fails is reported, not fatal
+                        results["skipped"][f"{name}-{kind}"] = str(exc)[:500]
+                    print(name, end=" ", flush=True)
+                print()
+            print(f"pass {p + 1}/{passes}, throughput: ", end="", flush=True)
+            fps["umbra"].append(umbra_throughput(tmp, seconds))
+            print("umbra", end=" ", flush=True)
+            fps["zenoh"].append(zenoh_throughput(seconds))
+            print("zenoh")
+    for kind, by_name in pooled.items():
+        for name, runs in by_name.items():
+            stats = _stats(np.concatenate(runs))
+            stats["p50_us_per_pass"] = [round(float(np.median(r)) * 1e6, 1) for r in runs]
+            results["rtt"].setdefault(kind, {})[name] = stats
+    results["throughput_fps"] = {k: float(np.median(v)) for k, v in fps.items()}
+    results["throughput_fps_per_pass"] = fps
     results["goals"] = _goals(results)
     results["quick"] = args.quick
     _print(results)
@@ -521,12 +567,20 @@ def _goals(r: dict[str, Any]) -> dict[str, Any]:
     small_u, small_z, small_d = p50("small", "umbra"), p50("small", "zenoh"), p50("small", "dora")
     image_u, image_d = p50("image", "umbra"), p50("image", "dora")
     if small_u and small_z:
-        goals["small_within_1.2x_raw_zenoh"] = {"ratio": small_u / small_z,
-                                                "met": bool(small_u <= 1.2 * small_z)}
+        goals["small_within_1.2x_raw_zenoh"] = {
+            "ratio": small_u / small_z,
+            "met": bool(small_u <= 1.2 * small_z),
+        }
     if small_u and small_d:
-        goals["small_faster_than_dora"] = {"ratio": small_u / small_d, "met": bool(small_u < small_d)}
+        goals["small_faster_than_dora"] = {
+            "ratio": small_u / small_d,
+            "met": bool(small_u < small_d),
+        }
     if image_u and image_d:
-        goals["image_faster_than_dora"] = {"ratio": image_u / image_d, "met": bool(image_u < image_d)}
+        goals["image_faster_than_dora"] = {
+            "ratio": image_u / image_d,
+            "met": bool(image_u < image_d),
+        }
     fps = r["throughput_fps"]
     if fps.get("umbra") and fps.get("zenoh"):
         ratio = fps["umbra"] / fps["zenoh"]
@@ -536,8 +590,10 @@ def _goals(r: dict[str, Any]) -> dict[str, Any]:
 
 def _print(r: dict[str, Any]) -> None:
     print()
-    print(f"{'round trip':<12}{'method':<8}{'p50 µs':>10}{'p99 µs':>10}{'n':>7}"
-          f"{'÷ zenoh':>9}{'÷ dora':>8}{'÷ tcp':>8}")
+    print(
+        f"{'round trip':<12}{'method':<8}{'p50 µs':>10}{'p99 µs':>10}{'n':>7}"
+        f"{'÷ zenoh':>9}{'÷ dora':>8}{'÷ tcp':>8}"
+    )
     for kind, row in r["rtt"].items():
         for name, s in row.items():
             ratios = []
@@ -545,11 +601,15 @@ def _print(r: dict[str, Any]) -> None:
                 b = row.get(base, {}).get("p50_us")
                 ratios.append(f"{s['p50_us'] / b:.2f}" if b else "-")
             label = "twist 48 B" if kind == "small" else "image 921 kB"
-            print(f"{label:<12}{name:<8}{s['p50_us']:>10.0f}{s['p99_us']:>10.0f}{s['n']:>7}"
-                  f"{ratios[0]:>9}{ratios[1]:>8}{ratios[2]:>8}")
+            print(
+                f"{label:<12}{name:<8}{s['p50_us']:>10.0f}{s['p99_us']:>10.0f}{s['n']:>7}"
+                f"{ratios[0]:>9}{ratios[1]:>8}{ratios[2]:>8}"
+            )
     fps = r["throughput_fps"]
-    print(f"image throughput: umbra {fps.get('umbra', 0):.0f} frames/s, raw zenoh "
-          f"{fps.get('zenoh', 0):.0f} frames/s")
+    print(
+        f"image throughput: umbra {fps.get('umbra', 0):.0f} frames/s, raw zenoh "
+        f"{fps.get('zenoh', 0):.0f} frames/s"
+    )
     for name, why in r["skipped"].items():
         print(f"skipped {name}: {why}")
     for name, g in r["goals"].items():

@@ -1,10 +1,19 @@
 """Binary, versioned, typed encoding of messages — for links between processes and for recordings.
 
-Layout: msgpack (msgspec) of ``[MAGIC, VERSION, type_name, fields]``; numpy arrays travel as a
-msgpack extension holding dtype, shape and the raw buffer (no pickle, ever). Only plain numeric
-dtypes are accepted (bool, integers, floats, complex). Encoding copies an array's buffer once into
-the extension and once into the output bytes; decoding does not copy it: the array is a read-only
-view on the received bytes (numpy keeps those bytes alive through ``.base``).
+Two layouts, both read by ``Codec.decode``; no pickle, ever, and only plain numeric array dtypes
+(bool, integers, floats, complex):
+
+* version 1, ``encode``: msgpack (msgspec) of ``[MAGIC, 1, type_name, fields]``; each numpy array
+  is a msgpack extension holding dtype, shape and the raw buffer. Used for recordings and for
+  small samples on links.
+* version 2, ``encode_framed`` (links, samples holding at least ``FRAMED_MIN_BYTES`` of arrays):
+  ``b"UMB\\x02"``, the header length (u32 little-endian), the msgpack header
+  ``[MAGIC, 2, type_name, fields]`` in which each array is an extension holding dtype, shape, and
+  the offset and length of its buffer, then the buffers, each 64-byte aligned. An image is copied
+  once to build the sample (version 1 copies it twice).
+
+Decoding never copies an array's buffer: the array is a read-only view on the received bytes
+(numpy keeps those bytes alive through ``.base``). A Codec keeps per-call state: use one per thread.
 """
 
 from __future__ import annotations
@@ -19,9 +28,24 @@ from connectors.messages import Message, message_types
 
 MAGIC = "umbra"
 VERSION = 1
-_EXT_NDARRAY = 1
-_HEADER = struct.Struct("<B")  # length of the dtype string, then dtype, ndim (u1), shape (u8 each)
+FRAMED_VERSION = 2
+FRAME_MAGIC = b"UMB\x02"
+#: Samples whose arrays hold at least this many bytes are framed by ``encode_framed``.
+FRAMED_MIN_BYTES = 16 * 1024
+_EXT_NDARRAY = 1  # version 1: dtype, shape, buffer
+_EXT_NDARRAY_REF = 2  # version 2: dtype, shape, offset, length
+_FRAME_HEAD = struct.Struct("<4sI")
+_REF = struct.Struct("<QQ")
+_ALIGN = 64
 _NUMERIC_KINDS = "biufc"  # bool, signed, unsigned, float, complex: nothing that runs code or points
+
+
+class DecodeError(ValueError):
+    """Bytes that are not a sample this version understands (foreign, truncated, other version)."""
+
+
+def _aligned(n: int) -> int:
+    return (n + _ALIGN - 1) // _ALIGN * _ALIGN
 
 
 def _raw_view(arr: np.ndarray) -> memoryview:
@@ -29,48 +53,44 @@ def _raw_view(arr: np.ndarray) -> memoryview:
     return memoryview(arr.reshape(-1).view(np.uint8))
 
 
-class DecodeError(ValueError):
-    """Bytes that are not a sample this version understands (foreign, truncated, other version)."""
+def _contiguous(obj: np.ndarray) -> np.ndarray:
+    arr = np.ascontiguousarray(obj)
+    if arr.dtype.kind not in _NUMERIC_KINDS:
+        raise NotImplementedError(f"cannot encode arrays of dtype {arr.dtype}")
+    return arr
+
+
+def _array_head(arr: np.ndarray) -> bytes:
+    """dtype string length (u1), dtype string, ndim (u1), shape (u8 each)."""
+    dtype = arr.dtype.str.encode()
+    return (
+        bytes([len(dtype)]) + dtype + bytes([arr.ndim]) + struct.pack(f"<{arr.ndim}Q", *arr.shape)
+    )
+
+
+def _parse_head(data: memoryview) -> tuple[np.dtype, tuple[int, ...], int, int]:
+    """dtype, shape, element count and the offset just after the head."""
+    n = data[0]
+    dtype = np.dtype(bytes(data[1 : 1 + n]).decode())
+    if dtype.kind not in _NUMERIC_KINDS:
+        raise DecodeError(f"arrays of dtype {dtype} are not accepted")
+    ndim = data[1 + n]
+    start = 2 + n
+    shape = struct.unpack_from(f"<{ndim}Q", data, start)
+    count = 1
+    for d in shape:
+        count *= d
+    return dtype, shape, count, start + 8 * ndim
 
 
 def _enc_hook(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
-        arr = np.ascontiguousarray(obj)
-        if arr.dtype.kind not in _NUMERIC_KINDS:
-            raise NotImplementedError(f"cannot encode arrays of dtype {arr.dtype}")
-        dtype = arr.dtype.str.encode()
-        head = (
-            bytes([len(dtype)])
-            + dtype
-            + bytes([arr.ndim])
-            + struct.pack(f"<{arr.ndim}Q", *arr.shape)
-        )
+        arr = _contiguous(obj)
         # one copy of the buffer: join reads the array's memory directly (no tobytes())
-        return msgspec.msgpack.Ext(_EXT_NDARRAY, b"".join((head, _raw_view(arr))))
+        return msgspec.msgpack.Ext(_EXT_NDARRAY, b"".join((_array_head(arr), _raw_view(arr))))
     if isinstance(obj, np.generic):
         return obj.item()
     raise NotImplementedError(f"cannot encode {type(obj).__name__}")
-
-
-def _ext_hook(code: int, data: memoryview) -> Any:
-    if code != _EXT_NDARRAY:
-        raise DecodeError(f"unknown extension code {code}")
-    try:
-        n = data[0]
-        dtype = np.dtype(bytes(data[1 : 1 + n]).decode())
-        if dtype.kind not in _NUMERIC_KINDS:
-            raise DecodeError(f"arrays of dtype {dtype} are not accepted")
-        ndim = data[1 + n]
-        start = 2 + n
-        shape = struct.unpack_from(f"<{ndim}Q", data, start)
-        offset = start + 8 * ndim
-        count = int(np.prod(shape)) if ndim else 1
-        if len(data) - offset != count * dtype.itemsize:
-            raise DecodeError("array buffer has the wrong length")
-        arr = np.frombuffer(data, dtype=dtype, count=count, offset=offset).reshape(shape)
-    except (IndexError, struct.error, TypeError, ValueError) as exc:
-        raise DecodeError(f"bad array: {exc}") from None
-    return arr
 
 
 def _dec_hook(typ: type, obj: Any) -> Any:
@@ -79,32 +99,125 @@ def _dec_hook(typ: type, obj: Any) -> Any:
     raise NotImplementedError(f"cannot decode {typ}")
 
 
+def _array_bytes(msg: Message) -> int:
+    total = 0
+    for name in msg.__struct_fields__:
+        value = getattr(msg, name)
+        if isinstance(value, np.ndarray):
+            total += value.nbytes
+    return total
+
+
 class Codec:
-    """Encoder and decoders for every message type (create one per process or thread)."""
+    """Encoders and decoders for every message type (create one per process or thread)."""
 
     def __init__(self) -> None:
         self._types = message_types()
         self._encoder = msgspec.msgpack.Encoder(enc_hook=_enc_hook)
+        self._frame_encoder = msgspec.msgpack.Encoder(enc_hook=self._frame_hook)
         self._envelope = msgspec.msgpack.Decoder(tuple[str, int, str, msgspec.Raw])
         self._decoders = {
-            name: msgspec.msgpack.Decoder(cls, ext_hook=_ext_hook, dec_hook=_dec_hook)
+            name: msgspec.msgpack.Decoder(cls, ext_hook=self._ext_hook, dec_hook=_dec_hook)
             for name, cls in self._types.items()
         }
+        self._parts: list[tuple[int, np.ndarray]] = []
+        self._size = 0
+        self._payload: memoryview | None = None
+        self._data_start = 0
 
+    # -- encoding -------------------------------------------------------------------------------
     def encode(self, msg: Message) -> bytes:
-        """Bytes for ``msg`` (type name, version and every field, arrays as raw buffers)."""
+        """Version 1 bytes for ``msg`` (type name, version and every field, arrays inline)."""
         return self._encoder.encode((MAGIC, VERSION, type(msg).__name__, msg))
 
+    def _frame_hook(self, obj: Any) -> Any:
+        if isinstance(obj, np.ndarray):
+            arr = _contiguous(obj)
+            offset = _aligned(self._size)
+            self._parts.append((offset, arr))
+            self._size = offset + arr.nbytes
+            return msgspec.msgpack.Ext(
+                _EXT_NDARRAY_REF, _array_head(arr) + _REF.pack(offset, arr.nbytes)
+            )
+        return _enc_hook(obj)
+
+    def encode_framed(self, msg: Message) -> bytes:
+        """Bytes for ``msg`` with its arrays copied once, after the header (version 2); samples
+        with little array data are encoded as version 1 (``encode``)."""
+        if _array_bytes(msg) < FRAMED_MIN_BYTES:
+            return self.encode(msg)
+        self._parts, self._size = [], 0
+        try:
+            header = self._frame_encoder.encode((MAGIC, FRAMED_VERSION, type(msg).__name__, msg))
+            parts = self._parts
+        finally:
+            self._parts, self._size = [], 0
+        start = _aligned(_FRAME_HEAD.size + len(header))
+        pieces: list[bytes | memoryview] = [
+            _FRAME_HEAD.pack(FRAME_MAGIC, len(header)),
+            header,
+            bytes(start - _FRAME_HEAD.size - len(header)),
+        ]
+        pos = 0
+        for offset, arr in parts:
+            if offset > pos:
+                pieces.append(bytes(offset - pos))
+            pieces.append(_raw_view(arr))
+            pos = offset + arr.nbytes
+        return b"".join(pieces)
+
+    # -- decoding -------------------------------------------------------------------------------
+    def _ext_hook(self, code: int, data: memoryview) -> Any:
+        try:
+            dtype, shape, count, end = _parse_head(data)
+            if code == _EXT_NDARRAY:
+                if len(data) - end != count * dtype.itemsize:
+                    raise DecodeError("array buffer has the wrong length")
+                return np.frombuffer(data, dtype=dtype, count=count, offset=end).reshape(shape)
+            if code == _EXT_NDARRAY_REF and self._payload is not None:
+                offset, length = _REF.unpack_from(data, end)
+                start = self._data_start + offset
+                if length != count * dtype.itemsize or start + length > len(self._payload):
+                    raise DecodeError("array reference out of the sample's bounds")
+                return np.frombuffer(self._payload, dtype=dtype, count=count, offset=start).reshape(
+                    shape
+                )
+        except (IndexError, struct.error, TypeError, ValueError) as exc:
+            raise DecodeError(f"bad array: {exc}") from None
+        raise DecodeError(f"unknown extension code {code}")
+
     def decode(self, data: bytes | memoryview, expected: type[Message] | None = None) -> Message:
-        """The message in ``data``; DecodeError when it is not one (or not of ``expected``)."""
+        """The message in ``data`` (either version); DecodeError when it is not one (or not of
+        ``expected``)."""
+        if bytes(data[:4]) != FRAME_MAGIC:
+            return self._decode(data, VERSION, expected)
+        view = memoryview(data)
+        if len(view) < _FRAME_HEAD.size:
+            raise DecodeError("not an umbra sample: truncated frame")
+        _magic, length = _FRAME_HEAD.unpack_from(view)
+        end = _FRAME_HEAD.size + length
+        if end > len(view):
+            raise DecodeError("not an umbra sample: truncated frame header")
+        self._payload, self._data_start = view, _aligned(end)
+        try:
+            return self._decode(view[_FRAME_HEAD.size : end], FRAMED_VERSION, expected)
+        finally:
+            self._payload = None
+
+    def _decode(
+        self, data: bytes | memoryview, version_wanted: int, expected: type[Message] | None
+    ) -> Message:
         try:
             magic, version, name, raw = self._envelope.decode(data)
         except (msgspec.DecodeError, msgspec.ValidationError, TypeError) as exc:
             raise DecodeError(f"not an umbra sample: {exc}") from None
         if magic != MAGIC:
             raise DecodeError(f"not an umbra sample (magic {magic!r})")
-        if version != VERSION:
-            raise DecodeError(f"encoding version {version}, this build reads {VERSION}")
+        if version != version_wanted:
+            raise DecodeError(
+                f"encoding version {version}, this build reads {VERSION} "
+                f"and {FRAMED_VERSION} (framed)"
+            )
         decoder = self._decoders.get(name)
         if decoder is None:
             raise DecodeError(f"unknown message type `{name}`")

@@ -88,6 +88,7 @@ class Scheduler:
         self.transport = transport
         self.process_name = options.process or "main"
         self._stop: StopRequest | None = None
+        self._tick_now = self.clock.now()
         self._pending: list[tuple[Register[Any], Message, float]] = []
         self._inbound: deque[tuple[Register[Any], Message, bool]] = deque()
         self._wake = threading.Event() if transport is not None else None
@@ -121,7 +122,7 @@ class Scheduler:
                 process=mplan.process,
             )
             module = mplan.cls(name, mplan.params, context)
-            module.bind_ports(self.clock.now)
+            module.bind_ports(self.tick_time)
             self.modules[name] = module
         self._wire()
         for name in names:
@@ -179,6 +180,10 @@ class Scheduler:
                 wake.set()
 
         return deliver
+
+    def tick_time(self) -> float:
+        """The current tick's time [s]: what unstamped samples are stamped with."""
+        return self._tick_now
 
     # -- control ---------------------------------------------------------------------------------
     def request_stop(self, reason: str, exit_code: int = 0) -> None:
@@ -280,6 +285,7 @@ class Scheduler:
                 break
             clock.wait_until(due, self._wake)
             now = clock.now()
+            self._tick_now = now
             if real and rated:
                 lateness.append(max(0.0, now - due))
             if inbound:

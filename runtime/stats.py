@@ -103,5 +103,8 @@ class RunResult:
                 lines.append("  " + "  ".join("-" * w for w in widths))
         for m in self.modules:
             for key, value in m.extra.items():
-                lines.append(f"  {m.name}.{key}: {value}")
+                text = str(value)
+                if len(text) > 160:
+                    text = text[:150] + f"... ({len(text)} characters, see summary.json)"
+                lines.append(f"  {m.name}.{key}: {text}")
         return "\n".join(lines)

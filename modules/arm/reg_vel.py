@@ -38,6 +38,7 @@ class RegVel(Module):
         p = self.params
         self._register = VelocityRegister(RegisterSettings(p.timeout, p.max_linear, p.max_angular))
         self._last_reason: str | None = None
+        self._last_zero_reason = ""
         self._frame_problem = ""
         self._zeroed = 0
         self._clamped = 0
@@ -66,6 +67,8 @@ class RegVel(Module):
             self.gripper.send(Text(text=gripper.text, stamp=gripper.stamp))
         if out.zero_reason != self._last_reason:
             self._last_reason = out.zero_reason
+            if out.zero_reason:
+                self._last_zero_reason = out.zero_reason
             self.status.send(
                 Status(
                     stage="zero" if out.zero_reason else "passing",
@@ -75,5 +78,9 @@ class RegVel(Module):
                 )
             )
 
-    def summary(self) -> dict[str, int]:
-        return {"zeroed_ticks": self._zeroed, "clamped_ticks": self._clamped}
+    def summary(self) -> dict[str, object]:
+        return {
+            "zeroed_ticks": self._zeroed,
+            "clamped_ticks": self._clamped,
+            "last_zero_reason": self._last_zero_reason,
+        }

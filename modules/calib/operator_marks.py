@@ -67,13 +67,11 @@ class SimMarks(Module):
         if models[0] is None or models[1] is None:
             return
         T_ref_mounts = [self._mount_pose(m) for m in models]
-        pixels = [
-            self._projection(m, T) for m, T in zip(models, T_ref_mounts, strict=True)
-        ]
+        pixels = [self._projection(m, T) for m, T in zip(models, T_ref_mounts, strict=True)]
         reference = self.params.reference_frame
         for out, model, T in zip((self.pose_a, self.pose_b), models, T_ref_mounts, strict=True):
-            out.send(Pose(matrix=T, parent=reference, child=model.mount))
-        self.truth.send(Vector(values=self._point))
+            out.send(Pose(matrix=T, parent=reference, child=model.mount, stamp=now))
+        self.truth.send(Vector(values=self._point, stamp=now))
         if any(p is None for p in pixels):
             self._out_of_view += 1
             if not self._reported_out:
@@ -84,7 +82,7 @@ class SimMarks(Module):
         for out, uv in zip((self.pixel_a, self.pixel_b), pixels, strict=True):
             if sigma > 0:
                 uv = uv + self.context.rng.normal(0.0, sigma, 2)
-            out.send(Vector(values=uv))
+            out.send(Vector(values=uv, stamp=now))
         self._marks += 1
 
     def _mount_pose(self, model: CameraModel) -> np.ndarray:

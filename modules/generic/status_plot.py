@@ -19,7 +19,7 @@ class StatusPlot(Module):
         keys: list[str] = param([], "figures to plot (empty: every figure seen)")
         scale: dict[str, float] = param({}, "multiply a figure before plotting, e.g. m -> mm: 1000")
         units: dict[str, str] = param({}, "unit shown in the legend per figure")
-        path: str = param("plot.png", "PNG file, relative to the run's output folder")
+        path: str = param("plot.png", "PNG file, relative to the run's output folder (empty: none)")
         title: str = param("", "plot title (default: the module name)")
 
     status = Input(Status, trigger=True, doc="status stream with figures in `values`")
@@ -45,7 +45,7 @@ class StatusPlot(Module):
                 self._series[key].append((t, sample.values[key] * self.params.scale.get(key, 1.0)))
 
     def stop(self) -> None:
-        if not self._series:
+        if not self._series or not self.params.path:
             return
         import matplotlib
 
@@ -73,4 +73,5 @@ class StatusPlot(Module):
 
     def summary(self) -> dict[str, object]:
         points = sum(len(v) for v in self._series.values())
-        return {"plot": str(self.path) if points else "", "points": points}
+        written = points and self.params.path
+        return {"plot": str(self.path) if written else "", "points": points}

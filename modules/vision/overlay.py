@@ -60,10 +60,10 @@ def draw_overlay(
         outer_rectangle = outer_rectangle or sanity.outer_rectangle
         inner_ellipse = inner_ellipse or sanity.inner_ellipse
     offending = np.asarray([] if offending is None else offending, dtype=np.intp).ravel()
-    if outer_rectangle is not None:
+    if outer_rectangle is not None and _drawable(outer_rectangle):
         corners = outer_rectangle.corners()
         cv2.polylines(canvas, [_fixed(corners)], True, RECTANGLE_BGR, 1, cv2.LINE_AA, _SHIFT)
-    if inner_ellipse is not None:
+    if inner_ellipse is not None and _drawable(inner_ellipse):
         cv2.ellipse(
             canvas,
             _point(inner_ellipse.center_uv),
@@ -125,3 +125,9 @@ def _draw_text(canvas: NDArray[np.uint8], lines: Sequence[str]) -> None:
             canvas, line, (8, y + height + 2), font, scale, TEXT_BGR, thickness, cv2.LINE_AA
         )
         y = bottom + 2
+
+
+def _drawable(box: OrientedBox) -> bool:
+    """False for the degenerate bounds of a collapsed contour (NaN or huge sizes): skip them."""
+    values = np.array([*box.center_uv, *box.half_sizes, box.angle_rad], dtype=float)
+    return bool(np.all(np.isfinite(values)) and np.all(np.abs(values[:4]) < 1e5))

@@ -105,6 +105,10 @@ class VsSnake(Module):
             _DEFAULTS["max_aspect_drift"], "largest aspect change since the seed", gt=0
         )
 
+        max_identical_frames: int = param(
+            5, "this many identical images in a row mean a frozen camera (0: never)", ge=0
+        )
+
     image = Input(Image, trigger=True, doc="camera frames (BGR)")
     seed = Input(Vector, required=False, doc="operator re-seed: [u, v] or [u0, v0, u1, v1] px")
     contour = Output(Contour, doc="tracked contour, features and sanity status")
@@ -132,6 +136,21 @@ class VsSnake(Module):
         self._snake_time = 0.0
         self._iterations = 0
         self._was_failed = False
+        self._previous: np.ndarray | None = None
+        self._identical = 0
+
+    def _frozen(self, pixels: np.ndarray) -> bool:
+        """True when the last ``max_identical_frames`` images were identical: a live sensor always
+        has noise, so a frame grabber that re-sends one buffer is caught even if it does not say
+        so. Compares a sparse grid of pixels (cheap)."""
+        limit = self.params.max_identical_frames
+        if not limit:
+            return False
+        sample = pixels[::9, ::9].copy()
+        same = self._previous is not None and np.array_equal(sample, self._previous)
+        self._previous = sample
+        self._identical = self._identical + 1 if same else 0
+        return self._identical >= limit
 
     def _checked_seed(self, values: list[float] | np.ndarray, where: str) -> list[float]:
         seed = [float(v) for v in np.asarray(values, dtype=float).ravel()]
@@ -173,6 +192,14 @@ class VsSnake(Module):
                 f"{self.name}: images must be H x W x 3 uint8 BGR, got {pixels.shape} "
                 f"{pixels.dtype}"
             )
+        if self._frozen(pixels):
+            reason = f"camera frozen: {self._identical + 1} identical images in a row"
+            if not self._was_failed:
+                self._failures += 1
+                self.log.warning("%s: snake failed: %s", self.name, reason)
+            self._was_failed = True
+            self.contour.send(self._empty(FAILED, reason, sample.stamp))
+            return
         if self._pending is not None:
             self._seed(pixels, self._pending)
             self._pending = None

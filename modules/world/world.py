@@ -48,6 +48,9 @@ class WorldParams(ArmParams):
     timeout_s: float = param(60.0, "end the run as failed when no grasp by then", unit="s",
                              gt=0)
     end_run: bool = param(True, "end the run when the grasp is judged")
+    end_after_stop_s: float = param(
+        1.5, "after an operator-assistance request or a lost vision process, end the run this "
+        "much later (the arm has stopped)", unit="s", gt=0)
 
 
 class SimWorld(Module):
@@ -57,6 +60,8 @@ class SimWorld(Module):
     Params = WorldParams
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper of the arm")
+    servo_status = Input(Status, required=False, feedback=True,
+                         doc="the grab's stage (vsServo): ends the run after an assist request")
     camera_pose = Output(Pose, frame="table->camera", doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", doc="true T_table_patch")
     status = Output(Status, doc="world state: running, grasped or missed, with errors")
@@ -77,6 +82,8 @@ class SimWorld(Module):
         self.result: dict[str, object] = {"grasped": False, "verdict": "no grasp attempted"}
         self._closing_seen = False
         self._judged = False
+        self._stopped_since: float | None = None
+        self._stop_reason = ""
 
     def step(self, now: float) -> None:
         if self.t0 is None:
@@ -94,8 +101,23 @@ class SimWorld(Module):
             self._closing_seen = True
         if self._closing_seen and state.gripper <= 0.0:
             self._judge(now, T_table_flange @ self.T_flange_tool)
+        elif self._servo_stopped(now):
+            self._finish(now, False, f"stopped without a grasp: {self._stop_reason}")
         elif now - self.t0 > self.params.timeout_s:
             self._finish(now, False, f"no grasp within {self.params.timeout_s:g} s")
+
+    def _servo_stopped(self, now: float) -> bool:
+        """True ``end_after_stop_s`` after the grab asked for help or its process vanished."""
+        status = self.servo_status.get(now)
+        if self._stopped_since is None:
+            if status is not None and status.assist:
+                self._stopped_since = now
+                self._stop_reason = f"operator assistance requested ({status.reason})"
+            elif status is not None and not self.servo_status.link_alive:
+                self._stopped_since = now
+                self._stop_reason = "the vision process is gone"
+        return self._stopped_since is not None and \
+            now - self._stopped_since >= self.params.end_after_stop_s
 
     def _judge(self, now: float, T_table_tool: np.ndarray) -> None:
         err = grasp_error(T_table_tool, self.T_table_patch)

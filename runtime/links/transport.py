@@ -144,22 +144,10 @@ class ZenohTransport:
             )
         stats = PublishStats(link.key, [str(link.connection)], link.reliable)
         self._pubs[link.key] = (pub, stats)
-        encode, wrap, put, log = self._codec.encode, self._shm.payload, pub.put, self._log
+        encode, wrap, put, log = self._codec.encode_framed, self._shm.payload, pub.put, self._log
         counters = self._shm.counters
 
-        import atexit, os
-        TP = []
-        if os.environ.get("UMBRA_TRACE"):
-            atexit.register(lambda: print("TRACE pub", __import__("numpy").percentile(__import__("numpy").array(TP)*1e6, [50, 99], axis=0), flush=True))
-
         def publish(sample: Message, now: float) -> None:
-            t0 = time.perf_counter()
-            try:
-                _publish(sample, now)
-            finally:
-                TP.append((time.perf_counter() - t0,))
-
-        def _publish(sample: Message, now: float) -> None:
             data = encode(sample)
             before = counters.shm_samples
             try:
@@ -228,19 +216,7 @@ class ZenohTransport:
         expected, key, ended = link.msg_type, link.key, self._ended
         put_kind = zenoh.SampleKind.PUT
 
-        import atexit, os
-        TR = []
-        if os.environ.get("UMBRA_TRACE"):
-            atexit.register(lambda: print("TRACE cb", __import__("numpy").percentile(__import__("numpy").array(TR)*1e6, [50, 99], axis=0), flush=True))
-
         def on_sample(sample: zenoh.Sample) -> None:
-            t0 = time.perf_counter()
-            try:
-                _on_sample(sample)
-            finally:
-                TR.append((time.perf_counter() - t0,))
-
-        def _on_sample(sample: zenoh.Sample) -> None:
             if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
                 stats.ended += 1
                 ended.add(key)

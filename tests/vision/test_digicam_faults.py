@@ -7,6 +7,13 @@ from pixel colors against the ground-truth outline of the patch.
 
 from __future__ import annotations
 
+import itertools
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -15,9 +22,14 @@ from connectors import UserError
 from connectors.messages import Image, Pose
 from modules.vision.digicam import DigiCam
 from modules.vision.scene import camera_looking_down
-from modules.vision.sim_camera import OCCLUDER_GAP_M, SceneFault
+from modules.vision.sim_camera import OCCLUDER_GAP_M, OCCLUDER_LIFT_M, SceneFault
 from modules.vision.vs_snake import VsSnake
+from runtime.graph.check import check_text
 from runtime.harness import ModuleHarness
+from runtime.registry import Registry
+from runtime.scheduler import Scheduler, SchedulerOptions
+
+REPO = Path(__file__).resolve().parents[2]
 
 DT = 1 / 30
 FAULT_AT_S = 0.2
@@ -86,7 +98,7 @@ def test_occluder_covers_a_growing_share_of_the_patch() -> None:
     assert np.all(np.diff(shares) >= -1e-3)
     np.testing.assert_allclose(shares, expected, atol=0.03)
     half = faulted.module.summary()["fault_started_at"] + 1.0
-    assert shares[int(round(half / DT)) - 1] >= 0.5  # at least half covered 1 s after the start
+    assert shares[round(half / DT) - 1] >= 0.5  # at least half covered 1 s after the start
     assert shares[-1] > 0.97  # then it stays, covering the patch
 
 
@@ -97,10 +109,12 @@ def test_occluder_is_visible_just_outside_the_patch_when_the_fault_begins() -> N
     image, truth = out["image"][0].pixels, out["truth"][0]
     skin = near(image, SKIN_BGR)
     assert not np.any(skin & inside(truth.vertices, image.shape[:2]))
-    # -x is the image left at yaw 0: the slab's leading edge is 5 mm (13.6 px) left of the patch.
+    # -x is the image left at yaw 0: the slab's leading edge is 5 mm left of the patch (0.03 m
+    # from its centre), OCCLUDER_LIFT_M nearer the camera 0.22 m above the patch.
+    leading_edge_u = 320.0 - 600.0 * (0.03 + OCCLUDER_GAP_M) / (0.22 - OCCLUDER_LIFT_M)
     columns = np.flatnonzero(skin.any(axis=0))
-    left_edge = truth.vertices[:, 0].min()
-    assert left_edge - columns.max() == pytest.approx(OCCLUDER_GAP_M * 600 / 0.22, abs=1.5)
+    assert columns.max() + 0.5 == pytest.approx(leading_edge_u, abs=1.0)
+    assert truth.vertices[:, 0].min() - leading_edge_u > 10.0
     assert np.count_nonzero(image != ref["image"][0].pixels) > 1000
 
 
@@ -109,7 +123,8 @@ def test_remove_patch_takes_the_patch_pixels_away_and_leaves_the_tool() -> None:
     for k in range(FIRST_FAULTED + 3):
         out, ref = faulted.step(DT), plain.step(DT)
         truth = ref["truth"][0]
-        patch = inside(truth.vertices, (480, 640))
+        # The patch less its border pixels (partly covered, blended with the tool).
+        patch = cv2.erode(inside(truth.vertices, (480, 640)).astype(np.uint8), None) > 0
         green = near(out["image"][0].pixels, PATCH_BGR)
         if k < FIRST_FAULTED:
             assert green[patch].mean() > 0.99
@@ -119,7 +134,7 @@ def test_remove_patch_takes_the_patch_pixels_away_and_leaves_the_tool() -> None:
             assert out["truth"][0].status == "idle" and len(out["truth"][0].vertices) == 0
             # Where the patch was, the tool body (RGB 70, 72, 78) shows.
             tool = near(out["image"][0].pixels, np.array([78, 72, 70]))
-            assert tool[patch].mean() > 0.95
+            assert tool[patch].mean() > 0.99
 
 
 def test_distractor_adds_a_same_color_patch_touching_the_patch() -> None:
@@ -158,7 +173,7 @@ def test_freeze_resends_the_last_frame_while_the_camera_moves(stale: bool) -> No
             truths.append(out["truth"][0])
         summary = h.module.summary()
     before, after = images[:FIRST_FAULTED], images[FIRST_FAULTED:]
-    for a, b in zip(before, before[1:], strict=False):
+    for a, b in itertools.pairwise(before):
         assert np.count_nonzero(a.pixels != b.pixels) > 1000  # a live, moving camera
     for frame in after:
         np.testing.assert_array_equal(frame.pixels, before[-1].pixels)
@@ -210,18 +225,6 @@ def test_snake_fails_within_a_few_frames_of_the_fault(kind: str, within: int) ->
     assert failures == 1
 
 
-def test_snake_keeps_tracking_a_frozen_camera() -> None:
-    """A silent freeze is invisible in the images: the snake tracks on (the servo must notice)."""
-    cam = ModuleHarness(DigiCam, {"fault": "freeze", "fault_at_s": FAULT_AT_S}).start()
-    first = cam.step(DT)
-    with ModuleHarness(VsSnake, {"seed_uv": first["truth"][0].centroid.tolist()}) as snake:
-        image = first["image"][0]
-        for _ in range(FIRST_FAULTED + 6):
-            snake.push("image", image)
-            assert snake.step(DT)["contour"][0].status == "tracking"
-            image = cam.step(DT)["image"][0]
-
-
 def test_fault_parameters_are_checked() -> None:
     with pytest.raises(UserError, match="fault_at_s"):
         ModuleHarness(DigiCam, {"fault": "occluder", "fault_at_s": -1.0})
@@ -244,3 +247,61 @@ def test_summary_without_a_fault() -> None:
         "fault": "none",
         "fault_started_at": None,
     }
+
+
+# -- in a graph: one process on the sim clock, and split over two processes --------------------
+
+GRAPH = """\
+graph: fault_trial
+seed: 1
+clock: {clock}
+duration: {duration}
+processes: {{umbra: {{}}, smart: {{}}}}
+modules:
+  cam:
+    type: DigiCam
+    process: umbra
+    rate: 30
+    params: {{noise_sigma: 6, patch_yaw_deg: 20, fault: remove_patch, fault_at_s: 0.5}}
+  snake: {{type: vsSnake, process: smart, params: {{seed_uv: [322, 236]}}}}
+connections:
+  - cam.image -> snake.image
+"""
+
+
+def test_fault_in_a_graph_on_the_sim_clock(tmp_path) -> None:
+    registry = Registry()
+    for cls in (DigiCam, VsSnake):
+        registry.add(cls)
+    plan = check_text(GRAPH.format(clock="sim", duration=1.0), "fault.yaml", registry)
+    options = SchedulerOptions(clock="sim", duration=1.0, output_dir=tmp_path)
+    scheduler = Scheduler(plan, options)
+    scheduler.run()
+    cam, snake = scheduler.modules["cam"], scheduler.modules["snake"]
+    started = cam.summary()["fault_started_at"]
+    first = cam.image.last.stamp - (cam.summary()["frames"] - 1) / 30  # frames 1/30 s apart
+    assert started == pytest.approx(first + 0.5, abs=1e-6)
+    assert snake.summary()["failures"] == 1
+    assert snake.contour.last.status == "failed"
+
+
+@pytest.mark.slow  # two processes on the real clock: about 5 s
+def test_fault_in_a_graph_split_over_two_processes(tmp_path) -> None:
+    """The same graph with the camera and the snake in two processes (zenoh, real clock): the
+    fault is driven by the camera's parameters and clock alone, so it plays the same."""
+    (tmp_path / "fault.yaml").write_text(GRAPH.format(clock="real", duration=2.5))
+    path = os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env = dict(os.environ, PYTHONPATH=path, PYTHONUNBUFFERED="1")
+    done = subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", "run", "fault.yaml", "--out", "out"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+        stdin=subprocess.DEVNULL,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    summaries = {}
+    for process in ("umbra", "smart"):
+        found = json.loads((tmp_path / "out" / f"summary-{process}.json").read_text())
+        summaries.update({m["module"]: m for m in found["modules"]})
+    cam, snake = summaries["cam"], summaries["snake"]
+    assert cam["fault"] == "remove_patch" and cam["fault_started_at"] is not None
+    assert snake["frames"] > 0 and snake["failures"] == 1

@@ -1,0 +1,185 @@
+"""Running tool pick-up trials on the runtime: one graph, many randomized set-ups.
+
+This is an application of the runtime (as a user's script would be): it loads the graph with
+per-trial parameter overrides, runs it on the sim clock in one process (or split over two
+processes through ``umbra run``), and reads the module summaries back.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modules.arm.dh import puma560
+from modules.world.trials import Nominal, TrialResult, TrialSetup, open_loop_grab, stop_figures
+from runtime.graph.check import load_graph
+from runtime.graph.plan import GraphPlan
+from runtime.run import run_process
+from runtime.scheduler import SchedulerOptions
+
+#: Types whose instances a trial configures.
+ROLES = {"World": "world", "DigiCam": "camera", "WOLVERINE_JNTS": "joints", "Overlay": "view",
+         "StatusPlot": "plot", "vsServo": "servo", "REG_VEL": "register",
+         "SafetyMonitor": "monitor", "Recorder": "recorder"}
+
+
+class TrialGraph:
+    """A pick-up graph and the names of the modules a trial sets, found by type."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = str(path)
+        self.plan: GraphPlan = load_graph(self.path)
+        self.names: dict[str, str] = {}
+        for name, mplan in self.plan.modules.items():
+            role = ROLES.get(mplan.spec.type)
+            if role and role not in self.names:
+                self.names[role] = name
+        missing = [r for r in ("world", "camera", "joints", "servo") if r not in self.names]
+        if missing:
+            from connectors.errors import UserError
+
+            raise UserError(f"{self.path}: a pick-up graph needs modules of types World, "
+                            f"DigiCam, WOLVERINE_JNTS and vsServo; missing: {', '.join(missing)}")
+        joints = self.plan.modules[self.names["joints"]].params
+        self.q0 = np.radians(joints.initial_q_deg or [0.0] * 6)
+        self.T_base_table = self.plan.frames.lookup("base", "table")
+        self.T_flange_tool = self.plan.frames.lookup("flange", "tool")
+
+    def overrides(self, setup: TrialSetup, *, keep_media: bool, timeout_s: float
+                  ) -> dict[str, dict[str, Any]]:
+        """``--set`` values that make the graph play ``setup``."""
+        n = self.names
+        out: dict[str, dict[str, Any]] = {
+            n["world"]: {"tool_xy_m": list(setup.tool_xy_m), "tool_yaw_deg": setup.tool_yaw_deg,
+                         "patch_height_m": setup.patch_height_m, "timeout_s": timeout_s},
+            n["camera"]: {"gain": setup.gain, "cast_rgb": list(setup.cast_rgb),
+                          "noise_sigma": setup.noise_sigma, "background": "photo"},
+            n["joints"]: {"calibration_error_deg": list(setup.calibration_error_deg)},
+            n["servo"]: {"progress_period_s": 0.0},
+        }
+        if setup.fault not in ("none", "kill_umbra"):
+            out[n["camera"]].update({"fault": setup.fault, "fault_at_s": setup.fault_at_s})
+        if not keep_media:
+            if "view" in n:
+                out[n["view"]] = {"video": ""}
+            if "plot" in n:
+                out[n["plot"]] = {"path": ""}
+        return out
+
+    def open_loop(self, setup: TrialSetup) -> tuple[float | None, float | None, bool, Any]:
+        err = open_loop_grab(puma560(), setup, self.T_base_table, self.T_flange_tool, self.q0)
+        return err
+
+
+def _result(graph: TrialGraph, setup: TrialSetup, summaries: dict[str, dict[str, Any]],
+            tolerance: tuple[float, float], t_fault: float | None) -> TrialResult:
+    n = graph.names
+    world = summaries.get(n["world"], {})
+    servo = summaries.get(n["servo"], {})
+    register = summaries.get(n.get("register", ""), {})
+    err = graph.open_loop(setup)
+    ol_ok = err is not None and err.position_mm <= tolerance[0] and abs(err.roll_deg) <= tolerance[1]
+    safety: dict[str, Any] = {}
+    monitor = summaries.get(n.get("monitor", ""), {})
+    if setup.fault != "none" and t_fault is not None and monitor.get("record"):
+        safety = stop_figures(np.asarray(monitor["record"], dtype=float), t_fault)
+    assist = servo.get("assist_reason", "") or ""
+    if setup.fault == "kill_umbra":
+        assist = register.get("last_zero_reason", "") or assist
+    return TrialResult(
+        setup=setup,
+        grasped=bool(world.get("grasped", False)),
+        verdict=str(world.get("verdict", "no verdict (world summary missing)")),
+        position_error_mm=world.get("position_error_mm"),
+        roll_error_deg=world.get("roll_error_deg"),
+        time_s=world.get("time_s"),
+        stage=str(servo.get("stage", "?")),
+        assist_reason=assist,
+        stage_times_s=dict(servo.get("stage_times_s", {})),
+        open_loop_error_mm=None if err is None else err.position_mm,
+        open_loop_roll_deg=None if err is None else err.roll_deg,
+        open_loop_success=bool(ol_ok),
+        safety=safety,
+    )
+
+
+def run_single(graph: TrialGraph, setup: TrialSetup, out_dir: Path, *, timeout_s: float = 40.0,
+               keep_media: bool = False) -> TrialResult:
+    """One trial in one process on the sim clock."""
+    plan = load_graph(graph.path, overrides=graph.overrides(setup, keep_media=keep_media,
+                                                              timeout_s=timeout_s))
+    options = SchedulerOptions(clock="sim", duration=timeout_s + 1.0, output_dir=out_dir)
+    result = run_process(plan, options)
+    summaries = {m.name: m.extra for m in result.modules}
+    t_fault = summaries.get(graph.names["camera"], {}).get("fault_started_at")
+    return _result(graph, setup, summaries, _tolerance(graph), t_fault)
+
+
+def _tolerance(graph: TrialGraph) -> tuple[float, float]:
+    world = graph.plan.modules[graph.names["world"]].params
+    return world.position_tolerance_mm, world.roll_tolerance_deg
+
+
+def run_split(graph: TrialGraph, setup: TrialSetup, out_dir: Path, *, timeout_s: float = 40.0,
+              keep_media: bool = False) -> TrialResult:
+    """One trial split over two processes (real clock, zenoh). For ``kill_umbra`` the processes
+    are started separately, as on two hosts, and the vision process is killed mid-approach."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    sets = []
+    for module, values in graph.overrides(setup, keep_media=keep_media,
+                                          timeout_s=timeout_s).items():
+        for key, value in values.items():
+            sets += ["--set", f"{module}.{key}={json.dumps(value)}"]
+    base = [sys.executable, "-m", "runtime.cli.main", "run", graph.path, "--clock", "real",
+            "--duration", str(timeout_s + 2.0), "--out", str(out_dir), "--quiet", *sets]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    t_fault: float | None = None
+    if setup.fault != "kill_umbra":
+        subprocess.run(base, capture_output=True, text=True, env=env, timeout=timeout_s + 60)
+    else:
+        port = _free_port()
+        endpoint = f"tcp/127.0.0.1:{port}"
+        smart = subprocess.Popen([*base, "--process", "smart", "--listen", endpoint],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+        umbra = subprocess.Popen([*base, "--process", "umbra", "--connect", endpoint],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                 env=env)
+        started = None
+        assert umbra.stderr is not None
+        for line in umbra.stderr:
+            if "links ready" in line:
+                started = time.monotonic()
+                break
+        if started is not None:
+            time.sleep(max(0.0, started + setup.fault_at_s - time.monotonic()))
+            t_fault = time.monotonic()
+            umbra.send_signal(signal.SIGKILL)
+        umbra.wait(timeout=30)
+        smart.wait(timeout=timeout_s + 60)
+    summaries: dict[str, dict[str, Any]] = {}
+    for path in out_dir.glob("summary*.json"):
+        data = json.loads(path.read_text())
+        for m in data.get("modules", []):
+            summaries[m["module"]] = m
+    if t_fault is None:
+        t_fault = summaries.get(graph.names["camera"], {}).get("fault_started_at")
+    return _result(graph, setup, summaries, _tolerance(graph), t_fault)
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+__all__ = ["Nominal", "TrialGraph", "run_single", "run_split"]
