@@ -72,7 +72,7 @@ def polygon_features(points: ArrayLike) -> PolygonFeatures:
     mu02 = m02 / m00 - cv * cv
     half_trace = 0.5 * (mu20 + mu02)
     spread = float(np.hypot(0.5 * (mu20 - mu02), mu11))
-    lam_major = half_trace + spread
+    lam_major = max(half_trace + spread, 0.0)
     lam_minor = max(half_trace - spread, 0.0)
     orientation = 0.5 * float(np.arctan2(2.0 * mu11, mu20 - mu02))
     if orientation <= -np.pi / 2:

@@ -26,7 +26,9 @@ TEXT_BGR = (255, 255, 255)
 
 
 def _fixed(points: ArrayLike) -> NDArray[np.int32]:
-    return np.round(np.asarray(points, dtype=np.float64) * (1 << _SHIFT)).astype(np.int32)
+    scaled = np.asarray(points, dtype=np.float64) * (1 << _SHIFT)
+    limit = float(np.iinfo(np.int32).max // 2)
+    return np.round(np.clip(np.nan_to_num(scaled, nan=0.0), -limit, limit)).astype(np.int32)
 
 
 def _point(uv: ArrayLike) -> tuple[int, int]:
