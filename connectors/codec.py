@@ -99,7 +99,8 @@ def _dec_hook(typ: type, obj: Any) -> Any:
     raise NotImplementedError(f"cannot decode {typ}")
 
 
-def _array_bytes(msg: Message) -> int:
+def array_bytes(msg: Message) -> int:
+    """Bytes held in the arrays of ``msg``."""
     total = 0
     for name in msg.__struct_fields__:
         value = getattr(msg, name)
@@ -141,23 +142,33 @@ class Codec:
             )
         return _enc_hook(obj)
 
-    def encode_framed(self, msg: Message) -> bytes:
-        """Bytes for ``msg`` with its arrays copied once, after the header (version 2); samples
-        with little array data are encoded as version 1 (``encode``)."""
-        if _array_bytes(msg) < FRAMED_MIN_BYTES:
-            return self.encode(msg)
+    def frame(self, msg: Message) -> tuple[bytes, list[tuple[int, np.ndarray]], int]:
+        """Version 2 pieces of ``msg``: the head (magic, length, header, padding), its arrays with
+        their offsets from the end of the head, and the total size [bytes]. Writing the head and
+        then each array at ``len(head) + offset`` gives the bytes of ``encode_framed``."""
         self._parts, self._size = [], 0
         try:
             header = self._frame_encoder.encode((MAGIC, FRAMED_VERSION, type(msg).__name__, msg))
-            parts = self._parts
+            parts, size = self._parts, self._size
         finally:
             self._parts, self._size = [], 0
         start = _aligned(_FRAME_HEAD.size + len(header))
-        pieces: list[bytes | memoryview] = [
-            _FRAME_HEAD.pack(FRAME_MAGIC, len(header)),
-            header,
-            bytes(start - _FRAME_HEAD.size - len(header)),
-        ]
+        head = b"".join(
+            (
+                _FRAME_HEAD.pack(FRAME_MAGIC, len(header)),
+                header,
+                bytes(start - _FRAME_HEAD.size - len(header)),
+            )
+        )
+        return head, parts, start + size
+
+    def encode_framed(self, msg: Message) -> bytes:
+        """Bytes for ``msg`` with its arrays copied once, after the header (version 2); samples
+        with little array data are encoded as version 1 (``encode``)."""
+        if array_bytes(msg) < FRAMED_MIN_BYTES:
+            return self.encode(msg)
+        head, parts, _size = self.frame(msg)
+        pieces: list[bytes | memoryview] = [head]
         pos = 0
         for offset, arr in parts:
             if offset > pos:

@@ -17,7 +17,9 @@ class PublishStats:
     reliable: bool = True
     sent: int = 0
     bytes: int = 0
-    shm_samples: int = 0
+    shm_samples: int = 0  #: through zenoh shared memory
+    pool_samples: int = 0  #: through this process's frame pool (read in place by consumers)
+    pool_full: int = 0  #: large samples sent the zenoh way because no pool slot was free
     put_errors: int = 0
 
     def as_dict(self) -> dict[str, Any]:
@@ -29,6 +31,8 @@ class PublishStats:
             "sent": self.sent,
             "bytes": self.bytes,
             "shm_samples": self.shm_samples,
+            "pool_samples": self.pool_samples,
+            "pool_full": self.pool_full,
             "put_errors": self.put_errors,
         }
 
@@ -48,6 +52,7 @@ class SubscribeStats:
     stale_dropped: int = 0  #: samples older than one already delivered (dropped)
     restarts: int = 0  #: the producer started again from sequence number 1
     ended: int = 0  #: end-of-stream markers received (the producer stopped cleanly)
+    pool_samples: int = 0  #: samples read in place from the producer's frame pool
     last_seq: int = 0
     last_arrival: float = -math.inf
     last_error: str = ""
@@ -69,6 +74,7 @@ class SubscribeStats:
             "stale_dropped": self.stale_dropped,
             "restarts": self.restarts,
             "ended": self.ended,
+            "pool_samples": self.pool_samples,
             "last_seq": self.last_seq,
             "last_error": self.last_error,
         }
@@ -80,7 +86,8 @@ def link_lines(stats: dict[str, Any]) -> list[str]:
     for s in stats.get("publish", []):
         lines.append(
             f"  link {s['key']} ({s['mode']}): sent {s['sent']}, "
-            f"{s['shm_samples']} through shared memory, {s['put_errors']} errors"
+            f"{s['pool_samples']} through the frame pool, {s['shm_samples']} through zenoh "
+            f"shared memory, {s['put_errors']} errors"
         )
     for s in stats.get("subscribe", []):
         lines.append(

@@ -4,14 +4,20 @@ Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overr
 
 * ``P/<module>/<port>`` — samples of one output, one publisher per output whatever the number of
   consumers; a ``delete`` on it marks the end of the stream (the producer stopped cleanly);
-* ``P/_alive/<process>`` — a liveliness token held by each running process of the graph. Zenoh
-  removes it when the process's session ends for any reason (exit, crash, kill -9, lost link
-  after the lease), which is how consumers learn that a producing process is gone.
+* ``P/_alive/<process>/<marker>`` — a liveliness token held by each running process of the graph.
+  Zenoh removes it when the process's session ends for any reason (exit, crash, kill -9, link lost
+  for longer than the lease), which is how consumers learn that a producing process is gone. The
+  marker names a file the process keeps in /dev/shm: a peer that sees the file shares this host's
+  shared memory.
 
 Commands never drop: a reliable link (every type but ``Image``) publishes with congestion control
 BLOCK; video may drop old frames: best-effort links use DROP. Both are ``express`` (no batching
-delay). Samples are decoded on zenoh's threads; a sample that does not decode is counted and
-dropped with one log line (rate-limited), and the process keeps running.
+delay). Large samples are sent in one of two ways: when every consumer of the output runs on this
+host, through this process's frame pool (``runtime.links.pool``: one copy, the consumer reads the
+shared memory in place, and the small descriptor is sent with BLOCK so no slot is orphaned);
+otherwise through zenoh's shared memory (``runtime.links.shm``), which zenoh turns into bytes for a
+consumer on another host. Samples are decoded on zenoh's threads; a sample that does not decode is
+counted and dropped with one log line (rate-limited), and the process keeps running.
 """
 
 from __future__ import annotations
@@ -24,10 +30,18 @@ from typing import Any
 
 import zenoh
 
-from connectors.codec import Codec, DecodeError
+from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError, array_bytes
 from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
+from runtime.links.pool import (
+    FramePool,
+    HostMarker,
+    PoolReader,
+    is_descriptor,
+    marker_pid,
+    pid_alive,
+)
 from runtime.links.shm import ShmWriter
 from runtime.links.stats import PublishStats, SubscribeStats
 
@@ -36,9 +50,9 @@ ALIVE = "_alive"
 ERROR_LOG_PERIOD = 5.0
 
 
-def alive_key(prefix: str, process: str) -> str:
+def alive_key(prefix: str, process: str, marker: str = "none") -> str:
     """Key of the liveliness token of ``process``."""
-    return f"{prefix}/{ALIVE}/{process}"
+    return f"{prefix}/{ALIVE}/{process}/{marker}"
 
 
 def _no_sink(sample: Message, now: float) -> None:
@@ -62,6 +76,7 @@ class ZenohTransport:
         *,
         log: logging.Logger | None = None,
         shm: ShmWriter | None = None,
+        frame_pool: bool = True,
     ) -> None:
         self._session = session
         self.prefix = plan.key_prefix
@@ -81,29 +96,36 @@ class ZenohTransport:
         self._pubs: dict[str, tuple[Any, PublishStats]] = {}
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
         self._alive: set[str] = set()
+        self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
         self._ended: set[str] = set()
         self._last_error_log: dict[str, tuple[float, int]] = {}
+        self._marker = HostMarker() if frame_pool else None
+        self._pools: dict[str, FramePool] = {}
+        self._reader = PoolReader()
         self._token: Any = None
         self._closed = False
         self._alive_sub = session.liveliness().declare_subscriber(
-            f"{self.prefix}/{ALIVE}/*", self._on_liveliness, history=True
+            f"{self.prefix}/{ALIVE}/*/*", self._on_liveliness, history=True
         )
 
     # -- liveliness -----------------------------------------------------------------------------
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
-        name = str(sample.key_expr).rsplit("/", 1)[-1]
+        name, marker = str(sample.key_expr).rsplit("/", 2)[-2:]
         if name == self.process:
             return
+        up = sample.kind == zenoh.SampleKind.PUT
         with self._lock:
-            if sample.kind == zenoh.SampleKind.PUT:
-                known = name in self._alive
+            known = name in self._alive
+            if up:
                 self._alive.add(name)
+                pid = marker_pid(marker) if self._marker is not None else None
+                if pid is not None:
+                    self._peer_pid[name] = pid
             else:
-                known = name in self._alive
                 self._alive.discard(name)
-        if sample.kind == zenoh.SampleKind.PUT and not known:
+        if up and not known:
             self._log.info("process `%s` is up", name)
-        elif sample.kind != zenoh.SampleKind.PUT and known:
+        elif not up and known:
             mine = [k for k, p in self._producer_of.items() if p == name and k in self._subs]
             if mine and all(k in self._ended for k in mine):
                 self._log.info("process `%s` stopped (its streams ended)", name)
@@ -113,8 +135,9 @@ class ZenohTransport:
     def announce(self) -> None:
         """Declare this process's liveliness token (after every subscription is declared)."""
         if self._token is None:
+            marker = self._marker.id if self._marker is not None else "none"
             self._token = self._session.liveliness().declare_token(
-                alive_key(self.prefix, self.process)
+                alive_key(self.prefix, self.process, marker)
             )
 
     def alive_processes(self) -> set[str]:
@@ -146,11 +169,14 @@ class ZenohTransport:
         self._pubs[link.key] = (pub, stats)
         encode, wrap, put, log = self._codec.encode_framed, self._shm.payload, pub.put, self._log
         counters = self._shm.counters
+        pooled = self._pooled_publish(link, stats) if not link.reliable else None
 
         def publish(sample: Message, now: float) -> None:
-            data = encode(sample)
-            before = counters.shm_samples
             try:
+                if pooled is not None and pooled(sample):
+                    return
+                data = encode(sample)
+                before = counters.shm_samples
                 put(wrap(data))
             except Exception as exc:  # session closing, or a zenoh error: count, never raise
                 stats.put_errors += 1
@@ -162,6 +188,55 @@ class ZenohTransport:
             stats.shm_samples += counters.shm_samples - before
 
         return publish
+
+    def _pooled_publish(
+        self, link: LinkPlan, stats: PublishStats
+    ) -> Callable[[Message], bool] | None:
+        """The frame-pool path of a best-effort output (None when this host has no /dev/shm)."""
+        if self._marker is None or self._marker.id == "none":
+            return None
+        consumers = sorted(self._consumers_of.get(link.key, set()))
+        descriptors = self._session.declare_publisher(
+            link.key,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            priority=zenoh.Priority.DATA,
+            express=True,
+        )
+        frame = self._codec.frame
+
+        def pooled(sample: Message) -> bool:
+            if array_bytes(sample) < FRAMED_MIN_BYTES:
+                return False
+            with self._lock:
+                if not all(c in self._peer_pid for c in consumers):
+                    return False  # a consumer on another host (or not known yet)
+            head, parts, size = frame(sample)
+            pool = self._pools.get(link.key)
+            if pool is None:
+                pool = self._pools[link.key] = FramePool(size, len(consumers))
+            descriptor = pool.write(head, parts, size)
+            if descriptor is None:
+                self._reclaim(pool, consumers)
+                descriptor = pool.write(head, parts, size)
+                if descriptor is None:
+                    stats.pool_full += 1
+                    return False
+            descriptors.put(descriptor)
+            stats.sent += 1
+            stats.bytes += size
+            stats.pool_samples += 1
+            return True
+
+        return pooled
+
+    def _reclaim(self, pool: FramePool, consumers: list[str]) -> None:
+        """Free the slots held by consumer processes that have died."""
+        with self._lock:
+            pids = dict(self._peer_pid)
+        for index, name in enumerate(consumers):
+            pid = pids.get(name)
+            if pid is not None and not pid_alive(pid):
+                pool.release_consumer(index)
 
     def consumers_ready(self) -> list[str]:
         """What producers still wait for: one line per output whose consumers are not all up."""
@@ -215,18 +290,27 @@ class ZenohTransport:
         delivers = [deliver]
         expected, key, ended = link.msg_type, link.key, self._ended
         put_kind = zenoh.SampleKind.PUT
+        consumers = sorted(self._consumers_of.get(link.key, {self.process}))
+        index = consumers.index(self.process) if self.process in consumers else 0
+        reader = self._reader
 
         def on_sample(sample: zenoh.Sample) -> None:
             if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
                 stats.ended += 1
                 ended.add(key)
                 return
+            release: Callable[[], None] | None = None
             try:
-                data = sample.payload.to_bytes()
+                data: Any = sample.payload.to_bytes()
+                if is_descriptor(data):
+                    data, release = reader.open(data, index)
+                    stats.pool_samples += 1
                 msg = self._decoder().decode(data)
                 if not isinstance(msg, expected):
                     raise DecodeError(f"expected {expected.__name__}, found {type(msg).__name__}")
             except Exception as exc:  # DecodeError, or anything a foreign payload provokes
+                if release is not None:
+                    release()
                 self._bad_sample(stats, exc)
                 return
             seq, last = msg.seq, stats.last_seq
@@ -314,3 +398,7 @@ class ZenohTransport:
                 self._token.undeclare()
         finally:
             self._session.close()
+            for pool in self._pools.values():
+                pool.close()
+            if self._marker is not None:
+                self._marker.close()
