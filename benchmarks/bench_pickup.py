@@ -15,7 +15,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks.common import table, write_results  # noqa: E402
+from benchmarks.common import table, write_results
 
 GRAPH = str(Path(__file__).resolve().parent.parent / "graphs" / "tool_pickup.yaml")
 
@@ -42,36 +42,75 @@ def main() -> None:
     results["randomized"] = trials("-n", str(n), "--seed", str(args.seed), "--workers", w)
     r = results["randomized"]
     print(f"\nRandomized pick-ups ({n} trials, sim clock)")
-    print(table([
-        ["visual servo", r["success_rate"], r["final_error_mm"]["median"],
-         r["final_error_mm"]["p95"], r["final_error_mm"]["max"], r["final_error_deg"]["p95"],
-         r["time_s"]["median"]],
-        ["open loop (true tool pose)", r["open_loop_success_rate"],
-         r["open_loop_error_mm"]["median"], r["open_loop_error_mm"]["p95"],
-         r["open_loop_error_mm"]["max"], "", ""],
-    ], ["", "success", "err mm p50", "p95", "max", "deg p95", "time s p50"]))
+    print(
+        table(
+            [
+                [
+                    "visual servo",
+                    r["success_rate"],
+                    r["final_error_mm"]["median"],
+                    r["final_error_mm"]["p95"],
+                    r["final_error_mm"]["max"],
+                    r["final_error_deg"]["p95"],
+                    r["time_s"]["median"],
+                ],
+                [
+                    "open loop (true tool pose)",
+                    r["open_loop_success_rate"],
+                    r["open_loop_error_mm"]["median"],
+                    r["open_loop_error_mm"]["p95"],
+                    r["open_loop_error_mm"]["max"],
+                    "",
+                    "",
+                ],
+            ],
+            ["", "success", "err mm p50", "p95", "max", "deg p95", "time s p50"],
+        )
+    )
     rows = []
     for fault in ("occluder", "remove_patch", "distractor", "freeze"):
         for split in (False, True):
             count = ns if split else nf
             extra = ["--split"] if split else ["--workers", w]
             key = f"{fault}{' split' if split else ''}"
-            results[key] = trials("-n", str(count), "--seed", str(args.seed), "--fault", fault,
-                                  *extra)
-    results["kill_umbra split"] = trials("-n", str(ns + 2), "--seed", str(args.seed), "--fault",
-                                         "kill_umbra", "--split")
+            results[key] = trials(
+                "-n", str(count), "--seed", str(args.seed), "--fault", fault, *extra
+            )
+    results["kill_umbra split"] = trials(
+        "-n", str(ns + 2), "--seed", str(args.seed), "--fault", "kill_umbra", "--split"
+    )
     for key, value in results.items():
         if "safety" not in value:
             continue
         s = value["safety"]
-        rows.append([key, f"{s['stopped_safely']}/{s['trials']}", s["grasps"],
-                     _ms(s["time_to_zero_command_s"]["median"]),
-                     _ms(s["time_to_zero_command_s"]["max"]),
-                     _ms(s["time_to_standstill_s"]["max"]),
-                     s["travel_after_fault_mm"]["median"], s["travel_after_fault_mm"]["max"]])
+        rows.append(
+            [
+                key,
+                f"{s['stopped_safely']}/{s['trials']}",
+                s["grasps"],
+                _ms(s["time_to_zero_command_s"]["median"]),
+                _ms(s["time_to_zero_command_s"]["max"]),
+                _ms(s["time_to_standstill_s"]["max"]),
+                s["travel_after_fault_mm"]["median"],
+                s["travel_after_fault_mm"]["max"],
+            ]
+        )
     print("\nFailure injection (time from the fault; travel of the tool after the fault)")
-    print(table(rows, ["fault", "stopped", "grasps", "zero cmd ms p50", "max",
-                       "standstill ms max", "travel mm p50", "max"]))
+    print(
+        table(
+            rows,
+            [
+                "fault",
+                "stopped",
+                "grasps",
+                "zero cmd ms p50",
+                "max",
+                "standstill ms max",
+                "travel mm p50",
+                "max",
+            ],
+        )
+    )
     path = write_results("pickup", {"quick": args.quick, "seed": args.seed, **results})
     print(f"\nwrote {path}")
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from connectors.cli_support import print_json
 from connectors.errors import UserError
 from modules.calib.camera_file import load_cameras
 from modules.calib.camera_model import PinholeCamera
@@ -37,7 +38,6 @@ from modules.calib.zoom_table import (
     table_from_samples,
 )
 from modules.geometry.rays import RayGeometryError, triangulate_pixels
-from connectors.cli_support import print_json
 
 NAME = "calib"
 HELP = "camera calibration: fit a camera, interpolate a zoom file, solve a pose, triangulate"

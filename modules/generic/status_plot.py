@@ -59,8 +59,16 @@ class StatusPlot(Module):
             ax.plot(t, v, label=f"{key} [{unit}]" if unit else key, linewidth=1.4)
         for t, stage in self._stages:
             ax.axvline(t, color="0.7", linewidth=0.8, linestyle="--")
-            ax.text(t, 1.0, f" {stage}", transform=ax.get_xaxis_transform(), fontsize=8,
-                    va="top", rotation=90, color="0.4")
+            ax.text(
+                t,
+                1.0,
+                f" {stage}",
+                transform=ax.get_xaxis_transform(),
+                fontsize=8,
+                va="top",
+                rotation=90,
+                color="0.4",
+            )
         ax.axhline(0.0, color="black", linewidth=0.6)
         ax.set_xlabel("time [s]")
         ax.set_title(self.params.title or self.name)

@@ -205,11 +205,17 @@ class VsServo(Module):
         period = self.params.progress_period_s
         if period and now - self._last_progress >= period:
             self._last_progress = now
-            errors = ", ".join(f"{k[6:]} {v * (57.29578 if k == 'error_roll' else 1e3):+.1f}"
-                               f"{' deg' if k == 'error_roll' else ' mm'}"
-                               for k, v in values.items())
-            self.log.info("t=%.1f s stage %s%s", now - self._t0, out.stage, f" errors {errors}" if errors
-                          else "")
+            errors = ", ".join(
+                f"{k[6:]} {v * (57.29578 if k == 'error_roll' else 1e3):+.1f}"
+                f"{' deg' if k == 'error_roll' else ' mm'}"
+                for k, v in values.items()
+            )
+            self.log.info(
+                "t=%.1f s stage %s%s",
+                now - self._t0,
+                out.stage,
+                f" errors {errors}" if errors else "",
+            )
 
     def _report(self, out: ServoOutput, now: float = 0.0) -> None:
         values = {
@@ -235,7 +241,7 @@ class VsServo(Module):
     def summary(self) -> dict[str, object]:
         times = dict(self._stage_times)
         if self._current is not None:
-            stage, since = self._current
+            stage = self._current[0]
             times[stage] = times.get(stage, 0.0)  # the final stage's time is open-ended
         return {
             "stage": self.stages.stage,

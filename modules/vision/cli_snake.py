@@ -19,11 +19,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from connectors.cli_support import parse_set, print_json
 from connectors.errors import UserError
 from modules.vision.overlay import draw_overlay
 from modules.vision.snake_config import SettingsError, settings_from
 from modules.vision.tracker import SnakeTracker
-from connectors.cli_support import parse_set, print_json
 
 NAME = "snake"
 HELP = "run the snake on one image until it converges"

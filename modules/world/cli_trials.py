@@ -5,6 +5,7 @@ over two (``--split``)."""
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import logging
 import subprocess
@@ -29,21 +30,31 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("graph", metavar="GRAPH", help="a tool pick-up graph")
     parser.add_argument("-n", type=int, default=20, help="number of trials (default 20)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the randomization")
-    parser.add_argument("--fault", choices=FAULTS, default="none",
-                        help="inject a fault mid-approach in every trial")
-    parser.add_argument("--split", action="store_true",
-                        help="run each trial split over two processes (real clock, zenoh)")
+    parser.add_argument(
+        "--fault", choices=FAULTS, default="none", help="inject a fault mid-approach in every trial"
+    )
+    parser.add_argument(
+        "--split",
+        action="store_true",
+        help="run each trial split over two processes (real clock, zenoh)",
+    )
     parser.add_argument("--workers", type=int, default=1, help="trials run in parallel")
-    parser.add_argument("--timeout", type=float, default=40.0, metavar="S",
-                        help="a trial without a grasp ends after S seconds of clock time")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=40.0,
+        metavar="S",
+        help="a trial without a grasp ends after S seconds of clock time",
+    )
     parser.add_argument("--out", type=Path, metavar="DIR", help="keep each trial's output here")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--only", metavar="A:B", help=argparse.SUPPRESS)  # a worker's share
     parser.add_argument("--jsonl", action="store_true", help=argparse.SUPPRESS)
 
 
-def _one(graph: TrialGraph, setup: TrialSetup, split: bool, out: Path, timeout: float
-         ) -> TrialResult:
+def _one(
+    graph: TrialGraph, setup: TrialSetup, split: bool, out: Path, timeout: float
+) -> TrialResult:
     runner = run_split if split else run_single
     return runner(graph, setup, out / f"trial-{setup.index:04d}", timeout_s=timeout)
 
@@ -52,16 +63,34 @@ def _workers(args: argparse.Namespace, n: int, out: Path) -> list[dict[str, Any]
     """Run the trials in ``args.workers`` child processes (JSON over pipes, never pickle)."""
     bounds = np.linspace(0, n, args.workers + 1).astype(int)
     procs = []
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+    for a, b in itertools.pairwise(bounds):
         if b <= a:
             continue
-        cmd = [sys.executable, "-m", "runtime.cli.main", "trials", args.graph, "-n", str(n),
-               "--seed", str(args.seed), "--fault", args.fault, "--timeout", str(args.timeout),
-               "--out", str(out), "--only", f"{a}:{b}", "--jsonl"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "runtime.cli.main",
+            "trials",
+            args.graph,
+            "-n",
+            str(n),
+            "--seed",
+            str(args.seed),
+            "--fault",
+            args.fault,
+            "--timeout",
+            str(args.timeout),
+            "--out",
+            str(out),
+            "--only",
+            f"{a}:{b}",
+            "--jsonl",
+        ]
         if args.split:
             cmd.append("--split")
-        procs.append(subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                      text=True))
+        procs.append(
+            subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        )
     rows: list[dict[str, Any]] = []
     import selectors
 
@@ -87,22 +116,27 @@ def _progress(done: int, n: int, rows: list[dict[str, Any]]) -> None:
     ok = sum(1 for r in rows if r["grasped"])
     width = 30
     filled = int(width * done / max(n, 1))
-    sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{n} trials, "
-                     f"{ok} grasped")
+    sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{n} trials, {ok} grasped")
     if done == n:
         sys.stderr.write("\n")
     sys.stderr.flush()
 
 
 def _from_dict(row: dict[str, Any]) -> TrialResult:
-    setup = TrialSetup(**{**row["setup"], "tool_xy_m": tuple(row["setup"]["tool_xy_m"]),
-                          "cast_rgb": tuple(row["setup"]["cast_rgb"]),
-                          "calibration_error_deg": tuple(row["setup"]["calibration_error_deg"])})
+    setup = TrialSetup(
+        **{
+            **row["setup"],
+            "tool_xy_m": tuple(row["setup"]["tool_xy_m"]),
+            "cast_rgb": tuple(row["setup"]["cast_rgb"]),
+            "calibration_error_deg": tuple(row["setup"]["calibration_error_deg"]),
+        }
+    )
     return TrialResult(**{**row, "setup": setup})
 
 
 def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
     """Safety figures of failure-injection trials."""
+
     def stats(values: list[float]) -> dict[str, float | None]:
         if not values:
             return {"median": None, "max": None}
@@ -114,12 +148,27 @@ def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
         "stopped_safely": len(safe),
         "stopped_safely_rate": len(safe) / len(results) if results else 0.0,
         "grasps": sum(r.grasped for r in results),
-        "time_to_zero_command_s": stats([r.safety["time_to_zero_command_s"] for r in results
-                                         if "time_to_zero_command_s" in r.safety]),
-        "time_to_standstill_s": stats([r.safety["time_to_standstill_s"] for r in results
-                                       if "time_to_standstill_s" in r.safety]),
-        "travel_after_fault_mm": stats([r.safety["travel_after_fault_mm"] for r in results
-                                        if "travel_after_fault_mm" in r.safety]),
+        "time_to_zero_command_s": stats(
+            [
+                r.safety["time_to_zero_command_s"]
+                for r in results
+                if "time_to_zero_command_s" in r.safety
+            ]
+        ),
+        "time_to_standstill_s": stats(
+            [
+                r.safety["time_to_standstill_s"]
+                for r in results
+                if "time_to_standstill_s" in r.safety
+            ]
+        ),
+        "travel_after_fault_mm": stats(
+            [
+                r.safety["travel_after_fault_mm"]
+                for r in results
+                if "travel_after_fault_mm" in r.safety
+            ]
+        ),
         "reasons": sorted({r.assist_reason for r in results if r.assist_reason})[:10],
     }
 
@@ -148,8 +197,7 @@ def main(args: argparse.Namespace) -> int:
             if args.jsonl:
                 print(json.dumps(result.as_dict(), default=float), flush=True)
             else:
-                _progress(len(results), last - first,
-                          [{"grasped": r.grasped} for r in results])
+                _progress(len(results), last - first, [{"grasped": r.grasped} for r in results])
     if args.jsonl:
         return 0
     summary = aggregate(results)
@@ -172,28 +220,36 @@ def _print_table(summary: dict[str, Any], results: list[TrialResult]) -> None:
         v = None if d is None else d.get(k)
         return "-" if v is None else f"{v * scale:.3g}"
 
-    print(f"{summary['trials']} trials ({'split over two processes' if summary['split'] else 'one process, sim clock'}), "
-          f"{summary['wall_time_s']} s")
+    print(
+        f"{summary['trials']} trials ({'split over two processes' if summary['split'] else 'one process, sim clock'}), "
+        f"{summary['wall_time_s']} s"
+    )
     if "safety" not in summary:
-        print(f"  visual servo : success {summary['success_rate']:.1%}; final error "
-              f"{f(summary['final_error_mm'], 'median')} / {f(summary['final_error_mm'], 'p95')} / "
-              f"{f(summary['final_error_mm'], 'max')} mm and "
-              f"{f(summary['final_error_deg'], 'median')} / {f(summary['final_error_deg'], 'p95')} / "
-              f"{f(summary['final_error_deg'], 'max')} deg (median / p95 / max); time "
-              f"{f(summary['time_s'], 'median')} s median")
-        print(f"  open loop    : success {summary['open_loop_success_rate']:.1%}; error "
-              f"{f(summary['open_loop_error_mm'], 'median')} / "
-              f"{f(summary['open_loop_error_mm'], 'p95')} / "
-              f"{f(summary['open_loop_error_mm'], 'max')} mm (median / p95 / max)")
+        print(
+            f"  visual servo : success {summary['success_rate']:.1%}; final error "
+            f"{f(summary['final_error_mm'], 'median')} / {f(summary['final_error_mm'], 'p95')} / "
+            f"{f(summary['final_error_mm'], 'max')} mm and "
+            f"{f(summary['final_error_deg'], 'median')} / {f(summary['final_error_deg'], 'p95')} / "
+            f"{f(summary['final_error_deg'], 'max')} deg (median / p95 / max); time "
+            f"{f(summary['time_s'], 'median')} s median"
+        )
+        print(
+            f"  open loop    : success {summary['open_loop_success_rate']:.1%}; error "
+            f"{f(summary['open_loop_error_mm'], 'median')} / "
+            f"{f(summary['open_loop_error_mm'], 'p95')} / "
+            f"{f(summary['open_loop_error_mm'], 'max')} mm (median / p95 / max)"
+        )
     else:
         s = summary["safety"]
-        print(f"  fault {summary['fault']}: stopped safely {s['stopped_safely']}/{s['trials']}, "
-              f"grasps {s['grasps']}; zero command after "
-              f"{f(s['time_to_zero_command_s'], 'median', 1e3)} ms median "
-              f"({f(s['time_to_zero_command_s'], 'max', 1e3)} max); standstill after "
-              f"{f(s['time_to_standstill_s'], 'median', 1e3)} ms median; travel after the "
-              f"fault {f(s['travel_after_fault_mm'], 'median')} mm median "
-              f"({f(s['travel_after_fault_mm'], 'max')} max)")
+        print(
+            f"  fault {summary['fault']}: stopped safely {s['stopped_safely']}/{s['trials']}, "
+            f"grasps {s['grasps']}; zero command after "
+            f"{f(s['time_to_zero_command_s'], 'median', 1e3)} ms median "
+            f"({f(s['time_to_zero_command_s'], 'max', 1e3)} max); standstill after "
+            f"{f(s['time_to_standstill_s'], 'median', 1e3)} ms median; travel after the "
+            f"fault {f(s['travel_after_fault_mm'], 'median')} mm median "
+            f"({f(s['travel_after_fault_mm'], 'max')} max)"
+        )
         for reason in s["reasons"]:
             print(f"    reason: {reason}")
     misses = [r for r in results if not r.grasped and summary.get("fault") is None]

@@ -35,8 +35,10 @@ def wrap_into_limits(table: DHTable, q: FloatArray) -> FloatArray:
         centre = 0.5 * (table.q_min[i] + table.q_max[i])
         q[i] = centre + (q[i] - centre + np.pi) % (2 * np.pi) - np.pi
         for shift in (-2 * np.pi, 2 * np.pi):
-            if not table.q_min[i] <= q[i] <= table.q_max[i] and \
-                    table.q_min[i] <= q[i] + shift <= table.q_max[i]:
+            if (
+                not table.q_min[i] <= q[i] <= table.q_max[i]
+                and table.q_min[i] <= q[i] + shift <= table.q_max[i]
+            ):
                 q[i] += shift
     return q
 
@@ -67,10 +69,13 @@ def solve_ik(
         step = J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(6), err)
         q = q + step
     else:
-        raise IKFailed(f"no IK solution: pose error {np.linalg.norm(err):.3g} after "
-                       f"{max_iterations} iterations")
+        raise IKFailed(
+            f"no IK solution: pose error {np.linalg.norm(err):.3g} after "
+            f"{max_iterations} iterations"
+        )
     q = wrap_into_limits(table, q)
     if np.any(q < table.q_min) or np.any(q > table.q_max):
-        raise IKFailed(f"IK solution {np.round(np.degrees(q), 1).tolist()} deg is outside the "
-                       f"joint limits")
+        raise IKFailed(
+            f"IK solution {np.round(np.degrees(q), 1).tolist()} deg is outside the joint limits"
+        )
     return q

@@ -19,10 +19,12 @@ class OperatorSim(Module):
     """Clicks on the patch (seed point for vsSnake) from the simulated camera's ground truth."""
 
     class Params(Parameters):
-        click_delay_s: float = param(0.2, "time looking at the video before clicking", unit="s",
-                                     ge=0)
-        click_noise_px: float = param(2.0, "standard deviation of the click position", unit="px",
-                                      ge=0)
+        click_delay_s: float = param(
+            0.2, "time looking at the video before clicking", unit="s", ge=0
+        )
+        click_noise_px: float = param(
+            2.0, "standard deviation of the click position", unit="px", ge=0
+        )
 
     truth = Input(Contour, trigger=True, doc="patch outline in the image (sim camera truth)")
     seed = Output(Vector, doc="the click: seed point [u, v] for vsSnake")

@@ -18,8 +18,7 @@ from modules.arm.arm_params import ArmParams
 class SafetyMonitorParams(ArmParams):
     """Arm (for forward kinematics) and the record's limits."""
 
-    still_speed: float = param(1e-3, "joint speed below which a joint is still", unit="rad/s",
-                               gt=0)
+    still_speed: float = param(1e-3, "joint speed below which a joint is still", unit="rad/s", gt=0)
     max_samples: int = param(20000, "samples kept (oldest dropped)", ge=10)
 
 
@@ -35,8 +34,9 @@ class SafetyMonitor(Module):
         try:
             self.T_flange_tool = self.context.frames.lookup("flange", "tool")
         except KeyError as exc:
-            raise UserError(f"SafetyMonitor `{self.name}` needs the static frame flange->tool: "
-                            f"{exc}") from None
+            raise UserError(
+                f"SafetyMonitor `{self.name}` needs the static frame flange->tool: {exc}"
+            ) from None
         self._rows: list[tuple[float, float, float, float, float, float]] = []
 
     def step(self, now: float) -> None:
@@ -57,5 +57,7 @@ class SafetyMonitor(Module):
 
     def summary(self) -> dict[str, object]:
         rows = self.record()
-        return {"samples": len(rows),
-                "record": [[round(v, 6) for v in row] for row in rows.tolist()]}
+        return {
+            "samples": len(rows),
+            "record": [[round(v, 6) for v in row] for row in rows.tolist()],
+        }

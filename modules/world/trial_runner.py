@@ -26,9 +26,17 @@ from runtime.run import run_process
 from runtime.scheduler import SchedulerOptions
 
 #: Types whose instances a trial configures.
-ROLES = {"World": "world", "DigiCam": "camera", "WOLVERINE_JNTS": "joints", "Overlay": "view",
-         "StatusPlot": "plot", "vsServo": "servo", "REG_VEL": "register",
-         "SafetyMonitor": "monitor", "Recorder": "recorder"}
+ROLES = {
+    "World": "world",
+    "DigiCam": "camera",
+    "WOLVERINE_JNTS": "joints",
+    "Overlay": "view",
+    "StatusPlot": "plot",
+    "vsServo": "servo",
+    "REG_VEL": "register",
+    "SafetyMonitor": "monitor",
+    "Recorder": "recorder",
+}
 
 
 class TrialGraph:
@@ -46,22 +54,33 @@ class TrialGraph:
         if missing:
             from connectors.errors import UserError
 
-            raise UserError(f"{self.path}: a pick-up graph needs modules of types World, "
-                            f"DigiCam, WOLVERINE_JNTS and vsServo; missing: {', '.join(missing)}")
+            raise UserError(
+                f"{self.path}: a pick-up graph needs modules of types World, "
+                f"DigiCam, WOLVERINE_JNTS and vsServo; missing: {', '.join(missing)}"
+            )
         joints = self.plan.modules[self.names["joints"]].params
         self.q0 = np.radians(joints.initial_q_deg or [0.0] * 6)
         self.T_base_table = self.plan.frames.lookup("base", "table")
         self.T_flange_tool = self.plan.frames.lookup("flange", "tool")
 
-    def overrides(self, setup: TrialSetup, *, keep_media: bool, timeout_s: float
-                  ) -> dict[str, dict[str, Any]]:
+    def overrides(
+        self, setup: TrialSetup, *, keep_media: bool, timeout_s: float
+    ) -> dict[str, dict[str, Any]]:
         """``--set`` values that make the graph play ``setup``."""
         n = self.names
         out: dict[str, dict[str, Any]] = {
-            n["world"]: {"tool_xy_m": list(setup.tool_xy_m), "tool_yaw_deg": setup.tool_yaw_deg,
-                         "patch_height_m": setup.patch_height_m, "timeout_s": timeout_s},
-            n["camera"]: {"gain": setup.gain, "cast_rgb": list(setup.cast_rgb),
-                          "noise_sigma": setup.noise_sigma, "background": "photo"},
+            n["world"]: {
+                "tool_xy_m": list(setup.tool_xy_m),
+                "tool_yaw_deg": setup.tool_yaw_deg,
+                "patch_height_m": setup.patch_height_m,
+                "timeout_s": timeout_s,
+            },
+            n["camera"]: {
+                "gain": setup.gain,
+                "cast_rgb": list(setup.cast_rgb),
+                "noise_sigma": setup.noise_sigma,
+                "background": "photo",
+            },
             n["joints"]: {"calibration_error_deg": list(setup.calibration_error_deg)},
             n["servo"]: {"progress_period_s": 0.0},
         }
@@ -79,14 +98,21 @@ class TrialGraph:
         return err
 
 
-def _result(graph: TrialGraph, setup: TrialSetup, summaries: dict[str, dict[str, Any]],
-            tolerance: tuple[float, float], t_fault: float | None) -> TrialResult:
+def _result(
+    graph: TrialGraph,
+    setup: TrialSetup,
+    summaries: dict[str, dict[str, Any]],
+    tolerance: tuple[float, float],
+    t_fault: float | None,
+) -> TrialResult:
     n = graph.names
     world = summaries.get(n["world"], {})
     servo = summaries.get(n["servo"], {})
     register = summaries.get(n.get("register", ""), {})
     err = graph.open_loop(setup)
-    ol_ok = err is not None and err.position_mm <= tolerance[0] and abs(err.roll_deg) <= tolerance[1]
+    ol_ok = (
+        err is not None and err.position_mm <= tolerance[0] and abs(err.roll_deg) <= tolerance[1]
+    )
     safety: dict[str, Any] = {}
     monitor = summaries.get(n.get("monitor", ""), {})
     if setup.fault != "none" and t_fault is not None and monitor.get("record"):
@@ -111,11 +137,18 @@ def _result(graph: TrialGraph, setup: TrialSetup, summaries: dict[str, dict[str,
     )
 
 
-def run_single(graph: TrialGraph, setup: TrialSetup, out_dir: Path, *, timeout_s: float = 40.0,
-               keep_media: bool = False) -> TrialResult:
+def run_single(
+    graph: TrialGraph,
+    setup: TrialSetup,
+    out_dir: Path,
+    *,
+    timeout_s: float = 40.0,
+    keep_media: bool = False,
+) -> TrialResult:
     """One trial in one process on the sim clock."""
-    plan = load_graph(graph.path, overrides=graph.overrides(setup, keep_media=keep_media,
-                                                              timeout_s=timeout_s))
+    plan = load_graph(
+        graph.path, overrides=graph.overrides(setup, keep_media=keep_media, timeout_s=timeout_s)
+    )
     options = SchedulerOptions(clock="sim", duration=timeout_s + 1.0, output_dir=out_dir)
     result = run_process(plan, options)
     summaries = {m.name: m.extra for m in result.modules}
@@ -128,18 +161,38 @@ def _tolerance(graph: TrialGraph) -> tuple[float, float]:
     return world.position_tolerance_mm, world.roll_tolerance_deg
 
 
-def run_split(graph: TrialGraph, setup: TrialSetup, out_dir: Path, *, timeout_s: float = 40.0,
-              keep_media: bool = False) -> TrialResult:
+def run_split(
+    graph: TrialGraph,
+    setup: TrialSetup,
+    out_dir: Path,
+    *,
+    timeout_s: float = 40.0,
+    keep_media: bool = False,
+) -> TrialResult:
     """One trial split over two processes (real clock, zenoh). For ``kill_umbra`` the processes
     are started separately, as on two hosts, and the vision process is killed mid-approach."""
     out_dir.mkdir(parents=True, exist_ok=True)
     sets = []
-    for module, values in graph.overrides(setup, keep_media=keep_media,
-                                          timeout_s=timeout_s).items():
+    for module, values in graph.overrides(
+        setup, keep_media=keep_media, timeout_s=timeout_s
+    ).items():
         for key, value in values.items():
             sets += ["--set", f"{module}.{key}={json.dumps(value)}"]
-    base = [sys.executable, "-m", "runtime.cli.main", "run", graph.path, "--clock", "real",
-            "--duration", str(timeout_s + 2.0), "--out", str(out_dir), "--quiet", *sets]
+    base = [
+        sys.executable,
+        "-m",
+        "runtime.cli.main",
+        "run",
+        graph.path,
+        "--clock",
+        "real",
+        "--duration",
+        str(timeout_s + 2.0),
+        "--out",
+        str(out_dir),
+        "--quiet",
+        *sets,
+    ]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     t_fault: float | None = None
     if setup.fault != "kill_umbra":
@@ -147,11 +200,19 @@ def run_split(graph: TrialGraph, setup: TrialSetup, out_dir: Path, *, timeout_s:
     else:
         port = _free_port()
         endpoint = f"tcp/127.0.0.1:{port}"
-        smart = subprocess.Popen([*base, "--process", "smart", "--listen", endpoint],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-        umbra = subprocess.Popen([*base, "--process", "umbra", "--connect", endpoint],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                 env=env)
+        smart = subprocess.Popen(
+            [*base, "--process", "smart", "--listen", endpoint],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=env,
+        )
+        umbra = subprocess.Popen(
+            [*base, "--process", "umbra", "--connect", endpoint],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
         started = None
         assert umbra.stderr is not None
         for line in umbra.stderr:

@@ -58,8 +58,13 @@ class Nominal:
     joints: int = 6
 
 
-def draw_trial(seed: int, index: int, nominal: Nominal = Nominal(), fault: str = "none",
-               fault_window_s: tuple[float, float] = (3.0, 6.0)) -> TrialSetup:
+def draw_trial(
+    seed: int,
+    index: int,
+    nominal: Nominal = Nominal(),
+    fault: str = "none",
+    fault_window_s: tuple[float, float] = (3.0, 6.0),
+) -> TrialSetup:
     """The randomized set-up of trial ``index`` of a run seeded with ``seed``."""
     rng = np.random.default_rng([seed, index])
     dx, dy = rng.uniform(-nominal.offset_m, nominal.offset_m, 2)
@@ -67,25 +72,32 @@ def draw_trial(seed: int, index: int, nominal: Nominal = Nominal(), fault: str =
         index=index,
         tool_xy_m=(nominal.tool_xy_m[0] + float(dx), nominal.tool_xy_m[1] + float(dy)),
         tool_yaw_deg=float(rng.uniform(-nominal.roll_deg, nominal.roll_deg)),
-        patch_height_m=nominal.patch_height_m + float(rng.uniform(-nominal.height_m,
-                                                                  nominal.height_m)),
+        patch_height_m=nominal.patch_height_m
+        + float(rng.uniform(-nominal.height_m, nominal.height_m)),
         gain=float(rng.uniform(*nominal.gain)),
         cast_rgb=tuple(float(c) for c in rng.uniform(1 - nominal.cast, 1 + nominal.cast, 3)),
         noise_sigma=float(rng.uniform(*nominal.noise)),
         calibration_error_deg=tuple(
-            float(e) for e in rng.uniform(-nominal.calibration_deg, nominal.calibration_deg,
-                                          nominal.joints)),
+            float(e)
+            for e in rng.uniform(-nominal.calibration_deg, nominal.calibration_deg, nominal.joints)
+        ),
         fault=fault,
         fault_at_s=float(rng.uniform(*fault_window_s)) if fault != "none" else 0.0,
     )
 
 
-def open_loop_grab(table: DHTable, setup: TrialSetup, T_base_table: np.ndarray,
-                   T_flange_tool: np.ndarray, q_seed: np.ndarray) -> GraspError | None:
+def open_loop_grab(
+    table: DHTable,
+    setup: TrialSetup,
+    T_base_table: np.ndarray,
+    T_flange_tool: np.ndarray,
+    q_seed: np.ndarray,
+) -> GraspError | None:
     """Error of a grab commanded open loop at the true tool pose, through joints with the
     trial's calibration error; None when the nominal model has no IK solution there."""
-    T_table_patch = T_table_patch_of(list(setup.tool_xy_m), np.radians(setup.tool_yaw_deg),
-                                     setup.patch_height_m)
+    T_table_patch = T_table_patch_of(
+        list(setup.tool_xy_m), np.radians(setup.tool_yaw_deg), setup.patch_height_m
+    )
     T_patch_tool = np.eye(4)
     T_patch_tool[:3, :3] = R_PATCH_TOOL_GRASP
     T_base_tool_goal = T_base_table @ T_table_patch @ T_patch_tool
@@ -130,11 +142,11 @@ def stop_figures(record: np.ndarray, t_fault: float) -> dict[str, Any]:
     if not np.any(after):
         return {"stopped": False, "why": "record ends before the fault"}
     i0 = int(np.argmax(after))
-    zero_cmd = np.flatnonzero((command[i0:] == 0.0))
+    zero_cmd = np.flatnonzero(command[i0:] == 0.0)
     still = np.flatnonzero(speed[i0:] < 1e-3)
     out: dict[str, Any] = {"t_fault": t_fault}
     # the command must stay zero from some tick to the end of the record
-    if zero_cmd.size and np.all(command[i0 + zero_cmd[0]:] == 0.0):
+    if zero_cmd.size and np.all(command[i0 + zero_cmd[0] :] == 0.0):
         out["time_to_zero_command_s"] = float(t[i0 + zero_cmd[0]] - t_fault)
     if still.size:
         first_still = i0 + int(still[np.searchsorted(still, 0)])
@@ -153,8 +165,11 @@ def aggregate(results: list[TrialResult]) -> dict[str, Any]:
         if not values:
             return dict.fromkeys(keys)
         arr = np.abs(np.asarray(values, dtype=float))
-        table = {"median": float(np.median(arr)), "p95": float(np.percentile(arr, 95)),
-                 "max": float(arr.max())}
+        table = {
+            "median": float(np.median(arr)),
+            "p95": float(np.percentile(arr, 95)),
+            "max": float(arr.max()),
+        }
         return {k: table[k] for k in keys}
 
     ok = [r for r in results if r.grasped]
@@ -166,7 +181,8 @@ def aggregate(results: list[TrialResult]) -> dict[str, Any]:
         "final_error_deg": stats([r.roll_error_deg for r in ok], ("median", "p95", "max")),
         "time_s": stats([r.time_s for r in ok if r.time_s is not None], ("median", "p95")),
         "open_loop_success_rate": sum(r.open_loop_success for r in results) / n if n else 0.0,
-        "open_loop_error_mm": stats([r.open_loop_error_mm for r in results
-                                     if r.open_loop_error_mm is not None],
-                                    ("median", "p95", "max")),
+        "open_loop_error_mm": stats(
+            [r.open_loop_error_mm for r in results if r.open_loop_error_mm is not None],
+            ("median", "p95", "max"),
+        ),
     }

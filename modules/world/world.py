@@ -23,8 +23,9 @@ from modules.arm.arm_params import ArmParams
 from modules.world.grasp import grasp_error
 
 
-def T_table_patch_of(tool_xy_m: list[float], tool_yaw_rad: float, patch_height_m: float
-                     ) -> np.ndarray:
+def T_table_patch_of(
+    tool_xy_m: list[float], tool_yaw_rad: float, patch_height_m: float
+) -> np.ndarray:
     """Pose of the patch on the table: at (x, y), ``patch_height_m`` up, turned about z."""
     c, s = np.cos(tool_yaw_rad), np.sin(tool_yaw_rad)
     T = np.eye(4)
@@ -36,21 +37,32 @@ def T_table_patch_of(tool_xy_m: list[float], tool_yaw_rad: float, patch_height_m
 class WorldParams(ArmParams):
     """Parameters of the simulated world (the arm's DH table comes from ArmParams)."""
 
-    tool_xy_m: list[float] = param([0.6, 0.0], "tool (patch centre) x, y in the table frame",
-                                   unit="m", min_length=2, max_length=2)
-    tool_yaw_deg: float = param(0.0, "tool rotation about the vertical", unit="deg",
-                                ge=-180, le=180)
+    tool_xy_m: list[float] = param(
+        [0.6, 0.0],
+        "tool (patch centre) x, y in the table frame",
+        unit="m",
+        min_length=2,
+        max_length=2,
+    )
+    tool_yaw_deg: float = param(
+        0.0, "tool rotation about the vertical", unit="deg", ge=-180, le=180
+    )
     patch_height_m: float = param(0.03, "patch top face above the table", unit="m", ge=0, le=0.3)
-    position_tolerance_mm: float = param(2.0, "grasped when the tool point is this close",
-                                         unit="mm", gt=0)
-    roll_tolerance_deg: float = param(1.0, "grasped when the roll error is this small",
-                                      unit="deg", gt=0)
-    timeout_s: float = param(60.0, "end the run as failed when no grasp by then", unit="s",
-                             gt=0)
+    position_tolerance_mm: float = param(
+        2.0, "grasped when the tool point is this close", unit="mm", gt=0
+    )
+    roll_tolerance_deg: float = param(
+        1.0, "grasped when the roll error is this small", unit="deg", gt=0
+    )
+    timeout_s: float = param(60.0, "end the run as failed when no grasp by then", unit="s", gt=0)
     end_run: bool = param(True, "end the run when the grasp is judged")
     end_after_stop_s: float = param(
-        1.5, "after an operator-assistance request or a lost vision process, end the run this "
-        "much later (the arm has stopped)", unit="s", gt=0)
+        1.5,
+        "after an operator-assistance request or a lost vision process, end the run this "
+        "much later (the arm has stopped)",
+        unit="s",
+        gt=0,
+    )
 
 
 class SimWorld(Module):
@@ -60,8 +72,12 @@ class SimWorld(Module):
     Params = WorldParams
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper of the arm")
-    servo_status = Input(Status, required=False, feedback=True,
-                         doc="the grab's stage (vsServo): ends the run after an assist request")
+    servo_status = Input(
+        Status,
+        required=False,
+        feedback=True,
+        doc="the grab's stage (vsServo): ends the run after an assist request",
+    )
     camera_pose = Output(Pose, frame="table->camera", doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", doc="true T_table_patch")
     status = Output(Status, doc="world state: running, grasped or missed, with errors")
@@ -74,10 +90,13 @@ class SimWorld(Module):
             self.T_flange_tool = frames.lookup("flange", "tool")
             self.T_table_base = frames.lookup("table", "base")
         except KeyError as exc:
-            raise UserError(f"World `{self.name}` needs the static frames base->table, "
-                            f"flange->tool and tool->camera in the graph: {exc}") from None
-        self.T_table_patch = T_table_patch_of(p.tool_xy_m, np.radians(p.tool_yaw_deg),
-                                              p.patch_height_m)
+            raise UserError(
+                f"World `{self.name}` needs the static frames base->table, "
+                f"flange->tool and tool->camera in the graph: {exc}"
+            ) from None
+        self.T_table_patch = T_table_patch_of(
+            p.tool_xy_m, np.radians(p.tool_yaw_deg), p.patch_height_m
+        )
         self.t0: float | None = None
         self.result: dict[str, object] = {"grasped": False, "verdict": "no grasp attempted"}
         self._closing_seen = False
@@ -93,8 +112,14 @@ class SimWorld(Module):
         if state is None:
             return
         T_table_flange = self.T_table_base @ self.params.table.fk(state.position)
-        self.camera_pose.send(Pose(matrix=T_table_flange @ self.T_flange_camera, parent="table",
-                                   child="camera", stamp=state.stamp))
+        self.camera_pose.send(
+            Pose(
+                matrix=T_table_flange @ self.T_flange_camera,
+                parent="table",
+                child="camera",
+                stamp=state.stamp,
+            )
+        )
         if self._judged:
             return
         if state.gripper < 0.99:
@@ -116,33 +141,48 @@ class SimWorld(Module):
             elif status is not None and not self.servo_status.link_alive:
                 self._stopped_since = now
                 self._stop_reason = "the vision process is gone"
-        return self._stopped_since is not None and \
-            now - self._stopped_since >= self.params.end_after_stop_s
+        return (
+            self._stopped_since is not None
+            and now - self._stopped_since >= self.params.end_after_stop_s
+        )
 
     def _judge(self, now: float, T_table_tool: np.ndarray) -> None:
         err = grasp_error(T_table_tool, self.T_table_patch)
         p = self.params
-        ok = err.position_mm <= p.position_tolerance_mm and abs(err.roll_deg) <= p.roll_tolerance_deg
-        self.result.update({
-            "position_error_mm": round(err.position_mm, 4),
-            "roll_error_deg": round(err.roll_deg, 4),
-            "tilt_deg": round(float(np.degrees(err.tilt)), 4),
-            "offset_patch_mm": [round(v * 1e3, 3) for v in err.offset_patch],
-        })
-        verdict = (f"grasped: tool point {err.position_mm:.2f} mm from the grasp point, roll "
-                   f"error {err.roll_deg:.2f} deg" if ok else
-                   f"missed: tool point {err.position_mm:.2f} mm from the grasp point, roll "
-                   f"error {err.roll_deg:.2f} deg (tolerance {p.position_tolerance_mm:g} mm, "
-                   f"{p.roll_tolerance_deg:g} deg)")
+        ok = (
+            err.position_mm <= p.position_tolerance_mm and abs(err.roll_deg) <= p.roll_tolerance_deg
+        )
+        self.result.update(
+            {
+                "position_error_mm": round(err.position_mm, 4),
+                "roll_error_deg": round(err.roll_deg, 4),
+                "tilt_deg": round(float(np.degrees(err.tilt)), 4),
+                "offset_patch_mm": [round(v * 1e3, 3) for v in err.offset_patch],
+            }
+        )
+        verdict = (
+            f"grasped: tool point {err.position_mm:.2f} mm from the grasp point, roll "
+            f"error {err.roll_deg:.2f} deg"
+            if ok
+            else f"missed: tool point {err.position_mm:.2f} mm from the grasp point, roll "
+            f"error {err.roll_deg:.2f} deg (tolerance {p.position_tolerance_mm:g} mm, "
+            f"{p.roll_tolerance_deg:g} deg)"
+        )
         self._finish(now, ok, verdict)
 
     def _finish(self, now: float, grasped: bool, verdict: str) -> None:
         self._judged = True
-        self.result.update({"grasped": grasped, "verdict": verdict,
-                            "time_s": round(now - (self.t0 if self.t0 is not None else now), 3)})
+        self.result.update(
+            {
+                "grasped": grasped,
+                "verdict": verdict,
+                "time_s": round(now - (self.t0 if self.t0 is not None else now), 3),
+            }
+        )
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
-        self.status.send(Status(stage="grasped" if grasped else "missed", message=verdict,
-                                values=values))
+        self.status.send(
+            Status(stage="grasped" if grasped else "missed", message=verdict, values=values)
+        )
         self.log.info(verdict)
         if self.params.end_run:
             self.context.request_stop(verdict, 0 if grasped else 1)

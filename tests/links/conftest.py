@@ -72,13 +72,21 @@ def _collect(stream: object, into: list[str]) -> None:
         into.append(line.rstrip("\n"))
 
 
-def start_umbra(env: dict[str, str], cwd: Path, *args: str,
-                prefix: tuple[str, ...] = ()) -> Running:
+def start_umbra(
+    env: dict[str, str], cwd: Path, *args: str, prefix: tuple[str, ...] = ()
+) -> Running:
     """Start ``umbra ARGS...`` in ``cwd`` (optionally through a prefix command such as
     ``ip netns exec NS``), collecting its output lines as they come."""
     cmd = [*prefix, sys.executable, "-m", "runtime.cli.main", *args]
-    popen = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    popen = subprocess.Popen(
+        cmd,
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+    )
     run = Running(popen)
     for stream, into in ((popen.stdout, run.stdout), (popen.stderr, run.stderr)):
         t = threading.Thread(target=_collect, args=(stream, into), daemon=True)
@@ -109,9 +117,16 @@ def umbra(plugin_env: dict[str, str], tmp_path: Path) -> Iterator[Callable[..., 
     stop_all(started)
 
 
-def run_umbra(env: dict[str, str], cwd: Path, *args: str,
-              timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
+def run_umbra(
+    env: dict[str, str], cwd: Path, *args: str, timeout: float = 120.0
+) -> subprocess.CompletedProcess[str]:
     """Run ``umbra ARGS...`` to completion in ``cwd``."""
-    return subprocess.run([sys.executable, "-m", "runtime.cli.main", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=timeout,
-                          stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        stdin=subprocess.DEVNULL,
+    )

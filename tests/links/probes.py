@@ -56,14 +56,19 @@ class LinkWatch(Module):
             self.fired += 1
             if math.isnan(self.first_fired):
                 self.first_fired = now
-            self.log.info("watchdog fired: producer alive %s, age %.3f s", reg.link_alive,
-                          reg.age(now))
+            self.log.info(
+                "watchdog fired: producer alive %s, age %.3f s", reg.link_alive, reg.age(now)
+            )
 
     def summary(self) -> dict[str, object]:
         return {
-            "fired": self.fired, "revived": self.revived, "first_up": self.first_up,
-            "first_dead": self.first_dead, "first_fired": self.first_fired,
-            "last_revived": self.last_revived, "seq_at_revival": self.seq_at_revival,
+            "fired": self.fired,
+            "revived": self.revived,
+            "first_up": self.first_up,
+            "first_dead": self.first_dead,
+            "first_fired": self.first_fired,
+            "last_revived": self.last_revived,
+            "seq_at_revival": self.seq_at_revival,
             "last_seq": self.input.seq,
         }
 
@@ -81,8 +86,7 @@ class ProbeGuard(Module):
     def step(self, now: float) -> None:
         sample = self.value.get(now)
         if sample is not None:
-            self.twist.send(Twist(vector=np.array([sample.value, 0, 0, 0, 0, 0.0]),
-                                  frame="camera"))
+            self.twist.send(Twist(vector=np.array([sample.value, 0, 0, 0, 0, 0.0]), frame="camera"))
 
 
 class Boom(Module):

@@ -69,11 +69,35 @@ def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) 
     endpoint = f"tcp/127.0.0.1:{port}"
     runs: list[Running] = []
     try:
-        consumer = start_umbra(plugin_env, cwd, "run", "byhand.yaml", "--process", "smart",
-                               "--listen", endpoint, "--out", "out", "--duration", "60")
+        consumer = start_umbra(
+            plugin_env,
+            cwd,
+            "run",
+            "byhand.yaml",
+            "--process",
+            "smart",
+            "--listen",
+            endpoint,
+            "--out",
+            "out",
+            "--duration",
+            "60",
+        )
         runs.append(consumer)
-        producer = start_umbra(plugin_env, cwd, "run", "byhand.yaml", "--process", "umbra",
-                               "--connect", endpoint, "--out", "out", "--duration", "60")
+        producer = start_umbra(
+            plugin_env,
+            cwd,
+            "run",
+            "byhand.yaml",
+            "--process",
+            "umbra",
+            "--connect",
+            endpoint,
+            "--out",
+            "out",
+            "--duration",
+            "60",
+        )
         runs.append(producer)
         consumer.wait_for("link up")
         payloads = garbage()

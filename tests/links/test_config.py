@@ -59,10 +59,13 @@ def test_user_file_keeps_its_settings_but_never_scouts(tmp_path: Path) -> None:
     assert _get(cfg, "listen/endpoints") == []
 
 
-@pytest.mark.parametrize("text, found", [
-    ("{ mode: ", "not a valid zenoh configuration"),
-    ("{ mode: 'emperor' }", "not a valid zenoh configuration"),
-])
+@pytest.mark.parametrize(
+    "text, found",
+    [
+        ("{ mode: ", "not a valid zenoh configuration"),
+        ("{ mode: 'emperor' }", "not a valid zenoh configuration"),
+    ],
+)
 def test_bad_user_file_is_a_user_error(tmp_path: Path, text: str, found: str) -> None:
     path = tmp_path / "bad.json5"
     path.write_text(text)
@@ -83,8 +86,9 @@ def test_endpoints_are_checked() -> None:
 def test_meshes_join_every_pair_of_processes() -> None:
     mesh = loopback_mesh(["a", "b", "c"], [9001, 9002, 9003])
     assert mesh["a"] == Endpoints(["tcp/127.0.0.1:9001"], [])
-    assert mesh["c"] == Endpoints(["tcp/127.0.0.1:9003"],
-                                  ["tcp/127.0.0.1:9001", "tcp/127.0.0.1:9002"])
+    assert mesh["c"] == Endpoints(
+        ["tcp/127.0.0.1:9003"], ["tcp/127.0.0.1:9001", "tcp/127.0.0.1:9002"]
+    )
     assert default_mesh(["umbra", "smart"])["smart"].connect == ["tcp/127.0.0.1:7447"]
     ports = free_loopback_ports(3)
     assert len(set(ports)) == 3
@@ -107,7 +111,8 @@ def test_split_run_command_line_errors(plugin_env: dict[str, str], tmp_path: Pat
     done = run_umbra(plugin_env, tmp_path, "run", graph, "--process", "smrt")
     assert done.returncode == 2
     assert "no process `smrt`" in done.stderr and "smart" in done.stderr
-    done = run_umbra(plugin_env, tmp_path, "run", graph, "--process", "smart",
-                     "--connect", "localhost")
+    done = run_umbra(
+        plugin_env, tmp_path, "run", graph, "--process", "smart", "--connect", "localhost"
+    )
     assert done.returncode == 2
     assert "--connect: expected a zenoh endpoint" in done.stderr

@@ -103,8 +103,11 @@ def _plan(text: str) -> GraphPlan:
 
 def test_reliable_samples_each_get_a_step_and_video_keeps_the_latest(tmp_path: Path) -> None:
     transport = FakeTransport()
-    sched = Scheduler(_plan(GRAPH), SchedulerOptions(
-        clock="real", duration=5.0, output_dir=tmp_path, process="b"), transport)
+    sched = Scheduler(
+        _plan(GRAPH),
+        SchedulerOptions(clock="real", duration=5.0, output_dir=tmp_path, process="b"),
+        transport,
+    )
     tally = sched.modules["tally"]
     # everything arrives at once, before the first tick: as after a stall of the consumer
     for i in range(1, 6):

@@ -21,19 +21,32 @@ def _recording(folder: Path) -> dict[str, list[tuple[int, float]]]:
 
 
 def _split_run(env: dict[str, str], cwd: Path, count: int) -> Path:
-    done = run_umbra(env, cwd, "run", GRAPH, "--out", "split", "--set",
-                     f"counter.stop_after={count}")
+    done = run_umbra(
+        env, cwd, "run", GRAPH, "--out", "split", "--set", f"counter.stop_after={count}"
+    )
     assert done.returncode == 0, done.stderr
     return cwd / "split"
 
 
 @pytest.fixture(scope="module")
-def split_and_single(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory
-                     ) -> tuple[Path, Path]:
+def split_and_single(
+    plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory
+) -> tuple[Path, Path]:
     cwd = tmp_path_factory.mktemp("split_and_single")
     split = _split_run(plugin_env, cwd, 200)
-    done = run_umbra(plugin_env, cwd, "run", GRAPH, "--single-process", "--clock", "sim",
-                     "--out", "single", "--set", "counter.stop_after=200")
+    done = run_umbra(
+        plugin_env,
+        cwd,
+        "run",
+        GRAPH,
+        "--single-process",
+        "--clock",
+        "sim",
+        "--out",
+        "single",
+        "--set",
+        "counter.stop_after=200",
+    )
     assert done.returncode == 0, done.stderr
     return split, cwd / "single"
 
@@ -42,7 +55,9 @@ def split_and_single(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPa
     "count", [200, pytest.param(1000, marks=pytest.mark.slow, id="10s")], ids=["2s", "10s"]
 )
 def test_counter_chain_split_delivers_every_sample_in_order(
-    count: int, plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory,
+    count: int,
+    plugin_env: dict[str, str],
+    tmp_path_factory: pytest.TempPathFactory,
     request: pytest.FixtureRequest,
 ) -> None:
     if count == 200:
@@ -71,13 +86,16 @@ def test_split_and_single_process_give_the_same_outputs(
     split, single = split_and_single
     assert _recording(split) == _recording(single)
     by_module = {}
-    for folder, names in ((split, ("summary-umbra.json", "summary-smart.json")),
-                          (single, ("summary.json",))):
+    for folder, names in (
+        (split, ("summary-umbra.json", "summary-smart.json")),
+        (single, ("summary.json",)),
+    ):
         modules = {}
         for name in names:
             for m in json.loads((folder / name).read_text())["modules"]:
-                modules[m["module"]] = {k: m[k] for k in ("calls", "sent", "recorded", "seen")
-                                        if k in m}
+                modules[m["module"]] = {
+                    k: m[k] for k in ("calls", "sent", "recorded", "seen") if k in m
+                }
         by_module[folder.name] = modules
     assert by_module["split"] == by_module["single"]
     assert by_module["split"]["record"] == {"calls": 200, "recorded": 400}

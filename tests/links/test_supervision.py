@@ -55,8 +55,9 @@ def _ended_order(run: Running) -> list[str]:
 
 
 def _summaries(out: Path) -> dict[str, dict]:
-    return {p: json.loads((out / f"summary-{p}.json").read_text())
-            for p in ("umbra", "smart", "view")}
+    return {
+        p: json.loads((out / f"summary-{p}.json").read_text()) for p in ("umbra", "smart", "view")
+    }
 
 
 def test_killed_process_fails_the_run_and_the_servo_side_zeroes(

@@ -55,11 +55,15 @@ class Pair:
 def _pair(plan: GraphPlan) -> Pair:
     port_a, port_b = free_loopback_ports(2)
     a = zenoh.open(build_config(Endpoints(listen=[f"tcp/127.0.0.1:{port_a}"])))
-    b = zenoh.open(build_config(Endpoints([f"tcp/127.0.0.1:{port_b}"],
-                                          [f"tcp/127.0.0.1:{port_a}"])))
+    b = zenoh.open(
+        build_config(Endpoints([f"tcp/127.0.0.1:{port_b}"], [f"tcp/127.0.0.1:{port_a}"]))
+    )
     # peers do not route for each other: a foreign publisher must connect to the consumer
-    return Pair(ZenohTransport(a, plan, "umbra"), ZenohTransport(b, plan, "smart"),
-                f"tcp/127.0.0.1:{port_b}")
+    return Pair(
+        ZenohTransport(a, plan, "umbra"),
+        ZenohTransport(b, plan, "smart"),
+        f"tcp/127.0.0.1:{port_b}",
+    )
 
 
 def _until(check: Callable[[], bool], timeout: float = 5.0) -> bool:
@@ -171,7 +175,8 @@ def test_images_travel_through_shared_memory_and_decode_without_copy() -> None:
     seen_shm: list[bool] = []
     try:
         spy = pair.consumer._session.declare_subscriber(
-            link.key, lambda s: seen_shm.append(s.payload.as_shm() is not None))
+            link.key, lambda s: seen_shm.append(s.payload.as_shm() is not None)
+        )
         got: list[Message] = []
         send = _ready(pair, [link], got)
         frames = np.random.default_rng(1).integers(0, 256, (3, 480, 640, 3), dtype=np.uint8)

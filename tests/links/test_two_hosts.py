@@ -70,20 +70,26 @@ def hosts() -> Iterator[Hosts]:
     h = Hosts(f"umbra-a-{tag}", f"umbra-b-{tag}", f"ua{tag}", "10.231.0.2")
     veth_b = f"ub{tag}"
     steps = [
-        ("netns", "add", h.a), ("netns", "add", h.b),
+        ("netns", "add", h.a),
+        ("netns", "add", h.b),
         ("link", "add", h.veth_a, "type", "veth", "peer", "name", veth_b),
-        ("link", "set", h.veth_a, "netns", h.a), ("link", "set", veth_b, "netns", h.b),
+        ("link", "set", h.veth_a, "netns", h.a),
+        ("link", "set", veth_b, "netns", h.b),
         ("-n", h.a, "addr", "add", "10.231.0.1/24", "dev", h.veth_a),
         ("-n", h.b, "addr", "add", f"{h.address_b}/24", "dev", veth_b),
-        ("-n", h.a, "link", "set", "lo", "up"), ("-n", h.b, "link", "set", "lo", "up"),
-        ("-n", h.a, "link", "set", h.veth_a, "up"), ("-n", h.b, "link", "set", veth_b, "up"),
+        ("-n", h.a, "link", "set", "lo", "up"),
+        ("-n", h.b, "link", "set", "lo", "up"),
+        ("-n", h.a, "link", "set", h.veth_a, "up"),
+        ("-n", h.b, "link", "set", veth_b, "up"),
     ]
     try:
         for step in steps:
             done = _ip(*step)
             if done.returncode != 0:
-                pytest.skip(f"cannot build the two-host network (ip {' '.join(step)}): "
-                            f"{done.stderr.strip()}")
+                pytest.skip(
+                    f"cannot build the two-host network (ip {' '.join(step)}): "
+                    f"{done.stderr.strip()}"
+                )
         yield h
     finally:
         _ip("netns", "del", h.a)
@@ -95,10 +101,32 @@ def test_link_down_fires_the_watchdog_and_data_flows_again_when_it_returns(
 ) -> None:
     (tmp_path / "g.yaml").write_text(GRAPH)
     endpoint = f"tcp/{hosts.address_b}:7447"
-    consumer = umbra("run", "g.yaml", "--process", "smart", "--listen", endpoint, "--out", "out",
-                     "--duration", "60", prefix=("ip", "netns", "exec", hosts.b))
-    producer = umbra("run", "g.yaml", "--process", "umbra", "--connect", endpoint, "--out", "out",
-                     "--duration", "60", prefix=("ip", "netns", "exec", hosts.a))
+    consumer = umbra(
+        "run",
+        "g.yaml",
+        "--process",
+        "smart",
+        "--listen",
+        endpoint,
+        "--out",
+        "out",
+        "--duration",
+        "60",
+        prefix=("ip", "netns", "exec", hosts.b),
+    )
+    producer = umbra(
+        "run",
+        "g.yaml",
+        "--process",
+        "umbra",
+        "--connect",
+        endpoint,
+        "--out",
+        "out",
+        "--duration",
+        "60",
+        prefix=("ip", "netns", "exec", hosts.a),
+    )
     consumer.wait_for("link up")
     time.sleep(0.3)
     assert _ip("-n", hosts.a, "link", "set", hosts.veth_a, "down").returncode == 0

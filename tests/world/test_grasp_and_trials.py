@@ -28,15 +28,21 @@ def test_grasp_error_zero_at_a_perfect_grasp_and_measures_offsets_and_roll() -> 
     shifted = tool.copy()
     shifted[:3, 3] += T_patch[:3, :3] @ [0.003, -0.004, 0.0]
     assert grasp_error(shifted, T_patch).position_mm == pytest.approx(5.0)
-    rolled = tool @ np.block([[Rotation.from_euler("z", 2, degrees=True).as_matrix(),
-                               np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]])
+    rolled = tool @ np.block(
+        [
+            [Rotation.from_euler("z", 2, degrees=True).as_matrix(), np.zeros((3, 1))],
+            [np.zeros((1, 3)), np.ones((1, 1))],
+        ]
+    )
     assert abs(grasp_error(rolled, T_patch).roll_deg) == pytest.approx(2.0, abs=1e-9)
     flipped = tool @ np.diag([-1.0, -1.0, 1.0, 1.0])  # a rectangle turned 180 deg looks the same
     assert grasp_error(flipped, T_patch).roll == pytest.approx(0.0, abs=1e-12)
 
 
-@pytest.mark.parametrize(("angle", "wrapped"), [(0.0, 0.0), (np.pi, 0.0), (np.pi / 2, np.pi / 2),
-                                                (-np.pi / 2, np.pi / 2), (3.0, 3.0 - np.pi)])
+@pytest.mark.parametrize(
+    ("angle", "wrapped"),
+    [(0.0, 0.0), (np.pi, 0.0), (np.pi / 2, np.pi / 2), (-np.pi / 2, np.pi / 2), (3.0, 3.0 - np.pi)],
+)
 def test_wrap_half_turn(angle: float, wrapped: float) -> None:
     assert wrap_half_turn(angle) == pytest.approx(wrapped)
 
@@ -74,8 +80,9 @@ def test_open_loop_misses_by_the_calibration_error_and_hits_without_it() -> None
     T_flange_tool[2, 3] = 0.14
     q0 = np.radians([14.5, 45.6, -182.7, 0.0, -42.9, -165.5])
     setup = draw_trial(1, 0)
-    exact = open_loop_grab(puma560(), replace(setup, calibration_error_deg=(0.0,) * 6),
-                           T_base_table, T_flange_tool, q0)
+    exact = open_loop_grab(
+        puma560(), replace(setup, calibration_error_deg=(0.0,) * 6), T_base_table, T_flange_tool, q0
+    )
     assert exact is not None and exact.position_mm < 1e-6
     off = open_loop_grab(puma560(), setup, T_base_table, T_flange_tool, q0)
     assert off is not None and off.position_mm > 5.0
@@ -96,5 +103,11 @@ def test_stop_figures_from_a_record() -> None:
 
 
 def test_aggregate_shape() -> None:
-    assert set(aggregate([])) >= {"trials", "success_rate", "final_error_mm", "final_error_deg",
-                                  "time_s", "open_loop_success_rate"}
+    assert set(aggregate([])) >= {
+        "trials",
+        "success_rate",
+        "final_error_mm",
+        "final_error_deg",
+        "time_s",
+        "open_loop_success_rate",
+    }

@@ -22,8 +22,9 @@ def graph() -> TrialGraph:
 
 
 @pytest.mark.parametrize("index", [0, 1])
-def test_randomized_pickup_grasps_within_two_mm_and_one_degree(graph: TrialGraph, index: int,
-                                                               tmp_path: Path) -> None:
+def test_randomized_pickup_grasps_within_two_mm_and_one_degree(
+    graph: TrialGraph, index: int, tmp_path: Path
+) -> None:
     setup = draw_trial(7, index)
     result = run_single(graph, setup, tmp_path)
     assert result.grasped, result.verdict
@@ -34,10 +35,10 @@ def test_randomized_pickup_grasps_within_two_mm_and_one_degree(graph: TrialGraph
 
 
 @pytest.mark.parametrize("fault", ["occluder", "remove_patch", "distractor", "freeze"])
-def test_injected_faults_stop_the_arm_and_ask_the_operator(graph: TrialGraph, fault: str,
-                                                           tmp_path: Path) -> None:
-    result = run_single(graph, draw_trial(7, 0, fault=fault, fault_window_s=(3.0, 3.5)),
-                        tmp_path)
+def test_injected_faults_stop_the_arm_and_ask_the_operator(
+    graph: TrialGraph, fault: str, tmp_path: Path
+) -> None:
+    result = run_single(graph, draw_trial(7, 0, fault=fault, fault_window_s=(3.0, 3.5)), tmp_path)
     assert not result.grasped
     assert result.stage == "assist"
     assert result.assist_reason.startswith("snake failure")
@@ -52,7 +53,8 @@ def test_split_pickup_over_zenoh_grasps(graph: TrialGraph, tmp_path: Path) -> No
 
 
 def test_killing_the_vision_process_stops_the_servo_side_within_its_watchdog(
-        graph: TrialGraph, tmp_path: Path) -> None:
+    graph: TrialGraph, tmp_path: Path
+) -> None:
     setup = draw_trial(7, 3, fault="kill_umbra", fault_window_s=(2.5, 3.0))
     result = run_split(graph, setup, tmp_path, timeout_s=12)
     assert not result.grasped
@@ -63,8 +65,23 @@ def test_killing_the_vision_process_stops_the_servo_side_within_its_watchdog(
 
 
 def test_trials_command_json(tmp_path: Path) -> None:
-    proc = subprocess.run([sys.executable, "-m", "runtime.cli.main", "trials", GRAPH, "-n", "2",
-                           "--seed", "11", "--json"], capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "runtime.cli.main",
+            "trials",
+            GRAPH,
+            "-n",
+            "2",
+            "--seed",
+            "11",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
     assert summary["trials"] == 2 and summary["success_rate"] == 1.0
