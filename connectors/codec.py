@@ -68,12 +68,24 @@ def _array_head(arr: np.ndarray) -> bytes:
     )
 
 
+_DTYPES: dict[bytes, np.dtype] = {}
+
+
+def _dtype(code: bytes) -> np.dtype:
+    dtype = _DTYPES.get(code)
+    if dtype is None:
+        dtype = np.dtype(code.decode())
+        if dtype.kind not in _NUMERIC_KINDS:
+            raise DecodeError(f"arrays of dtype {dtype} are not accepted")
+        if len(_DTYPES) < 64:
+            _DTYPES[code] = dtype
+    return dtype
+
+
 def _parse_head(data: memoryview) -> tuple[np.dtype, tuple[int, ...], int, int]:
     """dtype, shape, element count and the offset just after the head."""
     n = data[0]
-    dtype = np.dtype(bytes(data[1 : 1 + n]).decode())
-    if dtype.kind not in _NUMERIC_KINDS:
-        raise DecodeError(f"arrays of dtype {dtype} are not accepted")
+    dtype = _dtype(bytes(data[1 : 1 + n]))
     ndim = data[1 + n]
     start = 2 + n
     shape = struct.unpack_from(f"<{ndim}Q", data, start)

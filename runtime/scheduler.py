@@ -176,7 +176,7 @@ class Scheduler:
 
         def deliver(sample: Message) -> None:
             inbound.append((reg, sample, in_order))
-            if wake is not None:
+            if wake is not None and not wake.is_set():
                 wake.set()
 
         return deliver

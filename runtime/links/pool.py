@@ -74,7 +74,6 @@ class FramePool:
             slots, consumers
         )
         self._generation = 0
-        self._next = 0
 
     def write(self, head: bytes, parts: list[tuple[int, np.ndarray]], size: int) -> bytes | None:
         """Put a framed sample (``Codec.frame``) in a free slot; the descriptor to publish, or
@@ -98,13 +97,9 @@ class FramePool:
         return _DESC.pack(DESCRIPTOR_MAGIC, self.name.encode(), slot, self._generation, size)
 
     def _free_slot(self) -> int | None:
-        flags = self._flags
-        for i in range(self.slots):
-            slot = (self._next + i) % self.slots
-            if not flags[slot].any():
-                self._next = slot + 1
-                return slot
-        return None
+        """The lowest free slot: recently used memory is still in the CPU caches."""
+        free = np.flatnonzero(~self._flags.any(axis=1))
+        return int(free[0]) if free.size else None
 
     def release_consumer(self, index: int) -> None:
         """Clear every flag of consumer ``index`` (its process is gone)."""

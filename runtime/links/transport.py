@@ -46,6 +46,8 @@ from runtime.links.shm import ShmWriter
 from runtime.links.stats import PublishStats, SubscribeStats
 
 ALIVE = "_alive"
+#: A process declared gone whose samples keep arriving this long [s] is alive after all.
+REVIVE_AFTER = 0.1
 #: At most one log line per key and this many seconds about undecodable samples.
 ERROR_LOG_PERIOD = 5.0
 
@@ -97,6 +99,8 @@ class ZenohTransport:
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
         self._alive: set[str] = set()
         self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
+        self._gone: dict[str, float | None] = {}  # declared gone -> first sample since (or None)
+        self.liveliness_flaps = 0
         self._ended: set[str] = set()
         self._last_error_log: dict[str, tuple[float, int]] = {}
         self._marker = HostMarker() if frame_pool else None
@@ -118,11 +122,13 @@ class ZenohTransport:
             known = name in self._alive
             if up:
                 self._alive.add(name)
+                self._gone.pop(name, None)
                 pid = marker_pid(marker) if self._marker is not None else None
                 if pid is not None:
                     self._peer_pid[name] = pid
             else:
                 self._alive.discard(name)
+                self._gone[name] = None
         if up and not known:
             self._log.info("process `%s` is up", name)
         elif not up and known:
@@ -326,11 +332,34 @@ class ZenohTransport:
             stats.bytes += len(data)
             stats.last_arrival = time.monotonic()
             ended.discard(key)
+            if stats.producer in self._gone:
+                self._samples_after_gone(stats.producer, stats.last_arrival)
             for d in delivers:
                 d(msg)
 
         sub = self._session.declare_subscriber(link.key, on_sample)
         self._subs[link.key] = (sub, stats, delivers)
+
+    def _samples_after_gone(self, producer: str, now: float) -> None:
+        """Samples still arriving from a process declared gone: in flight when it died (a burst
+        of a few milliseconds), or the declaration was wrong — then, after ``REVIVE_AFTER``
+        seconds of arrivals, it is alive again."""
+        with self._lock:
+            if producer not in self._gone:
+                return
+            first = self._gone[producer]
+            if first is None:
+                self._gone[producer] = now
+                return
+            if now - first < REVIVE_AFTER:
+                return
+            del self._gone[producer]
+            self._alive.add(producer)
+            self.liveliness_flaps += 1
+        self._log.warning(
+            "process `%s`: zenoh said it was gone, but its samples keep arriving; alive after all",
+            producer,
+        )
 
     def _bad_sample(self, stats: SubscribeStats, exc: Exception) -> None:
         stats.decode_errors += 1
@@ -354,9 +383,7 @@ class ZenohTransport:
 
     def producer_alive(self, link: LinkPlan) -> bool:
         """Whether the process producing ``link`` is up and has not ended the stream."""
-        with self._lock:
-            up = self._producer_of.get(link.key) in self._alive
-        return up and link.key not in self._ended
+        return self._producer_of.get(link.key) in self._alive and link.key not in self._ended
 
     def link_age(self, link: LinkPlan, now: float | None = None) -> float:
         """Seconds since the latest sample of ``link`` arrived (monotonic; inf when none)."""
@@ -381,6 +408,7 @@ class ZenohTransport:
             "publish": [s.as_dict() for _p, s in self._pubs.values()],
             "subscribe": [s.as_dict() for _s, s, _d in self._subs.values()],
             "shm_pool_full": self._shm.counters.pool_full,
+            "liveliness_flaps": self.liveliness_flaps,
         }
 
     def close(self) -> None:

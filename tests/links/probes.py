@@ -31,6 +31,8 @@ class LinkWatch(Module):
         self.revived = 0
         self.first_up = math.nan
         self.first_dead = math.nan  # first step that saw the producer gone (liveliness)
+        self.last_dead = math.nan  # latest step at which the producer went from alive to gone
+        self._was_alive = True
         self.first_fired = math.nan
         self.last_revived = math.nan
         self.seq_at_revival = -1
@@ -38,8 +40,11 @@ class LinkWatch(Module):
     def step(self, now: float) -> None:
         reg = self.input
         healthy = reg.value is not None and reg.link_alive and reg.age(now) <= self.params.timeout
-        if reg.value is not None and not reg.link_alive and math.isnan(self.first_dead):
-            self.first_dead = now
+        if reg.value is not None and not reg.link_alive and self._was_alive:
+            self.last_dead = now
+            if math.isnan(self.first_dead):
+                self.first_dead = now
+        self._was_alive = reg.link_alive or reg.value is None
         if healthy == self._healthy:
             return
         self._healthy = healthy
@@ -66,6 +71,7 @@ class LinkWatch(Module):
             "revived": self.revived,
             "first_up": self.first_up,
             "first_dead": self.first_dead,
+            "last_dead": self.last_dead,
             "first_fired": self.first_fired,
             "last_revived": self.last_revived,
             "seq_at_revival": self.seq_at_revival,

@@ -52,7 +52,7 @@ class Pair:
     consumer_endpoint: str
 
 
-def _pair(plan: GraphPlan) -> Pair:
+def _pair(plan: GraphPlan, frame_pool: bool = True) -> Pair:
     port_a, port_b = free_loopback_ports(2)
     a = zenoh.open(build_config(Endpoints(listen=[f"tcp/127.0.0.1:{port_a}"])))
     b = zenoh.open(
@@ -60,8 +60,8 @@ def _pair(plan: GraphPlan) -> Pair:
     )
     # peers do not route for each other: a foreign publisher must connect to the consumer
     return Pair(
-        ZenohTransport(a, plan, "umbra"),
-        ZenohTransport(b, plan, "smart"),
+        ZenohTransport(a, plan, "umbra", frame_pool=frame_pool),
+        ZenohTransport(b, plan, "smart", frame_pool=frame_pool),
         f"tcp/127.0.0.1:{port_b}",
     )
 
@@ -164,14 +164,54 @@ def test_clean_end_and_death_of_the_producer(counter_plan: GraphPlan) -> None:
         pair.consumer.close()
 
 
-def test_images_travel_through_shared_memory_and_decode_without_copy() -> None:
+def _image_pair(frame_pool: bool) -> tuple[Pair, LinkPlan]:
     registry = Registry()
     registry.add(Camera)
     registry.add(Viewer)
     plan = check_spec(parse_graph_text(IMAGE_GRAPH, "video.yaml"), registry)
     (link,) = plan.links
     assert not link.reliable  # video may drop old frames
-    pair = _pair(plan)
+    return _pair(plan, frame_pool), link
+
+
+FRAMES = np.random.default_rng(1).integers(0, 256, (20, 480, 640, 3), dtype=np.uint8)
+
+
+def test_images_on_one_host_are_read_in_place_from_the_frame_pool() -> None:
+    pair, link = _image_pair(frame_pool=True)
+    try:
+        got: list[Message] = []
+        send = _ready(pair, [link], got)
+        assert _until(lambda: "smart" in pair.producer._peer_pid)  # same /dev/shm: same host
+        for i, pixels in enumerate(FRAMES[:3], 1):
+            send(Image(pixels=pixels, seq=i))
+            assert _until(lambda i=i: len(got) == i)
+        for frame, msg in zip(FRAMES, got, strict=False):
+            np.testing.assert_array_equal(msg.pixels, frame)
+            assert not msg.pixels.flags.writeable  # a read-only view on the shared slot
+        pool = pair.producer._pools[link.key]
+        assert pool.busy == 3  # the consumer still holds the three frames
+        (pub,) = pair.producer.stats()["publish"]
+        (sub,) = pair.consumer.stats()["subscribe"]
+        assert pub["pool_samples"] == sub["pool_samples"] == 3 and pub["shm_samples"] == 0
+        del msg
+        got.clear()  # the consumer lets go of the frames: their slots are free again
+        assert pool.busy == 0
+        for i, pixels in enumerate(FRAMES, 4):  # hold 20 frames: more than the pool's 16 slots
+            send(Image(pixels=pixels, seq=i))
+            assert _until(lambda n=i - 3: len(got) == n)
+        for frame, msg in zip(FRAMES, got, strict=True):
+            np.testing.assert_array_equal(msg.pixels, frame)  # none overwritten
+        (pub,) = pair.producer.stats()["publish"]
+        assert pub["pool_samples"] == 3 + 16 and pub["pool_full"] == 4
+        assert pub["shm_samples"] == 4  # the rest took zenoh's shared memory
+    finally:
+        pair.producer.close()
+        pair.consumer.close()
+
+
+def test_images_without_the_pool_travel_through_zenoh_shared_memory() -> None:
+    pair, link = _image_pair(frame_pool=False)
     seen_shm: list[bool] = []
     try:
         spy = pair.consumer._session.declare_subscriber(
@@ -179,11 +219,10 @@ def test_images_travel_through_shared_memory_and_decode_without_copy() -> None:
         )
         got: list[Message] = []
         send = _ready(pair, [link], got)
-        frames = np.random.default_rng(1).integers(0, 256, (3, 480, 640, 3), dtype=np.uint8)
-        for i, pixels in enumerate(frames, 1):
+        for i, pixels in enumerate(FRAMES[:3], 1):
             send(Image(pixels=pixels, seq=i))
             assert _until(lambda i=i: len(got) == i)
-        for frame, msg in zip(frames, got, strict=True):
+        for frame, msg in zip(FRAMES, got, strict=False):
             np.testing.assert_array_equal(msg.pixels, frame)
             assert not msg.pixels.flags.writeable  # a view on the received bytes
         assert _until(lambda: len(seen_shm) == 3)
