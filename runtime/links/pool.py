@@ -36,9 +36,20 @@ import numpy as np
 SHM_DIR = Path("/dev/shm")
 POOL_MAGIC = b"UMBPOOL1"
 DESCRIPTOR_MAGIC = b"UMBp"
-NAME_RE = re.compile(r"^umbra-pool-\d+-[0-9a-f]{16}$")
-_STALE_RE = re.compile(r"^umbra-(?:pool|host)-(\d+)-[0-9a-f]{16}$")
-MARKER_RE = re.compile(r"^(\d+)-[0-9a-f]{16}$")
+NAME_RE = re.compile(r"^umbra-pool-\d+-\d+-[0-9a-f]{16}$")
+_STALE_RE = re.compile(r"^umbra-(?:pool|host)-(\d+)-(\d+)-[0-9a-f]{16}$")
+MARKER_RE = re.compile(r"^(\d+)-(\d+)-[0-9a-f]{16}$")
+
+
+def _pid_namespace() -> int:
+    """Inode of this process's pid namespace: pids in file names are only checked within it."""
+    try:
+        return os.stat("/proc/self/ns/pid").st_ino
+    except OSError:
+        return 0
+
+
+PID_NS = _pid_namespace()
 _HEADER = 4096
 _HEAD = struct.Struct("<8sIII")  # magic, slots, slot size, consumers
 _SLOT_HEAD = 64
@@ -59,7 +70,7 @@ class FramePool:
     def __init__(self, frame_size: int, consumers: int, slots: int = DEFAULT_SLOTS) -> None:
         if not 0 < consumers <= MAX_CONSUMERS or slots * consumers > _HEADER - _HEAD.size:
             raise ValueError(f"a pool serves 1..{MAX_CONSUMERS} consumers, asked for {consumers}")
-        self.name = f"umbra-pool-{os.getpid()}-{secrets.token_hex(8)}"
+        self.name = f"umbra-pool-{PID_NS}-{os.getpid()}-{secrets.token_hex(8)}"
         self.slots, self.consumers = slots, consumers
         self.slot_size = (_SLOT_HEAD + frame_size + frame_size // 8 + 4095) // 4096 * 4096
         self.path = SHM_DIR / self.name
@@ -193,7 +204,7 @@ def sweep_stale() -> int:
     with contextlib.suppress(OSError):
         for entry in os.scandir(SHM_DIR):
             match = _STALE_RE.match(entry.name)
-            if match and not pid_alive(int(match.group(1))):
+            if match and int(match.group(1)) == PID_NS and not pid_alive(int(match.group(2))):
                 with contextlib.suppress(OSError):
                     os.unlink(entry.path)
                     removed += 1
@@ -210,7 +221,7 @@ class HostMarker:
         if not shm_available():
             return
         sweep_stale()
-        marker = f"{os.getpid()}-{secrets.token_hex(8)}"
+        marker = f"{PID_NS}-{os.getpid()}-{secrets.token_hex(8)}"
         path = SHM_DIR / f"umbra-host-{marker}"
         with contextlib.suppress(OSError):
             path.touch(mode=0o600)
@@ -224,8 +235,11 @@ class HostMarker:
 
 
 def marker_pid(marker: str) -> int | None:
-    """The pid behind another process's marker when it is visible here, else None."""
+    """The pid behind another process's marker when it is visible here (same /dev/shm) and in
+    this pid namespace (so its death can be checked), else None."""
     match = MARKER_RE.match(marker)
-    if match is None or not (SHM_DIR / f"umbra-host-{marker}").exists():
+    if match is None or int(match.group(1)) != PID_NS:
         return None
-    return int(match.group(1))
+    if not (SHM_DIR / f"umbra-host-{marker}").exists():
+        return None
+    return int(match.group(2))

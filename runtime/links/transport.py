@@ -46,6 +46,8 @@ from runtime.links.shm import ShmWriter
 from runtime.links.stats import PublishStats, SubscribeStats
 
 ALIVE = "_alive"
+#: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
+END_GRACE = 0.05
 #: A process declared gone whose samples keep arriving this long [s] is alive after all.
 REVIVE_AFTER = 0.1
 #: At most one log line per key and this many seconds about undecodable samples.
@@ -262,7 +264,8 @@ class ZenohTransport:
     ) -> bool:
         """Wait until every consumer process of this process's outputs is up and subscribed.
         False when ``stop`` was set first; TimeoutError after ``timeout`` seconds (None: never)."""
-        start = last_report = time.monotonic()
+        start = time.monotonic()
+        last_report = start - report_every + 1.0  # first word after a second
         while True:
             waiting = self.consumers_ready()
             if not waiting:
@@ -421,6 +424,8 @@ class ZenohTransport:
                 pub.delete()
             except Exception as exc:
                 self._log.debug("end of stream on %s failed: %s", pub.key_expr, exc)
+        if self._pubs:
+            time.sleep(END_GRACE)  # ends of stream first: consumers then see a clean stop
         try:
             if self._token is not None:
                 self._token.undeclare()

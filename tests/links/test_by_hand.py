@@ -69,6 +69,8 @@ def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) 
     endpoint = f"tcp/127.0.0.1:{port}"
     runs: list[Running] = []
     try:
+        # the consumer takes its endpoint from a zenoh configuration file, as a deployment would
+        (cwd / "smart.json5").write_text(f'{{ listen: {{ endpoints: ["{endpoint}"] }} }}')
         consumer = start_umbra(
             plugin_env,
             cwd,
@@ -76,8 +78,8 @@ def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) 
             "byhand.yaml",
             "--process",
             "smart",
-            "--listen",
-            endpoint,
+            "--zenoh-config",
+            "smart.json5",
             "--out",
             "out",
             "--duration",
