@@ -26,6 +26,7 @@ from typing import Any
 
 import yaml
 
+from connectors.yaml_lines import node_lines as _node_lines
 from modules.arm.dh import DHError, DHJoint, DHTable
 
 _JOINT_KEYS = {
@@ -180,18 +181,6 @@ def _table(data: Any, where: _Where) -> DHTable:
 def dh_table_from_dict(data: Mapping[str, Any]) -> DHTable:
     """Build a :class:`DHTable` from a dict in the format above; errors name the key path."""
     return _table(data, _Where(None, {}))
-
-
-def _node_lines(node: yaml.Node, path: Path_, lines: dict[Path_, int]) -> None:
-    lines[path] = node.start_mark.line + 1
-    if isinstance(node, yaml.MappingNode):
-        for key, value in node.value:
-            child = (*path, key.value)
-            _node_lines(value, child, lines)
-            lines[child] = key.start_mark.line + 1
-    elif isinstance(node, yaml.SequenceNode):
-        for i, item in enumerate(node.value):
-            _node_lines(item, (*path, i), lines)
 
 
 def load_dh_table(path: str | Path) -> DHTable:

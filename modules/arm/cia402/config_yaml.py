@@ -33,6 +33,7 @@ from typing import Any
 
 import yaml
 
+from connectors.yaml_lines import node_lines as _node_lines
 from modules.arm.cia402.config import (
     BusSpec,
     Cia402ArmConfig,
@@ -91,18 +92,6 @@ class _Where:
         for part in path:
             text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else part)
         return Cia402ConfigError(f"{self.source}:{line}: error: {text or '<top level>'}: {message}")
-
-
-def _node_lines(node: yaml.Node, path: KeyPath, lines: dict[KeyPath, int]) -> None:
-    lines[path] = node.start_mark.line + 1
-    if isinstance(node, yaml.MappingNode):
-        for key, value in node.value:
-            child = (*path, key.value)
-            _node_lines(value, child, lines)
-            lines[child] = key.start_mark.line + 1
-    elif isinstance(node, yaml.SequenceNode):
-        for i, item in enumerate(node.value):
-            _node_lines(item, (*path, i), lines)
 
 
 def _mapping(where: _Where, path: KeyPath, value: Any, keys: set[str], what: str) -> Mapping:
