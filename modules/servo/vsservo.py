@@ -206,8 +206,9 @@ class VsServo(Module):
         if period and now - self._last_progress >= period:
             self._last_progress = now
             errors = ", ".join(
-                f"{k[6:]} {v * (57.29578 if k == 'error_roll' else 1e3):+.1f}"
-                f"{' deg' if k == 'error_roll' else ' mm'}"
+                f"roll {np.degrees(v):+.1f} deg"
+                if k == "error_roll"
+                else f"{k[6:]} {v * 1e3:+.1f} mm"
                 for k, v in values.items()
             )
             self.log.info(

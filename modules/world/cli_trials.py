@@ -220,10 +220,8 @@ def _print_table(summary: dict[str, Any], results: list[TrialResult]) -> None:
         v = None if d is None else d.get(k)
         return "-" if v is None else f"{v * scale:.3g}"
 
-    print(
-        f"{summary['trials']} trials ({'split over two processes' if summary['split'] else 'one process, sim clock'}), "
-        f"{summary['wall_time_s']} s"
-    )
+    how = "split over two processes" if summary["split"] else "one process, sim clock"
+    print(f"{summary['trials']} trials ({how}), {summary['wall_time_s']} s")
     if "safety" not in summary:
         print(
             f"  visual servo : success {summary['success_rate']:.1%}; final error "

@@ -27,7 +27,7 @@ class SafetyMonitor(Module):
 
     Params = SafetyMonitorParams
 
-    rates = Input(JointRates, trigger=False, doc="joint-rate commands to the driver")
+    rates = Input(JointRates, doc="joint-rate commands to the driver")
     true_state = Input(JointState, feedback=True, doc="the plant's TRUE joint state")
 
     def start(self) -> None:

@@ -18,10 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from modules.arm.dh import puma560
+from modules.world.grasp import GraspError
 from modules.world.trials import Nominal, TrialResult, TrialSetup, open_loop_grab, stop_figures
 from runtime.graph.check import load_graph
 from runtime.graph.plan import GraphPlan
+from runtime.links.config import free_loopback_ports
 from runtime.run import run_process
 from runtime.scheduler import SchedulerOptions
 
@@ -59,7 +60,10 @@ class TrialGraph:
                 f"DigiCam, WOLVERINE_JNTS and vsServo; missing: {', '.join(missing)}"
             )
         joints = self.plan.modules[self.names["joints"]].params
-        self.q0 = np.radians(joints.initial_q_deg or [0.0] * 6)
+        self.arm = joints.table  # the arm the graph drives, for the open-loop baseline
+        self.q0 = np.radians(joints.initial_q_deg or [0.0] * self.arm.n)
+        world = self.plan.modules[self.names["world"]].params
+        self.tolerance = (world.position_tolerance_mm, world.roll_tolerance_deg)
         self.T_base_table = self.plan.frames.lookup("base", "table")
         self.T_flange_tool = self.plan.frames.lookup("flange", "tool")
 
@@ -93,9 +97,9 @@ class TrialGraph:
                 out[n["plot"]] = {"path": ""}
         return out
 
-    def open_loop(self, setup: TrialSetup) -> tuple[float | None, float | None, bool, Any]:
-        err = open_loop_grab(puma560(), setup, self.T_base_table, self.T_flange_tool, self.q0)
-        return err
+    def open_loop(self, setup: TrialSetup) -> GraspError | None:
+        """The open-loop grab's error for ``setup`` (None: no IK solution)."""
+        return open_loop_grab(self.arm, setup, self.T_base_table, self.T_flange_tool, self.q0)
 
 
 def _result(
@@ -153,12 +157,7 @@ def run_single(
     result = run_process(plan, options)
     summaries = {m.name: m.extra for m in result.modules}
     t_fault = summaries.get(graph.names["camera"], {}).get("fault_started_at")
-    return _result(graph, setup, summaries, _tolerance(graph), t_fault)
-
-
-def _tolerance(graph: TrialGraph) -> tuple[float, float]:
-    world = graph.plan.modules[graph.names["world"]].params
-    return world.position_tolerance_mm, world.roll_tolerance_deg
+    return _result(graph, setup, summaries, graph.tolerance, t_fault)
 
 
 def run_split(
@@ -198,7 +197,7 @@ def run_split(
     if setup.fault != "kill_umbra":
         subprocess.run(base, capture_output=True, text=True, env=env, timeout=timeout_s + 60)
     else:
-        port = _free_port()
+        (port,) = free_loopback_ports(1)
         endpoint = f"tcp/127.0.0.1:{port}"
         smart = subprocess.Popen(
             [*base, "--process", "smart", "--listen", endpoint],
@@ -232,15 +231,7 @@ def run_split(
             summaries[m["module"]] = m
     if t_fault is None:
         t_fault = summaries.get(graph.names["camera"], {}).get("fault_started_at")
-    return _result(graph, setup, summaries, _tolerance(graph), t_fault)
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+    return _result(graph, setup, summaries, graph.tolerance, t_fault)
 
 
 __all__ = ["Nominal", "TrialGraph", "run_single", "run_split"]

@@ -66,7 +66,7 @@ class WorldParams(ArmParams):
 
 
 class SimWorld(Module):
-    """The simulated plant: true camera and patch poses out, grasp judged when the gripper closes."""
+    """The simulated plant: true camera and patch poses out, grasp judged when the gripper shuts."""
 
     TYPE = "World"
     Params = WorldParams
