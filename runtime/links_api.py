@@ -2,8 +2,9 @@
 
 The scheduler owns registers and output ports; a transport turns a cross-process connection into
 a publisher (an output sink) on the producer's side and a subscription on the consumer's side.
-Samples arrive on the transport's threads; ``deliver`` only queues them, and the scheduler's loop
-writes them into registers at the start of its next tick, so modules never see concurrency.
+Samples arrive on the transport's threads; ``deliver`` only queues them and ``arrived`` lets the
+scheduler run a tick (on that thread when it is idle, else on its loop's), which writes them into
+registers at its start; ticks never overlap, so modules never see concurrency.
 """
 
 from __future__ import annotations
@@ -23,8 +24,14 @@ class LinkTransport(Protocol):
         """A sink that publishes samples of ``link`` (producer side)."""
         ...
 
-    def subscribe(self, link: LinkPlan, deliver: Callable[[Message], None]) -> None:
-        """Call ``deliver(sample)`` for each decoded sample of ``link`` (consumer side)."""
+    def subscribe(
+        self,
+        link: LinkPlan,
+        deliver: Callable[[Message], None],
+        arrived: Callable[[], None] | None = None,
+    ) -> None:
+        """Call ``deliver(sample)`` for each decoded sample of ``link`` (consumer side), then
+        ``arrived()`` once the sample was given to every connection of its output."""
         ...
 
     def producer_alive(self, link: LinkPlan) -> bool:

@@ -8,6 +8,14 @@ on a reliable link one sample per register per tick, in order (the rest wait for
 which follows at once), so a consumer sees every command as it would in one process; on a
 best-effort link (video) the latest sample wins.
 
+Reacting to a link sample (``dispatch: inline``, the default on the real clock): when a sample
+arrives while the loop is idle, waiting for its next due time, the tick runs at once on the thread
+that received the sample (zenoh's), instead of waking the loop's thread — a thread hand-over costs
+tens of microseconds per hop. Ticks never overlap: one lock serialises them, whichever thread runs
+them, so a module still never sees concurrency. When the loop is busy the sample waits for the end
+of its tick, as with ``dispatch: loop``, which always hands samples to the loop's thread (use it
+when a module must run on one thread, or steps that block would hold zenoh's receive thread).
+
 When the loop ends, for any reason, the runtime first puts outputs in a safe state, then stops the
 modules: each module that defines ``safe_stop(now)`` has it called (in data order), each
 ``SAFETY_GUARD`` module without one has its numeric-array outputs (a twist, joint rates) sent
@@ -40,6 +48,8 @@ from runtime.links_api import LinkTransport
 from runtime.stats import ModuleStats, RunResult
 
 INTERRUPTED = 130
+#: At most this many ticks in a row on a link's thread before the rest is left to the loop.
+REACT_ROUNDS = 16
 
 
 @dataclass
@@ -74,6 +84,9 @@ class SchedulerOptions:
     handle_signals: bool = False
     max_ticks: int | None = None
     log: Any = None
+    #: "inline": a link sample arriving while the loop is idle is handled at once on the thread
+    #: that received it; "loop": always on the loop's thread (see the module docstring).
+    dispatch: str = "inline"
 
 
 class Scheduler:
@@ -93,6 +106,15 @@ class Scheduler:
         self._inbound: deque[tuple[Register[Any], Message, bool]] = deque()
         self._wake = threading.Event() if transport is not None else None
         self._link_regs: list[tuple[Register[Any], Any]] = []
+        self._tick_lock = threading.Lock()  # one tick at a time, whichever thread runs it
+        self._inline = (
+            transport is not None and options.dispatch == "inline" and (options.clock == "real")
+        )
+        self._running = False  # ticks may run (set and cleared under the tick lock)
+        self._ticks = 0
+        self._t0 = 0.0
+        self._failure: ModuleFailed | None = None
+        self._react_errors = 0
         self.modules: dict[str, Module] = {}
         self._slots: list[_Slot] = []
         self._build()
@@ -160,7 +182,9 @@ class Scheduler:
                     out.sinks.append(self.transport.publisher(link))
                 if dst_here:
                     reg = self.modules[conn.dst.module].registers[conn.dst.port]
-                    self.transport.subscribe(link, self._deliverer(reg, link.reliable))
+                    self.transport.subscribe(
+                        link, self._deliverer(reg, link.reliable), self._arrived
+                    )
                     self._link_regs.append((reg, link))
 
     def _delayed_writer(self, reg: Register[Any]) -> Callable[[Message, float], None]:
@@ -172,14 +196,37 @@ class Scheduler:
         return write_later
 
     def _deliverer(self, reg: Register[Any], in_order: bool = True) -> Callable[[Message], None]:
-        inbound, wake = self._inbound, self._wake
+        inbound = self._inbound
 
         def deliver(sample: Message) -> None:
             inbound.append((reg, sample, in_order))
-            if wake is not None and not wake.is_set():
-                wake.set()
 
         return deliver
+
+    def _arrived(self) -> None:
+        """Called by the transport once a sample is queued for every register it feeds: tick now
+        on this thread when the loop is idle (``dispatch: inline``), else wake the loop."""
+        if self._inline and self._running and self._tick_lock.acquire(blocking=False):
+            try:
+                self._react()
+            finally:
+                self._tick_lock.release()
+            if not self._inbound:
+                return
+        wake = self._wake
+        if wake is not None and not wake.is_set():
+            wake.set()
+
+    def _react(self) -> None:
+        """Ticks run on a link's thread while samples wait (tick lock held by the caller)."""
+        try:
+            for _ in range(REACT_ROUNDS):
+                if not self._inbound or not self._running or self._stop is not None:
+                    return
+                self._tick(self.clock.now())
+        except Exception as exc:  # a bug in the runtime, never a module's failure (caught)
+            self._react_errors += 1
+            self.request_stop(f"internal error handling a link sample: {exc!r}", 1)
 
     def tick_time(self) -> float:
         """The current tick's time [s]: what unstamped samples are stamped with."""
@@ -265,73 +312,91 @@ class Scheduler:
         )
 
     def _loop(self, t0: float, lateness: list[float]) -> tuple[int, ModuleFailed | None]:
-        clock, slots = self.clock, self._slots
+        clock, rated = self.clock, [s for s in self._slots if s.period is not None]
         duration = self.options.duration
         end = t0 + duration if duration is not None else math.inf
         max_ticks = self.options.max_ticks or math.inf
-        rated = [s for s in slots if s.period is not None]
         real = clock.kind == "real"
-        perf = time.perf_counter_ns
-        inbound, pending = self._inbound, self._pending
-        ticks = 0
+        lock, wake = self._tick_lock, self._wake
+        self._t0 = t0
         if not rated and self.transport is None:
             self.request_stop("nothing to schedule (no module has a rate)", 0)
-        while self._stop is None and ticks < max_ticks:
-            due = min((s.next_due for s in rated), default=clock.now() + 0.01)
-            if due >= end - 1e-9:
-                if real:
-                    clock.wait_until(end, self._wake)
-                self.request_stop(f"duration {duration:g} s reached", 0)
-                break
-            clock.wait_until(due, self._wake)
-            now = clock.now()
-            self._tick_now = now
-            if real and rated:
-                lateness.append(max(0.0, now - due))
-            if inbound:
-                self._drain(now)
-            ticks += 1
-            for slot in slots:
-                run_it = False
-                if slot.period is not None and slot.next_due <= now + 1e-12:
-                    run_it = True
-                    slot.k += 1
+        with lock:
+            self._running = True
+        try:
+            while self._stop is None and self._ticks < max_ticks:
+                due = min((s.next_due for s in rated), default=clock.now() + 0.01)
+                if due >= end - 1e-9:
+                    if real:
+                        clock.wait_until(end, wake)
+                    self.request_stop(f"duration {duration:g} s reached", 0)
+                    break
+                clock.wait_until(due, wake)
+                with lock:
+                    if self._stop is not None:
+                        break
+                    now = clock.now()
+                    if real and rated:
+                        lateness.append(max(0.0, now - due))
+                    self._tick(now)
+        finally:
+            with lock:
+                self._running = False
+        return self._ticks, self._failure
+
+    def _tick(self, now: float) -> None:
+        """One tick at ``now`` [s]: link samples into registers, then every due or triggered
+        module in data order, then delayed writes. Call with the tick lock held."""
+        self._tick_now = now
+        if self._inbound:
+            self._drain(now)
+        self._ticks += 1
+        perf = time.perf_counter_ns
+        t0 = self._t0
+        for slot in self._slots:
+            run_it = False
+            if slot.period is not None and slot.next_due <= now + 1e-12:
+                run_it = True
+                slot.k += 1
+                slot.next_due = t0 + slot.k * slot.period
+                if slot.next_due <= now:  # fell a whole period behind: count and skip ahead
+                    missed = int((now - slot.next_due) / slot.period) + 1
+                    slot.stats.misses += missed
+                    slot.k += missed
                     slot.next_due = t0 + slot.k * slot.period
-                    if slot.next_due <= now:  # fell a whole period behind: count and skip ahead
-                        missed = int((now - slot.next_due) / slot.period) + 1
-                        slot.stats.misses += missed
-                        slot.k += missed
-                        slot.next_due = t0 + slot.k * slot.period
-                if not run_it:
-                    for reg in slot.trigger_regs:
-                        if reg.fresh:
-                            run_it = True
-                            break
-                if not run_it:
-                    continue
-                start = perf()
-                try:
-                    slot.module.step(now)
-                except Exception as exc:
-                    return ticks, ModuleFailed(
-                        slot.module.name, slot.stats.type_name, "step", ticks, exc
-                    )
-                spent = perf() - start
-                stats = slot.stats
-                stats.calls += 1
-                stats.total_ns += spent
-                if spent > stats.max_ns:
-                    stats.max_ns = spent
-                for reg in slot.all_regs:
-                    reg.fresh = False
-            if pending:
-                for reg, sample, when in pending:
-                    reg.write(sample, when)
-                pending.clear()
-            if self._link_regs:
-                for reg, link in self._link_regs:
-                    reg.link_alive = self.transport.producer_alive(link)  # type: ignore[union-attr]
-        return ticks, None
+            if not run_it:
+                for reg in slot.trigger_regs:
+                    if reg.fresh:
+                        run_it = True
+                        break
+            if not run_it:
+                continue
+            start = perf()
+            try:
+                slot.module.step(now)
+            except Exception as exc:
+                self._failure = ModuleFailed(
+                    slot.module.name, slot.stats.type_name, "step", self._ticks, exc
+                )
+                self.request_stop(str(self._failure), 1)
+                return
+            spent = perf() - start
+            stats = slot.stats
+            stats.calls += 1
+            stats.total_ns += spent
+            if spent > stats.max_ns:
+                stats.max_ns = spent
+            for reg in slot.all_regs:
+                reg.fresh = False
+        pending = self._pending
+        if pending:
+            for reg, sample, when in pending:
+                reg.write(sample, when)
+            pending.clear()
+        if self._link_regs:
+            alive = self.transport.producer_alive  # type: ignore[union-attr]
+            for reg, link in self._link_regs:
+                reg.link_alive = alive(link)
 
     def _drain(self, now: float) -> None:
         inbound = self._inbound

@@ -53,7 +53,8 @@ TOP_KEYS = (
     "links",
 )
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
-LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config")
+LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config", "dispatch")
+DISPATCH_MODES = ("inline", "loop")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 CONNECTION_RE = re.compile(
     r"^\s*(?P<sm>[^.\s]+)\.(?P<sp>[^\s]+)\s*(?P<arrow>->|~>)\s*(?P<dm>[^.\s]+)\.(?P<dp>[^\s]+)\s*$"
@@ -387,6 +388,16 @@ class _Parser:
                     self.error(section.val_loc[key], f"`links.{key}` must be a string")
                 else:
                     setattr(settings, key, section[key])
+        if "dispatch" in section:
+            value = section["dispatch"]
+            if value not in DISPATCH_MODES:
+                self.error(
+                    section.val_loc["dispatch"],
+                    f"`links.dispatch` must be one of {', '.join(DISPATCH_MODES)}, "
+                    f"found {_kind(value)}",
+                )
+            else:
+                settings.dispatch = value
         return settings
 
 

@@ -75,6 +75,9 @@ class LinkSettings:
     listen: list[str] = field(default_factory=list)
     connect: list[str] = field(default_factory=list)
     zenoh_config: str = ""
+    #: "inline": a link sample arriving while a process is idle is handled on zenoh's thread at
+    #: once; "loop": always handed to the process's loop thread (see ``runtime.scheduler``).
+    dispatch: str = "inline"
     loc: Location | None = None
 
 

@@ -138,6 +138,7 @@ def run_linked_process(
                 process=options.process,
                 handle_signals=True,
                 log=log,
+                dispatch=plan.spec.links.dispatch,
             ),
             transport,
         )

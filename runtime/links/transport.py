@@ -99,6 +99,7 @@ class ZenohTransport:
             )
         self._pubs: dict[str, tuple[Any, PublishStats]] = {}
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
+        self._arrived: dict[str, list[Callable[[], None]]] = {}
         self._alive: set[str] = set()
         self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
         self._gone: dict[str, float | None] = {}  # declared gone -> first sample since (or None)
@@ -286,17 +287,26 @@ class ZenohTransport:
             codec = self._local.codec = Codec()
         return codec
 
-    def subscribe(self, link: LinkPlan, deliver: Callable[[Message], None]) -> None:
-        """Call ``deliver(sample)`` for each decoded, in-order sample of ``link``."""
+    def subscribe(
+        self,
+        link: LinkPlan,
+        deliver: Callable[[Message], None],
+        arrived: Callable[[], None] | None = None,
+    ) -> None:
+        """Call ``deliver(sample)`` for each decoded, in-order sample of ``link``, then
+        ``arrived()`` once per sample (after every connection of the output got it)."""
         if link.key in self._subs:
             _sub, stats, delivers = self._subs[link.key]
             stats.links.append(str(link.connection))
             delivers.append(deliver)
+            if arrived is not None and arrived not in self._arrived[link.key]:
+                self._arrived[link.key].append(arrived)
             return
         stats = SubscribeStats(
             link.key, self._producer_of.get(link.key, "?"), [str(link.connection)]
         )
         delivers = [deliver]
+        hooks = self._arrived[link.key] = [arrived] if arrived is not None else []
         expected, key, ended = link.msg_type, link.key, self._ended
         put_kind = zenoh.SampleKind.PUT
         consumers = sorted(self._consumers_of.get(link.key, {self.process}))
@@ -339,6 +349,8 @@ class ZenohTransport:
                 self._samples_after_gone(stats.producer, stats.last_arrival)
             for d in delivers:
                 d(msg)
+            for hook in hooks:
+                hook()
 
         sub = self._session.declare_subscriber(link.key, on_sample)
         self._subs[link.key] = (sub, stats, delivers)

@@ -42,6 +42,26 @@ class Tally(Module):
             self.frames.append(self.image.value.seq)
 
 
+class Overlap(Module):
+    """Records the thread of each step and fails if two steps ever overlap."""
+
+    value = Input(Scalar, trigger=True, required=False, doc="values")
+
+    def start(self) -> None:
+        self.threads: list[int] = []
+        self.values: list[float] = []
+        self._inside = False
+
+    def step(self, now: float) -> None:
+        assert not self._inside, "two ticks overlapped"
+        self._inside = True
+        time.sleep(0.0002)  # long enough for other threads to try to come in
+        self.threads.append(threading.get_ident())
+        if self.value.fresh:
+            self.values.append(self.value.value.value)
+        self._inside = False
+
+
 class Halting(Module):
     """Has a ``safe_stop`` hook."""
 
@@ -73,12 +93,23 @@ class FakeTransport:
 
     def __init__(self) -> None:
         self.deliver: dict[str, Callable[[Message], None]] = {}
+        self.arrived: Callable[[], None] = lambda: None
 
     def publisher(self, link: LinkPlan) -> Sink:
         return lambda sample, now: None
 
-    def subscribe(self, link: LinkPlan, deliver: Callable[[Message], None]) -> None:
-        self.deliver[link.connection.dst.port] = deliver
+    def subscribe(
+        self,
+        link: LinkPlan,
+        deliver: Callable[[Message], None],
+        arrived: Callable[[], None] | None = None,
+    ) -> None:
+        def deliver_now(sample: Message) -> None:
+            deliver(sample)
+            if arrived is not None:
+                arrived()
+
+        self.deliver[link.connection.dst.port] = deliver_now
 
     def producer_alive(self, link: LinkPlan) -> bool:
         return True
@@ -92,7 +123,7 @@ class FakeTransport:
 
 def _registry() -> Registry:
     registry = Registry()
-    for cls in (Frames, Tally, ProbeGuard, Halting):
+    for cls in (Frames, Tally, ProbeGuard, Halting, Overlap):
         registry.add(cls)
     return registry
 
@@ -165,3 +196,76 @@ def test_zeroing_touches_float_arrays_only() -> None:
     assert _zeroed(Text(text="close")) is None  # a gripper command is not repeated
     assert _zeroed(Scalar(value=1.0)) is None
     assert _zeroed(None) is None
+
+
+DISPATCH_GRAPH = """
+graph: dispatch
+clock: real
+processes: {a: {}, b: {}}
+modules:
+  counter: {type: Counter, process: a, rate: 10}
+  watch: {type: Overlap, process: b, rate: 200}
+connections:
+  - counter.count -> watch.value
+"""
+
+
+def _dispatch_run(tmp_path: Path, dispatch: str, senders: int, per_sender: int) -> Overlap:
+    transport = FakeTransport()
+    sched = Scheduler(
+        _plan(DISPATCH_GRAPH),
+        SchedulerOptions(
+            clock="real", duration=10.0, output_dir=tmp_path, process="b", dispatch=dispatch
+        ),
+        transport,
+    )
+    watch = sched.modules["watch"]
+    deliver = transport.deliver["value"]
+    errors: list[BaseException] = []
+
+    def send(first: int) -> None:
+        time.sleep(0.05)  # the loop is running (and mostly idle: its module runs at 200 Hz)
+        try:
+            for i in range(per_sender):
+                deliver(Scalar(value=float(first + i), seq=i + 1))
+                time.sleep(0.0005)
+        except BaseException as exc:
+            errors.append(exc)
+
+    threads = [
+        threading.Thread(target=send, args=(1000 * k,), name=f"link-{k}") for k in range(senders)
+    ]
+    for t in threads:
+        t.start()
+
+    def stop_when_done() -> None:
+        for t in threads:
+            t.join()
+        time.sleep(0.05)
+        sched.request_stop("test done", 0)
+
+    threading.Thread(target=stop_when_done).start()
+    result = sched.run()
+    assert not errors
+    assert result.exit_code == 0, result.reason
+    assert sorted(watch.values) == sorted(
+        float(1000 * k + i) for k in range(senders) for i in range(per_sender)
+    )
+    watch.loop_thread = threading.get_ident()  # type: ignore[attr-defined]
+    return watch
+
+
+def test_inline_dispatch_runs_the_tick_on_the_receiving_thread(tmp_path: Path) -> None:
+    watch = _dispatch_run(tmp_path, "inline", senders=1, per_sender=50)
+    on_link = sum(t != watch.loop_thread for t in watch.threads)  # type: ignore[attr-defined]
+    assert on_link >= 40  # nearly every sample handled where it arrived, not handed over
+
+
+def test_inline_ticks_never_overlap_with_concurrent_links(tmp_path: Path) -> None:
+    watch = _dispatch_run(tmp_path, "inline", senders=3, per_sender=100)
+    assert len(set(watch.threads)) >= 2  # the loop and at least one link thread took part
+
+
+def test_loop_dispatch_keeps_every_step_on_the_loop_thread(tmp_path: Path) -> None:
+    watch = _dispatch_run(tmp_path, "loop", senders=2, per_sender=30)
+    assert set(watch.threads) == {watch.loop_thread}  # type: ignore[attr-defined]

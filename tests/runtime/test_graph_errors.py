@@ -203,6 +203,11 @@ CASES = [
         [(2, 7, "seed must be a non-negative integer")],
     ),
     (
+        "bad link dispatch",
+        "graph: g\nlinks: {dispatch: thread}\nmodules:\n  a: {type: Counter, rate: 1}\n",
+        [(2, 19, "`links.dispatch` must be one of inline, loop, found str 'thread'")],
+    ),
+    (
         "python tag",
         "graph: !!python/object/apply:os.system [ls]\nmodules: {}\n",
         [(1, 8, "unsupported YAML tag")],
