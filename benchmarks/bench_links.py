@@ -16,12 +16,17 @@ uint8 image, p50 and p99:
 Throughput: images streamed as fast as the producer can for a few seconds, frames per second
 handled by the consumer — umbra (source module -> sink module; also the frames the link delivered
 to the sink's process, which keeps only the latest when the sink is slower) against raw zenoh
-(put loop -> counting callback that reads the bytes). Methods are interleaved over several passes
-(the host is shared) and pooled.
+(put loop -> counting callback that reads the bytes).
+
+The comparison is paired: the host is shared and its speed drifts between passes (a method's p50
+can double from one pass to the next), so every method runs once in each short pass, in an order
+rotated pass after pass, and umbra is compared with each baseline measured in the same pass; the
+goals are judged on the median of these per-pass ratios. Pooled p50 and p99 over all passes are
+reported too.
 
     python benchmarks/bench_links.py [--quick]
 
-Prints a table with ratios and writes ``benchmarks/results/links.json``.
+Prints the pooled table, the paired ratios and the goals; writes ``benchmarks/results/links.json``.
 """
 
 from __future__ import annotations
@@ -36,6 +41,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -486,7 +493,38 @@ def dora_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
     return np.array(json.loads(result.read_text()))
 
 
-# -- report ------------------------------------------------------------------------------------
+# -- runs --------------------------------------------------------------------------------------
+KINDS = ("small", "image")
+METHODS = ("umbra", "zenoh", "tcp", "dora")
+BASELINES = ("zenoh", "dora", "tcp")
+LABELS = {"small": "twist 48 B", "image": "image 921 kB", "throughput": "throughput"}
+
+Rtts = dict[str, dict[str, list[np.ndarray | None]]]  # kind -> method -> round trips [s] per pass
+Fps = dict[str, list[float | None]]  # umbra, umbra_link, zenoh -> frames per second per pass
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Passes and the work in each: short passes keep the methods of a pass close in time."""
+
+    passes: int
+    rounds: dict[str, int]
+    warmup: dict[str, int]
+    seconds: float
+
+
+def _plan(quick: bool) -> Plan:
+    if quick:
+        return Plan(3, {"small": 150, "image": 40}, {"small": 30, "image": 10}, 1.0)
+    return Plan(7, {"small": 400, "image": 120}, {"small": 50, "image": 15}, 2.0)
+
+
+def _rotated(names: list[str], p: int) -> list[str]:
+    """The order of pass ``p``: no method always runs first or last."""
+    k = p % len(names)
+    return names[k:] + names[:k]
+
+
 def _rtt(name: str, tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
     if name == "umbra":
         return umbra_rtt(tmp, kind, rounds, warmup)
@@ -497,6 +535,33 @@ def _rtt(name: str, tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarra
     return dora_rtt(tmp, kind, rounds, warmup)
 
 
+def _run_pass(
+    p: int, plan: Plan, tmp: Path, methods: list[str], rtts: Rtts, fps: Fps, skipped: dict[str, str]
+) -> None:
+    """Every method once, in the order of this pass; a method that fails is reported, not fatal."""
+    for kind in KINDS:
+        print(f"pass {p + 1}/{plan.passes}, round trips {kind}: ", end="", flush=True)
+        for name in _rotated(methods, p):
+            try:
+                rtts[kind][name][p] = _rtt(name, tmp, kind, plan.rounds[kind], plan.warmup[kind])
+            except Exception as exc:
+                skipped[f"{name}-{kind}"] = f"pass {p + 1}: {str(exc)[:500]}"
+            print(name, end=" ", flush=True)
+        print()
+    print(f"pass {p + 1}/{plan.passes}, throughput: ", end="", flush=True)
+    for name in _rotated(["umbra", "zenoh"], p):
+        try:
+            if name == "umbra":
+                fps["umbra"][p], fps["umbra_link"][p] = umbra_throughput(tmp, plan.seconds)
+            else:
+                fps["zenoh"][p] = zenoh_throughput(plan.seconds)
+        except Exception as exc:
+            skipped[f"{name}-throughput"] = f"pass {p + 1}: {str(exc)[:500]}"
+        print(name, end=" ", flush=True)
+    print()
+
+
+# -- statistics --------------------------------------------------------------------------------
 def _stats(rtts: np.ndarray) -> dict[str, float]:
     return {
         "p50_us": float(np.percentile(rtts, 50) * 1e6),
@@ -505,9 +570,89 @@ def _stats(rtts: np.ndarray) -> dict[str, float]:
     }
 
 
+def _p50_us(run: np.ndarray | None) -> float | None:
+    return float(np.median(run)) * 1e6 if run is not None and run.size else None
+
+
+def _median(values: list[float | None]) -> float | None:
+    valid = [v for v in values if v is not None]
+    return float(np.median(valid)) if valid else None
+
+
+def _ratio(a: float | None, b: float | None) -> float | None:
+    return a / b if a is not None and b else None
+
+
+def _pooled(rtts: Rtts) -> dict[str, dict[str, Any]]:
+    """p50 and p99 of each method over the round trips of all its passes."""
+    pooled: dict[str, dict[str, Any]] = {}
+    for kind, by_name in rtts.items():
+        for name, runs in by_name.items():
+            done = [r for r in runs if r is not None]
+            if not done:
+                continue
+            stats: dict[str, Any] = _stats(np.concatenate(done))
+            per_pass = [_p50_us(r) for r in runs]
+            stats["p50_us_per_pass"] = [None if v is None else round(v, 1) for v in per_pass]
+            pooled.setdefault(kind, {})[name] = stats
+    return pooled
+
+
+def _series(ratios: list[float | None]) -> dict[str, Any]:
+    return {
+        "per_pass": [None if r is None else round(r, 4) for r in ratios],
+        "median": _median(ratios),
+    }
+
+
+def _paired(rtts: Rtts, fps: Fps) -> dict[str, dict[str, Any]]:
+    """Per pass, umbra's p50 over each baseline's p50 of the same pass (round trips), and umbra's
+    frames per second over raw zenoh's (throughput); with the median over the passes."""
+    paired: dict[str, dict[str, Any]] = {}
+    for kind, by_name in rtts.items():
+        umbra = [_p50_us(r) for r in by_name.get("umbra", [])]
+        paired[kind] = {
+            base: _series(
+                [_ratio(u, _p50_us(b)) for u, b in zip(umbra, by_name[base], strict=True)]
+            )
+            for base in BASELINES
+            if base in by_name and umbra
+        }
+    paired["throughput"] = {
+        f"{name}/zenoh": _series(
+            [_ratio(a, z) for a, z in zip(fps[name], fps["zenoh"], strict=True)]
+        )
+        for name in ("umbra", "umbra_link")
+    }
+    return paired
+
+
+# name, group and key in results["paired"], whether the median ratio meets the goal
+GOALS: tuple[tuple[str, str, str, Callable[[float], bool]], ...] = (
+    ("small_within_1.2x_raw_zenoh", "small", "zenoh", lambda x: x <= 1.2),
+    ("small_faster_than_dora", "small", "dora", lambda x: x < 1.0),
+    ("image_faster_than_dora", "image", "dora", lambda x: x < 1.0),
+    ("image_throughput_0.8x_raw_zenoh", "throughput", "umbra/zenoh", lambda x: x >= 0.8),
+    ("image_link_throughput_0.8x_raw_zenoh", "throughput", "umbra_link/zenoh", lambda x: x >= 0.8),
+)
+
+
+def _goals(r: dict[str, Any]) -> dict[str, Any]:
+    """Each goal judged on the median of its per-pass ratios."""
+    goals: dict[str, Any] = {}
+    for name, group, key, met in GOALS:
+        series = r["paired"].get(group, {}).get(key)
+        if series is None or series["median"] is None:
+            continue
+        ratio = series["median"]
+        goals[name] = {"ratio": ratio, "met": bool(met(ratio)), "per_pass": series["per_pass"]}
+    return goals
+
+
+# -- report ------------------------------------------------------------------------------------
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="fewer round trips, shorter streams")
+    parser.add_argument("--quick", action="store_true", help="fewer passes, shorter passes")
     parser.add_argument("--role", help=argparse.SUPPRESS)
     parser.add_argument("--endpoint", help=argparse.SUPPRESS)
     parser.add_argument("--kind", default="small", help=argparse.SUPPRESS)
@@ -523,45 +668,21 @@ def main() -> int:
         role_tcp_pong(args.port)
         return 0
 
-    rounds = {"small": 200 if args.quick else 1000, "image": 60 if args.quick else 250}
-    warmup = {"small": 50 if args.quick else 100, "image": 15 if args.quick else 30}
-    passes = 2 if args.quick else 3  # methods interleaved, pass after pass: this host is shared
-    seconds = 1.5 if args.quick else 3.0
+    plan = _plan(args.quick)
     dora_reason = dora_missing()
-    results: dict[str, Any] = {"rtt": {}, "throughput_fps": {}, "skipped": {}, "passes": passes}
-    pooled: dict[str, dict[str, list[np.ndarray]]] = {"small": {}, "image": {}}
-    fps: dict[str, list[float]] = {"umbra": [], "umbra_link": [], "zenoh": []}
+    methods = [m for m in METHODS if not (m == "dora" and dora_reason)]
+    results: dict[str, Any] = {"skipped": {}, "passes": plan.passes, "plan": asdict(plan)}
     if dora_reason:
         results["skipped"]["dora"] = dora_reason
+    rtts: Rtts = {kind: {name: [None] * plan.passes for name in methods} for kind in KINDS}
+    fps: Fps = {name: [None] * plan.passes for name in ("umbra", "umbra_link", "zenoh")}
     with tempfile.TemporaryDirectory(prefix="bench_links_") as tmpdir:
-        tmp = Path(tmpdir)
-        for p in range(passes):
-            for kind in ("small", "image"):
-                n, w = rounds[kind], warmup[kind]
-                print(f"pass {p + 1}/{passes}, round trips {kind}: ", end="", flush=True)
-                for name in ("umbra", "zenoh", "tcp", "dora"):
-                    if name == "dora" and dora_reason:
-                        continue
-                    try:
-                        pooled[kind].setdefault(name, []).append(_rtt(name, tmp, kind, n, w))
-                    except Exception as exc:  # a baseline that fails is reported, not fatal
-                        results["skipped"][f"{name}-{kind}"] = str(exc)[:500]
-                    print(name, end=" ", flush=True)
-                print()
-            print(f"pass {p + 1}/{passes}, throughput: ", end="", flush=True)
-            handled, delivered = umbra_throughput(tmp, seconds)
-            fps["umbra"].append(handled)
-            fps["umbra_link"].append(delivered)
-            print("umbra", end=" ", flush=True)
-            fps["zenoh"].append(zenoh_throughput(seconds))
-            print("zenoh")
-    for kind, by_name in pooled.items():
-        for name, runs in by_name.items():
-            stats = _stats(np.concatenate(runs))
-            stats["p50_us_per_pass"] = [round(float(np.median(r)) * 1e6, 1) for r in runs]
-            results["rtt"].setdefault(kind, {})[name] = stats
-    results["throughput_fps"] = {k: float(np.median(v)) for k, v in fps.items()}
+        for p in range(plan.passes):
+            _run_pass(p, plan, Path(tmpdir), methods, rtts, fps, results["skipped"])
+    results["rtt"] = _pooled(rtts)
+    results["throughput_fps"] = {k: _median(v) for k, v in fps.items()}
     results["throughput_fps_per_pass"] = fps
+    results["paired"] = _paired(rtts, fps)
     results["goals"] = _goals(results)
     results["quick"] = args.quick
     _print(results)
@@ -572,66 +693,48 @@ def main() -> int:
     return 0
 
 
-def _goals(r: dict[str, Any]) -> dict[str, Any]:
-    goals: dict[str, Any] = {}
-    rtt = r["rtt"]
-
-    def p50(kind: str, name: str) -> float | None:
-        return rtt.get(kind, {}).get(name, {}).get("p50_us")
-
-    small_u, small_z, small_d = p50("small", "umbra"), p50("small", "zenoh"), p50("small", "dora")
-    image_u, image_d = p50("image", "umbra"), p50("image", "dora")
-    if small_u and small_z:
-        goals["small_within_1.2x_raw_zenoh"] = {
-            "ratio": small_u / small_z,
-            "met": bool(small_u <= 1.2 * small_z),
-        }
-    if small_u and small_d:
-        goals["small_faster_than_dora"] = {
-            "ratio": small_u / small_d,
-            "met": bool(small_u < small_d),
-        }
-    if image_u and image_d:
-        goals["image_faster_than_dora"] = {
-            "ratio": image_u / image_d,
-            "met": bool(image_u < image_d),
-        }
-    fps = r["throughput_fps"]
-    if fps.get("umbra") and fps.get("zenoh"):
-        ratio = fps["umbra"] / fps["zenoh"]
-        goals["image_throughput_0.8x_raw_zenoh"] = {"ratio": ratio, "met": bool(ratio >= 0.8)}
-        if fps.get("umbra_link"):
-            link = fps["umbra_link"] / fps["zenoh"]
-            goals["image_link_throughput_0.8x_raw_zenoh"] = {
-                "ratio": link,
-                "met": bool(link >= 0.8),
-            }
-    return goals
+def _num(x: float | None, spec: str = ".2f") -> str:
+    return "-" if x is None else format(x, spec)
 
 
-def _print(r: dict[str, Any]) -> None:
+def _print_pooled(r: dict[str, Any]) -> None:
     print()
+    print(f"pooled over {r['passes']} passes")
     print(
-        f"{'round trip':<12}{'method':<8}{'p50 µs':>10}{'p99 µs':>10}{'n':>7}"
+        f"{'round trip':<14}{'method':<8}{'p50 µs':>10}{'p99 µs':>10}{'n':>7}"
         f"{'÷ zenoh':>9}{'÷ dora':>8}{'÷ tcp':>8}"
     )
     for kind, row in r["rtt"].items():
         for name, s in row.items():
-            ratios = []
-            for base in ("zenoh", "dora", "tcp"):
-                b = row.get(base, {}).get("p50_us")
-                ratios.append(f"{s['p50_us'] / b:.2f}" if b else "-")
-            label = "twist 48 B" if kind == "small" else "image 921 kB"
+            ratios = [_num(_ratio(s["p50_us"], row.get(b, {}).get("p50_us"))) for b in BASELINES]
             print(
-                f"{label:<12}{name:<8}{s['p50_us']:>10.0f}{s['p99_us']:>10.0f}{s['n']:>7}"
+                f"{LABELS[kind]:<14}{name:<8}{s['p50_us']:>10.0f}{s['p99_us']:>10.0f}{s['n']:>7}"
                 f"{ratios[0]:>9}{ratios[1]:>8}{ratios[2]:>8}"
             )
     fps = r["throughput_fps"]
     print(
-        f"image throughput: umbra {fps.get('umbra', 0):.0f} frames/s handled by the module "
-        f"({fps.get('umbra_link', 0):.0f} delivered by the link), raw zenoh "
-        f"{fps.get('zenoh', 0):.0f} frames/s"
+        f"image throughput (median of passes): umbra {_num(fps.get('umbra'), '.0f')} frames/s "
+        f"handled by the module ({_num(fps.get('umbra_link'), '.0f')} delivered by the link), "
+        f"raw zenoh {_num(fps.get('zenoh'), '.0f')} frames/s"
     )
+
+
+def _print_paired(r: dict[str, Any]) -> None:
+    print()
+    print("paired (median of per-pass ratios)")
+    for group, by_key in r["paired"].items():
+        label = LABELS[group]
+        for key, s in by_key.items():
+            what = key.replace("/", " ÷ ") if group == "throughput" else f"umbra ÷ {key}"
+            per_pass = " ".join(_num(x) for x in s["per_pass"])
+            print(f"{label:<14}{what:<20}{_num(s['median']):>6}   per pass: {per_pass}")
+            label = ""
+
+
+def _print(r: dict[str, Any]) -> None:
+    _print_pooled(r)
+    _print_paired(r)
+    print()
     for name, why in r["skipped"].items():
         print(f"skipped {name}: {why}")
     for name, g in r["goals"].items():

@@ -19,6 +19,7 @@ Decoding never copies an array's buffer: the array is a read-only view on the re
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from typing import Any
 
 import msgspec
@@ -38,6 +39,7 @@ _FRAME_HEAD = struct.Struct("<4sI")
 _REF = struct.Struct("<QQ")
 _ALIGN = 64
 _NUMERIC_KINDS = "biufc"  # bool, signed, unsigned, float, complex: nothing that runs code or points
+_SMALL_ARRAY = 4096  # [bytes] arrays up to this size are copied with tobytes (fewer calls)
 
 
 class DecodeError(ValueError):
@@ -62,10 +64,26 @@ def _contiguous(obj: np.ndarray) -> np.ndarray:
 
 def _array_head(arr: np.ndarray) -> bytes:
     """dtype string length (u1), dtype string, ndim (u1), shape (u8 each)."""
-    dtype = arr.dtype.str.encode()
-    return (
-        bytes([len(dtype)]) + dtype + bytes([arr.ndim]) + struct.pack(f"<{arr.ndim}Q", *arr.shape)
-    )
+    key = (arr.dtype, arr.shape)
+    head = _HEADS.get(key)
+    if head is None:
+        dtype = arr.dtype.str.encode()
+        head = (
+            bytes([len(dtype)])
+            + dtype
+            + bytes([arr.ndim])
+            + struct.pack(f"<{arr.ndim}Q", *arr.shape)
+        )
+        if len(_HEADS) < _CACHE_SIZE:
+            _HEADS[key] = head
+    return head
+
+
+#: Array heads by (dtype, shape), and parsed heads by their bytes: samples of one stream repeat
+#: the same few shapes, so encoding and decoding an array head is one dictionary lookup.
+_CACHE_SIZE = 256
+_HEADS: dict[tuple[np.dtype, tuple[int, ...]], bytes] = {}
+_PARSED: dict[bytes, tuple[np.dtype, tuple[int, ...], int, int]] = {}
 
 
 _DTYPES: dict[bytes, np.dtype] = {}
@@ -85,19 +103,31 @@ def _dtype(code: bytes) -> np.dtype:
 def _parse_head(data: memoryview) -> tuple[np.dtype, tuple[int, ...], int, int]:
     """dtype, shape, element count and the offset just after the head."""
     n = data[0]
-    dtype = _dtype(bytes(data[1 : 1 + n]))
     ndim = data[1 + n]
-    start = 2 + n
-    shape = struct.unpack_from(f"<{ndim}Q", data, start)
+    end = 2 + n + 8 * ndim
+    key = bytes(data[:end])
+    parsed = _PARSED.get(key)
+    if parsed is not None:
+        return parsed
+    if len(key) != end:
+        raise DecodeError("truncated array head")
+    dtype = _dtype(key[1 : 1 + n])
+    shape = struct.unpack_from(f"<{ndim}Q", key, 2 + n)
     count = 1
     for d in shape:
         count *= d
-    return dtype, shape, count, start + 8 * ndim
+    parsed = (dtype, shape, count, end)
+    if len(_PARSED) < _CACHE_SIZE:
+        _PARSED[key] = parsed
+    return parsed
 
 
 def _enc_hook(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
-        arr = _contiguous(obj)
+        plain = obj.flags.c_contiguous and obj.dtype.kind in _NUMERIC_KINDS
+        arr = obj if plain else _contiguous(obj)
+        if arr.nbytes <= _SMALL_ARRAY:
+            return msgspec.msgpack.Ext(_EXT_NDARRAY, _array_head(arr) + arr.tobytes())
         # one copy of the buffer: join reads the array's memory directly (no tobytes())
         return msgspec.msgpack.Ext(_EXT_NDARRAY, b"".join((_array_head(arr), _raw_view(arr))))
     if isinstance(obj, np.generic):
@@ -113,12 +143,28 @@ def _dec_hook(typ: type, obj: Any) -> Any:
 
 def array_bytes(msg: Message) -> int:
     """Bytes held in the arrays of ``msg``."""
+    names = _ARRAY_FIELDS.get(type(msg))
+    if names is None:
+        names = _ARRAY_FIELDS[type(msg)] = _array_fields(type(msg))
     total = 0
-    for name in msg.__struct_fields__:
+    for name in names:
         value = getattr(msg, name)
         if isinstance(value, np.ndarray):
             total += value.nbytes
     return total
+
+
+def _array_fields(cls: type[Message]) -> tuple[str, ...]:
+    """Fields of ``cls`` that may hold an array (annotated ``np.ndarray``, or not annotated as a
+    plain scalar or string)."""
+    plain = {"float", "int", "str", "bool", float, int, str, bool}
+    hints = getattr(cls, "__annotations__", {})
+    for base in cls.__mro__[1:]:
+        hints = {**getattr(base, "__annotations__", {}), **hints}
+    return tuple(n for n in cls.__struct_fields__ if hints.get(n) not in plain)
+
+
+_ARRAY_FIELDS: dict[type, tuple[str, ...]] = {}
 
 
 class Codec:
@@ -133,7 +179,9 @@ class Codec:
             name: msgspec.msgpack.Decoder(cls, ext_hook=self._ext_hook, dec_hook=_dec_hook)
             for name, cls in self._types.items()
         }
+        self._direct: dict[type[Message], msgspec.msgpack.Decoder] = {}
         self._parts: list[tuple[int, np.ndarray]] = []
+        self._place: Callable[[np.ndarray], int] | None = None
         self._size = 0
         self._payload: memoryview | None = None
         self._data_start = 0
@@ -145,6 +193,11 @@ class Codec:
 
     def _frame_hook(self, obj: Any) -> Any:
         if isinstance(obj, np.ndarray):
+            if self._place is not None:
+                offset = self._place(obj)  # LookupError when it cannot be referenced in place
+                return msgspec.msgpack.Ext(
+                    _EXT_NDARRAY_REF, _array_head(obj) + _REF.pack(offset, obj.nbytes)
+                )
             arr = _contiguous(obj)
             offset = _aligned(self._size)
             self._parts.append((offset, arr))
@@ -173,6 +226,16 @@ class Codec:
             )
         )
         return head, parts, start + size
+
+    def frame_header(self, msg: Message, place: Callable[[np.ndarray], int]) -> bytes:
+        """The version 2 header of ``msg`` with each array referenced where it already lies:
+        ``place(array)`` gives its offset [bytes] in the payload ``decode_placed`` will be given,
+        or raises LookupError (then so does this)."""
+        self._place = place
+        try:
+            return self._frame_encoder.encode((MAGIC, FRAMED_VERSION, type(msg).__name__, msg))
+        finally:
+            self._place = None
 
     def encode_framed(self, msg: Message) -> bytes:
         """Bytes for ``msg`` with its arrays copied once, after the header (version 2); samples
@@ -213,6 +276,10 @@ class Codec:
         """The message in ``data`` (either version); DecodeError when it is not one (or not of
         ``expected``)."""
         if bytes(data[:4]) != FRAME_MAGIC:
+            if expected is not None:
+                msg = self._decode_direct(data, expected)
+                if msg is not None:
+                    return msg
             return self._decode(data, VERSION, expected)
         view = memoryview(data)
         if len(view) < _FRAME_HEAD.size:
@@ -226,6 +293,36 @@ class Codec:
             return self._decode(view[_FRAME_HEAD.size : end], FRAMED_VERSION, expected)
         finally:
             self._payload = None
+
+    def decode_placed(
+        self, header: bytes, payload: memoryview, expected: type[Message] | None = None
+    ) -> Message:
+        """The message of a ``frame_header`` header whose arrays lie in ``payload``."""
+        self._payload, self._data_start = payload, 0
+        try:
+            return self._decode(header, FRAMED_VERSION, expected)
+        finally:
+            self._payload = None
+
+    def _decode_direct(self, data: bytes | memoryview, expected: type[Message]) -> Message | None:
+        """One pass for a version 1 sample of a known type; None when anything is off (the
+        general path then says what)."""
+        decoder = self._direct.get(expected)
+        if decoder is None:
+            if self._types.get(expected.__name__) is not expected:
+                return None
+            decoder = self._direct[expected] = msgspec.msgpack.Decoder(
+                tuple[str, int, str, expected],  # type: ignore[valid-type]
+                ext_hook=self._ext_hook,
+                dec_hook=_dec_hook,
+            )
+        try:
+            magic, version, name, msg = decoder.decode(data)
+        except Exception:
+            return None
+        if magic != MAGIC or version != VERSION or name != expected.__name__:
+            return None
+        return msg
 
     def _decode(
         self, data: bytes | memoryview, version_wanted: int, expected: type[Message] | None

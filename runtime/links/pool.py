@@ -14,9 +14,19 @@ sample. Flags of a consumer process that has died (its pid no longer exists) are
 producer. When no slot is free, or the sample does not fit, the sample takes the ordinary zenoh
 path (counted), so a consumer that hoards frames slows nothing down and corrupts nothing.
 
+Forwarding: a consumer that publishes a sample whose arrays still lie in a slot it holds (a relay,
+a module that passes a frame on) does not copy them. It sets the flags of its own consumers on
+that slot — while its own flag is still set, so the slot cannot be reused meanwhile — and
+publishes a forward descriptor carrying the new sample's header, whose array references point
+into the slot. Flags are indexed by (setter, holder) process pairs: only the setter of a flag
+ever sets it, and only when it is clear; only the holder clears it, so no flag is ever written by
+two processes at once and no hold is lost.
+
 Pool file: a 4096-byte header (magic, slot count, slot size, consumer count, then the flags,
 ``slots x consumers`` bytes), then the slots; each slot starts with its generation and length
 (u64 each) in a 64-byte head. Descriptor: ``b"UMBp"``, pool name, slot, generation, length.
+Forward descriptor: ``b"UMBf"``, pool name, slot, generation, length, header length, then the
+header (``Codec.frame_header``), array offsets counted from the start of the slot's data.
 """
 
 from __future__ import annotations
@@ -36,6 +46,7 @@ import numpy as np
 SHM_DIR = Path("/dev/shm")
 POOL_MAGIC = b"UMBPOOL1"
 DESCRIPTOR_MAGIC = b"UMBp"
+FORWARD_MAGIC = b"UMBf"
 NAME_RE = re.compile(r"^umbra-pool-\d+-\d+-[0-9a-f]{16}$")
 _STALE_RE = re.compile(r"^umbra-(?:pool|host)-(\d+)-(\d+)-[0-9a-f]{16}$")
 MARKER_RE = re.compile(r"^(\d+)-(\d+)-[0-9a-f]{16}$")
@@ -55,7 +66,8 @@ _HEAD = struct.Struct("<8sIII")  # magic, slots, slot size, consumers
 _SLOT_HEAD = 64
 _SLOT = struct.Struct("<QQ")  # generation, length
 _DESC = struct.Struct("<4s48sIQQ")  # magic, pool name, slot, generation, length
-MAX_CONSUMERS = 64
+_FWD = struct.Struct("<4s48sIQQI")  # the same, then the length of the header that follows
+MAX_CONSUMERS = 255
 DEFAULT_SLOTS = 16
 
 
@@ -86,9 +98,16 @@ class FramePool:
         )
         self._generation = 0
 
-    def write(self, head: bytes, parts: list[tuple[int, np.ndarray]], size: int) -> bytes | None:
-        """Put a framed sample (``Codec.frame``) in a free slot; the descriptor to publish, or
-        None when no slot is free or the sample does not fit."""
+    def write(
+        self,
+        head: bytes,
+        parts: list[tuple[int, np.ndarray]],
+        size: int,
+        columns: list[int] | None = None,
+    ) -> bytes | None:
+        """Put a framed sample (``Codec.frame``) in a free slot and set the flags ``columns``
+        (all when None); the descriptor to publish, or None when no slot is free or the sample
+        does not fit."""
         if _SLOT_HEAD + size > self.slot_size:
             return None
         slot = self._free_slot()
@@ -104,7 +123,10 @@ class FramePool:
             flat = arr.reshape(-1).view(np.uint8)
             np.copyto(np.frombuffer(mm, np.uint8, flat.size, body + offset), flat)
         mm[start : start + _SLOT.size] = _SLOT.pack(self._generation, size)
-        self._flags[slot, :] = 1
+        if columns is None:
+            self._flags[slot, :] = 1
+        else:
+            self._flags[slot, columns] = 1
         return _DESC.pack(DESCRIPTOR_MAGIC, self.name.encode(), slot, self._generation, size)
 
     def _free_slot(self) -> int | None:
@@ -112,8 +134,8 @@ class FramePool:
         free = np.flatnonzero(~self._flags.any(axis=1))
         return int(free[0]) if free.size else None
 
-    def release_consumer(self, index: int) -> None:
-        """Clear every flag of consumer ``index`` (its process is gone)."""
+    def release_consumer(self, index: int | list[int]) -> None:
+        """Clear every flag of column(s) ``index`` (its process is gone)."""
         self._flags[:, index] = 0
 
     @property
@@ -131,10 +153,12 @@ class FramePool:
 
 
 class PoolReader:
-    """Consumer side: maps producers' pools and hands out read-only views on their slots."""
+    """Consumer side: maps producers' pools, hands out read-only views on their slots, and finds
+    the slot an outgoing array lies in (forwarding)."""
 
     def __init__(self) -> None:
         self._maps: dict[str, tuple[mmap.mmap, int, int, int]] = {}
+        self._ranges: list[tuple[int, int, str]] = []  # [address, end) of each mapped pool
 
     def _map(self, name: str) -> tuple[mmap.mmap, int, int, int]:
         found = self._maps.get(name)
@@ -150,6 +174,8 @@ class PoolReader:
             if magic != POOL_MAGIC or len(mm) < _HEADER + slots * slot_size:
                 raise ValueError(f"pool {name} has a bad header")
             found = self._maps[name] = (mm, slots, slot_size, consumers)
+            address = np.frombuffer(mm, np.uint8, 1).ctypes.data
+            self._ranges.append((address, address + len(mm), name))
         return found
 
     def open(self, descriptor: bytes, index: int) -> tuple[memoryview, Callable[[], None]]:
@@ -157,6 +183,25 @@ class PoolReader:
         it now; the slot is also released when the view's last user is garbage collected.
         ValueError (or OSError) when the descriptor is not a valid one for consumer ``index``."""
         _magic, raw_name, slot, generation, length = _DESC.unpack(descriptor)
+        return self._view(raw_name, slot, generation, length, index)
+
+    def open_forward(
+        self, descriptor: bytes, index: int
+    ) -> tuple[memoryview, Callable[[], None], bytes]:
+        """``open`` for a forward descriptor: the slot's view, its release, and the header of
+        the forwarded sample (decode with ``Codec.decode_placed``)."""
+        if len(descriptor) < _FWD.size:
+            raise ValueError("truncated forward descriptor")
+        _magic, raw_name, slot, generation, length, header_len = _FWD.unpack_from(descriptor)
+        header = descriptor[_FWD.size :]
+        if len(header) != header_len:
+            raise ValueError("forward descriptor header has the wrong length")
+        view, release = self._view(raw_name, slot, generation, length, index)
+        return view, release, header
+
+    def _view(
+        self, raw_name: bytes, slot: int, generation: int, length: int, index: int
+    ) -> tuple[memoryview, Callable[[], None]]:
         name = raw_name.rstrip(b"\0").decode("ascii")
         mm, slots, slot_size, consumers = self._map(name)
         if not (0 <= slot < slots and 0 <= index < consumers and length + _SLOT_HEAD <= slot_size):
@@ -177,10 +222,52 @@ class PoolReader:
         weakref.finalize(base, release)
         return memoryview(base).toreadonly(), release
 
+    def slot_of(self, arr: np.ndarray) -> tuple[str, int, int] | None:
+        """(pool, slot, offset from the slot's data) of the memory of ``arr`` when it lies
+        wholly in the sample held by one slot of a mapped pool, else None."""
+        if not self._ranges:
+            return None
+        address = arr.__array_interface__["data"][0]
+        for low, high, name in self._ranges:
+            if low <= address < high:
+                mm, slots, slot_size, _consumers = self._maps[name]
+                slot, within = divmod(address - low - _HEADER, slot_size)
+                offset = within - _SLOT_HEAD
+                if not 0 <= slot < slots or offset < 0:
+                    return None
+                _generation, length = _SLOT.unpack_from(mm, _HEADER + slot * slot_size)
+                if offset + arr.nbytes > length:
+                    return None
+                return name, slot, offset
+        return None
+
+    def forward(
+        self, name: str, slot: int, columns: list[int], header: bytes
+    ) -> bytes | None:
+        """Hold slot ``slot`` of pool ``name`` for ``columns`` and return the forward descriptor
+        of ``header`` — or None (nothing held) when one of those flags is still set (that
+        consumer still holds an earlier forward of this slot). Call only while holding the slot
+        yourself (the arrays being sent keep it held)."""
+        mm, _slots, slot_size, consumers = self._maps[name]
+        flags = np.frombuffer(mm, np.uint8, consumers, _HEAD.size + slot * consumers)
+        if flags[columns].any():
+            return None
+        generation, length = _SLOT.unpack_from(mm, _HEADER + slot * slot_size)
+        flags[columns] = 1
+        return (
+            _FWD.pack(FORWARD_MAGIC, name.encode(), slot, generation, length, len(header))
+            + header
+        )
+
 
 def is_descriptor(data: bytes) -> bool:
     """Whether ``data`` is a pool descriptor rather than a sample."""
     return len(data) == _DESC.size and data[:4] == DESCRIPTOR_MAGIC
+
+
+def is_forward(data: bytes) -> bool:
+    """Whether ``data`` is a forward descriptor (a relayed sample still in a producer's pool)."""
+    return data[:4] == FORWARD_MAGIC and len(data) >= _FWD.size
 
 
 def pid_alive(pid: int) -> bool:

@@ -20,6 +20,7 @@ class PublishStats:
     shm_samples: int = 0  #: through zenoh shared memory
     pool_samples: int = 0  #: through this process's frame pool (read in place by consumers)
     pool_full: int = 0  #: large samples sent the zenoh way because no pool slot was free
+    forwarded: int = 0  #: samples passed on from a pool slot they arrived in, without a copy
     put_errors: int = 0
 
     def as_dict(self) -> dict[str, Any]:
@@ -33,6 +34,7 @@ class PublishStats:
             "shm_samples": self.shm_samples,
             "pool_samples": self.pool_samples,
             "pool_full": self.pool_full,
+            "forwarded": self.forwarded,
             "put_errors": self.put_errors,
         }
 
@@ -86,8 +88,9 @@ def link_lines(stats: dict[str, Any]) -> list[str]:
     for s in stats.get("publish", []):
         lines.append(
             f"  link {s['key']} ({s['mode']}): sent {s['sent']}, "
-            f"{s['pool_samples']} through the frame pool, {s['shm_samples']} through zenoh "
-            f"shared memory, {s['put_errors']} errors"
+            f"{s['pool_samples']} through the frame pool ({s.get('forwarded', 0)} forwarded "
+            f"in place), {s['shm_samples']} through zenoh shared memory, "
+            f"{s['put_errors']} errors"
         )
     for s in stats.get("subscribe", []):
         lines.append(

@@ -28,6 +28,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import zenoh
 
 from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError, array_bytes
@@ -35,10 +36,12 @@ from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
 from runtime.links.pool import (
+    MAX_CONSUMERS,
     FramePool,
     HostMarker,
     PoolReader,
     is_descriptor,
+    is_forward,
     marker_pid,
     pid_alive,
 )
@@ -97,6 +100,8 @@ class ZenohTransport:
             self._consumers_of.setdefault(link.key, set()).add(
                 plan.modules[link.connection.dst.module].process
             )
+        #: processes of the graph, indexing the flag columns of frame pools
+        self._proc_index = {p: i for i, p in enumerate(sorted(self._graph_processes(plan)))}
         self._pubs: dict[str, tuple[Any, PublishStats]] = {}
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
         self._arrived: dict[str, list[Callable[[], None]]] = {}
@@ -114,6 +119,10 @@ class ZenohTransport:
         self._alive_sub = session.liveliness().declare_subscriber(
             f"{self.prefix}/{ALIVE}/*/*", self._on_liveliness, history=True
         )
+
+    @staticmethod
+    def _graph_processes(plan: GraphPlan) -> set[str]:
+        return {m.process for m in plan.modules.values()}
 
     # -- liveliness -----------------------------------------------------------------------------
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
@@ -198,20 +207,51 @@ class ZenohTransport:
 
         return publish
 
+    def _column(self, setter: str, holder: str) -> int:
+        """Flag column of a pool slot held by ``holder`` on behalf of ``setter`` (the process
+        that published the descriptor)."""
+        return self._proc_index[setter] * len(self._proc_index) + self._proc_index[holder]
+
     def _pooled_publish(
         self, link: LinkPlan, stats: PublishStats
     ) -> Callable[[Message], bool] | None:
-        """The frame-pool path of a best-effort output (None when this host has no /dev/shm)."""
+        """The frame-pool path of a best-effort output (None when this host has no /dev/shm or
+        the graph has too many processes for a pool's flags)."""
         if self._marker is None or self._marker.id == "none":
             return None
+        if len(self._proc_index) ** 2 > MAX_CONSUMERS:
+            return None
         consumers = sorted(self._consumers_of.get(link.key, set()))
+        columns = [self._column(self.process, c) for c in consumers]
+        n_columns = len(self._proc_index) ** 2
         descriptors = self._session.declare_publisher(
             link.key,
             congestion_control=zenoh.CongestionControl.BLOCK,
             priority=zenoh.Priority.DATA,
             express=True,
         )
-        frame = self._codec.frame
+        frame, frame_header = self._codec.frame, self._codec.frame_header
+        reader = self._reader
+
+        def forward(sample: Message) -> bytes | None:
+            """A forward descriptor when every array of ``sample`` lies in one held slot."""
+            where: list[tuple[str, int]] = []
+
+            def place(arr: np.ndarray) -> int:
+                in_place = arr.flags.c_contiguous and arr.dtype.kind in "biufc"
+                found = reader.slot_of(arr) if in_place else None
+                if found is None or (where and where[0] != found[:2]):
+                    raise LookupError("not in one pool slot")
+                where.append(found[:2])
+                return found[2]
+
+            try:
+                header = frame_header(sample, place)
+            except LookupError:
+                return None
+            if not where:
+                return None
+            return reader.forward(*where[0], columns, header)
 
         def pooled(sample: Message) -> bool:
             if array_bytes(sample) < FRAMED_MIN_BYTES:
@@ -219,14 +259,22 @@ class ZenohTransport:
             with self._lock:
                 if not all(c in self._peer_pid for c in consumers):
                     return False  # a consumer on another host (or not known yet)
+            descriptor = forward(sample)
+            if descriptor is not None:
+                descriptors.put(descriptor)
+                stats.sent += 1
+                stats.bytes += len(descriptor)
+                stats.pool_samples += 1
+                stats.forwarded += 1
+                return True
             head, parts, size = frame(sample)
             pool = self._pools.get(link.key)
             if pool is None:
-                pool = self._pools[link.key] = FramePool(size, len(consumers))
-            descriptor = pool.write(head, parts, size)
+                pool = self._pools[link.key] = FramePool(size, n_columns)
+            descriptor = pool.write(head, parts, size, columns)
             if descriptor is None:
-                self._reclaim(pool, consumers)
-                descriptor = pool.write(head, parts, size)
+                self._reclaim(pool)
+                descriptor = pool.write(head, parts, size, columns)
                 if descriptor is None:
                     stats.pool_full += 1
                     return False
@@ -238,14 +286,15 @@ class ZenohTransport:
 
         return pooled
 
-    def _reclaim(self, pool: FramePool, consumers: list[str]) -> None:
-        """Free the slots held by consumer processes that have died."""
+    def _reclaim(self, pool: FramePool) -> None:
+        """Free the slots held by processes that have died."""
         with self._lock:
             pids = dict(self._peer_pid)
-        for index, name in enumerate(consumers):
+        n = len(self._proc_index)
+        for name, holder in self._proc_index.items():
             pid = pids.get(name)
             if pid is not None and not pid_alive(pid):
-                pool.release_consumer(index)
+                pool.release_consumer([setter * n + holder for setter in range(n)])
 
     def consumers_ready(self) -> list[str]:
         """What producers still wait for: one line per output whose consumers are not all up."""
@@ -309,8 +358,12 @@ class ZenohTransport:
         hooks = self._arrived[link.key] = [arrived] if arrived is not None else []
         expected, key, ended = link.msg_type, link.key, self._ended
         put_kind = zenoh.SampleKind.PUT
-        consumers = sorted(self._consumers_of.get(link.key, {self.process}))
-        index = consumers.index(self.process) if self.process in consumers else 0
+        producer = self._producer_of.get(link.key)
+        column = (
+            self._column(producer, self.process)
+            if producer in self._proc_index and self.process in self._proc_index
+            else 0
+        )
         reader = self._reader
 
         def on_sample(sample: zenoh.Sample) -> None:
@@ -322,11 +375,15 @@ class ZenohTransport:
             try:
                 data: Any = sample.payload.to_bytes()
                 if is_descriptor(data):
-                    data, release = reader.open(data, index)
+                    data, release = reader.open(data, column)
                     stats.pool_samples += 1
-                msg = self._decoder().decode(data)
-                if not isinstance(msg, expected):
-                    raise DecodeError(f"expected {expected.__name__}, found {type(msg).__name__}")
+                    msg = self._decoder().decode(data, expected)
+                elif is_forward(data):
+                    data, release, header = reader.open_forward(data, column)
+                    stats.pool_samples += 1
+                    msg = self._decoder().decode_placed(header, data, expected)
+                else:
+                    msg = self._decoder().decode(data, expected)
             except Exception as exc:  # DecodeError, or anything a foreign payload provokes
                 if release is not None:
                     release()

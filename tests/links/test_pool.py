@@ -18,6 +18,7 @@ from runtime.links.pool import (
     HostMarker,
     PoolReader,
     is_descriptor,
+    is_forward,
     marker_pid,
     sweep_stale,
 )
@@ -63,6 +64,65 @@ def test_a_slot_is_reused_only_once_every_consumer_let_go() -> None:
     finally:
         pool.close()
     assert not pool.path.exists()
+
+
+def test_a_relayed_frame_is_forwarded_in_place_and_held_until_its_last_consumer_lets_go() -> None:
+    """Process 0 produces into its pool for consumer 1 (column 1); 1 passes the frame on to 2
+    (column 1 * 3 + 2 = 5) without copying; the slot stays busy until both let go."""
+    codec, relay, last = Codec(), PoolReader(), PoolReader()
+    first = _frame(1)
+    head, parts, size = codec.frame(first)
+    pool = FramePool(size, consumers=9, slots=1)
+    try:
+        d1 = pool.write(head, parts, size, [1])
+        assert d1 is not None
+        view, _ = relay.open(d1, 1)
+        got = codec.decode(view)
+        del view
+        passed_on = Image(pixels=got.pixels, seq=7, stamp=2.5, frame="wrist")
+        where = relay.slot_of(passed_on.pixels)
+        assert where is not None and where[:2] == (pool.name, 0)
+        header = codec.frame_header(passed_on, lambda arr: relay.slot_of(arr)[2])
+        fwd = relay.forward(pool.name, 0, [5], header)
+        assert fwd is not None and is_forward(fwd) and len(fwd) < 400  # no pixels in it
+        assert relay.forward(pool.name, 0, [5], header) is None  # column 5 already holds it
+        del got, passed_on
+        gc.collect()
+        assert pool.busy == 1  # the relay let go, the last consumer holds it now
+        assert pool.write(*codec.frame(_frame(2)), [1]) is None
+        payload, _release, fwd_header = last.open_forward(fwd, 5)
+        out = codec.decode_placed(fwd_header, payload, Image)
+        del payload
+        assert (out.seq, out.stamp, out.frame) == (7, 2.5, "wrist")
+        np.testing.assert_array_equal(out.pixels, first.pixels)
+        del out
+        gc.collect()
+        assert pool.busy == 0
+        assert pool.write(*codec.frame(_frame(2)), [1]) is not None
+        with pytest.raises(ValueError, match="stale"):
+            last.open_forward(fwd, 5)  # the slot holds frame 2 now
+    finally:
+        pool.close()
+
+
+def test_arrays_outside_a_pool_slot_are_not_forwarded() -> None:
+    codec, reader = Codec(), PoolReader()
+    head, parts, size = codec.frame(_frame(1))
+    pool = FramePool(size, consumers=1, slots=1)
+    try:
+        view, _ = reader.open(pool.write(head, parts, size), 0)
+        inside = codec.decode(view).pixels
+        assert reader.slot_of(inside) is not None
+        assert reader.slot_of(inside[1:]) is not None  # a contiguous tail still lies in the slot
+        assert reader.slot_of(np.array(inside)) is None  # a copy lies on the heap
+        fwd = reader.forward(pool.name, 0, [0], b"header")
+        assert fwd is None  # column 0 still holds the slot: never set twice
+        forged = b"UMBf" + bytes(80) + b"xx"
+        assert is_forward(forged)
+        with pytest.raises(ValueError):
+            reader.open_forward(forged, 0)
+    finally:
+        pool.close()
 
 
 def test_bad_descriptors_are_refused() -> None:

@@ -233,3 +233,77 @@ def test_images_without_the_pool_travel_through_zenoh_shared_memory() -> None:
     finally:
         pair.producer.close()
         pair.consumer.close()
+
+
+class Relay(Module):
+    """Passes each frame on unchanged (a republisher)."""
+
+    from connectors import Input
+
+    image_in = Input(Image, trigger=True, doc="frames")
+    image_out = Output(Image, doc="the same frames")
+
+
+RELAY_GRAPH = """
+graph: relay
+processes: {umbra: {}, smart: {}, ops: {}}
+modules:
+  cam: {type: Camera, process: umbra, rate: 30}
+  relay: {type: Relay, process: smart}
+  view: {type: Viewer, process: ops}
+connections:
+  - cam.image -> relay.image_in
+  - relay.image_out -> view.image
+"""
+
+
+def test_a_relayed_frame_is_passed_on_in_place_without_a_copy() -> None:
+    """umbra -> smart -> ops on one host: smart re-publishes the frame it received; the frame
+    stays in umbra's pool slot, ops reads it there, and the slot is held until ops lets go."""
+    registry = Registry()
+    for cls in (Camera, Viewer, Relay):
+        registry.add(cls)
+    plan = check_spec(parse_graph_text(RELAY_GRAPH, "relay.yaml"), registry)
+    first, second = sorted(plan.links, key=lambda link: link.key)
+    assert first.key.endswith("cam/image") and second.key.endswith("relay/image_out")
+    ports = free_loopback_ports(3)
+    listen = [f"tcp/127.0.0.1:{p}" for p in ports]
+    sessions = [zenoh.open(build_config(Endpoints([listen[i]], listen[:i]))) for i in range(3)]
+    cam, relay, view = (
+        ZenohTransport(s, plan, name)
+        for s, name in zip(sessions, ("umbra", "smart", "ops"), strict=True)
+    )
+    try:
+        relayed: list[Message] = []
+        seen: list[Message] = []
+        to_relay = cam.publisher(first)
+        from_relay = relay.publisher(second)
+        relay.subscribe(first, relayed.append)
+        view.subscribe(second, seen.append)
+        for t in (cam, relay, view):
+            t.announce()
+        for t in (cam, relay):
+            assert t.wait_ready(threading.Event(), timeout=10)
+        assert _until(lambda: {"smart", "ops"} <= set(cam._peer_pid))
+        assert _until(lambda: "ops" in relay._peer_pid)
+        for i, pixels in enumerate(FRAMES[:3], 1):
+            to_relay(Image(pixels=pixels, seq=i, stamp=float(i)), 0.0)
+            assert _until(lambda i=i: len(relayed) == i)
+            got = relayed[-1]
+            from_relay(Image(pixels=got.pixels, seq=i, stamp=got.stamp, frame="wrist"), 0.0)
+            assert _until(lambda i=i: len(seen) == i)
+        for i, (pixels, msg) in enumerate(zip(FRAMES, seen, strict=False), 1):
+            np.testing.assert_array_equal(msg.pixels, pixels)
+            assert (msg.seq, msg.stamp, msg.frame) == (i, float(i), "wrist")
+        (relay_pub,) = relay.stats()["publish"]
+        assert relay_pub["forwarded"] == 3 and relay_pub["bytes"] < 3 * 1000  # no pixels sent
+        pool = cam._pools[first.key]
+        del got
+        relayed.clear()  # the relay lets go; ops still holds the three frames
+        assert pool.busy == 3
+        del msg
+        seen.clear()
+        assert _until(lambda: pool.busy == 0)
+    finally:
+        for t in (cam, relay, view):
+            t.close()
