@@ -259,7 +259,8 @@ class Codec:
             if code == _EXT_NDARRAY:
                 if len(data) - end != count * dtype.itemsize:
                     raise DecodeError("array buffer has the wrong length")
-                return np.frombuffer(data, dtype=dtype, count=count, offset=end).reshape(shape)
+                arr = np.frombuffer(data, dtype=dtype, count=count, offset=end)
+                return arr if len(shape) == 1 else arr.reshape(shape)
             if code == _EXT_NDARRAY_REF and self._payload is not None:
                 offset, length = _REF.unpack_from(data, end)
                 start = self._data_start + offset
@@ -290,7 +291,12 @@ class Codec:
             raise DecodeError("not an umbra sample: truncated frame header")
         self._payload, self._data_start = view, _aligned(end)
         try:
-            return self._decode(view[_FRAME_HEAD.size : end], FRAMED_VERSION, expected)
+            header = view[_FRAME_HEAD.size : end]
+            if expected is not None:
+                msg = self._decode_direct(header, expected, FRAMED_VERSION)
+                if msg is not None:
+                    return msg
+            return self._decode(header, FRAMED_VERSION, expected)
         finally:
             self._payload = None
 
@@ -300,13 +306,19 @@ class Codec:
         """The message of a ``frame_header`` header whose arrays lie in ``payload``."""
         self._payload, self._data_start = payload, 0
         try:
+            if expected is not None:
+                msg = self._decode_direct(header, expected, FRAMED_VERSION)
+                if msg is not None:
+                    return msg
             return self._decode(header, FRAMED_VERSION, expected)
         finally:
             self._payload = None
 
-    def _decode_direct(self, data: bytes | memoryview, expected: type[Message]) -> Message | None:
-        """One pass for a version 1 sample of a known type; None when anything is off (the
-        general path then says what)."""
+    def _decode_direct(
+        self, data: bytes | memoryview, expected: type[Message], version_wanted: int = VERSION
+    ) -> Message | None:
+        """One pass for a sample of a known type; None when anything is off (the general path
+        then says what)."""
         decoder = self._direct.get(expected)
         if decoder is None:
             if self._types.get(expected.__name__) is not expected:
@@ -320,7 +332,7 @@ class Codec:
             magic, version, name, msg = decoder.decode(data)
         except Exception:
             return None
-        if magic != MAGIC or version != VERSION or name != expected.__name__:
+        if magic != MAGIC or version != version_wanted or name != expected.__name__:
             return None
         return msg
 

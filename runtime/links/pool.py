@@ -97,6 +97,9 @@ class FramePool:
             slots, consumers
         )
         self._generation = 0
+        self._idle_row = bytes(consumers)
+        self._name = self.name.encode()
+        self._views: dict[int, np.ndarray] = {}  # slot -> uint8 view of its data (no re-creation)
 
     def write(
         self,
@@ -118,21 +121,28 @@ class FramePool:
         data = start + _SLOT_HEAD
         mm = self._mm
         mm[data : data + len(head)] = head
-        body = data + len(head)
+        view = self._views.get(slot)
+        if view is None:
+            view = self._views[slot] = np.frombuffer(mm, np.uint8, self.slot_size, start)
         for offset, arr in parts:
             flat = arr.reshape(-1).view(np.uint8)
-            np.copyto(np.frombuffer(mm, np.uint8, flat.size, body + offset), flat)
+            at = _SLOT_HEAD + len(head) + offset
+            np.copyto(view[at : at + flat.size], flat)
         mm[start : start + _SLOT.size] = _SLOT.pack(self._generation, size)
-        if columns is None:
-            self._flags[slot, :] = 1
-        else:
-            self._flags[slot, columns] = 1
-        return _DESC.pack(DESCRIPTOR_MAGIC, self.name.encode(), slot, self._generation, size)
+        row = _HEAD.size + slot * self.consumers
+        for column in range(self.consumers) if columns is None else columns:
+            mm[row + column] = 1
+        return _DESC.pack(DESCRIPTOR_MAGIC, self._name, slot, self._generation, size)
 
     def _free_slot(self) -> int | None:
         """The lowest free slot: recently used memory is still in the CPU caches."""
-        free = np.flatnonzero(~self._flags.any(axis=1))
-        return int(free[0]) if free.size else None
+        mm, n, idle = self._mm, self.consumers, self._idle_row
+        row = _HEAD.size
+        for slot in range(self.slots):
+            if mm[row : row + n] == idle:
+                return slot
+            row += n
+        return None
 
     def release_consumer(self, index: int | list[int]) -> None:
         """Clear every flag of column(s) ``index`` (its process is gone)."""
@@ -147,6 +157,7 @@ class FramePool:
         """Remove the pool file (consumers that still map it keep their views)."""
         with contextlib.suppress(FileNotFoundError):
             self.path.unlink()
+        self._views.clear()
         self._flags = np.zeros((self.slots, self.consumers), np.uint8)
         with contextlib.suppress(BufferError):  # views still exported: left to the GC
             self._mm.close()
@@ -241,22 +252,21 @@ class PoolReader:
                 return name, slot, offset
         return None
 
-    def forward(
-        self, name: str, slot: int, columns: list[int], header: bytes
-    ) -> bytes | None:
+    def forward(self, name: str, slot: int, columns: list[int], header: bytes) -> bytes | None:
         """Hold slot ``slot`` of pool ``name`` for ``columns`` and return the forward descriptor
         of ``header`` — or None (nothing held) when one of those flags is still set (that
         consumer still holds an earlier forward of this slot). Call only while holding the slot
         yourself (the arrays being sent keep it held)."""
         mm, _slots, slot_size, consumers = self._maps[name]
-        flags = np.frombuffer(mm, np.uint8, consumers, _HEAD.size + slot * consumers)
-        if flags[columns].any():
-            return None
+        row = _HEAD.size + slot * consumers
+        for column in columns:
+            if mm[row + column]:
+                return None
         generation, length = _SLOT.unpack_from(mm, _HEADER + slot * slot_size)
-        flags[columns] = 1
+        for column in columns:
+            mm[row + column] = 1
         return (
-            _FWD.pack(FORWARD_MAGIC, name.encode(), slot, generation, length, len(header))
-            + header
+            _FWD.pack(FORWARD_MAGIC, name.encode(), slot, generation, length, len(header)) + header
         )
 
 
