@@ -289,22 +289,18 @@ class Codec:
         end = _FRAME_HEAD.size + length
         if end > len(view):
             raise DecodeError("not an umbra sample: truncated frame header")
-        self._payload, self._data_start = view, _aligned(end)
-        try:
-            header = view[_FRAME_HEAD.size : end]
-            if expected is not None:
-                msg = self._decode_direct(header, expected, FRAMED_VERSION)
-                if msg is not None:
-                    return msg
-            return self._decode(header, FRAMED_VERSION, expected)
-        finally:
-            self._payload = None
+        return self.decode_placed(view[_FRAME_HEAD.size : end], view, expected, _aligned(end))
 
     def decode_placed(
-        self, header: bytes, payload: memoryview, expected: type[Message] | None = None
+        self,
+        header: bytes | memoryview,
+        payload: memoryview,
+        expected: type[Message] | None = None,
+        data_start: int = 0,
     ) -> Message:
-        """The message of a ``frame_header`` header whose arrays lie in ``payload``."""
-        self._payload, self._data_start = payload, 0
+        """The message of a version 2 header whose arrays lie in ``payload``, their offsets
+        counted from ``data_start`` [bytes] (a ``frame_header`` header: from 0)."""
+        self._payload, self._data_start = payload, data_start
         try:
             if expected is not None:
                 msg = self._decode_direct(header, expected, FRAMED_VERSION)
