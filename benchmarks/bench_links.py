@@ -52,6 +52,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(REPO))
 
+from benchmarks.common import write_results  # noqa: E402
 from connectors import Input, Module, Output, Parameters, param  # noqa: E402
 from connectors.messages import Image, Twist  # noqa: E402
 
@@ -271,7 +272,7 @@ def role_zenoh_pong(endpoint: str, kind: str) -> None:
     session.close()
 
 
-def role_zenoh_sink(endpoint: str, seconds: float) -> None:
+def role_zenoh_sink(endpoint: str) -> None:
     session = _zenoh_session([endpoint], [])
     times: list[float] = []
 
@@ -662,7 +663,7 @@ def main() -> int:
         role_zenoh_pong(args.endpoint, args.kind)
         return 0
     if args.role == "zenoh-sink":
-        role_zenoh_sink(args.endpoint, 0.0)
+        role_zenoh_sink(args.endpoint)
         return 0
     if args.role == "tcp-pong":
         role_tcp_pong(args.port)
@@ -686,9 +687,7 @@ def main() -> int:
     results["goals"] = _goals(results)
     results["quick"] = args.quick
     _print(results)
-    out = HERE / "results" / "links.json"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps(results, indent=2))
+    out = write_results("links", results)
     print(f"written {out.relative_to(REPO)}")
     return 0
 

@@ -155,13 +155,8 @@ def array_bytes(msg: Message) -> int:
 
 
 def _array_fields(cls: type[Message]) -> tuple[str, ...]:
-    """Fields of ``cls`` that may hold an array (annotated ``np.ndarray``, or not annotated as a
-    plain scalar or string)."""
-    plain = {"float", "int", "str", "bool", float, int, str, bool}
-    hints = getattr(cls, "__annotations__", {})
-    for base in cls.__mro__[1:]:
-        hints = {**getattr(base, "__annotations__", {}), **hints}
-    return tuple(n for n in cls.__struct_fields__ if hints.get(n) not in plain)
+    """Fields of ``cls`` annotated ``np.ndarray`` (the only ones the decoder accepts arrays in)."""
+    return tuple(f.name for f in msgspec.structs.fields(cls) if f.type is np.ndarray)
 
 
 _ARRAY_FIELDS: dict[type, tuple[str, ...]] = {}
@@ -194,7 +189,9 @@ class Codec:
     def _frame_hook(self, obj: Any) -> Any:
         if isinstance(obj, np.ndarray):
             if self._place is not None:
-                offset = self._place(obj)  # LookupError when it cannot be referenced in place
+                if not obj.flags.c_contiguous or obj.dtype.kind not in _NUMERIC_KINDS:
+                    raise LookupError("only contiguous numeric arrays are referenced in place")
+                offset = self._place(obj)  # LookupError when it does not lie in the payload
                 return msgspec.msgpack.Ext(
                     _EXT_NDARRAY_REF, _array_head(obj) + _REF.pack(offset, obj.nbytes)
                 )
@@ -230,7 +227,7 @@ class Codec:
     def frame_header(self, msg: Message, place: Callable[[np.ndarray], int]) -> bytes:
         """The version 2 header of ``msg`` with each array referenced where it already lies:
         ``place(array)`` gives its offset [bytes] in the payload ``decode_placed`` will be given,
-        or raises LookupError (then so does this)."""
+        or raises LookupError — as this does for an array that is not contiguous and numeric."""
         self._place = place
         try:
             return self._frame_encoder.encode((MAGIC, FRAMED_VERSION, type(msg).__name__, msg))

@@ -114,7 +114,6 @@ class Scheduler:
         self._ticks = 0
         self._t0 = 0.0
         self._failure: ModuleFailed | None = None
-        self._react_errors = 0
         self.modules: dict[str, Module] = {}
         self._slots: list[_Slot] = []
         self._build()
@@ -225,7 +224,6 @@ class Scheduler:
                     return
                 self._tick(self.clock.now())
         except Exception as exc:  # a bug in the runtime, never a module's failure (caught)
-            self._react_errors += 1
             self.request_stop(f"internal error handling a link sample: {exc!r}", 1)
 
     def tick_time(self) -> float:

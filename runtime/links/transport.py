@@ -219,11 +219,11 @@ class ZenohTransport:
         the graph has too many processes for a pool's flags)."""
         if self._marker is None or self._marker.id == "none":
             return None
-        if len(self._proc_index) ** 2 > MAX_CONSUMERS:
+        n_columns = len(self._proc_index) ** 2
+        if n_columns > MAX_CONSUMERS:
             return None
         consumers = sorted(self._consumers_of.get(link.key, set()))
         columns = [self._column(self.process, c) for c in consumers]
-        n_columns = len(self._proc_index) ** 2
         descriptors = self._session.declare_publisher(
             link.key,
             congestion_control=zenoh.CongestionControl.BLOCK,
@@ -238,8 +238,7 @@ class ZenohTransport:
             where: list[tuple[str, int]] = []
 
             def place(arr: np.ndarray) -> int:
-                in_place = arr.flags.c_contiguous and arr.dtype.kind in "biufc"
-                found = reader.slot_of(arr) if in_place else None
+                found = reader.slot_of(arr)
                 if found is None or (where and where[0] != found[:2]):
                     raise LookupError("not in one pool slot")
                 where.append(found[:2])
@@ -261,23 +260,20 @@ class ZenohTransport:
                     return False  # a consumer on another host (or not known yet)
             descriptor = forward(sample)
             if descriptor is not None:
-                descriptors.put(descriptor)
-                stats.sent += 1
-                stats.bytes += len(descriptor)
-                stats.pool_samples += 1
+                size = len(descriptor)  # the frame itself stays where it is
                 stats.forwarded += 1
-                return True
-            head, parts, size = frame(sample)
-            pool = self._pools.get(link.key)
-            if pool is None:
-                pool = self._pools[link.key] = FramePool(size, n_columns)
-            descriptor = pool.write(head, parts, size, columns)
-            if descriptor is None:
-                self._reclaim(pool)
+            else:
+                head, parts, size = frame(sample)
+                pool = self._pools.get(link.key)
+                if pool is None:
+                    pool = self._pools[link.key] = FramePool(size, n_columns)
                 descriptor = pool.write(head, parts, size, columns)
                 if descriptor is None:
-                    stats.pool_full += 1
-                    return False
+                    self._reclaim(pool)
+                    descriptor = pool.write(head, parts, size, columns)
+                    if descriptor is None:
+                        stats.pool_full += 1
+                        return False
             descriptors.put(descriptor)
             stats.sent += 1
             stats.bytes += size

@@ -21,6 +21,20 @@ PROBES = {
 }
 
 
+def watched_counter_graph(name: str) -> str:
+    """A counter in process `umbra` (100 Hz) watched over a link by a LinkWatch in `smart`."""
+    return f"""
+graph: {name}
+clock: real
+processes: {{umbra: {{}}, smart: {{}}}}
+modules:
+  counter: {{type: Counter, process: umbra, rate: 100}}
+  watch: {{type: LinkWatch, process: smart, rate: 200, params: {{timeout: 0.1}}}}
+connections:
+  - counter.count -> watch.input
+"""
+
+
 @pytest.fixture(scope="session")
 def plugin_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     """Environment in which child processes see the probe modules, registered as a third-party

@@ -21,18 +21,9 @@ import zenoh
 from connectors.codec import Codec
 from connectors.messages import Scalar, Text
 from runtime.links.config import Endpoints, build_config, free_loopback_ports
-from tests.links.conftest import Running, start_umbra, stop_all
+from tests.links.conftest import Running, start_umbra, stop_all, watched_counter_graph
 
-GRAPH = """
-graph: byhand
-clock: real
-processes: {umbra: {}, smart: {}}
-modules:
-  counter: {type: Counter, process: umbra, rate: 100}
-  watch: {type: LinkWatch, process: smart, rate: 200, params: {timeout: 0.1}}
-connections:
-  - counter.count -> watch.input
-"""
+GRAPH = watched_counter_graph("byhand")
 KEY = "umbra/byhand/counter/count"
 
 

@@ -210,7 +210,11 @@ connections:
 """
 
 
-def _dispatch_run(tmp_path: Path, dispatch: str, senders: int, per_sender: int) -> Overlap:
+def _dispatch_run(
+    tmp_path: Path, dispatch: str, senders: int, per_sender: int
+) -> tuple[Overlap, int]:
+    """Run the consumer process with ``senders`` link threads delivering ``per_sender`` values
+    each; the watching module and the id of the loop's thread."""
     transport = FakeTransport()
     sched = Scheduler(
         _plan(DISPATCH_GRAPH),
@@ -251,21 +255,20 @@ def _dispatch_run(tmp_path: Path, dispatch: str, senders: int, per_sender: int) 
     assert sorted(watch.values) == sorted(
         float(1000 * k + i) for k in range(senders) for i in range(per_sender)
     )
-    watch.loop_thread = threading.get_ident()  # type: ignore[attr-defined]
-    return watch
+    return watch, threading.get_ident()  # the loop ran on this thread
 
 
 def test_inline_dispatch_runs_the_tick_on_the_receiving_thread(tmp_path: Path) -> None:
-    watch = _dispatch_run(tmp_path, "inline", senders=1, per_sender=50)
-    on_link = sum(t != watch.loop_thread for t in watch.threads)  # type: ignore[attr-defined]
+    watch, loop_thread = _dispatch_run(tmp_path, "inline", senders=1, per_sender=50)
+    on_link = sum(t != loop_thread for t in watch.threads)
     assert on_link >= 40  # nearly every sample handled where it arrived, not handed over
 
 
 def test_inline_ticks_never_overlap_with_concurrent_links(tmp_path: Path) -> None:
-    watch = _dispatch_run(tmp_path, "inline", senders=3, per_sender=100)
+    watch, _loop_thread = _dispatch_run(tmp_path, "inline", senders=3, per_sender=100)
     assert len(set(watch.threads)) >= 2  # the loop and at least one link thread took part
 
 
 def test_loop_dispatch_keeps_every_step_on_the_loop_thread(tmp_path: Path) -> None:
-    watch = _dispatch_run(tmp_path, "loop", senders=2, per_sender=30)
-    assert set(watch.threads) == {watch.loop_thread}  # type: ignore[attr-defined]
+    watch, loop_thread = _dispatch_run(tmp_path, "loop", senders=2, per_sender=30)
+    assert set(watch.threads) == {loop_thread}

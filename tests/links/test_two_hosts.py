@@ -20,20 +20,11 @@ from pathlib import Path
 
 import pytest
 
-from tests.links.conftest import Running
+from tests.links.conftest import Running, watched_counter_graph
 
 pytestmark = pytest.mark.netns
 
-GRAPH = """
-graph: twohosts
-clock: real
-processes: {umbra: {}, smart: {}}
-modules:
-  counter: {type: Counter, process: umbra, rate: 100}
-  watch: {type: LinkWatch, process: smart, rate: 200, params: {timeout: 0.1}}
-connections:
-  - counter.count -> watch.input
-"""
+GRAPH = watched_counter_graph("twohosts")
 
 
 def _ip(*args: str) -> subprocess.CompletedProcess[str]:
