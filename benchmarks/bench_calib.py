@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks.common import table, write_results
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.calib.distortion import distort_points, undistort_points
+from modules.calib.dlt import rms
 from modules.calib.npnp import View, solve_npnp
 from modules.calib.refine import calibrate
 from modules.calib.rotations import rotation_from_vector, vector_from_rotation
@@ -53,10 +54,6 @@ REPORT_FILE = Path(__file__).resolve().parent.parent / "modules" / "calib" / "da
 
 def angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
     return float(np.degrees(np.linalg.norm(vector_from_rotation(R_a.T @ R_b))))
-
-
-def rms(values: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.square(values))))
 
 
 def timed(fn, repeat: int = 1):
@@ -183,19 +180,7 @@ def bench_calibration_scenario(
             "time_ms_median": float(np.median(s["time"]) * 1e3),
         }
         r = summary[name]
-        rows.append(
-            [
-                name,
-                r["fit_rms_px"],
-                r["held_out_rms_px_median"],
-                r["held_out_rms_px_p90"],
-                r["fx_error_pct_median"],
-                r["principal_point_error_px_median"],
-                r["k1_error_median"],
-                r["time_ms_median"],
-                r["held_out_rms_px_median"] / baseline,
-            ]
-        )
+        rows.append([name, *r.values(), r["held_out_rms_px_median"] / baseline])
     print(
         f"\n1. calibration ({scenario}: fx ~ {TYPICAL_INTRINSICS.fx * focal_scale:.0f} px, rig at "
         f"{distance} m), 3-D rig of {len(points)} points, {noise_px} px noise, {trials} random "

@@ -27,10 +27,12 @@ class FrameTree:
 
     def __init__(self) -> None:
         self._edges: dict[str, dict[str, np.ndarray]] = {}
+        self._chains: dict[tuple[str, str], np.ndarray] = {}  # lookups so far (frames are static)
 
     def add(self, parent: str, child: str, T_parent_child: np.ndarray) -> None:
         """Declare the pose of ``child`` in ``parent``."""
         T = np.asarray(T_parent_child, dtype=float)
+        self._chains.clear()
         self._edges.setdefault(parent, {})[child] = T
         self._edges.setdefault(child, {})[parent] = np.linalg.inv(T)
 
@@ -40,7 +42,14 @@ class FrameTree:
         return set(self._edges)
 
     def lookup(self, parent: str, child: str) -> np.ndarray:
-        """T_parent_child by chaining static transforms; KeyError when they are not connected."""
+        """T_parent_child by chaining static transforms (a fresh array, computed once per pair);
+        KeyError when they are not connected."""
+        chain = self._chains.get((parent, child))
+        if chain is None:
+            chain = self._chains[(parent, child)] = self._chain(parent, child)
+        return chain.copy()
+
+    def _chain(self, parent: str, child: str) -> np.ndarray:
         if parent == child:
             return np.eye(4)
         seen = {parent: np.eye(4)}

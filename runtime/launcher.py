@@ -127,8 +127,8 @@ def run_one(
     from runtime.links.process import ProcessOptions, run_linked_process
 
     name = args.process
-    if name not in plan.processes or not plan.modules_in(name):
-        have = [p for p in plan.processes if plan.modules_in(p)]
+    have = plan.populated_processes
+    if name not in have:
         raise UserError(
             f"--process: graph `{plan.spec.name}` has no process `{name}` with "
             f"modules (processes: {', '.join(have)}){did_you_mean(name, have)}"
@@ -145,8 +145,7 @@ def run_one(
     if endpoints.empty and config_file:
         endpoints = file_endpoints(config_file)
     if endpoints.empty:
-        processes = [p for p in plan.processes if plan.modules_in(p)]
-        endpoints = default_mesh(processes)[name]
+        endpoints = default_mesh(have)[name]
     supervised = bool(getattr(args, "supervised", False))
     options = ProcessOptions(
         process=name,
@@ -255,7 +254,7 @@ class Supervisor:
 
     def _start(self) -> None:
         plan, args = self.plan, self.args
-        names = [p for p in plan.processes if plan.modules_in(p)]
+        names = plan.populated_processes
         for p in plan.processes:
             if p not in names:
                 self.say(f"process `{p}` has no modules; not started")
@@ -352,7 +351,7 @@ class Supervisor:
             for s, handler in old.items():
                 signal.signal(s, handler)
         self._write_summaries(code, reason, started)
-        self.say(reason if code == 0 else f"failed: {reason}" if code != INTERRUPTED else reason)
+        self.say(reason if code in (0, INTERRUPTED) else f"failed: {reason}")
         self.say(f"summary written to {self.out}")
         return code
 

@@ -15,6 +15,7 @@ from importlib.metadata import entry_points
 
 from connectors.errors import UserError
 from connectors.module import Module
+from runtime.hints import did_you_mean
 
 GROUP = "umbra.modules"
 
@@ -62,9 +63,11 @@ class Registry:
         """The class for ``name``; ``UserError`` when unknown or broken."""
         cls = self.get(name)
         if cls is None:
-            if name in self.broken:
-                raise UserError(f"module type `{name}` failed to load: {self.broken[name]}")
-            from runtime.hints import did_you_mean
-
-            raise UserError(f"unknown module type `{name}`{did_you_mean(name, self.names())}")
+            raise UserError(self.missing(name))
         return cls
+
+    def missing(self, name: str) -> str:
+        """Why ``get(name)`` gave None: the load failure, or "unknown" with a spelling hint."""
+        if name in self.broken:
+            return f"module type `{name}` failed to load: {self.broken[name]}"
+        return f"unknown module type `{name}`{did_you_mean(name, self.names())}"

@@ -42,7 +42,7 @@ from connectors.errors import ModuleFailed, UserError
 from connectors.messages import Message
 from connectors.module import Module, ModuleContext
 from connectors.ports import Register
-from runtime.clock import RealClock, SimClock
+from runtime.clock import make_clock
 from runtime.graph.plan import GraphPlan
 from runtime.links_api import LinkTransport
 from runtime.stats import ModuleStats, RunResult
@@ -97,7 +97,7 @@ class Scheduler:
     ) -> None:
         self.plan = plan
         self.options = options
-        self.clock = SimClock() if options.clock == "sim" else RealClock()
+        self.clock = make_clock(options.clock)
         self.transport = transport
         self.process_name = options.process or "main"
         self._stop: StopRequest | None = None

@@ -78,13 +78,6 @@ def adaptive_damping(sigma_min: float, eps: float, lambda_max: float) -> float:
     return float(lambda_max * np.sqrt(1.0 - (sigma_min / eps) ** 2))
 
 
-def dls_rates(J: ArrayLike, twist: ArrayLike, damping: float) -> FloatArray:
-    """``J^T (J J^T + damping^2 I)^-1 twist`` via the SVD (works for any m x n J)."""
-    U, s, Vt = np.linalg.svd(np.asarray(J, dtype=float), full_matrices=False)
-    gains = s / (s**2 + damping**2) if damping > 0 else _pinv_gains(s)
-    return Vt.T @ (gains * (U.T @ np.asarray(twist, dtype=float)))
-
-
 def _pinv_gains(s: FloatArray) -> FloatArray:
     # Exact inverse where s is usable; zero for numerically null directions.
     cutoff = max(s.max(initial=0.0), 1.0) * 1e-12

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from modules.geometry.transforms import clamp_twist
+
 FloatArray = NDArray[np.float64]
 
 _ZERO = np.zeros(6)
@@ -66,18 +68,6 @@ class RegisterOutput:
     def passing(self) -> bool:
         """True when the output is the (possibly clamped) command, not a forced zero."""
         return not self.zero_reason
-
-
-def clamp_twist(twist: ArrayLike, max_linear: float, max_angular: float) -> tuple[FloatArray, bool]:
-    """Scale the linear and the angular part of ``[v; w]`` to at most the given norms."""
-    xi = np.array(twist, dtype=float).reshape(6)
-    clamped = False
-    for part, limit in ((slice(0, 3), max_linear), (slice(3, 6), max_angular)):
-        norm = float(np.linalg.norm(xi[part]))
-        if norm > limit:
-            xi[part] *= limit / norm
-            clamped = True
-    return xi, clamped
 
 
 class VelocityRegister:

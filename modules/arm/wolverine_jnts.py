@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from msgspec.structs import replace
 
 from connectors import Input, Module, Output, UserError, from_param, param
 from connectors.messages import JointRates, JointState, Status, Text
@@ -74,23 +75,15 @@ class WolverineJnts(Module):
         if not self._started:
             return
         reading = self.backend.read(now)
-        self.joint_state.send(
-            JointState(
-                names=self._names,
-                position=reading.position,
-                velocity=reading.velocity,
-                gripper=0.0 if np.isnan(reading.gripper) else reading.gripper,
-            )
+        state = JointState(
+            names=self._names,
+            position=reading.position,
+            velocity=reading.velocity,
+            gripper=0.0 if np.isnan(reading.gripper) else reading.gripper,
         )
+        self.joint_state.send(state)
         if reading.true_position is not None:
-            self.true_joint_state.send(
-                JointState(
-                    names=self._names,
-                    position=reading.true_position,
-                    velocity=reading.velocity,
-                    gripper=0.0 if np.isnan(reading.gripper) else reading.gripper,
-                )
-            )
+            self.true_joint_state.send(replace(state, position=reading.true_position))
         rates, problem = self._command(now)
         accepted = self.backend.command(rates, now)
         gripper = self.gripper_in.get(now)

@@ -57,6 +57,7 @@ class CamCalib(Module):
     def start(self) -> None:
         path = Path(self.params.calibration_file) if self.params.calibration_file else REPORT_FILE
         self.table: ZoomTable = load_zoom_table(path, self.params.camera or None)
+        self._range = (float(self.table.zooms[0]), float(self.table.zooms[-1]))
         self._last_zoom: float | None = None
         self._computed = 0
         self._clamped = 0
@@ -92,7 +93,7 @@ class CamCalib(Module):
         )
 
     def _clamp(self, zoom: float) -> float:
-        low, high = float(self.table.zooms[0]), float(self.table.zooms[-1])
+        low, high = self._range
         if low <= zoom <= high:
             return zoom
         self._clamped += 1

@@ -28,10 +28,11 @@ import yaml
 from connectors.errors import UserError
 from modules.calib import yaml_nodes as yn
 from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import invert_transform, rotation_from_xyz, transform
+from modules.calib.rotations import invert_transform
 from modules.calib.yaml_nodes import SpotError
 from modules.calib.zoom_interp import DEFAULT_METHOD, METHODS
 from modules.calib.zoom_io import load_zoom_table
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 INTRINSIC_REQUIRED = ("fx", "fy", "u0", "v0")
 INTRINSIC_OPTIONAL = ("skew", "k1", "k2", "p1", "p2", "k3")
@@ -41,7 +42,7 @@ def _pose(node: yaml.Node, what: str) -> np.ndarray:
     fields = yn.mapping(node, what, ("xyz",), ("rpy_deg",))
     xyz = yn.numbers(fields["xyz"], f"{what}.xyz", 3)
     rpy = yn.numbers(fields["rpy_deg"], f"{what}.rpy_deg", 3) if "rpy_deg" in fields else [0] * 3
-    return transform(rotation_from_xyz(np.radians(rpy)), xyz)
+    return transform_from_xyz_rpy_deg(xyz, rpy)
 
 
 def _inline(fields: dict[str, yaml.Node]) -> PinholeCamera:
@@ -53,8 +54,8 @@ def _inline(fields: dict[str, yaml.Node]) -> PinholeCamera:
     distortion = [get.get(k, 0.0) for k in ("k1", "k2", "p1", "p2", "k3")]
     if "pose" not in fields:
         raise SpotError.at(fields["intrinsics"], "a camera with intrinsics needs a 'pose'")
-    T_cam_ref = invert_transform(_pose(fields["pose"], "pose"))
-    return PinholeCamera(intrinsics, T_cam_ref[:3, :3], T_cam_ref[:3, 3], distortion)
+    camera = PinholeCamera(intrinsics, distortion=distortion)
+    return camera.with_extrinsic_matrix(invert_transform(_pose(fields["pose"], "pose")))
 
 
 def _from_zoom_file(fields: dict[str, yaml.Node], base: Path) -> PinholeCamera:
@@ -73,12 +74,8 @@ def _from_zoom_file(fields: dict[str, yaml.Node], base: Path) -> PinholeCamera:
         in_mount = table.sample(zoom, method).camera()
     except ValueError as error:
         raise SpotError.at(fields["zoom"], str(error)) from None
-    T_cam_ref = transform(in_mount.R, in_mount.d) @ invert_transform(
-        _pose(fields["mount_pose"], "mount_pose")
-    )
-    return PinholeCamera(
-        in_mount.intrinsics, T_cam_ref[:3, :3], T_cam_ref[:3, 3], in_mount.distortion
-    )
+    T_mount_ref = invert_transform(_pose(fields["mount_pose"], "mount_pose"))
+    return in_mount.with_extrinsic_matrix(in_mount.extrinsic_matrix() @ T_mount_ref)
 
 
 def parse_cameras(

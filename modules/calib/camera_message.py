@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from connectors.messages import CameraModel
 from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import invert_transform, transform
+from modules.calib.rotations import invert_transform
 
 
 def camera_message(
@@ -37,7 +37,7 @@ def camera_message(
         dist=camera.distortion.copy(),
         width=width,
         height=height,
-        T_mount_camera=invert_transform(transform(camera.R, camera.d)),
+        T_mount_camera=invert_transform(camera.extrinsic_matrix()),
         mount=mount,
         frame=frame,
         zoom=float(zoom),
@@ -52,6 +52,6 @@ def pinhole_from_message(
     T_ref_camera = np.asarray(message.T_mount_camera, dtype=float)
     if T_ref_mount is not None:
         T_ref_camera = np.asarray(T_ref_mount, dtype=float) @ T_ref_camera
-    T_camera_ref = invert_transform(T_ref_camera)
     intrinsics = Intrinsics(message.fx, message.fy, message.skew, message.u0, message.v0)
-    return PinholeCamera(intrinsics, T_camera_ref[:3, :3], T_camera_ref[:3, 3], message.dist)
+    camera = PinholeCamera(intrinsics, distortion=message.dist)
+    return camera.with_extrinsic_matrix(invert_transform(T_ref_camera))

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from modules.calib.distortion import distort_normalized, undistort_normalized
-from modules.calib.rotations import rotation_from_vector, vector_from_rotation
+from modules.calib.rotations import rotation_from_vector, transform, vector_from_rotation
 
 FloatArray = NDArray[np.float64]
 
@@ -111,6 +111,15 @@ class PinholeCamera:
 
     def with_distortion(self, distortion: ArrayLike) -> PinholeCamera:
         return replace(self, distortion=np.asarray(distortion, dtype=float))
+
+    def extrinsic_matrix(self) -> FloatArray:
+        """``T_cam_ref``: the 4x4 of ``R, d`` (reference-frame points into the camera frame)."""
+        return transform(self.R, self.d)
+
+    def with_extrinsic_matrix(self, T_cam_ref: ArrayLike) -> PinholeCamera:
+        """The same intrinsics and distortion with extrinsics from a 4x4 ``T_cam_ref``."""
+        T = np.asarray(T_cam_ref, dtype=float)
+        return replace(self, R=T[:3, :3], d=T[:3, 3])
 
     def to_camera_frame(self, points: ArrayLike) -> FloatArray:
         """Reference-frame points ``(..., 3)`` into the camera frame."""

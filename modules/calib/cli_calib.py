@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -26,7 +25,8 @@ from modules.calib.correspondences import load_correspondences
 from modules.calib.errors import CalibrationError
 from modules.calib.npnp import View, solve_npnp
 from modules.calib.refine import calibrate
-from modules.calib.rotations import rotation_from_xyz, transform, xyz_from_rotation
+from modules.calib.rotations import xyz_from_rotation
+from modules.calib.targeting import triangulate_measured
 from modules.calib.zoom_interp import DEFAULT_METHOD, METHODS
 from modules.calib.zoom_io import load_zoom_file, load_zoom_table, save_zoom_file
 from modules.calib.zoom_table import (
@@ -37,7 +37,8 @@ from modules.calib.zoom_table import (
     ZoomTable,
     table_from_samples,
 )
-from modules.geometry.rays import RayGeometryError, triangulate_pixels
+from modules.geometry.rays import RayGeometryError
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 NAME = "calib"
 HELP = "camera calibration: fit a camera, interpolate a zoom file, solve a pose, triangulate"
@@ -146,10 +147,6 @@ def main(args: argparse.Namespace) -> int:
 # -- shared formatting ---------------------------------------------------------------------------
 
 
-def _sample_dict(sample: ZoomSample) -> dict[str, Any]:
-    return sample.as_dict()
-
-
 def _camera_sample(camera: PinholeCamera, zoom: float) -> ZoomSample:
     f = camera.intrinsics
     intrinsics = [f.fx, f.fy, f.skew, f.u0, f.v0, *camera.distortion[:4]]
@@ -191,7 +188,7 @@ def _fit(args: argparse.Namespace) -> int:
     if args.output:
         _write_fit(Path(args.output), args.camera, sample, args.append)
     if args.json:
-        out = _sample_dict(sample)
+        out = sample.as_dict()
         del out["zoom"]
         print_json(
             {
@@ -238,7 +235,7 @@ def _zoom(args: argparse.Namespace) -> int:
     table = load_zoom_table(args.file, args.camera or None)
     sample = table.sample(args.at, args.method)
     if args.json:
-        print_json(_sample_dict(sample))
+        print_json(sample.as_dict())
         return 0
     print(
         f"camera {table.name!r} at zoom {args.at:g} ({args.method} interpolation; "
@@ -261,16 +258,18 @@ def _pose(args: argparse.Namespace) -> int:
                 f"{args.correspondences}:{line}: error: unknown camera {name!r} (cameras file "
                 f"{args.cameras} has {known})"
             )
-    names = [n for n in cameras if n in set(data.cameras)]
+    camera_of = np.array(data.cameras)
+    seen = set(data.cameras)
+    names = [n for n in cameras if n in seen]
     views = []
     for name in names:
-        mask = np.array([c == name for c in data.cameras])
+        mask = camera_of == name
         views.append(View(cameras[name], data.points[mask], data.pixels[mask]))
     initial = None
     if args.initial_xyz is not None or args.initial_rpy_deg is not None:
-        xyz = args.initial_xyz or [0.0, 0.0, 0.0]
-        rpy = np.radians(args.initial_rpy_deg or [0.0, 0.0, 0.0])
-        initial = transform(rotation_from_xyz(rpy), xyz)
+        initial = transform_from_xyz_rpy_deg(
+            args.initial_xyz or [0.0, 0.0, 0.0], args.initial_rpy_deg or [0.0, 0.0, 0.0]
+        )
     result = solve_npnp(views, initial)
     rpy_deg = np.degrees(xyz_from_rotation(result.R))
     per_camera = {
@@ -327,12 +326,10 @@ def _triangulate(args: argparse.Namespace) -> int:
             raise UserError(
                 f"unknown camera {name!r}; {args.cameras} has {', '.join(sorted(cameras))}"
             )
-    chosen = [cameras[name] for name, _ in pixels]
-    ideal = [camera.ideal_pixels(uv) for camera, (_, uv) in zip(chosen, pixels, strict=True)]
-    if not np.all(np.isfinite(ideal)):
-        raise UserError("a pixel lies outside its camera's distortion model")
-    result = triangulate_pixels([c.camera_matrix() for c in chosen], ideal, args.method)
-    depths = [float(c.to_camera_frame(result.point)[2]) for c in chosen]
+    # RayGeometryError (a pixel outside its lens model, degenerate rays) becomes a UserError.
+    result, depths = triangulate_measured(
+        [cameras[name] for name, _ in pixels], [uv for _, uv in pixels], args.method
+    )
     if args.json:
         print_json(
             {

@@ -139,11 +139,14 @@ def _skews(vectors: FloatArray) -> FloatArray:
 
 def initial_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
     """Starting pose for :func:`solve_npnp` (see module docstring)."""
-    prepared = _prepare(views)
+    return _initial_pose(_prepare(views))
+
+
+def _initial_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
     best = max(prepared, key=lambda p: len(p.points))
     if len(best.points) >= 4:
         return _single_view_pose(best)
-    return linear_generalized_pose(views)
+    return _linear_generalized_pose(prepared)
 
 
 def _single_view_pose(p: _Prepared) -> tuple[FloatArray, FloatArray]:
@@ -169,7 +172,10 @@ def linear_generalized_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArr
 
     Needs at least six points not all on one plane, seen from more than one camera centre.
     """
-    prepared = _prepare(views)
+    return _linear_generalized_pose(_prepare(views))
+
+
+def _linear_generalized_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
     rows, rhs = [], []
     for p in prepared:
         origin = -p.A_R.T @ p.A_t
@@ -218,7 +224,7 @@ def solve_npnp(
     """
     prepared = _prepare(views)
     if initial is None:
-        R, d = initial_pose(views)
+        R, d = _initial_pose(prepared)
     elif isinstance(initial, tuple):
         R, d = np.asarray(initial[0], dtype=float), np.asarray(initial[1], dtype=float)
     else:

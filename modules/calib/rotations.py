@@ -9,13 +9,21 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+# The project's transform helpers; re-exported here for the calibration code.
+from modules.geometry.transforms import invert_transform, skew
+
+__all__ = [
+    "invert_transform",
+    "nearest_rotation",
+    "rotation_from_vector",
+    "rotation_from_xyz",
+    "skew",
+    "transform",
+    "vector_from_rotation",
+    "xyz_from_rotation",
+]
+
 FloatArray = NDArray[np.float64]
-
-
-def skew(v: ArrayLike) -> FloatArray:
-    """Skew-symmetric matrix ``[v]_x`` with ``[v]_x w = v x w``."""
-    x, y, z = np.asarray(v, dtype=float)
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 def rotation_from_vector(rotation_vector: ArrayLike) -> FloatArray:
@@ -62,10 +70,3 @@ def transform(R: ArrayLike, d: ArrayLike) -> FloatArray:
     T[:3, :3] = np.asarray(R, dtype=float)
     T[:3, 3] = np.asarray(d, dtype=float)
     return T
-
-
-def invert_transform(T: ArrayLike) -> FloatArray:
-    """Inverse of a rigid 4x4 transform."""
-    T = np.asarray(T, dtype=float)
-    R = T[:3, :3]
-    return transform(R.T, -R.T @ T[:3, 3])

@@ -7,15 +7,34 @@ zoom cameras on pan-tilt units, each model from its own CamCalib).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import CameraModel, Pose, Scalar, Status, Vector
 from modules.calib.camera_message import pinhole_from_message
 from modules.calib.camera_model import PinholeCamera
-from modules.geometry.rays import RayGeometryError, triangulate_pixels
+from modules.geometry.rays import RayGeometryError, Triangulation, triangulate_pixels
+
+
+def triangulate_measured(
+    cameras: Sequence[PinholeCamera], pixels: Sequence[ArrayLike], method: str = "midpoint"
+) -> tuple[Triangulation, list[float]]:
+    """Triangulate one measured (distorted) pixel ``[u, v]`` per camera.
+
+    Returns the triangulation (point and gap, metres, the cameras' reference frame) and the
+    point's depth along each camera's optic axis (metres; not positive: behind that camera).
+    Raises ``RayGeometryError`` when a pixel cannot be undistorted or the rays fix no point.
+    """
+    ideal = [c.ideal_pixels(uv) for c, uv in zip(cameras, pixels, strict=True)]
+    if not np.all(np.isfinite(ideal)):
+        raise RayGeometryError("a pixel lies outside its camera's distortion model")
+    result = triangulate_pixels([c.camera_matrix() for c in cameras], ideal, method)
+    depths = [float(c.to_camera_frame(result.point)[2]) for c in cameras]
+    return result, depths
 
 
 class Targeting(Module):
@@ -73,16 +92,8 @@ class Targeting(Module):
                 self._camera(model_a, self.mount_pose_a.get(now)),
                 self._camera(model_b, self.mount_pose_b.get(now)),
             ]
-            pixels = [
-                cam.ideal_pixels(np.asarray(p.values, dtype=float).reshape(2))
-                for cam, p in zip(cameras, (pixel_a, pixel_b), strict=True)
-            ]
-            if not np.all(np.isfinite(pixels)):
-                raise RayGeometryError("a pixel lies outside its camera's distortion model")
-            result = triangulate_pixels(
-                [c.camera_matrix() for c in cameras], pixels, self.params.method
-            )
-            depths = [c.to_camera_frame(result.point)[2] for c in cameras]
+            pixels = [np.asarray(p.values, dtype=float).reshape(2) for p in (pixel_a, pixel_b)]
+            result, depths = triangulate_measured(cameras, pixels, self.params.method)
             if min(depths) <= 0:
                 raise RayGeometryError("the rays meet behind a camera")
         except (RayGeometryError, KeyError, ValueError) as error:
@@ -101,7 +112,7 @@ class Targeting(Module):
                 stage="ok" if ok else "mismatch",
                 message=f"gap {gap * 1000:.1f} mm"
                 + ("" if ok else f" > {self.params.max_gap * 1000:.1f} mm"),
-                values={"gap_m": gap, "depth_a_m": float(depths[0]), "depth_b_m": float(depths[1])},
+                values={"gap_m": gap, "depth_a_m": depths[0], "depth_b_m": depths[1]},
             )
         )
 

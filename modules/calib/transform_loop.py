@@ -30,7 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from modules.calib.camera_model import PinholeCamera
 from modules.calib.npnp import PoseResult, View, solve_npnp
-from modules.calib.rotations import invert_transform, transform
+from modules.calib.rotations import invert_transform
+from modules.geometry.transforms import transform_points
 
 FloatArray = NDArray[np.float64]
 
@@ -49,9 +50,8 @@ class Snapshot:
 
 def camera_from_world(snapshot: Snapshot, T_world_dev: ArrayLike) -> FloatArray:
     """``T_cam_world = T_ext . T_kin^-1 . T_dev^-1`` for a snapshot (4x4)."""
-    T_cam_mount = transform(snapshot.camera.R, snapshot.camera.d)
     return (
-        T_cam_mount
+        snapshot.camera.extrinsic_matrix()
         @ invert_transform(snapshot.T_dev_mount)
         @ invert_transform(np.asarray(T_world_dev, dtype=float))
     )
@@ -60,14 +60,7 @@ def camera_from_world(snapshot: Snapshot, T_world_dev: ArrayLike) -> FloatArray:
 def project_loop(snapshot: Snapshot, T_world_dev: ArrayLike, T_world_obj: ArrayLike) -> FloatArray:
     """Pixels of the snapshot's object points through the whole loop (equation 31)."""
     T_cam_obj = camera_from_world(snapshot, T_world_dev) @ np.asarray(T_world_obj, dtype=float)
-    camera = PinholeCamera(
-        snapshot.camera.intrinsics, T_cam_obj[:3, :3], T_cam_obj[:3, 3], snapshot.camera.distortion
-    )
-    return camera.project(snapshot.points_obj)
-
-
-def _with_extrinsics(camera: PinholeCamera, T_cam_ref: FloatArray) -> PinholeCamera:
-    return PinholeCamera(camera.intrinsics, T_cam_ref[:3, :3], T_cam_ref[:3, 3], camera.distortion)
+    return snapshot.camera.with_extrinsic_matrix(T_cam_obj).project(snapshot.points_obj)
 
 
 def solve_object_pose(
@@ -77,7 +70,11 @@ def solve_object_pose(
 ) -> PoseResult:
     """``T_world_obj`` from snapshots with the device pose known (``PoseResult.T``)."""
     views = [
-        View(_with_extrinsics(s.camera, camera_from_world(s, T_world_dev)), s.points_obj, s.pixels)
+        View(
+            s.camera.with_extrinsic_matrix(camera_from_world(s, T_world_dev)),
+            s.points_obj,
+            s.pixels,
+        )
         for s in snapshots
     ]
     return solve_npnp(views, initial_T_world_obj)
@@ -89,12 +86,11 @@ def solve_device_pose(
     initial_T_world_dev: ArrayLike | None = None,
 ) -> PoseResult:
     """``T_world_dev`` from snapshots of a known object (``PoseResult.T``; residuals as solved)."""
-    T_world_obj = np.asarray(T_world_obj, dtype=float)
     views = []
     for s in snapshots:
-        T_cam_dev = transform(s.camera.R, s.camera.d) @ invert_transform(s.T_dev_mount)
-        points_world = s.points_obj @ T_world_obj[:3, :3].T + T_world_obj[:3, 3]
-        views.append(View(_with_extrinsics(s.camera, T_cam_dev), points_world, s.pixels))
+        T_cam_dev = s.camera.extrinsic_matrix() @ invert_transform(s.T_dev_mount)
+        points_world = transform_points(T_world_obj, s.points_obj)
+        views.append(View(s.camera.with_extrinsic_matrix(T_cam_dev), points_world, s.pixels))
     initial = None if initial_T_world_dev is None else invert_transform(initial_T_world_dev)
     T_dev_world = solve_npnp(views, initial)
     T = invert_transform(T_dev_world.T)

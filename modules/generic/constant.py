@@ -16,8 +16,11 @@ class Constant(Module):
 
     output = Output(Scalar, doc="the constant")
 
+    def start(self) -> None:
+        self._sample = Scalar(value=self.params.value)
+
     def step(self, now: float) -> None:
-        self.output.send(Scalar(value=self.params.value))
+        self.output.send(self._sample)  # send stamps a copy; the unstamped template stays
 
 
 class TwistSource(Module):
@@ -32,7 +35,8 @@ class TwistSource(Module):
     twist = Output(Twist, frame=from_param("frame"), doc="the constant twist")
 
     def start(self) -> None:
-        self._vector = np.asarray(self.params.twist, dtype=float)
+        vector = np.asarray(self.params.twist, dtype=float)
+        self._sample = Twist(vector=vector, frame=self.params.frame)
 
     def step(self, now: float) -> None:
-        self.twist.send(Twist(vector=self._vector, frame=self.params.frame))
+        self.twist.send(self._sample)

@@ -39,6 +39,7 @@ class Printer(Module):
     value = Input(Message, trigger=True, doc="any sample")
 
     def start(self) -> None:
+        self._interval = 1.0 / self.params.max_rate_hz
         self._last = -float("inf")
         self.printed = 0
         self.seen = 0
@@ -48,7 +49,7 @@ class Printer(Module):
         if sample is None or not self.value.fresh:
             return
         self.seen += 1
-        if now - self._last >= 1.0 / self.params.max_rate_hz:
+        if now - self._last >= self._interval:
             self._last = now
             self.printed += 1
             print(f"[{self.name}] {format_sample(sample, self.params.precision)}", flush=True)

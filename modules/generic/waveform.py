@@ -8,6 +8,13 @@ from typing import Literal
 from connectors import Module, Output, Parameters, param
 from connectors.messages import Scalar
 
+#: Periodic waveforms as functions of the angle 2π f t + phase [rad]; values in [-1, 1].
+PERIODIC = {
+    "sine": math.sin,
+    "square": lambda angle: 1.0 if math.sin(angle) >= 0 else -1.0,
+    "triangle": lambda angle: 2 / math.pi * math.asin(math.sin(angle)),
+}
+
 
 class Signal(Module):
     """offset + amplitude * waveform(2π f t + phase); ``step`` jumps from offset at ``t_step``."""
@@ -25,19 +32,16 @@ class Signal(Module):
 
     def start(self) -> None:
         self._t0: float | None = None
+        self._omega = 2 * math.pi * self.params.frequency_hz
+        self._periodic = PERIODIC.get(self.params.waveform)  # None: the step
 
     def step(self, now: float) -> None:
         if self._t0 is None:
             self._t0 = now
         p = self.params
         t = now - self._t0
-        angle = 2 * math.pi * p.frequency_hz * t + p.phase
-        if p.waveform == "sine":
-            shape = math.sin(angle)
-        elif p.waveform == "square":
-            shape = 1.0 if math.sin(angle) >= 0 else -1.0
-        elif p.waveform == "triangle":
-            shape = 2 / math.pi * math.asin(math.sin(angle))
+        if self._periodic is not None:
+            shape = self._periodic(self._omega * t + p.phase)
         else:
             shape = 1.0 if t >= p.t_step else 0.0
         value = p.offset + p.amplitude * shape

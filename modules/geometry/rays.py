@@ -35,6 +35,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from modules.geometry.transforms import skew
+
 FloatArray = NDArray[np.float64]
 
 #: Rays whose directions have ``1 - cos^2(angle) < PARALLEL_TOLERANCE`` are treated as parallel.
@@ -282,9 +284,9 @@ def fundamental_matrix(P_a: ArrayLike, P_b: ArrayLike) -> FloatArray:
     Pb = _as_camera_matrix(P_b)
     centre_a = np.append(camera_centre(Pa), 1.0)
     epipole = Pb @ centre_a
-    if np.linalg.norm(Pb @ centre_a) < 1e-12 * np.linalg.norm(Pb) * np.linalg.norm(centre_a):
+    if np.linalg.norm(epipole) < 1e-12 * np.linalg.norm(Pb) * np.linalg.norm(centre_a):
         raise RayGeometryError("the two cameras share their centre: no epipolar geometry")
-    F = _skew(epipole) @ Pb @ np.linalg.pinv(Pa)
+    F = skew(epipole) @ Pb @ np.linalg.pinv(Pa)
     return F / np.linalg.norm(F)
 
 
@@ -319,7 +321,3 @@ def line_distance(lines: ArrayLike, pixels: ArrayLike) -> FloatArray:
     lines = np.asarray(lines, dtype=float)
     uv = np.asarray(pixels, dtype=float)
     return lines[..., 0] * uv[..., 0] + lines[..., 1] * uv[..., 1] + lines[..., 2]
-
-
-def _skew(v: FloatArray) -> FloatArray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])

@@ -194,6 +194,22 @@ def twist_camera_from_tool(T_tool_camera: ArrayLike, tool_twist: ArrayLike) -> F
     return twist_tool_from_camera(invert_transform(T_tool_camera), tool_twist)
 
 
+def clamp_twist(twist: ArrayLike, max_linear: float, max_angular: float) -> tuple[FloatArray, bool]:
+    """Scale the linear and the angular part of ``[v; w]`` to at most the given norms.
+
+    Each part is scaled as a vector, so its direction is kept. Returns a new twist and whether
+    either limit scaled it.
+    """
+    xi = np.array(twist, dtype=float).reshape(6)
+    clamped = False
+    for part, limit in ((slice(0, 3), max_linear), (slice(3, 6), max_angular)):
+        norm = float(np.linalg.norm(xi[part]))
+        if norm > limit:
+            xi[part] *= limit / norm
+            clamped = True
+    return xi, clamped
+
+
 def twist_matrix(twist: ArrayLike) -> FloatArray:
     """4x4 ``hat(xi)`` of a twist ``[v; w]``: ``[[ [w]x, v ], [0, 0]]``."""
     xi = np.asarray(twist, dtype=float).reshape(-1)

@@ -53,6 +53,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from modules.geometry.transforms import transform_from_rotation_translation
+
 FloatArray = NDArray[np.float64]
 
 #: Rotation of T6 in LAB at zero joint angles: columns X6 = -Z, Y6 = +X, Z6 = -Y (section 3.2).
@@ -116,10 +118,7 @@ def transform_from_relative_location(location: ArrayLike) -> FloatArray:
         location: (X, Y, Z) metres, (O, A, T) radians.
     """
     x, y, z, o, a, t = _as_location(location)
-    T = np.eye(4)
-    T[:3, :3] = oat_rotation(o, a, t)
-    T[:3, 3] = (x, y, z)
-    return T
+    return transform_from_rotation_translation(oat_rotation(o, a, t), (x, y, z))
 
 
 def relative_location_from_transform(T: ArrayLike) -> FloatArray:
@@ -135,10 +134,7 @@ def transform_from_location(location: ArrayLike) -> FloatArray:
     ``Trans(X, Y, Z) @ Rot_z(-90) @ Rot_y(90) @ Rot_x(-O) @ Rot_y(A) @ Rot_z(T)``.
     """
     x, y, z, o, a, t = _as_location(location)
-    T = np.eye(4)
-    T[:3, :3] = R_LAB_T6_AT_REST @ oat_rotation(o, a, t)
-    T[:3, 3] = (x, y, z)
-    return T
+    return transform_from_rotation_translation(R_LAB_T6_AT_REST @ oat_rotation(o, a, t), (x, y, z))
 
 
 def location_from_transform(T_lab_tool: ArrayLike) -> FloatArray:

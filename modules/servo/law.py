@@ -22,8 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
+from modules.geometry.transforms import clamp_twist
 from modules.servo.features import MomentFeatures, wrap_roll_error
 
 FloatArray = NDArray[np.float64]
@@ -65,18 +66,6 @@ def feature_error(features: MomentFeatures, goal: MomentFeatures) -> FloatArray:
     return e
 
 
-def saturate(camera_twist: ArrayLike, max_linear: float, max_angular: float) -> FloatArray:
-    """Scale ``[v; w]`` to ``|v| <= max_linear``, ``|w| <= max_angular``, keeping directions."""
-    xi = np.array(camera_twist, dtype=float)
-    v = float(np.linalg.norm(xi[:3]))
-    if v > max_linear:
-        xi[:3] *= max_linear / v
-    w = float(np.linalg.norm(xi[3:]))
-    if w > max_angular:
-        xi[3:] *= max_angular / w
-    return xi
-
-
 def servo_twist(
     features: MomentFeatures,
     goal: MomentFeatures,
@@ -88,4 +77,4 @@ def servo_twist(
     # L is square and invertible (det 1) on these four axes, so L^+ e = L^-1 e.
     u = -np.asarray(gains.gains) * np.linalg.solve(L, e)
     twist = np.array([u[0], u[1], u[2], 0.0, 0.0, u[3]])
-    return saturate(twist, gains.max_linear, gains.max_angular), e
+    return clamp_twist(twist, gains.max_linear, gains.max_angular)[0], e

@@ -10,6 +10,7 @@ import numpy as np
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
 from connectors.messages import CameraModel, Contour, Image, Pose
 from modules.vision.capture import CaptureError, CaptureReader, CaptureSource
+from modules.vision.contour_message import contour_message
 from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting
 from modules.vision.scene import Scene, camera_looking_down, pose
@@ -350,21 +351,8 @@ class DigiCam(Module):
 
     @staticmethod
     def _truth(polygon: np.ndarray, visible: float, now: float) -> Contour:
-        reason = f"{100 * visible:.0f}% of the patch visible"
         if len(polygon) < 3:
-            empty = np.zeros(0)
-            return Contour(
-                vertices=np.zeros((0, 2)), centroid=empty, area=0.0, orientation=0.0,
-                axes=empty, status="idle", reason="no patch in view", stamp=now,
-            )  # fmt: skip
-        features = polygon_features(polygon)
-        return Contour(
-            vertices=polygon,
-            centroid=np.array(features.centroid_uv),
-            area=features.area_px2,
-            orientation=features.orientation_rad,
-            axes=np.array([features.major_axis_px, features.minor_axis_px]),
-            status="tracking" if visible > 0 else "idle",
-            reason=reason,
-            stamp=now,
-        )
+            return contour_message(np.zeros((0, 2)), None, "idle", "no patch in view", now)
+        status = "tracking" if visible > 0 else "idle"
+        reason = f"{100 * visible:.0f}% of the patch visible"
+        return contour_message(polygon, polygon_features(polygon), status, reason, now)

@@ -8,7 +8,8 @@ camera frame [m] projects to normalized (a, b) = (x/z, y/z), is distorted with O
     b_d = b radial + p1 (r² + 2 b²) + 2 p2 a b
 
 and mapped to pixels u = fx a_d + skew b_d + u0, v = fy b_d + v0 (tested against
-``cv2.projectPoints``).
+``cv2.projectPoints``). The distortion model itself is :mod:`modules.calib.distortion`'s; points
+change frames with :func:`modules.geometry.transforms.transform_points`.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from modules.calib.distortion import distort_normalized
 
 FloatArray = NDArray[np.float64]
 
@@ -60,16 +63,6 @@ class Distortion:
         return not np.any(self.as_array())
 
 
-def distort_normalized(ab: FloatArray, distortion: Distortion) -> FloatArray:
-    """Apply the distortion model to normalized coordinates (N x 2)."""
-    a, b = ab[:, 0], ab[:, 1]
-    r2 = a * a + b * b
-    radial = 1.0 + r2 * (distortion.k1 + r2 * (distortion.k2 + r2 * distortion.k3))
-    a_d = a * radial + 2.0 * distortion.p1 * a * b + distortion.p2 * (r2 + 2.0 * a * a)
-    b_d = b * radial + distortion.p1 * (r2 + 2.0 * b * b) + 2.0 * distortion.p2 * a * b
-    return np.column_stack([a_d, b_d])
-
-
 def project_camera_points(
     points_camera: ArrayLike, intrinsics: CameraIntrinsics, distortion: Distortion | None = None
 ) -> FloatArray:
@@ -79,22 +72,19 @@ def project_camera_points(
         raise ValueError("cannot project points at or behind the camera plane (z <= 0)")
     ab = points[:, :2] / points[:, 2:3]
     if distortion is not None and not distortion.is_zero:
-        ab = distort_normalized(ab, distortion)
+        ab = distort_normalized(ab, distortion.as_array())
     u = intrinsics.fx * ab[:, 0] + intrinsics.skew * ab[:, 1] + intrinsics.u0
     v = intrinsics.fy * ab[:, 1] + intrinsics.v0
     return np.column_stack([u, v])
 
 
-def transform_points(T_a_b: FloatArray, points_b: ArrayLike) -> FloatArray:
-    """Points (N x 3) in frame b expressed in frame a, with the 4x4 pose ``T_a_b`` [m]."""
-    points = np.asarray(points_b, dtype=np.float64).reshape(-1, 3)
-    return points @ T_a_b[:3, :3].T + T_a_b[:3, 3]
-
-
 def undistort_normalized(
     ab_distorted: FloatArray, distortion: Distortion, iterations: int = 30
 ) -> FloatArray:
-    """Invert :func:`distort_normalized` by fixed-point iteration (as OpenCV's undistortPoints)."""
+    """Invert :func:`~modules.calib.distortion.distort_normalized` by fixed-point iteration, as
+    OpenCV's undistortPoints. Unlike :func:`modules.calib.distortion.undistort_normalized`
+    (Newton, NaN where the lens folds over) it gives finite, if meaningless, values beyond the
+    fold, which the renderer's margin and remap tables can take."""
     a_d, b_d = ab_distorted[:, 0], ab_distorted[:, 1]
     a, b = a_d.copy(), b_d.copy()
     for _ in range(iterations):

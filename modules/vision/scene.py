@@ -23,14 +23,14 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from modules.geometry.transforms import transform_points
 from modules.vision.lighting import Lighting, Sensor
-from modules.vision.polygon import inset_convex, is_convex
+from modules.vision.polygon import inset_convex, is_convex, signed_area
 from modules.vision.projection import (
     CameraIntrinsics,
     Distortion,
     ideal_pixels_of_distorted_grid,
     project_camera_points,
-    transform_points,
 )
 
 FloatArray = NDArray[np.float64]
@@ -108,6 +108,15 @@ class Scene:
     occluders: tuple[Occluder, ...] = ()
 
 
+#: Unit direction, in the patch's xy plane, of each named patch side.
+SIDE_AXES: dict[str, tuple[float, float]] = {
+    "+x": (1.0, 0.0),
+    "-x": (-1.0, 0.0),
+    "+y": (0.0, 1.0),
+    "-y": (0.0, -1.0),
+}
+
+
 def distractor_touching(
     T_world_patch: FloatArray,
     patch_size_m: tuple[float, float] = (0.06, 0.04),
@@ -122,7 +131,7 @@ def distractor_touching(
     about that point (so the two stay in contact, overlapping a little when turned).
     """
     w, h = patch_size_m
-    axis = {"+x": (1.0, 0.0), "-x": (-1.0, 0.0), "+y": (0.0, 1.0), "-y": (0.0, -1.0)}[side]
+    axis = SIDE_AXES[side]
     half_across = 0.5 * (w if axis[0] else h)
     contact = np.array([axis[0], axis[1]]) * half_across
     contact += np.array([abs(axis[1]), abs(axis[0])]) * slide_m
@@ -159,6 +168,25 @@ def patch_outline(size_m: tuple[float, float], per_edge: int) -> FloatArray:
     edges = [corners[i] + t[:, None] * (corners[(i + 1) % 4] - corners[i]) for i in range(4)]
     outline = np.vstack(edges)
     return np.column_stack([outline, np.zeros(len(outline))])
+
+
+def patch_image_outline(
+    scene: Scene,
+    T_camera_world: FloatArray,
+    intrinsics: CameraIntrinsics,
+    distortion: Distortion,
+    per_edge: int,
+) -> FloatArray | None:
+    """The patch outline in the distorted image (4 ``per_edge`` x 2 px, as
+    :attr:`RenderedFrame.patch_polygon`); None when the patch is absent or not wholly in front
+    of the camera."""
+    if not scene.patch_present:
+        return None
+    outline = transform_points(scene.T_world_patch, patch_outline(scene.patch_size_m, per_edge))
+    outline_camera = transform_points(T_camera_world, outline)
+    if np.any(outline_camera[:, 2] <= _NEAR_M):
+        return None
+    return project_camera_points(outline_camera, intrinsics, distortion)
 
 
 def _rectangle_3d(center_xy: ArrayLike, size: tuple[float, float], yaw: float, z: float):
@@ -422,14 +450,13 @@ class SceneRenderer:
         )
 
     def _with_ground_truth(self, scene, T_camera_world, image, labels, per_edge) -> RenderedFrame:
-        outline = transform_points(scene.T_world_patch, patch_outline(scene.patch_size_m, per_edge))
-        outline_camera = transform_points(T_camera_world, outline)
-        if not scene.patch_present or np.any(outline_camera[:, 2] <= _NEAR_M):
+        polygon = patch_image_outline(
+            scene, T_camera_world, self.intrinsics, self.distortion, per_edge
+        )
+        if polygon is None:
             empty = np.empty((0, 2))
             return RenderedFrame(image, empty, empty, 0.0, labels)
-        polygon = project_camera_points(outline_camera, self.intrinsics, self.distortion)
-        u, v = polygon[:, 0], polygon[:, 1]
-        area = 0.5 * abs(float(np.dot(u, np.roll(v, -1)) - np.dot(np.roll(u, -1), v)))
+        area = abs(signed_area(polygon))
         seen = float(np.count_nonzero(labels == LABEL_PATCH))
         visible = min(seen / area, 1.0) if area > 0 else 0.0
         return RenderedFrame(image, polygon, polygon[::per_edge].copy(), visible, labels)

@@ -20,21 +20,19 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from modules.geometry.transforms import transform_points
 from modules.vision.lighting import Lighting
-from modules.vision.projection import (
-    CameraIntrinsics,
-    Distortion,
-    project_camera_points,
-    transform_points,
-)
+from modules.vision.polygon import signed_area
+from modules.vision.projection import CameraIntrinsics, Distortion
 from modules.vision.scene import (
     RGB,
+    SIDE_AXES,
     Occluder,
     RenderedFrame,
     Scene,
     SceneRenderer,
     distractor_touching,
-    patch_outline,
+    patch_image_outline,
 )
 
 FloatArray = NDArray[np.float64]
@@ -49,17 +47,8 @@ OCCLUDER_GAP_M = 0.005
 OCCLUDER_MARGIN_M = 0.01
 #: Height of the occluder above the patch plane, along the patch's z axis [m].
 OCCLUDER_LIFT_M = 0.002
-#: Closest vertex depth for a patch outline to be in front of the camera [m] (as the renderer).
-_NEAR_M = 1e-3
 #: Tolerance on the fault time, so that a clock that sums steps reaches it on time [s].
 _TIME_EPS_S = 1e-9
-
-_SIDE_AXES: dict[str, tuple[float, float]] = {
-    "+x": (1.0, 0.0),
-    "-x": (-1.0, 0.0),
-    "+y": (0.0, 1.0),
-    "-y": (0.0, -1.0),
-}
 
 
 def occluder_over_patch(
@@ -83,7 +72,7 @@ def occluder_over_patch(
     """
     if travel_m < 0:
         raise ValueError(f"occluder travel must be >= 0, got {travel_m}")
-    ax, ay = _SIDE_AXES[side]
+    ax, ay = SIDE_AXES[side]
     w, h = patch_size_m
     half_along = 0.5 * (w if ax else h)
     half_across = 0.5 * (h if ax else w) + margin_m
@@ -124,7 +113,7 @@ class SceneFault:
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS:
             raise ValueError(f"fault kind must be one of {', '.join(FAULT_KINDS)}, got {self.kind}")
-        if self.side not in _SIDE_AXES:
+        if self.side not in SIDE_AXES:
             raise ValueError(f"fault side must be one of +x -x +y -y, got {self.side}")
         if not self.at_s >= 0:
             raise ValueError(f"fault time must be >= 0 s, got {self.at_s}")
@@ -217,25 +206,18 @@ class SimulatedCamera:
         """The patch outline in the distorted image (4 ``per_edge`` x 2 px, as
         :attr:`RenderedFrame.patch_polygon`) and the share of its area inside the image, without
         rendering (occlusion is not known). Empty and 0 when the patch is absent or behind."""
-        if not scene.patch_present:
+        polygon = patch_image_outline(
+            scene, np.linalg.inv(T_world_camera), spec.intrinsics, spec.distortion, per_edge
+        )
+        if polygon is None:
             return np.empty((0, 2)), 0.0
-        outline = transform_points(scene.T_world_patch, patch_outline(scene.patch_size_m, per_edge))
-        outline_camera = transform_points(np.linalg.inv(T_world_camera), outline)
-        if np.any(outline_camera[:, 2] <= _NEAR_M):
-            return np.empty((0, 2)), 0.0
-        polygon = project_camera_points(outline_camera, spec.intrinsics, spec.distortion)
-        area = _area(polygon)
+        area = abs(signed_area(polygon))
         if area <= 0:
             return polygon, 0.0
         inside = _clip_to_box(
             polygon, (-0.5, -0.5, spec.intrinsics.width - 0.5, spec.intrinsics.height - 0.5)
         )
-        return polygon, min(_area(inside) / area, 1.0) if len(inside) >= 3 else 0.0
-
-
-def _area(polygon: FloatArray) -> float:
-    u, v = polygon[:, 0], polygon[:, 1]
-    return 0.5 * abs(float(np.dot(u, np.roll(v, -1)) - np.dot(np.roll(u, -1), v)))
+        return polygon, min(abs(signed_area(inside)) / area, 1.0) if len(inside) >= 3 else 0.0
 
 
 def _clip_to_box(polygon: FloatArray, box: tuple[float, float, float, float]) -> FloatArray:

@@ -12,7 +12,7 @@ just inside the contour.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,15 +109,7 @@ class SnakeTracker:
         sanity = check_contour(result.vertices, self.limits, self._previous, self._reference)
         if result.collapsed and sanity.ok:
             reason = "snake collapsed: no target color left under it"
-            sanity = SanityResult(
-                FAILED,
-                reason,
-                (reason,),
-                sanity.offending,
-                sanity.outer_rectangle,
-                sanity.inner_ellipse,
-                sanity.features,
-            )
+            sanity = replace(sanity, status=FAILED, reason=reason, reasons=(reason,))
         if sanity.features is not None:
             self._previous = sanity.features
             if self._reference is None and sanity.ok:
@@ -125,15 +117,8 @@ class SnakeTracker:
         if self._latched is None and not sanity.ok:
             self._latched = sanity
         if self._latched is not None:
-            sanity = SanityResult(
-                FAILED,
-                self._latched.reason,
-                self._latched.reasons,
-                sanity.offending,
-                sanity.outer_rectangle,
-                sanity.inner_ellipse,
-                sanity.features,
-            )
+            latched = self._latched
+            sanity = replace(sanity, status=FAILED, reason=latched.reason, reasons=latched.reasons)
         elif self.params.adapt_rate > 0.0:
             samples = interior_samples(image, result.vertices, self.params)
             self.model = color.adapt(

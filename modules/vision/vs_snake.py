@@ -9,11 +9,12 @@ import numpy as np
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import Contour, Image, Vector
 from modules.vision import color
+from modules.vision.contour_message import contour_message
 from modules.vision.polygon import rectangle
 from modules.vision.sanity import FAILED
 from modules.vision.snake import seed_samples
 from modules.vision.snake_config import SettingsError, setting_defaults, settings_from
-from modules.vision.tracker import IDLE, SnakeTracker, TrackUpdate
+from modules.vision.tracker import IDLE, SnakeTracker
 
 _DEFAULTS = setting_defaults()
 
@@ -184,7 +185,7 @@ class VsSnake(Module):
         if sample is None:
             return
         if sample.stale:
-            self.contour.send(self._empty(FAILED, "camera image is stale", sample.stamp))
+            self.contour.send(_empty(FAILED, "camera image is stale", sample.stamp))
             return
         pixels = np.asarray(sample.pixels)
         if pixels.ndim != 3 or pixels.shape[2] != 3 or pixels.dtype != np.uint8:
@@ -198,13 +199,13 @@ class VsSnake(Module):
                 self._failures += 1
                 self.log.warning("%s: snake failed: %s", self.name, reason)
             self._was_failed = True
-            self.contour.send(self._empty(FAILED, reason, sample.stamp))
+            self.contour.send(_empty(FAILED, reason, sample.stamp))
             return
         if self._pending is not None:
             self._seed(pixels, self._pending)
             self._pending = None
         if not self._tracker.seeded:
-            self.contour.send(self._empty(IDLE, "waiting for a seed", sample.stamp))
+            self.contour.send(_empty(IDLE, "waiting for a seed", sample.stamp))
             return
         update = self._tracker.update(pixels)
         self._frames += 1
@@ -215,7 +216,17 @@ class VsSnake(Module):
             self._failures += 1
             self.log.warning("%s: snake failed: %s", self.name, update.sanity.reason)
         self._was_failed = failed
-        self.contour.send(self._contour(update, sample.stamp))
+        sanity = update.sanity
+        self.contour.send(
+            contour_message(
+                update.vertices,
+                sanity.features,
+                sanity.status,
+                sanity.reason,
+                sample.stamp,
+                sanity.offending,
+            )
+        )
 
     def _seed(self, pixels: np.ndarray, seed: list[float]) -> None:
         try:
@@ -237,44 +248,6 @@ class VsSnake(Module):
             return
         self._was_failed = False
 
-    @staticmethod
-    def _empty(status: str, reason: str, stamp: float) -> Contour:
-        empty = np.zeros(0)
-        return Contour(
-            vertices=np.zeros((0, 2)),
-            centroid=empty,
-            area=0.0,
-            orientation=0.0,
-            axes=empty,
-            status=status,
-            reason=reason,
-            stamp=stamp,
-        )
 
-    @staticmethod
-    def _contour(update: TrackUpdate, stamp: float) -> Contour:
-        features = update.features
-        sanity = update.sanity
-        if features is None:
-            return Contour(
-                vertices=update.vertices,
-                centroid=np.zeros(0),
-                area=0.0,
-                orientation=0.0,
-                axes=np.zeros(0),
-                status=sanity.status,
-                reason=sanity.reason,
-                offending=sanity.offending.astype(np.int64),
-                stamp=stamp,
-            )
-        return Contour(
-            vertices=update.vertices,
-            centroid=np.array(features.centroid_uv),
-            area=features.area_px2,
-            orientation=features.orientation_rad,
-            axes=np.array([features.major_axis_px, features.minor_axis_px]),
-            status=sanity.status,
-            reason=sanity.reason,
-            offending=sanity.offending.astype(np.int64),
-            stamp=stamp,
-        )
+def _empty(status: str, reason: str, stamp: float) -> Contour:
+    return contour_message(np.zeros((0, 2)), None, status, reason, stamp)

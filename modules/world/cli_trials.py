@@ -137,7 +137,8 @@ def _from_dict(row: dict[str, Any]) -> TrialResult:
 def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
     """Safety figures of failure-injection trials."""
 
-    def stats(values: list[float]) -> dict[str, float | None]:
+    def stats(key: str) -> dict[str, float | None]:
+        values = [r.safety[key] for r in results if key in r.safety]
         if not values:
             return {"median": None, "max": None}
         return {"median": float(np.median(values)), "max": float(np.max(values))}
@@ -148,27 +149,9 @@ def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
         "stopped_safely": len(safe),
         "stopped_safely_rate": len(safe) / len(results) if results else 0.0,
         "grasps": sum(r.grasped for r in results),
-        "time_to_zero_command_s": stats(
-            [
-                r.safety["time_to_zero_command_s"]
-                for r in results
-                if "time_to_zero_command_s" in r.safety
-            ]
-        ),
-        "time_to_standstill_s": stats(
-            [
-                r.safety["time_to_standstill_s"]
-                for r in results
-                if "time_to_standstill_s" in r.safety
-            ]
-        ),
-        "travel_after_fault_mm": stats(
-            [
-                r.safety["travel_after_fault_mm"]
-                for r in results
-                if "travel_after_fault_mm" in r.safety
-            ]
-        ),
+        "time_to_zero_command_s": stats("time_to_zero_command_s"),
+        "time_to_standstill_s": stats("time_to_standstill_s"),
+        "travel_after_fault_mm": stats("travel_after_fault_mm"),
         "reasons": sorted({r.assist_reason for r in results if r.assist_reason})[:10],
     }
 

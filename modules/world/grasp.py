@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from modules.servo.features import wrap_roll_error
+
 FloatArray = NDArray[np.float64]
 
 #: R_patch_tool at a perfect grasp: x along the patch's x, z into the patch (Rx(π)).
@@ -39,18 +41,12 @@ class GraspError:
         return float(np.degrees(self.roll))
 
 
-def wrap_half_turn(angle: float) -> float:
-    """``angle`` wrapped into (-π/2, π/2] (a rectangle's orientation is defined modulo π)."""
-    wrapped = (angle + np.pi / 2) % np.pi - np.pi / 2
-    return float(np.pi / 2 if wrapped == -np.pi / 2 else wrapped)
-
-
 def grasp_error(T_base_tool: FloatArray, T_base_patch: FloatArray) -> GraspError:
     """How far the gripper's tool frame is from a perfect grasp of the patch."""
     T_patch_tool = np.linalg.inv(T_base_patch) @ T_base_tool
     offset = T_patch_tool[:3, 3]
     R = T_patch_tool[:3, :3] @ R_PATCH_TOOL_GRASP.T  # identity at a perfect grasp
-    roll = wrap_half_turn(float(np.arctan2(R[1, 0], R[0, 0])))
+    roll = wrap_roll_error(float(np.arctan2(R[1, 0], R[0, 0])))  # modulo π
     approach = T_patch_tool[:3, 2]  # tool z in patch coordinates, ideally (0, 0, -1)
     tilt = float(np.arccos(np.clip(-approach[2], -1.0, 1.0)))
     return GraspError(float(np.linalg.norm(offset)), roll, tilt, tuple(float(v) for v in offset))

@@ -8,6 +8,8 @@ the tool moved meanwhile. It never acts on the arm.
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
 from connectors import Input, Module, UserError, param
@@ -37,7 +39,9 @@ class SafetyMonitor(Module):
             raise UserError(
                 f"SafetyMonitor `{self.name}` needs the static frame flange->tool: {exc}"
             ) from None
-        self._rows: list[tuple[float, float, float, float, float, float]] = []
+        self._rows: deque[tuple[float, float, float, float, float, float]] = deque(
+            maxlen=self.params.max_samples
+        )
 
     def step(self, now: float) -> None:
         state = self.true_state.get(now)
@@ -48,8 +52,6 @@ class SafetyMonitor(Module):
         speed = float(np.max(np.abs(state.velocity))) if np.size(state.velocity) else 0.0
         tool = (self.params.table.fk(state.position) @ self.T_flange_tool)[:3, 3]
         self._rows.append((now, command, speed, float(tool[0]), float(tool[1]), float(tool[2])))
-        if len(self._rows) > self.params.max_samples:
-            del self._rows[: len(self._rows) - self.params.max_samples]
 
     def record(self) -> np.ndarray:
         """Rows ``[t, max |rate command|, max |joint speed|, x, y, z]`` (s, rad/s, m)."""
@@ -59,5 +61,6 @@ class SafetyMonitor(Module):
         rows = self.record()
         return {
             "samples": len(rows),
+            "still_speed": self.params.still_speed,
             "record": [[round(v, 6) for v in row] for row in rows.tolist()],
         }

@@ -106,21 +106,24 @@ def _result(
     graph: TrialGraph,
     setup: TrialSetup,
     summaries: dict[str, dict[str, Any]],
-    tolerance: tuple[float, float],
-    t_fault: float | None,
+    t_fault: float | None = None,
 ) -> TrialResult:
+    """The trial's result from the module summaries. ``t_fault``: when the fault was injected
+    from outside (default: the camera's ``fault_started_at``)."""
     n = graph.names
     world = summaries.get(n["world"], {})
     servo = summaries.get(n["servo"], {})
     register = summaries.get(n.get("register", ""), {})
+    if t_fault is None:
+        t_fault = summaries.get(n["camera"], {}).get("fault_started_at")
     err = graph.open_loop(setup)
-    ol_ok = (
-        err is not None and err.position_mm <= tolerance[0] and abs(err.roll_deg) <= tolerance[1]
-    )
+    position_mm, roll_deg = graph.tolerance
+    ol_ok = err is not None and err.position_mm <= position_mm and abs(err.roll_deg) <= roll_deg
     safety: dict[str, Any] = {}
     monitor = summaries.get(n.get("monitor", ""), {})
     if setup.fault != "none" and t_fault is not None and monitor.get("record"):
-        safety = stop_figures(np.asarray(monitor["record"], dtype=float), t_fault)
+        record = np.asarray(monitor["record"], dtype=float)
+        safety = stop_figures(record, t_fault, monitor.get("still_speed", 1e-3))
     assist = servo.get("assist_reason", "") or ""
     if setup.fault == "kill_umbra":
         assist = register.get("last_zero_reason", "") or assist
@@ -156,8 +159,7 @@ def run_single(
     options = SchedulerOptions(clock="sim", duration=timeout_s + 1.0, output_dir=out_dir)
     result = run_process(plan, options)
     summaries = {m.name: m.extra for m in result.modules}
-    t_fault = summaries.get(graph.names["camera"], {}).get("fault_started_at")
-    return _result(graph, setup, summaries, graph.tolerance, t_fault)
+    return _result(graph, setup, summaries)
 
 
 def run_split(
@@ -229,9 +231,7 @@ def run_split(
         data = json.loads(path.read_text())
         for m in data.get("modules", []):
             summaries[m["module"]] = m
-    if t_fault is None:
-        t_fault = summaries.get(graph.names["camera"], {}).get("fault_started_at")
-    return _result(graph, setup, summaries, graph.tolerance, t_fault)
+    return _result(graph, setup, summaries, t_fault)
 
 
 __all__ = ["Nominal", "TrialGraph", "run_single", "run_split"]

@@ -132,9 +132,10 @@ class TrialResult:
         return asdict(self)
 
 
-def stop_figures(record: np.ndarray, t_fault: float) -> dict[str, Any]:
+def stop_figures(record: np.ndarray, t_fault: float, still_speed: float = 1e-3) -> dict[str, Any]:
     """From a SafetyMonitor record (rows t, |command|, |speed|, x, y, z) and the fault time:
-    time to zero rate commands, time to standstill, tool travel after the fault [mm]."""
+    time to zero rate commands, time to standstill (every joint slower than ``still_speed``
+    [rad/s]), tool travel after the fault [mm]."""
     if record.size == 0:
         return {"stopped": False, "why": "no record"}
     t, command, speed, xyz = record[:, 0], record[:, 1], record[:, 2], record[:, 3:6]
@@ -143,14 +144,14 @@ def stop_figures(record: np.ndarray, t_fault: float) -> dict[str, Any]:
         return {"stopped": False, "why": "record ends before the fault"}
     i0 = int(np.argmax(after))
     zero_cmd = np.flatnonzero(command[i0:] == 0.0)
-    still = np.flatnonzero(speed[i0:] < 1e-3)
+    still = np.flatnonzero(speed[i0:] < still_speed)
     out: dict[str, Any] = {"t_fault": t_fault}
     # the command must stay zero from some tick to the end of the record
     if zero_cmd.size and np.all(command[i0 + zero_cmd[0] :] == 0.0):
         out["time_to_zero_command_s"] = float(t[i0 + zero_cmd[0]] - t_fault)
     if still.size:
-        first_still = i0 + int(still[np.searchsorted(still, 0)])
-        settled = np.flatnonzero(speed[first_still:] >= 1e-3)
+        first_still = i0 + int(still[0])
+        settled = np.flatnonzero(speed[first_still:] >= still_speed)
         if settled.size == 0:
             out["time_to_standstill_s"] = float(t[first_still] - t_fault)
     out["travel_after_fault_mm"] = float(np.linalg.norm(xyz[-1] - xyz[i0]) * 1e3)

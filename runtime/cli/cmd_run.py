@@ -68,12 +68,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
-    plan = load_graph(args.graph, overrides=parse_module_set(args.set))
-    if args.prefix:
-        plan.spec.links.prefix = args.prefix
-        from runtime.graph.check import relink
-
-        relink(plan)
+    plan = load_graph(args.graph, overrides=parse_module_set(args.set), prefix=args.prefix)
     clock = args.clock or plan.spec.clock
     duration = args.duration if args.duration is not None else plan.spec.duration
     out = args.out or default_output_dir(plan)

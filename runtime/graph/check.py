@@ -7,11 +7,12 @@ safety guards on the command path to a joint driver.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import pydantic
 
-from connectors.errors import CheckFailed, Diagnostic, Location
+from connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from connectors.frames import FrameTree
 from connectors.ports import Input
 from runtime.graph.order import find_cycle, topological_order
@@ -60,31 +61,14 @@ class _Checker:
     def module(self, mspec: ModuleSpec) -> ModulePlan | None:
         cls = self.registry.get(mspec.type)
         if cls is None:
-            if mspec.type in self.registry.broken:
-                self.error(
-                    mspec.type_loc,
-                    f"module type `{mspec.type}` failed to load: "
-                    f"{self.registry.broken[mspec.type]}",
-                )
-            else:
-                self.error(
-                    mspec.type_loc,
-                    f"unknown module type `{mspec.type}`"
-                    f"{did_you_mean(mspec.type, self.registry.names())}",
-                )
+            self.error(mspec.type_loc, self.registry.missing(mspec.type))
             return None
         params = self.params(mspec, cls.Params)
         if params is None:
             return None
         in_decls = cls.input_decls(params)
-        inputs = {
-            name: PortInfo(name, d.msg_type, d.resolve_frame(params), d.resolve_joints(params))
-            for name, d in in_decls.items()
-        }
-        outputs = {
-            name: PortInfo(name, d.msg_type, d.resolve_frame(params), d.resolve_joints(params))
-            for name, d in cls.output_decls().items()
-        }
+        inputs = _port_infos(in_decls, params)
+        outputs = _port_infos(cls.output_decls(), params)
         triggers = [n for n, d in in_decls.items() if d.trigger]
         if mspec.trigger is not None:
             triggers = []
@@ -258,11 +242,11 @@ class _Checker:
             )
 
     def check_required_inputs(self) -> None:
-        connected = {(c.dst.module, c.dst.port) for c in self.connections}
+        # inputs of connections that failed a check are not reported again as unconnected
         attempted = {(c.dst.module, c.dst.port) for c in self.spec.connections}
         for plan in self.modules.values():
             for name, decl in plan.input_decls.items():
-                if decl.required and (plan.name, name) not in attempted | connected:
+                if decl.required and (plan.name, name) not in attempted:
                     self.error(
                         plan.spec.loc,
                         f"required input `{plan.name}.{name}` "
@@ -350,13 +334,6 @@ class _Checker:
         return out
 
 
-def relink(plan: GraphPlan) -> None:
-    """Recompute link keys after the key prefix changed."""
-    for link in plan.links:
-        conn = link.connection
-        link.key = f"{plan.key_prefix}/{conn.src.module}/{conn.src.port}"
-
-
 def check_spec(
     spec: GraphSpec, registry: Registry | None = None, earlier: list[Diagnostic] | None = None
 ) -> GraphPlan:
@@ -371,34 +348,38 @@ def check_spec(
 
 def check_text(text: str | bytes, file: str, registry: Registry | None = None) -> GraphPlan:
     """Parse and check graph text, reporting shape and semantic problems together."""
-    try:
-        spec = parse_graph_text(text, file)
-    except ShapeProblems as exc:
-        if exc.spec is None:
-            raise
-        return check_spec(exc.spec, registry, exc.diagnostics)
-    return check_spec(spec, registry)
+    spec, earlier = _read(lambda: parse_graph_text(text, file))
+    return check_spec(spec, registry, earlier)
 
 
 def load_graph(
-    path: str, registry: Registry | None = None, overrides: dict[str, dict[str, Any]] | None = None
+    path: str,
+    registry: Registry | None = None,
+    overrides: dict[str, dict[str, Any]] | None = None,
+    prefix: str | None = None,
 ) -> GraphPlan:
-    """Parse and check a graph file, with ``--set`` overrides ``{module: {param: value}}``."""
-    earlier: list[Diagnostic] = []
+    """Parse and check a graph file, with ``--set`` overrides ``{module: {param: value}}`` and a
+    ``--prefix`` replacing the zenoh key prefix of ``links:`` (when given)."""
+    spec, earlier = _read(lambda: parse_graph_file(path))
+    apply_overrides(spec, overrides or {})
+    if prefix:
+        spec.links.prefix = prefix
+    return check_spec(spec, registry, earlier)
+
+
+def _read(parse: Callable[[], GraphSpec]) -> tuple[GraphSpec, list[Diagnostic]]:
+    """The parsed graph and its shape problems: semantic checks still run on the part that could
+    be read, so that every problem is reported at once. Re-raises when nothing could be read."""
     try:
-        spec = parse_graph_file(path)
+        return parse(), []
     except ShapeProblems as exc:
         if exc.spec is None:
             raise
-        spec, earlier = exc.spec, exc.diagnostics
-    apply_overrides(spec, overrides or {})
-    return check_spec(spec, registry, earlier)
+        return exc.spec, exc.diagnostics
 
 
 def apply_overrides(spec: GraphSpec, overrides: dict[str, dict[str, Any]]) -> None:
     """Apply ``--set module.param=value`` overrides; UserError for an unknown module."""
-    from connectors.errors import UserError
-
     for module, values in overrides.items():
         if module not in spec.modules:
             raise UserError(f"--set: unknown module `{module}`{did_you_mean(module, spec.modules)}")
@@ -407,3 +388,11 @@ def apply_overrides(spec: GraphSpec, overrides: dict[str, dict[str, Any]]) -> No
             where = Location(f"--set {module}.{key}", 0, 0)
             spec.modules[module].param_val_loc[key] = where
             spec.modules[module].param_key_loc[key] = where
+
+
+def _port_infos(decls: dict[str, Any], params: Any) -> dict[str, PortInfo]:
+    """Declared ports with their frame and joint names resolved from ``params``."""
+    return {
+        name: PortInfo(name, d.msg_type, d.resolve_frame(params), d.resolve_joints(params))
+        for name, d in decls.items()
+    }

@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from connectors.errors import CheckFailed, Diagnostic, Location
+from connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from connectors.frames import transform_from_xyz_rpy
-from runtime.graph.located_yaml import YList, YMap, load_located
+from runtime.graph.located_yaml import MAX_BYTES, YList, YMap, load_located
 from runtime.graph.spec import (
     DEFAULT_PROCESS,
     ConnectionSpec,
@@ -454,17 +454,15 @@ def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
 
 def parse_graph_file(path: str | Path) -> GraphSpec:
     """Read and parse a graph file; UserError when it cannot be read."""
-    from connectors.errors import UserError
-
     path = Path(path)
     try:
         size = path.stat().st_size
-        if size > 1_000_000:
+        if size > MAX_BYTES:  # before reading it; load_located checks the bytes it is given
             raise CheckFailed(
                 [
                     Diagnostic(
                         Location(str(path), 1, 1),
-                        f"file is {size} bytes; a graph file is at most 1000000",
+                        f"file is {size} bytes; a graph file is at most {MAX_BYTES}",
                     )
                 ]
             )

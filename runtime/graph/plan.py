@@ -66,8 +66,13 @@ class GraphPlan:
     @property
     def processes(self) -> list[str]:
         """Process names in declaration order (``main`` when the graph declares none)."""
-        names = list(self.spec.processes) or sorted({m.process for m in self.modules.values()})
-        return names
+        return list(self.spec.processes) or sorted({m.process for m in self.modules.values()})
+
+    @property
+    def populated_processes(self) -> list[str]:
+        """Process names in declaration order, leaving out those without modules."""
+        hosting = {m.process for m in self.modules.values()}
+        return [p for p in self.processes if p in hosting]
 
     def modules_in(self, process: str | None) -> list[str]:
         """Module names of ``process`` in data order (all modules when ``process`` is None)."""

@@ -239,6 +239,10 @@ def test_wolverine_jnts_calibration_error_shows_only_in_the_true_state():
         reported = sent["joint_state"][0].position
         true = sent["true_joint_state"][0].position
         np.testing.assert_allclose(true - reported, np.radians([0.5, -0.5, 0.3, 0, 0, 0]))
+        true_state, state = sent["true_joint_state"][0], sent["joint_state"][0]
+        assert true_state.names == state.names == PUMA.names
+        assert true_state.gripper == state.gripper == 1.0
+        np.testing.assert_array_equal(true_state.velocity, state.velocity)
 
 
 def test_wolverine_jnts_backend_errors_are_user_errors():

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.arm.velocity_register import RegisterSettings, VelocityRegister, clamp_twist
+from modules.arm.velocity_register import RegisterSettings, VelocityRegister
+from modules.geometry.transforms import clamp_twist
 
 SETTINGS = RegisterSettings(timeout=0.2, max_linear=0.1, max_angular=0.5)
 

@@ -68,21 +68,8 @@ def test_fit_json_and_written_file(tmp_path: Path, capsys) -> None:
     csv = tmp_path / "pairs.csv"
     write_fit_csv(csv)
     out_file = tmp_path / "cal.xml"
-    code, out, _ = run(
-        [
-            "calib",
-            "fit",
-            str(csv),
-            "-o",
-            str(out_file),
-            "--zoom",
-            "0.25",
-            "--camera",
-            "left",
-            "--json",
-        ],
-        capsys,
-    )
+    fit_left = ["calib", "fit", str(csv), "-o", str(out_file), "--camera", "left", "--json"]
+    code, out, _ = run([*fit_left, "--zoom", "0.25"], capsys)
     assert code == 0
     data = json.loads(out)
     assert {"rms_px", "intrinsics", "extrinsics", "camera_matrix"} <= set(data)
@@ -103,22 +90,7 @@ def test_fit_json_and_written_file(tmp_path: Path, capsys) -> None:
     assert table.name == "left" and list(table.zooms) == [0.25]
     assert table.intrinsics[0, 0] == pytest.approx(data["intrinsics"]["fx"])
     # A second fit at another zoom is appended, keeping the file sorted by zoom.
-    code, _, _ = run(
-        [
-            "calib",
-            "fit",
-            str(csv),
-            "-o",
-            str(out_file),
-            "--zoom",
-            "0.1",
-            "--camera",
-            "left",
-            "--append",
-            "--json",
-        ],
-        capsys,
-    )
+    code, _, _ = run([*fit_left, "--zoom", "0.1", "--append"], capsys)
     assert code == 0
     assert list(load_zoom_table(out_file).zooms) == [0.1, 0.25]
 
@@ -228,6 +200,22 @@ def test_triangulate_json(tmp_path: Path, capsys) -> None:
         capsys,
     )
     assert code == 2 and "CAMERA=U,V" in err
+
+
+def test_triangulate_pixel_beyond_the_lens_model(tmp_path: Path, capsys) -> None:
+    # k1 = -0.5 folds at a normalized radius of about 0.54: u = 2000 px (1.9) has no preimage.
+    intrinsics = "{fx: 900, fy: 900, u0: 320, v0: 240, k1: -0.5}"
+    (tmp_path / "cams.yaml").write_text(
+        "cameras:\n"
+        f"  a: {{intrinsics: {intrinsics}, pose: {{xyz: [0, 0, 0]}}}}\n"
+        f"  b: {{intrinsics: {intrinsics}, pose: {{xyz: [0.5, 0, 0]}}}}\n"
+    )
+    cams = str(tmp_path / "cams.yaml")
+    pixels = ["--pixel", "a=330,240", "--pixel", "b=2000,240"]
+    code, _, err = run(["calib", "triangulate", cams, *pixels], capsys)
+    assert code == 2, err
+    assert "a pixel lies outside its camera's distortion model" in err
+    assert "Traceback" not in err
 
 
 def test_cameras_file_from_zoom_file(tmp_path: Path, capsys) -> None:

@@ -94,11 +94,7 @@ def test_targeting_triangulates_through_static_frames() -> None:
         (cam_a, T_base_ptu_a, "ptu_a"),
         (cam_b, T_base_ptu_b, "ptu_b"),
     ):
-        T_cam_base = transform(cam.R, cam.d)
-        T_cam_mount = T_cam_base @ T_base_mount
-        relative = PinholeCamera(
-            cam.intrinsics, T_cam_mount[:3, :3], T_cam_mount[:3, 3], cam.distortion
-        )
+        relative = cam.with_extrinsic_matrix(cam.extrinsic_matrix() @ T_base_mount)
         models.append(camera_message(relative, mount=mount))
     frames = {"base->ptu_a": T_base_ptu_a, "base->ptu_b": T_base_ptu_b}
     with ModuleHarness(Targeting, {"reference_frame": "base"}, frames=frames) as h:
@@ -121,10 +117,7 @@ def test_targeting_with_moving_mount_pose_and_errors() -> None:
     cam_a, cam_b = stereo_models()
     target = np.array([-0.1, 0.05, 1.5])
     T_base_head = transform(rotation_from_vector([0.0, 0.3, 0.0]), [0.0, 0.5, 0.0])
-    T_cam_head = transform(cam_a.R, cam_a.d) @ T_base_head
-    on_head = PinholeCamera(
-        cam_a.intrinsics, T_cam_head[:3, :3], T_cam_head[:3, 3], cam_a.distortion
-    )
+    on_head = cam_a.with_extrinsic_matrix(cam_a.extrinsic_matrix() @ T_base_head)
     with ModuleHarness(Targeting, {"method": "linear"}) as h:
         h.push("camera_a", camera_message(on_head, mount="head"))
         h.push("camera_b", camera_message(cam_b, mount="base"))
@@ -153,3 +146,16 @@ def test_message_round_trip() -> None:
     back = pinhole_from_message(camera_message(cam, zoom=0.3))
     np.testing.assert_allclose(back.camera_matrix(), cam.camera_matrix(), atol=1e-12)
     np.testing.assert_allclose(back.distortion, cam.distortion)
+
+
+def test_extrinsic_matrix_round_trip() -> None:
+    cam, _ = stereo_models()
+    T = cam.extrinsic_matrix()
+    np.testing.assert_array_equal(T[:3, :3], cam.R)
+    np.testing.assert_array_equal(T[:3, 3], cam.d)
+    np.testing.assert_array_equal(T[3], [0.0, 0.0, 0.0, 1.0])
+    T_moved = transform(rotation_from_vector([0.1, -0.2, 0.3]), [0.5, -0.1, 0.2])
+    moved = cam.with_extrinsic_matrix(T_moved)
+    np.testing.assert_array_equal(moved.extrinsic_matrix(), T_moved)
+    assert moved.intrinsics == cam.intrinsics
+    np.testing.assert_array_equal(moved.distortion, cam.distortion)

@@ -37,7 +37,11 @@ def sdo_state(node: canopen.RemoteNode) -> State:
     return state_from_statusword(node.sdo[obj.STATUSWORD].raw)
 
 
-def enable(node: canopen.RemoteNode) -> None:
+def enable_velocity_mode(node: canopen.RemoteNode, settings: dict[int, int] | None = None) -> None:
+    """By SDO: profile velocity mode, then ``settings`` (index: value), then operation enabled."""
+    node.sdo[obj.MODES_OF_OPERATION].raw = obj.PROFILE_VELOCITY_MODE
+    for index, value in (settings or {}).items():
+        node.sdo[index].raw = value
     for word in (0x06, 0x07, 0x0F):
         node.sdo[obj.CONTROLWORD].raw = word
 
@@ -68,10 +72,9 @@ def test_velocity_ramp_and_position_integral(
     bus: tuple[SimDrive, canopen.RemoteNode, object],
 ) -> None:
     drive, node, _ = bus
-    node.sdo[obj.MODES_OF_OPERATION].raw = obj.PROFILE_VELOCITY_MODE
-    node.sdo[obj.PROFILE_ACCELERATION].raw = 1_000_000
-    node.sdo[obj.QUICK_STOP_DECELERATION].raw = 2_000_000
-    enable(node)
+    enable_velocity_mode(
+        node, {obj.PROFILE_ACCELERATION: 1_000_000, obj.QUICK_STOP_DECELERATION: 2_000_000}
+    )
     node.sdo[obj.TARGET_VELOCITY].raw = 10_000
     for _ in range(100):
         drive.advance(0.001)
@@ -95,9 +98,7 @@ def test_quick_stop_option_6_holds_quick_stop_active(
     bus: tuple[SimDrive, canopen.RemoteNode, object],
 ) -> None:
     drive, node, _ = bus
-    node.sdo[obj.MODES_OF_OPERATION].raw = obj.PROFILE_VELOCITY_MODE
-    node.sdo[obj.QUICK_STOP_OPTION_CODE].raw = 6
-    enable(node)
+    enable_velocity_mode(node, {obj.QUICK_STOP_OPTION_CODE: 6})
     node.sdo[obj.TARGET_VELOCITY].raw = 5_000
     drive.advance(0.1)
     node.sdo[obj.CONTROLWORD].raw = 0x02
@@ -137,8 +138,7 @@ def test_fault_injection_emcy_and_fault_reset(
     bus: tuple[SimDrive, canopen.RemoteNode, object],
 ) -> None:
     drive, node, _ = bus
-    node.sdo[obj.MODES_OF_OPERATION].raw = obj.PROFILE_VELOCITY_MODE
-    enable(node)
+    enable_velocity_mode(node)
     drive.inject_fault(0x7121)  # motor blocked
     emcy = node.emcy.wait(0x7121, timeout=1.0)
     assert emcy is not None and emcy.register == 0x01
@@ -168,8 +168,7 @@ def test_pdos_follow_the_mapping_the_master_writes(
     tpdo.enabled = True
     node.tpdo.save()
     node.rpdo.save()
-    node.sdo[obj.MODES_OF_OPERATION].raw = obj.PROFILE_VELOCITY_MODE
-    enable(node)
+    enable_velocity_mode(node)
 
     network.sync.transmit()
     assert tpdo.wait_for_reception(timeout=0.1) is None  # PDOs only in OPERATIONAL

@@ -109,6 +109,9 @@ def test_failed_run_exits_1(tmp_path: Path) -> None:
     # TwistSource with a twist of the wrong length is rejected before start
     proc = umbra("run", str(graph), "--out", str(tmp_path / "o"), "--set", "s.twist=[1, 2]")
     assert proc.returncode == 2 and "twist" in proc.stderr
+    assert "--set s.twist: error: parameter `twist` of `s`" in proc.stderr
+    assert "at least 6 items" in proc.stderr
+    assert not (tmp_path / "o" / "summary.json").exists()  # nothing ran
 
 
 def test_third_party_package_adds_a_module_type(tmp_path: Path) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from connectors.errors import CheckFailed
+from connectors.errors import CheckFailed, UserError
 from runtime.graph.check import check_text
 from tests.runtime.fixtures import make_registry
 
@@ -250,3 +250,15 @@ def test_guarded_path_passes_and_feedback_is_not_a_command_path() -> None:
     )
     plan = check_text(text, "g.yaml", make_registry())
     assert plan.order == ["v", "r", "k", "d"]
+
+
+def test_broken_module_type_is_reported_the_same_by_check_and_require() -> None:
+    registry = make_registry()
+    registry.broken["Acme"] = "ImportError: no module named acme"
+    expected = "module type `Acme` failed to load: ImportError: no module named acme"
+    with pytest.raises(CheckFailed) as info:
+        check_text(OK_HEAD + "  a: {type: Acme, rate: 1}\n", "g.yaml", registry)
+    assert str(info.value) == f"g.yaml:3:13: error: {expected}"
+    with pytest.raises(UserError) as error:
+        registry.require("Acme")
+    assert str(error.value) == expected

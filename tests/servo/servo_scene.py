@@ -10,6 +10,15 @@ from modules.servo.features import Intrinsics, MomentFeatures, features_from_con
 INTRINSICS = Intrinsics(fx=600.0, fy=610.0, u0=320.0, v0=240.0)
 PATCH_SIZE = (0.08, 0.05)  # metres: a rectangle, long side along world x
 PATCH_AREA = PATCH_SIZE[0] * PATCH_SIZE[1]
+#: vsServo parameters that describe this scene's patch and camera.
+SCENE_PARAMS = {
+    "patch_width": PATCH_SIZE[0],
+    "patch_height": PATCH_SIZE[1],
+    "fx": INTRINSICS.fx,
+    "fy": INTRINSICS.fy,
+    "u0": INTRINSICS.u0,
+    "v0": INTRINSICS.v0,
+}
 
 
 def patch_corners(samples_per_side: int = 8) -> np.ndarray:

@@ -16,7 +16,7 @@ from modules.arm.wolverine_kin import WolverineKin
 from modules.geometry.transforms import invert_transform, transform_from_xyz_rpy_deg
 from modules.servo.vsservo import VsServo
 from runtime.harness import ModuleHarness
-from tests.servo.servo_scene import INTRINSICS, PATCH_SIZE, camera_above, patch_corners, project
+from tests.servo.servo_scene import SCENE_PARAMS, camera_above, patch_corners, project
 
 PUMA = puma560()
 Q0_DEG = [10.0, 50.0, -170.0, 5.0, 40.0, 15.0]
@@ -39,12 +39,7 @@ def test_closed_loop_grab_reaches_the_patch_despite_calibration_error():
     servo = ModuleHarness(
         VsServo,
         {
-            "patch_width": PATCH_SIZE[0],
-            "patch_height": PATCH_SIZE[1],
-            "fx": INTRINSICS.fx,
-            "fy": INTRINSICS.fy,
-            "u0": INTRINSICS.u0,
-            "v0": INTRINSICS.v0,
+            **SCENE_PARAMS,
             "standoff": STANDOFF,
             "grab_distance": GRAB,
             "grab_speed": 0.02,

@@ -12,7 +12,7 @@ from modules.servo.vsservo import VsServo
 from runtime.harness import ModuleHarness
 from tests.servo.servo_scene import (
     INTRINSICS,
-    PATCH_SIZE,
+    SCENE_PARAMS,
     camera_above,
     move,
     patch_corners,
@@ -20,12 +20,7 @@ from tests.servo.servo_scene import (
 )
 
 PARAMS = {
-    "patch_width": PATCH_SIZE[0],
-    "patch_height": PATCH_SIZE[1],
-    "fx": INTRINSICS.fx,
-    "fy": INTRINSICS.fy,
-    "u0": INTRINSICS.u0,
-    "v0": INTRINSICS.v0,
+    **SCENE_PARAMS,
     "standoff": 0.2,
     "acquire_frames": 3,
     "settle_frames": 3,

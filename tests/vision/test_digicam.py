@@ -11,8 +11,8 @@ import pytest
 
 from connectors import UserError
 from connectors.messages import CameraModel, Pose
+from modules.geometry.transforms import transform_points
 from modules.vision.digicam import DigiCam
-from modules.vision.projection import transform_points
 from modules.vision.scene import camera_looking_down, patch_outline, pose
 from modules.vision.video import VideoWriter
 from runtime.harness import ModuleHarness

@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 import pytest
 
+from modules.geometry.transforms import transform_points
 from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting, apply_lighting, motion_blur_kernel
 from modules.vision.metrics import polygon_iou, polygon_mask
-from modules.vision.projection import transform_points
 from modules.vision.scene import (
     LABEL_DISTRACTOR,
     LABEL_OCCLUDER,

@@ -9,9 +9,9 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
+from modules.geometry.transforms import transform_points
 from modules.vision.lighting import Lighting
 from modules.vision.metrics import polygon_iou
-from modules.vision.projection import transform_points
 from modules.vision.scene import (
     Occluder,
     RenderedFrame,

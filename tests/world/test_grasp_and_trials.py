@@ -7,9 +7,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from modules.arm.dh import puma560
-from modules.world.grasp import R_PATCH_TOOL_GRASP, grasp_error, wrap_half_turn
+from modules.servo.features import wrap_roll_error
+from modules.world.grasp import R_PATCH_TOOL_GRASP, grasp_error
 from modules.world.ik import IKFailed, solve_ik
-from modules.world.trials import aggregate, draw_trial, open_loop_grab, stop_figures
+from modules.world.trials import (
+    TrialResult,
+    aggregate,
+    draw_trial,
+    open_loop_grab,
+    stop_figures,
+)
 
 
 def perfect_tool(T_patch: np.ndarray) -> np.ndarray:
@@ -43,8 +50,8 @@ def test_grasp_error_zero_at_a_perfect_grasp_and_measures_offsets_and_roll() -> 
     ("angle", "wrapped"),
     [(0.0, 0.0), (np.pi, 0.0), (np.pi / 2, np.pi / 2), (-np.pi / 2, np.pi / 2), (3.0, 3.0 - np.pi)],
 )
-def test_wrap_half_turn(angle: float, wrapped: float) -> None:
-    assert wrap_half_turn(angle) == pytest.approx(wrapped)
+def test_roll_is_wrapped_modulo_a_half_turn(angle: float, wrapped: float) -> None:
+    assert wrap_roll_error(angle) == pytest.approx(wrapped)
 
 
 def test_ik_reaches_a_pose_and_refuses_an_unreachable_one() -> None:
@@ -100,9 +107,12 @@ def test_stop_figures_from_a_record() -> None:
     assert figures["time_to_standstill_s"] == pytest.approx(0.15, abs=1e-9)
     assert figures["travel_after_fault_mm"] == pytest.approx(1.5, abs=1e-6)
     assert not stop_figures(record, t_fault=5.0)["stopped"]
+    # a looser standstill threshold counts the 0.2 rad/s joints as still from the fault on
+    loose = stop_figures(record, t_fault=1.0, still_speed=0.3)
+    assert loose["time_to_standstill_s"] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_aggregate_shape() -> None:
+def test_aggregate_shape_and_figures() -> None:
     assert set(aggregate([])) >= {
         "trials",
         "success_rate",
@@ -111,3 +121,37 @@ def test_aggregate_shape() -> None:
         "time_s",
         "open_loop_success_rate",
     }
+
+    def result(grasped, error_mm, roll_deg, time_s, open_loop_mm, open_loop_ok) -> TrialResult:
+        return TrialResult(
+            setup=draw_trial(0, 0),
+            grasped=grasped,
+            verdict="",
+            position_error_mm=error_mm,
+            roll_error_deg=roll_deg,
+            time_s=time_s,
+            stage="done",
+            assist_reason="",
+            stage_times_s={},
+            open_loop_error_mm=open_loop_mm,
+            open_loop_roll_deg=0.0,
+            open_loop_success=open_loop_ok,
+        )
+
+    figures = aggregate(
+        [
+            result(True, 1.0, -0.5, 10.0, 8.0, False),
+            result(True, 2.0, 0.3, 12.0, None, False),
+            result(False, None, None, None, 4.0, True),
+        ]
+    )
+    assert figures["trials"] == 3
+    assert figures["success_rate"] == pytest.approx(2 / 3)
+    # errors over the grasped trials only, as magnitudes
+    assert figures["final_error_mm"]["median"] == pytest.approx(1.5)
+    assert figures["final_error_mm"]["max"] == pytest.approx(2.0)
+    assert figures["final_error_deg"]["max"] == pytest.approx(0.5)
+    assert figures["time_s"]["median"] == pytest.approx(11.0)
+    # the open loop counts every trial that has a solution
+    assert figures["open_loop_success_rate"] == pytest.approx(1 / 3)
+    assert figures["open_loop_error_mm"]["median"] == pytest.approx(6.0)

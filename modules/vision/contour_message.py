@@ -1,0 +1,39 @@
+"""The Contour message of a polygon and its moment features (vsSnake's output, DigiCam's truth)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from connectors.messages import Contour
+from modules.vision.features import PolygonFeatures
+
+
+def contour_message(
+    vertices: ArrayLike,
+    features: PolygonFeatures | None,
+    status: str,
+    reason: str,
+    stamp: float,
+    offending: ArrayLike | None = None,
+) -> Contour:
+    """A :class:`Contour` of ``vertices`` (N x 2 px) with ``features`` (None: empty centroid and
+    axes, zero area and orientation), and ``offending`` vertex indices when given."""
+    if features is None:
+        centroid, area, orientation, axes = np.zeros(0), 0.0, 0.0, np.zeros(0)
+    else:
+        centroid = np.array(features.centroid_uv)
+        area, orientation = features.area_px2, features.orientation_rad
+        axes = np.array([features.major_axis_px, features.minor_axis_px])
+    extra = {} if offending is None else {"offending": np.asarray(offending).astype(np.int64)}
+    return Contour(
+        vertices=vertices,
+        centroid=centroid,
+        area=area,
+        orientation=orientation,
+        axes=axes,
+        status=status,
+        reason=reason,
+        stamp=stamp,
+        **extra,
+    )
