@@ -4,8 +4,10 @@ Two layouts, both read by ``Codec.decode``; no pickle, ever, and only plain nume
 (bool, integers, floats, complex):
 
 * version 1, ``encode``: msgpack (msgspec) of ``[MAGIC, 1, type_name, fields]``; each numpy array
-  is a msgpack extension holding dtype, shape and the raw buffer. Used for recordings and for
-  small samples on links.
+  is a msgpack extension holding dtype, shape and the raw buffer. Used for recordings.
+* version 3, ``encode_compact`` (links, small samples): ``[MAGIC, 3, type_name, values]``, fields
+  by position and each array ``[dtype, shape, bytes]``, read and written by msgspec in C
+  (``connectors.compact``); a type it cannot mirror is written as version 1.
 * version 2, ``encode_framed`` (links, samples holding at least ``FRAMED_MIN_BYTES`` of arrays):
   ``b"UMB\\x02"``, the header length (u32 little-endian), the msgpack header
   ``[MAGIC, 2, type_name, fields]`` in which each array is an extension holding dtype, shape, and
@@ -25,6 +27,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from connectors.compact import COMPACT_VERSION, CompactType, compact_type
 from connectors.messages import Message, message_types
 
 MAGIC = "umbra"
@@ -175,6 +178,15 @@ class Codec:
             for name, cls in self._types.items()
         }
         self._direct: dict[type[Message], msgspec.msgpack.Decoder] = {}
+        self._compact: dict[type[Message], CompactType] = {}
+        for cls in self._types.values():
+            compact = compact_type(cls)
+            if compact is not None:
+                self._compact[cls] = compact
+        self._readers: dict[type[Message], Callable[[bytes | memoryview], Message | None]] = {}
+        self._compact_values = {
+            c.cls.__name__: msgspec.msgpack.Decoder(c.wire) for c in self._compact.values()
+        }
         self._parts: list[tuple[int, np.ndarray]] = []
         self._place: Callable[[np.ndarray], int] | None = None
         self._size = 0
@@ -185,6 +197,15 @@ class Codec:
     def encode(self, msg: Message) -> bytes:
         """Version 1 bytes for ``msg`` (type name, version and every field, arrays inline)."""
         return self._encoder.encode((MAGIC, VERSION, type(msg).__name__, msg))
+
+    def encode_compact(self, msg: Message) -> bytes:
+        """Version 3 bytes for ``msg`` (version 1 for a type without a wire struct)."""
+        compact = self._compact.get(type(msg))
+        if compact is None:
+            return self.encode(msg)
+        return self._encoder.encode(
+            (MAGIC, COMPACT_VERSION, type(msg).__name__, compact.to_wire(msg))
+        )
 
     def _frame_hook(self, obj: Any) -> Any:
         if isinstance(obj, np.ndarray):
@@ -236,9 +257,9 @@ class Codec:
 
     def encode_framed(self, msg: Message) -> bytes:
         """Bytes for ``msg`` with its arrays copied once, after the header (version 2); samples
-        with little array data are encoded as version 1 (``encode``)."""
+        with little array data are encoded as version 3 (``encode_compact``)."""
         if array_bytes(msg) < FRAMED_MIN_BYTES:
-            return self.encode(msg)
+            return self.encode_compact(msg)
         head, parts, _size = self.frame(msg)
         pieces: list[bytes | memoryview] = [head]
         pos = 0
@@ -275,7 +296,10 @@ class Codec:
         ``expected``)."""
         if bytes(data[:4]) != FRAME_MAGIC:
             if expected is not None:
-                msg = self._decode_direct(data, expected)
+                read = self.compact_reader(expected)
+                msg = read(data) if read is not None else None
+                if msg is None:
+                    msg = self._decode_direct(data, expected)
                 if msg is not None:
                     return msg
             return self._decode(data, VERSION, expected)
@@ -306,6 +330,58 @@ class Codec:
             return self._decode(header, FRAMED_VERSION, expected)
         finally:
             self._payload = None
+
+    def compact_reader(
+        self, expected: type[Message]
+    ) -> Callable[[bytes | memoryview], Message | None] | None:
+        """A reader of version 3 samples of ``expected``: the message, or None for anything else
+        (``decode`` then reads it or says why it cannot); None when ``expected`` has no compact
+        layout. The reader keeps no state between calls: any thread may use it."""
+        reader = self._readers.get(expected)
+        if reader is not None:
+            return reader
+        compact = self._compact.get(expected)
+        if compact is None or self._types.get(expected.__name__) is not expected:
+            return None
+        decode = msgspec.msgpack.Decoder(
+            tuple[str, int, str, compact.wire]  # type: ignore[name-defined]
+        ).decode
+        from_wire, name_wanted = compact.from_wire, expected.__name__
+
+        def read(data: bytes | memoryview) -> Message | None:
+            try:
+                magic, version, name, values = decode(data)
+                if magic != MAGIC or version != COMPACT_VERSION or name != name_wanted:
+                    return None
+                return from_wire(values)
+            except Exception:
+                return None
+
+        self._readers[expected] = read
+        return read
+
+    def compact_writer(self, cls: type[Message]) -> Callable[[Message], bytes]:
+        """``encode_framed`` for samples of type ``cls``, its per-type lookups done once: version 3
+        while the sample's arrays hold less than ``FRAMED_MIN_BYTES``, else version 2."""
+        compact = self._compact.get(cls)
+        if compact is None:
+            return self.encode_framed
+        encode, to_wire, framed = self._encoder.encode, compact.to_wire, self.encode_framed
+        arrays, name = _array_fields(cls), cls.__name__
+
+        def write(msg: Message) -> bytes:
+            if type(msg) is not cls:
+                return framed(msg)
+            size = 0
+            for field in arrays:
+                value = getattr(msg, field)
+                if isinstance(value, np.ndarray):
+                    size += value.nbytes
+            if size >= FRAMED_MIN_BYTES:
+                return framed(msg)
+            return encode((MAGIC, COMPACT_VERSION, name, to_wire(msg)))
+
+        return write
 
     def _decode_direct(
         self, data: bytes | memoryview, expected: type[Message], version_wanted: int = VERSION
@@ -338,10 +414,12 @@ class Codec:
             raise DecodeError(f"not an umbra sample: {exc}") from None
         if magic != MAGIC:
             raise DecodeError(f"not an umbra sample (magic {magic!r})")
+        if version == COMPACT_VERSION and version_wanted == VERSION:
+            return self._decode_values(name, raw, expected)
         if version != version_wanted:
             raise DecodeError(
-                f"encoding version {version}, this build reads {VERSION} "
-                f"and {FRAMED_VERSION} (framed)"
+                f"encoding version {version}, this build reads {VERSION}, "
+                f"{COMPACT_VERSION} (compact) and {FRAMED_VERSION} (framed)"
             )
         decoder = self._decoders.get(name)
         if decoder is None:
@@ -358,4 +436,19 @@ class Codec:
             TypeError,
             ValueError,
         ) as exc:
+            raise DecodeError(f"bad {name}: {exc}") from None
+
+    def _decode_values(
+        self, name: str, raw: msgspec.Raw, expected: type[Message] | None
+    ) -> Message:
+        """The message of type ``name`` from the values of a version 3 sample."""
+        decoder = self._compact_values.get(name)
+        if decoder is None:
+            raise DecodeError(f"unknown message type `{name}`")
+        if expected is not None and name != expected.__name__:
+            raise DecodeError(f"expected {expected.__name__}, found {name}")
+        try:
+            values = decoder.decode(raw)
+            return self._compact[self._types[name]].from_wire(values)
+        except (msgspec.DecodeError, msgspec.ValidationError, TypeError, ValueError) as exc:
             raise DecodeError(f"bad {name}: {exc}") from None

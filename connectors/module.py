@@ -118,10 +118,15 @@ class Module:
     # -- wiring (used by the runtime and the harness) -------------------------------------------
     def bind_ports(self, clock: Callable[[], float]) -> None:
         """Create this instance's input registers and output ports."""
+        cls = type(self)
         for name, decl in self.input_decls(self.params).items():
             self._registers[name] = Register(name, decl.max_age)
+            if isinstance(getattr(cls, name, None), Input):
+                self.__dict__[name] = self._registers[name]  # plain lookup, no descriptor call
         for name, decl in self.output_decls().items():
             self._outputs[name] = OutputPort(name, decl.msg_type, clock)
+            if isinstance(getattr(cls, name, None), Output):
+                self.__dict__[name] = self._outputs[name]
 
     @property
     def registers(self) -> dict[str, Register[Any]]:

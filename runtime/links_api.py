@@ -35,7 +35,9 @@ class LinkTransport(Protocol):
         ...
 
     def producer_alive(self, link: LinkPlan) -> bool:
-        """Whether the process producing ``link`` is alive (liveliness)."""
+        """Whether the process producing ``link`` is alive (liveliness). A transport may also
+        have an integer ``state_version`` that changes whenever an answer may have changed; the
+        scheduler then asks only after a change, else on every tick."""
         ...
 
     def stats(self) -> dict[str, object]:

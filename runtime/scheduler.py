@@ -106,6 +106,7 @@ class Scheduler:
         self._inbound: deque[tuple[Register[Any], Message, bool]] = deque()
         self._wake = threading.Event() if transport is not None else None
         self._link_regs: list[tuple[Register[Any], Any]] = []
+        self._link_state = -1  # the transport's state_version the link registers reflect
         self._tick_lock = threading.Lock()  # one tick at a time, whichever thread runs it
         self._inline = (
             transport is not None and options.dispatch == "inline" and (options.clock == "real")
@@ -204,10 +205,17 @@ class Scheduler:
 
     def _arrived(self) -> None:
         """Called by the transport once a sample is queued for every register it feeds: tick now
-        on this thread when the loop is idle (``dispatch: inline``), else wake the loop."""
+        on this thread when the loop is idle (``dispatch: inline``; at most ``REACT_ROUNDS``
+        ticks while samples wait), else wake the loop."""
         if self._inline and self._running and self._tick_lock.acquire(blocking=False):
             try:
-                self._react()
+                inbound, now = self._inbound, self.clock.now
+                for _ in range(REACT_ROUNDS):
+                    if not inbound or not self._running or self._stop is not None:
+                        break
+                    self._tick(now())
+            except Exception as exc:  # a bug in the runtime, never a module's failure (caught)
+                self.request_stop(f"internal error handling a link sample: {exc!r}", 1)
             finally:
                 self._tick_lock.release()
             if not self._inbound:
@@ -215,16 +223,6 @@ class Scheduler:
         wake = self._wake
         if wake is not None and not wake.is_set():
             wake.set()
-
-    def _react(self) -> None:
-        """Ticks run on a link's thread while samples wait (tick lock held by the caller)."""
-        try:
-            for _ in range(REACT_ROUNDS):
-                if not self._inbound or not self._running or self._stop is not None:
-                    return
-                self._tick(self.clock.now())
-        except Exception as exc:  # a bug in the runtime, never a module's failure (caught)
-            self.request_stop(f"internal error handling a link sample: {exc!r}", 1)
 
     def tick_time(self) -> float:
         """The current tick's time [s]: what unstamped samples are stamped with."""
@@ -392,12 +390,26 @@ class Scheduler:
                 reg.write(sample, when)
             pending.clear()
         if self._link_regs:
-            alive = self.transport.producer_alive  # type: ignore[union-attr]
-            for reg, link in self._link_regs:
-                reg.link_alive = alive(link)
+            self._update_link_states()
+
+    def _update_link_states(self) -> None:
+        """``link_alive`` of each register fed by a link, re-read when the transport says a
+        producer's liveliness or an end of stream changed (every tick when it cannot say)."""
+        transport = self.transport
+        version = getattr(transport, "state_version", None)
+        if version is not None and version == self._link_state:
+            return
+        self._link_state = -1 if version is None else version
+        alive = transport.producer_alive  # type: ignore[union-attr]
+        for reg, link in self._link_regs:
+            reg.link_alive = alive(link)
 
     def _drain(self, now: float) -> None:
         inbound = self._inbound
+        if len(inbound) == 1:  # the usual case: one sample since the last tick
+            reg, sample, _in_order = inbound.popleft()
+            reg.write(sample, now)
+            return
         written: set[int] = set()
         held = []
         for _ in range(len(inbound)):  # samples arriving meanwhile wait for the next tick

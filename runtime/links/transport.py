@@ -36,6 +36,8 @@ from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
 from runtime.links.pool import (
+    DESCRIPTOR_MAGIC,
+    FORWARD_MAGIC,
     MAX_CONSUMERS,
     FramePool,
     HostMarker,
@@ -109,6 +111,9 @@ class ZenohTransport:
         self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
         self._gone: dict[str, float | None] = {}  # declared gone -> first sample since (or None)
         self.liveliness_flaps = 0
+        #: Changes whenever a producer's liveliness or the end of a stream changes (what
+        #: ``producer_alive`` answers): the scheduler re-reads link states only then.
+        self.state_version = 0
         self._ended: set[str] = set()
         self._last_error_log: dict[str, tuple[float, int]] = {}
         self._marker = HostMarker() if frame_pool else None
@@ -132,6 +137,7 @@ class ZenohTransport:
         up = sample.kind == zenoh.SampleKind.PUT
         with self._lock:
             known = name in self._alive
+            self.state_version += 1
             if up:
                 self._alive.add(name)
                 self._gone.pop(name, None)
@@ -185,8 +191,9 @@ class ZenohTransport:
             )
         stats = PublishStats(link.key, [str(link.connection)], link.reliable)
         self._pubs[link.key] = (pub, stats)
-        encode, wrap, put, log = self._codec.encode_framed, self._shm.payload, pub.put, self._log
-        counters = self._shm.counters
+        encode = self._codec.compact_writer(link.msg_type)
+        wrap, put, log = self._shm.payload, pub.put, self._log
+        counters, threshold = self._shm.counters, self._shm.threshold
         pooled = self._pooled_publish(link, stats) if not link.reliable else None
 
         def publish(sample: Message, now: float) -> None:
@@ -194,16 +201,20 @@ class ZenohTransport:
                 if pooled is not None and pooled(sample):
                     return
                 data = encode(sample)
-                before = counters.shm_samples
-                put(wrap(data))
+                size = len(data)
+                if size < threshold:
+                    put(data)
+                else:
+                    before = counters.shm_samples
+                    put(wrap(data))
+                    stats.shm_samples += counters.shm_samples - before
             except Exception as exc:  # session closing, or a zenoh error: count, never raise
                 stats.put_errors += 1
                 if stats.put_errors == 1:
                     log.warning("link `%s`: publishing failed: %s", stats.key, exc)
                 return
             stats.sent += 1
-            stats.bytes += len(data)
-            stats.shm_samples += counters.shm_samples - before
+            stats.bytes += size
 
         return publish
 
@@ -327,10 +338,12 @@ class ZenohTransport:
 
     # -- consumer side --------------------------------------------------------------------------
     def _decoder(self) -> Codec:
-        codec = getattr(self._local, "codec", None)
-        if codec is None:
+        """This thread's codec."""
+        try:
+            return self._local.codec
+        except AttributeError:
             codec = self._local.codec = Codec()
-        return codec
+            return codec
 
     def subscribe(
         self,
@@ -360,26 +373,30 @@ class ZenohTransport:
             if producer in self._proc_index and self.process in self._proc_index
             else 0
         )
-        reader = self._reader
+        reader, monotonic = self._reader, time.monotonic
+        gone = self._gone
+        read_compact = self._decoder().compact_reader(expected) or (lambda data: None)
 
         def on_sample(sample: zenoh.Sample) -> None:
             if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
                 stats.ended += 1
                 ended.add(key)
+                self.state_version += 1
                 return
             release: Callable[[], None] | None = None
             try:
                 data: Any = sample.payload.to_bytes()
-                if is_descriptor(data):
+                magic = data[:4]
+                if magic == DESCRIPTOR_MAGIC and is_descriptor(data):
                     data, release = reader.open(data, column)
                     stats.pool_samples += 1
                     msg = self._decoder().decode(data, expected)
-                elif is_forward(data):
+                elif magic == FORWARD_MAGIC and is_forward(data):
                     data, release, header = reader.open_forward(data, column)
                     stats.pool_samples += 1
                     msg = self._decoder().decode_placed(header, data, expected)
-                else:
-                    msg = self._decoder().decode(data, expected)
+                else:  # a small sample: the compact reader, else the general path (or its error)
+                    msg = read_compact(data) or self._decoder().decode(data, expected)
             except Exception as exc:  # DecodeError, or anything a foreign payload provokes
                 if release is not None:
                     release()
@@ -396,9 +413,11 @@ class ZenohTransport:
             stats.last_seq = seq
             stats.received += 1
             stats.bytes += len(data)
-            stats.last_arrival = time.monotonic()
-            ended.discard(key)
-            if stats.producer in self._gone:
+            stats.last_arrival = monotonic()
+            if key in ended:
+                ended.discard(key)
+                self.state_version += 1
+            if gone and stats.producer in gone:
                 self._samples_after_gone(stats.producer, stats.last_arrival)
             for d in delivers:
                 d(msg)
@@ -423,6 +442,7 @@ class ZenohTransport:
                 return
             del self._gone[producer]
             self._alive.add(producer)
+            self.state_version += 1
             self.liveliness_flaps += 1
         self._log.warning(
             "process `%s`: zenoh said it was gone, but its samples keep arriving; alive after all",
