@@ -148,7 +148,7 @@ def array_bytes(msg: Message) -> int:
     """Bytes held in the arrays of ``msg``."""
     names = _ARRAY_FIELDS.get(type(msg))
     if names is None:
-        names = _ARRAY_FIELDS[type(msg)] = _array_fields(type(msg))
+        names = _ARRAY_FIELDS[type(msg)] = array_fields(type(msg))
     total = 0
     for name in names:
         value = getattr(msg, name)
@@ -157,7 +157,7 @@ def array_bytes(msg: Message) -> int:
     return total
 
 
-def _array_fields(cls: type[Message]) -> tuple[str, ...]:
+def array_fields(cls: type[Message]) -> tuple[str, ...]:
     """Fields of ``cls`` annotated ``np.ndarray`` (the only ones the decoder accepts arrays in)."""
     return tuple(f.name for f in msgspec.structs.fields(cls) if f.type is np.ndarray)
 
@@ -367,7 +367,7 @@ class Codec:
         if compact is None:
             return self.encode_framed
         encode, to_wire, framed = self._encoder.encode, compact.to_wire, self.encode_framed
-        arrays, name = _array_fields(cls), cls.__name__
+        arrays, name = array_fields(cls), cls.__name__
 
         def write(msg: Message) -> bytes:
             if type(msg) is not cls:

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError, array_bytes
+from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError, array_bytes, array_fields
 from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
@@ -242,33 +242,41 @@ class ZenohTransport:
             express=True,
         )
         frame, frame_header = self._codec.frame, self._codec.frame_header
-        reader = self._reader
+        reader, peer_pid = self._reader, self._peer_pid
+
+        array_names = array_fields(link.msg_type)
 
         def forward(sample: Message) -> bytes | None:
-            """A forward descriptor when every array of ``sample`` lies in one held slot."""
-            where: list[tuple[str, int]] = []
+            """A forward descriptor when every array of ``sample`` lies in one held slot (a
+            fresh frame is told apart by its first array, before any header is built)."""
+            first = None
+            for name in array_names:
+                value = getattr(sample, name, None)
+                if isinstance(value, np.ndarray):
+                    first = value
+                    break
+            found = reader.slot_of(first) if first is not None else None
+            if found is None:
+                return None
+            pool_slot = found[:2]
 
             def place(arr: np.ndarray) -> int:
-                found = reader.slot_of(arr)
-                if found is None or (where and where[0] != found[:2]):
+                where = found if arr is first else reader.slot_of(arr)
+                if where is None or where[:2] != pool_slot:
                     raise LookupError("not in one pool slot")
-                where.append(found[:2])
-                return found[2]
+                return where[2]
 
             try:
                 header = frame_header(sample, place)
             except LookupError:
                 return None
-            if not where:
-                return None
-            return reader.forward(*where[0], columns, header)
+            return reader.forward(*pool_slot, columns, header)
 
         def pooled(sample: Message) -> bool:
             if array_bytes(sample) < FRAMED_MIN_BYTES:
                 return False
-            with self._lock:
-                if not all(c in self._peer_pid for c in consumers):
-                    return False  # a consumer on another host (or not known yet)
+            if not all(c in peer_pid for c in consumers):  # a dict read: atomic, no lock
+                return False  # a consumer on another host (or not known yet)
             descriptor = forward(sample)
             if descriptor is not None:
                 size = len(descriptor)  # the frame itself stays where it is
