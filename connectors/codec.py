@@ -144,6 +144,18 @@ def _dec_hook(typ: type, obj: Any) -> Any:
     raise NotImplementedError(f"cannot decode {typ}")
 
 
+def _decoder_of(
+    decoders: dict[str, msgspec.msgpack.Decoder], name: str, expected: type[Message] | None
+) -> msgspec.msgpack.Decoder:
+    """The decoder of message type ``name``; DecodeError when it is unknown or not ``expected``."""
+    decoder = decoders.get(name)
+    if decoder is None:
+        raise DecodeError(f"unknown message type `{name}`")
+    if expected is not None and name != expected.__name__:
+        raise DecodeError(f"expected {expected.__name__}, found {name}")
+    return decoder
+
+
 def array_bytes(msg: Message) -> int:
     """Bytes held in the arrays of ``msg``."""
     names = _ARRAY_FIELDS.get(type(msg))
@@ -421,11 +433,7 @@ class Codec:
                 f"encoding version {version}, this build reads {VERSION}, "
                 f"{COMPACT_VERSION} (compact) and {FRAMED_VERSION} (framed)"
             )
-        decoder = self._decoders.get(name)
-        if decoder is None:
-            raise DecodeError(f"unknown message type `{name}`")
-        if expected is not None and name != expected.__name__:
-            raise DecodeError(f"expected {expected.__name__}, found {name}")
+        decoder = _decoder_of(self._decoders, name, expected)
         try:
             return decoder.decode(raw)
         except (
@@ -442,11 +450,7 @@ class Codec:
         self, name: str, raw: msgspec.Raw, expected: type[Message] | None
     ) -> Message:
         """The message of type ``name`` from the values of a version 3 sample."""
-        decoder = self._compact_values.get(name)
-        if decoder is None:
-            raise DecodeError(f"unknown message type `{name}`")
-        if expected is not None and name != expected.__name__:
-            raise DecodeError(f"expected {expected.__name__}, found {name}")
+        decoder = _decoder_of(self._compact_values, name, expected)
         try:
             values = decoder.decode(raw)
             return self._compact[self._types[name]].from_wire(values)
