@@ -5,9 +5,10 @@ Two layouts, both read by ``Codec.decode``; no pickle, ever, and only plain nume
 
 * version 1, ``encode``: msgpack (msgspec) of ``[MAGIC, 1, type_name, fields]``; each numpy array
   is a msgpack extension holding dtype, shape and the raw buffer. Used for recordings.
-* version 3, ``encode_compact`` (links, small samples): ``[MAGIC, 3, type_name, values]``, fields
-  by position and each array ``[dtype, shape, bytes]``, read and written by msgspec in C
-  (``connectors.compact``); a type it cannot mirror is written as version 1.
+* version 3, ``encode_compact`` (links, small samples): ``[MAGIC, 3, type_tag, values]``, fields
+  by position and each array ``[dtype, shape, bytes]``, read and written by msgspec in C; the tag
+  is the type name and a fingerprint of its field layout (``connectors.compact``). A type it
+  cannot mirror is written as version 1.
 * version 2, ``encode_framed`` (links, samples holding at least ``FRAMED_MIN_BYTES`` of arrays):
   ``b"UMB\\x02"``, the header length (u32 little-endian), the msgpack header
   ``[MAGIC, 2, type_name, fields]`` in which each array is an extension holding dtype, shape, and
@@ -215,9 +216,7 @@ class Codec:
         compact = self._compact.get(type(msg))
         if compact is None:
             return self.encode(msg)
-        return self._encoder.encode(
-            (MAGIC, COMPACT_VERSION, type(msg).__name__, compact.to_wire(msg))
-        )
+        return self._encoder.encode((MAGIC, COMPACT_VERSION, compact.tag, compact.to_wire(msg)))
 
     def _frame_hook(self, obj: Any) -> Any:
         if isinstance(obj, np.ndarray):
@@ -358,12 +357,12 @@ class Codec:
         decode = msgspec.msgpack.Decoder(
             tuple[str, int, str, compact.wire]  # type: ignore[name-defined]
         ).decode
-        from_wire, name_wanted = compact.from_wire, expected.__name__
+        from_wire, tag_wanted = compact.from_wire, compact.tag
 
         def read(data: bytes | memoryview) -> Message | None:
             try:
                 magic, version, name, values = decode(data)
-                if magic != MAGIC or version != COMPACT_VERSION or name != name_wanted:
+                if magic != MAGIC or version != COMPACT_VERSION or name != tag_wanted:
                     return None
                 return from_wire(values)
             except Exception:
@@ -379,7 +378,7 @@ class Codec:
         if compact is None:
             return self.encode_framed
         encode, to_wire, framed = self._encoder.encode, compact.to_wire, self.encode_framed
-        arrays, name = array_fields(cls), cls.__name__
+        arrays, tag = array_fields(cls), compact.tag
 
         def write(msg: Message) -> bytes:
             if type(msg) is not cls:
@@ -391,7 +390,7 @@ class Codec:
                     size += value.nbytes
             if size >= FRAMED_MIN_BYTES:
                 return framed(msg)
-            return encode((MAGIC, COMPACT_VERSION, name, to_wire(msg)))
+            return encode((MAGIC, COMPACT_VERSION, tag, to_wire(msg)))
 
         return write
 
@@ -446,13 +445,20 @@ class Codec:
         ) as exc:
             raise DecodeError(f"bad {name}: {exc}") from None
 
-    def _decode_values(
-        self, name: str, raw: msgspec.Raw, expected: type[Message] | None
-    ) -> Message:
-        """The message of type ``name`` from the values of a version 3 sample."""
+    def _decode_values(self, tag: str, raw: msgspec.Raw, expected: type[Message] | None) -> Message:
+        """The message tagged ``tag`` (type name and layout) from the values of a version 3
+        sample."""
+        name, _, layout = tag.partition("/")
         decoder = _decoder_of(self._compact_values, name, expected)
+        compact = self._compact[self._types[name]]
+        if tag != compact.tag:
+            mine = compact.tag.partition("/")[2]
+            raise DecodeError(
+                f"{name} with field layout {layout or '(none)'}, this build's is {mine}: "
+                "the producer runs another version of the message types"
+            )
         try:
             values = decoder.decode(raw)
-            return self._compact[self._types[name]].from_wire(values)
+            return compact.from_wire(values)
         except (msgspec.DecodeError, msgspec.ValidationError, TypeError, ValueError) as exc:
             raise DecodeError(f"bad {name}: {exc}") from None

@@ -1,7 +1,10 @@
 """Version 3 of the sample encoding: small samples, encoded and decoded by msgspec in C.
 
-``[MAGIC, 3, type_name, values]``: ``values`` are the message's fields in declaration order (no
-field names on the wire), and each numpy array is ``[dtype, shape, bytes]``. Version 1 puts an
+``[MAGIC, 3, type_tag, values]``: ``values`` are the message's fields in declaration order (no
+field names on the wire), and each numpy array is ``[dtype, shape, bytes]``. Since values go by
+position, the type tag carries a fingerprint of the field layout (``"Twist/6c1f03a2"``: names and
+types in order): a producer built with another layout of the type is refused with that reason,
+never read with its fields shifted. Version 1 puts an
 array in a msgpack extension, which msgspec hands to a Python hook on both ends; here every field
 has a type msgspec knows, so the whole sample is read and written in C and Python only wraps each
 array's bytes (``np.frombuffer``, no copy) and builds the message. On a link, that is most of the
@@ -16,6 +19,7 @@ no wire struct and is encoded as version 1.
 
 from __future__ import annotations
 
+import hashlib
 import keyword
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -106,6 +110,8 @@ class CompactType:
     """How one message type is written and read in version 3."""
 
     cls: type[Message]
+    #: ``"<type name>/<layout fingerprint>"``, the type slot of a version 3 sample
+    tag: str
     wire: type[msgspec.Struct]
     to_wire: Callable[[Message], msgspec.Struct]
     from_wire: Callable[[msgspec.Struct], Message]
@@ -137,4 +143,16 @@ def compact_type(cls: type[Message]) -> CompactType | None:
     )
     space: dict[str, Any] = {"W": wire, "C": cls, "A": array_writer(), "R": array_reader()}
     exec(compile(source, f"<compact {cls.__name__}>", "exec"), space)  # names checked above
-    return CompactType(cls, wire, space["to_wire"], space["from_wire"])
+    return CompactType(cls, layout_tag(cls), wire, space["to_wire"], space["from_wire"])
+
+
+def layout_tag(cls: type[Message]) -> str:
+    """``"<name>/<8 hex digits>"``: the type's name and a fingerprint of its fields' names and
+    types, in order (what a version 3 reader must agree on with the writer)."""
+    layout = ";".join(f"{f.name}:{_type_name(f.type)}" for f in msgspec.structs.fields(cls))
+    return f"{cls.__name__}/{hashlib.blake2b(layout.encode(), digest_size=4).hexdigest()}"
+
+
+def _type_name(typ: Any) -> str:
+    """``float``, ``ndarray``, ``tuple[str, ...]``: the same on every Python we support."""
+    return typ.__name__ if isinstance(typ, type) else repr(typ)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from connectors.codec import FRAMED_MIN_BYTES, MAGIC, Codec, DecodeError
-from connectors.compact import COMPACT_VERSION, compact_type
+from connectors.compact import COMPACT_VERSION, compact_type, layout_tag
 from connectors.messages import Image, Twist, Vector
 from tests.runtime.test_codec import SAMPLES, _same
 
@@ -20,8 +20,11 @@ def _envelope(data: bytes) -> list:
     return msgspec.msgpack.decode(data)
 
 
-def _forged(name: str, values: list) -> bytes:
-    return msgspec.msgpack.encode([MAGIC, COMPACT_VERSION, name, values])
+def _forged(tag: str, values: list) -> bytes:
+    return msgspec.msgpack.encode([MAGIC, COMPACT_VERSION, tag, values])
+
+
+TWIST_TAG = layout_tag(Twist)
 
 
 def test_every_registered_message_type_has_a_compact_layout() -> None:
@@ -36,7 +39,8 @@ def test_every_message_round_trips_as_version_3(sample: msgspec.Struct) -> None:
     codec = Codec()
     data = codec.encode_compact(sample)
     magic, version, name, values = _envelope(data)
-    assert (magic, version, name) == (MAGIC, 3, type(sample).__name__)
+    assert (magic, version) == (MAGIC, 3)
+    assert name.startswith(type(sample).__name__ + "/")  # the type and its field layout
     assert isinstance(values, list)  # field values in order, no field names on the wire
     _same(codec.decode(data), sample)  # the general path
     _same(codec.decode(data, type(sample)), sample)  # the typed fast path
@@ -82,7 +86,7 @@ def test_the_compact_reader_passes_on_anything_else() -> None:
     assert read(codec.encode(twist)) is None  # version 1: decode() reads it
     assert read(codec.encode_compact(SAMPLES[0])) is None  # another type
     assert read(b"\x00garbage") is None
-    assert read(_forged("Twist", ["x"])) is None
+    assert read(_forged(TWIST_TAG, ["x"])) is None
     _same(codec.decode(codec.encode(twist), Twist), twist)
 
 
@@ -118,10 +122,38 @@ def _twist_values(**change: object) -> list:
 )
 def test_forged_compact_samples_are_refused_with_a_reason(values: list, reason: str) -> None:
     codec = Codec()
-    data = _forged("Twist", values)
+    data = _forged(TWIST_TAG, values)
     for expected in (Twist, None):
         with pytest.raises(DecodeError, match=reason):
             codec.decode(data, expected)
+
+
+def test_a_producer_with_another_field_layout_is_refused_not_misread() -> None:
+    codec = Codec()
+    values = _twist_values()
+    for tag in ("Twist/00000000", "Twist"):  # another build's layout; no layout at all
+        for expected in (Twist, None):
+            with pytest.raises(DecodeError, match="another version of the message types"):
+                codec.decode(_forged(tag, values), expected)
+    _same(codec.decode(_forged(TWIST_TAG, values), Twist), SAMPLES[2])
+
+
+def test_the_layout_tag_follows_field_names_types_and_order() -> None:
+    class A(msgspec.Struct):
+        x: float
+        y: float
+
+    class B(msgspec.Struct):
+        y: float
+        x: float
+
+    class C(msgspec.Struct):
+        x: float
+        y: int
+
+    tags = {layout_tag(A).split("/")[1], layout_tag(B).split("/")[1], layout_tag(C).split("/")[1]}
+    assert len(tags) == 3
+    assert layout_tag(Twist) == layout_tag(Twist) == compact_type(Twist).tag
 
 
 def test_unknown_and_unexpected_compact_types_are_refused() -> None:
