@@ -162,6 +162,11 @@ def array_bytes(msg: Message) -> int:
     names = _ARRAY_FIELDS.get(type(msg))
     if names is None:
         names = _ARRAY_FIELDS[type(msg)] = array_fields(type(msg))
+    return _bytes_in(msg, names)
+
+
+def _bytes_in(msg: Message, names: tuple[str, ...]) -> int:
+    """Bytes held in the arrays of fields ``names`` of ``msg``."""
     total = 0
     for name in names:
         value = getattr(msg, name)
@@ -381,14 +386,7 @@ class Codec:
         arrays, tag = array_fields(cls), compact.tag
 
         def write(msg: Message) -> bytes:
-            if type(msg) is not cls:
-                return framed(msg)
-            size = 0
-            for field in arrays:
-                value = getattr(msg, field)
-                if isinstance(value, np.ndarray):
-                    size += value.nbytes
-            if size >= FRAMED_MIN_BYTES:
+            if type(msg) is not cls or _bytes_in(msg, arrays) >= FRAMED_MIN_BYTES:
                 return framed(msg)
             return encode((MAGIC, COMPACT_VERSION, tag, to_wire(msg)))
 

@@ -11,6 +11,7 @@ from scipy.spatial.transform import Rotation
 
 # The project's transform helpers; re-exported here for the calibration code.
 from modules.geometry.transforms import invert_transform, skew
+from modules.geometry.transforms import transform_from_rotation_translation as transform
 
 __all__ = [
     "invert_transform",
@@ -62,11 +63,3 @@ def nearest_rotation(M: ArrayLike) -> FloatArray:
     U, _, Vt = np.linalg.svd(np.asarray(M, dtype=float))
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
     return U @ D @ Vt
-
-
-def transform(R: ArrayLike, d: ArrayLike) -> FloatArray:
-    """4x4 homogeneous transform ``[[R, d], [0, 1]]``."""
-    T = np.eye(4)
-    T[:3, :3] = np.asarray(R, dtype=float)
-    T[:3, 3] = np.asarray(d, dtype=float)
-    return T

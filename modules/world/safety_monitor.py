@@ -15,12 +15,15 @@ import numpy as np
 from connectors import Input, Module, UserError, param
 from connectors.messages import JointRates, JointState
 from modules.arm.arm_params import ArmParams
+from modules.world.trials import STILL_SPEED
 
 
 class SafetyMonitorParams(ArmParams):
     """Arm (for forward kinematics) and the record's limits."""
 
-    still_speed: float = param(1e-3, "joint speed below which a joint is still", unit="rad/s", gt=0)
+    still_speed: float = param(
+        STILL_SPEED, "joint speed below which a joint is still", unit="rad/s", gt=0
+    )
     max_samples: int = param(20000, "samples kept (oldest dropped)", ge=10)
 
 

@@ -19,7 +19,14 @@ from typing import Any
 import numpy as np
 
 from modules.world.grasp import GraspError
-from modules.world.trials import Nominal, TrialResult, TrialSetup, open_loop_grab, stop_figures
+from modules.world.trials import (
+    STILL_SPEED,
+    Nominal,
+    TrialResult,
+    TrialSetup,
+    open_loop_grab,
+    stop_figures,
+)
 from runtime.graph.check import load_graph
 from runtime.graph.plan import GraphPlan
 from runtime.links.config import free_loopback_ports
@@ -123,7 +130,7 @@ def _result(
     monitor = summaries.get(n.get("monitor", ""), {})
     if setup.fault != "none" and t_fault is not None and monitor.get("record"):
         record = np.asarray(monitor["record"], dtype=float)
-        safety = stop_figures(record, t_fault, monitor.get("still_speed", 1e-3))
+        safety = stop_figures(record, t_fault, monitor.get("still_speed", STILL_SPEED))
     assist = servo.get("assist_reason", "") or ""
     if setup.fault == "kill_umbra":
         assist = register.get("last_zero_reason", "") or assist

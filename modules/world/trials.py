@@ -23,6 +23,9 @@ from modules.world.grasp import R_PATCH_TOOL_GRASP, GraspError, grasp_error
 from modules.world.ik import IKFailed, solve_ik
 from modules.world.world import T_table_patch_of
 
+#: A joint slower than this is still [rad/s] (SafetyMonitor's default, and the standstill test's).
+STILL_SPEED = 1e-3
+
 FAULTS = ("none", "occluder", "remove_patch", "distractor", "freeze", "kill_umbra")
 
 
@@ -132,7 +135,9 @@ class TrialResult:
         return asdict(self)
 
 
-def stop_figures(record: np.ndarray, t_fault: float, still_speed: float = 1e-3) -> dict[str, Any]:
+def stop_figures(
+    record: np.ndarray, t_fault: float, still_speed: float = STILL_SPEED
+) -> dict[str, Any]:
     """From a SafetyMonitor record (rows t, |command|, |speed|, x, y, z) and the fault time:
     time to zero rate commands, time to standstill (every joint slower than ``still_speed``
     [rad/s]), tool travel after the fault [mm]."""

@@ -22,6 +22,7 @@ counted and dropped with one log line (rate-limited), and the process keeps runn
 
 from __future__ import annotations
 
+import itertools
 import logging
 import threading
 import time
@@ -114,6 +115,7 @@ class ZenohTransport:
         #: Changes whenever a producer's liveliness or the end of a stream changes (what
         #: ``producer_alive`` answers): the scheduler re-reads link states only then.
         self.state_version = 0
+        self._versions = itertools.count(1)
         self._ended: set[str] = set()
         self._last_error_log: dict[str, tuple[float, int]] = {}
         self._marker = HostMarker() if frame_pool else None
@@ -124,6 +126,12 @@ class ZenohTransport:
         self._alive_sub = session.liveliness().declare_subscriber(
             f"{self.prefix}/{ALIVE}/*/*", self._on_liveliness, history=True
         )
+
+    def _state_changed(self) -> None:
+        """Give ``state_version`` a value it never had, after the change is made. Any thread may
+        call this: two racing calls still leave a new value, so no change goes unseen (a
+        ``+= 1`` could lose one)."""
+        self.state_version = next(self._versions)
 
     @staticmethod
     def _graph_processes(plan: GraphPlan) -> set[str]:
@@ -137,7 +145,6 @@ class ZenohTransport:
         up = sample.kind == zenoh.SampleKind.PUT
         with self._lock:
             known = name in self._alive
-            self.state_version += 1
             if up:
                 self._alive.add(name)
                 self._gone.pop(name, None)
@@ -147,6 +154,7 @@ class ZenohTransport:
             else:
                 self._alive.discard(name)
                 self._gone[name] = None
+            self._state_changed()
         if up and not known:
             self._log.info("process `%s` is up", name)
         elif not up and known:
@@ -389,7 +397,7 @@ class ZenohTransport:
             if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
                 stats.ended += 1
                 ended.add(key)
-                self.state_version += 1
+                self._state_changed()
                 return
             release: Callable[[], None] | None = None
             try:
@@ -404,7 +412,9 @@ class ZenohTransport:
                     stats.pool_samples += 1
                     msg = self._decoder().decode_placed(header, data, expected)
                 else:  # a small sample: the compact reader, else the general path (or its error)
-                    msg = read_compact(data) or self._decoder().decode(data, expected)
+                    msg = read_compact(data)
+                    if msg is None:
+                        msg = self._decoder().decode(data, expected)
             except Exception as exc:  # DecodeError, or anything a foreign payload provokes
                 if release is not None:
                     release()
@@ -424,7 +434,7 @@ class ZenohTransport:
             stats.last_arrival = monotonic()
             if key in ended:
                 ended.discard(key)
-                self.state_version += 1
+                self._state_changed()
             if gone and stats.producer in gone:
                 self._samples_after_gone(stats.producer, stats.last_arrival)
             for d in delivers:
@@ -450,7 +460,7 @@ class ZenohTransport:
                 return
             del self._gone[producer]
             self._alive.add(producer)
-            self.state_version += 1
+            self._state_changed()
             self.liveliness_flaps += 1
         self._log.warning(
             "process `%s`: zenoh said it was gone, but its samples keep arriving; alive after all",
