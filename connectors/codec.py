@@ -202,9 +202,6 @@ class Codec:
             if compact is not None:
                 self._compact[cls] = compact
         self._readers: dict[type[Message], Callable[[bytes | memoryview], Message | None]] = {}
-        self._compact_values = {
-            c.cls.__name__: msgspec.msgpack.Decoder(c.wire) for c in self._compact.values()
-        }
         self._parts: list[tuple[int, np.ndarray]] = []
         self._place: Callable[[np.ndarray], int] | None = None
         self._size = 0
@@ -447,8 +444,10 @@ class Codec:
         """The message tagged ``tag`` (type name and layout) from the values of a version 3
         sample."""
         name, _, layout = tag.partition("/")
-        decoder = _decoder_of(self._compact_values, name, expected)
-        compact = self._compact[self._types[name]]
+        _decoder_of(self._decoders, name, expected)  # says why when unknown or unexpected
+        compact = self._compact.get(self._types[name])
+        if compact is None:
+            raise DecodeError(f"{name} has no compact layout in this build")
         if tag != compact.tag:
             mine = compact.tag.partition("/")[2]
             raise DecodeError(
@@ -456,7 +455,6 @@ class Codec:
                 "the producer runs another version of the message types"
             )
         try:
-            values = decoder.decode(raw)
-            return compact.from_wire(values)
+            return compact.from_wire(compact.decode_wire(raw))
         except (msgspec.DecodeError, msgspec.ValidationError, TypeError, ValueError) as exc:
             raise DecodeError(f"bad {name}: {exc}") from None

@@ -113,6 +113,8 @@ class CompactType:
     #: ``"<type name>/<layout fingerprint>"``, the type slot of a version 3 sample
     tag: str
     wire: type[msgspec.Struct]
+    #: msgpack bytes of a wire struct -> the wire struct (msgspec's decoder: any thread may use it)
+    decode_wire: Callable[[bytes | memoryview], msgspec.Struct]
     to_wire: Callable[[Message], msgspec.Struct]
     from_wire: Callable[[msgspec.Struct], Message]
 
@@ -132,7 +134,7 @@ def compact_type(cls: type[Message]) -> CompactType | None:
         frozen=True,
     )
     try:
-        msgspec.msgpack.Decoder(wire)
+        decoder = msgspec.msgpack.Decoder(wire)
     except TypeError:
         return None  # an array (or another unsupported type) inside a field
     to_values = ", ".join(f"A(m.{n})" if n in arrays else f"m.{n}" for n in names)
@@ -143,7 +145,9 @@ def compact_type(cls: type[Message]) -> CompactType | None:
     )
     space: dict[str, Any] = {"W": wire, "C": cls, "A": array_writer(), "R": array_reader()}
     exec(compile(source, f"<compact {cls.__name__}>", "exec"), space)  # names checked above
-    return CompactType(cls, layout_tag(cls), wire, space["to_wire"], space["from_wire"])
+    return CompactType(
+        cls, layout_tag(cls), wire, decoder.decode, space["to_wire"], space["from_wire"]
+    )
 
 
 def layout_tag(cls: type[Message]) -> str:

@@ -20,6 +20,10 @@ from runtime.graph.plan import LinkPlan
 class LinkTransport(Protocol):
     """What a process needs from its links."""
 
+    #: Changes whenever an answer of ``producer_alive`` may have changed, so the scheduler asks
+    #: only after a change; None when the transport cannot say (then it asks on every tick).
+    state_version: int | None
+
     def publisher(self, link: LinkPlan) -> Sink:
         """A sink that publishes samples of ``link`` (producer side)."""
         ...
@@ -35,9 +39,8 @@ class LinkTransport(Protocol):
         ...
 
     def producer_alive(self, link: LinkPlan) -> bool:
-        """Whether the process producing ``link`` is alive (liveliness). A transport may also
-        have an integer ``state_version`` that changes whenever an answer may have changed; the
-        scheduler then asks only after a change, else on every tick."""
+        """Whether the process producing ``link`` is alive (liveliness) and its stream has not
+        ended."""
         ...
 
     def stats(self) -> dict[str, object]:

@@ -396,11 +396,13 @@ class Scheduler:
         """``link_alive`` of each register fed by a link, re-read when the transport says a
         producer's liveliness or an end of stream changed (every tick when it cannot say)."""
         transport = self.transport
-        version = getattr(transport, "state_version", None)
+        if transport is None:
+            return
+        version = transport.state_version
         if version is not None and version == self._link_state:
             return
         self._link_state = -1 if version is None else version
-        alive = transport.producer_alive  # type: ignore[union-attr]
+        alive = transport.producer_alive
         for reg, link in self._link_regs:
             reg.link_alive = alive(link)
 

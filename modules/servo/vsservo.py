@@ -9,6 +9,7 @@ import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
 from connectors.messages import CameraModel, Contour, Status, Text, Twist
+from modules.servo.error_text import error_figure
 from modules.servo.features import (
     FeatureError,
     Intrinsics,
@@ -205,12 +206,7 @@ class VsServo(Module):
         period = self.params.progress_period_s
         if period and now - self._last_progress >= period:
             self._last_progress = now
-            errors = ", ".join(
-                f"roll {np.degrees(v):+.1f} deg"
-                if k == "error_roll"
-                else f"{k[6:]} {v * 1e3:+.1f} mm"
-                for k, v in values.items()
-            )
+            errors = ", ".join(error_figure(k, v) for k, v in values.items())
             self.log.info(
                 "t=%.1f s stage %s%s",
                 now - self._t0,

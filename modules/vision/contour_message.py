@@ -27,7 +27,7 @@ def contour_message(
         axes = np.array([features.major_axis_px, features.minor_axis_px])
     extra = {} if offending is None else {"offending": np.asarray(offending).astype(np.int64)}
     return Contour(
-        vertices=vertices,
+        vertices=np.asarray(vertices, dtype=np.float64).reshape(-1, 2),
         centroid=centroid,
         area=area,
         orientation=orientation,

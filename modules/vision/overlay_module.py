@@ -6,6 +6,7 @@ import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import Contour, Image, Status
+from modules.servo.error_text import error_figure
 from modules.vision.features import polygon_features
 from modules.vision.overlay import draw_overlay
 from modules.vision.sanity import SanityLimits, bounding_shapes
@@ -91,7 +92,7 @@ class Overlay(Module):
             if status.assist:
                 lines.append(f"operator: {status.reason or 'assistance requested'}")
             if status.values:
-                lines.append("  ".join(_figure(k, v) for k, v in status.values.items()))
+                lines.append("  ".join(error_figure(k, v) for k, v in status.values.items()))
         if contour is None:
             lines.append("snake: no contour")
         else:
@@ -134,13 +135,3 @@ class Overlay(Module):
             self.log.warning("%s: image size changed; frame not written to the video", self.name)
             return
         self._writer.write(drawn)
-
-
-def _figure(name: str, value: float) -> str:
-    """``error_x`` in m -> ``x +1.2 mm``; ``error_roll`` in rad -> ``roll -0.4 deg``."""
-    short = name.removeprefix("error_")
-    if name == "error_roll":
-        return f"{short} {np.degrees(value):+.2f} deg"
-    if name.startswith("error_"):
-        return f"{short} {value * 1e3:+.1f} mm"
-    return f"{short} {value:.4g}"

@@ -17,7 +17,7 @@ from connectors.errors import UserError
 #: The runtime's own sub-commands, in the order ``umbra --help`` lists them. Domain commands
 #: (``snake``, ``arm``, ``calib``, ``trials``...) come from the ``umbra.commands`` entry-point
 #: group, so the runtime never imports a domain package by name.
-COMMANDS = ("cmd_run", "cmd_check", "cmd_modules", "cmd_describe", "cmd_graph")
+COMMANDS = ("cmd_run", "cmd_check", "cmd_modules", "cmd_describe", "cmd_graph", "cmd_bench")
 COMMAND_GROUP = "umbra.commands"
 
 

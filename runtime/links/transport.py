@@ -114,7 +114,7 @@ class ZenohTransport:
         self.liveliness_flaps = 0
         #: Changes whenever a producer's liveliness or the end of a stream changes (what
         #: ``producer_alive`` answers): the scheduler re-reads link states only then.
-        self.state_version = 0
+        self.state_version: int | None = 0
         self._versions = itertools.count(1)
         self._ended: set[str] = set()
         self._last_error_log: dict[str, tuple[float, int]] = {}

@@ -91,6 +91,8 @@ connections:
 class FakeTransport:
     """Holds the consumer's deliver callbacks so a test can push samples as zenoh would."""
 
+    state_version = None  # cannot say when liveliness changes: asked on every tick
+
     def __init__(self) -> None:
         self.deliver: dict[str, Callable[[Message], None]] = {}
         self.arrived: Callable[[], None] = lambda: None

@@ -1,0 +1,138 @@
+"""``umbra bench``: run the benchmarks of the source checkout and say how each went.
+
+Each script ``benchmarks/bench_<name>.py`` measures its baseline in the same run, prints its table
+and writes ``benchmarks/results/<name>.json``; this command runs the ones named (all by default,
+fastest first) one after the other with this interpreter, then prints one line per benchmark:
+exit status, minutes taken, the results file it wrote. A stopped run still prints that summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import runtime
+from connectors.errors import UserError
+
+NAME = "bench"
+HELP = "run the benchmarks (each against a baseline measured in the same run) and summarise them"
+#: Fastest first, so a short look comes before the long runs.
+ORDER = ("scheduler", "servo_tick", "snake", "calib", "links", "pickup")
+
+
+@dataclass
+class Outcome:
+    """How one benchmark ran: exit status (None: not finished), wall time [s], results file."""
+
+    name: str
+    status: int | None
+    seconds: float
+    results: Path | None
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default: all)")
+    parser.add_argument("--quick", action="store_true", help="each benchmark's short run")
+    parser.add_argument("--list", action="store_true", help="list the benchmarks and stop")
+    parser.add_argument(
+        "--dir", metavar="DIR", help="benchmarks folder (default: the checkout's benchmarks/)"
+    )
+
+
+def benchmarks_dir(option: str | None) -> Path:
+    """The folder holding ``bench_*.py``: ``option``, else ``benchmarks/`` beside the installed
+    ``runtime`` package (an editable install of the checkout), else in the current folder."""
+    if option:
+        candidates = [Path(option)]
+    else:
+        checkout = Path(runtime.__file__).resolve().parents[1]
+        candidates = [checkout / "benchmarks", Path("benchmarks")]
+    for folder in candidates:
+        if any(folder.glob("bench_*.py")):
+            return folder
+    raise UserError(
+        f"expected benchmark scripts (bench_*.py) in {', '.join(str(c) for c in candidates)}, "
+        "found none: benchmarks run from a source checkout (`pip install -e .`), or pass --dir"
+    )
+
+
+def available(folder: Path) -> dict[str, Path]:
+    """Benchmark name -> script, in ``ORDER`` then by name."""
+    found = {p.stem.removeprefix("bench_"): p for p in folder.glob("bench_*.py")}
+    rank = {n: i for i, n in enumerate(ORDER)}
+    return {n: found[n] for n in sorted(found, key=lambda n: (rank.get(n, len(ORDER)), n))}
+
+
+def summary_line(script: Path) -> str:
+    """First paragraph of the script's docstring, on one line (read, not imported)."""
+    try:
+        doc = ast.get_docstring(ast.parse(script.read_text()))
+    except (OSError, SyntaxError, ValueError):
+        return ""
+    return " ".join(doc.strip().split("\n\n")[0].split()) if doc else ""
+
+
+def run_one(name: str, script: Path, quick: bool) -> tuple[Outcome, bool]:
+    """Run one benchmark script, its output going straight to this terminal; True when it was
+    interrupted (Ctrl-C reaches the script too: it stops, the outcome says so)."""
+    results = script.parent / "results" / f"{name}.json"
+    before = results.stat().st_mtime if results.exists() else None
+    start = time.monotonic()
+    argv = [sys.executable, str(script), *(["--quick"] if quick else [])]
+    path = os.pathsep.join(p for p in (str(script.parent), os.environ.get("PYTHONPATH")) if p)
+    status: int | None = None
+    interrupted = False
+    try:
+        status = subprocess.run(argv, env=dict(os.environ, PYTHONPATH=path)).returncode
+    except KeyboardInterrupt:
+        interrupted = True
+    wrote = results.exists() and results.stat().st_mtime != before
+    return Outcome(name, status, time.monotonic() - start, results if wrote else None), interrupted
+
+
+def print_summary(outcomes: list[Outcome]) -> None:
+    """One line per benchmark run: status, minutes, results file."""
+    print("\nbenchmark     status        min  results")
+    for o in outcomes:
+        state = _state(o.status)
+        wrote = str(o.results) if o.results else "(none written)"
+        print(f"{o.name:<12}  {state:<12} {o.seconds / 60:4.1f}  {wrote}")
+
+
+def _state(status: int | None) -> str:
+    if status is None:
+        return "stopped"
+    return "ok" if status == 0 else f"failed ({status})"
+
+
+def main(args: argparse.Namespace) -> int:
+    folder = benchmarks_dir(args.dir)
+    scripts = available(folder)
+    if args.list:
+        width = max(len(n) for n in scripts)
+        for name, script in scripts.items():
+            print(f"{name.ljust(width)}  {summary_line(script)}")
+        return 0
+    unknown = [n for n in args.names if n not in scripts]
+    if unknown:
+        raise UserError(
+            f"expected benchmark names among {', '.join(scripts)}, found {', '.join(unknown)}"
+        )
+    chosen = list(dict.fromkeys(args.names)) or list(scripts)
+    outcomes: list[Outcome] = []
+    for name in chosen:
+        print(f"== bench {name}{' (quick)' if args.quick else ''}", flush=True)
+        outcome, interrupted = run_one(name, scripts[name], args.quick)
+        outcomes.append(outcome)
+        if interrupted or outcome.status in (130, -2):  # Ctrl-C: stop here, say what ran
+            print_summary(outcomes)
+            print("umbra bench: interrupted", file=sys.stderr)
+            return 130
+    print_summary(outcomes)
+    return 0 if all(o.status == 0 for o in outcomes) else 1
