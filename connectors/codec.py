@@ -22,7 +22,7 @@ Decoding never copies an array's buffer: the array is a read-only view on the re
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import msgspec
@@ -145,16 +145,20 @@ def _dec_hook(typ: type, obj: Any) -> Any:
     raise NotImplementedError(f"cannot decode {typ}")
 
 
+def _check_type(known: Mapping[str, object], name: str, expected: type[Message] | None) -> None:
+    """DecodeError when message type ``name`` is not in ``known`` or is not ``expected``."""
+    if name not in known:
+        raise DecodeError(f"unknown message type `{name}`")
+    if expected is not None and name != expected.__name__:
+        raise DecodeError(f"expected {expected.__name__}, found {name}")
+
+
 def _decoder_of(
     decoders: dict[str, msgspec.msgpack.Decoder], name: str, expected: type[Message] | None
 ) -> msgspec.msgpack.Decoder:
     """The decoder of message type ``name``; DecodeError when it is unknown or not ``expected``."""
-    decoder = decoders.get(name)
-    if decoder is None:
-        raise DecodeError(f"unknown message type `{name}`")
-    if expected is not None and name != expected.__name__:
-        raise DecodeError(f"expected {expected.__name__}, found {name}")
-    return decoder
+    _check_type(decoders, name, expected)
+    return decoders[name]
 
 
 def array_bytes(msg: Message) -> int:
@@ -444,7 +448,7 @@ class Codec:
         """The message tagged ``tag`` (type name and layout) from the values of a version 3
         sample."""
         name, _, layout = tag.partition("/")
-        _decoder_of(self._decoders, name, expected)  # says why when unknown or unexpected
+        _check_type(self._types, name, expected)
         compact = self._compact.get(self._types[name])
         if compact is None:
             raise DecodeError(f"{name} has no compact layout in this build")
