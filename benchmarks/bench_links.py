@@ -9,6 +9,9 @@ uint8 image, p50 and p99:
 * zenoh     — raw zenoh-python with the same payloads and the same configuration (peer, loopback,
               scouting off, shared memory on, same congestion control): ping puts and waits on a
               channel, pong republishes from its callback;
+* codec     — twist only, a diagnostic: raw zenoh as above, but each side decodes the sample
+              into a ``Twist`` with umbra's codec and encodes the next one (what a module's
+              hop costs without the scheduler, the ports and the link counters);
 * tcp       — a raw loopback TCP socket echo (TCP_NODELAY), the floor;
 * dora      — dora-rs Python nodes, same ping-pong, ``dora run`` (skipped with the reason when
               dora-rs is not installed: ``pip install dora-rs dora-rs-cli``).
@@ -335,6 +338,73 @@ def zenoh_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
     return np.array(rtts)
 
 
+def _twist_codec() -> tuple[Callable[[bytes], Twist | None], Callable[[Twist], bytes]]:
+    """Umbra's compact reader and writer of twists, as a link uses them."""
+    from connectors.codec import Codec
+
+    codec = Codec()
+    read = codec.compact_reader(Twist)
+    assert read is not None
+    return read, codec.compact_writer(Twist)
+
+
+def _echo(msg: Twist) -> Twist:
+    """What ``BenchPong`` sends back (the output port then numbers it)."""
+    return Twist(vector=msg.vector, frame=msg.frame, stamp=msg.stamp, seq=msg.seq + 1)
+
+
+def role_codec_pong(endpoint: str) -> None:
+    session = _zenoh_session([endpoint], [])
+    pub = session.declare_publisher("bench/pong", **_zenoh_qos("small"))
+    read, write = _twist_codec()
+
+    def on_ping(sample: Any) -> None:
+        msg = read(sample.payload.to_bytes())
+        if msg is not None:
+            pub.put(write(_echo(msg)))
+
+    sub = session.declare_subscriber("bench/ping", on_ping)
+    sys.stdout.write("ready\n")
+    sys.stdout.flush()
+    sys.stdin.read()
+    sub.undeclare()
+    session.close()
+
+
+def codec_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
+    """Raw zenoh round trips of umbra-encoded twists, decoded and re-encoded on both sides (the
+    diagnostic is about the small-sample hop: twists only)."""
+    if kind != "small":
+        raise ValueError("the codec diagnostic runs twists only")
+    from runtime.links.config import free_loopback_ports
+
+    endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
+    pong = _child("--role", "codec-pong", "--endpoint", endpoint)
+    session = _zenoh_session([], [endpoint])
+    read, write = _twist_codec()
+    try:
+        pub = session.declare_publisher("bench/ping", **_zenoh_qos(kind))
+        sub = session.declare_subscriber("bench/pong")
+        while not pub.matching_status.matching:
+            time.sleep(0.01)
+        time.sleep(0.2)
+        msg = Twist(vector=np.arange(6, dtype=np.float64), frame="camera", seq=1)
+        rtts = []
+        for i in range(rounds + warmup):
+            t0 = time.perf_counter()
+            pub.put(write(_echo(msg)))
+            reply = read(sub.recv().payload.to_bytes())
+            if reply is None:
+                raise RuntimeError("the codec pong sent back something that does not decode")
+            msg = reply
+            if i >= warmup:
+                rtts.append(time.perf_counter() - t0)
+    finally:
+        session.close()
+        pong.communicate("", timeout=30)
+    return np.array(rtts)
+
+
 def zenoh_throughput(seconds: float) -> float:
     from runtime.links.config import free_loopback_ports
 
@@ -496,8 +566,9 @@ def dora_rtt(tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarray:
 
 # -- runs --------------------------------------------------------------------------------------
 KINDS = ("small", "image")
-METHODS = ("umbra", "zenoh", "tcp", "dora")
+METHODS = ("umbra", "zenoh", "codec", "tcp", "dora")
 BASELINES = ("zenoh", "dora", "tcp")
+SMALL_ONLY = ("codec",)  # diagnostics run with twists only
 LABELS = {"small": "twist 48 B", "image": "image 921 kB", "throughput": "throughput"}
 
 Rtts = dict[str, dict[str, list[np.ndarray | None]]]  # kind -> method -> round trips [s] per pass
@@ -533,6 +604,8 @@ def _rtt(name: str, tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarra
         return zenoh_rtt(kind, rounds, warmup)
     if name == "tcp":
         return tcp_rtt(kind, rounds, warmup)
+    if name == "codec":
+        return codec_rtt(kind, rounds, warmup)
     return dora_rtt(tmp, kind, rounds, warmup)
 
 
@@ -543,6 +616,8 @@ def _run_pass(
     for kind in KINDS:
         print(f"pass {p + 1}/{plan.passes}, round trips {kind}: ", end="", flush=True)
         for name in _rotated(methods, p):
+            if name in SMALL_ONLY and kind != "small":
+                continue
             try:
                 rtts[kind][name][p] = _rtt(name, tmp, kind, plan.rounds[kind], plan.warmup[kind])
             except Exception as exc:
@@ -619,6 +694,14 @@ def _paired(rtts: Rtts, fps: Fps) -> dict[str, dict[str, Any]]:
             for base in BASELINES
             if base in by_name and umbra
         }
+        codec = by_name.get("codec", [])
+        if any(r is not None for r in codec):  # the codec's own share of the gap to raw zenoh
+            paired[kind]["codec/zenoh"] = _series(
+                [
+                    _ratio(_p50_us(c), _p50_us(z))
+                    for c, z in zip(codec, by_name["zenoh"], strict=True)
+                ]
+            )
     paired["throughput"] = {
         f"{name}/zenoh": _series(
             [_ratio(a, z) for a, z in zip(fps[name], fps["zenoh"], strict=True)]
@@ -665,6 +748,9 @@ def main() -> int:
     if args.role == "zenoh-sink":
         role_zenoh_sink(args.endpoint)
         return 0
+    if args.role == "codec-pong":
+        role_codec_pong(args.endpoint)
+        return 0
     if args.role == "tcp-pong":
         role_tcp_pong(args.port)
         return 0
@@ -675,7 +761,14 @@ def main() -> int:
     results: dict[str, Any] = {"skipped": {}, "passes": plan.passes, "plan": asdict(plan)}
     if dora_reason:
         results["skipped"]["dora"] = dora_reason
-    rtts: Rtts = {kind: {name: [None] * plan.passes for name in methods} for kind in KINDS}
+    rtts: Rtts = {
+        kind: {
+            name: [None] * plan.passes
+            for name in methods
+            if kind == "small" or name not in SMALL_ONLY
+        }
+        for kind in KINDS
+    }
     fps: Fps = {name: [None] * plan.passes for name in ("umbra", "umbra_link", "zenoh")}
     with tempfile.TemporaryDirectory(prefix="bench_links_") as tmpdir:
         for p in range(plan.passes):
@@ -724,7 +817,7 @@ def _print_paired(r: dict[str, Any]) -> None:
     for group, by_key in r["paired"].items():
         label = LABELS[group]
         for key, s in by_key.items():
-            what = key.replace("/", " ÷ ") if group == "throughput" else f"umbra ÷ {key}"
+            what = key.replace("/", " ÷ ") if "/" in key else f"umbra ÷ {key}"
             per_pass = " ".join(_num(x) for x in s["per_pass"])
             print(f"{label:<14}{what:<20}{_num(s['median']):>6}   per pass: {per_pass}")
             label = ""

@@ -344,8 +344,13 @@ class Scheduler:
         """One tick at ``now`` [s]: link samples into registers, then every due or triggered
         module in data order, then delayed writes. Call with the tick lock held."""
         self._tick_now = now
-        if self._inbound:
-            self._drain(now)
+        inbound = self._inbound
+        if inbound:
+            if len(inbound) == 1:  # the usual case: one sample since the last tick
+                reg, sample, _in_order = inbound.popleft()
+                reg.write(sample, now)
+            else:
+                self._drain(now)
         self._ticks += 1
         perf = time.perf_counter_ns
         t0 = self._t0
@@ -389,29 +394,23 @@ class Scheduler:
             for reg, sample, when in pending:
                 reg.write(sample, when)
             pending.clear()
-        if self._link_regs:
-            self._update_link_states()
-
-    def _update_link_states(self) -> None:
-        """``link_alive`` of each register fed by a link, re-read when the transport says a
-        producer's liveliness or an end of stream changed (every tick when it cannot say)."""
         transport = self.transport
-        if transport is None:
-            return
+        if transport is not None and transport.state_version != self._link_state:
+            self._update_link_states(transport)  # None (cannot say) is never equal: every tick
+
+    def _update_link_states(self, transport: LinkTransport) -> None:
+        """``link_alive`` of each register fed by a link; called when the transport says a
+        producer's liveliness or an end of stream changed (every tick when it cannot say)."""
         version = transport.state_version
-        if version is not None and version == self._link_state:
-            return
         self._link_state = -1 if version is None else version
         alive = transport.producer_alive
         for reg, link in self._link_regs:
             reg.link_alive = alive(link)
 
     def _drain(self, now: float) -> None:
+        """Several samples since the last tick: on a reliable link one per register, in order
+        (the rest wait for the next tick); on a best-effort link the latest wins."""
         inbound = self._inbound
-        if len(inbound) == 1:  # the usual case: one sample since the last tick
-            reg, sample, _in_order = inbound.popleft()
-            reg.write(sample, now)
-            return
         written: set[int] = set()
         held = []
         for _ in range(len(inbound)):  # samples arriving meanwhile wait for the next tick
