@@ -264,15 +264,21 @@ def _zenoh_qos(kind: str) -> dict[str, Any]:
     return {"congestion_control": cc, "express": True}
 
 
+def _serve(session: Any, key: str, on_sample: Callable[[Any], None]) -> None:
+    """Call ``on_sample`` for each sample on ``key``, say ``ready``, and serve until the parent
+    closes stdin; then close ``session``."""
+    sub = session.declare_subscriber(key, on_sample)
+    sys.stdout.write("ready\n")
+    sys.stdout.flush()
+    sys.stdin.read()
+    sub.undeclare()
+    session.close()
+
+
 def role_zenoh_pong(endpoint: str, kind: str) -> None:
     session = _zenoh_session([endpoint], [])
     pub = session.declare_publisher("bench/pong", **_zenoh_qos(kind))
-    sub = session.declare_subscriber("bench/ping", lambda s: pub.put(s.payload))
-    sys.stdout.write("ready\n")
-    sys.stdout.flush()
-    sys.stdin.read()  # until the parent closes stdin
-    sub.undeclare()
-    session.close()
+    _serve(session, "bench/ping", lambda s: pub.put(s.payload))
 
 
 def role_zenoh_sink(endpoint: str) -> None:
@@ -284,12 +290,7 @@ def role_zenoh_sink(endpoint: str) -> None:
         if data[0] >= 0:
             times.append(time.perf_counter())
 
-    sub = session.declare_subscriber("bench/stream", on_frame)
-    sys.stdout.write("ready\n")
-    sys.stdout.flush()
-    sys.stdin.read()
-    sub.undeclare()
-    session.close()
+    _serve(session, "bench/stream", on_frame)
     t = np.array(times[len(times) // 10 :])
     rate = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 2 else 0.0
     sys.stdout.write(json.dumps({"fps": rate}) + "\n")
@@ -310,11 +311,15 @@ def _child(*args: str) -> subprocess.Popen[str]:
     return popen
 
 
-def zenoh_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
+def _pingpong(
+    role: tuple[str, ...], kind: str, rounds: int, warmup: int, exchange: Callable[[Any, Any], None]
+) -> np.ndarray:
+    """Round trips [s] against the pong started as ``role``: ``exchange(pub, sub)`` puts one
+    ping and waits for its pong; the first ``warmup`` are not kept."""
     from runtime.links.config import free_loopback_ports
 
     endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
-    pong = _child("--role", "zenoh-pong", "--endpoint", endpoint, "--kind", kind)
+    pong = _child(*role, "--endpoint", endpoint)
     session = _zenoh_session([], [endpoint])
     try:
         pub = session.declare_publisher("bench/ping", **_zenoh_qos(kind))
@@ -322,20 +327,27 @@ def zenoh_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
         while not pub.matching_status.matching:
             time.sleep(0.01)
         time.sleep(0.2)
-        size = SMALL if kind == "small" else IMAGE
-        payload = np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8).tobytes()
         rtts = []
         for i in range(rounds + warmup):
             t0 = time.perf_counter()
-            pub.put(payload)
-            reply = sub.recv()
-            reply.payload.to_bytes()
+            exchange(pub, sub)
             if i >= warmup:
                 rtts.append(time.perf_counter() - t0)
     finally:
         session.close()
         pong.communicate("", timeout=30)
     return np.array(rtts)
+
+
+def zenoh_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
+    size = SMALL if kind == "small" else IMAGE
+    payload = np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8).tobytes()
+
+    def exchange(pub: Any, sub: Any) -> None:
+        pub.put(payload)
+        sub.recv().payload.to_bytes()
+
+    return _pingpong(("--role", "zenoh-pong", "--kind", kind), kind, rounds, warmup, exchange)
 
 
 def _twist_codec() -> tuple[Callable[[bytes], Twist | None], Callable[[Twist], bytes]]:
@@ -363,12 +375,7 @@ def role_codec_pong(endpoint: str) -> None:
         if msg is not None:
             pub.put(write(_echo(msg)))
 
-    sub = session.declare_subscriber("bench/ping", on_ping)
-    sys.stdout.write("ready\n")
-    sys.stdout.flush()
-    sys.stdin.read()
-    sub.undeclare()
-    session.close()
+    _serve(session, "bench/ping", on_ping)
 
 
 def codec_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
@@ -376,33 +383,18 @@ def codec_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
     diagnostic is about the small-sample hop: twists only)."""
     if kind != "small":
         raise ValueError("the codec diagnostic runs twists only")
-    from runtime.links.config import free_loopback_ports
-
-    endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
-    pong = _child("--role", "codec-pong", "--endpoint", endpoint)
-    session = _zenoh_session([], [endpoint])
     read, write = _twist_codec()
-    try:
-        pub = session.declare_publisher("bench/ping", **_zenoh_qos(kind))
-        sub = session.declare_subscriber("bench/pong")
-        while not pub.matching_status.matching:
-            time.sleep(0.01)
-        time.sleep(0.2)
-        msg = Twist(vector=np.arange(6, dtype=np.float64), frame="camera", seq=1)
-        rtts = []
-        for i in range(rounds + warmup):
-            t0 = time.perf_counter()
-            pub.put(write(_echo(msg)))
-            reply = read(sub.recv().payload.to_bytes())
-            if reply is None:
-                raise RuntimeError("the codec pong sent back something that does not decode")
-            msg = reply
-            if i >= warmup:
-                rtts.append(time.perf_counter() - t0)
-    finally:
-        session.close()
-        pong.communicate("", timeout=30)
-    return np.array(rtts)
+    msg = Twist(vector=np.arange(6, dtype=np.float64), frame="camera", seq=1)
+
+    def exchange(pub: Any, sub: Any) -> None:
+        nonlocal msg
+        pub.put(write(_echo(msg)))
+        reply = read(sub.recv().payload.to_bytes())
+        if reply is None:
+            raise RuntimeError("the codec pong sent back something that does not decode")
+        msg = reply
+
+    return _pingpong(("--role", "codec-pong"), kind, rounds, warmup, exchange)
 
 
 def zenoh_throughput(seconds: float) -> float:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
 import os
 import subprocess
 import sys
@@ -78,31 +79,27 @@ def summary_line(script: Path) -> str:
     return " ".join(doc.strip().split("\n\n")[0].split()) if doc else ""
 
 
-def run_one(name: str, script: Path, quick: bool) -> tuple[Outcome, bool]:
-    """Run one benchmark script, its output going straight to this terminal; True when it was
-    interrupted (Ctrl-C reaches the script too: it stops, the outcome says so)."""
+def run_one(name: str, script: Path, quick: bool) -> Outcome:
+    """Run one benchmark script, its output going straight to this terminal. Ctrl-C reaches the
+    script too: it stops, and the outcome's status is None."""
     results = script.parent / "results" / f"{name}.json"
     before = results.stat().st_mtime if results.exists() else None
     start = time.monotonic()
     argv = [sys.executable, str(script), *(["--quick"] if quick else [])]
     path = os.pathsep.join(p for p in (str(script.parent), os.environ.get("PYTHONPATH")) if p)
     status: int | None = None
-    interrupted = False
-    try:
+    with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C: status stays None, "stopped"
         status = subprocess.run(argv, env=dict(os.environ, PYTHONPATH=path)).returncode
-    except KeyboardInterrupt:
-        interrupted = True
     wrote = results.exists() and results.stat().st_mtime != before
-    return Outcome(name, status, time.monotonic() - start, results if wrote else None), interrupted
+    return Outcome(name, status, time.monotonic() - start, results if wrote else None)
 
 
 def print_summary(outcomes: list[Outcome]) -> None:
     """One line per benchmark run: status, minutes, results file."""
     print("\nbenchmark     status        min  results")
     for o in outcomes:
-        state = _state(o.status)
         wrote = str(o.results) if o.results else "(none written)"
-        print(f"{o.name:<12}  {state:<12} {o.seconds / 60:4.1f}  {wrote}")
+        print(f"{o.name:<12}  {_state(o.status):<12} {o.seconds / 60:4.1f}  {wrote}")
 
 
 def _state(status: int | None) -> str:
@@ -128,9 +125,9 @@ def main(args: argparse.Namespace) -> int:
     outcomes: list[Outcome] = []
     for name in chosen:
         print(f"== bench {name}{' (quick)' if args.quick else ''}", flush=True)
-        outcome, interrupted = run_one(name, scripts[name], args.quick)
+        outcome = run_one(name, scripts[name], args.quick)
         outcomes.append(outcome)
-        if interrupted or outcome.status in (130, -2):  # Ctrl-C: stop here, say what ran
+        if outcome.status in (None, 130, -2):  # Ctrl-C: stop here, say what ran
             print_summary(outcomes)
             print("umbra bench: interrupted", file=sys.stderr)
             return 130
