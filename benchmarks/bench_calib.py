@@ -499,7 +499,6 @@ def main() -> None:
     args = parser.parse_args()
     quick = args.quick
     results = {
-        "quick": quick,
         "calibration": bench_calibration(8 if quick else 60, 0.3, seed=1),
         "single_camera_pose": bench_single_pose(30 if quick else 300, 0.5, seed=2),
         "multi_camera_pose": bench_multi_pose(10 if quick else 100, (0.1, 0.3, 1.0, 3.0), seed=3),
@@ -507,7 +506,7 @@ def main() -> None:
         "undistortion": bench_undistort(5000 if quick else 50000, seed=5),
         "zoom_interpolation": bench_zoom(),
     }
-    path = write_results("calib", results)
+    path = write_results("calib", results, quick=quick)
     print(f"\nwrote {path}")
 
 

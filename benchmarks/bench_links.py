@@ -770,9 +770,8 @@ def main() -> int:
     results["throughput_fps_per_pass"] = fps
     results["paired"] = _paired(rtts, fps)
     results["goals"] = _goals(results)
-    results["quick"] = args.quick
     _print(results)
-    out = write_results("links", results)
+    out = write_results("links", results, quick=args.quick)
     print(f"written {out.relative_to(REPO)}")
     return 0
 

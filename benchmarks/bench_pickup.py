@@ -111,7 +111,7 @@ def main() -> None:
             ],
         )
     )
-    path = write_results("pickup", {"quick": args.quick, "seed": args.seed, **results})
+    path = write_results("pickup", {"seed": args.seed, **results}, quick=args.quick)
     print(f"\nwrote {path}")
 
 

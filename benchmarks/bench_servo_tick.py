@@ -17,8 +17,6 @@ Goal: a module tick under 200 us.
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import sys
 import time
 from collections.abc import Callable
@@ -29,6 +27,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.common import write_results  # noqa: E402
 from connectors.messages import Contour, JointState, Twist  # noqa: E402
 from connectors.module import ModuleContext  # noqa: E402
 from modules.arm.dh import puma560  # noqa: E402
@@ -210,20 +209,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"module tick {module_us:.1f} us {verdict} the {GOAL_US:.0f} us goal")
 
     result = {
-        "benchmark": "servo_tick",
-        "quick": args.quick,
         "iterations": iterations,
         "repeats": repeats,
         "goal_us": GOAL_US,
         "meets_goal": module_us < GOAL_US,
-        "python": platform.python_version(),
         "numpy": np.__version__,
-        "machine": platform.machine(),
         "rows": rows,
     }
-    out = ROOT / "benchmarks" / "results" / "servo_tick.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    out = write_results("servo_tick", result, quick=args.quick)
     print(f"wrote {out.relative_to(ROOT)}")
     return 0
 

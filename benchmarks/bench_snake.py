@@ -342,12 +342,12 @@ def main() -> int:
     path = write_results(
         "snake",
         {
-            "quick": args.quick,
             "frames_per_gain": per_gain,
             "speed": speed,
             "skimage_active_contour": skimage_rows,
             "threshold": threshold_rows,
         },
+        quick=args.quick,
     )
     print(f"\nwrote {path}")
     return 0

@@ -44,12 +44,19 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
-def write_results(name: str, data: dict[str, Any]) -> Path:
-    """Write ``benchmarks/results/<name>.json`` with machine information."""
+def results_file(folder: Path, name: str, quick: bool) -> Path:
+    """Where benchmark ``name`` writes its results in ``folder``: ``<name>.json`` for a full run,
+    ``<name>.quick.json`` for a quick one (a smoke run never replaces the reference figures)."""
+    return folder / (f"{name}.quick.json" if quick else f"{name}.json")
+
+
+def write_results(name: str, data: dict[str, Any], *, quick: bool) -> Path:
+    """Write the results of benchmark ``name`` (see ``results_file``) with machine information."""
     RESULTS.mkdir(parents=True, exist_ok=True)
-    path = RESULTS / f"{name}.json"
+    path = results_file(RESULTS, name, quick)
     payload = {
         "benchmark": name,
+        "quick": quick,
         "when": time.strftime("%Y-%m-%dT%H:%M:%S"),
         "machine": {
             "python": platform.python_version(),

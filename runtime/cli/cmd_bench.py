@@ -1,7 +1,8 @@
 """``umbra bench``: run the benchmarks of the source checkout and say how each went.
 
 Each script ``benchmarks/bench_<name>.py`` measures its baseline in the same run, prints its table
-and writes ``benchmarks/results/<name>.json``; this command runs the ones named (all by default,
+and writes ``benchmarks/results/<name>.json`` (``<name>.quick.json`` with ``--quick``, so that a
+smoke run never replaces the reference figures); this command runs the ones named (all by default,
 fastest first) one after the other with this interpreter, then prints one line per benchmark:
 exit status, minutes taken, the results file it wrote. A stopped run still prints that summary.
 """
@@ -82,7 +83,7 @@ def summary_line(script: Path) -> str:
 def run_one(name: str, script: Path, quick: bool) -> Outcome:
     """Run one benchmark script, its output going straight to this terminal. Ctrl-C reaches the
     script too: it stops, and the outcome's status is None."""
-    results = script.parent / "results" / f"{name}.json"
+    results = script.parent / "results" / (f"{name}.quick.json" if quick else f"{name}.json")
     before = results.stat().st_mtime if results.exists() else None
     start = time.monotonic()
     argv = [sys.executable, str(script), *(["--quick"] if quick else [])]

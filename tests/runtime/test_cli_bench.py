@@ -47,17 +47,22 @@ def test_the_checkout_benchmarks_are_found_fastest_first() -> None:
 
 
 def test_runs_each_named_benchmark_and_summarises_status_and_results(tmp_path: Path) -> None:
-    _fake(tmp_path, "good", 'json.dump({"quick": quick}, open(out / "good.json", "w"))')
+    write = 'name = "good.quick.json" if quick else "good.json"\n'
+    _fake(tmp_path, "good", write + 'json.dump({"quick": quick}, open(out / name, "w"))')
     _fake(tmp_path, "bad", "sys.exit(3)", what="fails")
     done = _bench("good", "bad", "--quick", "--dir", str(tmp_path))
     assert done.returncode == 1  # one benchmark failed
     assert "table of good quick" in done.stdout and "table of bad quick" in done.stdout
     lines = {line.split()[0]: line for line in done.stdout.splitlines()[-2:]}
-    assert " ok " in lines["good"] and str(tmp_path / "results" / "good.json") in lines["good"]
+    quick_file = tmp_path / "results" / "good.quick.json"
+    assert " ok " in lines["good"] and str(quick_file) in lines["good"]
     assert "failed (3)" in lines["bad"] and "(none written)" in lines["bad"]
-    assert json.loads((tmp_path / "results" / "good.json").read_text()) == {"quick": True}
+    assert json.loads(quick_file.read_text()) == {"quick": True}
+    assert not (tmp_path / "results" / "good.json").exists()
     only_good = _bench("good", "--dir", str(tmp_path))
     assert only_good.returncode == 0 and "table of good full" in only_good.stdout
+    assert str(tmp_path / "results" / "good.json") in only_good.stdout.splitlines()[-1]
+    assert json.loads(quick_file.read_text()) == {"quick": True}  # the quick figures stay apart
 
 
 def test_bad_names_and_missing_folders_are_user_errors(tmp_path: Path) -> None:
