@@ -11,7 +11,9 @@ uint8 image, p50 and p99:
               channel, pong republishes from its callback;
 * codec     — twist only, a diagnostic: raw zenoh as above, but each side decodes the sample
               into a ``Twist`` with umbra's codec and encodes the next one (what a module's
-              hop costs without the scheduler, the ports and the link counters);
+              hop costs without the scheduler, the ports and the link counters); paired,
+              ``codec ÷ zenoh`` is the codec's share of umbra's gap to raw zenoh and
+              ``umbra ÷ codec`` what the rest of the framework adds;
 * tcp       — a raw loopback TCP socket echo (TCP_NODELAY), the floor;
 * dora      — dora-rs Python nodes, same ping-pong, ``dora run`` (skipped with the reason when
               dora-rs is not installed: ``pip install dora-rs dora-rs-cli``).
@@ -561,6 +563,9 @@ KINDS = ("small", "image")
 METHODS = ("umbra", "zenoh", "codec", "tcp", "dora")
 BASELINES = ("zenoh", "dora", "tcp")
 SMALL_ONLY = ("codec",)  # diagnostics run with twists only
+#: Diagnostic ratios splitting umbra's gap to raw zenoh: what the codec alone costs on raw zenoh,
+#: and what the scheduler, ports and link counters add on top of the codec.
+SPLIT = (("codec", "zenoh"), ("umbra", "codec"))
 LABELS = {"small": "twist 48 B", "image": "image 921 kB", "throughput": "throughput"}
 
 Rtts = dict[str, dict[str, list[np.ndarray | None]]]  # kind -> method -> round trips [s] per pass
@@ -686,14 +691,14 @@ def _paired(rtts: Rtts, fps: Fps) -> dict[str, dict[str, Any]]:
             for base in BASELINES
             if base in by_name and umbra
         }
-        codec = by_name.get("codec", [])
-        if any(r is not None for r in codec):  # the codec's own share of the gap to raw zenoh
-            paired[kind]["codec/zenoh"] = _series(
-                [
-                    _ratio(_p50_us(c), _p50_us(z))
-                    for c, z in zip(codec, by_name["zenoh"], strict=True)
-                ]
-            )
+        for top, bottom in SPLIT:  # the gap to raw zenoh: the codec's share, then the rest
+            if any(r is not None for r in by_name.get(top, [])) and bottom in by_name:
+                paired[kind][f"{top}/{bottom}"] = _series(
+                    [
+                        _ratio(_p50_us(a), _p50_us(b))
+                        for a, b in zip(by_name[top], by_name[bottom], strict=True)
+                    ]
+                )
     paired["throughput"] = {
         f"{name}/zenoh": _series(
             [_ratio(a, z) for a, z in zip(fps[name], fps["zenoh"], strict=True)]
