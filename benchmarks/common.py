@@ -44,16 +44,12 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
-def results_file(folder: Path, name: str, quick: bool) -> Path:
-    """Where benchmark ``name`` writes its results in ``folder``: ``<name>.json`` for a full run,
-    ``<name>.quick.json`` for a quick one (a smoke run never replaces the reference figures)."""
-    return folder / (f"{name}.quick.json" if quick else f"{name}.json")
-
-
 def write_results(name: str, data: dict[str, Any], *, quick: bool) -> Path:
-    """Write the results of benchmark ``name`` (see ``results_file``) with machine information."""
+    """Write ``benchmarks/results/<name>.json`` with machine information; a quick run writes
+    ``<name>.quick.json`` instead, so a smoke run never replaces the reference figures (``umbra
+    bench`` looks for the file by the same rule)."""
     RESULTS.mkdir(parents=True, exist_ok=True)
-    path = results_file(RESULTS, name, quick)
+    path = RESULTS / (f"{name}.quick.json" if quick else f"{name}.json")
     payload = {
         "benchmark": name,
         "quick": quick,

@@ -19,6 +19,7 @@ no wire struct and is encoded as version 1.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import keyword
 from collections.abc import Callable
@@ -119,9 +120,12 @@ class CompactType:
     from_wire: Callable[[msgspec.Struct], Message]
 
 
+@functools.cache
 def compact_type(cls: type[Message]) -> CompactType | None:
     """The wire struct and converters of ``cls``, or None when msgspec cannot handle its fields
-    once its top-level arrays are replaced (then the type is encoded as version 1)."""
+    once its top-level arrays are replaced (then the type is encoded as version 1). Built once
+    per type and shared by every codec (the converters keep no per-call state): a link's first
+    sample on a new zenoh thread does not wait for the layouts of every type to be generated."""
     fields = msgspec.structs.fields(cls)
     names = [f.name for f in fields]
     if not all(n.isidentifier() and not keyword.iskeyword(n) for n in names):
