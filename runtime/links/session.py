@@ -14,4 +14,13 @@ def open_session(config: zenoh.Config) -> zenoh.Session:
     try:
         return zenoh.open(config)
     except Exception as exc:  # zenoh raises ZError with its own message
-        raise UserError(f"cannot open the zenoh session ({describe(config)}): {exc}") from None
+        hint = ""
+        if "Address already in use" in str(exc):
+            hint = (
+                "; another program (another graph, a zenohd router) holds that port: give this"
+                " process another with --listen ENDPOINT (and the others --connect to it), or"
+                " name them under `links:` in the graph"
+            )
+        raise UserError(
+            f"cannot open the zenoh session ({describe(config)}): {exc}{hint}"
+        ) from None

@@ -99,8 +99,9 @@ def test_an_endpoint_in_use_is_a_user_error() -> None:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
-        with pytest.raises(UserError, match=f"cannot open the zenoh session.*{port}"):
+        with pytest.raises(UserError, match=f"cannot open the zenoh session.*{port}") as raised:
             open_session(build_config(Endpoints([f"tcp/127.0.0.1:{port}"])))
+    assert "holds that port" in str(raised.value) and "--listen ENDPOINT" in str(raised.value)
 
 
 def test_split_run_command_line_errors(plugin_env: dict[str, str], tmp_path: Path) -> None:
