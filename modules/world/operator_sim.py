@@ -30,11 +30,14 @@ class OperatorSim(Module):
     seed = Output(Vector, doc="the click: seed point [u, v] for vsSnake")
 
     def start(self) -> None:
+        self._started: float | None = None  # clock time [s] of the first step
         self._first_seen: float | None = None
         self.clicked_at: float | None = None
         self.click: list[float] = []
 
     def step(self, now: float) -> None:
+        if self._started is None:
+            self._started = now
         if self.clicked_at is not None:
             return
         truth = self.truth.get(now)
@@ -52,4 +55,10 @@ class OperatorSim(Module):
         self.log.info("operator clicked the patch at (%.1f, %.1f) px", uv[0], uv[1])
 
     def summary(self) -> dict[str, object]:
-        return {"clicked_at_s": self.clicked_at, "click_uv": self.click}
+        """``clicked_after_s``: seconds from the module's first step to the click (None: no
+        click); ``clicked_at_s``: the clock time of the click [s], comparable with the other
+        modules' clock times (a fault's start, say); ``click_uv``: where it clicked [px]."""
+        after = None
+        if self.clicked_at is not None and self._started is not None:
+            after = round(self.clicked_at - self._started, 3)
+        return {"clicked_after_s": after, "clicked_at_s": self.clicked_at, "click_uv": self.click}
