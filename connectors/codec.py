@@ -153,14 +153,6 @@ def _check_type(known: Mapping[str, object], name: str, expected: type[Message] 
         raise DecodeError(f"expected {expected.__name__}, found {name}")
 
 
-def _decoder_of(
-    decoders: dict[str, msgspec.msgpack.Decoder], name: str, expected: type[Message] | None
-) -> msgspec.msgpack.Decoder:
-    """The decoder of message type ``name``; DecodeError when it is unknown or not ``expected``."""
-    _check_type(decoders, name, expected)
-    return decoders[name]
-
-
 def array_bytes(msg: Message) -> int:
     """Bytes held in the arrays of ``msg``."""
     names = _ARRAY_FIELDS.get(type(msg))
@@ -431,7 +423,8 @@ class Codec:
                 f"encoding version {version}, this build reads {VERSION}, "
                 f"{COMPACT_VERSION} (compact) and {FRAMED_VERSION} (framed)"
             )
-        decoder = _decoder_of(self._decoders, name, expected)
+        _check_type(self._decoders, name, expected)
+        decoder = self._decoders[name]
         try:
             return decoder.decode(raw)
         except (
