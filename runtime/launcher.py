@@ -49,6 +49,7 @@ from runtime.links.config import (
     loopback_mesh,
 )
 from runtime.links.stats import link_lines
+from runtime.realtime import latency_limit
 from runtime.scheduler import INTERRUPTED
 
 #: Seconds a supervised process may wait for its consumers to come up.
@@ -156,6 +157,9 @@ def run_one(
         zenoh_config=config_file,
         ready_timeout=READY_TIMEOUT if supervised else None,
         quiet=args.quiet,
+        cpu_latency_us=latency_limit(
+            plan.spec.cpu_latency_us, name, getattr(args, "cpu_latency_us", None)
+        ),
     )
     result = run_linked_process(
         plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")
@@ -248,6 +252,8 @@ class Supervisor:
         config_file = _config_file(plan, args)
         if config_file:
             cmd += ["--zenoh-config", config_file]
+        if getattr(args, "cpu_latency_us", None) is not None:
+            cmd += ["--cpu-latency-us", str(args.cpu_latency_us)]
         if args.quiet:
             cmd.append("--quiet")
         return cmd

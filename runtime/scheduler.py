@@ -45,6 +45,7 @@ from connectors.ports import Register
 from runtime.clock import make_clock
 from runtime.graph.plan import GraphPlan
 from runtime.links_api import LinkTransport
+from runtime.realtime import CpuLatencyHold
 from runtime.stats import ModuleStats, RunResult
 
 INTERRUPTED = 130
@@ -87,6 +88,8 @@ class SchedulerOptions:
     #: "inline": a link sample arriving while the loop is idle is handled at once on the thread
     #: that received it; "loop": always on the loop's thread (see the module docstring).
     dispatch: str = "inline"
+    #: the CPU wake-up latency [µs] held while the loop runs (``runtime.realtime``); None: none
+    cpu_latency_us: int | None = None
 
 
 class Scheduler:
@@ -253,6 +256,9 @@ class Scheduler:
         ticks = 0
         failure: ModuleFailed | None = None
         user_error: UserError | None = None
+        real = self.clock.kind == "real"  # sim time does not wait for CPUs to wake up
+        hold = CpuLatencyHold(self.options.cpu_latency_us if real else None, self.options.log)
+        hold.__enter__()
         t0 = self.clock.now()
         try:
             for slot in self._slots:
@@ -279,6 +285,7 @@ class Scheduler:
                         failure = ModuleFailed(
                             slot.module.name, slot.stats.type_name, "stop", ticks, exc
                         )
+            hold.__exit__(None, None, None)
             self._restore_signals(old_handlers)
         if user_error is not None:
             raise user_error
@@ -294,7 +301,17 @@ class Scheduler:
             code, reason = self._stop.exit_code, self._stop.reason
         else:
             code, reason = 0, "finished"
-        extra = {"links": self.transport.stats()} if self.transport is not None else {}
+        extra: dict[str, Any] = {}
+        if self.transport is not None:
+            extra["links"] = self.transport.stats()
+        if hold.limit_us is not None:
+            extra["realtime"] = hold.summary()
+        elif self.options.cpu_latency_us is not None:
+            extra["realtime"] = {
+                "cpu_latency_us": self.options.cpu_latency_us,
+                "held": False,
+                "reason": "sim clock: nothing waits for a CPU to wake",
+            }
         return RunResult(
             process=self.process_name,
             exit_code=code,

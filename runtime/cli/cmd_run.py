@@ -10,6 +10,7 @@ from pathlib import Path
 from connectors.errors import UserError
 from runtime.cli.common import parse_module_set
 from runtime.graph.check import load_graph
+from runtime.realtime import NO_CONSTRAINT_US, latency_limit
 from runtime.run import default_output_dir, run_process
 from runtime.scheduler import SchedulerOptions
 
@@ -60,6 +61,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 configuration")
     parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
+    parser.add_argument(
+        "--cpu-latency-us",
+        type=int,
+        metavar="US",
+        help="hold every CPU's wake-up latency at most US microseconds while running, as "
+        "real-time hosts do (0: idle CPUs poll; writes /dev/cpu_dma_latency, needs root); "
+        "overrides the graph's processes.NAME.cpu_latency_us",
+    )
     parser.add_argument("--quiet", action="store_true", help="no summary table")
     # a process started by the launcher: commands on stdin, bounded wait for its consumers
     parser.add_argument("--supervised", action="store_true", help=argparse.SUPPRESS)
@@ -68,6 +77,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
+    latency = args.cpu_latency_us
+    if latency is not None and not 0 <= latency <= NO_CONSTRAINT_US:
+        raise UserError(
+            f"--cpu-latency-us must be from 0 to {NO_CONSTRAINT_US} microseconds, found {latency}"
+        )
     plan = load_graph(args.graph, overrides=parse_module_set(args.set), prefix=args.prefix)
     clock = args.clock or plan.spec.clock
     duration = args.duration if args.duration is not None else plan.spec.duration
@@ -78,7 +92,11 @@ def main(args: argparse.Namespace) -> int:
     single = args.single_process or (len(plan.processes) == 1 and not args.process)
     if single:
         options = SchedulerOptions(
-            clock=clock, duration=duration, output_dir=out, handle_signals=True
+            clock=clock,
+            duration=duration,
+            output_dir=out,
+            handle_signals=True,
+            cpu_latency_us=latency_limit(plan.spec.cpu_latency_us, None, latency),
         )
         result = run_process(plan, options)
         if not args.quiet:

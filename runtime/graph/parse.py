@@ -5,7 +5,7 @@ Format (see README "Graphs")::
     graph: counter_chain          # name, also the default zenoh key prefix
     seed: 0                       # sim runs are reproducible for a seed
     clock: sim                    # default clock: sim | real
-    processes: {umbra: {}, smart: {}}
+    processes: {umbra: {}, smart: {cpu_latency_us: 0}}   # hold idle CPUs awake: runtime.realtime
     frames:
       tool->camera: {xyz: [0, 0.05, 0.1], rpy_deg: [0, 0, 90]}
     modules:
@@ -39,6 +39,7 @@ from runtime.graph.spec import (
     StaticFrameSpec,
 )
 from runtime.hints import did_you_mean
+from runtime.realtime import NO_CONSTRAINT_US
 
 TOP_KEYS = (
     "graph",
@@ -53,6 +54,7 @@ TOP_KEYS = (
     "links",
 )
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
+PROCESS_KEYS = ("cpu_latency_us",)
 LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config", "dispatch")
 DISPATCH_MODES = ("inline", "loop")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -129,7 +131,7 @@ class _Parser:
                 spec.clock = doc["clock"]
         if "duration" in doc:
             spec.duration = self.positive(doc["duration"], doc.val_loc["duration"], "duration [s]")
-        spec.processes = self.processes(doc)
+        spec.processes = self.processes(doc, spec)
         spec.frames = self.frames(doc)
         spec.modules = self.modules(doc, spec.processes)
         spec.connections = self.connections(doc)
@@ -147,7 +149,7 @@ class _Parser:
             return None
         return float(value)
 
-    def processes(self, doc: YMap) -> dict[str, Location]:
+    def processes(self, doc: YMap, spec: GraphSpec) -> dict[str, Location]:
         if "processes" not in doc:
             return {}
         section = self.expect_map(doc["processes"], doc.val_loc["processes"], "`processes`")
@@ -162,10 +164,30 @@ class _Parser:
                 continue
             if body is not None and not isinstance(body, YMap):
                 self.error(
-                    section.val_loc[name], f"process `{name}` must map to {{}}, found {_kind(body)}"
+                    section.val_loc[name],
+                    f"process `{name}` must map to {{}} or its settings, found {_kind(body)}",
                 )
+            elif body is not None:
+                self.process_settings(name, body, spec)
             out[name] = section.key_loc[name]
         return out
+
+    def process_settings(self, name: str, body: YMap, spec: GraphSpec) -> None:
+        self.unknown_keys(body, PROCESS_KEYS, f"process `{name}`")
+        if "cpu_latency_us" in body:
+            value = body["cpu_latency_us"]
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int)
+                or not 0 <= value <= NO_CONSTRAINT_US
+            ):
+                self.error(
+                    body.val_loc["cpu_latency_us"],
+                    f"cpu_latency_us of process `{name}` must be a whole number of microseconds "
+                    f"from 0 to {NO_CONSTRAINT_US}, found {value!r}",
+                )
+            else:
+                spec.cpu_latency_us[name] = value
 
     def frames(self, doc: YMap) -> list[StaticFrameSpec]:
         if "frames" not in doc:

@@ -53,6 +53,8 @@ class ProcessOptions:
     zenoh_config: str | None = None
     ready_timeout: float | None = None  # None: wait for consumers forever
     quiet: bool = False
+    #: the CPU wake-up latency [µs] held while running (``runtime.realtime``); None: none
+    cpu_latency_us: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -139,6 +141,7 @@ def run_linked_process(
                 handle_signals=True,
                 log=log,
                 dispatch=plan.spec.links.dispatch,
+                cpu_latency_us=options.cpu_latency_us,
             ),
             transport,
         )

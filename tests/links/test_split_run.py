@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -99,3 +100,39 @@ def test_split_and_single_process_give_the_same_outputs(
         by_module[folder.name] = modules
     assert by_module["split"] == by_module["single"]
     assert by_module["split"]["record"] == {"calls": 200, "recorded": 400}
+
+
+def test_the_cpu_latency_asked_on_the_command_line_is_held_by_every_process(
+    plugin_env: dict[str, str], tmp_path: Path
+) -> None:
+    from runtime.realtime import PM_QOS_FILE
+
+    done = run_umbra(
+        plugin_env,
+        tmp_path,
+        "run",
+        GRAPH,
+        "--out",
+        "rt",
+        "--set",
+        "counter.stop_after=20",
+        "--cpu-latency-us",
+        "0",
+    )
+    assert done.returncode == 0, done.stderr
+    can = os.access(PM_QOS_FILE, os.W_OK)
+    for process in ("umbra", "smart"):
+        summary = json.loads((tmp_path / "rt" / f"summary-{process}.json").read_text())
+        assert summary["realtime"]["cpu_latency_us"] == 0
+        assert summary["realtime"]["held"] is can
+    said = "holding every CPU's wake-up latency at most 0 µs" if can else "not held"
+    assert done.stderr.count(said) == 2, done.stderr
+
+
+def test_a_bad_cpu_latency_is_refused_before_anything_starts(
+    plugin_env: dict[str, str], tmp_path: Path
+) -> None:
+    done = run_umbra(plugin_env, tmp_path, "run", GRAPH, "--cpu-latency-us", "-1")
+    assert done.returncode == 2
+    assert "--cpu-latency-us must be from 0 to 2000000000 microseconds, found -1" in done.stderr
+    assert "Traceback" not in done.stderr and "started process" not in done.stderr

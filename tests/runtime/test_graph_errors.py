@@ -76,6 +76,24 @@ CASES = [
         [(4, 40, "unknown process `umbar`"), (4, 40, "did you mean `umbra`?")],
     ),
     (
+        "process latency negative",
+        "graph: g\nprocesses:\n  smart: {cpu_latency_us: -3}\nmodules:\n"
+        "  a: {type: Counter, rate: 1, process: smart}\n",
+        [(3, 27, "cpu_latency_us of process `smart` must be a whole number of microseconds")],
+    ),
+    (
+        "process latency not a number",
+        "graph: g\nprocesses:\n  smart: {cpu_latency_us: low}\nmodules:\n"
+        "  a: {type: Counter, rate: 1, process: smart}\n",
+        [(3, 27, "found 'low'")],
+    ),
+    (
+        "unknown process setting",
+        "graph: g\nprocesses:\n  smart: {cpu_latency: 0}\nmodules:\n"
+        "  a: {type: Counter, rate: 1, process: smart}\n",
+        [(3, 11, "unknown key `cpu_latency` in process `smart`; did you mean `cpu_latency_us`?")],
+    ),
+    (
         "process missing",
         "graph: g\nprocesses: {umbra: {}}\nmodules:\n  a: {type: Counter, rate: 1}\n",
         [(4, 3, "needs `process:`")],

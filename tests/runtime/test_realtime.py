@@ -1,0 +1,116 @@
+"""Holding the CPU wake-up latency: the PM QoS request, the graph setting, the run summary."""
+
+from __future__ import annotations
+
+import logging
+import os
+import struct
+from pathlib import Path
+
+import pytest
+
+from runtime.graph.check import check_text
+from runtime.realtime import (
+    NO_CONSTRAINT_US,
+    PM_QOS_FILE,
+    CpuLatencyHold,
+    current_cpu_latency_us,
+    latency_limit,
+)
+from runtime.scheduler import Scheduler, SchedulerOptions
+from tests.runtime.fixtures import make_registry
+
+KERNEL_QOS = os.access(PM_QOS_FILE, os.R_OK | os.W_OK)
+
+
+def _open_on(path: Path) -> bool:
+    """Whether this process holds a file descriptor on ``path``."""
+    fds = Path("/proc/self/fd")
+    return any(os.path.realpath(fd) == str(path.resolve()) for fd in fds.iterdir())
+
+
+def test_the_limit_is_written_as_a_32_bit_integer_and_the_file_kept_open(tmp_path: Path) -> None:
+    qos = tmp_path / "qos"
+    qos.write_bytes(b"")
+    with CpuLatencyHold(25, path=qos) as hold:
+        assert hold.held and _open_on(qos)
+        assert hold.summary() == {"cpu_latency_us": 25, "held": True}
+    assert qos.read_bytes() == struct.pack("=i", 25)
+    assert not _open_on(qos)  # closing the file is what ends the kernel's request
+
+
+def test_a_host_that_refuses_is_reported_and_the_run_goes_on(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    qos = tmp_path / "absent" / "qos"
+    with caplog.at_level(logging.WARNING), CpuLatencyHold(0, path=qos) as hold:
+        assert not hold.held
+    assert hold.summary()["reason"].startswith(f"cannot open {qos}")
+    (line,) = [r.getMessage() for r in caplog.records]
+    assert "cpu_latency_us 0 not held" in line and "needs root" in line
+
+
+def test_no_limit_asks_nothing(tmp_path: Path) -> None:
+    qos = tmp_path / "qos"
+    with CpuLatencyHold(None, path=qos) as hold:
+        assert not hold.held and not qos.exists()
+
+
+@pytest.mark.skipif(not KERNEL_QOS, reason=f"{PM_QOS_FILE} needs root (read and write)")
+def test_the_kernel_enforces_the_request_only_while_it_is_held() -> None:
+    before = current_cpu_latency_us()
+    with CpuLatencyHold(0):
+        assert current_cpu_latency_us() == 0
+    assert current_cpu_latency_us() == before
+
+
+def test_which_limit_a_process_holds() -> None:
+    asked = {"smart": 0, "umbra": 500}
+    assert latency_limit(asked, "smart") == 0
+    assert latency_limit(asked, "umbra") == 500
+    assert latency_limit(asked, "other") is None
+    assert latency_limit(asked, None) == 0  # one process for all: the strictest request
+    assert latency_limit({}, None) is None
+    assert latency_limit(asked, "umbra", override=50) == 50
+
+
+GRAPH = """graph: rt
+clock: {clock}
+processes:
+  umbra: {{}}
+  smart: {{cpu_latency_us: 0}}
+modules:
+  src: {{type: Counter, process: umbra, rate: 100}}
+  g: {{type: Gain, process: smart, params: {{gain: 2}}}}
+connections:
+  - src.count -> g.input
+"""
+
+
+def test_the_graph_asks_per_process() -> None:
+    plan = check_text(GRAPH.format(clock="sim"), "rt.yaml", make_registry())
+    assert plan.spec.cpu_latency_us == {"smart": 0}
+    assert NO_CONSTRAINT_US == 2_000_000_000
+
+
+@pytest.mark.parametrize("clock", ["sim", "real"])
+def test_the_run_summary_says_whether_the_latency_was_held(clock: str, tmp_path: Path) -> None:
+    plan = check_text(GRAPH.format(clock=clock), "rt.yaml", make_registry())
+    limit = latency_limit(plan.spec.cpu_latency_us, None)
+    options = SchedulerOptions(
+        clock=clock, duration=0.05, output_dir=tmp_path, cpu_latency_us=limit
+    )
+    before = current_cpu_latency_us() if KERNEL_QOS else None
+    result = Scheduler(plan, options).run()
+    realtime = result.as_dict()["realtime"]
+    assert realtime["cpu_latency_us"] == 0
+    if clock == "sim":
+        assert realtime == {
+            "cpu_latency_us": 0,
+            "held": False,
+            "reason": "sim clock: nothing waits for a CPU to wake",
+        }
+    else:
+        assert realtime["held"] is KERNEL_QOS
+    if KERNEL_QOS:
+        assert current_cpu_latency_us() == before  # released when the run ended
