@@ -29,15 +29,23 @@ rotated pass after pass, and umbra is compared with each baseline measured in th
 goals are judged on the median of these per-pass ratios. Pooled p50 and p99 over all passes are
 reported too.
 
-    python benchmarks/bench_links.py [--quick]
+Two host conditions, each measured in every pass (their order rotated too): the host ``as-is``,
+and ``tuned`` for real time — this process holds every CPU's wake-up latency at 0 through
+``/dev/cpu_dma_latency`` (``runtime.realtime``, what ``umbra run --cpu-latency-us 0`` does) while
+every method of the pass runs, baselines alike, so no hop starts on a CPU waking from a halt. The
+tuned condition needs root; without it, it is skipped with the reason.
 
-Prints the pooled table, the paired ratios and the goals; writes ``benchmarks/results/links.json``.
+    python benchmarks/bench_links.py [--quick] [--host both|as-is|tuned]
+
+Prints the pooled table, the paired ratios and the goals of each condition; writes
+``benchmarks/results/links.json`` (``hosts`` -> condition -> figures).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
 import shutil
 import socket
@@ -60,6 +68,7 @@ sys.path.insert(0, str(REPO))
 from benchmarks.common import write_results  # noqa: E402
 from connectors import Input, Module, Output, Parameters, param  # noqa: E402
 from connectors.messages import Image, Twist  # noqa: E402
+from runtime.realtime import CpuLatencyHold  # noqa: E402
 
 SMALL = 48
 IMAGE_SHAPE = (480, 640, 3)
@@ -607,21 +616,28 @@ def _rtt(name: str, tmp: Path, kind: str, rounds: int, warmup: int) -> np.ndarra
 
 
 def _run_pass(
-    p: int, plan: Plan, tmp: Path, methods: list[str], rtts: Rtts, fps: Fps, skipped: dict[str, str]
+    p: int,
+    plan: Plan,
+    tmp: Path,
+    methods: list[str],
+    host: str,
+    rtts: Rtts,
+    fps: Fps,
+    skipped: dict[str, str],
 ) -> None:
     """Every method once, in the order of this pass; a method that fails is reported, not fatal."""
     for kind in KINDS:
-        print(f"pass {p + 1}/{plan.passes}, round trips {kind}: ", end="", flush=True)
+        print(f"pass {p + 1}/{plan.passes}, {host} host, round trips {kind}: ", end="", flush=True)
         for name in _rotated(methods, p):
             if name in SMALL_ONLY and kind != "small":
                 continue
             try:
                 rtts[kind][name][p] = _rtt(name, tmp, kind, plan.rounds[kind], plan.warmup[kind])
             except Exception as exc:
-                skipped[f"{name}-{kind}"] = f"pass {p + 1}: {str(exc)[:500]}"
+                skipped[f"{name}-{kind}-{host}"] = f"pass {p + 1}: {str(exc)[:500]}"
             print(name, end=" ", flush=True)
         print()
-    print(f"pass {p + 1}/{plan.passes}, throughput: ", end="", flush=True)
+    print(f"pass {p + 1}/{plan.passes}, {host} host, throughput: ", end="", flush=True)
     for name in _rotated(["umbra", "zenoh"], p):
         try:
             if name == "umbra":
@@ -629,7 +645,7 @@ def _run_pass(
             else:
                 fps["zenoh"][p] = zenoh_throughput(plan.seconds)
         except Exception as exc:
-            skipped[f"{name}-throughput"] = f"pass {p + 1}: {str(exc)[:500]}"
+            skipped[f"{name}-throughput-{host}"] = f"pass {p + 1}: {str(exc)[:500]}"
         print(name, end=" ", flush=True)
     print()
 
@@ -734,6 +750,13 @@ def _goals(r: dict[str, Any]) -> dict[str, Any]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer passes, shorter passes")
+    parser.add_argument(
+        "--host",
+        choices=("both", "as-is", "tuned"),
+        default="both",
+        help="measure the host as it is, tuned for real time (CPU wake-up latency held at 0 "
+        "through /dev/cpu_dma_latency, needs root), or both, pass by pass (default)",
+    )
     parser.add_argument("--role", help=argparse.SUPPRESS)
     parser.add_argument("--endpoint", help=argparse.SUPPRESS)
     parser.add_argument("--kind", default="small", help=argparse.SUPPRESS)
@@ -758,6 +781,34 @@ def main() -> int:
     results: dict[str, Any] = {"skipped": {}, "passes": plan.passes, "plan": asdict(plan)}
     if dora_reason:
         results["skipped"]["dora"] = dora_reason
+    hosts = _hosts(args.host, results["skipped"])
+    runs = {host: _empty_run(plan, methods) for host in hosts}
+    with tempfile.TemporaryDirectory(prefix="bench_links_") as tmpdir:
+        for p in range(plan.passes):
+            for host in _rotated(hosts, p):
+                rtts, fps = runs[host]
+                with CpuLatencyHold(0 if host == "tuned" else None):
+                    _run_pass(p, plan, Path(tmpdir), methods, host, rtts, fps, results["skipped"])
+    results["hosts"] = {host: _summarise(*runs[host]) for host in hosts}
+    _print(results)
+    out = write_results("links", results, quick=args.quick)
+    print(f"written {out.relative_to(REPO)}")
+    return 0
+
+
+def _hosts(asked: str, skipped: dict[str, str]) -> list[str]:
+    """The host conditions to measure: as it is, and tuned for real time (every CPU's wake-up
+    latency held at 0 for every method alike) when this process may hold it."""
+    hosts = ["as-is", "tuned"] if asked == "both" else [asked]
+    if "tuned" in hosts:
+        with CpuLatencyHold(0, logging.getLogger("bench_links")) as hold:
+            if not hold.held:
+                skipped["tuned"] = hold.reason
+                hosts.remove("tuned")
+    return hosts
+
+
+def _empty_run(plan: Plan, methods: list[str]) -> tuple[Rtts, Fps]:
     rtts: Rtts = {
         kind: {
             name: [None] * plan.passes
@@ -767,27 +818,28 @@ def main() -> int:
         for kind in KINDS
     }
     fps: Fps = {name: [None] * plan.passes for name in ("umbra", "umbra_link", "zenoh")}
-    with tempfile.TemporaryDirectory(prefix="bench_links_") as tmpdir:
-        for p in range(plan.passes):
-            _run_pass(p, plan, Path(tmpdir), methods, rtts, fps, results["skipped"])
-    results["rtt"] = _pooled(rtts)
-    results["throughput_fps"] = {k: _median(v) for k, v in fps.items()}
-    results["throughput_fps_per_pass"] = fps
-    results["paired"] = _paired(rtts, fps)
-    results["goals"] = _goals(results)
-    _print(results)
-    out = write_results("links", results, quick=args.quick)
-    print(f"written {out.relative_to(REPO)}")
-    return 0
+    return rtts, fps
+
+
+def _summarise(rtts: Rtts, fps: Fps) -> dict[str, Any]:
+    """Pooled figures, paired ratios and goals of one host condition."""
+    r: dict[str, Any] = {
+        "rtt": _pooled(rtts),
+        "throughput_fps": {k: _median(v) for k, v in fps.items()},
+        "throughput_fps_per_pass": fps,
+        "paired": _paired(rtts, fps),
+    }
+    r["goals"] = _goals(r)
+    return r
 
 
 def _num(x: float | None, spec: str = ".2f") -> str:
     return "-" if x is None else format(x, spec)
 
 
-def _print_pooled(r: dict[str, Any]) -> None:
+def _print_pooled(r: dict[str, Any], passes: int) -> None:
     print()
-    print(f"pooled over {r['passes']} passes")
+    print(f"pooled over {passes} passes")
     print(
         f"{'round trip':<14}{'method':<8}{'p50 µs':>10}{'p99 µs':>10}{'n':>7}"
         f"{'÷ zenoh':>9}{'÷ dora':>8}{'÷ tcp':>8}"
@@ -820,13 +872,19 @@ def _print_paired(r: dict[str, Any]) -> None:
 
 
 def _print(r: dict[str, Any]) -> None:
-    _print_pooled(r)
-    _print_paired(r)
+    for host, h in r["hosts"].items():
+        print()
+        held = ": every CPU's wake-up latency held at 0" if host == "tuned" else ""
+        print(f"== host {host}{held}")
+        _print_pooled(h, r["passes"])
+        _print_paired(h)
     print()
     for name, why in r["skipped"].items():
         print(f"skipped {name}: {why}")
-    for name, g in r["goals"].items():
-        print(f"goal {name}: ratio {g['ratio']:.2f} -> {'met' if g['met'] else 'NOT met'}")
+    for host, h in r["hosts"].items():
+        for name, g in h["goals"].items():
+            verdict = "met" if g["met"] else "NOT met"
+            print(f"goal {name} ({host} host): ratio {g['ratio']:.2f} -> {verdict}")
 
 
 if __name__ == "__main__":
