@@ -30,9 +30,13 @@ def main(args: argparse.Namespace) -> int:
             continue
         if args.quiet:
             continue
+        latency = plan.spec.cpu_latency_us
+        processes = [
+            f"{p} (cpu_latency_us {latency[p]})" if p in latency else p for p in plan.processes
+        ]
         print(
             f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
-            f"{len(plan.connections)} connections, processes: {', '.join(plan.processes)}"
+            f"{len(plan.connections)} connections, processes: {', '.join(processes)}"
         )
         for link in plan.links:
             mode = "reliable" if link.reliable else "drop-oldest"

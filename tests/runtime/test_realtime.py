@@ -114,3 +114,12 @@ def test_the_run_summary_says_whether_the_latency_was_held(clock: str, tmp_path:
         assert realtime["held"] is KERNEL_QOS
     if KERNEL_QOS:
         assert current_cpu_latency_us() == before  # released when the run ended
+
+
+def test_check_shows_the_latency_each_process_holds(tmp_path: Path, capsys) -> None:
+    from runtime.cli.main import main
+
+    path = tmp_path / "rt.yaml"
+    path.write_text(GRAPH.format(clock="real"))
+    assert main(["check", str(path)]) == 0
+    assert "processes: umbra, smart (cpu_latency_us 0)" in capsys.readouterr().out
