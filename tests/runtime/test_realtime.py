@@ -123,3 +123,23 @@ def test_check_shows_the_latency_each_process_holds(tmp_path: Path, capsys) -> N
     path.write_text(GRAPH.format(clock="real"))
     assert main(["check", str(path)]) == 0
     assert "processes: umbra, smart (cpu_latency_us 0)" in capsys.readouterr().out
+
+
+def test_a_run_on_a_host_that_refuses_goes_on_and_its_summary_says_why(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import functools
+
+    import runtime.scheduler
+
+    absent = tmp_path / "absent" / "qos"
+    monkeypatch.setattr(
+        runtime.scheduler, "CpuLatencyHold", functools.partial(CpuLatencyHold, path=absent)
+    )
+    plan = check_text(GRAPH.format(clock="real"), "rt.yaml", make_registry())
+    options = SchedulerOptions(clock="real", duration=0.05, output_dir=tmp_path, cpu_latency_us=0)
+    result = Scheduler(plan, options).run()
+    assert result.exit_code == 0 and result.ticks > 0
+    realtime = result.as_dict()["realtime"]
+    assert realtime["held"] is False
+    assert realtime["reason"].startswith(f"cannot open {absent}")
