@@ -1,8 +1,9 @@
 """Holding the host's CPU wake-up latency low while a process runs (Linux PM QoS).
 
 An idle CPU sleeps in an idle state; waking it for an incoming sample costs that state's exit
-latency, and on a virtual machine a halted virtual CPU is woken through the hypervisor, which costs
-tens of microseconds per hop and leaves caches cold. Real-time hosts bound it: a process writes the
+latency, and on a virtual machine a halted virtual CPU is woken through the hypervisor (on the
+development VM, holding the latency at 0 took a raw zenoh round trip from about 180 to 97 µs).
+Real-time hosts bound it: a process writes the
 largest latency it tolerates [µs] to ``/dev/cpu_dma_latency`` as a 32-bit integer and keeps the
 file open; the kernel then uses no idle state slower than that, on every CPU, until the file is
 closed (0: idle CPUs poll). ``cyclictest`` and most real-time Linux guides do this. It costs power:
@@ -26,27 +27,48 @@ PM_QOS_FILE = Path("/dev/cpu_dma_latency")
 NO_CONSTRAINT_US = 2_000_000_000
 
 
+def is_latency_us(value: object) -> bool:
+    """Whether ``value`` is a limit the kernel takes: a whole number of µs, 0 to 2000 s."""
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= NO_CONSTRAINT_US
+
+
 class CpuLatencyHold:
-    """While entered, asks the kernel to keep every CPU's wake-up latency at most ``limit_us``
-    [µs]; ``None`` asks nothing. Never raises for a host that refuses: ``held`` and ``reason``
-    say what happened, and ``summary()`` goes into the run summary."""
+    """From ``acquire()`` to ``release()`` (or as a context manager), asks the kernel to keep
+    every CPU's wake-up latency at most ``limit_us`` [µs]; ``None`` asks nothing, and neither
+    does a hold given an ``unneeded`` reason (it only records it). Never raises for a host that
+    refuses: ``held`` and ``reason`` say what happened, and ``summary()`` goes into the run
+    summary."""
 
     def __init__(
         self,
         limit_us: int | None,
         log: logging.Logger | None = None,
         path: Path = PM_QOS_FILE,
+        unneeded: str = "",
     ) -> None:
         self.limit_us = limit_us
         self.path = path
         self.held = False
-        self.reason = ""
+        self.reason = unneeded
         self._log = log or logging.getLogger("umbra")
         self._fd: int | None = None
 
     def __enter__(self) -> CpuLatencyHold:
-        if self.limit_us is None:
-            return self
+        self.acquire()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.release()
+
+    def acquire(self) -> None:
+        """Open the file and write the limit (nothing when none is asked or it is unneeded)."""
+        if self.limit_us is None or self.reason:
+            return
         try:
             fd = os.open(self.path, os.O_WRONLY)
         except OSError as exc:
@@ -69,14 +91,9 @@ class CpuLatencyHold:
                 self.reason,
                 self.path,
             )
-        return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    def release(self) -> None:
+        """Close the file, which ends the request (safe to call when nothing is held)."""
         if self._fd is not None:
             os.close(self._fd)  # the kernel drops the request with the file
             self._fd = None

@@ -49,6 +49,8 @@ from runtime.realtime import CpuLatencyHold
 from runtime.stats import ModuleStats, RunResult
 
 INTERRUPTED = 130
+#: Why a sim-clock run holds no CPU latency it was asked for (what its summary says).
+SIM_CLOCK_NO_LATENCY = "sim clock: nothing waits for a CPU to wake"
 #: At most this many ticks in a row on a link's thread before the rest is left to the loop.
 REACT_ROUNDS = 16
 
@@ -256,9 +258,12 @@ class Scheduler:
         ticks = 0
         failure: ModuleFailed | None = None
         user_error: UserError | None = None
-        real = self.clock.kind == "real"  # sim time does not wait for CPUs to wake up
-        hold = CpuLatencyHold(self.options.cpu_latency_us if real else None, self.options.log)
-        hold.__enter__()
+        hold = CpuLatencyHold(
+            self.options.cpu_latency_us,
+            self.options.log,
+            unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_LATENCY,
+        )
+        hold.acquire()
         t0 = self.clock.now()
         try:
             for slot in self._slots:
@@ -285,7 +290,7 @@ class Scheduler:
                         failure = ModuleFailed(
                             slot.module.name, slot.stats.type_name, "stop", ticks, exc
                         )
-            hold.__exit__(None, None, None)
+            hold.release()
             self._restore_signals(old_handlers)
         if user_error is not None:
             raise user_error
@@ -306,12 +311,6 @@ class Scheduler:
             extra["links"] = self.transport.stats()
         if hold.limit_us is not None:
             extra["realtime"] = hold.summary()
-        elif self.options.cpu_latency_us is not None:
-            extra["realtime"] = {
-                "cpu_latency_us": self.options.cpu_latency_us,
-                "held": False,
-                "reason": "sim clock: nothing waits for a CPU to wake",
-            }
         return RunResult(
             process=self.process_name,
             exit_code=code,

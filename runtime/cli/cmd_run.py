@@ -10,7 +10,7 @@ from pathlib import Path
 from connectors.errors import UserError
 from runtime.cli.common import parse_module_set
 from runtime.graph.check import load_graph
-from runtime.realtime import NO_CONSTRAINT_US, latency_limit
+from runtime.realtime import NO_CONSTRAINT_US, is_latency_us, latency_limit
 from runtime.run import default_output_dir, run_process
 from runtime.scheduler import SchedulerOptions
 
@@ -78,7 +78,7 @@ def main(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
     latency = args.cpu_latency_us
-    if latency is not None and not 0 <= latency <= NO_CONSTRAINT_US:
+    if latency is not None and not is_latency_us(latency):
         raise UserError(
             f"--cpu-latency-us must be from 0 to {NO_CONSTRAINT_US} microseconds, found {latency}"
         )

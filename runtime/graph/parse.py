@@ -39,7 +39,7 @@ from runtime.graph.spec import (
     StaticFrameSpec,
 )
 from runtime.hints import did_you_mean
-from runtime.realtime import NO_CONSTRAINT_US
+from runtime.realtime import NO_CONSTRAINT_US, is_latency_us
 
 TOP_KEYS = (
     "graph",
@@ -176,11 +176,7 @@ class _Parser:
         self.unknown_keys(body, PROCESS_KEYS, f"process `{name}`")
         if "cpu_latency_us" in body:
             value = body["cpu_latency_us"]
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int)
-                or not 0 <= value <= NO_CONSTRAINT_US
-            ):
+            if not is_latency_us(value):
                 self.error(
                     body.val_loc["cpu_latency_us"],
                     f"cpu_latency_us of process `{name}` must be a whole number of microseconds "
