@@ -21,9 +21,17 @@ Tension (the discrete Laplacian) keeps the segments even and the contour smooth;
 corners of a rectangle by a radius of about ``tension * segment² / (2 step_px)``.
 
 The polygon is resampled evenly by arc length whenever a segment leaves
-``[min_segment_px, max_segment_px]``, so the vertex count follows the contour's length. The work
-of an iteration is proportional to the number of vertices: only a (2r+2)² block of pixels
-around each vertex is read.
+``[min_segment_px, max_segment_px]``, so the vertex count follows the contour's length (up to
+``max_vertices``, beyond which the segments grow instead). The work of an iteration is
+proportional to the number of vertices: only a (2r+2)² block of pixels around each vertex is
+read, straight from the caller's image (a view, never a converted, blurred or copied frame), so
+the cost does not depend on the image size.
+
+When the iterations end, the contour is *measured* (:mod:`modules.vision.edge_fit`): each vertex
+is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
+profile, and the sharp convex corners the even vertices cut off are put back. That measured
+outline (:attr:`SnakeResult.contour`) is what the tracker reports; the snake's own vertices
+(:attr:`SnakeResult.vertices`) stay where the pressure put them, to start the next frame from.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from modules.vision.color import ColorModel, gate_test, offset_matrix
+from modules.vision.edge_fit import EdgeFitParams, complete_corners, fit_edges
 from modules.vision.polygon import (
     as_polygon,
     circle,
@@ -64,6 +73,19 @@ class SnakeParams:
     - ``converge_px``: the snake has converged when no vertex moved more than this [px].
     - ``adapt_rate``: weight of new interior samples in the color model per frame (0 = never).
     - ``adapt_inset_px``: how far inside the contour the adaptation samples are read [px].
+    - ``edge_half_length_px``: half-length of the edge profile fitted along each normal when
+      the iterations end [px] (0: report the snake's vertices as they are).
+    - ``corner_turn_deg``: a turn sharper than this over one segment is a corner to put back
+      [deg].
+    - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share
+      is not on a target (a featureless or colourless image): failed.
+    - ``border_margin_px``: a contour that comes this close to the image border is cut by it:
+      failed [px].
+    - ``min_chroma``: a target colour whose chromaticity lies closer than this to gray
+      (r = g = 1/3) cannot be told from a gray scene: failed (unitless).
+    - ``max_unconverged_frames``: this many frames in a row without settling while tracking
+      mean the snake has lost its footing: failed (acquisition must settle at once); see
+      :func:`modules.vision.tracker.settled`.
     """
 
     k_sigma: float = 3.0
@@ -82,6 +104,12 @@ class SnakeParams:
     converge_px: float = 0.1
     adapt_rate: float = 0.1
     adapt_inset_px: float = 6.0
+    edge_half_length_px: float = 4.0
+    corner_turn_deg: float = 40.0
+    min_edge_fraction: float = 0.5
+    border_margin_px: float = 1.0
+    min_chroma: float = 0.02
+    max_unconverged_frames: int = 5
 
     def __post_init__(self) -> None:
         checks = [
@@ -100,7 +128,15 @@ class SnakeParams:
             (self.track_iterations >= 1, "track_iterations must be >= 1"),
             (self.converge_px > 0, "converge_px must be > 0"),
             (0.0 <= self.adapt_rate <= 1.0, "adapt_rate must be within [0, 1]"),
+            (0.0 <= self.edge_half_length_px <= 32.0, "edge_half_length_px must be in [0, 32]"),
+            (0.0 < self.corner_turn_deg <= 180.0, "corner_turn_deg must be within (0, 180]"),
+            (0.0 <= self.min_edge_fraction <= 1.0, "min_edge_fraction must be within [0, 1]"),
+            (self.border_margin_px >= 0.0, "border_margin_px must be >= 0"),
+            (0.0 <= self.min_chroma < 1.0, "min_chroma must be within [0, 1)"),
+            (self.max_unconverged_frames >= 1, "max_unconverged_frames must be >= 1"),
         ]
+        if not all(np.isfinite(float(getattr(self, f))) for f in self.__dataclass_fields__):
+            raise ValueError("snake parameters: every value must be finite")
         for ok, message in checks:
             if not ok:
                 raise ValueError(f"snake parameters: {message}")
@@ -113,15 +149,27 @@ class SnakeParams:
 
 @dataclass(frozen=True, eq=False)
 class SnakeResult:
-    """Outcome of evolving a snake: ``vertices`` (N x 2, px), iterations run, whether it converged
-    (last motion below ``converge_px``), the largest vertex motion of the last iteration [px],
-    and ``collapsed`` when the contour shrank to nothing."""
+    """Outcome of evolving a snake: ``vertices`` (N x 2, px) the snake's own vertices,
+    iterations run, whether it converged (last motion below ``converge_px``), the largest vertex
+    motion of the last iteration [px], ``collapsed`` when the contour shrank to nothing;
+    ``contour`` (M x 2, px) the measured outline (vertices on the fitted edge, corners put back;
+    the vertices themselves when the edge fit is off or the snake collapsed), ``edge_fraction``
+    the share of vertices with an edge under them, and ``touches_border`` when the contour
+    came within ``border_margin_px`` of the image border."""
 
     vertices: FloatArray
     iterations: int
     converged: bool
     last_motion_px: float
     collapsed: bool = False
+    contour: FloatArray | None = None
+    edge_fraction: float = 1.0
+    touches_border: bool = False
+
+    @property
+    def outline(self) -> FloatArray:
+        """The measured outline when there is one, else the snake's vertices."""
+        return self.vertices if self.contour is None else self.contour
 
 
 def seed_point(center_uv: ArrayLike, params: SnakeParams) -> FloatArray:
@@ -225,12 +273,19 @@ def _step(
 
 
 def needs_resampling(vertices: FloatArray, params: SnakeParams) -> bool:
-    """True when a segment is longer than ``max_segment_px`` or, with more than the minimum
-    number of vertices, shorter than ``min_segment_px``."""
+    """True when, with fewer than the maximum number of vertices, a segment is longer than
+    ``max_segment_px`` or, with more than the minimum, shorter than ``min_segment_px``. At
+    ``max_vertices`` the segments are let grow (up to twice the mean segment, past which the
+    vertices are spread evenly again)."""
     lengths = segment_lengths(vertices)
-    too_long = bool(lengths.max() > params.max_segment_px)
+    count = vertices.shape[0]
+    longest = float(lengths.max())
+    if count >= params.max_vertices:
+        too_long = longest > max(params.max_segment_px, 2.0 * float(lengths.mean()))
+    else:
+        too_long = longest > params.max_segment_px
     too_short = bool(lengths.min() < params.min_segment_px)
-    return too_long or (too_short and vertices.shape[0] > params.min_vertices)
+    return too_long or (too_short and count > params.min_vertices)
 
 
 def _resample(vertices: FloatArray, params: SnakeParams) -> FloatArray:
@@ -267,16 +322,63 @@ def evolve(
     flat = np.ascontiguousarray(image).reshape(-1, image.shape[2])
     motion = np.inf
     iterations = 0
+    converged = False
     for iterations in range(1, budget + 1):
         current, motion = _step(flat, image.shape, current, model, params)
         if is_collapsed(current, params):
-            return SnakeResult(current, iterations, False, motion, collapsed=True)
+            return SnakeResult(current, iterations, False, motion, collapsed=True, edge_fraction=0)
         if needs_resampling(current, params):
             current = _resample(current, params)
             continue
         if motion < params.converge_px:
-            return SnakeResult(current, iterations, True, motion)
-    return SnakeResult(current, iterations, False, motion)
+            converged = True
+            break
+    contour, edge_fraction = measure_contour(image, current, model, params)
+    return SnakeResult(
+        current,
+        iterations,
+        converged,
+        motion,
+        contour=contour,
+        edge_fraction=edge_fraction,
+        touches_border=touches_border(current, image.shape, params.border_margin_px),
+    )
+
+
+def touches_border(vertices: FloatArray, shape: tuple[int, ...], margin_px: float) -> bool:
+    """True when a vertex lies within ``margin_px`` of the image's outer pixel centres."""
+    height, width = shape[:2]
+    low = vertices.min(axis=0)
+    high = vertices.max(axis=0)
+    return bool(
+        low[0] <= margin_px
+        or low[1] <= margin_px
+        or high[0] >= width - 1.0 - margin_px
+        or high[1] >= height - 1.0 - margin_px
+    )
+
+
+def measure_contour(
+    image: NDArray[np.uint8], vertices: FloatArray, model: ColorModel, params: SnakeParams
+) -> tuple[FloatArray, float]:
+    """The outline on the fitted colour edge with its corners put back, and the share of
+    vertices that found an edge (see :mod:`modules.vision.edge_fit`). With the edge fit off,
+    the vertices as they are and 1."""
+    if params.edge_half_length_px <= 0.0:
+        return vertices, 1.0
+    fit = fit_edges(
+        image,
+        vertices,
+        outward_normals(vertices),
+        model,
+        params.k_sigma,
+        params.min_gray,
+        EdgeFitParams(half_length_px=params.edge_half_length_px),
+    )
+    contour = complete_corners(
+        fit.vertices, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px
+    )
+    return contour, fit.found_fraction
 
 
 def acquire(

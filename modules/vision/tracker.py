@@ -7,6 +7,13 @@ against the previous frame's features. A failure latches (the status stays "fail
 first reason until the next seed), because the servo must not resume on its own after the
 snake has been seen to go wrong. While tracking is sane, the color model adapts from pixels
 just inside the contour.
+
+Besides the shape checks of :mod:`modules.vision.sanity`, the snake itself fails when it cannot
+be on a target: its colour model is gray (a grayscale or colourless image: ``min_chroma``), no
+colour edge lies under most of its vertices (a featureless image: ``min_edge_fraction``), it
+reaches the image border (the target is cut by the frame, its features are not the target's),
+it collapsed, or it did not converge (at acquisition, or ``max_unconverged_frames`` frames in a
+row while tracking).
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from modules.vision.features import PolygonFeatures
 from modules.vision.sanity import FAILED, SanityLimits, SanityResult, check_contour
 from modules.vision.snake import (
     SnakeParams,
+    SnakeResult,
     evolve,
     interior_samples,
     seed_point,
@@ -70,6 +78,7 @@ class SnakeTracker:
         self._reference: PolygonFeatures | None = None
         self._acquiring = False
         self._latched: SanityResult | None = None
+        self._unconverged = 0
 
     @property
     def seeded(self) -> bool:
@@ -95,21 +104,32 @@ class SnakeTracker:
         self._reference = None
         self._acquiring = True
         self._latched = None
+        self._unconverged = 0
 
     def update(self, image: NDArray[np.uint8]) -> TrackUpdate:
         """Evolve the snake on a new frame and check it. Raises RuntimeError before a seed."""
         if self.vertices is None or self.model is None:
             raise RuntimeError("the tracker has not been seeded")
-        budget = self.params.max_iterations if self._acquiring else self.params.track_iterations
+        acquiring = self._acquiring
+        budget = self.params.max_iterations if acquiring else self.params.track_iterations
+        gray = color_is_gray(self.model, self.params.min_chroma)
         start = time.perf_counter()
-        result = evolve(image, self.vertices, self.model, self.params, max_iterations=budget)
+        if gray:  # nothing to tell the target from: do not grow over the whole image
+            result = SnakeResult(self.vertices, 0, False, 0.0, edge_fraction=0.0)
+        else:
+            result = evolve(image, self.vertices, self.model, self.params, max_iterations=budget)
         elapsed = time.perf_counter() - start
         self._acquiring = False
         self.vertices = result.vertices
-        sanity = check_contour(result.vertices, self.limits, self._previous, self._reference)
-        if result.collapsed and sanity.ok:
-            reason = "snake collapsed: no target color left under it"
-            sanity = replace(sanity, status=FAILED, reason=reason, reasons=(reason,))
+        self._unconverged = 0 if settled(result, self.params) else self._unconverged + 1
+        outline = result.outline
+        sanity = check_contour(outline, self.limits, self._previous, self._reference)
+        reasons = self._snake_failures(result, gray, acquiring)
+        if reasons:
+            reasons += [r for r in sanity.reasons]
+            sanity = replace(
+                sanity, status=FAILED, reason="; ".join(reasons), reasons=tuple(reasons)
+            )
         if sanity.features is not None:
             self._previous = sanity.features
             if self._reference is None and sanity.ok:
@@ -124,4 +144,41 @@ class SnakeTracker:
             self.model = color.adapt(
                 self.model, samples, self.params.adapt_rate, min_gray=self.params.min_gray
             )
-        return TrackUpdate(result.vertices, sanity, result.iterations, result.converged, elapsed)
+        return TrackUpdate(outline, sanity, result.iterations, result.converged, elapsed)
+
+    def _snake_failures(self, result: SnakeResult, gray: bool, acquiring: bool) -> list[str]:
+        """Why the snake itself cannot be on a target (empty when it can)."""
+        p = self.params
+        if gray:
+            return [
+                f"target colour is gray (chromaticity within {p.min_chroma:g} of gray): a "
+                "grayscale or colourless image cannot be tracked by colour"
+            ]
+        if result.collapsed:
+            return ["snake collapsed: no target color left under it"]
+        reasons = []
+        if result.edge_fraction < p.min_edge_fraction:
+            reasons.append(
+                f"no colour edge under {100 * (1 - result.edge_fraction):.0f}% of the contour "
+                "(featureless image)"
+            )
+        if result.touches_border:
+            reasons.append("contour touches the image border")
+        if acquiring and not settled(result, p):
+            reasons.append(f"snake did not converge in {result.iterations} iterations")
+        elif self._unconverged >= p.max_unconverged_frames:
+            reasons.append(f"snake did not converge for {self._unconverged} frames in a row")
+        return reasons
+
+
+def settled(result: SnakeResult, params: SnakeParams) -> bool:
+    """Whether the snake came to rest: converged, or still creeping by less than half a
+    pressure step per iteration when its budget ran out (a contour following a moving target
+    keeps sliding a little; one that is still being pushed at half strength or more is not on
+    an edge)."""
+    return result.converged or result.last_motion_px < 0.5 * params.step_px
+
+
+def color_is_gray(model: ColorModel, min_chroma: float) -> bool:
+    """True when the model's mean chromaticity lies within ``min_chroma`` of gray (1/3, 1/3)."""
+    return bool(np.hypot(*(model.mean - 1.0 / 3.0)) < min_chroma)

@@ -1,0 +1,162 @@
+"""Sub-pixel edges: each converged snake vertex is moved onto the colour edge along its normal.
+
+The snake comes to rest where its pixel window is half target by the colour gate, which sits a
+few tenths of a pixel inside a sharp edge (the gate counts a mixed pixel as target only when it
+is mostly patch). At convergence every vertex is within a pixel or so of the edge, so the edge
+itself can be measured there: the image is sampled (bilinearly) along the vertex's outward
+normal over ``[-L, L]`` pixels, the samples are reduced to the mixing fraction
+
+    t(s) = (p(s) - c_out) . (c_in - c_out) / |c_in - c_out|²
+
+between the colour at the inner end ``c_in`` and at the outer end ``c_out`` (1 inside, 0
+outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly), and the edge is
+where a step with the same integral would be:
+
+    e = ∫_{-L}^{L} t(s) ds - L.
+
+A step at ``e`` smeared by any symmetric kernel (the lens, motion blur, the pixels' own area,
+the bilinear interpolation) keeps that integral, so ``e`` carries no bias from the blur; sensor
+noise averages over the ~4 L samples. Where there is no edge to measure (the ends differ by
+less than ``min_contrast`` gray levels, the inner end is not the target colour or the outer end
+is), the vertex stays where the snake put it.
+
+Only ``N x (4 L / step + 1) x 4`` pixels are read (N vertices), never the whole image. Pixels:
+u right, v down, pixel centres at integer coordinates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from modules.vision.color import ColorModel, is_target
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class EdgeFitParams:
+    """``half_length_px``: the profile spans ``[-L, L]`` about the vertex [px];
+    ``sample_px``: spacing of the profile samples [px]; ``end_px``: the colour of each end is
+    the mean over this length [px]; ``min_contrast``: smallest colour difference between the
+    ends that counts as an edge [gray levels]; ``max_shift_px``: largest move of a vertex [px]."""
+
+    half_length_px: float = 4.0
+    sample_px: float = 0.5
+    end_px: float = 1.0
+    min_contrast: float = 20.0
+    max_shift_px: float = 3.0
+
+
+@dataclass(frozen=True, eq=False)
+class EdgeFit:
+    """Outcome: ``vertices`` (N x 2 px) moved onto the edge, ``shift_px`` (N) the move along
+    the outward normal [px] (0 where no edge was found), ``found`` (N bool) where an edge was
+    measured."""
+
+    vertices: FloatArray
+    shift_px: FloatArray
+    found: NDArray[np.bool_]
+
+    @property
+    def found_fraction(self) -> float:
+        """Share of the vertices that found an edge under them."""
+        return float(np.mean(self.found)) if self.found.size else 0.0
+
+
+def sample_bilinear(image: NDArray[np.uint8], points_uv: FloatArray) -> NDArray[np.float32]:
+    """Bilinear colour (..., C float32) at points (..., 2 px) of an H x W x C image (W, H >= 2);
+    points outside read the border. Only the 4 pixels around each point are read (from a view
+    of the image when it is contiguous, as a camera frame is: no copy)."""
+    height, width, channels = image.shape
+    flat = image.reshape(-1, channels)
+    u = np.clip(points_uv[..., 0], 0.0, width - 1.0)
+    v = np.clip(points_uv[..., 1], 0.0, height - 1.0)
+    u0 = np.minimum(u.astype(np.intp), width - 2)
+    v0 = np.minimum(v.astype(np.intp), height - 2)
+    fu = (u - u0).astype(np.float32)[..., None]
+    fv = (v - v0).astype(np.float32)[..., None]
+    index = v0 * width + u0
+    top_left = np.take(flat, index, axis=0).astype(np.float32)
+    top_right = np.take(flat, index + 1, axis=0)
+    bottom_left = np.take(flat, index + width, axis=0).astype(np.float32)
+    bottom_right = np.take(flat, index + width + 1, axis=0)
+    top = top_left + (top_right - top_left) * fu
+    bottom = bottom_left + (bottom_right - bottom_left) * fu
+    return top + (bottom - top) * fv
+
+
+def fit_edges(
+    image: NDArray[np.uint8],
+    vertices: FloatArray,
+    normals: FloatArray,
+    model: ColorModel,
+    k_sigma: float,
+    min_gray: float,
+    params: EdgeFitParams | None = None,
+) -> EdgeFit:
+    """Move each vertex (N x 2 px) along its unit outward normal (N x 2) onto the edge."""
+    p = params or EdgeFitParams()
+    length = p.half_length_px
+    count = round(2.0 * length / p.sample_px) + 1
+    s = np.linspace(-length, length, count)
+    points = vertices[:, None, :] + s[None, :, None] * normals[:, None, :]
+    profile = sample_bilinear(image, points)  # (N, K, C)
+    ends = max(round(p.end_px / p.sample_px) + 1, 1)
+    inner = profile[:, :ends].mean(axis=1)
+    outer = profile[:, -ends:].mean(axis=1)
+    contrast = inner - outer
+    power = np.einsum("nc,nc->n", contrast, contrast)
+    found = power >= p.min_contrast**2
+    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
+    found &= target[: len(inner)] & ~target[len(inner) :]
+    safe = np.where(found, power, 1.0)
+    t = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast) / safe[:, None]
+    # Trapezoid rule on the evenly spaced samples.
+    integral = p.sample_px * (t.sum(axis=1) - 0.5 * (t[:, 0] + t[:, -1]))
+    shift = np.where(found, integral - length, 0.0)
+    found &= np.abs(shift) <= p.max_shift_px
+    shift = np.where(found, shift, 0.0)
+    return EdgeFit(vertices + shift[:, None] * normals, shift, found)
+
+
+def complete_corners(
+    vertices: FloatArray, found: NDArray[np.bool_], min_turn_rad: float, max_reach_px: float
+) -> FloatArray:
+    """Put back the sharp convex corners that a polygon of evenly spaced vertices cuts off.
+
+    Between two vertices ``b -> c`` whose neighbouring segments ``a -> b`` and ``c -> d`` turn
+    by more than ``min_turn_rad`` (outwards), the lines through ``a, b`` and ``c, d`` meet at the
+    corner; it is inserted when it lies ahead of ``b`` and behind ``c`` within ``max_reach_px``
+    of both, and all four vertices lie on a measured edge (``found``). A smooth contour (turn
+    per segment below the threshold: radius of curvature above segment / turn) is unchanged.
+    """
+    count = len(vertices)
+    if count < 4:
+        return vertices
+    a = np.roll(vertices, 1, axis=0)
+    b = vertices
+    c = np.roll(vertices, -1, axis=0)
+    d = np.roll(vertices, -2, axis=0)
+    d1 = b - a
+    d2 = d - c
+    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    dot = np.einsum("ij,ij->i", d1, d2)
+    turn = np.arctan2(cross, dot)
+    orientation = np.sign(np.sum(b[:, 0] * c[:, 1] - c[:, 0] * b[:, 1]))
+    sharp = orientation * turn > min_turn_rad
+    sharp &= found & np.roll(found, 1) & np.roll(found, -1) & np.roll(found, -2)
+    # b + s d1 = c - r d2  ->  [d1, d2] [s, r] = c - b
+    gap = c - b
+    safe = np.where(sharp, cross, 1.0)
+    s = (gap[:, 0] * d2[:, 1] - gap[:, 1] * d2[:, 0]) / safe
+    r = (d1[:, 0] * gap[:, 1] - d1[:, 1] * gap[:, 0]) / safe
+    len1 = np.hypot(d1[:, 0], d1[:, 1])
+    len2 = np.hypot(d2[:, 0], d2[:, 1])
+    sharp &= (s > 0) & (r > 0) & (s * len1 <= max_reach_px) & (r * len2 <= max_reach_px)
+    if not np.any(sharp):
+        return vertices
+    corners = b[sharp] + s[sharp, None] * d1[sharp]
+    return np.insert(vertices, np.flatnonzero(sharp) + 1, corners, axis=0)
