@@ -12,15 +12,17 @@ between the colour at the inner end ``c_in`` and at the outer end ``c_out`` (1 i
 outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly), and the edge is
 where a step with the same integral would be:
 
-    e = ∫_{-L}^{L} t(s) ds - L.
+    e = ∫_{-L}^{L} t(s) ds - L,
 
+measured twice: the second time over a profile centred on the first estimate, so that an edge
+blurred over a few pixels lies wholly within it.
 A step at ``e`` smeared by any symmetric kernel (the lens, motion blur, the pixels' own area,
 the bilinear interpolation) keeps that integral, so ``e`` carries no bias from the blur; sensor
 noise averages over the ~4 L samples. Where there is no edge to measure (the ends differ by
 less than ``min_contrast`` gray levels, the inner end is not the target colour or the outer end
 is), the vertex stays where the snake put it.
 
-Only ``N x (4 L / step + 1) x 4`` pixels are read (N vertices), never the whole image. Pixels:
+Only ``2 x N x (2 L / step + 1) x 4`` pixels are read (N vertices), never the whole image. Pixels:
 u right, v down, pixel centres at integer coordinates.
 """
 
@@ -102,25 +104,30 @@ def fit_edges(
     length = p.half_length_px
     count = round(2.0 * length / p.sample_px) + 1
     s = np.linspace(-length, length, count)
-    points = vertices[:, None, :] + s[None, :, None] * normals[:, None, :]
-    profile = sample_bilinear(image, points)  # (N, K, C)
     ends = max(round(p.end_px / p.sample_px) + 1, 1)
-    inner = profile[:, :ends].mean(axis=1)
-    outer = profile[:, -ends:].mean(axis=1)
-    contrast = inner - outer
-    power = np.einsum("nc,nc->n", contrast, contrast)
-    found = power >= p.min_contrast**2
-    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
-    found &= target[: len(inner)] & ~target[len(inner) :]
-    safe = np.where(found, power, 1.0)
-    t = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast) / safe[:, None]
-    # Trapezoid rule on the evenly spaced samples.
-    integral = p.sample_px * (t.sum(axis=1) - 0.5 * (t[:, 0] + t[:, -1]))
-    shift = np.where(found, integral - length, 0.0)
-    found &= np.abs(shift) <= p.max_shift_px
-    shift = np.where(found, shift, 0.0)
+    shift = np.zeros(len(vertices))
+    found = np.ones(len(vertices), dtype=bool)
+    # Two passes: the second centres the profile on the first estimate, so that an edge blurred
+    # over several pixels lies wholly inside it.
+    for _ in range(2):
+        centres = vertices + shift[:, None] * normals
+        points = centres[:, None, :] + s[None, :, None] * normals[:, None, :]
+        profile = sample_bilinear(image, points)  # (N, K, C)
+        inner = profile[:, :ends].mean(axis=1)
+        outer = profile[:, -ends:].mean(axis=1)
+        contrast = inner - outer
+        power = np.einsum("nc,nc->n", contrast, contrast)
+        found &= power >= p.min_contrast**2
+        target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
+        found &= target[: len(inner)] & ~target[len(inner) :]
+        safe = np.where(found, power, 1.0)
+        t = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast) / safe[:, None]
+        # Trapezoid rule on the evenly spaced samples.
+        integral = p.sample_px * (t.sum(axis=1) - 0.5 * (t[:, 0] + t[:, -1]))
+        shift = np.where(found, shift + integral - length, 0.0)
+        found &= np.abs(shift) <= p.max_shift_px
+        shift = np.where(found, shift, 0.0)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
-
 
 def complete_corners(
     vertices: FloatArray, found: NDArray[np.bool_], min_turn_rad: float, max_reach_px: float

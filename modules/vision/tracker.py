@@ -164,7 +164,7 @@ class SnakeTracker:
             )
         if result.touches_border:
             reasons.append("contour touches the image border")
-        if acquiring and not settled(result, p):
+        if acquiring and not result.converged:
             reasons.append(f"snake did not converge in {result.iterations} iterations")
         elif self._unconverged >= p.max_unconverged_frames:
             reasons.append(f"snake did not converge for {self._unconverged} frames in a row")
@@ -172,10 +172,10 @@ class SnakeTracker:
 
 
 def settled(result: SnakeResult, params: SnakeParams) -> bool:
-    """Whether the snake came to rest: converged, or still creeping by less than half a
+    """Whether a tracking snake came to rest: converged, or still creeping by less than half a
     pressure step per iteration when its budget ran out (a contour following a moving target
     keeps sliding a little; one that is still being pushed at half strength or more is not on
-    an edge)."""
+    an edge). Acquisition, with its large budget, must converge."""
     return result.converged or result.last_motion_px < 0.5 * params.step_px
 
 

@@ -82,6 +82,28 @@ class VsSnake(Module):
         adapt_rate: float = param(
             _DEFAULTS["adapt_rate"], "color model adaptation per image", ge=0, le=1
         )
+        edge_half_length_px: float = param(
+            _DEFAULTS["edge_half_length_px"],
+            "half-length of the sub-pixel edge profile (0: off)",
+            unit="px",
+            ge=0,
+            le=32,
+        )
+        corner_turn_deg: float = param(
+            _DEFAULTS["corner_turn_deg"], "sharper turns are corners put back", unit="deg", gt=0
+        )
+        min_edge_fraction: float = param(
+            _DEFAULTS["min_edge_fraction"], "fewer vertices on an edge: failed", ge=0, le=1
+        )
+        border_margin_px: float = param(
+            _DEFAULTS["border_margin_px"], "closer to the image border: failed", unit="px", ge=0
+        )
+        min_chroma: float = param(
+            _DEFAULTS["min_chroma"], "a target colour closer to gray: failed", ge=0, lt=1
+        )
+        max_unconverged_frames: int = param(
+            _DEFAULTS["max_unconverged_frames"], "frames in a row without settling: failed", ge=1
+        )
         rectangle_margin: float = param(
             _DEFAULTS["rectangle_margin"], "outer rectangle growth (0.12 = 12 %)", ge=0
         )
@@ -143,11 +165,14 @@ class VsSnake(Module):
     def _frozen(self, pixels: np.ndarray) -> bool:
         """True when the last ``max_identical_frames`` images were identical: a live sensor always
         has noise, so a frame grabber that re-sends one buffer is caught even if it does not say
-        so. Compares a sparse grid of pixels (cheap)."""
+        so. Compares a fixed grid of 48 x 32 pixels, whatever the image size (cheap)."""
         limit = self.params.max_identical_frames
         if not limit:
             return False
-        sample = pixels[::9, ::9].copy()
+        height, width = pixels.shape[:2]
+        rows = np.linspace(0, height - 1, 32).astype(np.intp)
+        cols = np.linspace(0, width - 1, 48).astype(np.intp)
+        sample = pixels[rows[:, None], cols[None, :]]
         same = self._previous is not None and np.array_equal(sample, self._previous)
         self._previous = sample
         self._identical = self._identical + 1 if same else 0
@@ -187,19 +212,20 @@ class VsSnake(Module):
         if sample.stale:
             self.contour.send(_empty(FAILED, "camera image is stale", sample.stamp))
             return
-        pixels = np.asarray(sample.pixels)
-        if pixels.ndim != 3 or pixels.shape[2] != 3 or pixels.dtype != np.uint8:
+        pixels = np.asarray(sample.pixels)  # the camera's frame, read in place (no copy)
+        if pixels.dtype != np.uint8 or pixels.ndim not in (2, 3) or min(pixels.shape[:2]) < 2:
             raise UserError(
                 f"{self.name}: images must be H x W x 3 uint8 BGR, got {pixels.shape} "
                 f"{pixels.dtype}"
             )
+        if pixels.ndim == 2 or pixels.shape[2] != 3:
+            reason = f"grayscale image ({pixels.shape}): the snake tracks a colour, it needs BGR"
+            self._fail(reason, sample.stamp)
+            return
         if self._frozen(pixels):
-            reason = f"camera frozen: {self._identical + 1} identical images in a row"
-            if not self._was_failed:
-                self._failures += 1
-                self.log.warning("%s: snake failed: %s", self.name, reason)
-            self._was_failed = True
-            self.contour.send(_empty(FAILED, reason, sample.stamp))
+            self._fail(
+                f"camera frozen: {self._identical + 1} identical images in a row", sample.stamp
+            )
             return
         if self._pending is not None:
             self._seed(pixels, self._pending)
@@ -227,6 +253,14 @@ class VsSnake(Module):
                 sanity.offending,
             )
         )
+
+    def _fail(self, reason: str, stamp: float) -> None:
+        """Send a failed, empty contour (counted once per run of failures)."""
+        if not self._was_failed:
+            self._failures += 1
+            self.log.warning("%s: snake failed: %s", self.name, reason)
+        self._was_failed = True
+        self.contour.send(_empty(FAILED, reason, stamp))
 
     def _seed(self, pixels: np.ndarray, seed: list[float]) -> None:
         try:

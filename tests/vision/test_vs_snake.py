@@ -145,8 +145,19 @@ def test_bad_parameters_are_user_errors(params, words) -> None:
         ModuleHarness(VsSnake, params).start()
 
 
-def test_a_gray_image_is_a_user_error() -> None:
+def test_a_single_channel_image_fails_the_snake_not_the_run() -> None:
+    """A grayscale camera (H x W uint8) gives a failed, empty contour with the reason."""
     with ModuleHarness(VsSnake, {}) as h:
-        h.push("image", Image(pixels=np.zeros((48, 64), dtype=np.uint8)))
+        h.push("image", Image(pixels=np.full((48, 64), 128, dtype=np.uint8)))
+        out = h.step(0.1)["contour"][0]
+        assert out.status == "failed"
+        assert "grayscale image" in out.reason
+        assert len(out.vertices) == 0
+        assert h.module.summary()["failures"] == 1
+
+
+def test_a_float_image_is_a_user_error() -> None:
+    with ModuleHarness(VsSnake, {}) as h:
+        h.push("image", Image(pixels=np.zeros((48, 64, 3), dtype=np.float32)))
         with pytest.raises(UserError, match="H x W x 3 uint8"):
             h.step(0.1)
