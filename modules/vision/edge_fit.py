@@ -98,18 +98,22 @@ def fit_edges(
     k_sigma: float,
     min_gray: float,
     params: EdgeFitParams | None = None,
+    scale: int = 1,
 ) -> EdgeFit:
-    """Move each vertex (N x 2 px) along its unit outward normal (N x 2) onto the edge."""
+    """Move each vertex (N x 2 px) along its unit outward normal (N x 2) onto the edge. With a
+    grid ``scale`` σ > 1 (a snake working on every σ-th pixel, so up to σ times further from
+    the edge) the first pass spans σ times more, with samples σ times further apart."""
     p = params or EdgeFitParams()
-    length = p.half_length_px
-    count = round(2.0 * length / p.sample_px) + 1
-    s = np.linspace(-length, length, count)
+    count = round(2.0 * p.half_length_px / p.sample_px) + 1
     ends = max(round(p.end_px / p.sample_px) + 1, 1)
     shift = np.zeros(len(vertices))
     found = np.ones(len(vertices), dtype=bool)
     # Two passes: the second centres the profile on the first estimate, so that an edge blurred
     # over several pixels lies wholly inside it.
-    for _ in range(2):
+    for reach in (scale, 1):
+        length = p.half_length_px * reach
+        sample_px = p.sample_px * reach
+        s = np.linspace(-length, length, count)
         centres = vertices + shift[:, None] * normals
         points = centres[:, None, :] + s[None, :, None] * normals[:, None, :]
         profile = sample_bilinear(image, points)  # (N, K, C)
@@ -123,11 +127,12 @@ def fit_edges(
         safe = np.where(found, power, 1.0)
         t = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast) / safe[:, None]
         # Trapezoid rule on the evenly spaced samples.
-        integral = p.sample_px * (t.sum(axis=1) - 0.5 * (t[:, 0] + t[:, -1]))
+        integral = sample_px * (t.sum(axis=1) - 0.5 * (t[:, 0] + t[:, -1]))
         shift = np.where(found, shift + integral - length, 0.0)
-        found &= np.abs(shift) <= p.max_shift_px
+        found &= np.abs(shift) <= p.max_shift_px * scale
         shift = np.where(found, shift, 0.0)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
+
 
 def complete_corners(
     vertices: FloatArray, found: NDArray[np.bool_], min_turn_rad: float, max_reach_px: float

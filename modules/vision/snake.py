@@ -67,6 +67,10 @@ class SnakeParams:
     - ``window_radius_px``: half-width of the pixel window read around each vertex [px].
     - ``min_segment_px`` / ``max_segment_px``: segment length bounds that trigger resampling [px].
     - ``min_vertices`` / ``max_vertices``: bounds on the vertex count.
+    - ``vertex_budget``: above this many vertices at the target segment length the snake works
+      on a coarser grid of pixels (every σ-th), with segments, steps, windows and convergence
+      threshold σ times larger, so its cost stays that of at most this many vertices whatever
+      the scale of the target in the image (the edge fit still reads full-resolution pixels).
     - ``seed_radius_px`` / ``seed_vertices``: initial circle of a point seed.
     - ``max_iterations``: iteration budget when acquiring from a seed.
     - ``track_iterations``: iteration budget per new frame when tracking.
@@ -97,6 +101,7 @@ class SnakeParams:
     max_segment_px: float = 12.0
     min_vertices: int = 8
     max_vertices: int = 400
+    vertex_budget: int = 72
     seed_radius_px: float = 5.0
     seed_vertices: int = 12
     max_iterations: int = 300
@@ -122,6 +127,7 @@ class SnakeParams:
                 "need 0 < min_segment_px < max_segment_px",
             ),
             (3 <= self.min_vertices <= self.max_vertices, "need 3 <= min_vertices <= max_vertices"),
+            (self.vertex_budget >= self.min_vertices, "need vertex_budget >= min_vertices"),
             (self.seed_radius_px > 0, "seed_radius_px must be > 0"),
             (self.seed_vertices >= 3, "seed_vertices must be >= 3"),
             (self.max_iterations >= 1, "max_iterations must be >= 1"),
@@ -154,8 +160,9 @@ class SnakeResult:
     motion of the last iteration [px], ``collapsed`` when the contour shrank to nothing;
     ``contour`` (M x 2, px) the measured outline (vertices on the fitted edge, corners put back;
     the vertices themselves when the edge fit is off or the snake collapsed), ``edge_fraction``
-    the share of vertices with an edge under them, and ``touches_border`` when the contour
-    came within ``border_margin_px`` of the image border."""
+    the share of vertices with an edge under them, ``touches_border`` when the contour came
+    within ``border_margin_px`` of the image border, and ``scale`` the pixel grid step it
+    worked on (see :func:`grid_scale`)."""
 
     vertices: FloatArray
     iterations: int
@@ -165,6 +172,7 @@ class SnakeResult:
     contour: FloatArray | None = None
     edge_fraction: float = 1.0
     touches_border: bool = False
+    scale: int = 1
 
     @property
     def outline(self) -> FloatArray:
@@ -180,7 +188,7 @@ def seed_point(center_uv: ArrayLike, params: SnakeParams) -> FloatArray:
 def seed_region(polygon: ArrayLike, params: SnakeParams) -> FloatArray:
     """Initial vertices for collapsing onto a target from a region (rectangle or polygon)."""
     region = with_positive_area(as_polygon(polygon))
-    return _resample(region, params)
+    return _resample(region, params)[0]
 
 
 def outward_normals(vertices: FloatArray) -> FloatArray:
@@ -193,11 +201,31 @@ def outward_normals(vertices: FloatArray) -> FloatArray:
     return normal / np.maximum(length, 1e-12)[:, None]
 
 
+def grid_scale(vertices: FloatArray, params: SnakeParams) -> int:
+    """The pixel grid step σ (integer >= 1) the snake works on: 1 until the contour needs more
+    than ``vertex_budget`` vertices at the target segment length, then the smallest step that
+    keeps it within the budget (the snake then reads every σ-th pixel, with σ-times longer
+    segments, steps and windows: the same work at any scale)."""
+    perimeter = float(segment_lengths(vertices).sum())
+    return max(1, int(np.ceil(perimeter / (params.target_segment_px * params.vertex_budget))))
+
+
+def current_scale(vertices: FloatArray, params: SnakeParams) -> int:
+    """The grid step σ a contour was last resampled for: its mean segment over the target."""
+    mean = float(segment_lengths(vertices).mean())
+    return max(1, round(mean / params.target_segment_px))
+
+
 def pressure(
-    image: NDArray[np.uint8], vertices: FloatArray, model: ColorModel, params: SnakeParams
+    image: NDArray[np.uint8],
+    vertices: FloatArray,
+    model: ColorModel,
+    params: SnakeParams,
+    scale: int = 1,
 ) -> FloatArray:
-    """Pressure in [-1, 1] at each vertex: 2 x (weighted fraction of target pixels) - 1."""
-    return _pressure(image.reshape(-1, image.shape[2]), image.shape, vertices, model, params)
+    """Pressure in [-1, 1] at each vertex: 2 x (weighted fraction of target pixels) - 1, over a
+    window of ``2 r + 1`` grid cells of ``scale`` pixels."""
+    return _pressure(image.reshape(-1, image.shape[2]), image.shape, vertices, model, params, scale)
 
 
 def _pressure(
@@ -206,42 +234,50 @@ def _pressure(
     vertices: FloatArray,
     model: ColorModel,
     params: SnakeParams,
+    scale: int,
 ) -> FloatArray:
-    """:func:`pressure` on the image viewed as (H W) x 3."""
+    """:func:`pressure` on the image viewed as (H W) x 3; the window is read on the grid of
+    every ``scale``-th pixel (pixel ``scale * k``), so its cost does not depend on the scale."""
     height, width = shape[:2]
     radius = params.window_radius_px
     span = 2 * radius + 2
-    base = np.floor(vertices)
-    frac = vertices - base
+    grid = vertices / scale if scale != 1 else vertices
+    base = np.floor(grid)
+    frac = grid - base
     base = base.astype(np.intp) - radius
     steps = np.arange(span)
-    cols = np.clip(base[:, 0:1] + steps, 0, width - 1)
-    rows = np.clip(base[:, 1:2] + steps, 0, height - 1) * width
+    cols = np.clip((base[:, 0:1] + steps) * scale, 0, width - 1)
+    rows = np.clip((base[:, 1:2] + steps) * scale, 0, height - 1) * width
     index = (rows[:, :, None] + cols[:, None, :]).ravel()
     pixels = np.take(flat, index, axis=0).astype(np.float32)
     offsets = pixels @ offset_matrix(model)  # (N B B, 3): offsets from the color ray, and sum
     target = gate_test(model, offsets, params.k_sigma, params.min_gray)
     target = target.reshape(len(vertices), span, span)
     # Area weights of the box window: 1 - f on the first row/column, f on the last.
-    w_u = np.ones((len(vertices), span))
-    w_v = np.ones((len(vertices), span))
+    w_u = np.ones((len(vertices), span), dtype=np.float32)
+    w_v = np.ones((len(vertices), span), dtype=np.float32)
     w_u[:, 0] = 1.0 - frac[:, 0]
     w_u[:, -1] = frac[:, 0]
     w_v[:, 0] = 1.0 - frac[:, 1]
     w_v[:, -1] = frac[:, 1]
-    per_row = np.einsum("nij,nj->ni", target.astype(np.float64), w_u)
+    per_row = np.einsum("nij,nj->ni", target.astype(np.float32), w_u)
     fraction = np.einsum("ni,ni->n", per_row, w_v) / float((2 * radius + 1) ** 2)
-    return 2.0 * fraction - 1.0
+    return 2.0 * fraction.astype(np.float64) - 1.0
 
 
 def step(
-    image: NDArray[np.uint8], vertices: FloatArray, model: ColorModel, params: SnakeParams
+    image: NDArray[np.uint8],
+    vertices: FloatArray,
+    model: ColorModel,
+    params: SnakeParams,
+    scale: int = 1,
 ) -> tuple[FloatArray, float]:
     """One iteration: move every vertex by pressure and tension; returns (vertices, max motion).
 
     The motion is measured before resampling; the vertices are kept inside the image.
     """
-    return _step(image.reshape(-1, image.shape[2]), image.shape, vertices, model, params)
+    flat = image.reshape(-1, image.shape[2])
+    return _step(flat, image.shape, vertices, model, params, scale)
 
 
 def _step(
@@ -250,55 +286,58 @@ def _step(
     vertices: FloatArray,
     model: ColorModel,
     params: SnakeParams,
+    scale: int,
 ) -> tuple[FloatArray, float]:
     height, width = shape[:2]
-    p = _pressure(flat, shape, vertices, model, params)
-    before = np.roll(vertices, 1, axis=0)
-    after = np.roll(vertices, -1, axis=0)
+    p = _pressure(flat, shape, vertices, model, params, scale)
+    count = len(vertices)
+    before = vertices.take(np.arange(-1, count - 1), axis=0)
+    after = vertices.take(np.arange(1, count + 1) % count, axis=0)
     chord = after - before
     # Shoelace sign: positive area means the outward normal is (chord_v, -chord_u).
     twice_area = np.dot(vertices[:, 0], after[:, 1]) - np.dot(after[:, 0], vertices[:, 1])
     length = np.hypot(chord[:, 0], chord[:, 1])
-    scale = params.step_px * p / np.maximum(length, 1e-12)
+    push = (params.step_px * scale) * p / np.maximum(length, 1e-12)
     if twice_area < 0.0:
-        scale = -scale
+        push = -push
     motion = params.tension * (0.5 * (before + after) - vertices)
-    motion[:, 0] += scale * chord[:, 1]
-    motion[:, 1] -= scale * chord[:, 0]
+    motion[:, 0] += push * chord[:, 1]
+    motion[:, 1] -= push * chord[:, 0]
     moved = vertices + motion
-    np.clip(moved[:, 0], 0.0, width - 1.0, out=moved[:, 0])
-    np.clip(moved[:, 1], 0.0, height - 1.0, out=moved[:, 1])
-    largest = float(np.sqrt(np.max(motion[:, 0] ** 2 + motion[:, 1] ** 2)))
+    np.clip(moved, 0.0, (width - 1.0, height - 1.0), out=moved)
+    largest = float(np.sqrt(np.max(np.einsum("ij,ij->i", motion, motion))))
     return moved, largest
 
 
-def needs_resampling(vertices: FloatArray, params: SnakeParams) -> bool:
+def needs_resampling(vertices: FloatArray, params: SnakeParams, scale: int = 1) -> bool:
     """True when, with fewer than the maximum number of vertices, a segment is longer than
-    ``max_segment_px`` or, with more than the minimum, shorter than ``min_segment_px``. At
-    ``max_vertices`` the segments are let grow (up to twice the mean segment, past which the
-    vertices are spread evenly again)."""
+    ``max_segment_px`` or, with more than the minimum, shorter than ``min_segment_px`` (both
+    times the grid ``scale``). At ``max_vertices`` the segments are let grow (up to twice the
+    mean segment, past which the vertices are spread evenly again)."""
     lengths = segment_lengths(vertices)
     count = vertices.shape[0]
     longest = float(lengths.max())
     if count >= params.max_vertices:
-        too_long = longest > max(params.max_segment_px, 2.0 * float(lengths.mean()))
+        too_long = longest > max(params.max_segment_px * scale, 2.0 * float(lengths.mean()))
     else:
-        too_long = longest > params.max_segment_px
-    too_short = bool(lengths.min() < params.min_segment_px)
+        too_long = longest > params.max_segment_px * scale
+    too_short = bool(lengths.min() < params.min_segment_px * scale)
     return too_long or (too_short and count > params.min_vertices)
 
 
-def _resample(vertices: FloatArray, params: SnakeParams) -> FloatArray:
+def _resample(vertices: FloatArray, params: SnakeParams) -> tuple[FloatArray, int]:
+    """Evenly spaced vertices at the target segment times the grid scale, and that scale."""
+    scale = grid_scale(vertices, params)
     perimeter = float(segment_lengths(vertices).sum())
-    count = round(perimeter / params.target_segment_px)
+    count = round(perimeter / (params.target_segment_px * scale))
     count = int(np.clip(count, params.min_vertices, params.max_vertices))
-    return resample_uniform(vertices, count)
+    return resample_uniform(vertices, count), scale
 
 
-def is_collapsed(vertices: FloatArray, params: SnakeParams) -> bool:
+def is_collapsed(vertices: FloatArray, params: SnakeParams, scale: int = 1) -> bool:
     """True when the contour has shrunk below one window: nothing is left to track."""
     extent = np.ptp(vertices, axis=0)
-    return bool(extent.max() < 2.0 * params.window_radius_px + 1.0)
+    return bool(extent.max() < (2.0 * params.window_radius_px + 1.0) * scale)
 
 
 def evolve(
@@ -316,24 +355,27 @@ def evolve(
     current = as_polygon(vertices)
     if current.shape[0] < 3:
         raise ValueError(f"a snake needs at least 3 vertices, got {current.shape[0]}")
-    if needs_resampling(current, params):
-        current = _resample(current, params)
+    scale = current_scale(current, params)
+    if needs_resampling(current, params, scale):
+        current, scale = _resample(current, params)
     # One H W x 3 view of the pixels for np.take (a copy only for a non-contiguous image).
     flat = np.ascontiguousarray(image).reshape(-1, image.shape[2])
     motion = np.inf
     iterations = 0
     converged = False
     for iterations in range(1, budget + 1):
-        current, motion = _step(flat, image.shape, current, model, params)
-        if is_collapsed(current, params):
-            return SnakeResult(current, iterations, False, motion, collapsed=True, edge_fraction=0)
-        if needs_resampling(current, params):
-            current = _resample(current, params)
+        current, motion = _step(flat, image.shape, current, model, params, scale)
+        if is_collapsed(current, params, scale):
+            return SnakeResult(
+                current, iterations, False, motion, collapsed=True, edge_fraction=0, scale=scale
+            )
+        if needs_resampling(current, params, scale):
+            current, scale = _resample(current, params)
             continue
-        if motion < params.converge_px:
+        if motion < params.converge_px * scale:
             converged = True
             break
-    contour, edge_fraction = measure_contour(image, current, model, params)
+    contour, edge_fraction = measure_contour(image, current, model, params, scale)
     return SnakeResult(
         current,
         iterations,
@@ -342,6 +384,7 @@ def evolve(
         contour=contour,
         edge_fraction=edge_fraction,
         touches_border=touches_border(current, image.shape, params.border_margin_px),
+        scale=scale,
     )
 
 
@@ -359,7 +402,11 @@ def touches_border(vertices: FloatArray, shape: tuple[int, ...], margin_px: floa
 
 
 def measure_contour(
-    image: NDArray[np.uint8], vertices: FloatArray, model: ColorModel, params: SnakeParams
+    image: NDArray[np.uint8],
+    vertices: FloatArray,
+    model: ColorModel,
+    params: SnakeParams,
+    scale: int = 1,
 ) -> tuple[FloatArray, float]:
     """The outline on the fitted colour edge with its corners put back, and the share of
     vertices that found an edge (see :mod:`modules.vision.edge_fit`). With the edge fit off,
@@ -374,9 +421,10 @@ def measure_contour(
         params.k_sigma,
         params.min_gray,
         EdgeFitParams(half_length_px=params.edge_half_length_px),
+        scale,
     )
     contour = complete_corners(
-        fit.vertices, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px
+        fit.vertices, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px * scale
     )
     return contour, fit.found_fraction
 

@@ -176,7 +176,7 @@ def settled(result: SnakeResult, params: SnakeParams) -> bool:
     pressure step per iteration when its budget ran out (a contour following a moving target
     keeps sliding a little; one that is still being pushed at half strength or more is not on
     an edge). Acquisition, with its large budget, must converge."""
-    return result.converged or result.last_motion_px < 0.5 * params.step_px
+    return result.converged or result.last_motion_px < 0.5 * params.step_px * result.scale
 
 
 def color_is_gray(model: ColorModel, min_chroma: float) -> bool:
