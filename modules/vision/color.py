@@ -200,7 +200,9 @@ def adapt(
     sample_mean = rg.mean(axis=0)
     mean = (1.0 - rate) * model.mean + rate * sample_mean
     # Both covariances are taken about the blended mean, in offset units (gray levels²).
-    sample_cov = np.cov(_offsets(rg, sums, mean), rowvar=False, bias=True)
+    offsets = _offsets(rg, sums, mean)
+    offsets -= offsets.mean(axis=0)
+    sample_cov = offsets.T @ offsets / len(offsets)  # np.cov(..., bias=True), without overhead
     shift = (model.mean - mean) * float(np.mean(sums))
     old_cov = model.offset_covariance + np.outer(shift, shift)
     cov = (1.0 - rate) * old_cov + rate * (sample_cov + noise_floor**2 * np.eye(2))

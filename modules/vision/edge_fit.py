@@ -30,10 +30,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from modules.vision.color import ColorModel, is_target
+from modules.vision.polygon import following
 
 FloatArray = NDArray[np.float64]
 
@@ -69,25 +71,14 @@ class EdgeFit:
 
 
 def sample_bilinear(image: NDArray[np.uint8], points_uv: FloatArray) -> NDArray[np.float32]:
-    """Bilinear colour (..., C float32) at points (..., 2 px) of an H x W x C image (W, H >= 2);
-    points outside read the border. Only the 4 pixels around each point are read (from a view
-    of the image when it is contiguous, as a camera frame is: no copy)."""
-    height, width, channels = image.shape
-    flat = image.reshape(-1, channels)
-    u = np.clip(points_uv[..., 0], 0.0, width - 1.0)
-    v = np.clip(points_uv[..., 1], 0.0, height - 1.0)
-    u0 = np.minimum(u.astype(np.intp), width - 2)
-    v0 = np.minimum(v.astype(np.intp), height - 2)
-    fu = (u - u0).astype(np.float32)[..., None]
-    fv = (v - v0).astype(np.float32)[..., None]
-    index = v0 * width + u0
-    top_left = np.take(flat, index, axis=0).astype(np.float32)
-    top_right = np.take(flat, index + 1, axis=0)
-    bottom_left = np.take(flat, index + width, axis=0).astype(np.float32)
-    bottom_right = np.take(flat, index + width + 1, axis=0)
-    top = top_left + (top_right - top_left) * fu
-    bottom = bottom_left + (bottom_right - bottom_left) * fu
-    return top + (bottom - top) * fv
+    """Bilinear colour (N, K, C float32) at points (N, K, 2 px) of an H x W x C uint8 image;
+    points outside read the border. One ``cv2.remap`` over the points alone: only the 4 pixels
+    around each point are read (positions to 1/32 px, values to the gray level)."""
+    maps = points_uv.astype(np.float32)
+    sampled = cv2.remap(
+        image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+    )
+    return sampled.reshape(*points_uv.shape[:-1], image.shape[2]).astype(np.float32)
 
 
 def fit_edges(
@@ -106,28 +97,34 @@ def fit_edges(
     p = params or EdgeFitParams()
     count = round(2.0 * p.half_length_px / p.sample_px) + 1
     ends = max(round(p.end_px / p.sample_px) + 1, 1)
+    # Rows: mean of the inner end, mean of the outer end, trapezoid weights (in samples).
+    weights = np.zeros((3, count), dtype=np.float32)
+    weights[0, :ends] = 1.0 / ends
+    weights[1, -ends:] = 1.0 / ends
+    weights[2] = 1.0
+    weights[2, [0, -1]] = 0.5
+    total = float(weights[2].sum())
     shift = np.zeros(len(vertices))
     found = np.ones(len(vertices), dtype=bool)
     # Two passes: the second centres the profile on the first estimate, so that an edge blurred
-    # over several pixels lies wholly inside it.
+    # over several pixels lies wholly inside it. The colour tests are made on the first.
     for reach in (scale, 1):
         length = p.half_length_px * reach
-        sample_px = p.sample_px * reach
         s = np.linspace(-length, length, count)
         centres = vertices + shift[:, None] * normals
         points = centres[:, None, :] + s[None, :, None] * normals[:, None, :]
         profile = sample_bilinear(image, points)  # (N, K, C)
-        inner = profile[:, :ends].mean(axis=1)
-        outer = profile[:, -ends:].mean(axis=1)
+        inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
         contrast = inner - outer
         power = np.einsum("nc,nc->n", contrast, contrast)
-        found &= power >= p.min_contrast**2
-        target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
-        found &= target[: len(inner)] & ~target[len(inner) :]
-        safe = np.where(found, power, 1.0)
-        t = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast) / safe[:, None]
-        # Trapezoid rule on the evenly spaced samples.
-        integral = sample_px * (t.sum(axis=1) - 0.5 * (t[:, 0] + t[:, -1]))
+        if reach == scale:
+            found &= power >= p.min_contrast**2
+            target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
+            found &= target[: len(inner)] & ~target[len(inner) :]
+        # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in
+        # the samples, so summed first.
+        moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
+        integral = (p.sample_px * reach) * moment / np.where(found, power, 1.0)
         shift = np.where(found, shift + integral - length, 0.0)
         found &= np.abs(shift) <= p.max_shift_px * scale
         shift = np.where(found, shift, 0.0)
@@ -148,10 +145,10 @@ def complete_corners(
     count = len(vertices)
     if count < 4:
         return vertices
-    a = np.roll(vertices, 1, axis=0)
+    a = following(vertices, -1)
     b = vertices
-    c = np.roll(vertices, -1, axis=0)
-    d = np.roll(vertices, -2, axis=0)
+    c = following(vertices)
+    d = following(vertices, 2)
     d1 = b - a
     d2 = d - c
     cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
@@ -159,7 +156,7 @@ def complete_corners(
     turn = np.arctan2(cross, dot)
     orientation = np.sign(np.sum(b[:, 0] * c[:, 1] - c[:, 0] * b[:, 1]))
     sharp = orientation * turn > min_turn_rad
-    sharp &= found & np.roll(found, 1) & np.roll(found, -1) & np.roll(found, -2)
+    sharp &= found & following(found, -1) & following(found) & following(found, 2)
     # b + s d1 = c - r d2  ->  [d1, d2] [s, r] = c - b
     gap = c - b
     safe = np.where(sharp, cross, 1.0)

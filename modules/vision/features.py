@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.polygon import as_polygon
+from modules.vision.polygon import as_polygon, following
 
 FloatArray = NDArray[np.float64]
 
@@ -47,7 +47,7 @@ def raw_moments(points: ArrayLike) -> tuple[float, float, float, float, float, f
     """Signed area moments (m00, m10, m01, m20, m11, m02) of a closed polygon [px^k]."""
     polygon = as_polygon(points)
     x0, y0 = polygon[:, 0], polygon[:, 1]
-    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    x1, y1 = following(x0), following(y0)
     cross = x0 * y1 - x1 * y0
     m00 = cross.sum() / 2.0
     m10 = (cross * (x0 + x1)).sum() / 6.0

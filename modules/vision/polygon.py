@@ -24,11 +24,18 @@ def as_polygon(points: ArrayLike) -> FloatArray:
     return polygon
 
 
+def following(values: NDArray, k: int = 1) -> NDArray:
+    """``values`` moved ``k`` places back along the first axis, cyclically: row i of the result
+    is row i + k (``np.roll(values, -k, axis=0)``, without its overhead on short arrays)."""
+    k %= len(values) if len(values) else 1
+    return np.concatenate((values[k:], values[:k]))
+
+
 def signed_area(polygon: FloatArray) -> float:
     """Shoelace signed area [px²]; positive for counter-clockwise order in (u, v) axes."""
     u = polygon[:, 0]
     v = polygon[:, 1]
-    return 0.5 * float(np.dot(u, np.roll(v, -1)) - np.dot(np.roll(u, -1), v))
+    return 0.5 * float(np.dot(u, following(v)) - np.dot(following(u), v))
 
 
 def with_positive_area(polygon: FloatArray) -> FloatArray:
@@ -38,7 +45,8 @@ def with_positive_area(polygon: FloatArray) -> FloatArray:
 
 def segment_lengths(polygon: FloatArray) -> FloatArray:
     """Length [px] of each segment ``i -> i+1`` (the last one closes the polygon)."""
-    return np.hypot(*(np.roll(polygon, -1, axis=0) - polygon).T)
+    step = following(polygon) - polygon
+    return np.hypot(step[:, 0], step[:, 1])
 
 
 def resample_uniform(polygon: FloatArray, count: int) -> FloatArray:

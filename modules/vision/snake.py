@@ -46,12 +46,12 @@ from modules.vision.edge_fit import EdgeFitParams, complete_corners, fit_edges
 from modules.vision.polygon import (
     as_polygon,
     circle,
+    following,
     resample_uniform,
     segment_lengths,
     signed_area,
     with_positive_area,
 )
-from modules.vision.sampling import window_blocks
 
 FloatArray = NDArray[np.float64]
 
@@ -193,7 +193,7 @@ def seed_region(polygon: ArrayLike, params: SnakeParams) -> FloatArray:
 
 def outward_normals(vertices: FloatArray) -> FloatArray:
     """Unit outward normals at the vertices (from the neighbours' chord), for either order."""
-    chord = np.roll(vertices, -1, axis=0) - np.roll(vertices, 1, axis=0)
+    chord = following(vertices) - following(vertices, -1)
     normal = np.column_stack([chord[:, 1], -chord[:, 0]])
     if signed_area(vertices) < 0.0:
         normal = -normal
@@ -290,9 +290,8 @@ def _step(
 ) -> tuple[FloatArray, float]:
     height, width = shape[:2]
     p = _pressure(flat, shape, vertices, model, params, scale)
-    count = len(vertices)
-    before = vertices.take(np.arange(-1, count - 1), axis=0)
-    after = vertices.take(np.arange(1, count + 1) % count, axis=0)
+    before = following(vertices, -1)
+    after = following(vertices)
     chord = after - before
     # Shoelace sign: positive area means the outward normal is (chord_v, -chord_u).
     twice_area = np.dot(vertices[:, 0], after[:, 1]) - np.dot(after[:, 0], vertices[:, 1])
@@ -463,7 +462,12 @@ def seed_samples(
 def interior_samples(
     image: NDArray[np.uint8], vertices: FloatArray, params: SnakeParams
 ) -> NDArray[np.uint8]:
-    """Pixels (K x 3 BGR) in windows ``adapt_inset_px`` inside the contour, one per vertex."""
+    """Pixels (K x 3 BGR) in 3 x 3 blocks ``adapt_inset_px`` inside the contour, one block per
+    vertex (read by one fancy-indexing gather, never the whole image)."""
+    height, width = image.shape[:2]
     inset = vertices - params.adapt_inset_px * outward_normals(vertices)
-    pixels, _ = window_blocks(image, inset, max(params.window_radius_px - 1, 0))
-    return pixels.reshape(-1, image.shape[2])
+    centre = np.rint(inset).astype(np.intp)
+    steps = np.arange(-1, 2)
+    cols = np.clip(centre[:, 0:1] + steps, 0, width - 1)
+    rows = np.clip(centre[:, 1:2] + steps, 0, height - 1)
+    return image[rows[:, :, None], cols[:, None, :]].reshape(-1, image.shape[2])

@@ -79,6 +79,8 @@ class SnakeTracker:
         self._acquiring = False
         self._latched: SanityResult | None = None
         self._unconverged = 0
+        #: The last frame-to-frame motion of the contour: centroid step [px], turn [rad], scale.
+        self._motion: tuple[FloatArray, float, float] | None = None
 
     @property
     def seeded(self) -> bool:
@@ -105,6 +107,7 @@ class SnakeTracker:
         self._acquiring = True
         self._latched = None
         self._unconverged = 0
+        self._motion = None
 
     def update(self, image: NDArray[np.uint8]) -> TrackUpdate:
         """Evolve the snake on a new frame and check it. Raises RuntimeError before a seed."""
@@ -117,7 +120,8 @@ class SnakeTracker:
         if gray:  # nothing to tell the target from: do not grow over the whole image
             result = SnakeResult(self.vertices, 0, False, 0.0, edge_fraction=0.0)
         else:
-            result = evolve(image, self.vertices, self.model, self.params, max_iterations=budget)
+            start_vertices = self._predicted(self.vertices)
+            result = evolve(image, start_vertices, self.model, self.params, max_iterations=budget)
         elapsed = time.perf_counter() - start
         self._acquiring = False
         self.vertices = result.vertices
@@ -130,6 +134,7 @@ class SnakeTracker:
             sanity = replace(
                 sanity, status=FAILED, reason="; ".join(reasons), reasons=tuple(reasons)
             )
+        self._motion = _motion(self._previous, sanity.features) if sanity.ok else None
         if sanity.features is not None:
             self._previous = sanity.features
             if self._reference is None and sanity.ok:
@@ -145,6 +150,18 @@ class SnakeTracker:
                 self.model, samples, self.params.adapt_rate, min_gray=self.params.min_gray
             )
         return TrackUpdate(outline, sanity, result.iterations, result.converged, elapsed)
+
+    def _predicted(self, vertices: FloatArray) -> FloatArray:
+        """Where the contour should be on the new frame if the target keeps the motion of the
+        last frame (a constant-velocity guess: the snake then starts near the edge and settles
+        in a few iterations); the vertices unchanged without a motion."""
+        if self._motion is None or self._previous is None:
+            return vertices
+        step, turn, scale = self._motion
+        centre = np.asarray(self._previous.centroid_uv)
+        c, s = np.cos(turn), np.sin(turn)
+        rotation = scale * np.array([[c, s], [-s, c]])  # row vectors: x @ R^T
+        return centre + step + (vertices - centre) @ rotation
 
     def _snake_failures(self, result: SnakeResult, gray: bool, acquiring: bool) -> list[str]:
         """Why the snake itself cannot be on a target (empty when it can)."""
@@ -177,6 +194,24 @@ def settled(result: SnakeResult, params: SnakeParams) -> bool:
     keeps sliding a little; one that is still being pushed at half strength or more is not on
     an edge). Acquisition, with its large budget, must converge."""
     return result.converged or result.last_motion_px < 0.5 * params.step_px * result.scale
+
+
+def _motion(
+    before: PolygonFeatures | None, after: PolygonFeatures | None
+) -> tuple[FloatArray, float, float] | None:
+    """Centroid step [px], turn [rad] and scale of a contour from one frame to the next (turn
+    and scale bounded: a guess, not a measurement)."""
+    if before is None or after is None or before.area_px2 <= 0:
+        return None
+    step = np.subtract(after.centroid_uv, before.centroid_uv)
+    turn = (after.orientation_rad - before.orientation_rad + np.pi / 2) % np.pi - np.pi / 2
+    turn = float(np.clip(turn, -_MAX_PREDICTED_TURN_RAD, _MAX_PREDICTED_TURN_RAD))
+    scale = float(np.clip(np.sqrt(after.area_px2 / before.area_px2), 0.9, 1.1))
+    return step, turn, scale
+
+
+#: Largest turn per frame the motion guess carries over [rad].
+_MAX_PREDICTED_TURN_RAD = np.deg2rad(10.0)
 
 
 def color_is_gray(model: ColorModel, min_chroma: float) -> bool:

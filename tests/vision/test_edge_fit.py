@@ -81,15 +81,24 @@ def test_no_edge_is_found_on_a_uniform_image() -> None:
     np.testing.assert_array_equal(fit.vertices, vertices)
 
 
-def test_bilinear_sampling_matches_opencv_remap() -> None:
+def test_bilinear_sampling_is_exact_to_the_gray_level() -> None:
     rng = np.random.default_rng(5)
     image = rng.integers(0, 256, (30, 40, 3), dtype=np.uint8)
-    points = rng.uniform([0, 0], [38.99, 28.99], (50, 2))
+    points = rng.uniform([0, 0], [38.99, 28.99], (50, 7, 2))
     ours = sample_bilinear(image, points)
-    map_u = points[:, 0].astype(np.float32).reshape(1, -1)
-    map_v = points[:, 1].astype(np.float32).reshape(1, -1)
-    theirs = cv2.remap(image.astype(np.float32), map_u, map_v, cv2.INTER_LINEAR)[0]
-    np.testing.assert_allclose(ours, theirs, atol=0.05)
+    assert ours.shape == (50, 7, 3)
+    u0, v0 = np.floor(points[..., 0]).astype(int), np.floor(points[..., 1]).astype(int)
+    fu, fv = (points[..., 0] - u0)[..., None], (points[..., 1] - v0)[..., None]
+    pixels = image.astype(float)
+    exact = (1 - fv) * ((1 - fu) * pixels[v0, u0] + fu * pixels[v0, u0 + 1]) + fv * (
+        (1 - fu) * pixels[v0 + 1, u0] + fu * pixels[v0 + 1, u0 + 1]
+    )
+    error = ours - exact
+    assert np.abs(error).max() <= 1.0  # rounded to the gray level (positions to 1/32 px)
+    assert abs(error.mean()) < 0.1  # and without bias
+    # Points outside read the border pixel.
+    border = sample_bilinear(image, np.array([[[-5.0, 3.0], [60.0, 100.0]]]))
+    np.testing.assert_array_equal(border[0], image[[3, 29], [0, 39]].astype(np.float32))
 
 
 def test_corners_of_an_evenly_sampled_square_are_put_back() -> None:
