@@ -14,16 +14,19 @@ where a step with the same integral would be:
 
     e = ∫_{-L}^{L} t(s) ds - L,
 
-measured twice: the second time over a profile centred on the first estimate, so that an edge
-blurred over a few pixels lies wholly within it.
+which holds while the blurred edge lies wholly within the profile (a converged snake rests
+within a pixel of the edge: blur up to ~1 px sigma with L = 4). A snake working on a coarser grid
+(σ > 1, further from the edge) is measured twice: first over a profile σ times longer, then over
+``[-L, L]`` centred on that first estimate.
+
 A step at ``e`` smeared by any symmetric kernel (the lens, motion blur, the pixels' own area,
 the bilinear interpolation) keeps that integral, so ``e`` carries no bias from the blur; sensor
 noise averages over the ~4 L samples. Where there is no edge to measure (the ends differ by
 less than ``min_contrast`` gray levels, the inner end is not the target colour or the outer end
 is), the vertex stays where the snake put it.
 
-Only ``2 x N x (2 L / step + 1) x 4`` pixels are read (N vertices), never the whole image. Pixels:
-u right, v down, pixel centres at integer coordinates.
+Only ``N x (2 L / step + 1) x 4`` pixels are read for N vertices (twice that on a coarse
+grid), never the whole image. Pixels: u right, v down, pixel centres at integer coordinates.
 """
 
 from __future__ import annotations
@@ -106,9 +109,9 @@ def fit_edges(
     total = float(weights[2].sum())
     shift = np.zeros(len(vertices))
     found = np.ones(len(vertices), dtype=bool)
-    # Two passes: the second centres the profile on the first estimate, so that an edge blurred
-    # over several pixels lies wholly inside it. The colour tests are made on the first.
-    for reach in (scale, 1):
+    # On a coarse grid two passes: the second centres the profile on the first estimate. The
+    # colour tests are made on the first.
+    for reach in (scale, 1) if scale > 1 else (1,):
         length = p.half_length_px * reach
         s = np.linspace(-length, length, count)
         centres = vertices + shift[:, None] * normals

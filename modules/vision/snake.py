@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.color import ColorModel, gate_test, offset_matrix
+from modules.vision.color import ColorModel
 from modules.vision.edge_fit import EdgeFitParams, complete_corners, fit_edges
 from modules.vision.polygon import (
     as_polygon,
@@ -52,6 +52,7 @@ from modules.vision.polygon import (
     signed_area,
     with_positive_area,
 )
+from modules.vision.pressure import PressureField
 
 FloatArray = NDArray[np.float64]
 
@@ -224,45 +225,16 @@ def pressure(
     scale: int = 1,
 ) -> FloatArray:
     """Pressure in [-1, 1] at each vertex: 2 x (weighted fraction of target pixels) - 1, over a
-    window of ``2 r + 1`` grid cells of ``scale`` pixels."""
-    return _pressure(image.reshape(-1, image.shape[2]), image.shape, vertices, model, params, scale)
+    window of ``2 r + 1`` grid cells of ``scale`` pixels (see :mod:`modules.vision.pressure`)."""
+    return _field(image, model, params, scale)(vertices)
 
 
-def _pressure(
-    flat: NDArray[np.uint8],
-    shape: tuple[int, ...],
-    vertices: FloatArray,
-    model: ColorModel,
-    params: SnakeParams,
-    scale: int,
-) -> FloatArray:
-    """:func:`pressure` on the image viewed as (H W) x 3; the window is read on the grid of
-    every ``scale``-th pixel (pixel ``scale * k``), so its cost does not depend on the scale."""
-    height, width = shape[:2]
-    radius = params.window_radius_px
-    span = 2 * radius + 2
-    grid = vertices / scale if scale != 1 else vertices
-    base = np.floor(grid)
-    frac = grid - base
-    base = base.astype(np.intp) - radius
-    steps = np.arange(span)
-    cols = np.clip((base[:, 0:1] + steps) * scale, 0, width - 1)
-    rows = np.clip((base[:, 1:2] + steps) * scale, 0, height - 1) * width
-    index = (rows[:, :, None] + cols[:, None, :]).ravel()
-    pixels = np.take(flat, index, axis=0).astype(np.float32)
-    offsets = pixels @ offset_matrix(model)  # (N B B, 3): offsets from the color ray, and sum
-    target = gate_test(model, offsets, params.k_sigma, params.min_gray)
-    target = target.reshape(len(vertices), span, span)
-    # Area weights of the box window: 1 - f on the first row/column, f on the last.
-    w_u = np.ones((len(vertices), span), dtype=np.float32)
-    w_v = np.ones((len(vertices), span), dtype=np.float32)
-    w_u[:, 0] = 1.0 - frac[:, 0]
-    w_u[:, -1] = frac[:, 0]
-    w_v[:, 0] = 1.0 - frac[:, 1]
-    w_v[:, -1] = frac[:, 1]
-    per_row = np.einsum("nij,nj->ni", target.astype(np.float32), w_u)
-    fraction = np.einsum("ni,ni->n", per_row, w_v) / float((2 * radius + 1) ** 2)
-    return 2.0 * fraction.astype(np.float64) - 1.0
+def _field(
+    image: NDArray[np.uint8], model: ColorModel, params: SnakeParams, scale: int
+) -> PressureField:
+    return PressureField(
+        image, model, params.k_sigma, params.min_gray, params.window_radius_px, scale
+    )
 
 
 def step(
@@ -276,34 +248,27 @@ def step(
 
     The motion is measured before resampling; the vertices are kept inside the image.
     """
-    flat = image.reshape(-1, image.shape[2])
-    return _step(flat, image.shape, vertices, model, params, scale)
+    return _step(_field(image, model, params, scale), vertices, params)
 
 
 def _step(
-    flat: NDArray[np.uint8],
-    shape: tuple[int, ...],
-    vertices: FloatArray,
-    model: ColorModel,
-    params: SnakeParams,
-    scale: int,
+    field: PressureField, vertices: FloatArray, params: SnakeParams
 ) -> tuple[FloatArray, float]:
-    height, width = shape[:2]
-    p = _pressure(flat, shape, vertices, model, params, scale)
+    p = field(vertices)
     before = following(vertices, -1)
     after = following(vertices)
     chord = after - before
     # Shoelace sign: positive area means the outward normal is (chord_v, -chord_u).
     twice_area = np.dot(vertices[:, 0], after[:, 1]) - np.dot(after[:, 0], vertices[:, 1])
     length = np.hypot(chord[:, 0], chord[:, 1])
-    push = (params.step_px * scale) * p / np.maximum(length, 1e-12)
+    push = (params.step_px * field.scale) * p / np.maximum(length, 1e-12)
     if twice_area < 0.0:
         push = -push
     motion = params.tension * (0.5 * (before + after) - vertices)
     motion[:, 0] += push * chord[:, 1]
     motion[:, 1] -= push * chord[:, 0]
     moved = vertices + motion
-    np.clip(moved, 0.0, (width - 1.0, height - 1.0), out=moved)
+    np.clip(moved, 0.0, (field.width - 1.0, field.height - 1.0), out=moved)
     largest = float(np.sqrt(np.max(np.einsum("ij,ij->i", motion, motion))))
     return moved, largest
 
@@ -357,19 +322,20 @@ def evolve(
     scale = current_scale(current, params)
     if needs_resampling(current, params, scale):
         current, scale = _resample(current, params)
-    # One H W x 3 view of the pixels for np.take (a copy only for a non-contiguous image).
-    flat = np.ascontiguousarray(image).reshape(-1, image.shape[2])
+    field = _field(image, model, params, scale)  # reads the image in place
     motion = np.inf
     iterations = 0
     converged = False
     for iterations in range(1, budget + 1):
-        current, motion = _step(flat, image.shape, current, model, params, scale)
+        current, motion = _step(field, current, params)
         if is_collapsed(current, params, scale):
             return SnakeResult(
                 current, iterations, False, motion, collapsed=True, edge_fraction=0, scale=scale
             )
         if needs_resampling(current, params, scale):
             current, scale = _resample(current, params)
+            if scale != field.scale:
+                field = _field(image, model, params, scale)
             continue
         if motion < params.converge_px * scale:
             converged = True
