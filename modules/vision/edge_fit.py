@@ -23,7 +23,8 @@ A step at ``e`` smeared by any symmetric kernel (the lens, motion blur, the pixe
 the bilinear interpolation) keeps that integral, so ``e`` carries no bias from the blur; sensor
 noise averages over the ~4 L samples. Where there is no edge to measure (the ends differ by
 less than ``min_contrast`` gray levels, the inner end is not the target colour or the outer end
-is), the vertex stays where the snake put it.
+is), the vertex moves as its two neighbours do when both found an edge, else it stays where
+the snake put it.
 
 Only ``N x (2 L / step + 1) x 4`` pixels are read for N vertices (twice that on a coarse
 grid), never the whole image. Pixels: u right, v down, pixel centres at integer coordinates.
@@ -54,7 +55,7 @@ class EdgeFitParams:
     sample_px: float = 0.5
     end_px: float = 1.0
     min_contrast: float = 20.0
-    max_shift_px: float = 3.0
+    max_shift_px: float = 4.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,6 +132,13 @@ def fit_edges(
         shift = np.where(found, shift + integral - length, 0.0)
         found &= np.abs(shift) <= p.max_shift_px * scale
         shift = np.where(found, shift, 0.0)
+    # A vertex without an edge of its own between two that found one (a corner's diagonal
+    # profile that ends on the other side, a speck of texture) moves as its neighbours do.
+    before, after = following(found, -1), following(found)
+    bridged = ~found & before & after
+    if np.any(bridged):
+        mean = 0.5 * (following(shift, -1) + following(shift))
+        shift = np.where(bridged, mean, shift)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
 
 

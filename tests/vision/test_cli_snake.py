@@ -11,10 +11,11 @@ import pytest
 from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting
 from modules.vision.metrics import polygon_iou
-from modules.vision.scene import Scene, pose
+from modules.vision.projection import CameraIntrinsics
+from modules.vision.scene import Scene, SceneRenderer, pose
 from runtime.cli.main import main
 
-from .conftest import T_WORLD_CAMERA
+from .conftest import DISTORTION, T_WORLD_CAMERA
 
 
 @pytest.fixture(scope="module")
@@ -93,3 +94,31 @@ def test_unreadable_image_exits_2(tmp_path, capsys) -> None:
     assert "cannot read it as an image" in capsys.readouterr().err
     assert main(["snake", str(tmp_path / "missing.png"), "--seed", "1,1"]) == 2
     assert "no such image file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("width", "height"), [(1280, 720), (1920, 1080)])
+def test_high_resolution_images(width: int, height: int, tmp_path, capsys) -> None:
+    """The same patch through a 720p and a 1080p camera (same field of view as the 640x480 one):
+    tracking, area within 0.5 % of the truth, on the snake's coarser grid (fewer than 100
+    vertices for a contour of 1100-1600 px)."""
+    f = 600.0 * width / 640.0
+    renderer = SceneRenderer(
+        CameraIntrinsics(f, f, 0.0, width / 2, height / 2, width, height), DISTORTION
+    )
+    frame = renderer.render(
+        Scene(T_world_patch=pose((0.004, 0.002, 0.03), np.deg2rad(30)), background="photo"),
+        T_WORLD_CAMERA,
+        Lighting(noise_sigma=5.0, blur_length_px=2.0),
+        np.random.default_rng(3),
+    )
+    path = tmp_path / "patch.png"
+    cv2.imwrite(str(path), frame.image)
+    u, v = frame.patch_polygon.mean(axis=0)
+    code = main(["snake", str(path), "--seed", f"{u:.1f},{v:.1f}", "--json"])
+    result = json.loads(capsys.readouterr().out)
+    assert code == 0, result["reason"]
+    assert result["status"] == "tracking"
+    truth = polygon_features(frame.patch_polygon)
+    assert result["area"] == pytest.approx(truth.area_px2, rel=0.005)
+    assert polygon_iou(np.array(result["polygon"]), frame.patch_polygon, (height, width)) > 0.99
+    assert len(result["polygon"]) < 100

@@ -55,6 +55,32 @@ def test_point_seed_tracks_the_patch_and_reports_features() -> None:
     assert summary["frames"] == 6 and summary["failures"] == 0
 
 
+@pytest.mark.parametrize(("width", "height"), [(1280, 720), (1920, 1080)])
+def test_tracks_from_a_high_resolution_simulated_camera(width: int, height: int) -> None:
+    """DigiCam renders 720p and 1080p frames (same field of view as 640x480 at fx 600); the
+    snake tracks the moving patch in them, its contour on the truth to IoU 0.99."""
+    f = 600.0 * width / 640.0
+    cam = camera(width=width, height=height, fx=f, fy=f, u0=width / 2, v0=height / 2)
+    image, truth = frame(cam)
+    assert image.pixels.shape == (height, width, 3)
+    with ModuleHarness(VsSnake, {"seed_uv": truth.centroid.tolist()}) as h:
+        for k in range(4):
+            cam.push(
+                "patch_pose",
+                Pose(
+                    matrix=pose((0.002 * k, 0.0, 0.03), np.deg2rad(25 + 2 * k)),
+                    parent="world",
+                    child="patch",
+                ),
+            )
+            image, truth = frame(cam)
+            h.push("image", image)
+            contour = h.step(1 / 30)["contour"][0]
+            assert contour.status == "tracking", contour.reason
+            assert polygon_iou(contour.vertices, truth.vertices, (height, width)) >= 0.99
+            assert contour.area == pytest.approx(truth.area, rel=0.01)
+
+
 def test_region_seed_with_a_target_color() -> None:
     image, truth = frame(camera())
     params = {
