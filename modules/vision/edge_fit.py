@@ -156,27 +156,29 @@ def complete_corners(
     count = len(vertices)
     if count < 4:
         return vertices
-    a = following(vertices, -1)
-    b = vertices
-    c = following(vertices)
-    d = following(vertices, 2)
-    d1 = b - a
-    d2 = d - c
-    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-    dot = np.einsum("ij,ij->i", d1, d2)
-    turn = np.arctan2(cross, dot)
-    orientation = np.sign(np.sum(b[:, 0] * c[:, 1] - c[:, 0] * b[:, 1]))
-    sharp = orientation * turn > min_turn_rad
-    sharp &= found & following(found, -1) & following(found) & following(found, 2)
-    # b + s d1 = c - r d2  ->  [d1, d2] [s, r] = c - b
-    gap = c - b
-    safe = np.where(sharp, cross, 1.0)
-    s = (gap[:, 0] * d2[:, 1] - gap[:, 1] * d2[:, 0]) / safe
-    r = (d1[:, 0] * gap[:, 1] - d1[:, 1] * gap[:, 0]) / safe
+    edges = following(vertices) - vertices  # edge i runs from vertex i to vertex i + 1
+    d1 = following(edges, -1)  # a -> b, for b = vertex i
+    d2 = following(edges)  # c -> d
+    u, v = vertices[:, 0], vertices[:, 1]
+    orientation = 1.0 if np.dot(u, following(v)) >= np.dot(following(u), v) else -1.0
+    cross = orientation * (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
     len1 = np.hypot(d1[:, 0], d1[:, 1])
     len2 = np.hypot(d2[:, 0], d2[:, 1])
-    sharp &= (s > 0) & (r > 0) & (s * len1 <= max_reach_px) & (r * len2 <= max_reach_px)
+    dot = d1[:, 0] * d2[:, 0] + d1[:, 1] * d2[:, 1]
+    # A convex turn (cross > 0) by more than min_turn_rad: cos(turn) < cos(min_turn_rad).
+    sharp = (cross > 0) & (dot < np.cos(min_turn_rad) * len1 * len2)
+    both = found & following(found)
+    sharp &= both & following(both, -1) & following(both)
     if not np.any(sharp):
         return vertices
-    corners = b[sharp] + s[sharp, None] * d1[sharp]
-    return np.insert(vertices, np.flatnonzero(sharp) + 1, corners, axis=0)
+    # b + s d1 = c - r d2  ->  [d1, d2] [s, r] = c - b = edges
+    d1, d2, gap, cross = d1[sharp], d2[sharp], edges[sharp], cross[sharp] * orientation
+    s_ = (gap[:, 0] * d2[:, 1] - gap[:, 1] * d2[:, 0]) / cross
+    r_ = (d1[:, 0] * gap[:, 1] - d1[:, 1] * gap[:, 0]) / cross
+    reach = (s_ > 0) & (r_ > 0)
+    reach &= (s_ * len1[sharp] <= max_reach_px) & (r_ * len2[sharp] <= max_reach_px)
+    if not np.any(reach):
+        return vertices
+    at = np.flatnonzero(sharp)[reach]
+    corners = vertices[at] + s_[reach, None] * d1[reach]
+    return np.insert(vertices, at + 1, corners, axis=0)
