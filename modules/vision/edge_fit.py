@@ -33,6 +33,7 @@ grid), never the whole image. Pixels: u right, v down, pixel centres at integer 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -71,7 +72,7 @@ class EdgeFit:
     @property
     def found_fraction(self) -> float:
         """Share of the vertices that found an edge under them."""
-        return float(np.mean(self.found)) if self.found.size else 0.0
+        return np.count_nonzero(self.found) / self.found.size if self.found.size else 0.0
 
 
 def sample_bilinear(image: NDArray[np.uint8], points_uv: FloatArray) -> NDArray[np.float32]:
@@ -101,20 +102,15 @@ def fit_edges(
     p = params or EdgeFitParams()
     count = round(2.0 * p.half_length_px / p.sample_px) + 1
     ends = max(round(p.end_px / p.sample_px) + 1, 1)
-    # Rows: mean of the inner end, mean of the outer end, trapezoid weights (in samples).
-    weights = np.zeros((3, count), dtype=np.float32)
-    weights[0, :ends] = 1.0 / ends
-    weights[1, -ends:] = 1.0 / ends
-    weights[2] = 1.0
-    weights[2, [0, -1]] = 0.5
-    total = float(weights[2].sum())
+    weights, unit = _profile_weights(count, ends)
+    total = float(count - 1)  # the trapezoid weights' sum
     shift = np.zeros(len(vertices))
     found = np.ones(len(vertices), dtype=bool)
     # On a coarse grid two passes: the second centres the profile on the first estimate. The
     # colour tests are made on the first.
     for reach in (scale, 1) if scale > 1 else (1,):
         length = p.half_length_px * reach
-        s = np.linspace(-length, length, count)
+        s = unit * length
         centres = vertices + shift[:, None] * normals
         points = centres[:, None, :] + s[None, :, None] * normals[:, None, :]
         profile = sample_bilinear(image, points)  # (N, K, C)
@@ -140,6 +136,21 @@ def fit_edges(
         mean = 0.5 * (following(shift, -1) + following(shift))
         shift = np.where(bridged, mean, shift)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
+
+
+@lru_cache(maxsize=8)
+def _profile_weights(count: int, ends: int) -> tuple[NDArray[np.float32], FloatArray]:
+    """Weights over ``count`` profile samples (rows: mean of the inner end, mean of the outer
+    end, trapezoid rule in samples) and the sample positions over [-1, 1]; read-only."""
+    weights = np.zeros((3, count), dtype=np.float32)
+    weights[0, :ends] = 1.0 / ends
+    weights[1, -ends:] = 1.0 / ends
+    weights[2] = 1.0
+    weights[2, [0, -1]] = 0.5
+    unit = np.linspace(-1.0, 1.0, count)
+    weights.flags.writeable = False
+    unit.flags.writeable = False
+    return weights, unit
 
 
 def complete_corners(

@@ -107,7 +107,7 @@ class SnakeParams:
     seed_vertices: int = 12
     max_iterations: int = 300
     track_iterations: int = 12
-    converge_px: float = 0.1
+    converge_px: float = 0.3
     adapt_rate: float = 0.1
     adapt_inset_px: float = 6.0
     edge_half_length_px: float = 4.0
