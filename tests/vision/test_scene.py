@@ -10,6 +10,7 @@ from modules.geometry.transforms import transform_points
 from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting, apply_lighting, motion_blur_kernel
 from modules.vision.metrics import polygon_iou, polygon_mask
+from modules.vision.polygon import signed_area
 from modules.vision.scene import (
     LABEL_DISTRACTOR,
     LABEL_OCCLUDER,
@@ -211,3 +212,23 @@ def test_patch_pixels_cover_exactly_the_ground_truth(renderer, yaw_deg: float) -
     assert weight.sum() == pytest.approx(truth.area_px2, rel=0.005)
     centroid = ((weight * cols).sum() / weight.sum(), (weight * rows).sum() / weight.sum())
     np.testing.assert_allclose(centroid, truth.centroid_uv, atol=0.1)
+
+
+def test_patch_fill_has_the_truth_polygon_area(renderer) -> None:
+    """The rendered patch, unmixed from a uniform background, covers the truth polygon's area to
+    0.05 % at any pose (the fill is the polygon's exact pixel coverage)."""
+    background = (120, 100, 80)
+    patch_bgr = np.array([60.0, 170.0, 30.0])
+    table_bgr = np.array(background[::-1], dtype=float)
+    for k in range(3):
+        scene = Scene(
+            T_world_patch=pose((0.004 * k - 0.006, 0.003, 0.03), 0.4 * k + 0.2),
+            tool_rgb=background,
+            tray_rgb=background,
+            table_rgb=background,
+        )
+        frame = renderer.render(scene, T_WORLD_CAMERA)
+        d = patch_bgr - table_bgr
+        mix = (frame.image.astype(float) - table_bgr) @ d / (d @ d)
+        area = abs(signed_area(frame.patch_polygon))
+        assert mix.sum() == pytest.approx(area, rel=5e-4)
