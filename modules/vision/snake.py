@@ -13,9 +13,10 @@ Mahalanobis of the target model (see :mod:`modules.vision.color`), and ``p_i = 2
 snake pushes out), in the background ``p = -1`` (it pulls in), and across an edge ``p`` falls
 linearly over the window's width, so a vertex comes to rest where half its window is target:
 on the edge, to a fraction of a pixel, whatever the blur. (The gate counts a mixed edge pixel
-as target only when it is mostly patch, so the contour settles a few tenths of a pixel inside
-a sharp edge: about 2 % of the area of a 160 x 110 px patch.) This is Ivins & Porrill's sign
-rule (push out within k sigma, in outside) made continuous by the window.
+as target only when it is mostly patch, so the vertices settle a few tenths of a pixel inside
+a sharp edge: 1-3 % of the area of a 160 x 110 px patch, which the edge fit below removes.)
+This is Ivins & Porrill's sign rule (push out within k sigma, in outside) made continuous by
+the window.
 
 Tension (the discrete Laplacian) keeps the segments even and the contour smooth; it rounds the
 corners of a rectangle by a radius of about ``tension * segment² / (2 step_px)``.
@@ -96,7 +97,7 @@ class SnakeParams:
     k_sigma: float = 3.0
     min_gray: float = 20.0
     step_px: float = 2.0
-    tension: float = 0.3
+    tension: float = 0.2
     window_radius_px: int = 2
     min_segment_px: float = 5.0
     max_segment_px: float = 12.0
