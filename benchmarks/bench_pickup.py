@@ -11,7 +11,10 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -28,6 +31,24 @@ def trials(*args: str) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+def depth_offsets(out: Path) -> dict[str, float | int | None]:
+    """Median and 5th/95th percentiles of the grasp's depth offset [mm] (the z of World's
+    ``offset_patch_mm``, the tool point in the patch frame) over the grasped trials in ``out``."""
+    values = []
+    for summary in sorted(out.glob("**/summary*.json")):
+        for module in json.loads(summary.read_text()).get("modules", []):
+            if module.get("type") == "World" and module.get("grasped"):
+                values.append(float(module["offset_patch_mm"][2]))
+    if not values:
+        return {"trials": 0, "median": None, "p5": None, "p95": None}
+    return {
+        "trials": len(values),
+        "median": float(np.median(values)),
+        "p5": float(np.percentile(values, 5)),
+        "p95": float(np.percentile(values, 95)),
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
@@ -39,8 +60,18 @@ def main() -> None:
     ns = 2 if args.quick else 3
     w = str(args.workers)
     results: dict[str, dict] = {}
-    results["randomized"] = trials("-n", str(n), "--seed", str(args.seed), "--workers", w)
-    r = results["randomized"]
+    with tempfile.TemporaryDirectory() as out:
+        results["randomized"] = trials(
+            "-n", str(n), "--seed", str(args.seed), "--workers", w, "--out", out
+        )
+        r = results["randomized"]
+        r["final_offset_z_mm"] = depth_offsets(Path(out))
+    z = r["final_offset_z_mm"]
+    if z["trials"]:
+        print(
+            f"final depth offset of the tool point along the patch normal: median"
+            f" {z['median']:+.3f} mm, p5 {z['p5']:+.3f}, p95 {z['p95']:+.3f} ({z['trials']} grasps)"
+        )
     print(f"\nRandomized pick-ups ({n} trials, sim clock)")
     print(
         table(
