@@ -130,7 +130,7 @@ class SnakeTracker:
         sanity = check_contour(outline, self.limits, self._previous, self._reference)
         reasons = self._snake_failures(result, gray, acquiring)
         if reasons:
-            reasons += [r for r in sanity.reasons]
+            reasons += sanity.reasons
             sanity = replace(
                 sanity, status=FAILED, reason="; ".join(reasons), reasons=tuple(reasons)
             )
