@@ -9,7 +9,7 @@ Everything a module author needs::
 from connectors.errors import UserError
 from connectors.frames import FrameTree
 from connectors.module import Module, ModuleContext
-from connectors.params import Parameters, param
+from connectors.params import Parameters, ParamProblem, param
 from connectors.ports import Input, Output, Register, from_param
 
 __all__ = [
@@ -18,6 +18,7 @@ __all__ = [
     "Module",
     "ModuleContext",
     "Output",
+    "ParamProblem",
     "Parameters",
     "Register",
     "UserError",

@@ -6,17 +6,30 @@ import json
 import sys
 from typing import Any
 
-import yaml
-
+from connectors import safe_yaml
 from connectors.errors import UserError
 
+#: Longest ``--set`` value [characters].
+MAX_VALUE_CHARS = 10_000
 
-def parse_value(text: str) -> Any:
-    """A command-line value as a YAML scalar or flow collection (``3``, ``true``, ``[1, 2]``)."""
+
+def parse_value(text: str, where: str = "--set") -> Any:
+    """A command-line value as a YAML scalar or flow collection (``3``, ``true``, ``[1, 2]``);
+    text that is not YAML stays text. Bounded like every YAML the project reads: a value too long,
+    too deep, an alias bomb, a duplicate key or a bad tagged value is a UserError naming ``where``.
+    """
+    if not text.strip():
+        return ""
+    if len(text) > MAX_VALUE_CHARS:
+        raise UserError(
+            f"{where}: error: value of {len(text)} characters, at most {MAX_VALUE_CHARS}"
+        )
     try:
-        return yaml.safe_load(text) if text.strip() else ""
-    except yaml.YAMLError:
-        return text
+        return safe_yaml.load(text, where)[1]
+    except safe_yaml.YamlError as exc:
+        if exc.message.startswith("invalid YAML"):
+            return text
+        raise UserError(f"{where}: error: {exc.message}") from None
 
 
 def parse_set(items: list[str] | None) -> dict[str, Any]:
@@ -26,7 +39,7 @@ def parse_set(items: list[str] | None) -> dict[str, Any]:
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise UserError(f"--set expects NAME=VALUE, found `{item}`")
-        out[name.strip()] = parse_value(value)
+        out[name.strip()] = parse_value(value, f"--set {name.strip()}")
     return out
 
 

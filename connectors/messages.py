@@ -172,7 +172,13 @@ class Status(Message, frozen=True, kw_only=True):
 
 
 def message_types() -> dict[str, type[Message]]:
-    """All message types by class name (the names used in YAML, ``describe`` and the wire)."""
+    """All message types by class name (the names used in YAML, ``describe`` and the wire).
+
+    The Active Sketch types (:mod:`connectors.sketch_messages`) are imported here, so that a
+    process that never imported them (a recording's reader, a relay) still knows them.
+    """
+    import connectors.sketch_messages  # noqa: F401 - registers its subclasses
+
     found: dict[str, type[Message]] = {}
     stack: list[type[Message]] = [Message]
     while stack:

@@ -115,6 +115,11 @@ class Module:
         """Figures for the end-of-run summary (counts, results); empty by default."""
         return {}
 
+    def outcome_at_duration(self) -> tuple[int, str] | None:
+        """When the run ends by its ``duration``: the exit status and reason this module gives
+        it (a judge that has not judged yet: ``(1, "no verdict ...")``), or None to leave it 0."""
+        return None
+
     # -- wiring (used by the runtime and the harness) -------------------------------------------
     def bind_ports(self, clock: Callable[[], float]) -> None:
         """Create this instance's input registers and output ports."""

@@ -9,6 +9,11 @@ A module declares its parameters as a nested class::
 ``param`` takes the default, a one-line doc, an optional unit and pydantic's constraints
 (``ge``, ``gt``, ``le``, ``lt``, ``min_length``...). Choices are ``Literal`` types.
 Degrees and millimetres appear only in parameters named so (``roll_tolerance_deg``).
+
+Every float is finite (``.inf``, ``nan``, ``1e999``, ``Infinity`` are rejected, in lists too) unless
+its declaration says ``allow_inf_nan=True``. A check across parameters raises
+:class:`ParamProblem` naming the parameter at fault, so ``umbra check`` points at its line.
+A module whose safety depends on its rate overrides :meth:`Parameters.rate_problem`.
 """
 
 from __future__ import annotations
@@ -23,7 +28,28 @@ from pydantic import ConfigDict, Field
 class Parameters(pydantic.BaseModel):
     """Base class of every module's ``Params``: unknown names are errors; values are frozen."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, arbitrary_types_allowed=True, allow_inf_nan=False
+    )
+
+    def required_frames(self) -> list[tuple[str, str]]:
+        """``(parent, child)`` pairs the graph's static frames must join for the module to start
+        (``umbra check`` reports the missing ones); none by default."""
+        return []
+
+    def rate_problem(self, rate_hz: float | None) -> str:
+        """Why the module cannot work at graph ``rate`` ``rate_hz`` [Hz] (None: triggered only);
+        empty when it can. A watchdog says so when it would tick slower than its timeout."""
+        return ""
+
+
+class ParamProblem(ValueError):
+    """A problem of parameter ``field`` found by a check across parameters (a model validator):
+    ``umbra check`` reports it at that parameter's line."""
+
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(f"{field} {message}")
+        self.field = field
 
 
 def param(default: Any, doc: str, *, unit: str = "", **constraints: Any) -> Any:
@@ -58,12 +84,7 @@ def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
     for name, field in params_cls.model_fields.items():
         extra = field.json_schema_extra if isinstance(field.json_schema_extra, dict) else {}
         default = field.get_default(call_default_factory=True)
-        constraints = []
-        for meta in field.metadata:
-            for key in ("ge", "gt", "le", "lt", "min_length", "max_length"):
-                value = getattr(meta, key, None)
-                if value is not None:
-                    constraints.append(f"{key}={value}")
+        constraints = _bounds_text(field.metadata)
         out.append(
             ParamInfo(
                 name=name,
@@ -71,10 +92,36 @@ def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
                 default=default,
                 unit=str(extra.get("unit", "")),
                 doc=field.description or "",
-                constraints=" ".join(constraints),
+                constraints=constraints,
             )
         )
     return out
+
+
+def _bounds_text(metadata: list[Any]) -> str:
+    """A field's bounds as ``umbra describe`` shows them: ``in (0, 1]``, ``>= 0``, ``length 3``."""
+    found: dict[str, Any] = {}
+    for meta in metadata:
+        for key in ("ge", "gt", "le", "lt", "min_length", "max_length"):
+            value = getattr(meta, key, None)
+            if value is not None:
+                found[key] = value
+    parts = []
+    low_key = "ge" if "ge" in found else "gt" if "gt" in found else ""
+    high_key = "le" if "le" in found else "lt" if "lt" in found else ""
+    if low_key and high_key:
+        left, right = "[" if low_key == "ge" else "(", "]" if high_key == "le" else ")"
+        parts.append(f"in {left}{found[low_key]:g}, {found[high_key]:g}{right}")
+    elif low_key:
+        parts.append(f"{'>=' if low_key == 'ge' else '>'} {found[low_key]:g}")
+    elif high_key:
+        parts.append(f"{'<=' if high_key == 'le' else '<'} {found[high_key]:g}")
+    lengths = (found.get("min_length"), found.get("max_length"))
+    if lengths[0] is not None and lengths[0] == lengths[1]:
+        parts.append(f"length {lengths[0]}")
+    elif lengths != (None, None):
+        parts.append(f"length {lengths[0] or 0}..{'' if lengths[1] is None else lengths[1]}")
+    return ", ".join(parts)
 
 
 def _type_name(annotation: Any) -> str:

@@ -2,8 +2,10 @@
 
 Every process of the graph runs as ``umbra run GRAPH --process NAME`` in a child process. The
 launcher gives each a free loopback endpoint (process i listens on its own port and connects to
-the processes before it: peers do not route for each other), prefixes their output lines with
-``[NAME]``, and supervises them:
+the processes before it: peers do not route for each other; ``tls/`` endpoints when the zenoh
+configuration sets up TLS, e.g. a folder written by ``umbra keys``), per-run credentials and the
+graph's access rules (``runtime.links.auth``; not with ``--insecure``), prefixes their output
+lines with ``[NAME]``, and supervises them:
 
 * a process that ends normally (its duration, or a module asked to stop with status 0) ends the
   run: the others are told to ``finish`` — each handles what its inputs already sent, then stops;
@@ -16,6 +18,9 @@ the processes before it: peers do not route for each other), prefixes their outp
 A process that does not stop within ``STOP_GRACE`` seconds of being told gets SIGTERM, then
 SIGKILL. Each process writes ``summary-NAME.json`` (the launcher writes it for a process that died
 without one) and the launcher writes ``summary.json`` for the whole run.
+
+When a child ends, the ``/dev/shm`` files it left (its frame pools, its host marker, zenoh's
+segments it mapped) are removed at once (``runtime.links.shm_sweep``).
 
 Clock: sim time cannot be shared between processes, so a split graph runs on the real clock; a
 graph that declares ``clock: sim`` runs on the real clock with a notice, and ``--clock sim`` with a
@@ -40,6 +45,7 @@ from typing import IO, Any
 from connectors.errors import UserError
 from runtime.graph.plan import GraphPlan
 from runtime.hints import did_you_mean
+from runtime.links.auth import RunCredentials
 from runtime.links.config import (
     Endpoints,
     check_endpoint,
@@ -48,6 +54,12 @@ from runtime.links.config import (
     free_loopback_ports,
     loopback_mesh,
 )
+from runtime.links.exposure import (
+    check_exposure,
+    config_for,
+    uses_tls,
+)
+from runtime.links.shm_sweep import mapped_segments, remove_orphans
 from runtime.links.stats import link_lines
 from runtime.realtime import latency_limit
 from runtime.scheduler import INTERRUPTED
@@ -59,6 +71,8 @@ STOP_GRACE = 5.0
 #: Extra seconds given to a process told to ``finish`` (it drains its inputs first).
 FINISH_EXTRA = 6.0
 _POLL = 0.02
+#: Seconds between looks at the shared memory each child maps (``runtime.links.shm_sweep``).
+SHM_LOOK_PERIOD = 1.0
 
 
 def main(
@@ -135,6 +149,8 @@ def run_one(
             f"modules (processes: {', '.join(have)}){did_you_mean(name, have)}"
         )
     config_file = _config_file(plan, args)
+    if config_file:
+        config_file = config_for(config_file, name)
     endpoints = Endpoints(
         _endpoints(args.listen, "--listen"), _endpoints(args.connect, "--connect")
     )
@@ -147,6 +163,9 @@ def run_one(
         endpoints = file_endpoints(config_file)
     if endpoints.empty:
         endpoints = default_mesh(have)[name]
+    check_exposure(
+        endpoints.listen, endpoints.connect, bool(getattr(args, "insecure", False)), "umbra run"
+    )
     supervised = bool(getattr(args, "supervised", False))
     options = ProcessOptions(
         process=name,
@@ -155,6 +174,8 @@ def run_one(
         clock=clock,
         duration=duration,
         zenoh_config=config_file,
+        link_auth=getattr(args, "link_auth", None),
+        link_checks=not getattr(args, "unchecked_links", False),
         ready_timeout=READY_TIMEOUT if supervised else None,
         quiet=args.quiet,
         cpu_latency_us=latency_limit(
@@ -184,6 +205,7 @@ class _Child:
     told: str = ""
     termed: bool = False
     code: int | None = None
+    segments: set[str] = field(default_factory=set)  #: /dev/shm files it was seen to map
 
     @property
     def running(self) -> bool:
@@ -201,6 +223,7 @@ class Supervisor:
         self._lock = threading.Lock()
         self._signals: list[str] = []
         self._pumps: list[threading.Thread] = []
+        self.credentials: RunCredentials | None = None
 
     # -- output ------------------------------------------------------------------------------
     def say(self, text: str) -> None:
@@ -252,10 +275,20 @@ class Supervisor:
         config_file = _config_file(plan, args)
         if config_file:
             cmd += ["--zenoh-config", config_file]
+        if self.credentials is not None:
+            cmd += ["--link-auth", str(self.credentials.files[name])]
+        if getattr(args, "insecure", False):
+            cmd.append("--insecure")
+        if getattr(args, "unchecked_links", False):
+            cmd.append("--unchecked-links")
         if getattr(args, "cpu_latency_us", None) is not None:
             cmd += ["--cpu-latency-us", str(args.cpu_latency_us)]
         if args.quiet:
             cmd.append("--quiet")
+        if plan.spec.record.enabled:  # each process records its part (runtime.recording)
+            cmd.append("--record")
+            if getattr(args, "record_images", None):
+                cmd += ["--record-images", args.record_images]
         return cmd
 
     def _start(self) -> None:
@@ -264,13 +297,22 @@ class Supervisor:
         for p in plan.processes:
             if p not in names:
                 self.say(f"process `{p}` has no modules; not started")
-        mesh = loopback_mesh(names, free_loopback_ports(len(names)))
+        config_file = _config_file(plan, args)
+        tls = uses_tls(config_for(config_file, names[0]) if config_file else None)
+        mesh = loopback_mesh(names, free_loopback_ports(len(names)), "tls" if tls else "tcp")
         extra_listen = _endpoints(args.listen, "--listen") or _endpoints(
             plan.spec.links.listen, "links.listen"
         )
         extra_connect = _endpoints(args.connect, "--connect") or _endpoints(
             plan.spec.links.connect, "links.connect"
         )
+        insecure = bool(getattr(args, "insecure", False))
+        check_exposure(extra_listen, extra_connect, insecure, "umbra run")
+        if config_file:
+            for name in names:
+                config_for(config_file, name)  # every process has its file: say so now
+        if not insecure:
+            self.credentials = RunCredentials(plan)
         servo = servo_processes(plan)
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         root = str(Path(__file__).resolve().parents[1])
@@ -354,9 +396,15 @@ class Supervisor:
                     child.code = child.popen.wait()
             for t in self._pumps:
                 t.join(timeout=2.0)
+            if self.credentials is not None:
+                self.credentials.close()
             for s, handler in old.items():
                 signal.signal(s, handler)
         self._write_summaries(code, reason, started)
+        if self.plan.spec.record.enabled:
+            from runtime.recording.merge import merge_run
+
+            self.say(merge_run(self.plan, self.out, [c.name for c in self.children]))
         self.say(reason if code in (0, INTERRUPTED) else f"failed: {reason}")
         self.say(f"summary written to {self.out}")
         return code
@@ -365,15 +413,24 @@ class Supervisor:
         verdict: tuple[int, str] | None = None
         abort_rest_at: float | None = None
         interrupts_seen = 0
+        next_look = time.monotonic() + 0.5
         while True:
             now = time.monotonic()
             ended = []
+            if now >= next_look:  # the shared memory each child maps, for when it dies
+                next_look = now + SHM_LOOK_PERIOD
+                for child in self.children:
+                    if child.running:
+                        child.segments |= mapped_segments(child.popen.pid)
             for child in self.children:
                 if child.running and (rc := child.popen.poll()) is not None:
                     child.code = rc
                     ended.append(child)
                     how = f"exit {rc}" if rc >= 0 else self._cause(child)
                     self.say(f"process `{child.name}` ended ({how})")
+                    removed = remove_orphans(child.segments)
+                    if removed and rc != 0:
+                        self.say(f"removed {removed} shared-memory files of dead processes")
             if len(self._signals) > interrupts_seen:
                 interrupts_seen = len(self._signals)
                 if verdict is None or verdict[0] == 0:

@@ -92,6 +92,9 @@ class SchedulerOptions:
     dispatch: str = "inline"
     #: the CPU wake-up latency [µs] held while the loop runs (``runtime.realtime``); None: none
     cpu_latency_us: int | None = None
+    #: record every connected output of this process (``runtime.recording.settings``); None:
+    #: as the graph's ``record:`` says
+    record: Any = None
 
 
 class Scheduler:
@@ -152,6 +155,12 @@ class Scheduler:
             module.bind_ports(self.tick_time)
             self.modules[name] = module
         self._wire()
+        self.recorder: Any = None
+        record = self.options.record or getattr(self.plan.spec, "record", None)
+        if record is not None and record.enabled:
+            from runtime.recording.tap import RunRecorder
+
+            self.recorder = RunRecorder(self, record)
         for name in names:
             mplan = self.plan.modules[name]
             module = self.modules[name]
@@ -242,6 +251,16 @@ class Scheduler:
         if self._wake is not None:
             self._wake.set()
 
+    def _duration_outcome(self, duration: float | None) -> tuple[str, int]:
+        """Reason and exit status of a run that reached its duration: 0 unless a module (a judge
+        such as World) says the run had not succeeded by then."""
+        reason = f"duration {duration:g} s reached"
+        for name, module in self.modules.items():
+            outcome = module.outcome_at_duration()
+            if outcome is not None and outcome[0] != 0:
+                return f"{reason}; {name}: {outcome[1]}", outcome[0]
+        return reason, 0
+
     @property
     def pending_link_samples(self) -> int:
         """Link samples received but not yet written into registers."""
@@ -265,6 +284,8 @@ class Scheduler:
         )
         hold.acquire()
         t0 = self.clock.now()
+        if self.recorder is not None:
+            self.recorder.start(t0)
         try:
             for slot in self._slots:
                 try:
@@ -292,6 +313,8 @@ class Scheduler:
                         )
             hold.release()
             self._restore_signals(old_handlers)
+            if self.recorder is not None:
+                self.recorder.close()  # after the modules: the safe-stop zeros are recorded
         if user_error is not None:
             raise user_error
         for slot in self._slots:
@@ -311,6 +334,8 @@ class Scheduler:
             extra["links"] = self.transport.stats()
         if hold.limit_us is not None:
             extra["realtime"] = hold.summary()
+        if self.recorder is not None:
+            extra["recording"] = self.recorder.summary()
         return RunResult(
             process=self.process_name,
             exit_code=code,
@@ -341,7 +366,7 @@ class Scheduler:
                 if due >= end - 1e-9:
                     if real:
                         clock.wait_until(end, wake)
-                    self.request_stop(f"duration {duration:g} s reached", 0)
+                    self.request_stop(*self._duration_outcome(duration))
                     break
                 clock.wait_until(due, wake)
                 with lock:

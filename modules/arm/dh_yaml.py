@@ -24,8 +24,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from connectors import safe_yaml, user_files
+from connectors.errors import UserError
 from connectors.yaml_lines import node_lines as _node_lines
 from modules.arm.dh import DHError, DHJoint, DHTable
 
@@ -185,19 +185,19 @@ def dh_table_from_dict(data: Mapping[str, Any]) -> DHTable:
 
 def load_dh_table(path: str | Path) -> DHTable:
     """Load a DH table from a YAML file; errors read ``FILE:LINE: error: ...``."""
-    source = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DHError(f"{source}: error: cannot read DH file: {exc.strerror}") from exc
-    try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else 1
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise DHError(f"{source}:{line}: error: invalid YAML: {problem}") from exc
+    try:  # a regular file of bounded size, UTF-8
+        text = user_files.read_text(path, "DH file")
+    except UserError as exc:
+        raise DHError(str(exc)) from None
+    return dh_table_from_yaml_text(text, str(path))
+
+
+def dh_table_from_yaml_text(text: str, source: str) -> DHTable:
+    """Parse DH table YAML ``text``; errors read ``SOURCE:LINE: error: ...``."""
+    try:  # bounded depth and aliases, no duplicate keys, bad values at their line
+        node, data = safe_yaml.load(text, source)
+    except UserError as exc:
+        raise DHError(str(exc)) from None
     lines: dict[Path_, int] = {}
     if node is not None:
         _node_lines(node, (), lines)

@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from connectors import Input, Module, Output, Parameters, from_param, param
+from connectors.limits import MAX_COMMAND_AGE_S, MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
 from connectors.messages import Status, Text, Twist
-from modules.arm.velocity_register import RegisterSettings, VelocityRegister
+from modules.arm.velocity_register import RegisterOutput, RegisterSettings, VelocityRegister
 
 
 class RegVel(Module):
     """Velocity register with a watchdog: passes the latest twist command, or zero and why.
+
+    A non-zero ``jog`` (the operator's dead-man teleoperation) replaces the command until a
+    zero jog releases it, under the same watchdog and clamps.
 
     The output drops to zero when the command is older than ``timeout`` (by arrival time),
     when its producer's process is gone (link liveliness), when ``halt`` reports an operator
@@ -22,12 +28,36 @@ class RegVel(Module):
     SAFETY_GUARD = True
 
     class Params(Parameters):
-        timeout: float = param(0.2, "largest accepted command age", unit="s", gt=0)
-        max_linear: float = param(0.1, "linear speed clamp |v|", unit="m/s", ge=0)
-        max_angular: float = param(0.5, "angular speed clamp |w|", unit="rad/s", ge=0)
+        timeout: float = param(
+            0.2, "largest accepted command age", unit="s", gt=0, le=MAX_COMMAND_AGE_S
+        )
+        max_linear: float = param(
+            0.1, "linear speed clamp |v|", unit="m/s", ge=0, le=MAX_TOOL_SPEED_M_S
+        )
+        max_angular: float = param(
+            0.5, "angular speed clamp |w|", unit="rad/s", ge=0, le=MAX_TOOL_ANGULAR_RAD_S
+        )
         frame: str = param("camera", "frame of the twist in and out")
 
+        def rate_problem(self, rate_hz: float | None) -> str:
+            """The watchdog acts when it ticks: at least twice per ``timeout``."""
+            least = 2.0 / self.timeout
+            if rate_hz is None:
+                return f"a watchdog needs `rate:` (at least {least:g} Hz, twice per timeout)"
+            if rate_hz < least:
+                return (
+                    f"rate {rate_hz:g} Hz is too slow for timeout {self.timeout:g} s: the watchdog "
+                    f"must tick at least twice per timeout ({least:g} Hz)"
+                )
+            return ""
+
     command = Input(Twist, frame=from_param("frame"), doc="twist command (e.g. from vsServo)")
+    jog = Input(
+        Twist,
+        frame=from_param("frame"),
+        required=False,
+        doc="operator's dead-man jog; a non-zero jog replaces the command while fresh",
+    )
     gripper_in = Input(Text, required=False, doc="gripper command: open / close")
     halt = Input(Status, required=False, doc="upstream status; assist=True forces zero")
     twist = Output(Twist, frame=from_param("frame"), doc="guarded, clamped twist")
@@ -37,6 +67,9 @@ class RegVel(Module):
     def start(self) -> None:
         p = self.params
         self._register = VelocityRegister(RegisterSettings(p.timeout, p.max_linear, p.max_angular))
+        self._jog = VelocityRegister(RegisterSettings(p.timeout, p.max_linear, p.max_angular))
+        self._jog_ticks = 0
+        self._jog_held = False
         self._last_reason: str | None = None
         self._last_zero_reason = ""
         self._frame_problem = ""
@@ -59,27 +92,56 @@ class RegVel(Module):
         if halt is not None and halt.assist:
             halt_reason = f"halted by {halt.stage}: {halt.reason or halt.message}"
         out = self._register.output(now, self.command.link_alive, halt_reason)
+        jogging = self._jog_step(now) if self.jog.value is not None else None
+        if jogging is not None:
+            out = jogging
         self.twist.send(Twist(vector=out.twist, frame=self.params.frame))
         self._zeroed += not out.passing
         self._clamped += out.clamped
         gripper = self.gripper_in.get(now)
         if gripper is not None and self.gripper_in.fresh and out.passing:
             self.gripper.send(Text(text=gripper.text, stamp=gripper.stamp))
-        if out.zero_reason != self._last_reason:
-            self._last_reason = out.zero_reason
+        reason_key = out.zero_reason or ("passing jog" if jogging is not None else "")
+        if reason_key != self._last_reason:
+            self._last_reason = reason_key
             if out.zero_reason:
                 self._last_zero_reason = out.zero_reason
             self.status.send(
                 Status(
                     stage="zero" if out.zero_reason else "passing",
-                    message=out.zero_reason or "passing commands",
+                    message=out.zero_reason or reason_key or "passing commands",
                     reason=out.zero_reason,
                     values={"age": float(min(out.age, 1e9))},
                 )
             )
 
+    def _jog_step(self, now: float) -> RegisterOutput | None:
+        """The jog's output while a jog is held, else None (the command passes).
+
+        A non-zero (or malformed) jog takes over until a zero jog releases it; it has the
+        command's watchdog and clamps, so a jog whose keep-alives stop drops to zero. The
+        upstream halt does not apply: jogging is the operator taking over by hand.
+        """
+        jog = self.jog.get(now)
+        if jog is not None and self.jog.fresh:
+            vector = np.asarray(jog.vector, dtype=float)
+            if vector.shape == (6,) and np.all(vector == 0):
+                self._jog.clear()  # a release: back to the command
+                self._jog_held = False
+            else:
+                self._jog.put(vector, self.jog.received_at)
+                self._jog_held = True
+        if not self._jog_held:
+            return None
+        out = self._jog.output(now, self.jog.link_alive, "")
+        if out.passing:
+            self._jog_ticks += 1
+            return out
+        return RegisterOutput(out.twist, f"jog: {out.zero_reason}", False, out.age)
+
     def summary(self) -> dict[str, object]:
         return {
+            "jog_ticks": self._jog_ticks,
             "zeroed_ticks": self._zeroed,
             "clamped_ticks": self._clamped,
             "last_zero_reason": self._last_zero_reason,

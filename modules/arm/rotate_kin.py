@@ -3,8 +3,18 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import model_validator
 
-from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors import (
+    Input,
+    Module,
+    Output,
+    Parameters,
+    ParamProblem,
+    UserError,
+    from_param,
+    param,
+)
 from connectors.messages import Twist
 from modules.geometry.transforms import (
     is_rigid,
@@ -29,11 +39,32 @@ class RotateKin(Module):
         camera_frame: str = param("camera", "frame of the incoming twist")
         tool_frame: str = param("tool", "frame of the outgoing twist")
         mount_xyz: list[float] | None = param(
-            None, "camera origin in the tool frame (default: graph frames)", unit="m"
+            None,
+            "camera origin in the tool frame (default: graph frames)",
+            unit="m",
+            min_length=3,
+            max_length=3,
         )
         mount_rpy_deg: list[float] | None = param(
-            None, "camera roll, pitch, yaw in the tool frame (default: graph frames)", unit="deg"
+            None,
+            "camera roll, pitch, yaw in the tool frame (default: graph frames)",
+            unit="deg",
+            min_length=3,
+            max_length=3,
         )
+
+        @model_validator(mode="after")
+        def _mount_whole(self) -> RotateKin.Params:
+            if (self.mount_xyz is None) != (self.mount_rpy_deg is None):
+                raise ParamProblem(
+                    "mount_xyz" if self.mount_xyz is None else "mount_rpy_deg",
+                    "is needed too: give both mount_xyz and mount_rpy_deg, or neither",
+                )
+            return self
+
+        def required_frames(self) -> list[tuple[str, str]]:
+            """T_tool_camera from the graph's frames unless the mount is given here."""
+            return [(self.tool_frame, self.camera_frame)] if self.mount_xyz is None else []
 
     camera_twist = Input(Twist, frame=from_param("camera_frame"), trigger=True, doc="camera twist")
     tool_twist = Output(Twist, frame=from_param("tool_frame"), doc="tool twist")

@@ -6,10 +6,13 @@ from typing import Literal
 
 import numpy as np
 from msgspec.structs import replace
+from pydantic import model_validator
 
-from connectors import Input, Module, Output, UserError, from_param, param
+from connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
+from connectors.limits import MAX_COMMAND_AGE_S, MAX_JOINT_ACCEL_RAD_S2
 from connectors.messages import JointRates, JointState, Status, Text
 from modules.arm.arm_params import ArmParams
+from modules.arm.dh import DHTable
 from modules.arm.joints_backend import BackendError, JointsBackend, backend_class
 from modules.arm.sim_joints import GRIPPER_COMMANDS
 
@@ -28,11 +31,15 @@ class WolverineJnts(Module):
 
     class Params(ArmParams):
         backend: Literal["sim", "canopen"] = param("sim", "joint driver")
-        max_command_age: float = param(0.1, "older rate commands count as zero", unit="s", gt=0)
+        max_command_age: float = param(
+            0.1, "older rate commands count as zero", unit="s", gt=0, le=MAX_COMMAND_AGE_S
+        )
         initial_q_deg: list[float] | None = param(
             None, "sim: initial joint angles (default zeros, clipped to limits)", unit="deg"
         )
-        accel_max: float = param(8.0, "sim: joint acceleration limit", unit="rad/s^2", gt=0)
+        accel_max: float = param(
+            8.0, "sim: joint acceleration limit", unit="rad/s^2", gt=0, le=MAX_JOINT_ACCEL_RAD_S2
+        )
         lag_tau: float = param(0.02, "sim: time constant of the rate response", unit="s", ge=0)
         calibration_error_deg: list[float] = param(
             [], "sim: unknown offsets, true minus reported angles (empty: none)", unit="deg"
@@ -40,6 +47,25 @@ class WolverineJnts(Module):
         gripper_travel_time: float = param(0.5, "sim: full gripper travel", unit="s", gt=0)
         gripper_initial: float = param(1.0, "sim: initial gripper opening 0..1", ge=0, le=1)
         canopen_config: str = param("", "canopen: YAML file of the bus and the drives")
+
+        @model_validator(mode="after")
+        def _one_value_per_joint(self) -> WolverineJnts.Params:
+            n = self.table.n
+            if self.initial_q_deg is not None and len(self.initial_q_deg) != n:
+                raise ParamProblem(
+                    "initial_q_deg",
+                    f"needs {n} angles, one per joint {list(self.table.names)}, "
+                    f"found {len(self.initial_q_deg)}",
+                )
+            if self.calibration_error_deg and len(self.calibration_error_deg) != n:
+                raise ParamProblem(
+                    "calibration_error_deg",
+                    f"needs {n} angles (or none), one per joint {list(self.table.names)}, "
+                    f"found {len(self.calibration_error_deg)}",
+                )
+            if self.backend == "canopen":
+                _check_canopen_config(self.canopen_config, self.table)
+            return self
 
     rates = Input(
         JointRates, joints=from_param("joint_names"), requires_guard=True, doc="joint rates"
@@ -134,3 +160,19 @@ class WolverineJnts(Module):
 
     def summary(self) -> dict[str, int]:
         return {"zeroed_ticks": self._zeroed}
+
+
+def _check_canopen_config(path: str, table: DHTable) -> None:
+    """ParamProblem unless ``path`` is a CANopen settings file that drives ``table``'s joints
+    (what the canopen backend would refuse when the run starts)."""
+    from modules.arm.cia402.backend import order_like_table
+    from modules.arm.cia402.config_yaml import load_canopen_settings
+
+    if not path:
+        raise ParamProblem(
+            "canopen_config", "is needed by backend canopen (a YAML file of the bus and drives)"
+        )
+    try:
+        order_like_table(load_canopen_settings(path).arm, table, path)
+    except (UserError, BackendError) as exc:
+        raise ParamProblem("canopen_config", f"cannot be used: {exc}") from None

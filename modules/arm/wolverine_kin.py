@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Output, from_param, param
+from connectors.limits import MAX_COMMAND_AGE_S
 from connectors.messages import JointRates, JointState, Pose, Status, Twist
 from connectors.module import Module
 from modules.arm.arm_params import ArmParams
@@ -28,14 +29,26 @@ class WolverineKin(Module):
     class Params(ArmParams):
         base_frame: str = param("base", "frame of the arm's base (DH frame 0)")
         tool_frame: str = param("tool", "frame of the tool point (flange + tool transform)")
-        tool_xyz: list[float] = param([0.0, 0.0, 0.0], "tool point in the flange frame", unit="m")
+        tool_xyz: list[float] = param(
+            [0.0, 0.0, 0.0],
+            "tool point in the flange frame",
+            unit="m",
+            min_length=3,
+            max_length=3,
+        )
         tool_rpy_deg: list[float] = param(
-            [0.0, 0.0, 0.0], "tool frame orientation in the flange frame", unit="deg"
+            [0.0, 0.0, 0.0],
+            "tool frame orientation in the flange frame",
+            unit="deg",
+            min_length=3,
+            max_length=3,
         )
         dls_eps: float = param(0.04, "singular value where damping starts (J units)", gt=0)
         dls_lambda_max: float = param(0.04, "damping at a singularity (J units)", gt=0)
         limit_margin_deg: float = param(5.0, "flag joints this close to a limit", unit="deg", ge=0)
-        max_state_age: float = param(0.1, "oldest joint state used", unit="s", gt=0)
+        max_state_age: float = param(
+            0.1, "oldest joint state used", unit="s", gt=0, le=MAX_COMMAND_AGE_S
+        )
 
     tool_twist = Input(Twist, frame=from_param("tool_frame"), trigger=True, doc="tool twist")
     joint_state = Input(

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from connectors import Input, Module, Output, Parameters, param
+from connectors.limits import MAX_IMAGE_SIDE_PX
 from connectors.messages import CameraModel, ZoomState
 from modules.calib.camera_message import camera_message
 from modules.calib.zoom_interp import DEFAULT_METHOD
@@ -44,8 +45,8 @@ class CamCalib(Module):
         zoom_tolerance: float = param(
             1e-6, "smallest zoom change that recomputes the model", unit="1", ge=0, le=0.1
         )
-        width: int = param(640, "image width", unit="px", gt=0)
-        height: int = param(480, "image height", unit="px", gt=0)
+        width: int = param(640, "image width", unit="px", gt=0, le=MAX_IMAGE_SIDE_PX)
+        height: int = param(480, "image height", unit="px", gt=0, le=MAX_IMAGE_SIDE_PX)
         mount_frame: str = param("tool", "frame the file's extrinsics are relative to")
         camera_name: str = param(
             "camera", "frame name carried in the model (zoom-dependent, so not a static frame)"

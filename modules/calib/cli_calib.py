@@ -28,7 +28,12 @@ from modules.calib.refine import calibrate
 from modules.calib.rotations import xyz_from_rotation
 from modules.calib.targeting import triangulate_measured
 from modules.calib.zoom_interp import DEFAULT_METHOD, METHODS
-from modules.calib.zoom_io import load_zoom_file, load_zoom_table, save_zoom_file
+from modules.calib.zoom_io import (
+    check_writable,
+    load_zoom_file,
+    load_zoom_table,
+    save_zoom_file,
+)
 from modules.calib.zoom_table import (
     EXTRINSIC_KEYS,
     INTRINSIC_KEYS,
@@ -175,6 +180,8 @@ def _fit(args: argparse.Namespace) -> int:
         raise UserError(f"--zoom must be a normalized zoom in 0..1, got {args.zoom}")
     if args.append and not args.output:
         raise UserError("--append needs --output FILE")
+    if args.output:
+        check_writable(Path(args.output), "--output")
     data = load_correspondences(args.correspondences)
     result = calibrate(
         data.points,

@@ -20,6 +20,8 @@ from connectors.errors import UserError
 from modules.calib import yaml_nodes as yn
 
 NUMERIC = ("x", "y", "z", "u", "v")
+#: Most correspondences a file may hold (a calibration uses tens to thousands).
+MAX_ROWS = 100_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,7 +47,11 @@ def parse_correspondences(
     if not rows:
         raise UserError(f"{source}:1: error: no header; expected columns {','.join(expected)}")
     header_line, header_text = rows[0]
-    header = [h.strip().lower() for h in next(csv.reader(io.StringIO(header_text)))]
+    if len(rows) - 1 > MAX_ROWS:
+        raise UserError(
+            f"{source}:{rows[MAX_ROWS + 1][0]}: error: more than {MAX_ROWS} correspondences"
+        )
+    header = [h.strip().lower() for h in _cells(header_text, source, header_line)]
     if sorted(header) != sorted(expected):
         raise UserError(
             f"{source}:{header_line}: error: header must name the columns "
@@ -53,7 +59,7 @@ def parse_correspondences(
         )
     points, pixels, cameras, lines = [], [], [], []
     for line_number, line in rows[1:]:
-        cells = [c.strip() for c in next(csv.reader(io.StringIO(line)))]
+        cells = [c.strip() for c in _cells(line, source, line_number)]
         if len(cells) != len(header):
             raise UserError(
                 f"{source}:{line_number}: error: expected {len(header)} values, found {len(cells)}"
@@ -78,6 +84,14 @@ def parse_correspondences(
     return Correspondences(
         np.array(points, dtype=float), np.array(pixels, dtype=float), tuple(cameras), tuple(lines)
     )
+
+
+def _cells(line: str, source: str, line_number: int) -> list[str]:
+    """The comma-separated cells of one line; UserError when the csv module refuses it."""
+    try:
+        return next(csv.reader(io.StringIO(line)), [])
+    except csv.Error as error:
+        raise UserError(f"{source}:{line_number}: error: not a CSV line: {error}") from None
 
 
 def load_correspondences(path: str | Path, with_camera: bool = False) -> Correspondences:

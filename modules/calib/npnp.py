@@ -142,7 +142,26 @@ def initial_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
     return _initial_pose(_prepare(views))
 
 
+def _check_spread(prepared: list[_Prepared]) -> None:
+    """DegenerateGeometryError when the points (all views, input frame) coincide or lie on one
+    line (within 1e-4 of their extent): rotation about that line is then undetermined, and
+    SQPnP asserts on such input."""
+    points = np.vstack([p.points for p in prepared])
+    centred = points - points.mean(axis=0)
+    spread = np.linalg.svd(centred, compute_uv=False)
+    if spread[0] <= 1e-9:
+        raise DegenerateGeometryError(
+            f"all {len(points)} points are at one place; the pose needs >= 3 points not on one line"
+        )
+    if spread[1] <= 1e-4 * spread[0]:
+        raise DegenerateGeometryError(
+            f"the {len(points)} points lie on one line (spread {spread[1]:.3g} across it vs "
+            f"{spread[0]:.3g} along it); the pose needs >= 3 points not on one line"
+        )
+
+
 def _initial_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
+    _check_spread(prepared)
     best = max(prepared, key=lambda p: len(p.points))
     if len(best.points) >= 4:
         return _single_view_pose(best)
@@ -151,13 +170,17 @@ def _initial_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
 
 def _single_view_pose(p: _Prepared) -> tuple[FloatArray, FloatArray]:
     normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
-    ok, rvec, tvec = cv2.solvePnP(
-        p.points.astype(np.float64),
-        normalized.astype(np.float64),
-        np.eye(3),
-        None,
-        flags=cv2.SOLVEPNP_SQPNP,
-    )
+    try:
+        ok, rvec, tvec = cv2.solvePnP(
+            p.points.astype(np.float64),
+            normalized.astype(np.float64),
+            np.eye(3),
+            None,
+            flags=cv2.SOLVEPNP_SQPNP,
+        )
+    except cv2.error as error:  # SQPnP asserts on degenerate input
+        message = str(error).strip().splitlines()[-1].rpartition("error: ")[2]
+        raise DegenerateGeometryError(f"single-view PnP refused the points: {message}") from None
     if not ok:
         raise DegenerateGeometryError("single-view PnP found no pose for the initial guess")
     R_cam_in = rotation_from_vector(rvec.ravel())

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import yaml
 
-from connectors.errors import UserError
+from connectors import safe_yaml, user_files
 
 
 class SpotError(Exception):
@@ -28,24 +28,15 @@ class SpotError(Exception):
 
 
 def compose(text: str, source: str) -> yaml.Node | None:
-    """The node tree of YAML ``text``; syntax errors become ``UserError`` with the line."""
-    try:
-        return yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.MarkedYAMLError as error:
-        mark = error.problem_mark or error.context_mark
-        line = mark.line + 1 if mark else 1
-        raise UserError(f"{source}:{line}: error: invalid YAML: {error.problem}") from None
-    except yaml.YAMLError as error:
-        raise UserError(f"{source}:1: error: invalid YAML: {error}") from None
+    """The node tree of YAML ``text`` (bounded depth and aliases, no duplicate keys); every
+    problem becomes ``UserError`` with the line (``connectors.safe_yaml``)."""
+    return safe_yaml.compose(text, source)
 
 
 def read_text(path: str | Path, what: str) -> str:
-    """A user's text file, or ``UserError`` saying why it cannot be read."""
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        reason = getattr(error, "strerror", None) or str(error)
-        raise UserError(f"{path}: error: cannot read {what}: {reason}") from None
+    """A user's text file (a regular file of bounded size, UTF-8), or ``UserError`` saying why it
+    cannot be read (``connectors.user_files``)."""
+    return user_files.read_text(path, what)
 
 
 def mapping(

@@ -40,10 +40,27 @@ def load_zoom_table(path: str | Path, camera: str | None = None) -> ZoomTable:
         raise UserError(f"{path}: error: {error.args[0]}") from None
 
 
+def check_writable(path: Path, what: str) -> None:
+    """UserError unless a file can be written at ``path`` (its folder exists, it is no folder)."""
+    folder = path.parent
+    if not folder.is_dir():
+        raise UserError(
+            f"{what} {path}: error: folder {folder} does not exist (create it first)"
+            if not folder.exists()
+            else f"{what} {path}: error: {folder} is not a folder"
+        )
+    if path.is_dir():
+        raise UserError(f"{what} {path}: error: is a folder, expected a file name")
+
+
 def save_zoom_file(path: str | Path, zoom_file: ZoomFile) -> None:
-    """Write a zoom calibration file (XML or YAML by extension)."""
+    """Write a zoom calibration file (XML or YAML by extension); UserError when it cannot."""
     path = Path(path)
-    if _kind(path) == "xml":
-        write_zoom_xml(path, zoom_file)
-    else:
-        write_zoom_yaml(path, zoom_file)
+    check_writable(path, "zoom file")
+    try:
+        if _kind(path) == "xml":
+            write_zoom_xml(path, zoom_file)
+        else:
+            write_zoom_yaml(path, zoom_file)
+    except OSError as error:
+        raise UserError(f"{path}: error: cannot write the zoom file: {error.strerror}") from None

@@ -32,6 +32,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from connectors.errors import UserError
+from connectors.user_files import read_bytes
 from modules.calib.zoom_table import ZoomFile, ZoomTable
 
 INTRINSIC_LABEL = "{fx fy fxy u0 v0 k1 k2 p1 p2}"
@@ -244,13 +245,7 @@ def parse_zoom_xml(data: bytes | str, source: str = "<string>") -> ZoomFile:
 def read_zoom_xml(path: str | Path) -> ZoomFile:
     """Read an Appendix D zoom calibration file."""
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise UserError(
-            f"{path}: error: cannot read zoom calibration file: {error.strerror}"
-        ) from None
-    return parse_zoom_xml(data, str(path))
+    return parse_zoom_xml(read_bytes(path, "zoom calibration file"), str(path))
 
 
 def _format_values(values: np.ndarray) -> str:

@@ -2,22 +2,44 @@
 
 from __future__ import annotations
 
+from pydantic import field_validator
+
 from connectors import Input, Module, Parameters, param
 from connectors.messages import Message
 from modules.generic.recording import RecordingWriter
+from runtime.recording.settings import IMAGE_CHOICES, inside_run_folder
 
 
 class Recorder(Module):
     """Records every new sample on each of its ``channels`` inputs.
 
     The inputs are named by the ``channels`` parameter (``channels: [twist, status]`` gives inputs
-    ``twist`` and ``status``, each accepting any message type). The file is finished when the run
-    stops for any reason, so a stopped run keeps its recording.
+    ``twist`` and ``status``, each accepting any message type). Samples are encoded for viewers
+    (``runtime.recording``) and written from the recorder's own thread: on the real clock a full
+    queue drops (and counts) samples rather than holding the tick. The file is finished when the
+    run stops for any reason, so a stopped run keeps its recording. To record every connection of
+    a run, use ``umbra run --record`` instead.
     """
 
     class Params(Parameters):
         channels: list[str] = param(["input"], "names of the inputs to record", min_length=1)
-        path: str = param("recording.mcap", "output file, relative to the run's output folder")
+        path: str = param("recording.mcap", "output file, inside the run's output folder")
+        images: str = param("raw", "how images are recorded: raw, jpeg or png")
+
+        @field_validator("path")
+        @classmethod
+        def _inside(cls, value: str) -> str:
+            why = inside_run_folder(value)
+            if why:
+                raise ValueError(f"path {value!r} {why}")
+            return value
+
+        @field_validator("images")
+        @classmethod
+        def _images(cls, value: str) -> str:
+            if value not in IMAGE_CHOICES:
+                raise ValueError(f"images must be one of {', '.join(IMAGE_CHOICES)}")
+            return value
 
     @classmethod
     def dynamic_inputs(cls, params: Parameters) -> dict[str, Input]:
@@ -27,18 +49,22 @@ class Recorder(Module):
         }
 
     def start(self) -> None:
-        path = self.context.output_dir / self.params.path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.path = path
-        self._writer = RecordingWriter(path)
+        self.path = self.context.output_dir / self.params.path
+        self._writer = RecordingWriter(
+            self.path, blocking=self.context.clock == "sim", images=self.params.images
+        )
 
     def step(self, now: float) -> None:
         for name, reg in self.registers.items():
             if reg.fresh and reg.value is not None:
-                self._writer.write(name, reg.value)
+                self._writer.write(name, reg.value, now)
 
     def stop(self) -> None:
         self._writer.close()
 
     def summary(self) -> dict[str, object]:
-        return {"recorded": self._writer.count, "file": str(self.path)}
+        return {
+            "recorded": self._writer.count,
+            "dropped": self._writer.dropped,
+            "file": str(self.path),
+        }

@@ -1,83 +1,52 @@
-"""Recordings: samples written to an MCAP file, and read back.
+"""Recordings made by the ``Recorder`` module: samples written to an MCAP file, and read back.
 
-Each recorded input is an MCAP channel (topic = the channel name given to the recorder); every
-message is the umbra binary encoding (``connectors.codec``, message encoding ``umbra.v1``) with
-log time = the sample's stamp [ns]. Any MCAP tool lists the channels and times; ``read_recording``
-gives the samples back as message objects.
+Each recorded input is a topic named as the recorder's channel; samples are encoded as every
+recording of the project is (``runtime.recording``: Foxglove's well-known schemas for images and
+poses, JSON with a JSON schema for the rest), with log time = the tick time at which the sample
+arrived [ns] and publish time its stamp. ``read_recording`` gives the samples back as messages.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
-from typing import BinaryIO
 
-from mcap.reader import make_reader
-from mcap.writer import Writer
-
-from connectors.codec import Codec
-from connectors.errors import UserError
 from connectors.messages import Message
-
-ENCODING = "umbra.v1"
+from runtime.recording.samples import iter_samples
+from runtime.recording.writer import RecordingFile
 
 
 class RecordingWriter:
-    """Writes samples to one MCAP file; ``close`` finishes it (index and summary)."""
+    """Writes samples to one MCAP file from a background thread; ``close`` finishes it.
 
-    def __init__(self, path: Path) -> None:
-        try:
-            self._file: BinaryIO = open(path, "wb")  # noqa: SIM115 — closed in close()
-        except OSError as exc:
-            raise UserError(f"{path}: error: cannot write the recording: {exc.strerror}") from None
-        self._writer = Writer(self._file)
-        self._writer.start(profile="umbra", library="umbra")
-        self._codec = Codec()
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
-        self.count = 0
+    ``blocking``: wait for room when the queue is full (sim clock) instead of dropping."""
 
-    def write(self, channel: str, sample: Message) -> None:
-        """Append ``sample`` on ``channel``."""
-        type_name = type(sample).__name__
-        if type_name not in self._schemas:
-            self._schemas[type_name] = self._writer.register_schema(
-                name=type_name, encoding="", data=b""
-            )
-        if channel not in self._channels:
-            self._channels[channel] = self._writer.register_channel(
-                topic=channel, message_encoding=ENCODING, schema_id=self._schemas[type_name]
-            )
-        stamp_ns = max(0, int(sample.stamp * 1e9))
-        self._writer.add_message(
-            channel_id=self._channels[channel],
-            log_time=stamp_ns,
-            publish_time=stamp_ns,
-            data=self._codec.encode(sample),
-            sequence=sample.seq & 0xFFFFFFFF,
-        )
-        self.count += 1
+    def __init__(self, path: Path, *, blocking: bool = True, images: str = "raw") -> None:
+        self._file = RecordingFile(path, blocking=blocking)
+        self._images = images
+
+    def write(self, channel: str, sample: Message, now: float | None = None) -> None:
+        """Append ``sample`` on ``channel`` (sent at ``now`` [s]; default its stamp)."""
+        if channel not in self._file.counts:
+            self._file.declare(channel, type(sample), images=self._images)
+        self._file.offer(channel, sample, sample.stamp if now is None else now)
+
+    @property
+    def count(self) -> int:
+        """Samples written so far."""
+        return self._file.written
+
+    @property
+    def dropped(self) -> int:
+        """Samples dropped because the queue was full (real clock only)."""
+        return self._file.dropped
 
     def close(self) -> None:
         """Finish and close the file."""
-        if not self._file.closed:
-            self._writer.finish()
-            self._file.close()
+        self._file.close()
 
 
 def read_recording(path: str | Path) -> Iterator[tuple[str, Message]]:
     """Yield ``(channel, sample)`` in file order; UserError when the file is not a recording."""
-    codec = Codec()
-    try:
-        with open(path, "rb") as f:
-            reader = make_reader(f)
-            for _schema, channel, message in reader.iter_messages(log_time_order=False):
-                if channel.message_encoding != ENCODING:
-                    continue
-                yield channel.topic, codec.decode(message.data)
-    except OSError as exc:
-        raise UserError(f"{path}: error: cannot read the recording: {exc.strerror}") from None
-    except Exception as exc:  # mcap raises several types on a damaged file
-        if isinstance(exc, UserError):
-            raise
-        raise UserError(f"{path}: error: not a readable MCAP recording: {exc}") from None
+    for sample in iter_samples(path):
+        yield sample.topic, sample.message

@@ -5,12 +5,16 @@
     acquire ──(snake healthy for N consecutive frames)──> approach
              (no contour yet, or a stale one: keep waiting; a failed snake: assist)
     approach ──(every error within tolerance for M frames)──> final_grab
-    final_grab: advance ``grab_distance`` along the optical axis at ``grab_speed`` (open loop),
+    final_grab: advance ``grab_distance`` plus the depth error still measured when the approach
+                settled, along the optical axis at ``grab_speed`` (open loop),
                 then close the gripper and wait ``gripper_close_time``  ──> done
     any active stage ──(snake failure)──> assist  (zero velocity at once)
     approach / final_grab ──(no contour, or one older than max_contour_age)──> assist
     assist ──operator "resume"──> acquire        any stage ──operator "abort"──> aborted
     done / aborted ──operator "resume"──> acquire (a new grab)
+    acquire / approach / final_grab / assist ──operator "pause"──> paused (zero, the arm holds)
+    paused ──operator "resume"──> acquire          "start" is "resume" (the console's Start grab)
+    abort opens the gripper (a safe stop)
 
 The machine is pure: each :meth:`ServoStages.step` takes the time and the latest observation and
 returns the camera twist and the status; nothing here reads a clock.
@@ -34,10 +38,11 @@ FINAL_GRAB = "final_grab"
 DONE = "done"
 ASSIST = "assist"
 ABORTED = "aborted"
-STAGES = (ACQUIRE, APPROACH, FINAL_GRAB, DONE, ASSIST, ABORTED)
+PAUSED = "paused"
+STAGES = (ACQUIRE, APPROACH, FINAL_GRAB, DONE, ASSIST, ABORTED, PAUSED)
 ACTIVE_STAGES = (ACQUIRE, APPROACH, FINAL_GRAB)
 
-OPERATOR_COMMANDS = ("resume", "abort")
+OPERATOR_COMMANDS = ("resume", "abort", "pause", "start")
 
 
 @dataclass(frozen=True)
@@ -101,6 +106,11 @@ class ServoOutput:
     error: FloatArray = field(default_factory=lambda: np.full(4, np.nan))
 
 
+#: Final-grab advance left [m] below which the advance is complete.
+ADVANCE_DONE = 1e-5
+#: Step interval [s] assumed for the first step of the final grab (a 30 Hz camera).
+NOMINAL_STEP = 1.0 / 30.0
+
 _ZERO_TWIST = np.zeros(6)
 _ZERO_TWIST.setflags(write=False)
 
@@ -121,13 +131,17 @@ class ServoStages:
         self.reason = ""
         self._healthy_frames = 0
         self._settled_frames = 0
+        self._settled_depth_sum = 0.0  # sum of the depth errors of the settled frames [m]
+        self._grab_depth = 0.0  # depth still to go when the final grab starts [m]
         self._grab_start: float | None = None
+        self._grab_tick = (0.0, 0.0, 0.0)  # last step's time [s], speed [m/s], advance so far [m]
         self._close_start: float | None = None
         self._pending_gripper = "open"
 
     # -- operator -------------------------------------------------------------------------
     def operator(self, command: str) -> None:
-        """Apply an operator command: ``"resume"`` (back to acquire) or ``"abort"``."""
+        """Apply an operator command: ``"resume"`` / ``"start"`` (back to acquire from any
+        stopped stage), ``"pause"`` (zero, hold) or ``"abort"`` (stop, open the gripper)."""
         command = command.strip().lower()
         if command not in OPERATOR_COMMANDS:
             raise ValueError(
@@ -135,6 +149,10 @@ class ServoStages:
             )
         if command == "abort":
             self._enter(ABORTED, "aborted by the operator")
+            self._pending_gripper = "open"
+        elif command == "pause":
+            if self.stage in (*ACTIVE_STAGES, ASSIST):
+                self._enter(PAUSED, "paused by the operator")
         elif self.stage not in ACTIVE_STAGES:
             self._enter(ACQUIRE, "")
             self._pending_gripper = "open"
@@ -164,6 +182,7 @@ class ServoStages:
             DONE: "grab complete",
             ASSIST: "operator assistance requested",
             ABORTED: "aborted",
+            PAUSED: "paused by the operator",
         }[self.stage]
         return ServoOutput(
             _ZERO_TWIST, self.stage, self.stage == ASSIST, self.reason, message, gripper
@@ -185,6 +204,7 @@ class ServoStages:
         self.reason = reason
         self._healthy_frames = 0
         self._settled_frames = 0
+        self._settled_depth_sum = 0.0
         self._grab_start = None
         self._close_start = None
 
@@ -199,10 +219,17 @@ class ServoStages:
         twist, error = servo_twist(features, self.goal, self.gains)
         if np.all(np.abs(error) <= np.asarray(self.settings.tolerance)):
             self._settled_frames += 1
+            self._settled_depth_sum += float(error[2])
         else:
             self._settled_frames = 0
+            self._settled_depth_sum = 0.0
         if self._settled_frames >= self.settings.settle_frames:
+            # The approach stops once the depth error is within tolerance, from the side it came
+            # from: the mean depth error of the settled frames is still to go, so the open-loop
+            # advance takes it along (no systematic depth offset at the grasp).
+            depth_to_go = self._settled_depth_sum / self._settled_frames
             self._enter(FINAL_GRAB, "")
+            self._grab_depth = depth_to_go
             return ServoOutput(
                 _ZERO_TWIST, FINAL_GRAB, message="goal reached", gripper=gripper, error=error
             )
@@ -211,10 +238,19 @@ class ServoStages:
     def _final_grab(self, now: float, gripper: str) -> ServoOutput:
         if self._grab_start is None:
             self._grab_start = now
-        advance_time = self.settings.grab_distance / self.settings.grab_speed
-        if now - self._grab_start < advance_time:
-            twist = np.array([0.0, 0.0, self.settings.grab_speed, 0.0, 0.0, 0.0])
+            self._grab_tick = (now, 0.0, 0.0)
+        # Dead reckoning of the commanded advance: each command holds until the next step, so
+        # the last one is cut to what is left (no overshoot of up to one step's travel).
+        last_now, last_speed, advanced = self._grab_tick
+        advanced += last_speed * (now - last_now)
+        left = max(self.settings.grab_distance + self._grab_depth, 0.0) - advanced
+        if left > ADVANCE_DONE:
+            interval = now - last_now if now > last_now else NOMINAL_STEP
+            speed = min(self.settings.grab_speed, left / interval)
+            self._grab_tick = (now, speed, advanced)
+            twist = np.array([0.0, 0.0, speed, 0.0, 0.0, 0.0])
             return ServoOutput(twist, FINAL_GRAB, message="advancing", gripper=gripper)
+        self._grab_tick = (now, 0.0, advanced)
         if self._close_start is None:
             self._close_start = now
             return ServoOutput(_ZERO_TWIST, FINAL_GRAB, message="closing gripper", gripper="close")

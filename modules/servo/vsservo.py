@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors.limits import MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
 from connectors.messages import CameraModel, Contour, Status, Text, Twist
 from modules.servo.error_text import error_figure
 from modules.servo.features import (
@@ -38,9 +39,10 @@ class VsServo(Module):
     healthy for ``acquire_frames``), approach (until every error is within tolerance for
     ``settle_frames``), final grab (advance ``grab_distance`` along the optical axis at
     ``grab_speed``, close the gripper), done. Any snake failure stops at once (zero twist) and
-    asks for the operator; ``resume`` on the operator input restarts acquisition, ``abort``
-    aborts. The goal is a standoff in metres (patch centred on ``goal_u``, ``goal_v``, default
-    the principal point) or, with ``goal_area_px``, a target image of the patch in pixels.
+    asks for the operator; ``resume`` (or ``start``) on the operator input restarts acquisition,
+    ``pause`` holds (zero twist) until a resume, ``abort`` aborts and opens the gripper. The
+    goal is a standoff in metres (patch centred on ``goal_u``, ``goal_v``, default the
+    principal point) or, with ``goal_area_px``, a target image of the patch in pixels.
     Intrinsics come from the ``camera`` input when connected (undistorting the contour), else
     from ``fx``, ``fy``, ``u0``, ``v0``.
     """
@@ -70,9 +72,15 @@ class VsServo(Module):
             None, "goal patch centre v (default principal point)", unit="px"
         )
         goal_roll_deg: float = param(0.0, "goal principal-axis angle from +u", unit="deg")
-        gains: list[float] = param([0.8, 0.8, 0.6, 0.8], "gains x, y, z, roll", unit="1/s")
-        max_linear: float = param(0.05, "linear speed clamp", unit="m/s", gt=0)
-        max_angular: float = param(0.3, "angular speed clamp", unit="rad/s", gt=0)
+        gains: list[float] = param(
+            [0.8, 0.8, 0.6, 0.8], "gains x, y, z, roll", unit="1/s", min_length=4, max_length=4
+        )
+        max_linear: float = param(
+            0.05, "linear speed clamp", unit="m/s", gt=0, le=MAX_TOOL_SPEED_M_S
+        )
+        max_angular: float = param(
+            0.3, "angular speed clamp", unit="rad/s", gt=0, le=MAX_TOOL_ANGULAR_RAD_S
+        )
         acquire_frames: int = param(5, "healthy frames before the approach", ge=1)
         settle_frames: int = param(5, "in-tolerance frames that end the approach", ge=1)
         tolerance_xy: float = param(0.002, "x, y tolerance", unit="m", gt=0)
@@ -88,7 +96,7 @@ class VsServo(Module):
         )
 
     contour = Input(Contour, trigger=True, doc="tracked patch from vsSnake")
-    operator = Input(Text, required=False, doc="operator: resume / abort")
+    operator = Input(Text, required=False, doc="operator: start / pause / resume / abort")
     camera = Input(CameraModel, required=False, feedback=True, doc="calibrated camera (zoom)")
     twist = Output(Twist, frame=from_param("camera_frame"), doc="camera velocity command")
     status = Output(Status, doc="stage, errors, operator-assistance requests")
@@ -182,7 +190,9 @@ class VsServo(Module):
             if text in OPERATOR_COMMANDS:
                 self.stages.operator(text)
             else:
-                self.log.warning("ignoring operator input %r (expected resume or abort)", text)
+                self.log.warning(
+                    "ignoring operator input %r (expected one of %s)", text, OPERATOR_COMMANDS
+                )
         out = self.stages.step(now, self._observe(now))
         self.twist.send(Twist(vector=out.camera_twist, frame=self.params.camera_frame))
         if out.gripper:

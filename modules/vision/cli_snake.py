@@ -14,13 +14,13 @@ Exit status: 0 when the contour passes the sanity checks, 1 when it fails them, 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import cv2
 import numpy as np
 
 from connectors.cli_support import parse_set, print_json
 from connectors.errors import UserError
+from modules.vision.image_file import read_image
 from modules.vision.overlay import draw_overlay
 from modules.vision.snake_config import SettingsError, settings_from
 from modules.vision.tracker import SnakeTracker
@@ -58,12 +58,8 @@ def _seed(text: str, shape: tuple[int, ...]) -> tuple[float, float]:
 
 
 def _load(path: str) -> np.ndarray:
-    if not Path(path).is_file():
-        raise UserError(f"{path}: no such image file")
-    image = cv2.imread(path, cv2.IMREAD_COLOR)
-    if image is None:
-        raise UserError(f"{path}: cannot read it as an image (expected PNG, JPEG, BMP, TIFF...)")
-    return image
+    """The image (bounded in bytes and pixels, decoded as BGR): ``modules.vision.image_file``."""
+    return read_image(path)
 
 
 def main(args: argparse.Namespace) -> int:

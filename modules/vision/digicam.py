@@ -6,8 +6,19 @@ from typing import Literal
 
 import msgspec
 import numpy as np
+from pydantic import model_validator
 
-from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors import (
+    Input,
+    Module,
+    Output,
+    Parameters,
+    ParamProblem,
+    UserError,
+    from_param,
+    param,
+)
+from connectors.limits import MAX_IMAGE_SIDE_PX
 from connectors.messages import CameraModel, Contour, Image, Pose
 from modules.vision.capture import CaptureError, CaptureReader, CaptureSource
 from modules.vision.contour_message import contour_message
@@ -37,7 +48,8 @@ class DigiCam(Module):
     ``truth`` output carries the patch outline in the image (ground truth, sim only).
 
     Scheduled faults (``sim``, for failure-injection trials): ``fault`` begins ``fault_at_s``
-    seconds of the module's clock after its first step, and lasts to the end of the run.
+    seconds of the module's clock after its first step, and lasts ``fault_duration_s`` (0: to the
+    end of the run; an occluder withdrawn, say, so an operator can re-seed and resume).
     ``occluder``: a flat slab of ``fault_rgb`` (skin by default), 2 mm above the patch, slides
     over it from its ``fault_side`` at ``fault_speed_mps``, starting 5 mm outside it, and stays
     once it covers it (at the default 0.05 m/s half of a 4 cm side is covered 0.5 s after the
@@ -56,8 +68,12 @@ class DigiCam(Module):
 
     class Params(Parameters):
         source: str = param("sim", "`sim`, a device index, a video file or a stream URL")
-        width: int = param(0, "frame width; 0: the source's (sim: 640)", unit="px", ge=0)
-        height: int = param(0, "frame height; 0: the source's (sim: 480)", unit="px", ge=0)
+        width: int = param(
+            0, "frame width; 0: the source's (sim: 640)", unit="px", ge=0, le=MAX_IMAGE_SIDE_PX
+        )
+        height: int = param(
+            0, "frame height; 0: the source's (sim: 480)", unit="px", ge=0, le=MAX_IMAGE_SIDE_PX
+        )
         fps: float = param(0.0, "frame rate asked of a device; 0: its own", unit="Hz", ge=0)
         at_end: Literal["loop", "hold", "stop"] = param("loop", "what a video file does at its end")
         stale_after: float = param(1.0, "no new frame this long marks output stale", unit="s", gt=0)
@@ -69,18 +85,28 @@ class DigiCam(Module):
         skew: float = param(0.0, "skew without a camera_model (sim)", unit="px")
         u0: float = param(320.0, "principal point u without a camera_model (sim)", unit="px")
         v0: float = param(240.0, "principal point v without a camera_model (sim)", unit="px")
-        dist: list[float] = param([0.0, 0.0, 0.0, 0.0, 0.0], "k1 k2 p1 p2 k3 (sim)")
+        dist: list[float] = param(
+            [0.0, 0.0, 0.0, 0.0, 0.0], "k1 k2 p1 p2 k3 (sim)", min_length=4, max_length=5
+        )
         camera_height_m: float = param(
             0.22, "camera above the patch without a pose input (sim)", unit="m", gt=0
         )
-        patch_xyz_m: list[float] = param([0.0, 0.0, 0.03], "patch centre in the world (sim)")
+        patch_xyz_m: list[float] = param(
+            [0.0, 0.0, 0.03], "patch centre in the world (sim)", min_length=3, max_length=3
+        )
         patch_yaw_deg: float = param(0.0, "patch yaw about world z (sim)", unit="deg")
-        patch_size_m: list[float] = param([0.06, 0.04], "patch sides x, y (sim)", unit="m")
-        patch_rgb: list[int] = param([30, 170, 60], "patch color, RGB 0..255 (sim)")
+        patch_size_m: list[float] = param(
+            [0.06, 0.04], "patch sides x, y (sim)", unit="m", min_length=2, max_length=2
+        )
+        patch_rgb: list[int] = param(
+            [30, 170, 60], "patch color, RGB 0..255 (sim)", min_length=3, max_length=3
+        )
         patch_present: bool = param(True, "whether the patch is there (sim)")
         background: Literal["flat", "photo"] = param("flat", "table: flat color or a photo (sim)")
         gain: float = param(1.0, "lighting gain (sim)", ge=0)
-        cast_rgb: list[float] = param([1.0, 1.0, 1.0], "per-channel lighting gains R G B (sim)")
+        cast_rgb: list[float] = param(
+            [1.0, 1.0, 1.0], "per-channel lighting gains R G B (sim)", min_length=3, max_length=3
+        )
         noise_sigma: float = param(0.0, "sensor noise (sim)", unit="gray levels", ge=0)
         blur_length_px: float = param(0.0, "motion blur length (sim)", unit="px", ge=0)
         blur_angle_deg: float = param(0.0, "motion blur direction from u (sim)", unit="deg")
@@ -90,16 +116,35 @@ class DigiCam(Module):
         fault_at_s: float = param(
             3.0, "fault begins this long after the camera's first step (sim)", unit="s", ge=0
         )
+        fault_duration_s: float = param(
+            0.0, "the fault ends this long after it began; 0: never (sim)", unit="s", ge=0
+        )
         fault_speed_mps: float = param(
             0.05, "occluder speed over the patch, in the patch plane (sim)", unit="m/s", gt=0
         )
         fault_side: Literal["+x", "-x", "+y", "-y"] = param(
             "+y", "patch side the occluder comes from, or the distractor touches (sim)"
         )
-        fault_rgb: list[int] = param([225, 180, 150], "occluder color, RGB 0..255 (sim)")
+        fault_rgb: list[int] = param(
+            [225, 180, 150], "occluder color, RGB 0..255 (sim)", min_length=3, max_length=3
+        )
         fault_frozen_stale: bool = param(
             False, "freeze: mark the re-sent frames stale (a grabber that says so) (sim)"
         )
+
+        @model_validator(mode="after")
+        def _sim_values_in_range(self) -> DigiCam.Params:
+            """What the simulated camera would refuse at start, refused by ``umbra check``."""
+            for name in ("patch_rgb", "fault_rgb"):
+                if not all(0 <= c <= 255 for c in getattr(self, name)):
+                    raise ParamProblem(name, f"needs 3 values in 0..255, got {getattr(self, name)}")
+            if min(self.patch_size_m) <= 0:
+                raise ParamProblem(
+                    "patch_size_m", f"needs 2 positive values, got {self.patch_size_m}"
+                )
+            if min(self.cast_rgb) < 0:
+                raise ParamProblem("cast_rgb", f"needs 3 non-negative values, got {self.cast_rgb}")
+            return self
 
     camera_pose = Input(
         Pose, required=False, feedback=True, doc="camera (or its mount) pose, for sim"
@@ -302,6 +347,8 @@ class DigiCam(Module):
         if self._first_step_at is None:
             self._first_step_at = now
         faulted = fault.begun(now - self._first_step_at)
+        if faulted and p.fault_duration_s and self._fault_started_at is not None:
+            faulted = now - self._fault_started_at < p.fault_duration_s  # the fault is over
         if faulted and self._fault_started_at is None:
             self._fault_started_at = now
             self.log.warning("%s: injected fault %r begins at %.3f s", self.name, p.fault, now)

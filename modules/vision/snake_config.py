@@ -20,6 +20,17 @@ from modules.vision.snake import SnakeParams
 _DEGREE_LIMITS = {"max_rotation_deg": "max_rotation_rad"}
 
 
+#: Largest iteration counts a user may ask for (work per image stays bounded).
+_MOST = {
+    "max_iterations": 10_000,
+    "track_iterations": 1_000,
+    "max_vertices": 10_000,
+    "vertex_budget": 10_000,
+    "seed_vertices": 1_000,
+    "window_radius_px": 64,
+}
+
+
 class SettingsError(ValueError):
     """A snake setting has an unknown name or a bad value."""
 
@@ -38,14 +49,21 @@ def _convert(name: str, value: Any, default: Any) -> Any:
     if isinstance(default, bool) or isinstance(value, bool):
         raise SettingsError(f"snake setting `{name}` must be a number, got {value!r}")
     if isinstance(default, int):
-        number = float(value) if isinstance(value, int | float | str) else None
+        try:
+            number = float(value) if isinstance(value, int | float | str) else None
+        except (ValueError, OverflowError):
+            number = None
         if number is None or not number.is_integer():
-            raise SettingsError(f"snake setting `{name}` must be an integer, got {value!r}")
+            raise SettingsError(f"snake setting `{name}` must be an integer, got {value!r:.40}")
+        if not 0 <= number <= _MOST.get(name, 1e9):
+            raise SettingsError(
+                f"snake setting `{name}` must be from 0 to {_MOST.get(name, 1e9):g}, got {value!r}"
+            )
         return int(number)
     try:
         return float(value)
-    except (TypeError, ValueError):
-        raise SettingsError(f"snake setting `{name}` must be a number, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise SettingsError(f"snake setting `{name}` must be a number, got {value!r:.40}") from None
 
 
 def settings_from(values: Mapping[str, Any]) -> tuple[SnakeParams, SanityLimits]:

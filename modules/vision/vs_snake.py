@@ -40,9 +40,15 @@ class VsSnake(Module):
         seed_mode: Literal["point", "region", "none"] = param(
             "point", "seed at start: point, region, or wait for the seed input"
         )
-        seed_uv: list[float] = param([320.0, 240.0], "seed point [u, v]", unit="px")
+        seed_uv: list[float] = param(
+            [320.0, 240.0], "seed point [u, v]", unit="px", min_length=2, max_length=2
+        )
         seed_region: list[float] = param(
-            [0.0, 0.0, 640.0, 480.0], "seed region [u_min, v_min, u_max, v_max]", unit="px"
+            [0.0, 0.0, 640.0, 480.0],
+            "seed region [u_min, v_min, u_max, v_max]",
+            unit="px",
+            min_length=4,
+            max_length=4,
         )
         target_rgb: list[int] = param(
             [], "target color RGB 0..255 for region seeds (empty: learn it at the region centre)"
@@ -71,10 +77,10 @@ class VsSnake(Module):
             _DEFAULTS["seed_radius_px"], "radius of the point seed circle", unit="px", gt=0
         )
         max_iterations: int = param(
-            _DEFAULTS["max_iterations"], "iterations to acquire after a seed", ge=1
+            _DEFAULTS["max_iterations"], "iterations to acquire after a seed", ge=1, le=10_000
         )
         track_iterations: int = param(
-            _DEFAULTS["track_iterations"], "iterations per image when tracking", ge=1
+            _DEFAULTS["track_iterations"], "iterations per image when tracking", ge=1, le=1_000
         )
         converge_px: float = param(
             _DEFAULTS["converge_px"], "converged when no vertex moves more", unit="px", gt=0

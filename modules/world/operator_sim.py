@@ -4,7 +4,8 @@ In the seeds the operator starts a grab by clicking on the colored patch in the 
 simulation the camera knows where the patch is (its ``truth`` output); this module "clicks" there,
 with a little hand jitter, once the image has been on screen for ``click_delay_s``. It never
 answers an assistance request: a stopped grab stays stopped, which is what the safety trials
-measure.
+measure. With an operator console (``console`` input, its ``presence`` output), it steps aside
+for good the moment a person takes control, and does not click after that.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Contour, Vector
+from connectors.messages import Contour, Status, Vector
 
 
 class OperatorSim(Module):
@@ -27,6 +28,9 @@ class OperatorSim(Module):
         )
 
     truth = Input(Contour, trigger=True, doc="patch outline in the image (sim camera truth)")
+    console = Input(
+        Status, required=False, doc="the console's presence: a person acted -> step aside"
+    )
     seed = Output(Vector, doc="the click: seed point [u, v] for vsSnake")
 
     def start(self) -> None:
@@ -34,11 +38,19 @@ class OperatorSim(Module):
         self._first_seen: float | None = None
         self.clicked_at: float | None = None
         self.click: list[float] = []
+        self.stepped_aside_at: float | None = None
 
     def step(self, now: float) -> None:
         if self._started is None:
             self._started = now
-        if self.clicked_at is not None:
+        if self.clicked_at is not None or self.stepped_aside_at is not None:
+            return
+        console = self.console.get(now)
+        if console is not None and (console.stage == "person" or console.values.get("acted")):
+            self.stepped_aside_at = now
+            self.log.info(
+                "a person took control of the console: the simulated operator steps aside"
+            )
             return
         truth = self.truth.get(now)
         if truth is None or truth.area <= 0:
@@ -57,8 +69,14 @@ class OperatorSim(Module):
     def summary(self) -> dict[str, object]:
         """``clicked_after_s``: seconds from the module's first step to the click (None: no
         click); ``clicked_at_s``: the clock time of the click [s], comparable with the other
-        modules' clock times (a fault's start, say); ``click_uv``: where it clicked [px]."""
+        modules' clock times (a fault's start, say); ``click_uv``: where it clicked [px];
+        ``stepped_aside_at_s``: when a person took over (None: never)."""
         after = None
         if self.clicked_at is not None and self._started is not None:
             after = round(self.clicked_at - self._started, 3)
-        return {"clicked_after_s": after, "clicked_at_s": self.clicked_at, "click_uv": self.click}
+        return {
+            "clicked_after_s": after,
+            "clicked_at_s": self.clicked_at,
+            "click_uv": self.click,
+            "stepped_aside_at_s": self.stepped_aside_at,
+        }

@@ -24,7 +24,11 @@ class SafetyMonitorParams(ArmParams):
     still_speed: float = param(
         STILL_SPEED, "joint speed below which a joint is still", unit="rad/s", gt=0
     )
-    max_samples: int = param(20000, "samples kept (oldest dropped)", ge=10)
+    max_samples: int = param(20000, "samples kept (oldest dropped)", ge=10, le=10_000_000)
+
+    def required_frames(self) -> list[tuple[str, str]]:
+        """The tool point on the flange."""
+        return [("flange", "tool")]
 
 
 class SafetyMonitor(Module):

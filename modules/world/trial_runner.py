@@ -44,6 +44,8 @@ ROLES = {
     "REG_VEL": "register",
     "SafetyMonitor": "monitor",
     "Recorder": "recorder",
+    "OperatorConsole": "console",
+    "OperatorSim": "operator",
 }
 
 
@@ -95,6 +97,10 @@ class TrialGraph:
             n["joints"]: {"calibration_error_deg": list(setup.calibration_error_deg)},
             n["servo"]: {"progress_period_s": 0.0},
         }
+        if "console" in n:  # trials run unattended: no web page, the simulated operator clicks
+            out[n["console"]] = {"serve": False}
+        if "operator" in n:
+            out[n["operator"]] = {"click_delay_s": 0.2}
         if setup.fault not in ("none", "kill_umbra"):
             out[n["camera"]].update({"fault": setup.fault, "fault_at_s": setup.fault_at_s})
         if not keep_media:

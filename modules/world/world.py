@@ -37,6 +37,10 @@ def T_table_patch_of(
 class WorldParams(ArmParams):
     """Parameters of the simulated world (the arm's DH table comes from ArmParams)."""
 
+    def required_frames(self) -> list[tuple[str, str]]:
+        """The camera and tool on the flange, and the table in the base frame."""
+        return [("flange", "camera"), ("flange", "tool"), ("table", "base")]
+
     tool_xy_m: list[float] = param(
         [0.6, 0.0],
         "tool (patch centre) x, y in the table frame",
@@ -77,6 +81,13 @@ class SimWorld(Module):
         required=False,
         feedback=True,
         doc="the grab's stage (vsServo): ends the run after an assist request",
+    )
+    presence = Input(
+        Status,
+        required=False,
+        feedback=True,
+        doc="the operator console's presence: once a person took control, an assist request "
+        "no longer ends the run (the person answers it)",
     )
     camera_pose = Output(Pose, frame="table->camera", doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", doc="true T_table_patch")
@@ -134,6 +145,10 @@ class SimWorld(Module):
     def _servo_stopped(self, now: float) -> bool:
         """True ``end_after_stop_s`` after the grab asked for help or its process vanished."""
         status = self.servo_status.get(now)
+        person = self.presence.value
+        if person is not None and person.values.get("acted"):
+            self._stopped_since = None  # a person at the console answers for the grab
+            return False
         if self._stopped_since is None:
             if status is not None and status.assist:
                 self._stopped_since = now
@@ -169,6 +184,12 @@ class SimWorld(Module):
             f"{p.roll_tolerance_deg:g} deg)"
         )
         self._finish(now, ok, verdict)
+
+    def outcome_at_duration(self) -> tuple[int, str] | None:
+        """A run that reaches its duration before the grasp was judged has failed (exit 1)."""
+        if self.params.end_run and not self._judged:
+            return 1, "no grasp before the run's duration ended"
+        return None
 
     def _finish(self, now: float, grasped: bool, verdict: str) -> None:
         self._judged = True

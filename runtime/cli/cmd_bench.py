@@ -25,7 +25,19 @@ from connectors.errors import UserError
 NAME = "bench"
 HELP = "run the benchmarks (each against a baseline measured in the same run) and summarise them"
 #: Fastest first, so a short look comes before the long runs.
-ORDER = ("scheduler", "servo_tick", "snake", "calib", "links", "pickup")
+ORDER = (
+    "scheduler",
+    "servo_tick",
+    "pose_tool",
+    "snake",
+    "calib",
+    "sketch",
+    "console",
+    "view3d",
+    "links",
+    "record",
+    "pickup",
+)
 
 
 @dataclass

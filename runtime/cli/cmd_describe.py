@@ -50,7 +50,7 @@ def describe(cls: type) -> str:
         lines.append("  (none)")
     for p in params:
         unit = f" [{p.unit}]" if p.unit else ""
-        cons = f" ({p.constraints})" if p.constraints else ""
+        cons = f", {p.constraints}" if p.constraints else ""
         lines.append(f"  {p.name}: {p.type} = {p.default!r}{unit}{cons}  {p.doc}")
     return "\n".join(lines)
 

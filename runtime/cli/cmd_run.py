@@ -10,6 +10,8 @@ from pathlib import Path
 from connectors.errors import UserError
 from runtime.cli.common import parse_module_set
 from runtime.graph.check import load_graph
+from runtime.graph.names import endpoint_problem
+from runtime.graph.plan import GraphPlan
 from runtime.realtime import NO_CONSTRAINT_US, is_latency_us, latency_limit
 from runtime.run import default_output_dir, run_process
 from runtime.scheduler import SchedulerOptions
@@ -59,7 +61,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="zenoh endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable; with all "
         "processes on this host: for every one)",
     )
-    parser.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 configuration")
+    parser.add_argument(
+        "--zenoh-config",
+        metavar="FILE|DIR",
+        help="zenoh JSON5 configuration (TLS, access control, routers); a folder written by "
+        "`umbra keys` gives each process its own PROCESS.json5 (mutual TLS + the graph's rules)",
+    )
+    parser.add_argument(
+        "--insecure",
+        action="store_true",
+        help="allow listening beyond loopback without TLS, and run the processes of this host "
+        "without per-run credentials (anyone who reaches an endpoint can drive the graph)",
+    )
     parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
     parser.add_argument(
         "--cpu-latency-us",
@@ -69,9 +82,34 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "real-time hosts do (0: idle CPUs poll; writes /dev/cpu_dma_latency, needs root); "
         "overrides the graph's processes.NAME.cpu_latency_us",
     )
+    parser.add_argument(
+        "--record",
+        action="store_true",
+        help="record every connection into one MCAP file in the run folder (Foxglove-ready; "
+        "settings: the graph's `record:`)",
+    )
+    parser.add_argument(
+        "--record-images",
+        choices=("raw", "jpeg", "png"),
+        help="with --record: how images are recorded (default: the graph's, else jpeg)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no summary table")
     # a process started by the launcher: commands on stdin, bounded wait for its consumers
     parser.add_argument("--supervised", action="store_true", help=argparse.SUPPRESS)
+    # the launcher's per-run credentials file of this process (mode 0600)
+    parser.add_argument("--link-auth", metavar="FILE", help=argparse.SUPPRESS)
+    # benchmarks only: links without identity checks and size bounds (their cost is measured)
+    parser.add_argument("--unchecked-links", action="store_true", help=argparse.SUPPRESS)
+
+
+def enable_recording(plan: GraphPlan, args: argparse.Namespace) -> None:
+    """``--record`` / ``--record-images``: turn the graph's ``record:`` setting on."""
+    if getattr(args, "record", False):
+        plan.spec.record.enabled = True
+    if getattr(args, "record_images", None):
+        if not plan.spec.record.enabled:
+            raise UserError("--record-images needs --record (or `record:` in the graph)")
+        plan.spec.record.images = args.record_images
 
 
 def main(args: argparse.Namespace) -> int:
@@ -82,7 +120,12 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(
             f"--cpu-latency-us must be from 0 to {NO_CONSTRAINT_US} microseconds, found {latency}"
         )
+    for option in ("listen", "connect"):
+        for endpoint in getattr(args, option):
+            if endpoint_problem(endpoint):
+                raise UserError(f"--{option}: error: {endpoint_problem(endpoint)}")
     plan = load_graph(args.graph, overrides=parse_module_set(args.set), prefix=args.prefix)
+    enable_recording(plan, args)
     clock = args.clock or plan.spec.clock
     duration = args.duration if args.duration is not None else plan.spec.duration
     out = args.out or default_output_dir(plan)
@@ -102,6 +145,13 @@ def main(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(result.table(), file=sys.stderr)
             print(f"summary written to {out}", file=sys.stderr)
+            if "recording" in result.extra:
+                rec = result.extra["recording"]
+                print(
+                    f"recording: {rec['file']} ({rec['written']} samples, "
+                    f"{rec['dropped']} dropped)",
+                    file=sys.stderr,
+                )
         return result.exit_code
     from runtime import launcher
 

@@ -8,20 +8,43 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 from importlib.metadata import entry_points
 from types import ModuleType
+from typing import Any
 
 from connectors.errors import UserError
 
 #: The runtime's own sub-commands, in the order ``umbra --help`` lists them. Domain commands
 #: (``snake``, ``arm``, ``calib``, ``trials``...) come from the ``umbra.commands`` entry-point
 #: group, so the runtime never imports a domain package by name.
-COMMANDS = ("cmd_run", "cmd_check", "cmd_modules", "cmd_describe", "cmd_graph", "cmd_bench")
+COMMANDS = (
+    "cmd_run",
+    "cmd_check",
+    "cmd_modules",
+    "cmd_describe",
+    "cmd_graph",
+    "cmd_bench",
+    "cmd_record_info",
+    "cmd_replay",
+    "cmd_keys",
+)
 COMMAND_GROUP = "umbra.commands"
 
 
+#: A command-line word that is a value, not an option: a negative number or a comma-separated
+#: list that starts with one (``--q -0.5,0.2,...``, ``--seed -3,4``, ``--at -1e-3``).
+NEGATIVE_VALUE_RE = re.compile(r"^-(\d|\.\d)[\d.eE+\-,]*$")
+
+
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse takes `-0.5,1` for an option unless it matches this pattern (argparse's own
+        # attribute for it, unchanged since Python 2.7; no option of ours looks like a number)
+        self._negative_number_matcher = NEGATIVE_VALUE_RE
+
     def error(self, message: str) -> None:  # usage message and exit 2 on a bad command line
         self.print_usage(sys.stderr)
         self.exit(2, f"{self.prog}: error: {message}\n")

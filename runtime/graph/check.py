@@ -14,12 +14,15 @@ import pydantic
 
 from connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from connectors.frames import FrameTree
+from connectors.params import ParamProblem
 from connectors.ports import Input
+from runtime.graph.names import key_prefix_problem
 from runtime.graph.order import find_cycle, topological_order
 from runtime.graph.parse import ShapeProblems, parse_graph_file, parse_graph_text
 from runtime.graph.plan import GraphPlan, LinkPlan, ModulePlan, PortInfo
 from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
 from runtime.hints import did_you_mean
+from runtime.recording.settings import check_record_ports
 from runtime.registry import Registry
 
 #: Frames every graph knows without declaring them.
@@ -51,6 +54,10 @@ class _Checker:
         self.check_scheduling()
         order = self.check_loops()
         self.check_guards()
+        outputs = {
+            n: set(m.outputs) if (m := self.modules.get(n)) else None for n in self.spec.modules
+        }
+        check_record_ports(self.spec.record, outputs, self.error)
         if self.problems:
             return None
         plan = GraphPlan(self.spec, self.modules, self.connections, order, frames)
@@ -66,6 +73,11 @@ class _Checker:
         params = self.params(mspec, cls.Params)
         if params is None:
             return None
+        problem = params.rate_problem(mspec.rate)
+        if problem:
+            self.error(
+                mspec.rate_loc or mspec.loc, f"module `{mspec.name}` ({mspec.type}): {problem}"
+            )
         in_decls = cls.input_decls(params)
         inputs = _port_infos(in_decls, params)
         outputs = _port_infos(cls.output_decls(), params)
@@ -102,12 +114,24 @@ class _Checker:
                     self.error(
                         mspec.params_loc, f"{mspec.type} `{mspec.name}` needs parameter `{key}`"
                     )
+                elif not loc and isinstance(_cause(err), ParamProblem):
+                    field = _cause(err).field
+                    self.error(
+                        mspec.param_val_loc.get(field, mspec.params_loc),
+                        f"parameters of `{mspec.name}`: {_cause(err)}",
+                    )
+                elif err["type"] == "value_error" and _cause(err) is not None:
+                    where = ".".join(str(p) for p in loc)  # a validator's own message
+                    self.error(
+                        mspec.param_val_loc.get(key, mspec.params_loc),
+                        f"parameter `{where}` of `{mspec.name}`: {_cause(err)}",
+                    )
                 else:
                     where = ".".join(str(p) for p in loc)
                     self.error(
                         mspec.param_val_loc.get(key, mspec.params_loc),
                         f"parameter `{where}` of `{mspec.name}`: {err['msg']}, "
-                        f"found {err.get('input')!r}"[:300],
+                        f"found {_short(err.get('input'))}",
                     )
             return None
         except (TypeError, ValueError) as exc:  # a module's own validator
@@ -131,6 +155,15 @@ class _Checker:
         return tree
 
     def check_frames(self, tree: FrameTree) -> None:
+        for plan in self.modules.values():
+            missing = [f"{a}->{b}" for a, b in plan.params.required_frames() if not tree.has(a, b)]
+            if missing:
+                self.error(
+                    plan.spec.loc,
+                    f"module `{plan.name}` ({plan.spec.type}) needs the static frame(s) "
+                    f"{', '.join(missing)}, which the graph's `frames:` do not join",
+                    "declare them under `frames:` as `parent->child`",
+                )
         known = set(WELL_KNOWN_FRAMES) | tree.names
         for plan in self.modules.values():
             for decl in [*plan.input_decls.values(), *plan.cls.output_decls().values()]:
@@ -256,8 +289,8 @@ class _Checker:
     def check_scheduling(self) -> None:
         connected = {(c.dst.module, c.dst.port) for c in self.spec.connections}
         for plan in self.modules.values():
-            if plan.spec.rate is not None:
-                continue
+            if plan.spec.rate is not None or plan.spec.rate_loc is not None:
+                continue  # a rate, or a bad one (reported when the graph was read)
             live = [t for t in plan.triggers if (plan.name, t) in connected]
             reported = any(plan.input_decls[t].required for t in plan.triggers if t not in live)
             if not live and not reported:
@@ -286,18 +319,22 @@ class _Checker:
         return topological_order(names, edges)
 
     def check_guards(self) -> None:
-        feeding: dict[str, list[ConnectionSpec]] = {}
+        feeding: dict[str, list[str]] = {}
         for conn in self.connections:
             decl = self.modules[conn.dst.module].input_decls[conn.dst.port]
             if not decl.feedback:
-                feeding.setdefault(conn.dst.module, []).append(conn)
+                feeding.setdefault(conn.dst.module, []).append(conn.src.module)
+        unknown = {c.dst.module for c in self.spec.connections if c.src.module not in self.modules}
         for conn in self.connections:
             decl = self.modules[conn.dst.module].input_decls[conn.dst.port]
             if not decl.requires_guard:
                 continue
-            path = self.unguarded_path(conn.src.module, feeding, {conn.dst.module})
+            path = self.unguarded_path(conn.src.module, conn.dst.module, feeding, unknown)
             if path is not None:
-                chain = " -> ".join([*reversed(path), str(conn.dst)])
+                names = [*reversed(path), str(conn.dst)]
+                if len(names) > 12:  # a long chain: its ends and how many between
+                    names = [*names[:5], f"... {len(names) - 10} more ...", *names[-5:]]
+                chain = " -> ".join(names)
                 self.error(
                     conn.loc,
                     f"`{conn.dst}` must be fed through a safety guard, but the "
@@ -306,21 +343,45 @@ class _Checker:
                 )
 
     def unguarded_path(
-        self, module: str, feeding: dict[str, list[ConnectionSpec]], seen: set[str]
+        self, start: str, target: str, feeding: dict[str, list[str]], unknown: set[str]
     ) -> list[str] | None:
-        if module in seen:
+        """A command path into ``target`` from ``start`` upstream that passes no guard (``start``
+        first), or None when every path passes one. A path ends unguarded at a module nothing
+        feeds, or when it closes a loop (back to a module on it, or to ``target``): a loop with
+        no guard on it keeps a command alive with no producer behind it. Paths through a module
+        that could not be built, or fed by one, are not judged (that failure is reported
+        already). Depth-first without recursion and visiting each module once, so a chain of
+        thousands of modules or a lattice of many paths is checked in linear time."""
+        done: set[str] = set()
+        stack: list[tuple[str, list[str]]] = [(start, list(feeding.get(start, [])))]
+        on_path = {start}
+        if self._ends_here(start, unknown):
             return None
-        plan = self.modules[module]
-        if plan.cls.SAFETY_GUARD:
-            return None
-        upstream = feeding.get(module, [])
-        if not upstream:
-            return [module]
-        for conn in upstream:
-            path = self.unguarded_path(conn.src.module, feeding, seen | {module})
-            if path is not None:
-                return [module, *path]
+        if not stack[0][1]:
+            return [start]
+        while stack:
+            module, pending = stack[-1]
+            if not pending:
+                stack.pop()
+                on_path.discard(module)
+                done.add(module)
+                continue
+            up = pending.pop()
+            if up in on_path or up == target:
+                return [m for m, _ in stack] + [up]
+            if up in done or self._ends_here(up, unknown):
+                continue
+            upstream = list(feeding.get(up, []))
+            if not upstream:
+                return [m for m, _ in stack] + [up]
+            stack.append((up, upstream))
+            on_path.add(up)
         return None
+
+    def _ends_here(self, module: str, unknown: set[str]) -> bool:
+        """A path stops at a guard, and is not judged past a module that failed or its inputs."""
+        plan = self.modules.get(module)
+        return plan is None or module in unknown or plan.cls.SAFETY_GUARD
 
     # -- links ----------------------------------------------------------------------------------
     def links(self, plan: GraphPlan) -> list[LinkPlan]:
@@ -360,6 +421,8 @@ def load_graph(
 ) -> GraphPlan:
     """Parse and check a graph file, with ``--set`` overrides ``{module: {param: value}}`` and a
     ``--prefix`` replacing the zenoh key prefix of ``links:`` (when given)."""
+    if prefix and key_prefix_problem(prefix):
+        raise UserError(f"--prefix: error: {key_prefix_problem(prefix)}")
     spec, earlier = _read(lambda: parse_graph_file(path))
     apply_overrides(spec, overrides or {})
     if prefix:
@@ -388,6 +451,21 @@ def apply_overrides(spec: GraphSpec, overrides: dict[str, dict[str, Any]]) -> No
             where = Location(f"--set {module}.{key}", 0, 0)
             spec.modules[module].param_val_loc[key] = where
             spec.modules[module].param_key_loc[key] = where
+
+
+def _cause(err: Any) -> BaseException | None:
+    """The exception a validator raised, kept by pydantic in the error's context."""
+    ctx = err.get("ctx") or {}
+    return ctx.get("error") if isinstance(ctx.get("error"), BaseException) else None
+
+
+def _short(value: Any) -> str:
+    """``repr(value)`` cut to 120 characters (a 5000-digit number is not printed whole)."""
+    try:
+        text = repr(value)
+    except ValueError:  # an int too long for repr
+        return "a number too long to print"
+    return text if len(text) <= 120 else text[:117] + "..."
 
 
 def _port_infos(decls: dict[str, Any], params: Any) -> dict[str, PortInfo]:

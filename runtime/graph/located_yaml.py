@@ -12,6 +12,7 @@ from typing import Any
 import yaml
 
 from connectors.errors import CheckFailed, Diagnostic, Location
+from connectors.safe_yaml import BoundedLoader, Refused, check_tree
 
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64
@@ -56,7 +57,10 @@ class _Builder:
         if isinstance(node, yaml.MappingNode):
             out = YMap()
             out.loc, out.key_loc, out.val_loc = _loc(self.file, node), {}, {}
-            self.constructor.flatten_mapping(node)
+            try:  # YAML `<<` merges, which may name something that is no mapping
+                self.constructor.flatten_mapping(node)
+            except yaml.YAMLError as exc:
+                raise _Bad(node, f"bad merge: {_problem(exc)}") from None
             for key_node, value_node in node.value:
                 key = self.build(key_node, depth + 1)
                 if isinstance(key, dict | list):
@@ -79,6 +83,9 @@ class _Builder:
             return self.constructor.construct_object(node, deep=True)
         except yaml.YAMLError as exc:
             raise _Bad(node, f"bad value: {_problem(exc)}") from None
+        except Exception as exc:  # `!!float abc`, a 5000-digit integer: the file's fault
+            text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise _Bad(node, f"bad value for tag `{node.tag}`: {text[:160]}") from None
 
 
 class _Bad(Exception):
@@ -121,11 +128,15 @@ def load_located(text_or_bytes: str | bytes, file: str) -> Any:
         line = text[: text.index("\x00")].count("\n") + 1
         raise fail(line, 1, "not a text file (contains a NUL byte)")
     try:
-        loader = yaml.SafeLoader(text)
+        loader = BoundedLoader(text, MAX_DEPTH)
         try:
             node = loader.get_single_node()
+            if node is not None:  # alias bombs and cycles, measured without expanding them
+                check_tree(node, MAX_DEPTH, MAX_NODES)
         finally:
             loader.dispose()
+    except Refused as exc:
+        raise fail(exc.line, exc.column, exc.message) from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -134,6 +145,9 @@ def load_located(text_or_bytes: str | bytes, file: str) -> Any:
         raise fail(1, 1, f"YAML: {_problem(exc)}") from None
     except RecursionError:
         raise fail(1, 1, "YAML nesting is too deep") from None
+    except Exception as exc:  # PyYAML itself failing on the text (`%YAML 1.<5000 digits>`)
+        text_of_exc = (str(exc).splitlines() or [type(exc).__name__])[0][:160]
+        raise fail(1, 1, f"YAML syntax: {text_of_exc}") from None
     if node is None:
         return None
     builder = _Builder(file)

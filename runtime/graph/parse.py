@@ -28,7 +28,10 @@ import numpy as np
 
 from connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from connectors.frames import transform_from_xyz_rpy
+from connectors.limits import MAX_RATE_HZ, MIN_RATE_HZ
+from connectors.user_files import read_bytes
 from runtime.graph.located_yaml import MAX_BYTES, YList, YMap, load_located
+from runtime.graph.names import MAX_NAME_CHARS, endpoint_problem, key_prefix_problem
 from runtime.graph.spec import (
     DEFAULT_PROCESS,
     ConnectionSpec,
@@ -40,6 +43,7 @@ from runtime.graph.spec import (
 )
 from runtime.hints import did_you_mean
 from runtime.realtime import NO_CONSTRAINT_US, is_latency_us
+from runtime.recording.settings import parse_record
 
 TOP_KEYS = (
     "graph",
@@ -52,6 +56,7 @@ TOP_KEYS = (
     "modules",
     "connections",
     "links",
+    "record",
 )
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
 PROCESS_KEYS = ("cpu_latency_us",)
@@ -109,8 +114,12 @@ class _Parser:
         name = doc.get("graph")
         if "graph" not in doc:
             self.error(doc.loc, "missing `graph: NAME` (the graph's name)")
-        elif not isinstance(name, str) or not NAME_RE.match(name):
-            self.error(doc.val_loc["graph"], f"graph name must be an identifier, found {name!r}")
+        elif not isinstance(name, str) or not NAME_RE.match(name) or len(name) > MAX_NAME_CHARS:
+            self.error(
+                doc.val_loc["graph"],
+                f"graph name must be an identifier (letters, digits, `_`) of at most "
+                f"{MAX_NAME_CHARS} characters, found {_kind(name)}",
+            )
         else:
             spec.name = name
         spec.description = str(doc.get("description", ""))
@@ -136,6 +145,8 @@ class _Parser:
         spec.modules = self.modules(doc, spec.processes)
         spec.connections = self.connections(doc)
         spec.links = self.links(doc)
+        if "record" in doc:
+            spec.record = parse_record(doc["record"], doc.val_loc["record"], self.error)
         return spec
 
     def positive(self, value: Any, loc: Location, what: str) -> float | None:
@@ -148,6 +159,18 @@ class _Parser:
             self.error(loc, f"{what} must be a positive number, found {value!r}")
             return None
         return float(value)
+
+    def rate(self, value: Any, loc: Location, module: str) -> float | None:
+        """A module's rate [Hz], within [MIN_RATE_HZ, MAX_RATE_HZ]."""
+        rate = self.positive(value, loc, f"rate [Hz] of module `{module}`")
+        if rate is not None and not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
+            self.error(
+                loc,
+                f"rate of module `{module}` must be from {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz, "
+                f"found {value!r}",
+            )
+            return None
+        return rate
 
     def processes(self, doc: YMap, spec: GraphSpec) -> dict[str, Location]:
         if "processes" not in doc:
@@ -277,9 +300,7 @@ class _Parser:
             self.error(key_loc, f"module `{name}` needs `process:` (one of {', '.join(processes)})")
         rate = None
         if "rate" in body:
-            rate = self.positive(
-                body["rate"], body.val_loc["rate"], f"rate [Hz] of module `{name}`"
-            )
+            rate = self.rate(body["rate"], body.val_loc["rate"], name)
         trigger = None
         trigger_loc = body.val_loc.get("trigger", key_loc)
         if "trigger" in body:
@@ -314,6 +335,7 @@ class _Parser:
             process_loc=process_loc,
             trigger_loc=trigger_loc,
             params_loc=params_loc,
+            rate_loc=body.val_loc.get("rate"),
             param_key_loc=key_locs,
             param_val_loc=val_locs,
         )
@@ -396,14 +418,24 @@ class _Parser:
                 self.error(
                     section.val_loc[key],
                     f"`links.{key}` must be endpoint strings "
-                    f"like `tcp/127.0.0.1:7447`, found {value!r}",
+                    f"like `tcp/127.0.0.1:7447`, found {_kind(value)}",
                 )
                 continue
-            setattr(settings, key, list(value))
+            where = section.val_loc.get(key, section.loc)
+            item_locs = getattr(value, "item_loc", None) or [where] * len(value)
+            bad = [(v, loc) for v, loc in zip(value, item_locs, strict=True) if endpoint_problem(v)]
+            for endpoint, loc in bad:
+                self.error(loc, f"`links.{key}`: {endpoint_problem(endpoint)}")
+            if not bad:
+                setattr(settings, key, list(value))
         for key in ("prefix", "zenoh_config"):
             if key in section:
                 if not isinstance(section[key], str):
                     self.error(section.val_loc[key], f"`links.{key}` must be a string")
+                elif key == "prefix" and key_prefix_problem(section[key]):
+                    self.error(
+                        section.val_loc[key], f"`links.prefix`: {key_prefix_problem(section[key])}"
+                    )
                 else:
                     setattr(settings, key, section[key])
         if "dispatch" in section:
@@ -471,11 +503,18 @@ def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
 
 
 def parse_graph_file(path: str | Path) -> GraphSpec:
-    """Read and parse a graph file; UserError when it cannot be read."""
+    """Read and parse a graph file; UserError when it cannot be read. Only a regular file of at
+    most MAX_BYTES is read (``/dev/zero`` or a FIFO named as a graph is refused unread)."""
     path = Path(path)
+    if path.is_dir():
+        raise UserError(f"{path}: error: is a directory, expected a graph file (.yaml)")
+    if not path.exists():
+        raise UserError(f"{path}: error: no such graph file")
     try:
-        size = path.stat().st_size
-        if size > MAX_BYTES:  # before reading it; load_located checks the bytes it is given
+        data = read_bytes(path, "graph file", MAX_BYTES)
+    except UserError as exc:
+        if "more than" in str(exc) and path.is_file():
+            size = path.stat().st_size
             raise CheckFailed(
                 [
                     Diagnostic(
@@ -483,14 +522,6 @@ def parse_graph_file(path: str | Path) -> GraphSpec:
                         f"file is {size} bytes; a graph file is at most {MAX_BYTES}",
                     )
                 ]
-            )
-        data = path.read_bytes()
-    except IsADirectoryError:
-        raise UserError(f"{path}: error: is a directory, expected a graph file (.yaml)") from None
-    except FileNotFoundError:
-        raise UserError(f"{path}: error: no such graph file") from None
-    except PermissionError:
-        raise UserError(f"{path}: error: permission denied") from None
-    except OSError as exc:
-        raise UserError(f"{path}: error: cannot read: {exc.strerror}") from None
+            ) from None
+        raise
     return parse_graph_text(data, str(path))

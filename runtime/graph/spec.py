@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from connectors.errors import Location
+from runtime.recording.settings import RecordSettings
 
 DEFAULT_PROCESS = "main"
 
@@ -55,6 +56,7 @@ class ModuleSpec:
     params_loc: Location
     param_key_loc: dict[str, Location] = field(default_factory=dict)
     param_val_loc: dict[str, Location] = field(default_factory=dict)
+    rate_loc: Location | None = None
 
 
 @dataclass
@@ -98,6 +100,8 @@ class GraphSpec:
     connections: list[ConnectionSpec] = field(default_factory=list)
     frames: list[StaticFrameSpec] = field(default_factory=list)
     links: LinkSettings = field(default_factory=LinkSettings)
+    #: ``record:``: whether and how the run records its connections (``runtime.recording``)
+    record: RecordSettings = field(default_factory=RecordSettings)
     loc: Location | None = None
     #: modules whose declaration was broken (already reported); later checks stay quiet on them
     broken_modules: set[str] = field(default_factory=set)

@@ -4,6 +4,12 @@
 ``session`` opens them, ``transport`` is the :class:`runtime.links_api.LinkTransport` over zenoh
 (publishers, subscribers, liveliness, counters), ``shm`` puts large samples in shared memory and
 ``process`` runs one process of a split graph with its links.
+
+Trust: ``identity`` (who produced a sample: the producer's live session), ``bounds`` (the largest
+sample a link accepts), ``acl`` (zenoh access rules derived from the graph), ``auth`` (the
+launcher's per-run credentials), ``tls`` (``umbra keys``: CA, certificates, per-process
+configurations), ``exposure`` (no plain-text endpoint beyond loopback unless ``--insecure``),
+``shm_sweep`` (shared memory of a dead process removed at once).
 """
 
 from runtime.links.config import Endpoints, build_config, free_loopback_ports, loopback_mesh

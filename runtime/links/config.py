@@ -21,10 +21,12 @@ import re
 import socket
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import zenoh
 
 from connectors.errors import UserError
+from runtime.links.auth import apply_auth
 
 #: Lease of a zenoh link [ms]: a peer that sends nothing for this long is declared gone.
 LEASE_MS = 1000
@@ -57,17 +59,19 @@ def check_endpoint(text: str, where: str) -> str:
     return text.strip()
 
 
-def loopback_mesh(processes: list[str], ports: list[int]) -> dict[str, Endpoints]:
+def loopback_mesh(
+    processes: list[str], ports: list[int], protocol: str = "tcp"
+) -> dict[str, Endpoints]:
     """Loopback endpoints joining every pair of ``processes``: process i listens on
-    ``tcp/127.0.0.1:ports[i]`` and connects to every process before it (peers do not route for
-    each other, so a graph of three processes needs all three pairs)."""
+    ``PROTOCOL/127.0.0.1:ports[i]`` and connects to every process before it (peers do not route
+    for each other, so a graph of three processes needs all three pairs)."""
     if len(ports) < len(processes):
         raise ValueError(f"need {len(processes)} ports, got {len(ports)}")
     mesh = {}
     for i, name in enumerate(processes):
         mesh[name] = Endpoints(
-            listen=[f"tcp/{LOOPBACK}:{ports[i]}"],
-            connect=[f"tcp/{LOOPBACK}:{ports[j]}" for j in range(i)],
+            listen=[f"{protocol}/{LOOPBACK}:{ports[i]}"],
+            connect=[f"{protocol}/{LOOPBACK}:{ports[j]}" for j in range(i)],
         )
     return mesh
 
@@ -101,9 +105,31 @@ def _user_config(path: str) -> zenoh.Config:
     if not file.is_file():
         raise UserError(f"{path}: error: no such zenoh configuration file (JSON5)")
     try:
-        return zenoh.Config.from_file(str(file))
+        cfg = zenoh.Config.from_file(str(file))
     except Exception as exc:  # zenoh raises ZError with its parser's message
         raise UserError(f"{path}: error: not a valid zenoh configuration: {exc}") from None
+    _resolve_tls_files(cfg, file.resolve().parent)
+    return cfg
+
+
+#: Zenoh TLS settings that name files.
+_TLS_FILES = (
+    "root_ca_certificate",
+    "listen_private_key",
+    "listen_certificate",
+    "connect_private_key",
+    "connect_certificate",
+)
+
+
+def _resolve_tls_files(cfg: zenoh.Config, folder: Path) -> None:
+    """Certificate and key paths relative to the configuration file's ``folder`` (as ``umbra
+    keys`` writes them), so the folder can be copied anywhere."""
+    for name in _TLS_FILES:
+        key = f"transport/link/tls/{name}"
+        value = json.loads(cfg.get_json(key))
+        if isinstance(value, str) and value and not Path(value).is_absolute():
+            cfg.insert_json5(key, json.dumps(str(folder / value)))
 
 
 def file_endpoints(path: str) -> Endpoints:
@@ -119,11 +145,17 @@ def file_endpoints(path: str) -> Endpoints:
     return found
 
 
-def build_config(endpoints: Endpoints, config_file: str | None = None) -> zenoh.Config:
+def build_config(
+    endpoints: Endpoints, config_file: str | None = None, auth: dict[str, Any] | None = None
+) -> zenoh.Config:
     """A zenoh configuration for one process: ``config_file`` (JSON5, for TLS, access control,
-    routers) when given, then our safety settings and exactly ``endpoints``."""
+    routers) when given, then our safety settings and exactly ``endpoints``; ``auth`` (the
+    launcher's per-run credentials, ``runtime.links.auth``) adds password authentication and the
+    graph's access-control rules."""
     stock = zenoh.Config()
     cfg = _user_config(config_file) if config_file else zenoh.Config()
+    if auth is not None:
+        apply_auth(cfg, auth)
 
     def unchanged(key: str) -> bool:
         return cfg.get_json(key) == stock.get_json(key)

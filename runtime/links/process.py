@@ -27,8 +27,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+import zenoh
+
 from runtime.graph.plan import GraphPlan
+from runtime.links.auth import load_auth
+from runtime.links.bounds import inbound_limit
 from runtime.links.config import Endpoints, build_config, describe
+from runtime.links.exposure import has_access_control
 from runtime.links.session import open_session
 from runtime.links.transport import ZenohTransport
 from runtime.run import write_summary
@@ -39,6 +44,8 @@ from runtime.stats import RunResult
 FINISH_GRACE = 5.0
 #: Exit status of a process stopped because the run failed elsewhere.
 ABORTED = 1
+#: Zenoh's limit on the size of one received message (reassembled from fragments) [bytes].
+RX_LIMIT = "transport/link/rx/max_message_size"
 
 
 @dataclass
@@ -51,6 +58,10 @@ class ProcessOptions:
     clock: str = "real"
     duration: float | None = None
     zenoh_config: str | None = None
+    #: the launcher's per-run credentials file of this process (``runtime.links.auth``)
+    link_auth: str | None = None
+    #: identity checks and size bounds on received samples (off only to measure their cost)
+    link_checks: bool = True
     ready_timeout: float | None = None  # None: wait for consumers forever
     quiet: bool = False
     #: the CPU wake-up latency [µs] held while running (``runtime.realtime``); None: none
@@ -126,10 +137,17 @@ def run_linked_process(
     ``summary-<process>.json``. UserError for a bad configuration (nothing started then)."""
     log = log or logging.getLogger("umbra")
     options.output_dir.mkdir(parents=True, exist_ok=True)
-    config = build_config(options.endpoints, options.zenoh_config)
+    auth = load_auth(options.link_auth) if options.link_auth else None
+    if auth is not None and has_access_control(options.zenoh_config):
+        auth.pop("access_control", None)  # the file's rules (``umbra keys``: by certificate)
+    config = build_config(options.endpoints, options.zenoh_config, auth)
+    if options.link_checks and config.get_json(RX_LIMIT) == zenoh.Config().get_json(RX_LIMIT):
+        config.insert_json5(RX_LIMIT, str(inbound_limit(plan, options.process)))
     session = open_session(config)
     log.info("process `%s`: %s", options.process, describe(config))
-    transport = ZenohTransport(session, plan, options.process, log=log.getChild("links"))
+    transport = ZenohTransport(
+        session, plan, options.process, log=log.getChild("links"), checks=options.link_checks
+    )
     try:
         scheduler = Scheduler(
             plan,

@@ -52,7 +52,13 @@ class SubscribeStats:
     decode_errors: int = 0
     missing: int = 0  #: sequence numbers skipped (samples lost on the way or dropped as old)
     stale_dropped: int = 0  #: samples older than one already delivered (dropped)
-    restarts: int = 0  #: the producer started again from sequence number 1
+    restarts: int = 0  #: a new session of the producer took over (its count starts again)
+    foreign: int = 0  #: samples from a session other than the producer's live one (dropped)
+    after_gone: int = 0  #: samples while the producer was declared gone (dropped, never revive)
+    unattributed: int = 0  #: samples before the producer's token was seen (dropped)
+    oversize: int = 0  #: samples larger than ``max_bytes`` (dropped before decoding)
+    implausible: int = 0  #: sequence numbers out of range or jumping too far ahead (dropped)
+    max_bytes: int = 0  #: the largest sample this link accepts [bytes]
     ended: int = 0  #: end-of-stream markers received (the producer stopped cleanly)
     pool_samples: int = 0  #: samples read in place from the producer's frame pool
     last_seq: int = 0
@@ -75,6 +81,12 @@ class SubscribeStats:
             "missing": self.missing,
             "stale_dropped": self.stale_dropped,
             "restarts": self.restarts,
+            "foreign": self.foreign,
+            "after_gone": self.after_gone,
+            "unattributed": self.unattributed,
+            "oversize": self.oversize,
+            "implausible": self.implausible,
+            "max_bytes": self.max_bytes,
             "ended": self.ended,
             "pool_samples": self.pool_samples,
             "last_seq": self.last_seq,
@@ -98,4 +110,13 @@ def link_lines(stats: dict[str, Any]) -> list[str]:
             f"missing {s['missing']}, undecodable {s['decode_errors']}, "
             f"old dropped {s['stale_dropped']}"
         )
+        refused = {
+            "foreign": s.get("foreign", 0),
+            "after gone": s.get("after_gone", 0),
+            "unattributed": s.get("unattributed", 0),
+            "oversize": s.get("oversize", 0),
+            "implausible seq": s.get("implausible", 0),
+        }
+        if any(refused.values()):
+            lines[-1] += "; refused " + ", ".join(f"{k} {v}" for k, v in refused.items() if v)
     return lines

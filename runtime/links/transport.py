@@ -4,11 +4,18 @@ Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overr
 
 * ``P/<module>/<port>`` — samples of one output, one publisher per output whatever the number of
   consumers; a ``delete`` on it marks the end of the stream (the producer stopped cleanly);
-* ``P/_alive/<process>/<marker>`` — a liveliness token held by each running process of the graph.
-  Zenoh removes it when the process's session ends for any reason (exit, crash, kill -9, link lost
-  for longer than the lease), which is how consumers learn that a producing process is gone. The
-  marker names a file the process keeps in /dev/shm: a peer that sees the file shares this host's
-  shared memory.
+* ``P/_alive/<process>/<marker>/<session>`` — a liveliness token held by each running process of
+  the graph. Zenoh removes it when the process's session ends for any reason (exit, crash, kill -9,
+  link lost for longer than the lease), which is how consumers learn that a producing process is
+  gone. The marker names a file the process keeps in /dev/shm: a peer that sees the file shares
+  this host's shared memory. ``session`` is the zenoh id of the process's session, which also
+  stamps every sample it publishes (``runtime.links.identity``).
+
+Trust: a consumer accepts a sample only from the live session of the process the graph names as
+the link's producer (others are counted as foreign and dropped; a producer declared gone stays
+gone until its token comes back, whatever arrives meanwhile), only when its size is within the
+link's bound (``runtime.links.bounds``; checked before anything is copied or decoded), and only
+with a plausible sequence number, tracked per producer session.
 
 Commands never drop: a reliable link (every type but ``Image``) publishes with congestion control
 BLOCK; video may drop old frames: best-effort links use DROP. Both are ``express`` (no batching
@@ -27,6 +34,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -36,6 +44,8 @@ from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError, array_bytes, 
 from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
+from runtime.links.bounds import max_sample_bytes
+from runtime.links.identity import ALIVE, Sessions, alive_key, parse_alive_key
 from runtime.links.pool import (
     DESCRIPTOR_MAGIC,
     FORWARD_MAGIC,
@@ -51,18 +61,32 @@ from runtime.links.pool import (
 from runtime.links.shm import ShmWriter
 from runtime.links.stats import PublishStats, SubscribeStats
 
-ALIVE = "_alive"
 #: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
 END_GRACE = 0.05
-#: A process declared gone whose samples keep arriving this long [s] is alive after all.
-REVIVE_AFTER = 0.1
 #: At most one log line per key and this many seconds about undecodable samples.
 ERROR_LOG_PERIOD = 5.0
+#: Largest sequence number a sample may carry (2**48: a century at 80 kHz).
+MAX_SEQ = 2**48
+#: Largest forward jump of sequence numbers within one producer session (2**20 samples lost: an
+#: hour at 290 Hz); a larger jump is implausible and dropped, so one sample cannot make every
+#: later genuine one look old.
+MAX_SEQ_JUMP = 2**20
+#: Source ids (publishers) remembered per producer session: a producer has one or two per key.
+MAX_SOURCE_IDS = 8
+
+__all__ = ["ALIVE", "ZenohTransport", "alive_key"]
 
 
-def alive_key(prefix: str, process: str, marker: str = "none") -> str:
-    """Key of the liveliness token of ``process``."""
-    return f"{prefix}/{ALIVE}/{process}/{marker}"
+class _Trust:
+    """The producer session a subscription accepts samples from, and the source ids (its
+    publishers' ``zenoh.EntityGlobalId``) already matched to it: the fast path is one set
+    lookup."""
+
+    __slots__ = ("ids", "session")
+
+    def __init__(self) -> None:
+        self.session: str | None = None
+        self.ids: set[Any] = set()
 
 
 def _no_sink(sample: Message, now: float) -> None:
@@ -87,6 +111,7 @@ class ZenohTransport:
         log: logging.Logger | None = None,
         shm: ShmWriter | None = None,
         frame_pool: bool = True,
+        checks: bool = True,
     ) -> None:
         self._session = session
         self.prefix = plan.key_prefix
@@ -110,7 +135,14 @@ class ZenohTransport:
         self._arrived: dict[str, list[Callable[[], None]]] = {}
         self._alive: set[str] = set()
         self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
-        self._gone: dict[str, float | None] = {}  # declared gone -> first sample since (or None)
+        self._sessions = Sessions()
+        self._session_id = str(session.zid())
+        self._producer_params = {
+            link.key: plan.modules[link.connection.src.module].params for link in plan.links
+        }
+        #: identity and size checks: samples stamped with this session's id, and received ones
+        #: checked (off only to measure their cost: ``benchmarks/bench_links.py``)
+        self.checks = checks
         self.liveliness_flaps = 0
         #: Changes whenever a producer's liveliness or the end of a stream changes (what
         #: ``producer_alive`` answers): the scheduler re-reads link states only then.
@@ -118,13 +150,14 @@ class ZenohTransport:
         self._versions = itertools.count(1)
         self._ended: set[str] = set()
         self._last_error_log: dict[str, tuple[float, int]] = {}
+        self._last_refusal_log: dict[str, tuple[float, int]] = {}
         self._marker = HostMarker() if frame_pool else None
         self._pools: dict[str, FramePool] = {}
         self._reader = PoolReader()
         self._token: Any = None
         self._closed = False
         self._alive_sub = session.liveliness().declare_subscriber(
-            f"{self.prefix}/{ALIVE}/*/*", self._on_liveliness, history=True
+            f"{self.prefix}/{ALIVE}/*/*/*", self._on_liveliness, history=True
         )
 
     def _state_changed(self) -> None:
@@ -139,24 +172,36 @@ class ZenohTransport:
 
     # -- liveliness -----------------------------------------------------------------------------
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
-        name, marker = str(sample.key_expr).rsplit("/", 2)[-2:]
+        parsed = parse_alive_key(str(sample.key_expr))
+        if parsed is None:
+            return
+        name, marker, session = parsed
         if name == self.process:
             return
         up = sample.kind == zenoh.SampleKind.PUT
+        if up and not self._sessions.token_up(name, session):
+            self._log.warning(
+                "a second token of process `%s` (session %s) while its session %s is live: "
+                "ignored; only the live session drives its links",
+                name,
+                session,
+                self._sessions.live.get(name),
+            )
+            return
+        if not up and not self._sessions.token_down(name, session):
+            return  # the token of a session that is not (or no longer) the live one
         with self._lock:
             known = name in self._alive
             if up:
                 self._alive.add(name)
-                self._gone.pop(name, None)
                 pid = marker_pid(marker) if self._marker is not None else None
                 if pid is not None:
                     self._peer_pid[name] = pid
             else:
                 self._alive.discard(name)
-                self._gone[name] = None
             self._state_changed()
         if up and not known:
-            self._log.info("process `%s` is up", name)
+            self._log.info("process `%s` is up (session %s)", name, session)
         elif not up and known:
             mine = [k for k, p in self._producer_of.items() if p == name and k in self._subs]
             if mine and all(k in self._ended for k in mine):
@@ -169,7 +214,7 @@ class ZenohTransport:
         if self._token is None:
             marker = self._marker.id if self._marker is not None else "none"
             self._token = self._session.liveliness().declare_token(
-                alive_key(self.prefix, self.process, marker)
+                alive_key(self.prefix, self.process, marker, self._session_id)
             )
 
     def alive_processes(self) -> set[str]:
@@ -200,7 +245,11 @@ class ZenohTransport:
         stats = PublishStats(link.key, [str(link.connection)], link.reliable)
         self._pubs[link.key] = (pub, stats)
         encode = self._codec.compact_writer(link.msg_type)
-        wrap, put, log = self._shm.payload, pub.put, self._log
+        source = zenoh.SourceInfo(pub.id, 0)  # this session's id on every sample
+        wrap, log = self._shm.payload, self._log
+
+        put = partial(pub.put, source_info=source) if self.checks else pub.put
+
         counters, threshold = self._shm.counters, self._shm.threshold
         pooled = self._pooled_publish(link, stats) if not link.reliable else None
 
@@ -249,6 +298,7 @@ class ZenohTransport:
             priority=zenoh.Priority.DATA,
             express=True,
         )
+        descriptor_source, stamp = zenoh.SourceInfo(descriptors.id, 0), self.checks
         frame, frame_header = self._codec.frame, self._codec.frame_header
         reader, peer_pid = self._reader, self._peer_pid
 
@@ -301,7 +351,7 @@ class ZenohTransport:
                     if descriptor is None:
                         stats.pool_full += 1
                         return False
-            descriptors.put(descriptor)
+            descriptors.put(descriptor, source_info=descriptor_source if stamp else None)
             stats.sent += 1
             stats.bytes += size
             stats.pool_samples += 1
@@ -390,25 +440,86 @@ class ZenohTransport:
             else 0
         )
         reader, monotonic = self._reader, time.monotonic
-        gone = self._gone
         read_compact = self._decoder().compact_reader(expected) or (lambda data: None)
+        bound = max_sample_bytes(expected, self._producer_params.get(key))
+        stats.max_bytes = bound
+        live, gone = self._sessions.live, self._sessions.gone
+        trust, refused = _Trust(), self._refused
+
+        def attributed(sample: zenoh.Sample) -> bool:
+            """Whether ``sample`` comes from the live session of the link's producer (counted
+            when not)."""
+            current = live.get(producer)  # type: ignore[arg-type]
+            if current is None:  # not up yet, or declared gone: nobody drives the link
+                if producer in gone:
+                    stats.after_gone += 1
+                    refused(stats, f"`{producer}` was declared gone; only its return revives it")
+                else:
+                    stats.unattributed += 1
+                    refused(stats, f"`{producer}` has not announced its session yet")
+                return False
+            info = sample.source_info
+            if info is None:
+                stats.foreign += 1
+                refused(stats, "it names no source session (not from the producer)")
+                return False
+            source = info.source_id
+            zid = str(source.zid)
+            if zid != current:
+                stats.foreign += 1
+                refused(stats, f"session {zid} is not `{producer}`'s live session {current}")
+                return False
+            if trust.session != current:  # a new session of the producer: a new count
+                if trust.session is not None:
+                    stats.restarts += 1
+                stats.last_seq = 0
+                trust.session = current
+                trust.ids = set()
+            if len(trust.ids) < MAX_SOURCE_IDS:
+                trust.ids.add(source)
+            return True
+
+        checks = self.checks
 
         def on_sample(sample: zenoh.Sample) -> None:
+            if checks:
+                info = sample.source_info
+                if (
+                    info is None
+                    or info.source_id not in trust.ids
+                    or live.get(producer) != trust.session  # type: ignore[arg-type]
+                ) and not attributed(sample):
+                    return
             if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
                 stats.ended += 1
                 ended.add(key)
                 self._state_changed()
                 return
+            payload = sample.payload
+            if checks and len(payload) > bound:  # before any copy or decode
+                stats.oversize += 1
+                refused(stats, f"{len(payload)} bytes, more than the {bound} allowed")
+                return
             release: Callable[[], None] | None = None
             try:
-                data: Any = sample.payload.to_bytes()
+                data: Any = payload.to_bytes()
                 magic = data[:4]
                 if magic == DESCRIPTOR_MAGIC and is_descriptor(data):
                     data, release = reader.open(data, column)
+                    if len(data) > bound:
+                        release()
+                        stats.oversize += 1
+                        refused(stats, f"a frame of {len(data)} bytes, more than {bound} allowed")
+                        return
                     stats.pool_samples += 1
                     msg = self._decoder().decode(data, expected)
                 elif magic == FORWARD_MAGIC and is_forward(data):
                     data, release, header = reader.open_forward(data, column)
+                    if len(data) > bound:
+                        release()
+                        stats.oversize += 1
+                        refused(stats, f"a frame of {len(data)} bytes, more than {bound} allowed")
+                        return
                     stats.pool_samples += 1
                     msg = self._decoder().decode_placed(header, data, expected)
                 else:  # a small sample: the compact reader, else the general path (or its error)
@@ -421,12 +532,16 @@ class ZenohTransport:
                 self._bad_sample(stats, exc)
                 return
             seq, last = msg.seq, stats.last_seq
+            if checks and not (0 <= seq <= MAX_SEQ and (not last or seq - last <= MAX_SEQ_JUMP)):
+                if release is not None:
+                    release()
+                stats.implausible += 1
+                refused(stats, f"sequence number {seq} after {last} is implausible")
+                return
             if last and seq <= last:
-                if seq != 1:
-                    stats.stale_dropped += 1
-                    return
-                stats.restarts += 1
-            elif last and seq > last + 1:
+                stats.stale_dropped += 1
+                return
+            if last and seq > last + 1:
                 stats.missing += seq - last - 1
             stats.last_seq = seq
             stats.received += 1
@@ -435,8 +550,6 @@ class ZenohTransport:
             if key in ended:
                 ended.discard(key)
                 self._state_changed()
-            if gone and stats.producer in gone:
-                self._samples_after_gone(stats.producer, stats.last_arrival)
             for d in delivers:
                 d(msg)
             for hook in hooks:
@@ -445,27 +558,18 @@ class ZenohTransport:
         sub = self._session.declare_subscriber(link.key, on_sample)
         self._subs[link.key] = (sub, stats, delivers)
 
-    def _samples_after_gone(self, producer: str, now: float) -> None:
-        """Samples still arriving from a process declared gone: in flight when it died (a burst
-        of a few milliseconds), or the declaration was wrong — then, after ``REVIVE_AFTER``
-        seconds of arrivals, it is alive again."""
-        with self._lock:
-            if producer not in self._gone:
-                return
-            first = self._gone[producer]
-            if first is None:
-                self._gone[producer] = now
-                return
-            if now - first < REVIVE_AFTER:
-                return
-            del self._gone[producer]
-            self._alive.add(producer)
-            self._state_changed()
-            self.liveliness_flaps += 1
-        self._log.warning(
-            "process `%s`: zenoh said it was gone, but its samples keep arriving; alive after all",
-            producer,
-        )
+    def _refused(self, stats: SubscribeStats, why: str) -> None:
+        """Log a refused sample: at most one line per key every ``ERROR_LOG_PERIOD`` seconds."""
+        now = time.monotonic()
+        last, quiet = self._last_refusal_log.get(stats.key, (-ERROR_LOG_PERIOD, 0))
+        if now - last >= ERROR_LOG_PERIOD:
+            more = f" ({quiet} more since the last report)" if quiet else ""
+            self._log.warning(
+                "link `%s`: refused a sample: %s%s; the link keeps running", stats.key, why, more
+            )
+            self._last_refusal_log[stats.key] = (now, 0)
+        else:
+            self._last_refusal_log[stats.key] = (last, quiet + 1)
 
     def _bad_sample(self, stats: SubscribeStats, exc: Exception) -> None:
         stats.decode_errors += 1
@@ -515,6 +619,8 @@ class ZenohTransport:
             "subscribe": [s.as_dict() for _s, s, _d in self._subs.values()],
             "shm_pool_full": self._shm.counters.pool_full,
             "liveliness_flaps": self.liveliness_flaps,
+            "session": self._session_id,
+            "token_conflicts": self._sessions.conflicts,
         }
 
     def close(self) -> None:
@@ -524,7 +630,7 @@ class ZenohTransport:
         self._closed = True
         for pub, _stats in self._pubs.values():
             try:
-                pub.delete()
+                pub.delete(source_info=zenoh.SourceInfo(pub.id, 0))
             except Exception as exc:
                 self._log.debug("end of stream on %s failed: %s", pub.key_expr, exc)
         if self._pubs:

@@ -88,7 +88,7 @@ def test_yaml_settings_load_with_defaults_and_turn_scale(tmp_path: Path) -> None
             2,
             "simulated drives need bus interface 'virtual'",
         ),
-        ("bus: [\n", 2, "not valid YAML"),
+        ("bus: [\n", 2, "invalid YAML"),
     ],
 )
 def test_yaml_errors_name_file_and_line(tmp_path: Path, body: str, line: int, message: str) -> None:

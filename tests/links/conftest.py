@@ -18,6 +18,8 @@ PROBES = {
     "LinkWatch": "tests.links.probes:LinkWatch",
     "ProbeGuard": "tests.links.probes:ProbeGuard",
     "Boom": "tests.links.probes:Boom",
+    "TwistSource": "tests.links.probes:TwistSource",
+    "ArmWatch": "tests.links.probes:ArmWatch",
 }
 
 
@@ -33,6 +35,46 @@ modules:
 connections:
   - counter.count -> watch.input
 """
+
+
+def guarded_arm_graph(name: str, extra_process: bool = False) -> str:
+    """The servo path of the split pick-up without vision: a constant twist (zero) from process
+    `umbra` through REG_VEL, ROTATE_KIN, WOLVERINE_KIN to a simulated Puma in `smart`, watched
+    by an ArmWatch at the servo rate (100 Hz). ``extra_process``: a third process `ui` of the
+    graph (an insider) whose only output is a counter watched in `smart`."""
+    ui = (
+        "  tick: {type: Counter, process: ui, rate: 10}\n"
+        "  ticks: {type: LinkWatch, process: smart, rate: 20, params: {timeout: 1.0}}\n"
+        if extra_process
+        else ""
+    )
+    ui_link = "  - tick.count -> ticks.input\n" if extra_process else ""
+    processes = "{umbra: {}, smart: {}, ui: {}}" if extra_process else "{umbra: {}, smart: {}}"
+    return f"""
+graph: {name}
+clock: real
+processes: {processes}
+frames:
+  flange->tool: {{xyz: [0, 0, 0.14]}}
+  tool->camera: {{xyz: [0, 0, -0.12]}}
+modules:
+  source: {{type: TwistSource, process: umbra, rate: 50}}
+  register: {{type: REG_VEL, process: smart, rate: 100,
+             params: {{timeout: 0.1, max_linear: 0.05, max_angular: 0.3}}}}
+  rotate: {{type: ROTATE_KIN, process: smart}}
+  kinematics: {{type: WOLVERINE_KIN, process: smart, params: {{tool_xyz: [0, 0, 0.14]}}}}
+  joints: {{type: WOLVERINE_JNTS, process: smart, rate: 100,
+           params: {{initial_q_deg: [14.482, 45.603, -182.743, 0.0, -42.86, -165.518]}}}}
+  arm: {{type: ArmWatch, process: smart, rate: 100}}
+{ui}connections:
+  - source.twist -> register.command
+  - register.twist -> rotate.camera_twist
+  - rotate.tool_twist -> kinematics.tool_twist
+  - kinematics.joint_rates -> joints.rates
+  - joints.joint_state ~> kinematics.joint_state
+  - joints.joint_state -> arm.joints
+  - register.status -> arm.guard
+{ui_link}"""
 
 
 @pytest.fixture(scope="session")

@@ -7,11 +7,12 @@ modules: through an ``umbra.modules`` entry point (see ``conftest.plugin_env``).
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Scalar, Twist
+from connectors.messages import JointState, Scalar, Status, Twist
 
 
 class LinkWatch(Module):
@@ -109,3 +110,73 @@ class Boom(Module):
         sample = self.value.get(now)
         if sample is not None and sample.value >= self.params.at:
             raise RuntimeError(f"boom at {sample.value:g}")
+
+
+class TwistSource(Module):
+    """The genuine command of the attack tests: a constant twist ``vx`` [m/s] in ``camera``."""
+
+    TYPE = "TwistSource"
+
+    class Params(Parameters):
+        vx: float = param(0.0, "speed along the camera's x axis", unit="m/s")
+
+    twist = Output(Twist, frame="camera", doc="constant twist")
+
+    def step(self, now: float) -> None:
+        self.twist.send(Twist(vector=np.array([self.params.vx, 0, 0, 0, 0, 0.0]), frame="camera"))
+
+
+class ArmWatch(Module):
+    """Watches the servo side: how far the joints moved from where they started [rad], the
+    longest gap between two of its own steps [s, wall time], and the guard's verdicts."""
+
+    TYPE = "ArmWatch"
+
+    joints = Input(JointState, doc="the arm's reported joints")
+    guard = Input(Status, required=False, doc="the velocity register's status")
+
+    def start(self) -> None:
+        self.q0: np.ndarray | None = None
+        self.moved = 0.0
+        self.max_gap = 0.0
+        self.max_gap_at = math.nan  # when it ended (time.monotonic)
+        self.long_gaps: list[tuple[float, float]] = []  # (end [monotonic s], gap [s]) > 15 ms
+        self._last_wall: float | None = None
+        self.zeroed = 0  # times the guard went from passing to zero
+        self._passing = False
+        self._seen_status = -1
+
+    def step(self, now: float) -> None:
+        wall = time.monotonic()
+        if self._last_wall is not None and self.q0 is not None:
+            gap = wall - self._last_wall
+            if gap > self.max_gap:
+                self.max_gap, self.max_gap_at = gap, wall
+            if gap > 0.015 and len(self.long_gaps) < 100:
+                self.long_gaps.append((round(wall, 4), round(gap, 4)))
+        self._last_wall = wall
+        state = self.joints.get(now)
+        if state is not None:
+            q = np.asarray(state.position, dtype=float)
+            if self.q0 is None:
+                self.q0 = q.copy()
+            self.moved = max(self.moved, float(np.max(np.abs(q - self.q0))))
+        status = self.guard.get(now)
+        if status is not None and self.guard.seq != self._seen_status:
+            self._seen_status = self.guard.seq
+            passing = status.stage == "passing"
+            if self._passing and not passing:
+                self.zeroed += 1
+                self.log.info("guard zeroed: %s", status.reason or status.message)
+            elif passing and not self._passing:
+                self.log.info("guard passing")
+            self._passing = passing
+
+    def summary(self) -> dict[str, object]:
+        return {
+            "moved_rad": self.moved,
+            "max_gap_s": self.max_gap,
+            "max_gap_at": self.max_gap_at,
+            "long_gaps": self.long_gaps,
+            "zeroed": self.zeroed,
+        }

@@ -1,7 +1,9 @@
 """Two processes started by hand (``--process``), as on two hosts: liveliness and foreign samples.
 
 One run serves three tests: while the producer streams, a foreign publisher puts garbage on the
-link's key; then the producer is killed with SIGKILL and the consumer must see it gone.
+link's key — first as itself (refused: not the producer's session), then claiming the producer's
+session id (nothing authenticates sessions here, so it gets as far as the decoder, which refuses
+it); then the producer is killed with SIGKILL and the consumer must see it gone.
 """
 
 from __future__ import annotations
@@ -56,8 +58,9 @@ class Scene:
 def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) -> Iterator[Scene]:
     cwd = tmp_path_factory.mktemp("byhand")
     (cwd / "byhand.yaml").write_text(GRAPH)
-    (port,) = free_loopback_ports(1)
+    port, producer_port = free_loopback_ports(2)
     endpoint = f"tcp/127.0.0.1:{port}"
+    producer_endpoint = f"tcp/127.0.0.1:{producer_port}"  # open too: the spy overhears there
     runs: list[Running] = []
     try:
         # the consumer takes its endpoint from a zenoh configuration file, as a deployment would
@@ -86,6 +89,8 @@ def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) 
             "umbra",
             "--connect",
             endpoint,
+            "--listen",
+            producer_endpoint,
             "--out",
             "out",
             "--duration",
@@ -94,14 +99,23 @@ def scene(plugin_env: dict[str, str], tmp_path_factory: pytest.TempPathFactory) 
         runs.append(producer)
         consumer.wait_for("link up")
         payloads = garbage()
-        session = zenoh.open(build_config(Endpoints(connect=[endpoint])))
+        session = zenoh.open(build_config(Endpoints(connect=[endpoint, producer_endpoint])))
         try:
             pub = session.declare_publisher(KEY, congestion_control=zenoh.CongestionControl.BLOCK)
             deadline = time.monotonic() + 10
             while not pub.matching_status.matching and time.monotonic() < deadline:
                 time.sleep(0.01)
             for payload in payloads:
-                pub.put(payload)
+                pub.put(payload)  # as itself: not the producer
+            consumer.wait_for("refused a sample", timeout=10)
+            overheard: list[zenoh.Sample] = []
+            spy = session.declare_subscriber(KEY, overheard.append)
+            while not overheard and time.monotonic() < deadline + 10:
+                time.sleep(0.01)
+            spy.undeclare()
+            forged = overheard[0].source_info  # copied from a genuine sample
+            for payload in payloads:
+                pub.put(payload, source_info=forged)  # claiming the producer's session id
             consumer.wait_for("does not decode", timeout=10)
         finally:
             session.close()
@@ -123,7 +137,8 @@ def _watch(summary: dict) -> dict:
 
 def test_garbage_on_a_link_key_is_dropped_counted_and_logged(scene: Scene) -> None:
     (sub,) = scene.summary["links"]["subscribe"]
-    assert sub["decode_errors"] == scene.garbage_sent
+    assert sub["foreign"] == scene.garbage_sent  # as itself: refused before decoding
+    assert sub["decode_errors"] == scene.garbage_sent  # claiming the producer's session id
     assert sub["stale_dropped"] == 0 and sub["missing"] == 0
     assert sub["received"] == _watch(scene.summary)["last_seq"] > 30  # kept running after it
     logged = [line for line in scene.consumer.stderr if "does not decode" in line]

@@ -116,4 +116,6 @@ def test_split_run_command_line_errors(plugin_env: dict[str, str], tmp_path: Pat
         plugin_env, tmp_path, "run", graph, "--process", "smart", "--connect", "localhost"
     )
     assert done.returncode == 2
-    assert "--connect: expected a zenoh endpoint" in done.stderr
+    (line,) = [x for x in done.stderr.splitlines() if x.startswith("--connect:")]
+    assert "expected a zenoh endpoint" in line
+    assert "'localhost'" in done.stderr

@@ -68,6 +68,9 @@ def test_killed_process_fails_the_run_and_the_servo_side_zeroes(
     run.wait_for("link up")
     time.sleep(0.3)  # let some commands through first
     os.kill(pid, signal.SIGKILL)
+    run.wait_for("process `umbra` ended")
+    left = [name for name in os.listdir("/dev/shm") if f"-{pid}-" in name]
+    assert left == []  # its /dev/shm files were removed at once, not at the next start
     assert run.finish() == 1, run.text
     assert "failed: process `umbra` died: killed by SIGKILL" in run.text
     out = tmp_path / "out"

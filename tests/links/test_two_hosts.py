@@ -99,6 +99,7 @@ def test_link_down_fires_the_watchdog_and_data_flows_again_when_it_returns(
         "smart",
         "--listen",
         endpoint,
+        "--insecure",  # plain TCP between the two hosts: this test is about a cut link
         "--out",
         "out",
         "--duration",
@@ -112,6 +113,7 @@ def test_link_down_fires_the_watchdog_and_data_flows_again_when_it_returns(
         "umbra",
         "--connect",
         endpoint,
+        "--insecure",
         "--out",
         "out",
         "--duration",

@@ -107,5 +107,5 @@ def test_recorder_writes_mcap_that_reads_back(tmp_path: Path) -> None:
 def test_reading_a_non_recording_is_a_user_error(tmp_path: Path) -> None:
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"not an mcap file at all")
-    with pytest.raises(UserError, match="not a readable MCAP recording"):
+    with pytest.raises(UserError, match="error: not an MCAP file"):
         list(read_recording(junk))

@@ -63,9 +63,30 @@ def test_a_full_grab_goes_through_every_stage_in_order():
     assert len(closes) == 1 and closes[0].stage == FINAL_GRAB
     # Final grab: straight along the optical axis, by the set distance (standoff 0.2 -> 0.15).
     advancing = [o.camera_twist for o in outputs if o.message == "advancing"]
-    assert advancing and all(np.allclose(t, [0, 0, 0.025, 0, 0, 0]) for t in advancing)
-    assert T[2, 3] == pytest.approx(0.2 - 0.05, abs=3e-3)
+    # Full speed, then the last step cut to what is left (no overshoot by a step's travel).
+    assert advancing and all(np.allclose(t, [0, 0, 0.025, 0, 0, 0]) for t in advancing[:-1])
+    assert 0 < advancing[-1][2] < 0.025 and np.allclose(advancing[-1][[0, 1, 3, 4, 5]], 0)
+    assert T[2, 3] == pytest.approx(0.2 - 0.05, abs=1e-3)
     np.testing.assert_allclose(T[:2, 3], 0.0, atol=3e-3)
+
+
+def test_the_final_grab_takes_along_the_depth_error_left_when_the_approach_settled():
+    # The camera holds still 0.8 mm short of the standoff: within the 1 mm tolerance, so the
+    # approach settles there; the open-loop advance must cover the 0.8 mm too.
+    machine = ServoStages(GOAL, settings=SETTINGS)
+    T = camera_above(0.0, 0.0, 0.2008, 0.0)
+    now, advanced = 0.0, 0.0
+    for _ in range(400):
+        out = machine.step(now, healthy(T, now))
+        if out.stage == FINAL_GRAB:
+            advanced += out.camera_twist[2] * DT
+        elif machine.stage == APPROACH:
+            T = camera_above(0.0, 0.0, 0.2008, 0.0)  # the arm does not move in the approach
+        now += DT
+        if out.stage == DONE:
+            break
+    assert out.stage == DONE
+    assert advanced == pytest.approx(0.05 + 0.0008, abs=5e-5)
 
 
 def test_snake_failure_stops_at_once_and_asks_the_operator():

@@ -93,7 +93,7 @@ def test_unreadable_image_exits_2(tmp_path, capsys) -> None:
     assert main(["snake", str(bad), "--seed", "1,1"]) == 2
     assert "cannot read it as an image" in capsys.readouterr().err
     assert main(["snake", str(tmp_path / "missing.png"), "--seed", "1,1"]) == 2
-    assert "no such image file" in capsys.readouterr().err
+    assert "cannot read image file: no such file" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(("width", "height"), [(1280, 720), (1920, 1080)])

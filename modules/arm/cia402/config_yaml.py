@@ -31,8 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from connectors import safe_yaml, user_files
+from connectors.errors import UserError
 from connectors.yaml_lines import node_lines as _node_lines
 from modules.arm.cia402.config import (
     BusSpec,
@@ -149,13 +149,10 @@ def _joint(where: _Where, index: int, spec: Any) -> JointDrive:
 def settings_from_yaml_text(text: str, source: str, base_dir: Path) -> CanopenSettings:
     """Parse the format above; `source` names the file in errors; `eds` is under `base_dir`."""
     where = _Where(source, {})
-    try:
-        node = yaml.compose(text)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else 1
-        raise Cia402ConfigError(f"{source}:{line}: error: not valid YAML: {exc}") from None
+    try:  # bounded depth and aliases, no duplicate keys, every bad value at its line
+        node, data = safe_yaml.load(text, source)
+    except UserError as exc:
+        raise Cia402ConfigError(str(exc)) from None
     if node is not None:
         _node_lines(node, (), where.lines)
     data = _mapping(where, (), data, _TOP_KEYS, "bus, joints, ...")
@@ -217,7 +214,7 @@ def load_canopen_settings(path: str | Path) -> CanopenSettings:
     """Load the YAML file at `path`; errors read `FILE:LINE: error: ...`."""
     file = Path(path)
     try:
-        text = file.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise Cia402ConfigError(f"{file}: error: cannot read the CANopen settings: {exc}") from None
+        text = user_files.read_text(file, "CANopen settings file")
+    except UserError as exc:
+        raise Cia402ConfigError(str(exc)) from None
     return settings_from_yaml_text(text, str(file), file.parent)

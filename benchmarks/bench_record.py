@@ -1,0 +1,246 @@
+"""Benchmark: what recording costs a split pick-up, how big it is, and how fast replay reads it.
+
+Rows, all measured in this run on the same machine:
+
+* ``split pick-up``: ``umbra run graphs/tool_pickup.yaml`` over two processes on the real clock,
+  alternately without and with ``--record`` (JPEG images, the default), ``--rounds`` pairs. Per
+  mode: the servo process's tick lateness p99 (``summary-smart.json``; the median over rounds)
+  and the vision frame time (mean step time of DigiCam + vsSnake + vsServo, ``summary-umbra.json``);
+  the recording's bytes per second of run.
+* ``reading`` the recording of the last round, and a sim recording with raw images: ``mcap``'s
+  plain reader (records only, no decoding: the baseline), ``umbra``'s reader (records with CRCs
+  checked), every sample decoded into messages (JPEG included, two decoding threads: what replay
+  feeds), ``umbra replay`` of the camera into the pick-up graph on the sim clock (vision and
+  servo re-run), and the same without the graph's video writer, plot and operator page, beside
+  that lean graph run live (camera rendered). Speed is recorded seconds per wall second.
+
+Run: ``python benchmarks/bench_record.py [--quick]``; writes benchmarks/results/record.json.
+Goals: recording changes the servo tick lateness p99 by at most 10 %; replay at least 20 x real
+time on the sim clock.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.common import table, write_results  # noqa: E402
+
+VISION = ("DigiCam", "vsSnake", "vsServo")
+LATENESS_GOAL = 0.10
+#: Module types left out of the graph replay re-runs for speed (they write files or serve a page).
+LEAN_DROP = ("Overlay", "StatusPlot", "OperatorConsole")
+REPLAY_GOAL = 20.0
+
+
+def run_split(graph: Path, out: Path, duration: float, record: bool) -> dict[str, float]:
+    """One split run; the servo lateness p99 [ms], vision frame time [ms], recording size."""
+    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--duration", str(duration)]
+    cmd += ["--out", str(out), "--quiet"] + (["--record"] if record else [])
+    subprocess.run(cmd, cwd=ROOT, capture_output=True, timeout=duration + 120, check=False)
+    smart = json.loads((out / "summary-smart.json").read_text())
+    umbra = json.loads((out / "summary-umbra.json").read_text())
+    vision_us = sum(m["mean_step_us"] for m in umbra["modules"] if m["type"] in VISION)
+    rec = out / "recording.mcap"
+    return {
+        "lateness_p99_ms": float(smart["lateness_p99_ms"]),
+        "lateness_p50_ms": float(smart["lateness_p50_ms"]),
+        "vision_frame_ms": vision_us / 1000.0,
+        "bytes": rec.stat().st_size if rec.exists() else 0,
+        "seconds": duration,
+    }
+
+
+def lean_graph(graph: Path, out: Path) -> Path:
+    """``graph`` without its video writer, plot and operator page (the operator's click goes
+    straight to the snake): what re-running vsSnake and vsServo on a recording needs."""
+    import re
+
+    import yaml
+
+    doc = yaml.safe_load(graph.read_text())
+    drop = {n for n, m in doc["modules"].items() if m["type"] in LEAN_DROP}
+    for name in drop:
+        del doc["modules"][name]
+    keep = []
+    for conn in doc["connections"]:
+        src, _arrow, dst = re.split(r"\s*(->|~>)\s*", conn.strip())
+        if src.split(".")[0] not in drop and dst.split(".")[0] not in drop:
+            keep.append(conn)
+    if {"operator", "snake"} <= set(doc["modules"]) and "operator.seed -> snake.seed" not in keep:
+        keep.append("operator.seed -> snake.seed")
+    doc["connections"] = keep
+    path = out / "lean.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def time_reads(path: Path, graph: Path, tmp: Path) -> tuple[dict[str, float], float]:
+    """Wall seconds of each way of reading ``path``, and its recorded duration [s]."""
+    from mcap.reader import make_reader
+
+    from runtime.graph.check import load_graph
+    from runtime.recording.reader import read_records
+    from runtime.recording.replay import plan_replay
+    from runtime.recording.samples import iter_samples_parallel
+    from runtime.run import run_process
+    from runtime.scheduler import SchedulerOptions
+
+    walls: dict[str, float] = {}
+    t = time.perf_counter()
+    with open(path, "rb") as f:
+        times = [m.log_time for _s, _c, m in make_reader(f).iter_messages(log_time_order=False)]
+    walls["mcap plain reader (baseline)"] = time.perf_counter() - t
+    recorded = (max(times) - min(times)) / 1e9
+    t = time.perf_counter()
+    n = sum(1 for _ in read_records(path))
+    walls["umbra reader (CRCs checked)"] = time.perf_counter() - t
+    assert n == len(times)
+    t = time.perf_counter()
+    sum(1 for _ in iter_samples_parallel(path))
+    walls["every sample decoded (replay feed)"] = time.perf_counter() - t
+    plan = load_graph(graph)
+    t = time.perf_counter()
+    plan_replay(plan, path, None, "sim")
+    result = run_process(
+        plan, SchedulerOptions(clock="sim", duration=recorded, output_dir=tmp / "replay")
+    )
+    walls["umbra replay into the pick-up (sim)"] = time.perf_counter() - t
+    assert result.ticks > 0
+    lean = lean_graph(graph, tmp)
+    t = time.perf_counter()
+    run_process(
+        load_graph(lean),
+        SchedulerOptions(clock="sim", duration=recorded, output_dir=tmp / "lean_live"),
+    )
+    walls["live pick-up, no video/page (sim, camera rendered)"] = time.perf_counter() - t
+    plan = load_graph(lean)
+    t = time.perf_counter()
+    plan_replay(plan, path, None, "sim")
+    run_process(plan, SchedulerOptions(clock="sim", duration=recorded, output_dir=tmp / "lean"))
+    walls["umbra replay into it (camera replayed)"] = time.perf_counter() - t
+    return walls, recorded
+
+
+def raw_recording(graph: Path, out: Path, duration: float) -> Path:
+    """The pick-up in one process on the sim clock, recorded with raw images."""
+    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--single-process"]
+    cmd += ["--clock", "sim", "--duration", str(duration), "--record", "--record-images", "raw"]
+    cmd += ["--out", str(out), "--quiet"]
+    subprocess.run(cmd, cwd=ROOT, capture_output=True, check=False)
+    return out / "recording.mcap"
+
+
+def read_table(walls: dict[str, float], recorded: float) -> list[list[object]]:
+    base = walls["mcap plain reader (baseline)"]
+    return [[name, wall, recorded / wall, wall / base] for name, wall in walls.items()]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="one short round (smoke test)")
+    parser.add_argument("--graph", type=Path, default=ROOT / "graphs" / "tool_pickup.yaml")
+    parser.add_argument("--rounds", type=int, default=3, help="pairs of runs (off, on)")
+    parser.add_argument("--duration", type=float, default=12.0, help="seconds per run")
+    args = parser.parse_args()
+    rounds, duration = (1, 5.0) if args.quick else (args.rounds, args.duration)
+    runs: dict[str, list[dict[str, float]]] = {"off": [], "on": []}
+    with tempfile.TemporaryDirectory(prefix="bench_record_") as tmpdir:
+        tmp = Path(tmpdir)
+        for r in range(rounds):
+            for mode in ("off", "on"):
+                out = tmp / f"{mode}{r}"
+                runs[mode].append(run_split(args.graph, out, duration, mode == "on"))
+                print(f"round {r + 1}/{rounds} record {mode}: {runs[mode][-1]}", file=sys.stderr)
+        walls, recorded = time_reads(tmp / f"on{rounds - 1}" / "recording.mcap", args.graph, tmp)
+        raw = raw_recording(args.graph, tmp / "raw", 2.0 if args.quick else 6.0)
+        raw_mb = raw.stat().st_size / 1e6
+        raw_walls, raw_recorded = time_reads(raw, args.graph, tmp / "raw_replay")
+
+    def med(mode: str, key: str) -> float:
+        return statistics.median(x[key] for x in runs[mode])
+
+    p99_off, p99_on = med("off", "lateness_p99_ms"), med("on", "lateness_p99_ms")
+    change = (p99_on - p99_off) / p99_off if p99_off > 0 else 0.0
+    mb_per_s = med("on", "bytes") / duration / 1e6
+    rows = [
+        [
+            "without --record (baseline)",
+            med("off", "lateness_p50_ms"),
+            p99_off,
+            med("off", "vision_frame_ms"),
+            "",
+        ],
+        [
+            "with --record (JPEG images)",
+            med("on", "lateness_p50_ms"),
+            p99_on,
+            med("on", "vision_frame_ms"),
+            mb_per_s,
+        ],
+    ]
+    print(f"split pick-up, {rounds} x ({duration:g} s without, {duration:g} s with), real clock")
+    header = ["run", "servo lateness p50 ms", "p99 ms", "vision frame ms", "recording MB/s"]
+    print(table(rows, header))
+    print(f"lateness p99 change with recording: {change:+.1%} (goal within {LATENESS_GOAL:.0%})")
+    header = ["reader", "wall s", "x real time", "x baseline wall"]
+    print(f"\nreading the {recorded:.2f} s recording (JPEG images) of the last round")
+    print(table(read_table(walls, recorded), header))
+    print(f"\nreading a {raw_recorded:.2f} s sim recording with raw images ({raw_mb:.0f} MB)")
+    print(table(read_table(raw_walls, raw_recorded), header))
+    replay_speed = recorded / walls["umbra replay into the pick-up (sim)"]
+    lean_replay = recorded / walls["umbra replay into it (camera replayed)"]
+    lean_live = recorded / walls["live pick-up, no video/page (sim, camera rendered)"]
+    feed_speed = recorded / walls["every sample decoded (replay feed)"]
+    raw_feed = raw_recorded / raw_walls["every sample decoded (replay feed)"]
+    raw_replay = raw_recorded / raw_walls["umbra replay into the pick-up (sim)"]
+    print(
+        f"replay into the pick-up: {replay_speed:.1f} x real time (raw images "
+        f"{raw_replay:.1f} x); replay feed alone: {feed_speed:.1f} x (raw images "
+        f"{raw_feed:.1f} x); goal {REPLAY_GOAL:g} x"
+    )
+    print(
+        f"replay into the pick-up without video writer and page: {lean_replay:.1f} x real time "
+        f"(the same graph live, camera rendered: {lean_live:.1f} x)"
+    )
+    path = write_results(
+        "record",
+        {
+            "graph": str(args.graph.relative_to(ROOT)) if args.graph.is_relative_to(ROOT) else "",
+            "rounds": rounds,
+            "duration_s": duration,
+            "runs": runs,
+            "lateness_p99_change": change,
+            "recording_mb_per_s": mb_per_s,
+            "recorded_s": recorded,
+            "read_wall_s": walls,
+            "replay_x_real_time": replay_speed,
+            "replay_feed_x_real_time": feed_speed,
+            "lean_replay_x_real_time": lean_replay,
+            "lean_live_x_real_time": lean_live,
+            "raw": {
+                "recorded_s": raw_recorded,
+                "mb": raw_mb,
+                "read_wall_s": raw_walls,
+                "replay_x_real_time": raw_replay,
+                "replay_feed_x_real_time": raw_feed,
+            },
+            "goals": {"lateness_p99_change_max": LATENESS_GOAL, "replay_x_min": REPLAY_GOAL},
+        },
+        quick=args.quick,
+    )
+    print(f"\nwrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,250 @@
+"""Cost of the live 3-D view: servo tick lateness with and without it, frames the browser gets.
+
+One two-process graph runs three times in this benchmark run (same machine, same load):
+a simulated 1280x720 wrist camera at 30 fps in `umbra`, a 100 Hz REG_VEL loop in `smart`, and
+
+1. ``no view``: no View3D module (the same-run baseline);
+2. ``view, nobody watching``: View3D in the graph, wired to the camera, no browser;
+3. ``view, page WxH``: View3D and a real Chromium page (Debian's, via Playwright) showing it,
+   at two page sizes (headless Chromium draws WebGL in software here: its cost grows with the
+   page's pixels and competes for the same two cores as the servo process).
+
+Figures: the `smart` process's tick lateness p99 (ratio against the baseline), the View3D
+module's step time, the video frames it handed to viser, and the frames per second the browser
+received (websocket messages carrying a video frame, counted in the page by Playwright).
+
+    python benchmarks/bench_view3d.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np
+
+from benchmarks.common import table, write_results
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+#: a websocket message that carries a video frame names viser's image property
+IMAGE_PROP = b"_image_data"
+
+GRAPH = """
+graph: bench_view3d
+seed: 0
+clock: real
+processes: {{umbra: {{}}, smart: {{}}}}
+frames:
+  base->table: {{xyz: [0, 0, 0.25]}}
+  flange->tool: {{xyz: [0, 0, 0.14]}}
+  tool->camera: {{xyz: [0, 0, -0.12]}}
+modules:
+  camera:
+    type: DigiCam
+    process: umbra
+    rate: 30
+    params: {{source: sim, width: 1280, height: 720, fx: 800, fy: 800, u0: 640, v0: 360,
+             noise_sigma: 2.0}}
+  command:
+    type: TwistSource
+    process: smart
+    rate: 100
+    params: {{twist: [0.001, 0, 0, 0, 0, 0]}}
+  register: {{type: REG_VEL, process: smart, rate: 100, params: {{timeout: 0.1}}}}
+  rotate: {{type: ROTATE_KIN, process: smart}}
+  kinematics: {{type: WOLVERINE_KIN, process: smart, params: {{tool_xyz: [0, 0, 0.14]}}}}
+  joints:
+    type: WOLVERINE_JNTS
+    process: smart
+    rate: 100
+    params: {{backend: sim, initial_q_deg: [14.482, 45.603, -182.743, 0.0, -42.86, -165.518]}}
+{view}
+connections:
+  - command.twist -> register.command
+  - register.twist -> rotate.camera_twist
+  - rotate.tool_twist -> kinematics.tool_twist
+  - kinematics.joint_rates -> joints.rates
+  - joints.joint_state ~> kinematics.joint_state
+{wire}
+"""
+#: the phases with a page open, and its size (CSS px)
+VIEWPORTS = {"view, page 1200x800": (1200, 800), "view, page 640x400": (640, 400)}
+VIEW = "  view: {type: View3D, process: umbra, rate: 30, params: {port: 0, max_fps: 15}}"
+WIRE = "  - camera.image -> view.wrist_image\n  - joints.joint_state -> view.joint_state"
+
+
+def _graph(folder: Path, with_view: bool) -> Path:
+    path = folder / f"bench_view3d_{'view' if with_view else 'none'}.yaml"
+    path.write_text(GRAPH.format(view=VIEW if with_view else "", wire=WIRE if with_view else ""))
+    return path
+
+
+def _start(
+    graph: Path, out: Path, duration: float, wait_url: bool
+) -> tuple[subprocess.Popen, dict[str, str]]:
+    proc = subprocess.Popen(
+        ["umbra", "run", str(graph), "--duration", str(duration), "--out", str(out), "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    found: dict[str, str] = {}
+    got = threading.Event()
+
+    def read() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            if "3-D view: " in line and "url" not in found:
+                found["url"] = line.split("3-D view: ", 1)[1].strip()
+                got.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    if wait_url and not got.wait(60):
+        proc.kill()
+        raise RuntimeError("the 3-D view did not print its address")
+    return proc, found
+
+
+def _watch(url: str, seconds: float, viewport: tuple[int, int]) -> dict[str, Any]:
+    """Open the page and count the video frames it receives over its websocket."""
+    from playwright.sync_api import sync_playwright
+
+    counts = {"frames": 0, "bytes": 0}
+    stamps: list[float] = []
+
+    def on_websocket(ws) -> None:
+        def on_frame(payload) -> None:
+            data = payload if isinstance(payload, bytes) else str(payload or "").encode()
+            counts["bytes"] += len(data)
+            if IMAGE_PROP in data and len(data) > 1000:
+                counts["frames"] += 1
+                stamps.append(time.monotonic())
+
+        ws.on("framereceived", on_frame)
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
+        page.on("websocket", on_websocket)
+        page.goto(url)
+        page.wait_for_timeout(3000)  # page built, first frames in
+        start_frames, start = counts["frames"], time.monotonic()
+        page.wait_for_timeout(int(1000 * seconds))
+        frames = counts["frames"] - start_frames
+        elapsed = time.monotonic() - start
+        browser.close()
+    return {
+        "browser_fps": round(frames / elapsed, 2),
+        "browser_mb_per_s": round(counts["bytes"] / 1e6 / (elapsed + 3.0), 3),
+    }
+
+
+def _summary(out: Path, process: str) -> dict[str, Any]:
+    return json.loads((out / f"summary-{process}.json").read_text())
+
+
+def run_phase(folder: Path, phase: str, duration: float) -> dict[str, Any]:
+    with_view = phase != "no view"
+    folder.mkdir(parents=True, exist_ok=True)
+    out = folder / phase.replace(" ", "_").replace(",", "")
+    proc, found = _start(_graph(folder, with_view), out, duration, with_view)
+    figures: dict[str, Any] = {}
+    if phase in VIEWPORTS:
+        figures.update(_watch(found["url"], duration - 8.0, VIEWPORTS[phase]))
+    proc.wait(duration + 60)
+    umbra, smart = _summary(out, "umbra"), _summary(out, "smart")
+    figures["smart_lateness_p99_ms"] = smart.get("lateness_p99_ms")
+    view = next((m for m in umbra["modules"] if m["module"] == "view"), None)
+    if view is not None:
+        figures["view_step_mean_us"] = view.get("mean_step_us")
+        sent = view.get("video_frames_sent") or {}
+        figures["frames_to_viser"] = sent.get("wrist", 0)
+        figures["view_updates_sent"] = view.get("updates_sent")
+    return figures
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="short runs (a smoke run)")
+    args = parser.parse_args()
+    if not Path(CHROMIUM).exists():
+        print(f"bench_view3d: needs Chromium at {CHROMIUM}", file=sys.stderr)
+        return 2
+    duration = 14.0 if args.quick else 25.0
+    rounds = 1 if args.quick else 3
+    phases = ("no view", "view, nobody watching", *VIEWPORTS)
+    runs: dict[str, list[dict[str, Any]]] = {phase: [] for phase in phases}
+    with tempfile.TemporaryDirectory(prefix="bench-view3d-") as tmp:
+        for k in range(rounds):  # phases interleaved: a machine's load drifts over minutes
+            for phase in phases:
+                runs[phase].append(run_phase(Path(tmp) / f"round{k}", phase, duration))
+    results: dict[str, Any] = {}
+    for phase in phases:
+        merged: dict[str, Any] = {"rounds": runs[phase]}
+        for key in runs[phase][0]:
+            values = [r[key] for r in runs[phase] if isinstance(r.get(key), (int, float))]
+            if values:
+                merged[key] = float(np.median(values))
+        results[phase] = merged
+    base = results["no view"]["smart_lateness_p99_ms"]
+    rows = []
+    for phase in phases:
+        r = results[phase]
+        late = r["smart_lateness_p99_ms"]
+        r["lateness_ratio"] = round(late / base, 3) if base and late is not None else None
+        rows.append(
+            [
+                phase,
+                late,
+                r["lateness_ratio"],
+                r.get("view_step_mean_us", "-"),
+                r.get("frames_to_viser", "-"),
+                r.get("browser_fps", "-"),
+                r.get("browser_mb_per_s", "-"),
+            ]
+        )
+    print(
+        f"3-D view cost: median of {rounds} interleaved rounds of {duration:g} s; 1280x720 "
+        "camera at 30 fps; 100 Hz servo chain in `smart`; view max_fps 15"
+    )
+    print(
+        table(
+            rows,
+            [
+                "phase",
+                "smart p99 late ms",
+                "ratio",
+                "view step us",
+                "frames to viser",
+                "browser fps",
+                "browser MB/s",
+            ],
+        )
+    )
+    path = write_results(
+        "view3d", {"duration_s": duration, "rounds": rounds, "phases": results}, quick=args.quick
+    )
+    print(f"results: {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,26 @@
+"""Physical and scheduling envelopes that safety-relevant parameters are bounded by.
+
+The numbers are what an arm of the Puma 560 class can do (a 0.86 m reach at the shoulder's
+1.3 rad/s gives about 1.1 m/s at the tool) and what the scheduler can run; a parameter beyond them
+cannot be a real setting, only a mistake that disarms a guard (``timeout: .inf``,
+``max_linear: 1e9``, ``rate: 1e-300``).
+"""
+
+from __future__ import annotations
+
+import math
+
+#: Fastest tool translation a command may ask for [m/s].
+MAX_TOOL_SPEED_M_S = 1.0
+#: Fastest tool rotation a command may ask for [rad/s] (half a turn per second).
+MAX_TOOL_ANGULAR_RAD_S = math.pi
+#: Longest time a watchdog may trust a command or a joint state [s].
+MAX_COMMAND_AGE_S = 1.0
+#: Highest module rate the scheduler runs [Hz].
+MAX_RATE_HZ = 10_000.0
+#: Lowest module rate [Hz]: one tick every 1000 s; a graph that ticks less is a mistake.
+MIN_RATE_HZ = 1e-3
+#: Largest joint acceleration a simulated or real drive is asked for [rad/s^2].
+MAX_JOINT_ACCEL_RAD_S2 = 1000.0
+#: Largest image side a module allocates [px].
+MAX_IMAGE_SIDE_PX = 8192

@@ -1,0 +1,198 @@
+"""YAML that cannot hurt the reader: bounded depth and alias expansion, no duplicate keys, every
+failure ``FILE:LINE: error: ...``.
+
+Every YAML file the project reads goes through :func:`compose` (node tree with line numbers) or
+:func:`load` (plain Python values as well). Refused, each at its line:
+
+* nesting deeper than ``max_depth`` (also after following aliases), and alias expansion to more
+  than ``max_nodes`` nodes ("billion laughs") or onto itself (a recursive alias);
+* a mapping key given twice (after YAML's own ``<<`` merges, later keys win as YAML says);
+* values a tag cannot make (``!!float abc``, a 5000-digit integer, ``!!python/...`` tags).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import yaml
+
+from connectors.errors import UserError
+
+MAX_DEPTH = 64
+MAX_NODES = 100_000
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+class YamlError(UserError):
+    """A YAML problem at ``line`` of ``source``; ``str()`` is ``SOURCE:LINE: error: MESSAGE``."""
+
+    def __init__(self, source: str, line: int, message: str) -> None:
+        self.source, self.line, self.message = source, line, message
+        super().__init__(f"{source}:{line}: error: {message}")
+
+
+class Refused(Exception):
+    """Raised inside the reader: the document breaks a bound at ``line`` (and ``column``, both
+    1-based)."""
+
+    def __init__(self, line: int, message: str, column: int = 1) -> None:
+        self.line, self.message, self.column = line, message, column
+
+
+class BoundedLoader(yaml.SafeLoader):
+    """A safe loader whose composer refuses nesting deeper than ``max_depth``."""
+
+    def __init__(self, text: str, max_depth: int) -> None:
+        super().__init__(text)
+        self.depth, self.max_depth = 0, max_depth
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self.depth += 1
+        try:
+            if self.depth > self.max_depth:
+                mark = self.peek_event().start_mark
+                raise Refused(mark.line + 1, f"nesting deeper than {self.max_depth} levels")
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+
+def compose(
+    text: str, source: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES
+) -> yaml.Node | None:
+    """The node tree of one YAML document; :class:`YamlError` on any problem."""
+    try:
+        loader = BoundedLoader(text, max_depth)  # refuses unprintable characters at once
+    except yaml.reader.ReaderError as exc:
+        line = text[: exc.position].count("\n") + 1
+        raise YamlError(source, line, f"invalid YAML: {_short(exc)}") from None
+    try:
+        node = loader.get_single_node()
+        if node is not None:
+            check_tree(node, max_depth, max_nodes)
+        return node
+    except Refused as stop:
+        raise YamlError(source, stop.line, stop.message) from None
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        problem = exc.problem or exc.context or "not valid YAML"
+        raise YamlError(source, mark.line + 1 if mark else 1, f"invalid YAML: {problem}") from None
+    except yaml.YAMLError as exc:
+        raise YamlError(source, 1, f"invalid YAML: {str(exc).splitlines()[0]}") from None
+    except RecursionError:
+        raise YamlError(source, 1, "YAML nesting is too deep") from None
+    except Exception as exc:  # PyYAML itself failing on the text (`%YAML 1.<5000 digits>`)
+        line = loader.get_mark().line + 1
+        raise YamlError(source, line, f"invalid YAML: {_short(exc)}") from None
+    finally:
+        loader.dispose()
+
+
+def construct(node: yaml.Node | None, source: str) -> Any:
+    """Plain Python values of a node tree from :func:`compose`; YamlError at the bad value."""
+    if node is None:
+        return None
+    loader = yaml.SafeLoader("")
+    try:
+        return loader.construct_document(node)
+    except Exception as exc:  # any failure to build a value is the file's fault
+        line, message = _first_bad_value(node, exc)
+        raise YamlError(source, line, message) from None
+    finally:
+        loader.dispose()
+
+
+def load(text: str, source: str, max_depth: int = MAX_DEPTH) -> tuple[yaml.Node | None, Any]:
+    """``(node tree, plain values)`` of one YAML document."""
+    node = compose(text, source, max_depth)
+    return node, construct(node, source)
+
+
+def _line(node: yaml.Node) -> int:
+    return node.start_mark.line + 1
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [n for pair in node.value for n in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
+
+
+def check_tree(root: yaml.Node, max_depth: int, max_nodes: int) -> None:
+    """Expanded size and depth within bounds, no cycle, no duplicate key; iterative, so a long
+    chain of aliases cannot exhaust the stack. Shared (aliased) nodes are measured once."""
+    size: dict[int, int] = {}
+    depth: dict[int, int] = {}
+    open_nodes: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        if done:
+            kids = _children(node)
+            size[key] = 1 + sum(size[id(k)] for k in kids)
+            depth[key] = 1 + max((depth[id(k)] for k in kids), default=0)
+            open_nodes.discard(key)
+            if size[key] > max_nodes:
+                raise Refused(
+                    _line(node), f"more than {max_nodes} YAML nodes after expanding aliases"
+                )
+            if depth[key] > max_depth:
+                raise Refused(_line(node), f"nesting deeper than {max_depth} levels (with aliases)")
+            if isinstance(node, yaml.MappingNode):
+                _no_duplicate_keys(node)
+            continue
+        if key in size:
+            continue
+        if key in open_nodes:
+            raise Refused(_line(node), "a recursive alias (an anchor used inside itself)")
+        open_nodes.add(key)
+        stack.append((node, True))
+        stack.extend((kid, False) for kid in _children(node) if id(kid) not in size)
+
+
+def _no_duplicate_keys(node: yaml.MappingNode) -> None:
+    seen: dict[tuple[str, str], int] = {}
+    for key, _value in node.value:
+        if not isinstance(key, yaml.ScalarNode) or key.tag == _MERGE_TAG:
+            continue
+        ident = (key.tag, key.value)
+        if ident in seen:
+            raise Refused(
+                _line(key),
+                f"duplicate key `{key.value}` (first at line {seen[ident]})",
+                key.start_mark.column + 1,
+            )
+        seen[ident] = _line(key)
+
+
+def _first_bad_value(root: yaml.Node, exc: BaseException) -> tuple[int, str]:
+    """Line and message of the value a construction failure came from."""
+    mark = getattr(exc, "problem_mark", None)
+    if mark is not None:
+        return mark.line + 1, f"bad value: {getattr(exc, 'problem', None) or exc}"
+    loader = yaml.SafeLoader("")
+    try:
+        seen: set[int] = set()
+        stack = [root]
+        while stack:
+            node = stack.pop()
+            if id(node) in seen:
+                continue
+            seen.add(id(node))
+            if isinstance(node, yaml.ScalarNode):
+                try:
+                    loader.construct_object(node)
+                except Exception as bad:  # as in construct()
+                    return _line(node), f"bad value for tag `{node.tag}`: {_short(bad)}"
+            stack.extend(reversed(_children(node)))
+    finally:
+        loader.dispose()
+    return _line(root), f"bad value: {_short(exc)}"
+
+
+def _short(exc: BaseException) -> str:
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    return text if len(text) <= 160 else text[:157] + "..."

@@ -1,0 +1,469 @@
+"""OperatorConsole: the operator's live station in the browser, with the operator in the loop."""
+
+from __future__ import annotations
+
+import collections
+import math
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors.messages import Contour, Image, JointState, Scalar, Status, Text, Twist, Vector
+from modules.arm.arm_params import load_arm
+from modules.operator import view_state
+from modules.operator.access import resolve_token
+from modules.operator.actions import (
+    FrameHistory,
+    Refused,
+    ShownFrame,
+    box_seed,
+    check_snake_healthy,
+    point_seed,
+)
+from modules.operator.control import ControlArbiter
+from modules.operator.cpu import process_cpu_s, thread_cpu_s
+from modules.operator.jog import DeadMan, JogLimits, jog_twist
+from modules.operator.mailbox import Inbox
+from modules.vision.sanity import SanityLimits
+
+if TYPE_CHECKING:  # the web side is imported only when the console serves (not in batch trials)
+    from modules.operator.console_app import ConsoleApp, Event
+    from modules.operator.web_server import WebServer
+
+_ACTIVE = ("acquire", "approach", "final_grab")
+
+
+class OperatorConsole(Module):
+    """The operator's console: a web page (127.0.0.1 by default) with the live camera image, the
+    snake drawn over it in the browser, the grab's stage and errors, link and arm health, and
+    the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
+    ``operator`` (start / pause / resume / abort for vsServo) and ``jog`` (dead-man teleoperation
+    twist in ``camera_frame``, for REG_VEL's ``jog`` input).
+
+    Many pages may watch; one holds control, and only its commands pass (the others are refused
+    and counted). Listening beyond loopback needs the access token (``token_file``, or a random
+    one printed at start). A seed from the simulated operator (``sim_seed``) is passed on only
+    while no person has taken control. The address is logged at start. ``serve: false`` runs
+    without a web server (batch trials): only the simulated operator's seed is passed on.
+    """
+
+    TYPE = "OperatorConsole"
+
+    class Params(Parameters):
+        serve: bool = param(True, "serve the page (false: no web server, for batch trials)")
+        host: str = param("127.0.0.1", "address to listen on (beyond loopback: token needed)")
+        port: int = param(0, "TCP port (0: a free one, printed at start)", ge=0, le=65535)
+        token_file: str = param("", "file whose first line is the access token (optional)")
+        stale_page_s: float = param(
+            0.5, "actions on an image older than this are refused", unit="s", gt=0
+        )
+        max_contour_age: float = param(
+            0.5, "resume/start need a contour at most this old", unit="s", gt=0
+        )
+        deadman_s: float = param(
+            0.15, "jog stops when no keep-alive came this long", unit="s", gt=0, le=1.0
+        )
+        jog_linear: float = param(0.02, "full-speed jog, linear", unit="m/s", gt=0, le=0.25)
+        jog_angular: float = param(0.2, "full-speed jog, roll", unit="rad/s", gt=0, le=1.0)
+        camera_frame: str = param("camera", "frame of the jog output (REG_VEL's frame)")
+        tool_frame: str = param("tool", "frame of tool-frame jogs")
+        jpeg_quality: int = param(80, "JPEG quality of the video", ge=10, le=100)
+        state_rate_hz: float = param(10.0, "page updates per second", unit="Hz", gt=0, le=60)
+        robot: str = param("puma560", "built-in arm whose joint limits are shown")
+        dh_file: str = param("", "YAML DH table for the joint limits (overrides robot)")
+        zoom_names: list[str] = param(
+            [], "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2)"
+        )
+        rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
+        ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
+
+    image = Input(Image, trigger=True, doc="camera frames (BGR)")
+    contour = Input(Contour, required=False, doc="snake contour, drawn over the image")
+    servo = Input(Status, required=False, doc="vsServo status: stage, errors, assistance")
+    guard = Input(Status, required=False, doc="REG_VEL status: passing, or zero and why")
+    joints = Input(JointState, required=False, feedback=True, doc="measured joint state")
+    world = Input(Status, required=False, feedback=True, doc="simulated world: grasp verdict")
+    sim_seed = Input(Vector, required=False, doc="the simulated operator's click")
+    zoom_auto = Input(
+        Scalar, required=False, doc="zoom request passed to every zoom output until a person zooms"
+    )
+    seed = Output(Vector, doc="seed for vsSnake: [u, v] or [u0, v0, u1, v1] px")
+    operator = Output(Text, doc="grab command for vsServo: start / pause / resume / abort")
+    jog = Output(Twist, frame=from_param("camera_frame"), doc="dead-man jog twist, for REG_VEL")
+    presence = Output(Status, doc="`person` while a person holds control, else `nobody`")
+    zoom_1 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[0]")
+    zoom_2 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[1]")
+
+    # -- lifecycle ----------------------------------------------------------------------------
+    def start(self) -> None:
+        p = self.params
+        arm = load_arm(p.robot, p.dh_file)
+        self._q_limits = (arm.q_min, arm.q_max, arm.qd_max)
+        self._limits = SanityLimits(
+            rectangle_margin=p.rectangle_margin, ellipse_scale=p.ellipse_scale
+        )
+        try:  # T_tool_camera: a tool-frame jog is sent in the camera frame
+            self._T_tool_camera: np.ndarray | None = self.context.frames.lookup(
+                p.tool_frame, p.camera_frame
+            )
+        except KeyError:
+            self._T_tool_camera = None  # tool-frame jogs are refused (no static frame)
+        self._jog_limits = JogLimits(p.jog_linear, p.jog_angular)
+        self.arbiter = ControlArbiter()
+        self.deadman = DeadMan(p.deadman_s)
+        self.history = FrameHistory()
+        self.inbox: Inbox[Event] = Inbox()
+        self._notices: collections.deque[dict[str, Any]] = collections.deque(maxlen=30)
+        self._notice_id = 0
+        self._jogging = False
+        self._last_state = -math.inf
+        self._last_presence: tuple[str, int, int] | None = None
+        self._last_servo_stage = ""
+        self._assist: dict[str, Any] | None = None
+        self._errors: collections.deque[list[float]] = collections.deque(maxlen=300)
+        self._t0: float | None = None
+        self.counts = collections.Counter()
+        #: per seed from a page: (wall time the click reached the web thread, wall time sent) [s]
+        self.seed_sent_wall: list[tuple[float, float]] = []
+        self._server: WebServer | None = None
+        self._app: ConsoleApp | None = None
+        self.url = ""
+        self._cpu0 = process_cpu_s()
+        if len(p.zoom_names) > 2 or len(set(p.zoom_names)) != len(p.zoom_names):
+            raise UserError(
+                f"{self.name}: zoom_names: expected at most 2 distinct camera names, found "
+                f"{p.zoom_names}"
+            )
+        self._zoom = dict.fromkeys(p.zoom_names, 0.0)  #: commanded zoom per camera
+        self._person_zoomed = False
+        if p.serve:
+            from modules.operator.console_app import ConsoleApp
+            from modules.operator.web_server import acquire_server
+
+            token = resolve_token(p.host, p.token_file, f"{self.name}")
+            self._server = acquire_server(self.context, p.host, p.port, token)
+            self._app = ConsoleApp(self._server, self.inbox, p.jpeg_quality)
+            self.url = self._server.url
+            self.log.info("operator console: %s", self.url)
+
+    def stop(self) -> None:
+        self._cpu_end = self._cpu_figures()
+        if self._app is not None:
+            self._app.close()
+        if self._server is not None:
+            from modules.operator.web_server import release_server
+
+            release_server(self._server)
+            self._server = None
+
+    # -- step ---------------------------------------------------------------------------------
+    def step(self, now: float) -> None:
+        if self._t0 is None:
+            self._t0 = now
+        wall = time.monotonic()
+        self._video(now)
+        for event in self.inbox.drain():
+            self._handle(event, now)
+        self._sim_seed(now)
+        self._zoom_auto(now)
+        self._jog_step(wall)
+        self._track_servo(now)
+        self._presence()
+        if now - self._last_state >= 1.0 / self.params.state_rate_hz and self._app is not None:
+            self._last_state = now
+            self._app.state.put(self._state(now))
+
+    def _video(self, now: float) -> None:
+        if not self.image.fresh:
+            return
+        image = self.image.get(now)
+        if image is None:
+            return
+        pixels = np.asarray(image.pixels)
+        self.history.add(
+            ShownFrame(image.seq, self.image.received_at, pixels.shape[1], pixels.shape[0])
+        )
+        if self._app is not None:
+            self._app.frames.put(
+                self._app.raw_frame(pixels, image.seq, time.time(), now - image.stamp)
+            )
+
+    def _notice(self, text: str, session: str = "*", level: str = "info") -> None:
+        self._notice_id += 1
+        self._notices.append({"id": self._notice_id, "to": session, "level": level, "text": text})
+        who = self.arbiter.sessions.get(session, "console") if session != "*" else "console"
+        (self.log.warning if level == "error" else self.log.info)("%s: %s", who, text)
+
+    def _refuse(self, session: str, text: str) -> None:
+        self.counts["refused"] += 1
+        self._notice(text, session, "error")
+
+    # -- events from the pages ----------------------------------------------------------------
+    def _handle(self, event: Event, now: float) -> None:
+        s = event.session
+        if event.kind == "join":
+            self.arbiter.join(s, event.payload)
+            self._notice(f"{event.payload} is watching")
+        elif event.kind == "leave":
+            self.deadman.release(s)
+            name = self.arbiter.sessions.get(s, s)
+            if self.arbiter.leave(s):
+                self._notice(f"{name} disconnected; control is free")
+        elif event.kind == "bad":
+            self.counts["bad_messages"] += 1
+            self._notice(str(event.payload), s, "error")
+        elif event.kind == "msg":
+            self._message(s, event.payload.type, event.payload.fields, now, event.wall)
+
+    def _message(self, s: str, kind: str, f: dict[str, Any], now: float, wall: float) -> None:
+        if kind == "hello":
+            return
+        if kind in ("take", "release"):
+            decision = self.arbiter.take(s) if kind == "take" else self.arbiter.release(s)
+            if kind == "release" and decision.ok:
+                self.deadman.release(s)
+            if decision.ok:
+                self._notice(decision.message)
+            else:
+                self._refuse(s, decision.message)
+            return
+        what = f.get("action", kind)
+        decision = self.arbiter.may_command(s, what)
+        if not decision.ok:
+            self.deadman.release(s)
+            self._refuse(s, decision.message)
+            return
+        try:
+            if kind == "jog":
+                self._jog_message(s, f, wall)
+            elif kind == "click":
+                frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
+                self._send_seed(point_seed(frame, f["u"], f["v"]), wall, "click")
+            elif kind == "box":
+                frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
+                box = box_seed(frame, f["u0"], f["v0"], f["u1"], f["v1"])
+                self._send_seed(box, wall, "box")
+            elif kind == "zoom":
+                self._zoom_message(f["camera"], f["value"])
+            elif kind == "action":
+                self._action(s, f["action"], now)
+            else:
+                raise Refused(f"{kind} is not available on this console")
+        except Refused as exc:
+            self._refuse(s, str(exc))
+
+    def _send_seed(self, values: list[float], wall: float, what: str) -> None:
+        self.seed.send(Vector(values=np.asarray(values, dtype=float)))
+        self.seed_sent_wall.append((wall, time.monotonic()))
+        self.counts["seeds"] += 1
+        where = ", ".join(f"{v:.1f}" for v in values)
+        self._notice(f"{what} seed sent to the snake at [{where}] px")
+
+    def _action(self, s: str, action: str, now: float) -> None:
+        if action in ("resume", "start"):
+            check_snake_healthy(
+                self.contour.get(now), self.contour.age(now), self.params.max_contour_age, action
+            )
+        self.operator.send(Text(text=action))
+        self.counts[action] += 1
+        self._notice(f"{action} sent to vsServo")
+
+    def _zoom_message(self, camera: str, value: float) -> None:
+        if camera not in self._zoom:
+            raise Refused(
+                f"zoom refused: expected a camera of {list(self._zoom)}, found {camera!r}"
+            )
+        if not 0.0 <= value <= 1.0:
+            raise Refused(f"zoom refused: expected 0 (wide) .. 1 (tele), found {value}")
+        self._person_zoomed = True
+        self._send_zoom(camera, value)
+
+    def _send_zoom(self, camera: str, value: float) -> None:
+        self._zoom[camera] = value
+        port = (self.zoom_1, self.zoom_2)[self.params.zoom_names.index(camera)]
+        port.send(Scalar(value=float(value)))
+
+    def _zoom_auto(self, now: float) -> None:
+        if not self.zoom_auto.fresh or self.zoom_auto.value is None or self._person_zoomed:
+            return
+        value = float(np.clip(self.zoom_auto.value.value, 0.0, 1.0))
+        for camera in self._zoom:
+            self._send_zoom(camera, value)
+
+    def _jog_message(self, s: str, f: dict[str, Any], wall: float) -> None:
+        if f["held"] and f["jog_frame"] == "tool" and self._T_tool_camera is None:
+            raise Refused(
+                f"tool-frame jog refused: expected a static frame {self.params.tool_frame}->"
+                f"{self.params.camera_frame} in the graph, found none (jog in the camera frame)"
+            )
+        was = self.deadman.held
+        self.deadman.update(s, f["held"], f["axes"], f["speed"], f["jog_frame"], wall)
+        if self.deadman.held is not None and was is None:
+            self.counts["jogs"] += 1
+            servo = self.servo.value
+            if servo is not None and servo.stage in _ACTIVE:
+                self.operator.send(Text(text="pause"))
+                self._notice("jog: the grab is paused (resume it when done)")
+
+    # -- periodic -----------------------------------------------------------------------------
+    def _jog_step(self, wall: float) -> None:
+        held = self.deadman.current(wall)
+        if held is not None and self.arbiter.holder != held.session:
+            self.deadman.release()
+            held = None
+        if held is not None:
+            T = self._T_tool_camera if self._T_tool_camera is not None else np.eye(4)
+            twist = jog_twist(held.axes, held.speed, held.jog_frame, self._jog_limits, T)
+            self.jog.send(Twist(vector=twist, frame=self.params.camera_frame))
+            self._jogging = True
+        elif self._jogging:
+            self.jog.send(Twist(vector=np.zeros(6), frame=self.params.camera_frame))
+            self._jogging = False
+
+    def _sim_seed(self, now: float) -> None:
+        if not self.sim_seed.fresh or self.sim_seed.value is None:
+            return
+        if self.arbiter.person_acted:
+            self.counts["sim_seeds_ignored"] += 1
+            return
+        self.seed.send(Vector(values=np.asarray(self.sim_seed.value.values, dtype=float)))
+        self.counts["sim_seeds"] += 1
+
+    def _presence(self) -> None:
+        key = (
+            "person" if self.arbiter.holder else "nobody",
+            int(self.arbiter.person_acted),
+            len(self.arbiter.sessions),
+        )
+        if key != self._last_presence:
+            self._last_presence = key
+            self.presence.send(
+                Status(
+                    stage=key[0],
+                    message=f"{key[2]} page(s) open; control: {self.arbiter.holder_name() or '-'}",
+                    values={"acted": float(key[1]), "viewers": float(key[2])},
+                )
+            )
+
+    def _track_servo(self, now: float) -> None:
+        status = self.servo.get(now)
+        if status is None or not self.servo.fresh:
+            return
+        errs = [status.values.get(n, math.nan) for n in view_state.ERRORS]
+        if any(math.isfinite(e) for e in errs):
+            self._errors.append([round(now - (self._t0 or now), 3), *errs])
+        if status.stage == "assist" and self._last_servo_stage != "assist":
+            self._assist = {
+                "id": self.counts["assists"] + 1,
+                "reason": status.reason or status.message,
+                "overlay": view_state.overlay(self.contour.value, self._limits),
+            }
+            self.counts["assists"] += 1
+            if self._app is not None and self.image.value is not None:
+                self._app.assist_frame.put(np.array(self.image.value.pixels))  # kept: a copy
+            self._notice(f"assistance requested: {self._assist['reason']}", level="error")
+        elif status.stage != "assist":
+            self._assist = None
+        self._last_servo_stage = status.stage
+
+    def _state(self, now: float) -> dict[str, Any]:
+        servo = self.servo.get(now)
+        guard = self.guard.get(now)
+        world = self.world.get(now)
+        held = self.deadman.held
+        return {
+            "t": round(now - (self._t0 or now), 3),
+            "overlay": view_state.overlay(self.contour.get(now), self._limits),
+            "servo": view_state.servo_view(servo),
+            "banner": view_state.zero_banner(servo, guard),
+            "guard": None if guard is None else {"stage": guard.stage, "reason": guard.reason},
+            "world": None if world is None else {"stage": world.stage, "message": world.message},
+            "errors": [
+                [
+                    e[0],
+                    *[
+                        round(x * s, 3) if math.isfinite(x) else None
+                        for x, s in zip(
+                            e[1:], (1000.0, 1000.0, 1000.0, 180.0 / math.pi), strict=True
+                        )
+                    ],
+                ]
+                for e in list(self._errors)[-150:]
+            ],
+            "links": [
+                view_state.link_view(name, reg.age(now), reg.link_alive)
+                for name, reg in (
+                    ("image", self.image),
+                    ("contour", self.contour),
+                    ("servo", self.servo),
+                    ("joints", self.joints),
+                )
+            ],
+            "smart_alive": self.joints.link_alive and self.guard.link_alive,
+            "joints": view_state.joints_view(self.joints.get(now), *self._q_limits),
+            "control": self.arbiter.holder_name(),
+            "control_session": self.arbiter.holder or "",
+            "viewers": [name for name in self.arbiter.sessions.values()],
+            "refused": self.counts["refused"],
+            "jog": None
+            if held is None
+            else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
+            "assist": self._assist,
+            "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._zoom.items()],
+            "notices": list(self._notices),
+            "links_extra": dict(self._server.links) if self._server is not None else {},
+        }
+
+    # -- summary ------------------------------------------------------------------------------
+    def _cpu_figures(self) -> dict[str, float]:
+        if self._app is None:
+            return {}
+        st = self._app.stats
+        web = thread_cpu_s(st.web_tid) if st.web_tid else 0.0
+        enc = thread_cpu_s(st.encoder_tid) if st.encoder_tid else 0.0
+        return {
+            "web_cpu_s": round(web, 3),
+            "encoder_cpu_s": round(enc, 3),
+            "process_cpu_s": round(process_cpu_s() - self._cpu0, 3),
+        }
+
+    def summary(self) -> dict[str, object]:
+        out: dict[str, object] = {
+            "url": self.url,
+            "seeds": self.counts["seeds"],
+            "sim_seeds": self.counts["sim_seeds"],
+            "sim_seeds_ignored": self.counts["sim_seeds_ignored"],
+            "refused": self.counts["refused"],
+            "bad_messages": self.counts["bad_messages"],
+            "control_refusals": self.arbiter.refused,
+            "person_acted": self.arbiter.person_acted,
+            "jogs": self.counts["jogs"],
+            "deadman_expired": self.deadman.expired,
+            "assists": self.counts["assists"],
+        }
+        if self._app is not None:
+            st = self._app.stats
+            lat = np.asarray(st.latency_ms)
+            out.update(
+                frames_encoded=st.frames_encoded,
+                frames_sent=st.frames_sent,
+                frames_painted=len(lat),
+                viewers_max=st.viewers_max,
+                malformed=st.malformed,
+                replayed=st.replayed,
+                refused_requests=self._server.refused_requests if self._server else 0,
+            )
+            if len(lat):
+                out["latency_p50_ms"] = round(float(np.percentile(lat, 50)), 2)
+                out["latency_p95_ms"] = round(float(np.percentile(lat, 95)), 2)
+            if self.seed_sent_wall:
+                waits = np.array([(sent - got) * 1e3 for got, sent in self.seed_sent_wall])
+                out["seed_latency_p50_ms"] = round(float(np.percentile(waits, 50)), 2)
+                out["seed_latency_p95_ms"] = round(float(np.percentile(waits, 95)), 2)
+            if len(st.painted_wall) > 1:
+                span = st.painted_wall[-1] - st.painted_wall[0]
+                out["fps_shown"] = round((len(st.painted_wall) - 1) / span, 2) if span > 0 else 0.0
+            out.update(getattr(self, "_cpu_end", {}))
+        return out

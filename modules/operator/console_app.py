@@ -1,0 +1,289 @@
+"""The console's web side: its page, its websocket, and the frame pump (runs in the web thread).
+
+Nothing here touches the graph: the module hands over frames and a state snapshot through
+:class:`~modules.operator.mailbox.Latest`, and takes back checked messages through an
+:class:`~modules.operator.mailbox.Inbox` that its ``step`` drains.
+
+Video: each new camera image is JPEG-encoded once (in one encoder thread, only while a page
+watches) and sent as a binary websocket message ``[4-byte header length][JSON header][JPEG]``.
+A page has at most ``MAX_IN_FLIGHT`` frames sent and not yet reported painted (a lost report
+expires after ``ACK_TIMEOUT_S``), so frames never queue: the latest wins.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import itertools
+import json
+import secrets
+import struct
+import threading
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from typing import Any
+
+import cv2
+import numpy as np
+from fastapi import WebSocket, WebSocketDisconnect
+from fastapi.responses import HTMLResponse, Response
+
+from modules.operator.access import TOKEN_COOKIE
+from modules.operator.mailbox import Inbox, Latest
+from modules.operator.protocol import MessageChecker, ProtocolError
+from modules.operator.web_server import WebServer
+
+ACK_TIMEOUT_S = 1.0
+MAX_IN_FLIGHT = 2  #: frames on their way to a page (hides the round trip; never a queue)
+
+
+@dataclass(frozen=True)
+class RawFrame:
+    """A camera image handed over by ``step``: pixels (BGR), its ``seq``, and for latency the
+    wall time of the hand-over [s since epoch] and its age on the run's clock then [s]."""
+
+    pixels: np.ndarray
+    seq: int
+    handoff_wall: float
+    age_at_handoff: float
+
+
+@dataclass(frozen=True)
+class Event:
+    """From the web thread to ``step``: ``kind`` join / leave / msg / bad, the session, a
+    payload, and the wall time it arrived (monotonic seconds)."""
+
+    kind: str
+    session: str
+    payload: Any
+    wall: float
+
+
+@dataclass
+class WebStats:
+    """Figures gathered in the web thread (read by the module's summary)."""
+
+    frames_encoded: int = 0
+    frames_sent: int = 0
+    latency_ms: list[float] = field(default_factory=list)
+    painted_wall: list[float] = field(default_factory=list)
+    malformed: int = 0
+    replayed: int = 0
+    viewers: int = 0
+    viewers_max: int = 0
+    encoder_tid: int = 0
+    web_tid: int = 0
+
+
+def _static(name: str) -> str:
+    return resources.files("modules.operator").joinpath("static", name).read_text("utf-8")
+
+
+class ConsoleApp:
+    """Routes of one console on a :class:`WebServer`, under ``prefix`` ("" for the root)."""
+
+    def __init__(self, server: WebServer, inbox: Inbox[Event], jpeg_quality: int) -> None:
+        self.server = server
+        self.inbox = inbox
+        self.frames: Latest[RawFrame] = Latest()
+        self.state: Latest[dict[str, Any]] = Latest()
+        self.assist_frame: Latest[np.ndarray] = Latest()
+        self.stats = WebStats()
+        self.jpeg_quality = jpeg_quality
+        self._encoded: Latest[bytes] = Latest()
+        self._state_json: tuple[int, str] = (0, "")
+        self._encoder = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="umbra-jpeg")
+        self._pump: asyncio.Task | None = None
+        self._names = itertools.count(1)
+        self._lock = threading.Lock()
+        self._page = _static("console.html")
+        self._js = _static("console.js")
+        app = server.app
+        app.add_api_route("/", self._index, methods=["GET"])
+        app.add_api_route("/console.js", self._script, methods=["GET"])
+        app.add_api_route("/assist.jpg", self._assist_jpeg, methods=["GET"])
+        app.add_api_websocket_route("/ws", self._socket)
+
+    raw_frame = RawFrame  #: what ``step`` hands over (here so the module imports no web code)
+
+    def close(self) -> None:
+        self._encoder.shutdown(wait=False, cancel_futures=True)
+
+    # -- HTTP ------------------------------------------------------------------------------
+    async def _index(self) -> HTMLResponse:
+        response = HTMLResponse(self._page, headers={"cache-control": "no-store"})
+        if self.server.token:
+            response.set_cookie(TOKEN_COOKIE, self.server.token, httponly=True, samesite="strict")
+        return response
+
+    async def _script(self) -> Response:
+        return Response(self._js, media_type="text/javascript")
+
+    async def _assist_jpeg(self) -> Response:
+        _, pixels = self.assist_frame.get()
+        if pixels is None:
+            return Response(status_code=404)
+        data = await asyncio.get_running_loop().run_in_executor(self._encoder, self._encode, pixels)
+        return Response(data, media_type="image/jpeg", headers={"cache-control": "no-store"})
+
+    def _encode(self, pixels: np.ndarray) -> bytes:
+        if not self.stats.encoder_tid:
+            self.stats.encoder_tid = threading.get_native_id()
+        ok, buf = cv2.imencode(".jpg", pixels, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
+        if not ok:
+            raise ValueError("JPEG encoding failed")
+        return buf.tobytes()
+
+    # -- frame pump ------------------------------------------------------------------------
+    async def _pump_frames(self) -> None:
+        """Encode each new frame once while anyone watches (latest wins)."""
+        loop = asyncio.get_running_loop()
+        version = 0
+        while True:
+            version, frame = await self.frames.wait_newer(version, 0.5)
+            if frame is None or self.stats.viewers == 0:
+                continue
+            t0 = time.perf_counter()
+            jpeg = await loop.run_in_executor(self._encoder, self._encode, frame.pixels)
+            h, w = frame.pixels.shape[:2]
+            header = json.dumps(
+                {
+                    "frame": frame.seq,
+                    "w": int(w),
+                    "h": int(h),
+                    "handoff_wall_ms": frame.handoff_wall * 1e3,
+                    "age_ms": frame.age_at_handoff * 1e3,
+                    "encode_ms": (time.perf_counter() - t0) * 1e3,
+                }
+            ).encode()
+            self.stats.frames_encoded += 1
+            self._encoded.put(struct.pack(">I", len(header)) + header + jpeg)
+
+    # -- websocket -------------------------------------------------------------------------
+    async def _socket(self, ws: WebSocket) -> None:
+        await ws.accept()
+        if not self.stats.web_tid:
+            self.stats.web_tid = threading.get_native_id()
+        if self._pump is None:
+            self._pump = asyncio.create_task(self._pump_frames())
+        session = secrets.token_hex(8)
+        client = ws.client
+        name = f"viewer {next(self._names)} ({client.host if client else '?'})"
+        checker = MessageChecker(session)
+        flight = _InFlight()
+        self.stats.viewers += 1
+        self.stats.viewers_max = max(self.stats.viewers_max, self.stats.viewers)
+        self.inbox.put(Event("join", session, name, time.monotonic()))
+        await ws.send_text(json.dumps({"type": "welcome", "session": session, "name": name}))
+        sender = asyncio.create_task(self._send_loop(ws, flight))
+        try:
+            while True:
+                message = await ws.receive()
+                if message["type"] == "websocket.disconnect":
+                    break
+                raw = message.get("text")
+                if raw is None:
+                    raw = "<binary message: expected JSON text>"
+                try:
+                    msg = checker.check(raw)
+                except ProtocolError as exc:
+                    text = str(exc)
+                    if text.startswith("replayed"):
+                        self.stats.replayed += 1
+                    else:
+                        self.stats.malformed += 1
+                    self.inbox.put(Event("bad", session, text, time.monotonic()))
+                    await ws.send_text(
+                        json.dumps({"type": "notice", "level": "error", "text": text})
+                    )
+                    continue
+                if msg.type == "painted":
+                    if msg.fields["latency_ms"] > 0:  # 0: overtaken by a newer frame, not drawn
+                        self._painted(msg.fields["latency_ms"])
+                    flight.painted()
+                    continue
+                if not self.inbox.put(Event("msg", session, msg, time.monotonic())):
+                    await ws.send_text(
+                        json.dumps(
+                            {
+                                "type": "notice",
+                                "level": "error",
+                                "text": "refused: the console is overloaded (inbox full)",
+                            }
+                        )
+                    )
+        except (WebSocketDisconnect, RuntimeError):
+            pass
+        finally:
+            sender.cancel()
+            self.stats.viewers -= 1
+            self.inbox.put(Event("leave", session, None, time.monotonic()))
+
+    def _painted(self, latency_ms: float) -> None:
+        if len(self.stats.latency_ms) < 100_000:
+            self.stats.latency_ms.append(float(latency_ms))
+            self.stats.painted_wall.append(time.monotonic())
+
+    def _state_text(self, version: int, state: dict[str, Any]) -> str:
+        """The state as JSON, serialized once per version for every page."""
+        cached = self._state_json
+        if cached[0] != version:
+            cached = self._state_json = (version, json.dumps({"type": "state", **state}))
+        return cached[1]
+
+    async def _send_loop(self, ws: WebSocket, flight: _InFlight) -> None:
+        """Send each new state snapshot, and the newest frame while fewer than
+        ``MAX_IN_FLIGHT`` frames await their painted report."""
+        frame_version = sent_state = 0
+        try:
+            while True:
+                state_version, state = self.state.get()
+                if state is not None and state_version > sent_state:
+                    sent_state = state_version
+                    await ws.send_text(self._state_text(state_version, state))
+                can_send = flight.can_send()
+                version, data = self._encoded.get()
+                if can_send and data is not None and version > frame_version:
+                    frame_version = version
+                    flight.sent()
+                    await ws.send_bytes(data)
+                    self.stats.frames_sent += 1
+                    continue
+                waits = [asyncio.ensure_future(self.state.wait_newer(sent_state, 0.25))]
+                if can_send:
+                    waits.append(
+                        asyncio.ensure_future(self._encoded.wait_newer(frame_version, 0.25))
+                    )
+                else:
+                    waits.append(asyncio.ensure_future(flight.event.wait()))
+                _, pending = await asyncio.wait(
+                    waits, timeout=0.25, return_when=asyncio.FIRST_COMPLETED
+                )
+                for task in pending:
+                    task.cancel()
+        except (asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+            return
+
+
+class _InFlight:
+    """Frames sent to one page and not yet reported painted (web thread only)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.deadline = 0.0
+        self.event = asyncio.Event()
+
+    def can_send(self) -> bool:
+        if self.count and time.monotonic() > self.deadline:
+            self.count = 0  # reports lost (a busy page): start over
+        return self.count < MAX_IN_FLIGHT
+
+    def sent(self) -> None:
+        self.count += 1
+        self.deadline = time.monotonic() + ACK_TIMEOUT_S
+        self.event.clear()
+
+    def painted(self) -> None:
+        self.count = max(0, self.count - 1)
+        self.event.set()

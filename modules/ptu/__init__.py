@@ -1,0 +1,1 @@
+"""Pan-tilt units that carry the Active Sketch cameras (simulated), and aiming them."""

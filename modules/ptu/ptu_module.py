@@ -1,0 +1,104 @@
+"""PTU: a simulated pan-tilt unit that carries a camera and aims it on command."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, Parameters, UserError, param
+from connectors.messages import Pose
+from connectors.sketch_messages import PtuCommand, PtuState
+from modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
+from modules.ptu.sim_ptu import SimPtu
+
+
+class Ptu(Module):
+    """Simulated pan-tilt unit (rate- and acceleration-limited slewing).
+
+    Commands: angles (pan, tilt) or a 3-D point in ``world_frame`` that the camera mount's optic
+    axis is aimed at (the Rochester guide's aiming solution). Commands out of travel are refused
+    and reported in ``state.status``. Publishes the angles and the camera mount's pose
+    ``T_<world_frame>_<mount_name>`` every tick (give it a ``rate``). The unit's base is the
+    static frame ``world_frame->ptu_frame`` (Z forward, Y down, X right, as the guide's FLANGE).
+    """
+
+    TYPE = "PTU"
+
+    class Params(Parameters):
+        world_frame: str = param("base", "frame of aim points and of the published pose")
+        ptu_frame: str = param("ptu", "static frame of the unit's base (Z forward, Y down)")
+        mount_name: str = param("ptu_mount", "name of the (moving) camera mount frame it publishes")
+        initial_pan_deg: float = param(0.0, "pan at start", unit="deg", ge=-159, le=159)
+        initial_tilt_deg: float = param(0.0, "tilt at start", unit="deg", ge=-47, le=31)
+        max_rate: float = param(1.0, "slew rate limit per axis", unit="rad/s", gt=0, le=5)
+        max_accel: float = param(4.0, "acceleration limit per axis", unit="rad/s^2", gt=0)
+
+    command = Input(PtuCommand, required=False, doc="angles or a point to aim at")
+    state = Output(PtuState, doc="pan, tilt and their rates")
+    mount_pose = Output(Pose, doc="T_world_mount: the camera mount's pose")
+
+    def start(self) -> None:
+        p = self.params
+        try:
+            self.T_base_ptu = self.context.frames.lookup(p.world_frame, p.ptu_frame)
+        except KeyError:
+            raise UserError(
+                f"PTU `{self.name}`: expected a static frame {p.world_frame}->{p.ptu_frame} "
+                "(the unit's base) in the graph's frames, found none"
+            ) from None
+        self.geometry = PtuGeometry(max_rate=p.max_rate, max_accel=p.max_accel)
+        self.unit = SimPtu(
+            self.geometry, np.radians(p.initial_pan_deg), np.radians(p.initial_tilt_deg)
+        )
+        self._status = "ok"
+        self._last: float | None = None
+        self._refused = 0
+
+    def step(self, now: float) -> None:
+        command = self.command.get(now)
+        if command is not None and self.command.fresh:
+            self._obey(command)
+        dt = 0.0 if self._last is None else now - self._last
+        self._last = now
+        if dt > 0:
+            self.unit.step(dt)
+        pan, tilt = self.unit.angles
+        self.state.send(
+            PtuState(
+                pan=float(pan),
+                tilt=float(tilt),
+                pan_rate=float(self.unit.rates[0]),
+                tilt_rate=float(self.unit.rates[1]),
+                moving=self.unit.moving,
+                status=self._status,
+            )
+        )
+        self.mount_pose.send(
+            Pose(
+                matrix=self.T_base_ptu @ self.geometry.T_ptu_mount(pan, tilt),
+                parent=self.params.world_frame,
+                child=self.params.mount_name,
+            )
+        )
+
+    def _obey(self, command: PtuCommand) -> None:
+        try:
+            if command.mode == "angles":
+                self.unit.command(command.pan, command.tilt)
+            elif command.mode == "point":
+                if command.frame != self.params.world_frame:
+                    raise PtuLimitError(
+                        f"aim point in frame `{command.frame}`, expected "
+                        f"`{self.params.world_frame}`"
+                    )
+                self.unit.command(*aim_in_base(self.geometry, self.T_base_ptu, command.point))
+            else:
+                raise PtuLimitError(f"unknown PTU mode {command.mode!r}; expected angles or point")
+            self._status = "ok"
+        except PtuLimitError as exc:
+            self._refused += 1
+            self._status = f"refused: {exc}"
+            self.log.warning("PTU %s: %s", self.name, exc)
+
+    def summary(self) -> dict[str, object]:
+        pan, tilt = np.degrees(self.unit.angles)
+        return {"pan_deg": float(pan), "tilt_deg": float(tilt), "refused": self._refused}

@@ -1,0 +1,119 @@
+"""The text commands of the Sketch module (from the console, the CLI or a scripted operator).
+
+One command per ``Text`` message; numbers are SI (metres, radians unless ``_deg``), pixels are
+``u,v``. Grammar::
+
+    aim X Y Z [ZOOM]             slew both PTUs to watch the point (m, base); optional zoom 0..1
+    zoom Z                       both cameras' zoom, 0 (wide) .. 1 (tele)
+    snapshot                     take a stereo snapshot pair
+    place KIND U,V ... | U,V ... a primitive by its vertices in image a | image b
+    plan MACRO [ID] [KEY=VALUE ...]   plan and check a macro for primitive ID (none: canned)
+    vcr ACTION [SPEED] [S]       play / pause / back / resume / speed / seek / stop the path
+
+:func:`parse` returns a :class:`Command` or raises ``UserError`` saying what was expected.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from connectors import UserError
+from modules.sketch.primitives import KINDS
+
+VERBS = ("aim", "zoom", "snapshot", "place", "plan", "vcr")
+
+
+@dataclass
+class Command:
+    """A parsed command: ``verb`` and its arguments."""
+
+    verb: str
+    point: np.ndarray | None = None
+    zoom: float | None = None
+    kind: str = ""
+    pixels_a: np.ndarray | None = None
+    pixels_b: np.ndarray | None = None
+    macro: str = ""
+    primitive_id: str = ""
+    options: dict[str, float] = field(default_factory=dict)
+    action: str = ""
+    speed: float | None = None
+    s: float | None = None
+
+
+def _numbers(words: list[str], what: str, text: str) -> list[float]:
+    try:
+        values = [float(w) for w in words]
+    except ValueError:
+        raise UserError(
+            f"sketch command {text!r}: expected numbers for {what}, got {words}"
+        ) from None
+    if not all(np.isfinite(values)):
+        raise UserError(f"sketch command {text!r}: {what} must be finite, got {values}")
+    return values
+
+
+def _pixels(words: list[str], text: str) -> np.ndarray:
+    out = []
+    for w in words:
+        parts = w.split(",")
+        if len(parts) != 2:
+            raise UserError(f"sketch command {text!r}: expected pixels as u,v, got {w!r}")
+        out.append(_numbers(parts, "a pixel", text))
+    return np.asarray(out, dtype=float).reshape(-1, 2)
+
+
+def parse(text: str) -> Command:
+    """Parse one command (see module docstring)."""
+    words = text.split()
+    if not words or words[0] not in VERBS:
+        raise UserError(f"sketch command {text!r}: expected one of {', '.join(VERBS)}")
+    verb, rest = words[0], words[1:]
+    if verb == "aim":
+        values = _numbers(rest, "aim X Y Z [ZOOM]", text)
+        if len(values) not in (3, 4):
+            raise UserError(f"sketch command {text!r}: expected aim X Y Z [ZOOM]")
+        return Command(
+            verb, point=np.array(values[:3]), zoom=values[3] if len(values) > 3 else None
+        )
+    if verb == "zoom":
+        values = _numbers(rest, "zoom Z", text)
+        if len(values) != 1 or not 0.0 <= values[0] <= 1.0:
+            raise UserError(f"sketch command {text!r}: expected zoom Z with 0 <= Z <= 1")
+        return Command(verb, zoom=values[0])
+    if verb == "snapshot":
+        return Command(verb)
+    if verb == "place":
+        if not rest or rest[0] not in KINDS or "|" not in rest:
+            raise UserError(
+                f"sketch command {text!r}: expected place KIND U,V ... | U,V ... with KIND one of "
+                f"{', '.join(KINDS)}"
+            )
+        bar = rest.index("|")
+        return Command(
+            verb,
+            kind=rest[0],
+            pixels_a=_pixels(rest[1:bar], text),
+            pixels_b=_pixels(rest[bar + 1 :], text),
+        )
+    if verb == "plan":
+        if not rest:
+            raise UserError(f"sketch command {text!r}: expected plan MACRO [ID] [KEY=VALUE ...]")
+        options = {}
+        ident = ""
+        for w in rest[1:]:
+            if "=" in w:
+                key, value = w.split("=", 1)
+                options[key] = _numbers([value], key, text)[0]
+            else:
+                ident = w
+        return Command(verb, macro=rest[0], primitive_id=ident, options=options)
+    values = _numbers(rest[1:], "vcr speed / s", text) if len(rest) > 1 else []
+    if not rest:
+        raise UserError(f"sketch command {text!r}: expected vcr ACTION [SPEED] [S]")
+    action = rest[0]
+    speed = values[0] if values and action in ("play", "back", "resume", "speed") else None
+    s = values[0] if values and action == "seek" else None
+    return Command(verb, action=action, speed=speed, s=s)

@@ -1,0 +1,198 @@
+"""The macro menu by primitive (LDRD report section 3) and each macro's key tool poses.
+
+A macro turns a primitive (or nothing) and the arm's current tool pose into key poses
+``T_base_tool`` with a gripper opening at each (1 open, 0 closed), or into joint targets for the
+canned motions. :mod:`modules.sketch.path_check` then samples, solves and checks the path.
+Conventions of :mod:`modules.sketch.tool_poses` (tool z = approach, x = across the fingers).
+Options (``MacroRequest.options``) override the defaults named in each description.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from connectors.sketch_messages import SketchPrimitive
+from modules.sketch.primitives import line_axis, plane_rect, point_of
+from modules.sketch.tool_poses import DOWN, arc, rotate_about_axis, tool_pose
+
+FloatArray = NDArray[np.float64]
+
+#: kind of primitive ("none" = nothing selected) -> [(macro, what it does)]
+MENU: dict[str, list[tuple[str, str]]] = {
+    "none": [
+        ("ready", "joints to the ready pose (tool above the table, looking down)"),
+        ("stow", "joints to the stowed pose"),
+    ],
+    "point": [
+        ("move_to", "tool point to `standoff` (0.05 m) above the point, looking down"),
+        ("aim_along_ray", "tool axis along camera a's ray through the point, `standoff` back"),
+    ],
+    "line": [
+        ("grab_pipe", "grasp the line's middle from above, fingers across the axis"),
+        ("move_around_axis", "sweep `angle` (85 deg) about the line, right-hand rule"),
+        ("approach_side", "grasp the line's middle from the side facing the arm"),
+        ("move_parallel", "move the tool along the line by its length x `fraction` (1)"),
+        ("aim_along_axis", "tool axis along the line, `standoff` (0.1 m) before its start"),
+        ("place_device", "set the held device `standoff` (0.08 m) in front of the edge"),
+    ],
+    "plane": [
+        ("surface_scan", "raster the rectangle at `standoff` (0.08 m), `spacing` (0.028 m)"),
+        ("follow_perimeter", "follow the rectangle's outline at `standoff` (0.08 m)"),
+    ],
+    "triad": [("make_box", "keep the box as scene geometry (no motion)")],
+}
+
+PREGRASP_M = 0.10
+DEVICE_HALF_HEIGHT_M = 0.03
+
+
+class MacroError(ValueError):
+    """A macro that does not apply (wrong primitive, missing input)."""
+
+
+@dataclass
+class MacroKeys:
+    """Key poses (or joint targets) of a macro, with the gripper opening at each and the point the
+    cameras should watch (m, base)."""
+
+    macro: str
+    poses: list[FloatArray] = field(default_factory=list)
+    gripper: list[float] = field(default_factory=list)
+    joint_targets: list[FloatArray] = field(default_factory=list)
+    watch: FloatArray | None = None
+    sweep: tuple[FloatArray, FloatArray, float] | None = None  #: (point, direction, angle)
+
+
+def menu_for(primitive: SketchPrimitive | None) -> list[tuple[str, str]]:
+    """The macros a primitive (None: nothing selected) makes available."""
+    return MENU["none" if primitive is None else primitive.kind]
+
+
+def macro_keys(
+    macro: str,
+    primitive: SketchPrimitive | None,
+    T_tool: FloatArray,
+    gripper: float,
+    options: dict[str, float] | None = None,
+    *,
+    q_ready: FloatArray | None = None,
+    q_stow: FloatArray | None = None,
+    camera_centre: FloatArray | None = None,
+) -> MacroKeys:
+    """Key poses of ``macro`` for ``primitive`` from the current tool pose ``T_tool``."""
+    opts = dict(options or {})
+    names = [m for m, _ in menu_for(primitive)]
+    if macro not in names:
+        kind = "nothing selected" if primitive is None else f"a {primitive.kind}"
+        raise MacroError(f"macro {macro!r} is not on the menu for {kind}; expected one of {names}")
+    keys = MacroKeys(macro)
+    if macro in ("ready", "stow"):
+        target = q_ready if macro == "ready" else q_stow
+        if target is None:
+            raise MacroError(f"no {macro} pose configured")
+        keys.joint_targets = [np.asarray(target, dtype=float)]
+        keys.gripper = [gripper]
+        return keys
+    if macro == "make_box":
+        return keys
+    assert primitive is not None
+    x_hint = T_tool[:3, 0]
+    if macro == "move_to":
+        p = point_of(primitive)
+        keys.poses = [
+            tool_pose(p + np.array([0.0, 0.0, opts.get("standoff", 0.05)]), DOWN, x_hint, x_hint)
+        ]
+        keys.gripper, keys.watch = [gripper], p
+    elif macro == "aim_along_ray":
+        if camera_centre is None:
+            raise MacroError("aim_along_ray needs camera a's centre")
+        p = point_of(primitive)
+        ray = (p - camera_centre) / np.linalg.norm(p - camera_centre)
+        pose = tool_pose(p - opts.get("standoff", 0.15) * ray, ray, x_hint, x_hint)
+        keys.poses, keys.gripper, keys.watch = [pose], [gripper], p
+    elif macro in ("grab_pipe", "approach_side"):
+        axis = line_axis(primitive)
+        m = axis.middle
+        if macro == "grab_pipe":
+            approach = DOWN
+        else:
+            outward = m.copy()
+            outward[2] = 0.0
+            approach = outward - (outward @ axis.direction) * axis.direction
+            approach[2] = 0.0
+            approach /= np.linalg.norm(approach)
+        grasp = tool_pose(m, approach, axis.direction, x_hint)
+        pre = grasp.copy()
+        pre[:3, 3] = m - PREGRASP_M * approach
+        keys.poses, keys.gripper, keys.watch = [pre, grasp], [1.0, 0.0], m
+    elif macro == "move_around_axis":
+        axis = line_axis(primitive)
+        angle = float(np.radians(opts.get("angle_deg", 85.0)))
+        keys.poses = list(arc(T_tool, axis.start, axis.direction, angle, np.radians(1.0))[1:])
+        keys.gripper = [0.0] * len(keys.poses)
+        keys.sweep = (axis.start, axis.direction, angle)
+        keys.watch = rotate_about_axis(T_tool, axis.start, axis.direction, angle / 2)[:3, 3]
+    elif macro == "move_parallel":
+        axis = line_axis(primitive)
+        pose = T_tool.copy()
+        pose[:3, 3] += opts.get("fraction", 1.0) * (axis.end - axis.start)
+        keys.poses, keys.gripper, keys.watch = [pose], [gripper], pose[:3, 3]
+    elif macro == "aim_along_axis":
+        axis = line_axis(primitive)
+        pose = tool_pose(
+            axis.start - opts.get("standoff", 0.1) * axis.direction,
+            axis.direction,
+            x_hint if abs(x_hint @ axis.direction) < 0.9 else T_tool[:3, 1],
+            x_hint,
+        )
+        keys.poses, keys.gripper, keys.watch = [pose], [gripper], axis.start
+    elif macro == "place_device":
+        axis = line_axis(primitive)
+        m = axis.middle
+        outward = np.array([-m[0], -m[1], 0.0])  # towards the arm's base
+        outward -= (outward @ axis.direction) * axis.direction
+        outward[2] = 0.0
+        outward /= np.linalg.norm(outward)
+        spot = m + opts.get("standoff", 0.08) * outward + [0.0, 0.0, DEVICE_HALF_HEIGHT_M]
+        place = tool_pose(spot, DOWN, axis.direction, x_hint)
+        above = place.copy()
+        above[2, 3] += PREGRASP_M
+        keys.poses, keys.gripper, keys.watch = [above, place], [gripper, 1.0], spot
+    elif macro in ("surface_scan", "follow_perimeter"):
+        rect = plane_rect(primitive)
+        normal = rect.normal if rect.normal[2] >= 0 else -rect.normal
+        standoff = opts.get("standoff", 0.08)
+        if macro == "surface_scan":
+            points = _raster(rect.corner, rect.edge_u, rect.edge_v, opts.get("spacing", 0.028))
+        else:
+            corners = rect.perimeter()
+            points = np.concatenate([corners, corners[:1]])
+        across = rect.edge_u
+        up = points + standoff * normal
+        poses = [tool_pose(p, -normal, across, x_hint) for p in up]
+        lead = poses[0].copy()
+        lead[:3, 3] += 0.05 * normal
+        keys.poses = [lead, *poses]
+        keys.gripper = [gripper] * len(keys.poses)
+        keys.watch = rect.corner + 0.5 * (rect.edge_u + rect.edge_v)
+    return keys
+
+
+def _raster(corner: FloatArray, edge_u: FloatArray, edge_v: FloatArray, spacing: float):
+    """Boustrophedon points over the parallelogram: lines along ``edge_u``, ``spacing`` apart
+    across it, inset by 0.012 m across and 0.004 m along."""
+    lu, lv = float(np.linalg.norm(edge_u)), float(np.linalg.norm(edge_v))
+    u, v = edge_u / lu, edge_v / lv
+    inset = min(0.012, lv / 2)
+    n = max(1, int(np.ceil((lv - 2 * inset) / spacing)))
+    rows = np.linspace(inset, lv - inset, n + 1)
+    points = []
+    for i, b in enumerate(rows):
+        ends = [0.004, lu - 0.004]
+        if i % 2:
+            ends.reverse()
+        points += [corner + ends[0] * u + b * v, corner + ends[1] * u + b * v]
+    return np.stack(points)

@@ -1,0 +1,270 @@
+"""Sketch: the operator side of Active Sketch — snapshots, primitives, macros, plans, the VCR."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, UserError, param
+from connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
+from connectors.sketch_messages import (
+    PtuCommand,
+    PtuState,
+    SketchBox,
+    SketchPrimitive,
+    StereoSnapshot,
+    ToolPath,
+    VcrCommand,
+    VcrState,
+)
+from modules.arm.arm_params import ArmParams
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.command_text import Command, parse
+from modules.sketch.macros import MacroError, macro_keys, menu_for
+from modules.sketch.path_check import PathLimits, plan_path
+from modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
+from modules.sketch.session import Q_READY, Q_STOW
+from modules.sketch.stereo import StereoNoise, StereoPair
+
+
+class Sketch(Module):
+    """Active Sketch (LDRD report section 3) on the operator's side.
+
+    Text commands (``modules/sketch/command_text.py``: aim, zoom, snapshot, place, plan, vcr)
+    from the console, the CLI or a scripted operator. A snapshot freezes both images with both
+    camera models (zoom included) and poses, and is refused while a PTU is slewing. Placed
+    primitives are constrained to the epipolar lines and triangulated with their covariance
+    (``pixel_sigma`` and the calibration sigmas); a triad also gives a box. A plan is checked
+    (reach, joint limits, singularities, speed) before it is sent; only a path that passed is
+    sent to the player; VCR commands go to the player for the current path. When a path starts
+    playing the cameras are slewed to watch its goal. ``status.message`` holds the outcome of the
+    last command and the macro menu of the last primitive.
+    """
+
+    TYPE = "Sketch"
+
+    class Params(ArmParams):
+        tool_xyz: list[float] = param([0.0, 0.0, 0.14], "tool point in the flange", unit="m")
+        tool_rpy_deg: list[float] = param([0.0, 0.0, 0.0], "tool frame in the flange", unit="deg")
+        world_frame: str = param("base", "frame of the 3-D points")
+        pixel_sigma: float = param(0.5, "operator's placement error", unit="px", ge=0)
+        rotation_sigma: float = param(2e-4, "camera orientation error", unit="rad", ge=0)
+        translation_sigma: float = param(2e-4, "camera position error", unit="m", ge=0)
+        max_image_age: float = param(0.5, "snapshot: newest image at most this old", unit="s", gt=0)
+
+    command = Input(Text, required=False, doc="operator commands (scripted operator, CLI)")
+    console = Input(Text, required=False, doc="operator commands from the /sketch page")
+    image_a = Input(Image, required=False, doc="camera a (left) frames")
+    image_b = Input(Image, required=False, doc="camera b (right) frames")
+    camera_a = Input(CameraModel, required=False, doc="model of camera a at its zoom")
+    camera_b = Input(CameraModel, required=False, doc="model of camera b at its zoom")
+    mount_a = Input(Pose, required=False, doc="T_world_mount of camera a's PTU")
+    mount_b = Input(Pose, required=False, doc="T_world_mount of camera b's PTU")
+    ptu_state_a = Input(PtuState, required=False, doc="PTU a angles (moving?)")
+    ptu_state_b = Input(PtuState, required=False, doc="PTU b angles (moving?)")
+    joint_state = Input(JointState, required=False, feedback=True, doc="the arm's joints")
+    vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
+    snapshot = Output(StereoSnapshot, doc="stereo snapshot pairs")
+    primitive = Output(SketchPrimitive, doc="placed, triangulated primitives")
+    box = Output(SketchBox, doc="boxes from triads")
+    path = Output(ToolPath, doc="checked paths (only those that passed)")
+    plan_preview = Output(ToolPath, doc="every plan, passed or refused, for display")
+    vcr = Output(VcrCommand, doc="VCR commands for the player")
+    ptu_a = Output(PtuCommand, doc="PTU a commands")
+    ptu_b = Output(PtuCommand, doc="PTU b commands")
+    zoom_a = Output(Scalar, doc="zoom request of camera a (to SONY)")
+    zoom_b = Output(Scalar, doc="zoom request of camera b (to SONY)")
+    status = Output(Status, doc="outcome of the last command, menu")
+
+    def start(self) -> None:
+        p = self.params
+        self.table = p.table
+        self.T_flange_tool = transform_from_xyz_rpy_deg(p.tool_xyz, p.tool_rpy_deg)
+        self.noise = StereoNoise(p.pixel_sigma, p.rotation_sigma, p.translation_sigma)
+        self.limits = PathLimits()
+        self.snapshots: dict[str, StereoSnapshot] = {}
+        self.primitives: dict[str, SketchPrimitive] = {}
+        self.paths: dict[str, ToolPath] = {}
+        self.current_path = ""
+        self._watch: dict[str, np.ndarray] = {}
+        self._started_paths: set[str] = set()
+        self._counts = {"commands": 0, "refused": 0}
+
+    def step(self, now: float) -> None:
+        for port in (self.command, self.console):
+            command = port.get(now)
+            if command is not None and port.fresh:
+                self._obey(command, now)
+
+    def _obey(self, command: Text, now: float) -> None:
+        self._counts["commands"] += 1
+        try:
+            message = self._run(parse(command.text), now)
+            self.status.send(Status(stage="ok", message=message))
+        except (UserError, MacroError, PrimitiveError, ValueError) as exc:
+            self._counts["refused"] += 1
+            self.status.send(Status(stage="refused", message=str(exc), reason=str(exc)))
+
+    # -- commands -----------------------------------------------------------------------------
+    def _run(self, cmd: Command, now: float) -> str:
+        if cmd.verb == "aim":
+            assert cmd.point is not None
+            self._aim(cmd.point)
+            if cmd.zoom is not None:
+                self._zoom(cmd.zoom)
+            return f"aiming at {np.round(cmd.point, 3).tolist()} m"
+        if cmd.verb == "zoom":
+            assert cmd.zoom is not None
+            self._zoom(cmd.zoom)
+            return f"zoom {cmd.zoom:.3f}"
+        if cmd.verb == "snapshot":
+            return f"snapshot {self._snapshot(now).snapshot_id}"
+        if cmd.verb == "place":
+            return self._place(cmd, now)
+        if cmd.verb == "plan":
+            return self._plan(cmd, now)
+        return self._vcr(cmd, now)
+
+    def _aim(self, point: np.ndarray) -> None:
+        for out in (self.ptu_a, self.ptu_b):
+            out.send(PtuCommand(mode="point", point=point, frame=self.params.world_frame))
+
+    def _zoom(self, zoom: float) -> None:
+        self.zoom_a.send(Scalar(value=zoom))
+        self.zoom_b.send(Scalar(value=zoom))
+
+    def _snapshot(self, now: float) -> StereoSnapshot:
+        parts = []
+        for side, image, model, mount, ptu in (
+            ("a", self.image_a, self.camera_a, self.mount_a, self.ptu_state_a),
+            ("b", self.image_b, self.camera_b, self.mount_b, self.ptu_state_b),
+        ):
+            frame, cam, pose, unit = image.get(now), model.get(now), mount.get(now), ptu.get(now)
+            if frame is None or cam is None or pose is None:
+                raise UserError(
+                    f"snapshot: camera {side} has not delivered an image, a model and a PTU pose"
+                )
+            if image.age(now) > self.params.max_image_age:
+                raise UserError(f"snapshot: camera {side}'s image is {image.age(now):.2f} s old")
+            if unit is not None and unit.moving:
+                raise UserError(f"snapshot: PTU {side} is still slewing; wait until it stops")
+            parts.append((frame, cam, pose.matrix @ cam.T_mount_camera))
+        (ia, ca, Ta), (ib, cb, Tb) = parts
+        sid = f"snap{len(self.snapshots) + 1}"
+        snap = StereoSnapshot(
+            stamp=now,
+            snapshot_id=sid,
+            image_a=ia.pixels,
+            image_b=ib.pixels,
+            K_a=ca.K,
+            K_b=cb.K,
+            dist_a=np.asarray(ca.dist),
+            dist_b=np.asarray(cb.dist),
+            zoom_a=ca.zoom,
+            zoom_b=cb.zoom,
+            camera_a_name=ca.frame,
+            camera_b_name=cb.frame,
+            T_base_camera_a=Ta,
+            T_base_camera_b=Tb,
+            frame=self.params.world_frame,
+        )
+        self.snapshots[sid] = snap
+        self.snapshot.send(snap)
+        return snap
+
+    def _place(self, cmd: Command, now: float) -> str:
+        if not self.snapshots:
+            raise UserError("place: take a snapshot first")
+        snap = self.snapshots[list(self.snapshots)[-1]]
+        pid = f"{cmd.kind}{len(self.primitives) + 1}"
+        prim = place_primitive(
+            StereoPair.from_snapshot(snap),
+            cmd.kind,
+            cmd.pixels_a,
+            cmd.pixels_b,
+            self.noise,
+            primitive_id=pid,
+            snapshot_id=snap.snapshot_id,
+            stamp=now,
+            frame=self.params.world_frame,
+        )
+        self.primitives[pid] = prim
+        self.primitive.send(prim)
+        if prim.kind == "triad":
+            self.box.send(triad_box(prim))
+        menu = ", ".join(m for m, _ in menu_for(prim))
+        sigma = np.sqrt(np.max(np.linalg.eigvalsh(prim.covariances), axis=1)) * 1e3
+        return f"{pid} placed (largest sigma {np.round(sigma, 2).tolist()} mm); macros: {menu}"
+
+    def _plan(self, cmd: Command, now: float) -> str:
+        state = self.joint_state.get(now)
+        if state is None:
+            raise UserError("plan: no joint state from the arm yet")
+        prim = None
+        if cmd.primitive_id:
+            prim = self.primitives.get(cmd.primitive_id)
+            if prim is None:
+                raise UserError(
+                    f"plan: no primitive {cmd.primitive_id!r}; placed: {sorted(self.primitives)}"
+                )
+        q = np.asarray(state.position, dtype=float)
+        keys = macro_keys(
+            cmd.macro,
+            prim,
+            self.table.fk(q, self.T_flange_tool),
+            float(state.gripper),
+            cmd.options,
+            q_ready=Q_READY,
+            q_stow=Q_STOW,
+            camera_centre=self.snapshots[list(self.snapshots)[-1]].T_base_camera_a[:3, 3]
+            if self.snapshots
+            else None,
+        )
+        path = plan_path(
+            keys,
+            self.table,
+            self.T_flange_tool,
+            q,
+            float(state.gripper),
+            self.limits,
+            path_id=f"path{len(self.paths) + 1}",
+            stamp=now,
+        )
+        self.paths[path.path_id] = path
+        self.plan_preview.send(path)
+        if not path.ok:
+            raise UserError(f"plan {cmd.macro}: refused: {path.reason}")
+        if keys.watch is not None:
+            self._watch[path.path_id] = keys.watch
+        self.current_path = path.path_id
+        self.path.send(path)
+        return (
+            f"{path.path_id} ({cmd.macro}) checked: {len(path.s)} samples, "
+            f"{path.checks.get('duration', 0.0):.1f} s at full speed"
+        )
+
+    def _vcr(self, cmd: Command, now: float) -> str:
+        if not self.current_path:
+            raise UserError("vcr: plan a macro first")
+        if cmd.action in ("play", "resume") and self.current_path not in self._started_paths:
+            self._started_paths.add(self.current_path)
+            watch = self._watch.get(self.current_path)
+            if watch is not None:
+                self._aim(watch)  # the report: cameras slew to watch the macro's goal
+        self.vcr.send(
+            VcrCommand(
+                stamp=now,
+                action=cmd.action,
+                path_id=self.current_path,
+                speed=cmd.speed or 0.0,
+                s=cmd.s or 0.0,
+            )
+        )
+        return f"vcr {cmd.action} {self.current_path}"
+
+    def summary(self) -> dict[str, object]:
+        return {
+            **self._counts,
+            "snapshots": len(self.snapshots),
+            "primitives": sorted(self.primitives),
+            "paths": sorted(self.paths),
+        }

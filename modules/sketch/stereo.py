@@ -1,0 +1,218 @@
+"""A calibrated stereo pair frozen at a snapshot: epipolar constraint and triangulation with
+covariance.
+
+Frames: the world is the snapshot's ``frame`` (``base``); each camera looks along +z, x right,
+y down. Pixels handed in and out are the pixels the images show (distorted by each camera's
+lens); the geometry is done on ideal pin-hole pixels (undistorted with
+:func:`modules.calib.distortion.undistort_points`) and converted back.
+
+Uncertainty (:class:`StereoNoise`) is first order: the Jacobian of the triangulated point with
+respect to the four pixel coordinates and to each camera's calibration (rotation, translation,
+focal length, principal point) is taken by central differences and the covariance is
+``J diag(sigma^2) J^T`` [m²].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from connectors.sketch_messages import StereoSnapshot
+from modules.calib.distortion import distort_points, undistort_points
+from modules.geometry.rays import epipolar_line, line_distance, triangulate_pixels
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class StereoNoise:
+    """One-sigma errors behind a triangulated point.
+
+    Attributes:
+        pixel_px: the operator's placement error per image coordinate (px).
+        rotation_rad: each camera's orientation error about each axis (rad).
+        translation_m: each camera's position error along each axis (m).
+        focal_rel: relative error of each camera's focal lengths (1).
+        principal_px: error of each camera's principal point per coordinate (px).
+    """
+
+    pixel_px: float = 0.5
+    rotation_rad: float = 2e-4
+    translation_m: float = 2e-4
+    focal_rel: float = 2e-3
+    principal_px: float = 1.0
+
+    def __post_init__(self) -> None:
+        values = (self.pixel_px, self.rotation_rad, self.translation_m, self.focal_rel)
+        if not all(np.isfinite(v) and v >= 0 for v in (*values, self.principal_px)):
+            raise ValueError(f"stereo noise sigmas must be finite and >= 0, got {self}")
+
+
+@dataclass(frozen=True)
+class _Camera:
+    K: FloatArray
+    dist: FloatArray
+    T_base_camera: FloatArray
+
+    def matrix(self) -> FloatArray:
+        T_camera_base = np.linalg.inv(self.T_base_camera)
+        return self.K @ T_camera_base[:3, :]
+
+    def perturbed(self, delta: FloatArray) -> _Camera:
+        """The camera with ``delta`` = [rotvec(3), translation(3), focal_rel, du0, dv0] applied
+        (rotation and translation in the camera's own frame)."""
+        T = self.T_base_camera.copy()
+        T[:3, :3] = T[:3, :3] @ Rotation.from_rotvec(delta[:3]).as_matrix()
+        T[:3, 3] = T[:3, 3] + self.T_base_camera[:3, :3] @ delta[3:6]
+        K = self.K.copy()
+        K[0, 0] *= 1.0 + delta[6]
+        K[1, 1] *= 1.0 + delta[6]
+        K[0, 2] += delta[7]
+        K[1, 2] += delta[8]
+        return _Camera(K, self.dist, T)
+
+
+class StereoPair:
+    """Cameras a (left) and b (right) of one snapshot (world frame = the snapshot's ``frame``)."""
+
+    def __init__(
+        self,
+        K_a: ArrayLike,
+        T_base_camera_a: ArrayLike,
+        K_b: ArrayLike,
+        T_base_camera_b: ArrayLike,
+        dist_a: ArrayLike = (0, 0, 0, 0, 0),
+        dist_b: ArrayLike = (0, 0, 0, 0, 0),
+    ) -> None:
+        self._a = _Camera(_f(K_a, (3, 3)), _f(dist_a, (5,)), _f(T_base_camera_a, (4, 4)))
+        self._b = _Camera(_f(K_b, (3, 3)), _f(dist_b, (5,)), _f(T_base_camera_b, (4, 4)))
+        self.P_a = self._a.matrix()
+        self.P_b = self._b.matrix()
+
+    @classmethod
+    def from_snapshot(cls, snap: StereoSnapshot) -> StereoPair:
+        """The pair as it was when ``snap`` was taken (zoom and PTU angles included)."""
+        return cls(
+            snap.K_a, snap.T_base_camera_a, snap.K_b, snap.T_base_camera_b, snap.dist_a, snap.dist_b
+        )
+
+    # -- pixels -------------------------------------------------------------------------------
+    def ideal(self, side: str, pixels: ArrayLike) -> FloatArray:
+        """Image pixels of camera ``side`` to ideal pin-hole pixels."""
+        cam = self._cam(side)
+        uv = np.asarray(pixels, dtype=float)
+        if not np.any(cam.dist):
+            return uv
+        return undistort_points(uv, cam.K, cam.dist)
+
+    def shown(self, side: str, ideal_pixels: ArrayLike) -> FloatArray:
+        """Ideal pin-hole pixels of camera ``side`` to the pixels its image shows."""
+        cam = self._cam(side)
+        uv = np.asarray(ideal_pixels, dtype=float)
+        if not np.any(cam.dist):
+            return uv
+        return distort_points(uv, cam.K, cam.dist)
+
+    def project(self, side: str, points_base: ArrayLike) -> FloatArray:
+        """Image pixels (shown) of 3-D points (m, base) in camera ``side``."""
+        P = self.P_a if side == "a" else self.P_b
+        X = np.asarray(points_base, dtype=float)
+        h = np.concatenate([X, np.ones((*X.shape[:-1], 1))], axis=-1) @ P.T
+        return self.shown(side, h[..., :2] / h[..., 2:3])
+
+    # -- epipolar geometry ------------------------------------------------------------------
+    def epipolar_line_b(self, pixel_a: ArrayLike) -> FloatArray:
+        """The epipolar line ``(l1, l2, l3)`` (ideal pixels of image b, unit normal) of a pixel of
+        image a."""
+        return epipolar_line(self.P_a, self.P_b, self.ideal("a", pixel_a))
+
+    def constrain_b(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> FloatArray:
+        """``pixel_b`` moved onto the epipolar line of ``pixel_a`` (the nearest point of it, in
+        ideal pixels): the report's constraint on the right-hand vertex. Shapes (2,) or (m, 2)."""
+        line = self.epipolar_line_b(pixel_a)
+        ideal_b = self.ideal("b", pixel_b)
+        off = line_distance(line, ideal_b)
+        return self.shown("b", ideal_b - off[..., None] * line[..., :2])
+
+    def epipolar_error_px(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> FloatArray:
+        """Distance (ideal px) of ``pixel_b`` from the epipolar line of ``pixel_a``."""
+        return np.abs(line_distance(self.epipolar_line_b(pixel_a), self.ideal("b", pixel_b)))
+
+    def epipolar_segment_b(
+        self, pixel_a: ArrayLike, depth_range_m: tuple[float, float] = (0.2, 5.0)
+    ) -> FloatArray:
+        """Two image-b pixels (shown) bounding the epipolar line of ``pixel_a`` between depths
+        ``depth_range_m`` along camera a's ray (for drawing the line)."""
+        ideal_a = self.ideal("a", pixel_a)
+        ray_cam = np.linalg.solve(self._a.K, np.append(ideal_a, 1.0))
+        T = self._a.T_base_camera
+        points = [T[:3, :3] @ (ray_cam * d) + T[:3, 3] for d in depth_range_m]
+        return self.project("b", np.stack(points))
+
+    # -- triangulation ----------------------------------------------------------------------
+    def triangulate(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> tuple[FloatArray, float]:
+        """The 3-D point (m, base) of one matched pixel pair and the ray gap (m)."""
+        result = triangulate_pixels(
+            [self.P_a, self.P_b], [self.ideal("a", pixel_a), self.ideal("b", pixel_b)]
+        )
+        return np.asarray(result.point, dtype=float), float(np.atleast_1d(result.gap)[0])
+
+    def triangulate_with_covariance(
+        self, pixel_a: ArrayLike, pixel_b: ArrayLike, noise: StereoNoise
+    ) -> tuple[FloatArray, FloatArray, float]:
+        """Point (m, base), its 3 x 3 covariance (m²) and the ray gap (m) of a pixel pair."""
+        uv_a = np.asarray(pixel_a, dtype=float).reshape(2)
+        uv_b = np.asarray(pixel_b, dtype=float).reshape(2)
+        point, gap = self.triangulate(uv_a, uv_b)
+        # parameters: pixels a (2), pixels b (2), camera a (9), camera b (9)
+        calib_sigma = [noise.rotation_rad] * 3 + [noise.translation_m] * 3
+        calib_sigma += [noise.focal_rel, noise.principal_px, noise.principal_px]
+        sigma = np.array([noise.pixel_px] * 4 + calib_sigma * 2)
+        steps = np.array(
+            [0.5] * 4
+            + [1e-5] * 3
+            + [1e-5] * 3
+            + [1e-5, 0.5, 0.5]
+            + [1e-5] * 3
+            + [1e-5] * 3
+            + [1e-5, 0.5, 0.5]
+        )
+        J = np.zeros((3, sigma.size))
+        for i in range(sigma.size):
+            if sigma[i] == 0.0:
+                continue
+            delta = np.zeros(sigma.size)
+            delta[i] = steps[i]
+            plus = self._triangulate_perturbed(uv_a, uv_b, delta)
+            minus = self._triangulate_perturbed(uv_a, uv_b, -delta)
+            J[:, i] = (plus - minus) / (2.0 * steps[i])
+        covariance = (J * sigma**2) @ J.T
+        return point, 0.5 * (covariance + covariance.T), gap
+
+    def _triangulate_perturbed(
+        self, uv_a: FloatArray, uv_b: FloatArray, delta: FloatArray
+    ) -> FloatArray:
+        cam_a = self._a.perturbed(delta[4:13])
+        cam_b = self._b.perturbed(delta[13:22])
+        result = triangulate_pixels(
+            [cam_a.matrix(), cam_b.matrix()],
+            [self.ideal("a", uv_a) + delta[0:2], self.ideal("b", uv_b) + delta[2:4]],
+        )
+        return np.asarray(result.point, dtype=float)
+
+    def _cam(self, side: str) -> _Camera:
+        if side == "a":
+            return self._a
+        if side == "b":
+            return self._b
+        raise ValueError(f"camera side must be 'a' or 'b', got {side!r}")
+
+
+def _f(values: ArrayLike, shape: tuple[int, ...]) -> FloatArray:
+    array = np.asarray(values, dtype=float)
+    if array.shape != shape or not np.all(np.isfinite(array)):
+        raise ValueError(f"expected finite numbers of shape {shape}, got {array.shape}: {array}")
+    return array

@@ -1,0 +1,1 @@
+"""The Active Sketch page (/sketch) on the umbra process's web server."""

@@ -1,0 +1,97 @@
+"""What the /sketch page shows, as plain JSON built from the graph's messages (pure).
+
+The page draws in image pixels (u right, v down) of the snapshot's images. It gets the
+fundamental matrix ``F`` (``x_b^T F x_a = 0``, ideal pixels) to keep each right-hand vertex on
+the epipolar line of its mate while it is dragged (exact for the simulated cameras, which have
+no distortion; the Sketch module re-applies the exact constraint, distortion included, when the
+primitive is placed), the camera matrices for the test tools, every primitive with its vertices
+reprojected from 3-D, and the planned tool path projected into both images.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from connectors.messages import Status
+from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
+from modules.geometry.rays import fundamental_matrix
+from modules.sketch.macros import menu_for
+from modules.sketch.stereo import StereoPair
+
+
+def _r(values: Any, digits: int = 3) -> Any:
+    return np.round(np.asarray(values, dtype=float), digits).tolist()
+
+
+def page_state(
+    snapshot: StereoSnapshot | None,
+    primitives: list[SketchPrimitive],
+    path: ToolPath | None,
+    vcr: VcrState | None,
+    status: Status | None,
+) -> dict[str, Any]:
+    """The page's JSON state (see module docstring)."""
+    state: dict[str, Any] = {
+        "snapshot": None,
+        "primitives": [],
+        "menu": [list(m) for m in menu_for(None)],
+        "path": None,
+        "vcr": None,
+        "status": None,
+    }
+    pair = None
+    if snapshot is not None:
+        pair = StereoPair.from_snapshot(snapshot)
+        state["snapshot"] = {
+            "id": snapshot.snapshot_id,
+            "width": int(snapshot.image_a.shape[1]),
+            "height": int(snapshot.image_a.shape[0]),
+            "zoom": [snapshot.zoom_a, snapshot.zoom_b],
+            "F": _r(fundamental_matrix(pair.P_a, pair.P_b), 12),
+            "P_a": _r(pair.P_a, 9),
+            "P_b": _r(pair.P_b, 9),
+        }
+    current = [p for p in primitives if snapshot is None or p.snapshot_id == snapshot.snapshot_id]
+    for prim in current:
+        entry = {
+            "id": prim.primitive_id,
+            "kind": prim.kind,
+            "pixels_a": _r(prim.pixels_a),
+            "pixels_b": _r(prim.pixels_b),
+            "edges": np.asarray(prim.edges).tolist(),
+            "points_m": _r(prim.points, 5),
+            "sigma_mm": _r(np.sqrt(np.linalg.eigvalsh(prim.covariances)[:, -1]) * 1e3, 2),
+        }
+        if pair is not None:
+            entry["reprojected_a"] = _r(pair.project("a", prim.points))
+            entry["reprojected_b"] = _r(pair.project("b", prim.points))
+        state["primitives"].append(entry)
+    if current:
+        state["menu"] = [list(m) for m in menu_for(current[-1])]
+    if path is not None:
+        entry = {
+            "id": path.path_id,
+            "macro": path.macro,
+            "ok": bool(path.ok),
+            "reason": path.reason,
+            "duration_s": float(path.checks.get("duration", 0.0)),
+        }
+        if pair is not None and len(path.T_base_tool):
+            points = np.asarray(path.T_base_tool)[:, :3, 3]
+            entry["preview_a"] = _r(pair.project("a", points), 1)
+            entry["preview_b"] = _r(pair.project("b", points), 1)
+        state["path"] = entry
+    if vcr is not None:
+        state["vcr"] = {
+            "path": vcr.path_id,
+            "mode": vcr.mode,
+            "s": vcr.s,
+            "progress": vcr.progress,
+            "speed": vcr.speed,
+            "reason": vcr.reason,
+        }
+    if status is not None:
+        state["status"] = {"stage": status.stage, "message": status.message}
+    return state

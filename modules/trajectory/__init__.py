@@ -1,0 +1,1 @@
+"""Trajectory playback on the servo side: the VCR player of Active Sketch."""

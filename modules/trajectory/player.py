@@ -1,0 +1,174 @@
+"""Playing a checked :class:`ToolPath` on the arm: the VCR's path parameter, joint tracking
+and the gripper events on the way.
+
+Each tick the player advances the VCR (:mod:`modules.trajectory.vcr`), reads the desired
+joints ``q(s)`` and the feed-forward joint rates ``dq/ds * s_dot`` from the path's spline, adds
+a proportional correction ``gain * (q(s) - q_measured)``, and turns the joint rates into the
+tool twist they produce at the measured joints (``J(q) qd``, re-expressed in the tool frame).
+That twist is the command that goes through the safety guard (REG_VEL) and the resolved-rate
+kinematics (WOLVERINE_KIN), which give back the same joint rates away from singularities.
+
+Gripper events: where the path's gripper opening changes at a waypoint, the VCR stops there
+(a stop point); the player commands the gripper ("close" / "open" going forwards, the reverse
+going backwards), waits ``gripper_time`` and carries on in the same direction. A change at the
+path's end is made on arrival, and undone before backing away from the end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from connectors.sketch_messages import ToolPath
+from modules.arm.dh import DHTable
+from modules.arm.jacobian import jacobian_and_pose
+from modules.trajectory.joint_path import JointPath
+from modules.trajectory.vcr import Vcr, VcrError, VcrLimits
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class PlayerOutput:
+    """One tick: tool twist ``[v; w]`` (m/s, rad/s; tool point, tool frame), a gripper command
+    ("", "open" or "close"), the desired joints, and the VCR's mode and parameter."""
+
+    twist_tool: FloatArray
+    gripper: str
+    q_desired: FloatArray
+    mode: str
+    s: float
+    s_dot: float
+    s_ddot: float
+    reason: str
+
+
+MAX_WAYPOINTS = 20_000
+
+
+def _check_path(path: ToolPath, table: DHTable, rate: float) -> None:
+    """The servo side checks what it is given: bounded size, finite numbers, joints within the
+    limits, and joint rates at the nominal playing rate within the arm's limits."""
+    s = np.asarray(path.s)
+    q = np.asarray(path.joints)
+    if not 2 <= s.size <= MAX_WAYPOINTS or s.ndim != 1:
+        raise VcrError(f"path {path.path_id}: expected 2..{MAX_WAYPOINTS} waypoints, got {s.shape}")
+    if q.shape != (s.size, table.n):
+        raise VcrError(f"path {path.path_id}: expected joints {(s.size, table.n)}, got {q.shape}")
+    if not (np.all(np.isfinite(s)) and np.all(np.isfinite(q))):
+        raise VcrError(f"path {path.path_id}: non-finite parameters or joints")
+    if np.any(q < table.q_min - 1e-9) or np.any(q > table.q_max + 1e-9):
+        raise VcrError(f"path {path.path_id}: joints outside the arm's limits")
+    ds = np.diff(s)
+    if np.any(ds <= 0):
+        raise VcrError(f"path {path.path_id}: the path parameter must increase strictly")
+    peak = np.max(np.abs(np.diff(q, axis=0)) / ds[:, None], axis=0) * rate
+    if np.any(peak > table.qd_max * (1 + 1e-6)):
+        raise VcrError(
+            f"path {path.path_id}: at its playing rate the joints would need "
+            f"{np.round(peak, 3).tolist()} rad/s, over the limits {table.qd_max.tolist()}"
+        )
+
+
+class PathPlayer:
+    """Plays one path: VCR commands in, tool twists out (see module docstring)."""
+
+    def __init__(
+        self,
+        path: ToolPath,
+        table: DHTable,
+        T_flange_tool: ArrayLike,
+        *,
+        stop_time_s: float = 0.25,
+        gain: float = 4.0,
+        gripper_time: float = 0.7,
+    ) -> None:
+        if not path.ok:
+            raise VcrError(f"path {path.path_id} failed its checks: {path.reason}")
+        if tuple(path.names) != table.names:
+            raise VcrError(f"path joints {list(path.names)} differ from {list(table.names)}")
+        rate = float(path.checks.get("rate", 0.0))
+        if not (np.isfinite(rate) and rate > 0):
+            raise VcrError(f"path {path.path_id} has no playing rate (checks: {path.checks})")
+        _check_path(path, table, rate)
+        self.path = path
+        self.table = table
+        self.T_flange_tool = np.asarray(T_flange_tool, dtype=float)
+        self.joint_path = JointPath(path.s, path.joints)
+        self.gain = gain
+        self.gripper_time = gripper_time
+        g = np.asarray(path.gripper, dtype=float)
+        if g.shape != (len(path.s),):
+            g = np.full(len(path.s), np.nan)
+        #: s of each gripper change -> (opening before, opening after)
+        self.events = {
+            float(path.s[i]): (float(g[i - 1]), float(g[i]))
+            for i in range(1, len(g))
+            if np.isfinite(g[i]) and np.isfinite(g[i - 1]) and g[i] != g[i - 1]
+        }
+        limits = VcrLimits.for_stop_time(rate, stop_time_s)
+        self.vcr = Vcr(self.joint_path.length, limits, stops=list(self.events))
+        self._hold = 0.0  # seconds left of a gripper wait
+        self._after_hold = ""  # VCR action to take when the wait is over
+        self._end_done = False  # the event at the path's end has been made
+        self._pending_gripper = ""
+
+    # -- commands -----------------------------------------------------------------------------
+    def command(self, action: str, speed: float | None = None, s: float | None = None) -> None:
+        """A VCR command (play, back, pause, resume, speed, seek, stop)."""
+        st = self.vcr.state
+        end = self.joint_path.length
+        if action == "back" and self._end_done and st.s >= end - 1e-9 and end in self.events:
+            self._grip(self.events[end][0], then="back")  # undo the end's event, then back
+            return
+        if action in ("pause", "stop"):
+            self._after_hold = ""
+        if action in ("play", "resume", "back") and self._hold > 0:
+            self._after_hold = "play" if action != "back" else "back"
+            if speed is not None:
+                self.vcr.command("speed", speed=speed)
+            return
+        self.vcr.command(action, speed=speed, s=s)
+
+    def halt(self, reason: str, *, freeze: bool = False) -> None:
+        """Stop on the path (see :meth:`Vcr.halt`); a gripper wait is abandoned."""
+        self._after_hold = ""
+        self.vcr.halt(reason, freeze=freeze)
+
+    # -- time ---------------------------------------------------------------------------------
+    def step(self, dt: float, q_measured: ArrayLike) -> PlayerOutput:
+        """Advance ``dt`` seconds with the arm at ``q_measured``."""
+        q_meas = np.asarray(q_measured, dtype=float)
+        if self._hold > 0:
+            self._hold -= dt
+            if self._hold <= 0 and self._after_hold:
+                self.vcr.command(self._after_hold)
+                self._after_hold = ""
+        before = self.vcr.state.mode
+        st = self.vcr.step(dt)
+        if st.mode == "at_stop" and before != "at_stop":
+            opening = self.events[st.s][1 if st.direction == "playing" else 0]
+            self._grip(opening, then="play" if st.direction == "playing" else "back")
+        end = self.joint_path.length
+        if st.s < end - 1e-9:
+            self._end_done = False
+        if st.mode == "done" and not self._end_done:
+            self._end_done = True
+            if end in self.events:
+                self._grip(self.events[end][1], then="")
+        q_d = self.joint_path.q(st.s)
+        qd = self.joint_path.dq_ds(st.s) * st.s_dot + self.gain * (q_d - q_meas)
+        J, T_base_tool = jacobian_and_pose(self.table, q_meas, self.T_flange_tool)
+        twist_base = J @ qd
+        R = T_base_tool[:3, :3]
+        twist_tool = np.concatenate([R.T @ twist_base[:3], R.T @ twist_base[3:]])
+        mode = "gripping" if self._hold > 0 else st.mode
+        gripper, self._pending_gripper = self._pending_gripper, ""
+        return PlayerOutput(twist_tool, gripper, q_d, mode, st.s, st.s_dot, st.s_ddot, st.reason)
+
+    def _grip(self, opening: float, then: str) -> None:
+        self._pending_gripper = "close" if opening < 0.5 else "open"
+        self._hold = self.gripper_time
+        self._after_hold = then

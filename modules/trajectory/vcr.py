@@ -1,0 +1,233 @@
+"""The VCR: a jerk-limited path-parameter player (play, pause, back up, speed, seek, resume).
+
+The planned path is a curve ``q(s)`` with path parameter ``s`` in ``[0, length]``; the player
+owns ``s`` and its rate ``s_dot`` and acceleration ``s_ddot``, and only ever changes them through
+Ruckig's time-optimal, jerk-limited single-target interfaces (1 degree of freedom):
+
+* play / back / seek: Ruckig's position interface towards the next stop point ahead (the path's
+  end or start, a gripper event, or the seek target) with velocity limit ``speed * rate``;
+* pause and halts: Ruckig's velocity interface to ``s_dot = 0``: a smooth stop on the path;
+* speed change: a new velocity limit from the current state (Ruckig brings a state above the
+  limit down within the acceleration and jerk limits).
+
+Because every transition starts from the current ``(s, s_dot, s_ddot)``, position, velocity and
+acceleration are continuous at every command; jerk stays within ``max_jerk``. A guard stop
+(the safety register zeroed the arm) freezes ``s`` at once: the arm has already stopped.
+Units: ``s`` in path units (the planner's; radians of weighted joint arc), time in seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from ruckig import ControlInterface, InputParameter, Result, Ruckig, Trajectory
+
+MODES = (
+    "idle",
+    "playing",
+    "backing",
+    "seeking",
+    "pausing",
+    "paused",
+    "at_stop",
+    "halting",
+    "halted",
+    "done",
+)
+_STILL = 1e-9
+
+
+class VcrError(ValueError):
+    """A VCR command that cannot be obeyed (unknown action, speed out of range, no path)."""
+
+
+@dataclass(frozen=True)
+class VcrLimits:
+    """Limits of the path parameter: ``rate`` (path units/s at speed 1), ``max_accel``
+    (units/s²), ``max_jerk`` (units/s³)."""
+
+    rate: float
+    max_accel: float
+    max_jerk: float
+
+    @classmethod
+    def for_stop_time(cls, rate: float, stop_time_s: float) -> VcrLimits:
+        """Limits that stop from full ``rate`` in ``stop_time_s`` with a pure jerk profile:
+        ``j = 4 v / t²``, ``a = 2 v / t`` (the acceleration peak of that profile)."""
+        if not (rate > 0 and stop_time_s > 0):
+            raise VcrError(f"rate and stop time must be > 0, got {rate}, {stop_time_s}")
+        return cls(rate, 2.0 * rate / stop_time_s, 4.0 * rate / stop_time_s**2)
+
+
+@dataclass
+class VcrState:
+    """Where the player is: mode, ``s``, ``s_dot``, ``s_ddot``, speed override, halt reason."""
+
+    mode: str = "idle"
+    s: float = 0.0
+    s_dot: float = 0.0
+    s_ddot: float = 0.0
+    speed: float = 1.0
+    reason: str = ""
+    target: float = 0.0
+    direction: str = ""  #: "playing" or "backing" when at a stop point
+
+
+class Vcr:
+    """Path-parameter player over ``[0, length]`` with stop points ``stops`` (gripper events)."""
+
+    def __init__(self, length: float, limits: VcrLimits, stops: ArrayLike = ()) -> None:
+        if not (np.isfinite(length) and length > 0):
+            raise VcrError(f"path length must be finite and > 0, got {length}")
+        self.length = float(length)
+        self.limits = limits
+        self.stops = sorted(
+            {float(x) for x in np.asarray(stops, dtype=float).ravel() if 0.0 < x < length}
+        )
+        self.state = VcrState(mode="paused")
+        self._otg = Ruckig(1)
+        self._trajectory = Trajectory(1)
+        self._plan_key: tuple | None = None  # (interface, goal, velocity limit) of the plan
+        self._plan_time = 0.0  # seconds into the current plan
+
+    # -- commands -----------------------------------------------------------------------------
+    def command(self, action: str, speed: float | None = None, s: float | None = None) -> None:
+        """Obey a VCR command: play, back, pause, resume (= play), speed, seek, stop."""
+        st = self.state
+        self._plan_key = None
+        if speed is not None:
+            if not (np.isfinite(speed) and 0.1 - 1e-9 <= speed <= 1.0 + 1e-9):
+                raise VcrError(f"speed must be within 0.1 .. 1, got {speed}")
+            st.speed = float(np.clip(speed, 0.1, 1.0))
+        if action in ("play", "resume"):
+            if st.s >= self.length - 1e-9:
+                st.mode = "done"
+                return
+            st.mode, st.reason = "playing", ""
+        elif action == "back":
+            st.mode, st.reason = "backing", ""
+        elif action in ("pause", "stop"):
+            if st.mode not in ("paused", "halted", "done"):
+                st.mode = "pausing"
+        elif action == "seek":
+            if s is None or not np.isfinite(s) or not 0.0 <= s <= self.length:
+                raise VcrError(f"seek target must be within 0 .. {self.length:.4g}, got {s}")
+            st.mode, st.reason, st.target = "seeking", "", float(s)
+        elif action == "speed":
+            if speed is None:
+                raise VcrError("a speed command needs a speed within 0.1 .. 1")
+        else:
+            raise VcrError(
+                f"unknown VCR action {action!r}; expected play, back, pause, resume, speed, "
+                "seek or stop"
+            )
+
+    def halt(self, reason: str, *, freeze: bool = False) -> None:
+        """Stop on the path and stay stopped until the next play/back: smoothly (jerk-limited)
+        or, with ``freeze`` (the guard already stopped the arm), at once."""
+        st = self.state
+        if st.mode in ("paused", "done", "idle") and not freeze:
+            st.reason = st.reason or reason
+            return
+        st.reason = reason
+        self._plan_key = None
+        if freeze:
+            st.s_dot = st.s_ddot = 0.0
+            st.mode = "halted"
+        elif st.mode != "halted":
+            st.mode = "halting"
+
+    # -- time ---------------------------------------------------------------------------------
+    def step(self, dt: float) -> VcrState:
+        """Advance ``dt`` seconds and return the state."""
+        if not (np.isfinite(dt) and dt > 0):
+            raise VcrError(f"time step must be finite and > 0, got {dt}")
+        st = self.state
+        if st.mode in ("pausing", "halting") or (st.mode == "halted" and not self._still()):
+            self._advance_velocity(dt)
+            if self._still():
+                st.s_dot = st.s_ddot = 0.0
+                st.mode = "halted" if st.mode == "halting" else "paused"
+        elif st.mode in ("playing", "backing", "seeking"):
+            goal = self._goal()
+            self._advance_position(goal, dt)
+            if abs(st.s - goal) < 1e-9 and self._still():
+                st.s, st.s_dot, st.s_ddot = goal, 0.0, 0.0
+                st.mode = self._arrived(goal)
+        return st
+
+    def _goal(self) -> float:
+        st = self.state
+        if st.mode == "seeking":
+            ahead = [x for x in self.stops if min(st.s, st.target) < x < max(st.s, st.target)]
+            if not ahead:
+                return st.target
+            return min(ahead) if st.target > st.s else max(ahead)
+        if st.mode == "playing":
+            return min([x for x in self.stops if x > st.s + 1e-9] + [self.length])
+        return max([x for x in self.stops if x < st.s - 1e-9] + [0.0])
+
+    def _arrived(self, goal: float) -> str:
+        st = self.state
+        if goal in self.stops and st.mode in ("playing", "backing"):
+            st.direction = st.mode
+            return "at_stop"  # a gripper event: the caller acts, then resumes
+        if st.mode == "seeking":
+            return "paused"
+        if st.mode == "playing" and goal >= self.length:
+            return "done"
+        return "paused"
+
+    def _still(self) -> bool:
+        st = self.state
+        return abs(st.s_dot) < _STILL and abs(st.s_ddot) < 1e-6
+
+    def _input(self) -> InputParameter:
+        st, lim = self.state, self.limits
+        inp = InputParameter(1)
+        inp.current_position = [st.s]
+        inp.current_velocity = [st.s_dot]
+        inp.current_acceleration = [st.s_ddot]
+        inp.max_velocity = [lim.rate * st.speed]
+        inp.max_acceleration = [lim.max_accel]
+        inp.max_jerk = [lim.max_jerk]
+        inp.target_velocity = [0.0]
+        inp.target_acceleration = [0.0]
+        return inp
+
+    def _advance_position(self, goal: float, dt: float) -> None:
+        key = ("position", goal, self.limits.rate * self.state.speed)
+        if key != self._plan_key:
+            inp = self._input()
+            inp.target_position = [goal]
+            self._plan(inp, key)
+        self._sample(dt)
+
+    def _advance_velocity(self, dt: float) -> None:
+        key = ("velocity", 0.0, self.limits.rate * self.state.speed)
+        if key != self._plan_key:
+            inp = self._input()
+            inp.control_interface = ControlInterface.Velocity
+            self._plan(inp, key)
+        self._sample(dt)
+
+    def _plan(self, inp: InputParameter, key: tuple) -> None:
+        """A new time-optimal plan from the current state; kept until the command changes, so
+        the state follows one exact jerk-limited trajectory (no re-planning chatter)."""
+        result = self._otg.calculate(inp, self._trajectory)
+        if result not in (Result.Working, Result.Finished):
+            raise VcrError(f"ruckig could not time the path parameter: {result}")
+        self._plan_key = key
+        self._plan_time = 0.0
+
+    def _sample(self, dt: float) -> None:
+        st = self.state
+        self._plan_time += dt
+        t = min(self._plan_time, self._trajectory.duration)
+        pos, vel, acc = self._trajectory.at_time(t)
+        st.s = float(np.clip(pos[0], 0.0, self.length))
+        st.s_dot, st.s_ddot = float(vel[0]), float(acc[0])
+        if t < self._plan_time:  # the plan is complete: rest at its end
+            st.s_dot = st.s_ddot = 0.0

@@ -1,0 +1,169 @@
+"""VCR_PLAYER: the SMART-side trajectory player of Active Sketch (LDRD report section 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, from_param, param
+from connectors.messages import JointState, Status, Text, Twist
+from connectors.sketch_messages import ToolPath, VcrCommand, VcrState
+from modules.arm.arm_params import ArmParams
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.trajectory.player import PathPlayer, PlayerOutput
+from modules.trajectory.vcr import VcrError
+
+_MOVING = ("playing", "backing", "seeking", "pausing", "halting")
+
+
+class VcrPlayer(Module):
+    """Plays a checked tool path with VCR commands: play, pause (jerk-limited stop on the path),
+    back (along the same path), speed 0.1..1, seek, resume.
+
+    Its output is a tool twist (tool point, tool frame) for the safety register (REG_VEL, frame
+    ``tool``) and the kinematics; gripper events of the path go out as open / close through the
+    register too. It halts on the path, and stays halted until the next play or back, when:
+    the command link's producer is gone (lost console: a jerk-limited stop), the joint state is
+    older than ``max_state_age`` or the register reports a guard stop (then ``s`` freezes at
+    once: the guard has already stopped the arm). A command older than ``max_command_age`` when
+    it arrives is stale and refused. A path is checked again here before it is loaded (size,
+    finite numbers, joint limits, joint rates at its playing rate). Give it a ``rate``.
+    """
+
+    TYPE = "VCR_PLAYER"
+
+    class Params(ArmParams):
+        tool_xyz: list[float] = param([0.0, 0.0, 0.14], "tool point in the flange", unit="m")
+        tool_rpy_deg: list[float] = param([0.0, 0.0, 0.0], "tool frame in the flange", unit="deg")
+        tool_frame: str = param("tool", "frame of the output twist")
+        stop_time: float = param(0.25, "pause: stop from full speed within", unit="s", gt=0)
+        gain: float = param(4.0, "joint tracking gain", unit="1/s", ge=0, le=50)
+        gripper_time: float = param(0.7, "wait for a gripper event", unit="s", gt=0)
+        max_command_age: float = param(0.5, "older commands are refused", unit="s", gt=0)
+        max_state_age: float = param(0.2, "oldest joint state used", unit="s", gt=0)
+
+    path = Input(ToolPath, required=False, doc="the checked path to play (from the planner)")
+    command = Input(VcrCommand, required=False, doc="VCR commands from the console")
+    joint_state = Input(JointState, feedback=True, doc="measured joints")
+    guard = Input(Status, required=False, feedback=True, doc="REG_VEL status: zero = guard stop")
+    twist = Output(Twist, frame=from_param("tool_frame"), doc="tool twist command (to REG_VEL)")
+    gripper = Output(Text, doc="gripper events: open / close (to REG_VEL)")
+    state = Output(VcrState, doc="mode, path parameter, speed, halt reason")
+
+    def start(self) -> None:
+        p = self.params
+        self.table = p.table
+        self.T_flange_tool = transform_from_xyz_rpy_deg(p.tool_xyz, p.tool_rpy_deg)
+        self.player: PathPlayer | None = None
+        self._last: float | None = None
+        self._problem = ""
+        self._halts = 0
+        self._refused = 0
+        self._console_seen = False
+
+    def step(self, now: float) -> None:
+        dt = 0.0 if self._last is None else now - self._last
+        self._last = now
+        path = self.path.get(now)
+        if path is not None and self.path.fresh:
+            self._load(path)
+        command = self.command.get(now)
+        if command is not None:
+            self._console_seen = True
+        if command is not None and self.command.fresh:
+            self._obey(command, now)
+        state = self.joint_state.get(now)
+        if self.player is None or state is None or dt <= 0:
+            self._send_idle()
+            return
+        mode = self.player.vcr.state.mode
+        age = self.joint_state.age(now)
+        if age > self.params.max_state_age and mode in _MOVING:
+            self._halt(f"joint state is stale ({age:.3f} s old)", freeze=True)
+        if self._console_seen and not self.command.link_alive and mode in _MOVING:
+            self._halt("console lost")
+        guard = self.guard.get(now)
+        if guard is not None and guard.stage == "zero" and mode in _MOVING:
+            self._halt(f"guard stop: {guard.reason or guard.message}", freeze=True)
+        out = self.player.step(dt, np.asarray(state.position, dtype=float))
+        self._send(out)
+
+    def _load(self, path: ToolPath) -> None:
+        try:
+            self.player = PathPlayer(
+                path,
+                self.table,
+                self.T_flange_tool,
+                stop_time_s=self.params.stop_time,
+                gain=self.params.gain,
+                gripper_time=self.params.gripper_time,
+            )
+            self._problem = ""
+        except VcrError as exc:
+            self.player = None
+            self._problem = str(exc)
+            self.log.warning("VCR_PLAYER %s: %s", self.name, exc)
+
+    def _obey(self, command: VcrCommand, now: float) -> None:
+        age = now - command.stamp
+        if age > self.params.max_command_age:
+            self._refused += 1
+            self._problem = (
+                f"stale command {command.action!r}: {age:.3f} s old, expected at most "
+                f"{self.params.max_command_age:.3f} s"
+            )
+            return
+        if self.player is None:
+            self._problem = f"command {command.action!r} but no path is loaded"
+            return
+        if command.path_id and command.path_id != self.player.path.path_id:
+            self._problem = (
+                f"command for path {command.path_id!r}, loaded is {self.player.path.path_id!r}"
+            )
+            return
+        try:
+            speed = None
+            if command.speed > 0 and command.action in ("speed", "play", "resume", "back"):
+                speed = command.speed
+            self.player.command(command.action, speed=speed, s=command.s)
+            self._problem = ""
+        except VcrError as exc:
+            self._refused += 1
+            self._problem = str(exc)
+
+    def _halt(self, reason: str, freeze: bool = False) -> None:
+        assert self.player is not None
+        self._halts += 1
+        self.player.halt(reason, freeze=freeze)
+
+    def _send(self, out: PlayerOutput) -> None:
+        assert self.player is not None
+        self.twist.send(Twist(vector=out.twist_tool, frame=self.params.tool_frame))
+        if out.gripper:
+            self.gripper.send(Text(text=out.gripper))
+        length = self.player.joint_path.length
+        self.state.send(
+            VcrState(
+                path_id=self.player.path.path_id,
+                mode=out.mode,
+                s=out.s,
+                s_dot=out.s_dot,
+                speed=self.player.vcr.state.speed,
+                progress=out.s / length,
+                reason=out.reason or self._problem,
+            )
+        )
+
+    def _send_idle(self) -> None:
+        self.twist.send(Twist(vector=np.zeros(6), frame=self.params.tool_frame))
+        path_id = self.player.path.path_id if self.player else ""
+        self.state.send(VcrState(path_id=path_id, mode="idle", reason=self._problem))
+
+    def summary(self) -> dict[str, object]:
+        st = self.player.vcr.state if self.player else None
+        return {
+            "path": self.player.path.path_id if self.player else "",
+            "mode": st.mode if st else "idle",
+            "progress": float(st.s / self.player.joint_path.length) if st else 0.0,
+            "halts": self._halts,
+            "refused_commands": self._refused,
+        }

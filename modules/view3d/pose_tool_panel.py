@@ -1,0 +1,182 @@
+"""The camera-pose tool in the 3-D view (report section 5.5, Figures 20-21).
+
+The operator takes snapshots with the camera whose mount is in doubt (each keeps the pose the
+graph *believes*), then, pair by pair, clicks a calibration feature in a snapshot's image (the
+click ray meets the image drawn on the frustum: a pixel) and the same feature on the model (the
+ray meets the model's surface: a 3-D point). With three pairs or more, over one or several
+snapshots taken at different PTU or arm poses, "Solve mount" finds the correction ``C`` of the
+camera's mount that best explains every click::
+
+    T_world_camera_true(i) = T_world_camera_believed(i) . C
+
+and reports every click's reprojection residual (drawn on the images, listed in the panel). The
+corrected mount of the graph's frame ``parent->child`` is ``T_parent_child . C``. "Save" writes
+it as a frames calibration file and a session file that ``umbra pose-tool`` solves the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from modules.calib.camera_model import Intrinsics, PinholeCamera
+from modules.calib.errors import CalibrationError
+from modules.calib.pose_tool import MountResult, MountSnapshot, solve_mount
+from modules.calib.pose_tool_file import frames_text, session_text
+from modules.geometry.transforms import invert_transform
+from modules.view3d.geometry import pixel_of_ray_on_image, ray_hit
+
+
+@dataclass
+class Pair:
+    """One calibration point: the snapshot, the clicked pixel (drawn image, px), the model point
+    (world, m)."""
+
+    snapshot_id: str
+    pixel: np.ndarray
+    point: np.ndarray | None = None
+
+
+class PoseTool:
+    """The pose tool's state and logic, apart from any widget (tested without a browser)."""
+
+    def __init__(
+        self,
+        mount_parent: str,
+        mount_child: str,
+        T_parent_child: np.ndarray,
+        image_depth: Callable[[str], float],
+    ) -> None:
+        self.parent = mount_parent
+        self.child = mount_child
+        self.T_parent_child = np.asarray(T_parent_child, dtype=float)
+        self.image_depth = image_depth
+        self.pairs: list[Pair] = []
+        self.result: MountResult | None = None
+        self.result_ids: list[str] = []
+
+    # -- clicks -----------------------------------------------------------------------------
+
+    def click_image(self, origin, direction, snapshots: dict) -> Pair | None:
+        """A click ray on the snapshot images: the nearest image it meets starts a new pair."""
+        best = None
+        for snapshot_id, (_, frustum) in snapshots.items():
+            depth = self.image_depth(snapshot_id)
+            uv = pixel_of_ray_on_image(origin, direction, frustum, depth)
+            if uv is None:
+                continue
+            point = frustum.points_from_pixels(uv[None], depth)[0]
+            distance = float(np.linalg.norm(point - np.asarray(origin, dtype=float)))
+            if best is None or distance < best[0]:
+                best = (distance, snapshot_id, uv)
+        if best is None:
+            return None
+        pair = Pair(best[1], best[2])
+        if self.pairs and self.pairs[-1].point is None:
+            self.pairs[-1] = pair  # a second image click replaces an unpaired one
+        else:
+            self.pairs.append(pair)
+        return pair
+
+    def click_model(self, origin, direction, meshes) -> np.ndarray | None:
+        """A click ray on the model: where it hits the surface completes the open pair."""
+        if not self.pairs or self.pairs[-1].point is not None:
+            return None
+        hit = ray_hit(origin, direction, list(meshes))
+        if hit is None:
+            return None
+        self.pairs[-1].point = hit.point
+        return hit.point
+
+    def complete_pairs(self) -> list[Pair]:
+        return [p for p in self.pairs if p.point is not None]
+
+    # -- solving ----------------------------------------------------------------------------
+
+    def _mount_snapshots(self, snapshots: dict) -> tuple[list[MountSnapshot], list[str]]:
+        by_id: dict[str, list[Pair]] = {}
+        for pair in self.complete_pairs():
+            by_id.setdefault(pair.snapshot_id, []).append(pair)
+        out, ids = [], []
+        for snapshot_id, pairs in by_id.items():
+            snap, frustum = snapshots[snapshot_id]
+            K = frustum.drawn_K  # the pixels were clicked on the drawn image
+            camera = PinholeCamera(Intrinsics(K[0, 0], K[1, 1], 0.0, K[0, 2], K[1, 2]))
+            out.append(
+                MountSnapshot(
+                    camera,
+                    np.array([p.point for p in pairs]),
+                    np.array([p.pixel for p in pairs]),
+                    snap.T_world_camera,  # the believed camera pose: parent of the correction
+                )
+            )
+            ids.append(snapshot_id)
+        return out, ids
+
+    def solve(self, snapshots: dict) -> MountResult:
+        """The correction ``C`` (``result.T_parent_child``) from every complete pair."""
+        mount_snapshots, ids = self._mount_snapshots(snapshots)
+        self.result = solve_mount(mount_snapshots, np.eye(4))
+        self.result_ids = ids
+        return self.result
+
+    def corrected_mount(self) -> np.ndarray:
+        if self.result is None:
+            raise CalibrationError("solve the mount first")
+        return self.T_parent_child @ self.result.T_parent_child
+
+    def residual_table(self) -> str:
+        """The residual of every click, as a markdown table."""
+        if self.result is None:
+            return ""
+        rows = ["| snapshot | pixel | residual px |", "|---|---|---|"]
+        for snapshot_id, residuals in zip(self.result_ids, self.result.residuals, strict=True):
+            pairs = [p for p in self.complete_pairs() if p.snapshot_id == snapshot_id]
+            for pair, r in zip(pairs, residuals, strict=True):
+                rows.append(
+                    f"| {snapshot_id} | {pair.pixel[0]:.0f}, {pair.pixel[1]:.0f} | "
+                    f"{float(np.linalg.norm(r)):.2f} |"
+                )
+        return "\n".join(rows)
+
+    def save(self, folder: Path, snapshots: dict) -> list[Path]:
+        """Write ``mount_<parent>_<child>.yaml`` (frames) and, when every snapshot has the same
+        intrinsics, ``pose_tool_session.yaml`` (the clicks, for ``umbra pose-tool``)."""
+        corrected = self.corrected_mount()
+        folder.mkdir(parents=True, exist_ok=True)
+        mount_path = folder / f"mount_{self.parent}_{self.child}.yaml"
+        comment = (
+            f"camera mount {self.parent}->{self.child} solved by the 3-D view's pose tool "
+            f"(RMS {self.result.rms_px:.3f} px)"
+        )
+        mount_path.write_text(frames_text(self.parent, self.child, corrected, comment))
+        mount_snapshots, ids = self._mount_snapshots(snapshots)
+        Ks = [s.camera.K for s in mount_snapshots]
+        if any(not np.allclose(K, Ks[0]) for K in Ks):
+            return [mount_path]  # a session file holds one camera model (no zoom changes)
+        points: dict[str, np.ndarray] = {}
+        entries = []
+        T_child_parent = invert_transform(self.T_parent_child)
+        for snapshot, snapshot_id in zip(mount_snapshots, ids, strict=True):
+            clicks = {}
+            for k, (X, uv) in enumerate(zip(snapshot.points_world, snapshot.pixels, strict=True)):
+                name = f"{snapshot_id}-{k + 1}".replace("/", "_")
+                points[name] = X
+                clicks[name] = (float(uv[0]), float(uv[1]))
+            # parent frame pose at the snapshot: believed camera pose without the nominal mount
+            entries.append((snapshot.T_world_parent @ T_child_parent, np.eye(4), clicks))
+        session_path = folder / "pose_tool_session.yaml"
+        session_path.write_text(
+            session_text(
+                self.parent,
+                self.child,
+                mount_snapshots[0].camera,
+                points,
+                entries,
+                self.T_parent_child,
+            )
+        )
+        return [mount_path, session_path]

@@ -1,0 +1,474 @@
+"""View3D: the live 3-D view of the workcell (LDRD report section 4), served beside the console."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from connectors import Input, Module, Output, UserError, from_param, param
+from connectors.messages import CameraModel, Image, JointState, Pose, Status
+from connectors.sketch_messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
+from modules.arm.arm_params import ArmParams
+from modules.view3d.geometry import (
+    Frustum,
+    arm_joint_points,
+    arm_link_segments,
+    frustum_from_model,
+    viewer_pose_looking_at,
+)
+from modules.view3d.pose_tool_panel import PoseTool
+from modules.view3d.pose_tool_widgets import PoseToolWidgets, snapshot_image_depth
+from modules.view3d.scene_file import Scene, load_scene, save_scene
+from modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
+from modules.view3d.viewer import ViewerPage
+
+CAMERAS = ("wrist", "left", "right")
+
+
+class View3DParams(ArmParams):
+    """Parameters of the 3-D view (the arm's DH table comes from ArmParams)."""
+
+    host: str = param("127.0.0.1", "address the page listens on (loopback by default)")
+    port: int = param(8090, "TCP port of the page; 0: any free port", ge=0, le=65535)
+    world_frame: str = param("base", "the view's reference frame (z up)")
+    max_fps: float = param(
+        10.0, "most scene updates (video frames) sent per second", unit="Hz", gt=0, le=60
+    )
+    video_width: int = param(
+        320, "video is scaled down to this width for the page", unit="px", ge=32, le=1920
+    )
+    wrist_intrinsics: list[float] = param(
+        [800.0, 800.0, 640.0, 360.0, 1280.0, 720.0],
+        "wrist camera fx fy u0 v0 width height without a wrist_model input",
+        unit="px",
+    )
+    wrist_frame: str = param("camera", "the wrist camera's frame in the static frames")
+    tool_frame: str = param("tool", "frame the arm's tool is (static frame below flange)")
+    table_frame: str = param("table", "the table top's frame (z up); '' for no table")
+    table_size_m: list[float] = param([1.4, 1.2, 0.04], "table x, y, thickness", unit="m")
+    tray_size_m: list[float] = param([0.3, 0.22, 0.01], "tray under the tool x, y, z", unit="m")
+    tool_size_m: list[float] = param([0.08, 0.05, 0.03], "tool body x, y, height", unit="m")
+    overview_xyz_m: list[float] = param([1.9, -1.6, 1.4], "overview viewer position", unit="m")
+    overview_target_m: list[float] = param([0.45, 0.0, 0.3], "overview look-at point", unit="m")
+    overview_fov_deg: float = param(
+        50.0, "overview vertical field of view", unit="deg", gt=1, lt=170
+    )
+    animation_s: float = param(1.0, "duration of a viewer move", unit="s", ge=0, le=10)
+    scene_file: str = param("scene.json", "scene file in the run folder, saved on every change")
+    load_scene: str = param("", "scene file to load at start (a previous run's)")
+    pose_tool_mount: str = param(
+        "tool->camera", "the static frame parent->child the pose tool corrects (a camera mount)"
+    )
+
+
+class View3D(Module):
+    """The live 3-D view: the arm from its DH table moving with the joint state; the table,
+    tray and tool; each camera (``wrist``, ``left``, ``right``) as a frustum at its calibrated
+    pose with its live video on it; a transparency slider per camera; buttons that fly the
+    viewer into a camera's own view (the video over the model, the report's Figure 16) and
+    back to the overview. Stereo snapshots stay in the scene with their frustum and image and
+    can be viewed from their own pose; boxes and sketched primitives appear in the model. The
+    scene is saved to ``scene_file`` in the run folder on every change and reloads with
+    ``load_scene``. The page's address is printed at start.
+
+    A camera's pose: its ``*_pose`` input (the camera's or its mount's pose, in any frame the
+    static frames tie to ``world_frame``), else its model's mount in the static frames, and
+    for the wrist camera the arm's forward kinematics with the static frames
+    flange->tool->camera. Its intrinsics: the ``*_model`` input (zoom changes the frustum),
+    else ``wrist_intrinsics`` for the wrist camera.
+
+    Cost: ``step`` only keeps the newest samples; a thread of its own sends at most
+    ``max_fps`` updates per second, and nothing at all while no browser is connected.
+    """
+
+    TYPE = "View3D"
+    Params = View3DParams
+
+    joint_state = Input(
+        JointState,
+        joints=from_param("joint_names"),
+        required=False,
+        feedback=True,
+        doc="the arm's measured joint angles",
+    )
+    patch_pose = Input(Pose, required=False, feedback=True, doc="the tool's patch (T_table_patch)")
+    wrist_image = Input(Image, required=False, doc="wrist camera video")
+    wrist_model = Input(CameraModel, required=False, feedback=True, doc="wrist camera model")
+    wrist_pose = Input(Pose, required=False, feedback=True, doc="wrist camera (or mount) pose")
+    left_image = Input(Image, required=False, doc="left PTU camera video")
+    left_model = Input(CameraModel, required=False, feedback=True, doc="left camera model")
+    left_pose = Input(Pose, required=False, feedback=True, doc="left camera (or mount) pose")
+    right_image = Input(Image, required=False, doc="right PTU camera video")
+    right_model = Input(CameraModel, required=False, feedback=True, doc="right camera model")
+    right_pose = Input(Pose, required=False, feedback=True, doc="right camera (or mount) pose")
+    snapshot = Input(StereoSnapshot, required=False, doc="stereo snapshots kept in the scene")
+    primitive = Input(SketchPrimitive, required=False, doc="sketched points, lines, planes")
+    box = Input(SketchBox, required=False, doc="boxes placed by triads")
+    objects = Input(
+        SceneObjects, required=False, feedback=True, doc="the world's solids (pipe, door, ...)"
+    )
+    status = Output(Status, doc="page address, browsers connected, video frames sent")
+    mount = Output(Pose, doc="the camera mount the pose tool solved and saved")
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        p = self.params
+        for name, values, n in (
+            ("wrist_intrinsics", p.wrist_intrinsics, 6),
+            ("table_size_m", p.table_size_m, 3),
+            ("tray_size_m", p.tray_size_m, 3),
+            ("tool_size_m", p.tool_size_m, 3),
+            ("overview_xyz_m", p.overview_xyz_m, 3),
+            ("overview_target_m", p.overview_target_m, 3),
+        ):
+            if len(values) != n or not np.all(np.isfinite(values)):
+                raise UserError(f"{self.name}: {name} needs {n} finite numbers, got {values}")
+        self._pose_tool_frames()  # checked before anything starts
+        self._lock = threading.Lock()
+        self._latest: dict[str, object] = {}
+        self._new_items: list[object] = []
+        self._scene = Scene(frame=p.world_frame)
+        if p.load_scene:
+            self._scene = load_scene(p.load_scene)
+            if self._scene.frame != p.world_frame:
+                raise UserError(
+                    f"{self.name}: scene file {p.load_scene} is in frame {self._scene.frame!r}, "
+                    f"the view's world_frame is {p.world_frame!r}"
+                )
+            self._new_items.extend(self._scene.snapshots.values())
+            self._new_items.extend(self._scene.boxes.values())
+            self._new_items.extend(self._scene.primitives.values())
+        self._scene_path = Path(self.context.output_dir) / p.scene_file
+        self._scene_dirty = False
+        self._saves = 0
+        self._refused = 0
+        self._T_world_base = self._lookup(p.world_frame, "base", np.eye(4))
+        self._T_flange_tool = self._lookup("flange", p.tool_frame, None)
+        self._T_tool_wrist = self._lookup(p.tool_frame, p.wrist_frame, None)
+        self._T_world_table = (
+            self._lookup(p.world_frame, p.table_frame, None) if p.table_frame else None
+        )
+        overview = viewer_pose_looking_at(
+            p.overview_xyz_m, p.overview_target_m, np.radians(p.overview_fov_deg)
+        )
+        try:
+            self.page = ViewerPage(
+                p.host, p.port, overview, CAMERAS, p.video_width, animation_s=p.animation_s
+            )
+        except OSError as error:
+            raise UserError(
+                f"{self.name}: cannot serve the 3-D view on {p.host}:{p.port}: {error.strerror}"
+            ) from None
+        self.page.on_save = self.save_now
+        self.page.on_snapshot = self._snapshot_taken
+        self._start_pose_tool()
+        self.address = self.page.address
+        print(f"3-D view: {self.address}", flush=True)
+        self.log.info("3-D view at %s", self.address)
+        self._draw_static(None)
+        self._sent_frames = 0
+        self._updates = 0
+        self._skipped_idle = 0
+        self._shown: dict[str, object] = {}  # the samples on the page now, by input
+        self._stopping = threading.Event()
+        self._thread = threading.Thread(
+            target=self._pusher, name=f"{self.name}-view3d", daemon=True
+        )
+        self._thread.start()
+
+    def stop(self) -> None:
+        if getattr(self, "_thread", None) is not None:
+            self._stopping.set()
+            self._thread.join(timeout=5.0)
+        pending = getattr(self, "_new_items", None)
+        if pending:  # arrived after the sender's last turn: keep them too
+            for item in pending:
+                kind = {"SceneSnapshot": "snapshots", "SceneBox": "boxes"}.get(
+                    type(item).__name__, "primitives"
+                )
+                getattr(self._scene, kind)[item.id] = item
+            self._scene_dirty = True
+        if getattr(self, "_scene_dirty", False):
+            self._save()
+        if getattr(self, "page", None) is not None:
+            self.page.stop()
+
+    def summary(self) -> dict[str, object]:
+        return {
+            "address": getattr(self, "address", ""),
+            "updates_sent": getattr(self, "_updates", 0),
+            "video_frames_sent": {k: s.frames_sent for k, s in self.page.cameras.items()}
+            if getattr(self, "page", None) is not None
+            else {},
+            "scene_items": self._scene.count() if hasattr(self, "_scene") else 0,
+            "items_refused": getattr(self, "_refused", 0),
+            "scene_file": str(getattr(self, "_scene_path", "")),
+        }
+
+    def _pose_tool_frames(self) -> tuple[str, str]:
+        parent, sep, child = self.params.pose_tool_mount.partition("->")
+        if not sep or not parent.strip() or not child.strip():
+            raise UserError(
+                f"{self.name}: pose_tool_mount must be written parent->child, got "
+                f"{self.params.pose_tool_mount!r}"
+            )
+        return parent.strip(), child.strip()
+
+    def _start_pose_tool(self) -> None:
+        parent, child = self._pose_tool_frames()
+        T_nominal = self._lookup(parent, child, None)
+        if T_nominal is None:
+            self.log.warning(
+                "pose tool: no static frame %s->%s; the mount is solved as a "
+                "correction of the identity",
+                parent,
+                child,
+            )
+            T_nominal = np.eye(4)
+        tool = PoseTool(parent, child, T_nominal, snapshot_image_depth(self.page))
+        self._mounts: list[np.ndarray] = []
+        self.pose_tool = PoseToolWidgets(
+            self.page, tool, Path(self.context.output_dir), self._mount_saved
+        )
+
+    def _mount_saved(self, T_parent_child: np.ndarray) -> None:
+        with self._lock:  # called on the page's thread; step sends it
+            self._mounts.append(np.array(T_parent_child))
+
+    def _snapshot_taken(self, snapshot) -> None:
+        with self._lock:
+            self._new_items.append(snapshot)
+
+    def _lookup(self, parent: str, child: str, default):
+        frames = self.context.frames
+        if parent == child:
+            return np.eye(4)
+        if frames.has(parent, child):
+            return frames.lookup(parent, child)
+        return default
+
+    # -- step: keep the newest samples (cheap; never blocks) ------------------------------------
+
+    def step(self, now: float) -> None:
+        latest = {}
+        for port in (
+            "joint_state",
+            "patch_pose",
+            "objects",
+            *(f"{c}_{k}" for c in CAMERAS for k in ("image", "model", "pose")),
+        ):
+            sample = getattr(self, port).get(now)
+            if sample is not None:
+                latest[port] = sample
+        items = []
+        try:
+            if self.snapshot.fresh and (s := self.snapshot.get(now)) is not None:
+                items.extend(snapshot_items(s, self._to_world(s.frame)))
+            if self.primitive.fresh and (s := self.primitive.get(now)) is not None:
+                items.append(primitive_item(s, self._to_world(s.frame)))
+            if self.box.fresh and (s := self.box.get(now)) is not None:
+                items.append(box_item(s, self._to_world(s.frame)))
+        except ValueError as error:  # a malformed item is refused, the view goes on
+            self._refused += 1
+            self.log.warning("3-D view refused a sketch item: %s", error)
+        with self._lock:
+            self._latest = latest
+            self._new_items.extend(items)
+            mounts, self._mounts = self._mounts, []
+        for T in mounts:
+            tool = self.pose_tool.tool
+            self.mount.send(Pose(matrix=T, parent=tool.parent, child=tool.child))
+        if self.page is not None and now - getattr(self, "_status_at", -np.inf) >= 1.0:
+            self._status_at = now
+            self.status.send(
+                Status(
+                    stage="serving",
+                    message=self.address,
+                    values={
+                        "browsers": float(self.page.clients()),
+                        "updates_sent": float(self._updates),
+                    },
+                )
+            )
+
+    def _to_world(self, frame: str) -> np.ndarray:
+        T = self._lookup(self.params.world_frame, frame, None)
+        if T is None:
+            raise UserError(
+                f"{self.name}: a sketch item is in frame {frame!r}, which the static frames do "
+                f"not tie to the view's world_frame {self.params.world_frame!r}"
+            )
+        return T
+
+    # -- the sender thread ----------------------------------------------------------------------
+
+    def _pusher(self) -> None:
+        period = 1.0 / self.params.max_fps
+        while not self._stopping.is_set():
+            started = time.perf_counter()
+            with self._lock:
+                latest = dict(self._latest)
+                items, self._new_items = self._new_items, []
+            try:
+                self._add_items(items)
+                if self.page.clients() > 0:
+                    self._push(latest)
+                    self._updates += 1
+                else:
+                    self._skipped_idle += 1
+                if self._scene_dirty:
+                    self._save()
+            except Exception as error:  # a bad sample must not kill the page
+                self.log.warning("3-D view update failed: %s", error)
+            self._stopping.wait(max(0.0, period - (time.perf_counter() - started)))
+
+    def _add_items(self, items: list[object]) -> None:
+        from modules.view3d.scene_file import SceneBox, ScenePrimitive, SceneSnapshot
+
+        for item in items:
+            if isinstance(item, SceneSnapshot):
+                self._scene.snapshots[item.id] = item
+                self.page.add_snapshot(item, snapshot_frustum(item))
+            elif isinstance(item, SceneBox):
+                self._scene.boxes[item.id] = item
+                self.page.add_scene_box(item)
+            elif isinstance(item, ScenePrimitive):
+                self._scene.primitives[item.id] = item
+                self.page.add_primitive(item)
+            self._scene_dirty = True
+
+    def save_now(self) -> str:
+        self._save()
+        return str(self._scene_path)
+
+    def _save(self) -> None:
+        self._scene_dirty = False
+        try:
+            save_scene(self._scene, self._scene_path)
+            self._saves += 1
+        except (OSError, UserError) as error:
+            self.log.warning("cannot save the scene to %s: %s", self._scene_path, error)
+
+    def _push(self, latest: dict[str, object]) -> None:
+        q = latest.get("joint_state")
+        T_world_flange = None
+        if isinstance(q, JointState):
+            table = self.params.table
+            T_world_flange = self._T_world_base @ table.fk(q.position)
+        if isinstance(q, JointState) and self._shown.get("joint_state") is not q:
+            self._shown["joint_state"] = q
+            points = arm_joint_points(table, q.position, self._T_world_base, self._T_flange_tool)
+            T_tool = (
+                T_world_flange @ self._T_flange_tool if self._T_flange_tool is not None else None
+            )
+            self.page.set_arm(arm_link_segments(points), points[: table.n + 1], T_tool)
+        patch = latest.get("patch_pose")
+        if isinstance(patch, Pose) and self._shown.get("patch_pose") is not patch:
+            self._shown["patch_pose"] = patch
+            self._draw_static(patch)
+        objects = latest.get("objects")
+        if isinstance(objects, SceneObjects) and self._shown.get("objects") is not objects:
+            self._shown["objects"] = objects
+            T = self._to_world(objects.frame)
+            poses = T @ np.asarray(objects.poses, dtype=float).reshape(-1, 4, 4)
+            self.page.set_objects(
+                objects.names,
+                objects.kinds,
+                poses,
+                np.asarray(objects.sizes).reshape(-1, 3),
+                np.asarray(objects.colors).reshape(-1, 3),
+            )
+        for camera in CAMERAS:
+            frustum = self._camera_frustum(camera, latest, T_world_flange)
+            if frustum is None:
+                continue
+            image = latest.get(f"{camera}_image")
+            pixels = None
+            if isinstance(image, Image) and self._shown.get(f"{camera}_image") is not image:
+                self._shown[f"{camera}_image"] = image
+                pixels = np.asarray(image.pixels)
+            self.page.set_camera(camera, frustum, pixels)
+
+    def _camera_frustum(
+        self, camera: str, latest: dict[str, object], T_world_flange: np.ndarray | None
+    ) -> Frustum | None:
+        p = self.params
+        model = latest.get(f"{camera}_model")
+        pose = latest.get(f"{camera}_pose")
+        if not isinstance(model, CameraModel):
+            if camera != "wrist":
+                return None
+            fx, fy, u0, v0, width, height = p.wrist_intrinsics
+            model = CameraModel(
+                fx=fx,
+                fy=fy,
+                u0=u0,
+                v0=v0,
+                width=int(width),
+                height=int(height),
+                mount=p.tool_frame,
+                frame=p.wrist_frame,
+                T_mount_camera=self._T_tool_wrist if self._T_tool_wrist is not None else np.eye(4),
+            )
+        if isinstance(pose, Pose):
+            T_world_parent = self._lookup(p.world_frame, pose.parent, None)
+            if T_world_parent is None:
+                return None
+            T = T_world_parent @ np.asarray(pose.matrix, dtype=float)
+            if pose.child == model.frame:  # the camera's own pose
+                return frustum_from_model(model, T @ np.linalg.inv(model.T_mount_camera))
+            return frustum_from_model(model, T)
+        if (
+            camera == "wrist"
+            and model.mount == p.tool_frame
+            and T_world_flange is not None
+            and self._T_flange_tool is not None
+        ):
+            return frustum_from_model(model, T_world_flange @ self._T_flange_tool)
+        T_world_mount = self._lookup(p.world_frame, model.mount, None)
+        return None if T_world_mount is None else frustum_from_model(model, T_world_mount)
+
+    def _draw_static(self, patch: Pose | None) -> None:
+        p = self.params
+        if self._T_world_table is None:
+            return
+        T_table = self._T_world_table
+        top = np.eye(4)
+        top[2, 3] = -p.table_size_m[2] / 2.0
+        self.page.add_box(
+            "/workcell/table", T_table @ top, np.array(p.table_size_m), (190, 170, 140)
+        )
+        if patch is None:
+            return
+        T_world_patch = self._lookup(p.world_frame, patch.parent, np.eye(4)) @ np.asarray(
+            patch.matrix, dtype=float
+        )
+        height = float(T_world_patch[2, 3] - T_table[2, 3])
+        on_table = T_world_patch.copy()
+        on_table[:3, 3] -= T_table[:3, 2] * height
+        tray = on_table.copy()
+        tray[:3, 3] += T_table[:3, 2] * p.tray_size_m[2] / 2.0
+        self.page.add_box("/workcell/tray", tray, np.array(p.tray_size_m), (120, 120, 130))
+        body = on_table.copy()
+        body[:3, 3] += T_table[:3, 2] * (height / 2.0)
+        size = np.array([p.tool_size_m[0], p.tool_size_m[1], max(height, 1e-3)])
+        self.page.add_box("/workcell/tool", body, size, (70, 70, 80))
+
+
+def snapshot_frustum(snapshot) -> Frustum:
+    """The frustum of a scene snapshot (its own pose and intrinsics)."""
+    K = snapshot.K
+    model = CameraModel(
+        fx=float(K[0, 0]),
+        fy=float(K[1, 1]),
+        skew=float(K[0, 1]),
+        u0=float(K[0, 2]),
+        v0=float(K[1, 2]),
+        width=snapshot.width,
+        height=snapshot.height,
+    )
+    return frustum_from_model(model, snapshot.T_world_camera)

@@ -1,0 +1,119 @@
+"""SketchWorld: the simulated plant of Active Sketch, the scene's truth and the macros' verdicts."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from connectors import Input, Module, Output, param
+from connectors.messages import JointState, Status
+from connectors.sketch_messages import SceneObjects, ToolPath
+from modules.arm.arm_params import ArmParams
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.world.scene_objects import SketchScene
+from modules.world.sketch_judge import SketchJudge
+
+
+class SketchWorld(Module):
+    """The Active Sketch scene (pipe, door with handle, package, surface) and its judge.
+
+    Reads the arm's TRUE joints and gripper, moves what the gripper moves (the door follows a
+    held handle), publishes the objects (for the simulated cameras and the 3-D view) and the
+    verdict of the macro being played (``status.values``: grasp distance and angle, door angle,
+    coverage, perimeter deviation, device error; ``stage`` = macro, ``message`` = events).
+    ``randomize`` moves the objects about the nominal layout with the graph's seeded rng.
+    With ``end_after`` set, the run ends (exit 0) once those macros have all succeeded, or with
+    exit 1 at ``timeout_s``.
+    """
+
+    TYPE = "SketchWorld"
+
+    class Params(ArmParams):
+        tool_xyz: list[float] = param([0.0, 0.0, 0.14], "tool point in the flange", unit="m")
+        tool_rpy_deg: list[float] = param([0.0, 0.0, 0.0], "tool frame in the flange", unit="deg")
+        table_z: float = param(0.25, "table top above the arm's base", unit="m", ge=0, le=1.5)
+        randomize: bool = param(False, "randomize the object poses (seeded)")
+        objects_rate_hz: float = param(10.0, "how often the objects are published", gt=0, le=100)
+        end_after: list[str] = param([], "end the run when these macros have all succeeded")
+        timeout_s: float = param(120.0, "with end_after: fail the run after", unit="s", gt=0)
+
+    joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper")
+    path = Input(ToolPath, required=False, feedback=True, doc="the macro being played")
+    objects = Output(SceneObjects, doc="the true solids of the scene")
+    status = Output(Status, doc="the verdict of the macro being played")
+
+    def start(self) -> None:
+        p = self.params
+        self.table = p.table
+        self.T_flange_tool = transform_from_xyz_rpy_deg(p.tool_xyz, p.tool_rpy_deg)
+        scene = (
+            SketchScene.random(self.context.rng, p.table_z)
+            if p.randomize
+            else SketchScene.nominal(p.table_z)
+        )
+        self.judge = SketchJudge(scene)
+        self._macro = ""
+        self._succeeded: list[str] = []
+        self._next_objects = 0.0
+        self._started: float | None = None
+        self._last_key: tuple | None = None
+
+    def step(self, now: float) -> None:
+        if self._started is None:
+            self._started = now
+        path = self.path.get(now)
+        if path is not None and self.path.fresh and path.ok:
+            self._macro = path.macro
+            self.judge.reset_measures()
+        state = self.joint_state.get(now)
+        if state is not None and self.joint_state.fresh:
+            T = self.table.fk(np.asarray(state.position, dtype=float), self.T_flange_tool)
+            self.judge.update(T, float(state.gripper))
+        if now >= self._next_objects:
+            self._next_objects = now + 1.0 / self.params.objects_rate_hz
+            v = self.judge.verdicts
+            self.objects.send(
+                self.judge.scene.message(values={"door_angle": self.judge.scene.door.angle})
+            )
+            self._report(now, v)
+        self._maybe_end(now)
+
+    def _report(self, now: float, v) -> None:
+        ok = bool(self._macro) and v.success(self._macro)
+        if ok and self._macro not in self._succeeded:
+            self._succeeded.append(self._macro)
+            self.log.info("SketchWorld: %s succeeded (%s)", self._macro, "; ".join(v.events))
+        values = {
+            "grasp_distance_mm": v.grasp_distance_m * 1e3,
+            "grasp_angle_deg": float(np.degrees(v.grasp_angle_rad)),
+            "door_angle_deg": float(np.degrees(self.judge.scene.door.angle)),
+            "door_max_deg": float(np.degrees(v.door_max_rad)),
+            "coverage": v.coverage,
+            "perimeter_max_dev_mm": v.perimeter_max_dev_m * 1e3,
+            "device_error_mm": v.device_error_m * 1e3,
+            "success": float(ok),
+        }
+        key = (self._macro, ok, len(v.events))
+        if key != self._last_key:
+            self._last_key = key
+            self.status.send(
+                Status(stage=self._macro or "idle", message="; ".join(v.events[-3:]), values=values)
+            )
+
+    def _maybe_end(self, now: float) -> None:
+        wanted = self.params.end_after
+        if not wanted:
+            return
+        if all(m in self._succeeded for m in wanted):
+            self.context.request_stop(f"macros succeeded: {', '.join(wanted)}", 0)
+        elif self._started is not None and now - self._started > self.params.timeout_s:
+            missing = [m for m in wanted if m not in self._succeeded]
+            self.context.request_stop(f"timeout: not succeeded: {', '.join(missing)}", 1)
+
+    def summary(self) -> dict[str, object]:
+        v = self.judge.verdicts
+        return {
+            "succeeded": list(self._succeeded),
+            "door_angle_deg": float(np.degrees(self.judge.scene.door.angle)),
+            "grasp_distance_mm": float(v.grasp_distance_m * 1e3),
+            "events": list(v.events),
+        }

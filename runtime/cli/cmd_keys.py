@@ -1,0 +1,76 @@
+"""``umbra keys GRAPH --out DIR``: certificates and access rules for a graph across hosts."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from connectors.errors import UserError
+from runtime.graph.check import load_graph
+
+NAME = "keys"
+HELP = "make a CA, a certificate per process and the graph's zenoh access rules (mutual TLS)"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("graph", metavar="GRAPH", help="graph file (.yaml)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
+    parser.add_argument(
+        "--days", type=int, default=365, metavar="N", help="validity of the certificates [days]"
+    )
+    parser.add_argument(
+        "--host",
+        action="append",
+        default=[],
+        metavar="PROCESS=ADDRESS",
+        help="an address or host name a process is reached at, written into its certificate "
+        "(repeatable; localhost and 127.0.0.1 are always there)",
+    )
+    parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
+
+
+def _hosts(items: list[str], processes: list[str]) -> dict[str, list[str]]:
+    hosts: dict[str, list[str]] = {}
+    for item in items:
+        process, sep, address = item.partition("=")
+        if not sep or not address or process not in processes:
+            raise UserError(
+                f"--host: expected PROCESS=ADDRESS with PROCESS one of "
+                f"{', '.join(processes)}, found {item!r}"
+            )
+        hosts.setdefault(process, []).append(address)
+    return hosts
+
+
+def main(args: argparse.Namespace) -> int:
+    from runtime.links.tls import write_keys
+
+    if not 1 <= args.days <= 3650:
+        raise UserError(f"--days must be from 1 to 3650, found {args.days}")
+    plan = load_graph(args.graph, prefix=args.prefix)
+    processes = plan.populated_processes
+    if len(processes) < 2:
+        raise UserError(
+            f"{args.graph}: graph `{plan.spec.name}` runs in one process "
+            f"({', '.join(processes)}): it has no links to secure"
+        )
+    out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out: {out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()):
+        raise UserError(f"--out: {out} is not empty; give a new folder (keys are never mixed)")
+    written = write_keys(plan, out, args.days, _hosts(args.host, processes))
+    print(f"wrote {len(written)} files to {out}:", file=sys.stderr)
+    for path in written:
+        print(f"  {path}", file=sys.stderr)
+    first = processes[0]
+    print(
+        f"copy {out}/ to each host (it holds every process's private key: keep it private), "
+        f"then e.g.\n  umbra run {args.graph} --process {first} --zenoh-config {out}/ "
+        f"--listen tls/0.0.0.0:7447\n  umbra run {args.graph} --process {processes[1]} "
+        f"--zenoh-config {out}/ --connect tls/HOST-OF-{first.upper()}:7447\n"
+        f"or on one host: umbra run {args.graph} --zenoh-config {out}/",
+        file=sys.stderr,
+    )
+    return 0

@@ -1,0 +1,87 @@
+"""``umbra replay RECORDING GRAPH``: run a graph with recorded outputs in place of some modules."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+from connectors.errors import UserError
+from runtime.cli.common import parse_module_set
+
+NAME = "replay"
+HELP = "run a graph with recorded outputs in place of the modules that produced them"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("recording", metavar="RECORDING", help="recording (.mcap) of a run")
+    parser.add_argument("graph", metavar="GRAPH", help="graph file (.yaml) to replay into")
+    parser.add_argument(
+        "--replace",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="module whose recorded outputs are replayed (repeatable or comma-separated; "
+        "default: the modules whose recorded outputs are images)",
+    )
+    parser.add_argument(
+        "--clock",
+        choices=("sim", "real"),
+        default="sim",
+        help="sim: as fast as the machine goes (default); real: at the recorded pace",
+    )
+    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="MODULE.PARAM=VALUE",
+        default=[],
+        help="override a parameter (repeatable), e.g. snake.k_sigma=2.5",
+    )
+    parser.add_argument(
+        "--out", type=Path, metavar="DIR", help="output folder (default runs/<graph>-replay-<time>)"
+    )
+    parser.add_argument(
+        "--record", action="store_true", help="record the replay run too (to compare with)"
+    )
+    parser.add_argument(
+        "--record-images", choices=("raw", "jpeg", "png"), help="with --record: image encoding"
+    )
+    parser.add_argument("--quiet", action="store_true", help="no summary table")
+
+
+def main(args: argparse.Namespace) -> int:
+    from runtime.cli.cmd_run import enable_recording
+    from runtime.graph.check import load_graph
+    from runtime.recording.replay import plan_replay
+    from runtime.run import run_process
+    from runtime.scheduler import SchedulerOptions
+
+    if args.duration is not None and not args.duration > 0:
+        raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
+    plan = load_graph(args.graph, overrides=parse_module_set(args.set))
+    enable_recording(plan, args)
+    replaced = [n.strip() for item in args.replace for n in item.split(",") if n.strip()]
+    feed, names = plan_replay(plan, Path(args.recording), replaced, args.clock)
+    out = args.out or Path("runs") / f"{plan.spec.name}-replay-{time.strftime('%Y%m%d-%H%M%S')}"
+    logging.basicConfig(
+        level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr
+    )
+    if not args.quiet:
+        print(
+            f"umbra replay: {', '.join(names)} replayed from {args.recording} "
+            f"({feed.index.scan.messages} messages, "
+            f"{(feed.index.end_ns - feed.index.t0_ns) / 1e9:.3f} s recorded on the "
+            f"{feed.index.clock or '?'} clock)",
+            file=sys.stderr,
+        )
+    options = SchedulerOptions(
+        clock=args.clock, duration=args.duration, output_dir=out, handle_signals=True
+    )
+    result = run_process(plan, options)
+    if not args.quiet:
+        print(result.table(), file=sys.stderr)
+        print(f"summary written to {out}", file=sys.stderr)
+    return result.exit_code

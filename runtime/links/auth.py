@@ -1,0 +1,116 @@
+"""Per-run credentials for the processes the launcher starts: only they can open a link.
+
+For each run the launcher makes a private folder (mode 0700) holding a user name and a random
+password per process and the dictionary of all of them, each file mode 0600, and hands every child
+the path of its own file (``--link-auth FILE``) — never a secret on a command line, where any local
+user could read it. Each child's zenoh configuration then carries:
+
+* zenoh's ``usrpwd`` transport authentication: a session that cannot show one of the run's
+  passwords is refused when it opens a link, so a stranger on this host cannot even connect;
+* the access-control rules derived from the graph (``runtime.links.acl``) with the user names as
+  subjects: a process may publish only its own outputs and declare only its own liveliness token.
+
+Cost: the password exchange happens once per link, when it opens; the rules are checked by zenoh
+on each message (measured by ``benchmarks/bench_links.py``). The folder is removed when the run
+ends.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shutil
+import stat
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from connectors.errors import UserError
+from runtime.graph.plan import GraphPlan
+from runtime.links.acl import by_username, zenoh_acl
+
+
+class RunCredentials:
+    """The private folder of one run's credentials (``close`` removes it).
+
+    usrpwd authentication goes one way — the process that opens a link shows its password to the
+    one that listens — so a listening process knows its peers by user name, and a connecting
+    process knows the process it connected to (on the port the launcher gave it) by the zenoh id
+    the launcher assigned it. Process i of the mesh listens for the processes after it and
+    connects to those before it (``runtime.links.config.loopback_mesh``).
+    """
+
+    def __init__(self, plan: GraphPlan) -> None:
+        self.folder = Path(tempfile.mkdtemp(prefix="umbra-auth-"))  # mode 0700
+        processes = plan.populated_processes
+        passwords = {p: secrets.token_hex(24) for p in processes}
+        #: zenoh id of each process (lowercase hex without a leading zero, as zenoh wants it)
+        self.zids = {p: format(secrets.randbits(127) | 1 << 126, "x") for p in processes}
+        dictionary = self.folder / "dictionary.txt"
+        _private_write(dictionary, "".join(f"{p}:{pw}\n" for p, pw in passwords.items()))
+        self.files: dict[str, Path] = {}
+        for i, process in enumerate(processes):
+            before = set(processes[:i])  # this process connects to them: known by zenoh id
+
+            def subject(other: str, before: set[str] = before) -> dict[str, list[str]]:
+                return {"zids": [self.zids[other]]} if other in before else by_username(other)
+
+            path = self.folder / f"{process}.json"
+            auth = {
+                "user": process,
+                "password": passwords[process],
+                "dictionary_file": str(dictionary),
+                "zid": self.zids[process],
+                "access_control": zenoh_acl(plan, subject),
+            }
+            _private_write(path, json.dumps(auth))
+            self.files[process] = path
+
+    def close(self) -> None:
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _private_write(path: Path, text: str) -> None:
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+
+
+def load_auth(path: str) -> dict[str, Any]:
+    """The credentials file ``path`` of this process; UserError when it is missing, readable by
+    others, or not one."""
+    file = Path(path)
+    try:
+        mode = file.stat().st_mode
+        text = file.read_text()
+    except OSError as exc:
+        raise UserError(f"{path}: error: cannot read the link credentials: {exc}") from None
+    if mode & (stat.S_IRWXG | stat.S_IRWXO):
+        raise UserError(
+            f"{path}: error: link credentials must be private (mode 0600), "
+            f"found mode {stat.S_IMODE(mode):04o}"
+        )
+    try:
+        auth = json.loads(text)
+        for field in ("user", "password", "dictionary_file"):
+            if not isinstance(auth[field], str) or not auth[field]:
+                raise ValueError(f"`{field}` must be a non-empty string")
+    except (ValueError, KeyError, TypeError) as exc:
+        raise UserError(
+            f"{path}: error: expected link credentials (user, password, dictionary_file), "
+            f"found: {exc}"
+        ) from None
+    return auth
+
+
+def apply_auth(cfg: zenoh.Config, auth: dict[str, Any]) -> None:
+    """Put ``auth`` (``load_auth``) into ``cfg``: password authentication and the graph's rules."""
+    usrpwd = {k: auth[k] for k in ("user", "password", "dictionary_file")}
+    cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
+    if auth.get("zid"):
+        cfg.insert_json5("id", json.dumps(auth["zid"]))
+    if auth.get("access_control"):
+        cfg.insert_json5("access_control", json.dumps(auth["access_control"]))

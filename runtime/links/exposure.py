@@ -1,0 +1,101 @@
+"""Secure by default beyond loopback: no plain-text endpoint off this host unless asked for.
+
+An endpoint on a loopback address (``127.0.0.0/8``, ``::1``, ``localhost``) is reachable from
+this host only; any other address (``0.0.0.0`` and ``[::]`` included) is reachable from the
+network, where a link must use TLS (``tls/`` or ``quic/`` endpoints, with the certificates that
+``umbra keys`` makes) so that only the graph's processes can open it. ``--insecure`` lifts this.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+from pathlib import Path
+
+import zenoh
+
+from connectors.errors import UserError
+
+#: Protocols whose links are encrypted and authenticated by certificates.
+TLS_PROTOCOLS = ("tls", "quic")
+
+HOW_TO_TLS = (
+    "make a CA, a certificate per process and the graph's access rules with "
+    "`umbra keys GRAPH --out keys/`, copy keys/ to each host, then run each process with "
+    "`--zenoh-config keys/` and TLS endpoints (e.g. `--listen tls/0.0.0.0:7447`, "
+    "`--connect tls/HOST:7447`); or add --insecure to accept plain TCP beyond loopback "
+    "(anyone who reaches the endpoint can then drive the graph)"
+)
+
+
+def endpoint_host(endpoint: str) -> tuple[str, str]:
+    """``(protocol, host)`` of a zenoh endpoint ``proto/host:port[?...][#...]``."""
+    protocol, _, rest = endpoint.partition("/")
+    address = rest.split("#", 1)[0].split("?", 1)[0]
+    if address.startswith("["):  # [v6]:port
+        return protocol, address[1 : address.find("]")]
+    return protocol, address.rsplit(":", 1)[0]
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` names this host only."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False  # a host name: it may resolve anywhere
+
+
+def check_exposure(listen: list[str], connect: list[str], insecure: bool, where: str) -> None:
+    """UserError naming the first plain endpoint beyond loopback (unless ``insecure``)."""
+    if insecure:
+        return
+    for kind, endpoints in (("listening on", listen), ("connecting to", connect)):
+        for endpoint in endpoints:
+            protocol, host = endpoint_host(endpoint)
+            if protocol in TLS_PROTOCOLS or is_loopback(host):
+                continue
+            raise UserError(
+                f"{where}: refusing {kind} `{endpoint}` without TLS: it is reachable beyond "
+                f"this host, and anyone who reaches it could drive the graph. To run across "
+                f"hosts securely, {HOW_TO_TLS}"
+            )
+
+
+def config_for(path: str, process: str) -> str:
+    """The zenoh configuration file of ``process``: ``path`` itself, or ``path/PROCESS.json5``
+    when ``path`` is a folder written by ``umbra keys``."""
+    folder = Path(path)
+    if not folder.is_dir():
+        return path
+    file = folder / f"{process}.json5"
+    if not file.is_file():
+        raise UserError(
+            f"{path}: error: no zenoh configuration for process `{process}` in this folder "
+            f"(expected {file.name}; write the folder with `umbra keys GRAPH --out {path}`)"
+        )
+    return str(file)
+
+
+def uses_tls(config_file: str | None) -> bool:
+    """Whether ``config_file`` sets up TLS (a CA to verify peers with)."""
+    if not config_file:
+        return False
+    try:
+        cfg = zenoh.Config.from_file(config_file)
+        value = json.loads(cfg.get_json("transport/link/tls/root_ca_certificate"))
+    except Exception:
+        return False
+    return bool(value)
+
+
+def has_access_control(config_file: str | None) -> bool:
+    """Whether ``config_file`` enables zenoh access control of its own."""
+    if not config_file:
+        return False
+    try:
+        cfg = zenoh.Config.from_file(config_file)
+        return bool(json.loads(cfg.get_json("access_control/enabled")))
+    except Exception:
+        return False

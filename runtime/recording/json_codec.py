@@ -1,0 +1,173 @@
+"""Any message as JSON with a precise JSON schema: samples with no well-known schema.
+
+The object holds every field of the message (``stamp`` [s] and ``seq`` included) under its own
+name; a numpy array is a nested list of numbers (so a viewer plots ``/servo/twist.vector[2]``), and
+``_arrays`` gives each array's dtype and shape so that reading it back restores the exact array.
+JSON has no NaN or infinity: a non-finite number is written as ``null`` and read back as NaN.
+The schema is derived from the message type's declared fields, so a type added later gets one too.
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from typing import Any
+
+import msgspec
+import numpy as np
+
+from connectors.messages import Message
+
+#: The schema name of a message type ``T`` recorded as JSON is ``umbra.T``.
+SCHEMA_PREFIX = "umbra."
+
+_DECODER = msgspec.json.Decoder()
+
+
+def _field_schema(tp: Any) -> dict[str, Any]:
+    """JSON schema of one field type (``float``, ``tuple[str, ...]``, ``np.ndarray``...)."""
+    if tp is float:
+        return {"type": ["number", "null"]}
+    if tp is bool:
+        return {"type": "boolean"}
+    if tp is int:
+        return {"type": "integer"}
+    if tp is str:
+        return {"type": "string"}
+    if tp is np.ndarray:
+        return {"type": "array", "description": "nested lists of numbers; see `_arrays`"}
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (tuple, list):
+        return {"type": "array", "items": _field_schema(args[0]) if args else {}}
+    if origin is dict:
+        return {"type": "object", "additionalProperties": _field_schema(args[1])}
+    if origin in (typing.Union, types.UnionType):
+        return {"anyOf": [_field_schema(a) for a in args]}
+    if tp is type(None):
+        return {"type": "null"}
+    return {"description": f"{tp!r} as JSON"}
+
+
+def json_schema(msg_type: type[Message]) -> dict[str, Any]:
+    """The JSON schema of ``msg_type`` recorded as JSON (title ``umbra.<Type>``)."""
+    props: dict[str, Any] = {}
+    required = []
+    for f in msgspec.structs.fields(msg_type):
+        props[f.name] = _field_schema(f.type)
+        if f.default is msgspec.NODEFAULT and f.default_factory is msgspec.NODEFAULT:
+            required.append(f.name)
+    props["_arrays"] = {
+        "type": "object",
+        "description": "dtype and shape of each array field",
+        "additionalProperties": {
+            "type": "object",
+            "properties": {
+                "dtype": {"type": "string"},
+                "shape": {"type": "array", "items": {"type": "integer"}},
+            },
+            "required": ["dtype", "shape"],
+        },
+    }
+    doc = (msg_type.__doc__ or "").strip().splitlines()
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": SCHEMA_PREFIX + msg_type.__name__,
+        "description": doc[0] if doc else msg_type.__name__,
+        "type": "object",
+        "properties": props,
+        "required": sorted(set(required) | {"stamp", "seq"}),
+    }
+
+
+def _array_hook(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise NotImplementedError(f"cannot write {type(obj).__name__} as JSON")
+
+
+_FAST = msgspec.json.Encoder(enc_hook=_array_hook)
+_ARRAY_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _array_fields(msg_type: type[Message]) -> tuple[str, ...]:
+    names = _ARRAY_FIELDS.get(msg_type)
+    if names is None:
+        names = _ARRAY_FIELDS[msg_type] = tuple(
+            f.name for f in msgspec.structs.fields(msg_type) if f.type is np.ndarray
+        )
+    return names
+
+
+def encode_json(sample: Message) -> bytes:
+    """``sample`` as a JSON object (see the module docstring); msgspec writes the fields (NaN and
+    infinity as ``null``), and ``_arrays`` is appended to the object."""
+    body = _FAST.encode(sample)
+    arrays = {}
+    for name in _array_fields(type(sample)):
+        value = getattr(sample, name)
+        if isinstance(value, np.ndarray):
+            arrays[name] = {"dtype": value.dtype.str, "shape": list(value.shape)}
+    return body[:-1] + b',"_arrays":' + _FAST.encode(arrays) + b"}"
+
+
+#: Array kinds a recording may hold: bool, integers, floats, complex (never objects).
+_NUMERIC_KINDS = "biufc"
+
+
+def _array(name: str, value: Any, head: Any) -> np.ndarray:
+    """The array ``name`` from its nested list and its ``_arrays`` entry; ValueError if bad."""
+    try:
+        dtype = np.dtype(head["dtype"])
+        shape = tuple(int(n) for n in head["shape"])
+        if dtype.kind not in _NUMERIC_KINDS:
+            raise ValueError(f"dtype {dtype} is not numeric")
+        flat = np.asarray(value, dtype=object).reshape(-1)
+        out = np.array([np.nan if v is None else v for v in flat], dtype=dtype)
+        return out.reshape(shape)
+    except (TypeError, KeyError, ValueError) as exc:
+        raise ValueError(f"array `{name}`: {exc}") from None
+
+
+_FIELDS: dict[type, dict[str, Any]] = {}
+
+
+def _fields(msg_type: type[Message]) -> dict[str, Any]:
+    found = _FIELDS.get(msg_type)
+    if found is None:  # msgspec resolves annotations on every call: once per type
+        found = _FIELDS[msg_type] = {f.name: f for f in msgspec.structs.fields(msg_type)}
+    return found
+
+
+def decode_json(msg_type: type[Message], data: bytes) -> Message:
+    """The message of ``msg_type`` encoded by :func:`encode_json`; ValueError when it is not one."""
+    try:
+        obj = _DECODER.decode(data)
+    except msgspec.DecodeError as exc:
+        raise ValueError(f"not JSON: {exc}") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"expected a JSON object, found {type(obj).__name__}")
+    arrays = obj.pop("_arrays", {}) or {}
+    fields = _fields(msg_type)
+    kwargs: dict[str, Any] = {}
+    for name, value in obj.items():
+        f = fields.get(name)
+        if f is None:
+            raise ValueError(f"field `{name}` is not a field of {msg_type.__name__}")
+        if name in arrays:
+            kwargs[name] = _array(name, value, arrays[name])
+        elif value is None and f.type is float:
+            kwargs[name] = float("nan")
+        elif typing.get_origin(f.type) is tuple:
+            kwargs[name] = tuple(value)
+        elif f.type is float and isinstance(value, int):
+            kwargs[name] = float(value)
+        else:
+            kwargs[name] = value
+        if isinstance(kwargs[name], dict):
+            kwargs[name] = {k: float("nan") if v is None else v for k, v in kwargs[name].items()}
+    try:
+        return msg_type(**kwargs)
+    except TypeError as exc:
+        raise ValueError(f"not a {msg_type.__name__}: {exc}") from None

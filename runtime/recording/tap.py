@@ -1,0 +1,206 @@
+"""Recording a whole run: every connected output of a process, into one MCAP file.
+
+The scheduler calls :func:`attach` after wiring (``SchedulerOptions.record``): each output of this
+process that feeds at least one connection — to a module here or, over a link, in another
+process — gets one more sink that hands its samples to a :class:`RecordingFile`, so every sample
+of every connection is recorded once, by the process that produced it. The topic of output
+``module.port`` is ``/module/port``. Recording starts with the graph file and the frames as
+attachments, and the run, parameters, modules and versions as metadata; ``/tf_static`` holds the
+static frames (but those whose child a recorded pose moves: a frame has one parent in a viewer).
+A split run writes one part per process (``<file stem>-<process>.mcap``) that the launcher merges
+into the run's file when every process has ended (``runtime.recording.merge``).
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from connectors.messages import Image, Pose
+from runtime.recording.settings import RecordSettings
+from runtime.recording.writer import (
+    META_FRAME,
+    META_JOINTS,
+    META_PORT,
+    META_PROCESS,
+    RecordingFile,
+)
+
+if TYPE_CHECKING:
+    from runtime.graph.plan import GraphPlan
+    from runtime.scheduler import Scheduler
+
+#: Distributions whose versions a recording names.
+VERSIONED = (
+    "umbra-smart",
+    "numpy",
+    "mcap",
+    "mcap-protobuf-support",
+    "foxglove-schemas-protobuf",
+    "eclipse-zenoh",
+    "opencv-python-headless",
+    "opencv-python",
+    "msgspec",
+)
+
+
+def topic_of(module: str, port: str) -> str:
+    """The MCAP topic of output ``module.port``."""
+    return f"/{module}/{port}"
+
+
+def part_path(out: Path, settings: RecordSettings, process: str | None) -> Path:
+    """The file a process records into: the run's file, or its part of a split run."""
+    path = out / settings.file
+    if process is None:
+        return path
+    return path.with_name(f"{path.stem}-{process}{path.suffix}")
+
+
+def versions() -> dict[str, str]:
+    """Python, platform and the versions of the packages that made the recording."""
+    found = {"python": platform.python_version(), "platform": platform.platform()}
+    for dist in VERSIONED:
+        try:
+            found[dist] = importlib_metadata.version(dist)
+        except importlib_metadata.PackageNotFoundError:
+            continue
+    return found
+
+
+def recorded_outputs(plan: GraphPlan, local: set[str]) -> list[tuple[str, str]]:
+    """``(module, port)`` of every output in ``local`` that feeds a connection, in data order."""
+    fed = {(c.src.module, c.src.port) for c in plan.connections}
+    return [
+        (m, p) for m in plan.order if m in local for p in plan.modules[m].outputs if (m, p) in fed
+    ]
+
+
+def run_metadata(plan: GraphPlan, clock: str, process: str | None) -> dict[str, dict[str, str]]:
+    """The metadata records that say what produced a recording."""
+    spec = plan.spec
+    run = {
+        "graph": spec.name,
+        "graph_file": str(spec.file),
+        "process": process or "",
+        "processes": ",".join(plan.populated_processes),
+        "clock": clock,
+        "seed": str(spec.seed),
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
+    params = {
+        name: json.dumps(m.params.model_dump(mode="json"), sort_keys=True)
+        for name, m in plan.modules.items()
+    }
+    modules = {
+        name: json.dumps(
+            {"type": m.spec.type, "process": m.process, "rate": m.spec.rate, "triggers": m.triggers}
+        )
+        for name, m in plan.modules.items()
+    }
+    frames = {f"{f.parent}->{f.child}": json.dumps(f.T_parent_child.tolist()) for f in spec.frames}
+    return {
+        "umbra.run": run,
+        "umbra.parameters": params,
+        "umbra.modules": modules,
+        "umbra.frames": frames,
+        "umbra.versions": versions(),
+    }
+
+
+def check_file_clash(plan: GraphPlan, settings: RecordSettings) -> None:
+    """CheckFailed when a module's parameter names the run's recording file (a Recorder left at
+    its default ``recording.mcap``): two writers would share one file."""
+    from connectors.errors import CheckFailed, Diagnostic, Location
+
+    problems = []
+    for name, mplan in plan.modules.items():
+        for key, value in mplan.params.model_dump().items():
+            if value == settings.file:
+                loc = mplan.spec.param_val_loc.get(key) or mplan.spec.loc
+                problems.append(
+                    Diagnostic(
+                        loc or Location(str(plan.spec.file), 0),
+                        f"module `{name}` writes `{value}` ({key}), the file the run records "
+                        f"into; give it another {key} or set `record: {{file: ...}}`",
+                    )
+                )
+    if problems:
+        raise CheckFailed(problems)
+
+
+class RunRecorder:
+    """The recording of one process of a run (see the module docstring)."""
+
+    def __init__(self, scheduler: Scheduler, settings: RecordSettings) -> None:
+        opts = scheduler.options
+        self.plan = scheduler.plan
+        check_file_clash(self.plan, settings)
+        self.settings = settings
+        self.process = opts.process
+        self.clock = scheduler.clock.kind
+        self.path = part_path(opts.output_dir, settings, opts.process)
+        self.file = RecordingFile(
+            self.path,
+            blocking=self.clock == "sim",
+            jpeg_quality=settings.jpeg_quality,
+            log=opts.log,
+        )
+        self.topics: list[str] = []
+        self.moving_frames: set[str] = set()  # children of recorded poses
+        for module, port in recorded_outputs(self.plan, set(scheduler.modules)):
+            choice = settings.choice(module, port)
+            if choice == "off":
+                continue
+            info = self.plan.modules[module].outputs[port]
+            is_image = issubclass(info.msg_type, Image)
+            topic = topic_of(module, port)
+            meta = {
+                META_PORT: f"{module}.{port}",
+                META_PROCESS: self.plan.modules[module].process,
+                META_FRAME: info.frame or "",
+                META_JOINTS: ",".join(info.joints or ()),
+            }
+            self.file.declare(topic, info.msg_type, meta, images=choice if is_image else "raw")
+            if issubclass(info.msg_type, Pose) and info.frame and "->" in info.frame:
+                self.moving_frames.add(info.frame.split("->", 1)[1])
+            scheduler.modules[module].outputs[port].sinks.append(self.file.sink(topic))
+            self.topics.append(topic)
+
+    def start(self, now: float) -> None:
+        """Metadata, the graph file, the static frames; call before the first tick."""
+        for name, data in run_metadata(self.plan, self.clock, self.process).items():
+            if name == "umbra.run":
+                data["t0_ns"] = str(max(0, round(now * 1e9)))  # the first tick's time
+            self.file.add_metadata(name, data)
+        try:
+            text = Path(self.plan.spec.file).read_bytes()
+        except OSError:
+            text = b""
+        if text:
+            self.file.add_attachment("graph.yaml", "application/yaml", text)
+        # a frame that a recorded pose moves keeps that one parent in a viewer's transform tree
+        static = [
+            (f.parent, f.child, f.T_parent_child)
+            for f in self.plan.spec.frames
+            if f.child not in self.moving_frames
+        ]
+        self.file.write_static_frames(static, now)
+
+    def close(self) -> None:
+        """Write what is queued and finish the file."""
+        self.file.close()
+
+    def summary(self) -> dict[str, Any]:
+        """For the run's summary: file, samples written and dropped."""
+        return {
+            "file": str(self.path),
+            "written": self.file.written,
+            "dropped": self.file.dropped,
+            "topics": len(self.topics),
+            **({"error": self.file.error} if self.file.error else {}),
+        }

@@ -1,0 +1,249 @@
+"""Property-based fuzzing of every reader of user input: whatever the bytes, a reader returns a
+value or raises the user error of its kind, whose message starts ``SOURCE[:LINE[:COL]]: error:``.
+Nothing else escapes, and nothing runs away (each example has a deadline).
+
+Inputs are valid files mutated at random (bytes replaced, inserted, deleted, lines duplicated)
+and documents assembled from the tokens that break parsers (anchors, aliases, tags, brackets,
+huge numbers, odd encodings). Few examples per reader, derandomized: the default test run stays
+quick and stable; the hostile corpus (test_corpus.py) holds the hand-made cases.
+"""
+
+from __future__ import annotations
+
+import re
+import tempfile
+from datetime import timedelta
+from pathlib import Path
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from connectors.cli_support import parse_value
+from connectors.errors import UserError
+from connectors.safe_yaml import load
+from connectors.user_files import decode_text
+from modules.arm.cia402.config_yaml import settings_from_yaml_text
+from modules.arm.dh import DHError
+from modules.arm.dh_yaml import dh_table_from_yaml_text
+from modules.calib.camera_file import parse_cameras
+from modules.calib.correspondences import parse_correspondences
+from modules.calib.zoom_xml import parse_zoom_xml
+from modules.calib.zoom_yaml import parse_zoom_yaml
+from modules.vision.image_file import read_image
+from runtime.graph.check import check_text
+from runtime.graph.names import endpoint_problem, key_prefix_problem
+
+CORPUS = Path(__file__).parent / "corpus"
+REPO = Path(__file__).resolve().parents[2]
+FUZZ = settings(
+    max_examples=25,
+    deadline=timedelta(seconds=5),
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+TOKENS = [
+    "a",
+    "b: ",
+    "- ",
+    "  ",
+    "\n",
+    ":",
+    ",",
+    "[",
+    "]",
+    "{",
+    "}",
+    "&x ",
+    "*x",
+    "&y ",
+    "*y",
+    "<<: *x",
+    "!!float ",
+    "!!int ",
+    "!!binary ",
+    "!!python/object:os.system ",
+    "!!timestamp ",
+    "!!set ",
+    "? ",
+    "'",
+    '"',
+    "#",
+    "|",
+    ">",
+    "---",
+    "...",
+    "%YAML 1.1",
+    "\t",
+    "\x00",
+    "\ufeff",
+    "é",
+    ".inf",
+    "-.inf",
+    ".nan",
+    "1e999",
+    "Infinity",
+    "1234567890" * 500,  # a 5000-digit number: beyond int() of a string
+    "0x1F",
+    "0o17",
+    "1_000",
+    "~",
+    "null",
+    "true",
+    "joints",
+    "name",
+    "cameras",
+    "graph",
+    "modules",
+    "type",
+    "rate",
+    "params",
+]
+
+
+def documents() -> st.SearchStrategy[str]:
+    """Documents assembled from parser-breaking tokens."""
+    return st.lists(st.sampled_from(TOKENS), max_size=60).map("".join)
+
+
+def mutated(valid: bytes) -> st.SearchStrategy[bytes]:
+    """``valid`` with a few random edits: replaced, inserted or deleted bytes, a repeated line."""
+
+    def apply(edits: list[tuple[int, int, int]]) -> bytes:
+        data = bytearray(valid)
+        for kind, where, value in edits:
+            at = where % (len(data) + 1)
+            if kind == 0 and data:
+                data[min(at, len(data) - 1)] = value
+            elif kind == 1:
+                data.insert(at, value)
+            elif kind == 2 and data:
+                del data[min(at, len(data) - 1)]
+            elif kind == 3:
+                lines = bytes(data).split(b"\n")
+                i = at % len(lines)
+                data = bytearray(b"\n".join([*lines[: i + 1], lines[i], *lines[i + 1 :]]))
+        return bytes(data)
+
+    edit = st.tuples(st.integers(0, 3), st.integers(0, 1 << 16), st.integers(0, 255))
+    return st.lists(edit, min_size=1, max_size=6).map(apply)
+
+
+def text_of(data: bytes) -> str:
+    return data.decode("utf-8", "replace")
+
+
+def located(message: str, source: str) -> bool:
+    return re.match(rf"^{re.escape(source)}(:\d+){{0,2}}: error: ", message) is not None
+
+
+def assert_user_error(call, source: str, errors: tuple[type[BaseException], ...] = (UserError,)):
+    """Run ``call``: fine when it returns; if it raises, only ``errors`` with a located message."""
+    try:
+        call()
+    except errors as exc:
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        assert located(first, source), f"not a located error: {str(exc)!r}"
+
+
+GRAPH_OK = (CORPUS / "graphs" / "set_base.yaml").read_bytes()
+DH_OK = (CORPUS / "dh" / "ok.yaml").read_bytes()
+ZOOM_XML = (REPO / "modules/calib/data/zoom_cam.xml").read_bytes()
+ZOOM_YAML = (REPO / "modules/calib/data/zoom_cam.yaml").read_bytes()
+CAMERAS = (CORPUS / "calib" / "cams_ok.yaml").read_bytes()
+PAIRS = (CORPUS / "calib" / "pairs_ok.csv").read_bytes()
+CANOPEN = b"""bus: {interface: virtual, channel: fuzz, bitrate: 500000}
+simulate: true
+joints:
+  - {name: j1, node_id: 1, counts_per_rad: 10000}
+  - {name: j2, node_id: 2, counts_per_rad: 10000, zero_counts: 5}
+"""
+
+
+@FUZZ
+@given(st.one_of(mutated(GRAPH_OK), documents().map(str.encode)))
+def test_graph_reader(data: bytes) -> None:
+    assert_user_error(lambda: check_text(data, "g.yaml"), "g.yaml")
+
+
+@FUZZ
+@given(st.one_of(documents(), st.text(max_size=200)))
+def test_generic_yaml_reader(text: str) -> None:
+    assert_user_error(lambda: load(text, "f.yaml"), "f.yaml")
+
+
+@FUZZ
+@given(st.one_of(documents(), st.text(max_size=200)))
+def test_set_values(text: str) -> None:
+    assert_user_error(lambda: parse_value(text, "--set m.p"), "--set m.p")
+
+
+@FUZZ
+@given(st.one_of(mutated(DH_OK), documents().map(str.encode)))
+def test_dh_reader(data: bytes) -> None:
+    assert_user_error(
+        lambda: dh_table_from_yaml_text(text_of(data), "dh.yaml"), "dh.yaml", (DHError, UserError)
+    )
+
+
+@FUZZ
+@given(st.one_of(mutated(CANOPEN), documents().map(str.encode)))
+def test_canopen_settings_reader(data: bytes) -> None:
+    assert_user_error(
+        lambda: settings_from_yaml_text(text_of(data), "bus.yaml", Path(tempfile.gettempdir())),
+        "bus.yaml",
+    )
+
+
+@FUZZ
+@given(st.one_of(mutated(ZOOM_XML), st.binary(max_size=300)))
+def test_zoom_xml_reader(data: bytes) -> None:
+    assert_user_error(lambda: parse_zoom_xml(data, "zoom.xml"), "zoom.xml")
+
+
+@FUZZ
+@given(st.one_of(mutated(ZOOM_YAML), documents().map(str.encode)))
+def test_zoom_yaml_reader(data: bytes) -> None:
+    assert_user_error(lambda: parse_zoom_yaml(text_of(data), "zoom.yaml"), "zoom.yaml")
+
+
+@FUZZ
+@given(st.one_of(mutated(CAMERAS), documents().map(str.encode)))
+def test_cameras_reader(data: bytes) -> None:
+    base = REPO / "modules/calib/data"
+    assert_user_error(lambda: parse_cameras(text_of(data), "cams.yaml", base), "cams.yaml")
+
+
+@FUZZ
+@given(st.one_of(mutated(PAIRS), st.text(alphabet='0123456789.,-+eEinfa"#\n xyzuv', max_size=300)))
+def test_correspondence_reader(data: bytes | str) -> None:
+    text = data if isinstance(data, str) else text_of(data)
+    assert_user_error(lambda: parse_correspondences(text, "pairs.csv"), "pairs.csv")
+
+
+@FUZZ
+@given(st.binary(max_size=200))
+def test_text_decoding(data: bytes) -> None:
+    assert_user_error(lambda: decode_text(data, "f.txt"), "f.txt")
+
+
+@FUZZ
+@given(st.one_of(mutated((CORPUS / "images" / "gray.png").read_bytes()), st.binary(max_size=200)))
+def test_image_reader(data: bytes) -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "image.png"
+        path.write_bytes(data)
+        try:
+            image = read_image(path)
+        except UserError as exc:
+            assert located(str(exc), str(path)), str(exc)
+        else:
+            assert image.ndim == 3 and image.shape[2] == 3
+
+
+@FUZZ
+@given(st.text(max_size=80))
+def test_key_prefixes_and_endpoints(text: str) -> None:
+    """The checks answer with text for anything; what they accept has no zenoh wildcard."""
+    if not key_prefix_problem(text):
+        assert not set("*$?#") & set(text) and "//" not in text
+    endpoint_problem(text)

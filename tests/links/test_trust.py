@@ -1,0 +1,239 @@
+"""Only the producer's live session drives a link (real zenoh sessions on loopback).
+
+An attacker session is connected to both processes (an open port), overhears genuine samples and
+copies their source id — the strongest claim a peer can make without credentials. Without
+authentication that claim is accepted while the producer lives (what closes it is the launcher's
+per-run credentials and access-control rules, see ``test_attacks``); these tests pin down the rest:
+a gone producer stays gone, sequence numbers cannot be jammed, sizes are bounded, a second token
+does not take over, a restarted producer starts a new count.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+import zenoh
+
+from connectors.codec import Codec
+from connectors.messages import Image, Message, Scalar, Twist
+from runtime.graph.check import check_spec, load_graph
+from runtime.graph.parse import parse_graph_text
+from runtime.graph.plan import GraphPlan
+from runtime.links.bounds import ENVELOPE_BYTES, max_sample_bytes
+from runtime.links.config import Endpoints, build_config
+from runtime.links.identity import alive_key
+from runtime.links.transport import ZenohTransport
+from runtime.registry import Registry
+from tests.links.conftest import REPO
+from tests.links.test_transport import (
+    IMAGE_GRAPH,
+    Camera,
+    Pair,
+    Viewer,
+    _pair,
+    _ready,
+    _until,
+)
+
+
+class Attacker:
+    """A foreign session connected to both processes of a pair."""
+
+    def __init__(self, pair: Pair, key: str) -> None:
+        producer_endpoint = pair.producer_endpoint
+        self.session = zenoh.open(
+            build_config(Endpoints(connect=[pair.consumer_endpoint, producer_endpoint]))
+        )
+        self.overheard: list[zenoh.Sample] = []
+        self.spy = self.session.declare_subscriber(key, self.overheard.append)
+        self.pub = self.session.declare_publisher(
+            key, congestion_control=zenoh.CongestionControl.BLOCK
+        )
+        self.codec = Codec()
+        assert _until(lambda: len(list(self.session.info.peers_zid())) == 2)
+        time.sleep(0.3)  # the spy's subscription reaches the producer
+
+    def wait_matching(self) -> None:
+        assert _until(lambda: self.pub.matching_status.matching)
+
+    def copied_source(self) -> zenoh.SourceInfo:
+        assert _until(lambda: bool(self.overheard))
+        return self.overheard[-1].source_info
+
+    def put(self, msg: Message | bytes, source: zenoh.SourceInfo | None) -> None:
+        data = msg if isinstance(msg, bytes) else self.codec.encode(msg)
+        self.pub.put(data, source_info=source)
+
+    def close(self) -> None:
+        self.session.close()
+
+
+@pytest.fixture
+def counter_plan() -> GraphPlan:
+    return load_graph(str(REPO / "graphs" / "counter_split.yaml"))
+
+
+@pytest.fixture
+def pair(counter_plan: GraphPlan) -> Iterator[Pair]:
+    p = _pair(counter_plan)
+    yield p
+    p.producer.close()
+    p.consumer.close()
+
+
+def _sub(pair: Pair) -> dict:
+    (sub,) = pair.consumer.stats()["subscribe"]
+    return sub
+
+
+def test_a_gone_producer_stays_gone_whatever_arrives_in_its_name(
+    counter_plan: GraphPlan, pair: Pair
+) -> None:
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    attacker = Attacker(pair, link.key)
+    try:
+        send(Scalar(value=1.0, seq=1))
+        source = attacker.copied_source()
+        assert _until(lambda: len(got) == 1)
+        pair.producer._session.close()  # dies without ending its streams (as kill -9 would)
+        assert _until(lambda: not pair.consumer.producer_alive(link))
+        attacker.wait_matching()
+        deadline = time.monotonic() + 0.4  # four times the old revive delay
+        seq = 2
+        while time.monotonic() < deadline:
+            attacker.put(Scalar(value=99.0, seq=seq), source)
+            seq += 1
+            time.sleep(0.002)
+        assert _until(lambda: _sub(pair)["after_gone"] >= seq - 2)
+        assert not pair.consumer.producer_alive(link)
+        assert [m.value for m in got] == [1.0]  # nothing injected was delivered
+        assert pair.consumer.stats()["liveliness_flaps"] == 0
+    finally:
+        attacker.close()
+
+
+def test_one_huge_sequence_number_does_not_make_genuine_samples_old(
+    counter_plan: GraphPlan, pair: Pair
+) -> None:
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    send(Scalar(value=1.0, seq=1))
+    send(Scalar(value=2.0, seq=2**62))  # beyond any plausible count
+    send(Scalar(value=3.0, seq=2 + 2**21))  # a jump further than any plausible loss
+    send(Scalar(value=4.0, seq=2))
+    send(Scalar(value=5.0, seq=3))
+    assert _until(lambda: len(got) == 3)
+    time.sleep(0.05)
+    assert [m.value for m in got] == [1.0, 4.0, 5.0]
+    sub = _sub(pair)
+    assert sub["implausible"] == 2 and sub["stale_dropped"] == 0 and sub["last_seq"] == 3
+
+
+def test_samples_larger_than_the_type_allows_are_dropped_before_decoding(
+    counter_plan: GraphPlan, pair: Pair
+) -> None:
+    link = counter_plan.links[0]
+    bound = max_sample_bytes(Scalar)
+    assert bound == ENVELOPE_BYTES  # a Scalar holds no array
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    attacker = Attacker(pair, link.key)
+    try:
+        send(Scalar(value=1.0, seq=1))
+        source = attacker.copied_source()  # attributed: only the size stops it
+        attacker.wait_matching()
+        for size in (bound + 1, 1 << 20, 64 << 20):
+            attacker.put(b"\x00" * size, source)
+        send(Scalar(value=2.0, seq=2))
+        assert _until(lambda: len(got) == 2 and _sub(pair)["oversize"] == 3, timeout=20)
+    finally:
+        attacker.close()
+    sub = _sub(pair)
+    assert sub["decode_errors"] == 0 and sub["max_bytes"] == bound
+    assert [m.value for m in got] == [1.0, 2.0]
+
+
+def test_a_second_token_of_a_live_process_does_not_take_over(
+    counter_plan: GraphPlan, pair: Pair
+) -> None:
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    attacker = Attacker(pair, link.key)
+    try:
+        send(Scalar(value=1.0, seq=1))
+        assert _until(lambda: len(got) == 1)
+        own = str(attacker.session.zid())
+        token = attacker.session.liveliness().declare_token(
+            alive_key(counter_plan.key_prefix, "umbra", "none", own)
+        )
+        assert _until(lambda: pair.consumer.stats()["token_conflicts"] == 1)
+        attacker.wait_matching()
+        attacker.put(Scalar(value=66.0, seq=2), None)
+        pair.producer._session.close()  # the genuine producer dies; the impostor's token stays
+        assert _until(lambda: not pair.consumer.producer_alive(link))
+        attacker.put(Scalar(value=77.0, seq=3), None)
+        time.sleep(0.1)
+        assert not pair.consumer.producer_alive(link)
+        assert [m.value for m in got] == [1.0]
+        token.undeclare()
+    finally:
+        attacker.close()
+
+
+def test_a_restarted_producer_starts_a_new_count(counter_plan: GraphPlan, pair: Pair) -> None:
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    for i in range(1, 51):
+        send(Scalar(value=float(i), seq=i))
+    assert _until(lambda: len(got) == 50)
+    producer_endpoint = pair.producer_endpoint
+    pair.producer.close()
+    assert _until(lambda: not pair.consumer.producer_alive(link))
+    session = zenoh.open(build_config(Endpoints(listen=[producer_endpoint])))
+    again = ZenohTransport(session, counter_plan, "umbra")
+    try:
+        sink = again.publisher(link)
+        again.announce()
+        assert again.wait_ready(threading.Event(), timeout=10)
+        assert _until(lambda: "umbra" in pair.consumer.alive_processes())
+        for i in range(1, 11):
+            sink(Scalar(value=100.0 + i, seq=i), 0.0)
+        assert _until(lambda: len(got) == 60)
+    finally:
+        again.close()
+    sub = _sub(pair)
+    assert [m.seq for m in got[50:]] == list(range(1, 11))
+    assert sub["restarts"] == 1 and sub["stale_dropped"] == 0
+
+
+def test_a_process_accepts_no_zenoh_message_larger_than_its_links_need() -> None:
+    from runtime.links.bounds import MIN_INBOUND_BYTES, inbound_limit
+
+    plan = load_graph(str(REPO / "graphs" / "tool_pickup.yaml"))
+    # the servo side receives twists, statuses and commands: zenoh's own floor
+    assert inbound_limit(plan, "smart") == MIN_INBOUND_BYTES
+    registry = Registry()
+    registry.add(Camera)
+    registry.add(Viewer)
+    video = check_spec(parse_graph_text(IMAGE_GRAPH, "video.yaml"), registry)
+    (link,) = video.links
+    assert inbound_limit(video, "smart") == max_sample_bytes(Image) + ENVELOPE_BYTES
+    assert max_sample_bytes(Image) == 4096 * 3072 * 4 + 64 * 1024  # no declared size
+    assert inbound_limit(video, "umbra") == MIN_INBOUND_BYTES  # it consumes nothing
+    assert link.key == "umbra/video/cam/image"
+
+
+def test_an_images_bound_comes_from_its_producers_declared_size() -> None:
+    plan = load_graph(str(REPO / "graphs" / "tool_pickup.yaml"))
+    camera = plan.modules["camera"].params
+    assert (camera.width, camera.height) == (1280, 720)
+    assert max_sample_bytes(Image, camera) == 1280 * 720 * 4 + 64 * 1024
+    assert max_sample_bytes(Twist) == 6 * 8 + ENVELOPE_BYTES

@@ -1,0 +1,164 @@
+"""The console page in real Chromium, against the module in the harness (fast: no graph run).
+
+A stepping thread plays the scheduler (camera frames at 30 fps of sim time, steps every 10 ms);
+the test drives the page like an operator and checks the module's outputs.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import numpy as np
+import pytest
+
+from connectors.messages import Message
+from modules.operator.console import OperatorConsole
+from runtime.harness import ModuleHarness
+from tests.operator.browser import (
+    chromium,
+    click_image,
+    image_to_screen,
+    needs_chromium,
+    open_console,
+    take_control,
+)
+from tests.operator.helpers import image, rectangle_contour
+
+pytestmark = [pytest.mark.browser, needs_chromium]
+
+
+class Stepper(threading.Thread):
+    """Steps the console in its own thread; other threads queue pushes through :meth:`push`."""
+
+    def __init__(self, h: ModuleHarness) -> None:
+        super().__init__(daemon=True)
+        self.h = h
+        self.sent: list[tuple[float, str, Message]] = []  # (wall time, output, sample)
+        self._pushes: list[tuple[str, Message]] = []
+        self._lock = threading.Lock()
+        self._halt = threading.Event()
+
+    def push(self, port: str, sample: Message) -> None:
+        with self._lock:
+            self._pushes.append((port, sample))
+
+    def run(self) -> None:
+        k = 0
+        while not self._halt.is_set():
+            with self._lock:
+                pushes, self._pushes = self._pushes, []
+            for port, sample in pushes:
+                self.h.push(port, sample)
+            if k % 3 == 0:
+                self.h.push("image", image())
+            out = self.h.step(dt=0.01)
+            now = time.monotonic()
+            for port, samples in out.items():
+                self.sent.extend((now, port, s) for s in samples)
+            k += 1
+            time.sleep(0.01)
+
+    def stop(self) -> None:
+        self._halt.set()
+        self.join(5)
+
+    def outputs(self, port: str, since: float = 0.0) -> list[tuple[float, Any]]:
+        return [(t, s) for t, p, s in list(self.sent) if p == port and t >= since]
+
+
+def _wait(cond, timeout: float = 10.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if cond():
+            return
+        time.sleep(0.02)
+    raise AssertionError("condition not reached in time")
+
+
+def _pixel(page: Any, u: float, v: float) -> list[int]:
+    """RGB of the screen pixel over image pixel (u, v) (the overlay as drawn)."""
+    import io
+
+    from PIL import Image as PILImage
+
+    x, y = image_to_screen(page, u, v)
+    png = page.screenshot(clip={"x": x - 3, "y": y - 3, "width": 7, "height": 7})
+    arr = np.asarray(PILImage.open(io.BytesIO(png)).convert("RGB"))
+    return arr.reshape(-1, 3).tolist()
+
+
+def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
+    T = np.eye(4)
+    T[:3, 3] = [0, 0, -0.12]
+    with ModuleHarness(OperatorConsole, {}, frames={"tool->camera": T}) as h:
+        stepper = Stepper(h)
+        stepper.start()
+        try:
+            with chromium() as browser:
+                page = open_console(browser, h.module.url)
+                watcher = open_console(browser, h.module.url)
+                take_control(page)
+                # the overlay is drawn in the browser where the snake is
+                stepper.push("contour", rectangle_contour())
+                page.wait_for_function("window.umbra.state.overlay !== null", timeout=10000)
+                page.wait_for_timeout(200)
+                top_edge = _pixel(page, 340.0, 200.0)
+                assert any(g >= 240 and r <= 40 and b <= 110 for r, g, b in top_edge), top_edge
+                offending = _pixel(page, 360.0, 200.0)  # vertex 3 is flagged: red
+                assert any(r > 200 and g < 90 and b < 90 for r, g, b in offending), offending
+                away = _pixel(page, 100.0, 400.0)
+                assert not any(g >= 240 and r <= 40 for r, g, b in away)
+                # a viewer without control cannot command; it is told why
+                click_image(watcher, 340.0, 230.0)
+                watcher.wait_for_function(
+                    "window.umbra.notices.some(n => n.text.includes('take control first') ||"
+                    " n.text.includes('holds control'))",
+                    timeout=10000,
+                )
+                assert not stepper.outputs("seed")
+                # every page shows who holds control
+                holder = page.evaluate("window.umbra.name")
+                assert holder in watcher.inner_text("#holder")
+                # the operator's click seeds the snake where it was made
+                click_image(page, 341.0, 229.0)
+                _wait(lambda: stepper.outputs("seed"))
+                u, v = stepper.outputs("seed")[-1][1].values
+                assert abs(u - 341.0) < 2.0 and abs(v - 229.0) < 2.0
+                # dead-man jog: motion only while the button is held
+                x_plus = page.locator("#jog button", has_text="x+")
+                box = x_plus.bounding_box()
+                page.mouse.move(box["x"] + 5, box["y"] + 5)
+                page.mouse.down()
+                page.wait_for_timeout(600)
+                held = [s.vector for _, s in stepper.outputs("jog")]
+                assert len(held) >= 10 and all(vec[0] > 0.009 for vec in held)
+                page.mouse.up()
+                released = time.monotonic()
+                page.wait_for_timeout(400)
+                after = stepper.outputs("jog", since=released + 0.3)
+                assert not after or all(not np.any(s.vector) for _, s in after)
+                last = stepper.outputs("jog")[-1][1]
+                assert not np.any(last.vector)
+                # losing focus releases too
+                page.evaluate("window.umbra.holdJog(2, 1)")
+                page.wait_for_timeout(300)
+                assert np.any(stepper.outputs("jog")[-1][1].vector)
+                page.evaluate("window.dispatchEvent(new Event('blur'))")
+                blurred = time.monotonic()
+                page.wait_for_timeout(400)
+                assert all(not np.any(s.vector) for _, s in stepper.outputs("jog", blurred + 0.3))
+                # a page that vanishes mid-jog: the dead-man stops the jog
+                page.evaluate("window.umbra.holdJog(3, 1)")
+                page.wait_for_timeout(300)
+                page.evaluate("window.umbra.send = () => {}")  # no more keep-alives
+                page.evaluate("clearInterval = () => {}")
+                page.close()
+                gone = time.monotonic()
+                time.sleep(0.6)
+                page_gone_jogs = stepper.outputs("jog", gone + 0.3)
+                assert all(not np.any(s.vector) for _, s in page_gone_jogs)
+                assert not np.any(stepper.outputs("jog")[-1][1].vector)
+        finally:
+            stepper.stop()

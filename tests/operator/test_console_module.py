@@ -1,0 +1,302 @@
+"""OperatorConsole in the harness with its real web server and a real websocket client."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+from websockets.exceptions import InvalidStatus
+
+from connectors.errors import UserError
+from connectors.messages import Status, Vector
+from modules.operator.console import OperatorConsole
+from runtime.harness import ModuleHarness
+from tests.operator.helpers import Page, image, rectangle_contour
+
+T_TOOL_CAMERA = np.eye(4)
+T_TOOL_CAMERA[:3, 3] = [0.0, 0.0, -0.12]
+
+
+def _harness(**params: object) -> ModuleHarness:
+    return ModuleHarness(OperatorConsole, params, frames={"tool->camera": T_TOOL_CAMERA})
+
+
+def _pump(h: ModuleHarness, until, timeout: float = 5.0, dt: float = 0.005) -> None:
+    """Step the console (a fresh image each step) until ``until()`` or fail."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        h.push("image", image())
+        h.step(dt=dt)
+        if until():
+            return
+        time.sleep(0.005)
+    raise AssertionError("condition not reached in time")
+
+
+def _state(h: ModuleHarness, page: Page, pred, timeout: float = 5.0) -> dict:
+    """The first state the page receives that satisfies ``pred`` (stepping the console)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        _pump(h, lambda: True)
+        try:
+            state = page.recv_text("state", timeout=0.1)
+        except TimeoutError:
+            continue
+        if pred(state):
+            return state
+    raise AssertionError("no such state in time")
+
+
+def _frame_seq(h: ModuleHarness) -> int:
+    return h.module.image.value.seq
+
+
+def test_without_a_page_the_simulated_operators_seed_passes_until_a_person_acts() -> None:
+    with _harness(serve=False) as h:
+        h.push("image", image())
+        h.push("sim_seed", Vector(values=np.array([340.0, 230.0])))
+        out = h.step(dt=0.02)
+        assert out["seed"][0].values.tolist() == [340.0, 230.0]
+        assert h.output("presence").stage == "nobody"
+        h.module.arbiter.join("s1", "viewer")
+        assert h.module.arbiter.take("s1").ok
+        h.push("sim_seed", Vector(values=np.array([10.0, 10.0])))
+        out = h.step(dt=0.02)
+        assert "seed" not in out or not out["seed"]
+        assert h.output("presence").stage == "person"
+        assert h.module.summary()["sim_seeds_ignored"] == 1
+
+
+def test_click_from_the_holder_seeds_and_a_viewer_without_control_is_refused() -> None:
+    with _harness() as h:
+        url = h.module.url
+        assert url.startswith("http://127.0.0.1:")
+        h.push("image", image())
+        h.step(dt=0.02)
+        operator, viewer = Page(url), Page(url)
+        try:
+            _pump(h, lambda: len(h.module.arbiter.sessions) == 2)
+            seq = _frame_seq(h)
+            viewer.send("click", u=340.0, v=230.0, frame=seq)  # no control yet: refused
+            operator.send("take")
+            _pump(h, lambda: h.module.arbiter.holder == operator.session)
+            viewer.send("take")  # a second operator: refused
+            seq = _frame_seq(h)
+            operator.send("click", u=341.5, v=229.0, frame=seq)
+            _pump(h, lambda: h.module.counts["seeds"] == 1)
+            assert h.output("seed").values.tolist() == [341.5, 229.0]
+            assert h.module.counts["refused"] == 2
+            assert h.module.arbiter.refused == 2
+            # every page is told who holds control
+            state = _state(
+                h, viewer, lambda s: s["control"] == operator.name and len(s["notices"]) >= 6
+            )
+            texts = [n["text"] for n in state["notices"] if n["to"] == viewer.session]
+            assert any("take control first" in t for t in texts)
+            assert any("holds control" in t for t in texts)
+            assert h.output("presence").stage == "person"
+        finally:
+            operator.close()
+            viewer.close()
+
+
+def test_clicks_outside_the_image_and_on_a_stale_page_are_refused_with_the_reason() -> None:
+    with _harness(stale_page_s=1.0) as h:
+        page = Page(h.module.url)
+        try:
+            _pump(h, lambda: page.session in h.module.arbiter.sessions)
+            page.send("take")
+            _pump(h, lambda: h.module.arbiter.holder == page.session)
+            old = _frame_seq(h)
+            page.send("click", u=700.0, v=20.0, frame=old)
+            _pump(h, lambda: h.module.counts["refused"] == 1)
+            for _ in range(60):  # 1.2 s of run time: the old frame is stale now
+                h.push("image", image())
+                h.step(dt=0.02)
+            page.send("click", u=340.0, v=230.0, frame=old)
+            _pump(h, lambda: h.module.counts["refused"] == 2)
+            texts = [n["text"] for n in h.module._notices if n["level"] == "error"]
+            assert "click outside the image: expected 0 <= u < 640" in texts[0]
+            assert texts[1].startswith("stale page: the image you acted on is 1.")
+            assert texts[1].endswith("expected at most 1.000 s")
+            assert h.module.counts["seeds"] == 0
+        finally:
+            page.close()
+
+
+def test_malformed_and_replayed_messages_are_refused_and_counted() -> None:
+    with _harness() as h:
+        page = Page(h.module.url)
+        try:
+            _pump(h, lambda: page.session in h.module.arbiter.sessions)
+            page.send("take")
+            _pump(h, lambda: h.module.arbiter.holder == page.session)
+            page.raw("{not json")
+            assert "expected JSON" in page.recv_text("notice")["text"]
+            replay = json.dumps({"session": page.session, "seq": 1, "type": "take"})
+            page.raw(replay)
+            assert "replayed message: expected seq > 1, found 1" in page.recv_text("notice")["text"]
+            other = json.dumps({"session": "0123456789abcdef", "seq": 99, "type": "take"})
+            page.raw(other)
+            assert (
+                "replayed message: expected this page's session" in page.recv_text("notice")["text"]
+            )
+            page.send("click", u=float("nan"), v=1.0, frame=1)  # NaN is not valid JSON number
+            assert "malformed" in page.recv_text("notice")["text"]
+            page.send("jog", held=True, axes=[5, 0, 0, 0], jog_frame="tool", speed=1.0)
+            assert "4 numbers in [-1, 1]" in page.recv_text("notice")["text"]
+            page.ws.send(b"\x00\x01binary")
+            assert "expected JSON" in page.recv_text("notice")["text"]
+            _pump(h, lambda: h.module.counts["bad_messages"] == 6)
+            s = h.module.summary()
+            assert (s["malformed"], s["replayed"]) == (4, 2)
+            assert not h.outputs("jog")
+        finally:
+            page.close()
+
+
+def test_another_sites_page_cannot_open_the_socket() -> None:
+    with _harness() as h:
+        port = h.module.url.split(":")[2].rstrip("/")
+        with pytest.raises(InvalidStatus, match="HTTP 403"):
+            Page(h.module.url, origin="http://evil.example")
+        Page(h.module.url, origin=f"http://127.0.0.1:{port}").close()  # its own page
+        assert h.module.summary()["refused_requests"] == 1
+
+
+def test_resume_is_refused_while_the_snake_is_not_healthy() -> None:
+    with _harness() as h:
+        page = Page(h.module.url)
+        try:
+            _pump(h, lambda: page.session in h.module.arbiter.sessions)
+            page.send("take")
+            _pump(h, lambda: h.module.arbiter.holder == page.session)
+            h.push("contour", rectangle_contour("failed", "contour touches the image border"))
+            page.send("action", action="resume")
+            _pump(h, lambda: h.module.counts["refused"] == 1)
+            assert not h.outputs("operator")
+            text = h.module._notices[-1]["text"]
+            assert (
+                "resume refused: the snake is not healthy (contour touches the image border)"
+                in text
+            )
+            h.push("contour", rectangle_contour())
+            page.send("action", action="resume")
+            _pump(h, lambda: h.module.counts["resume"] == 1)
+            assert h.output("operator").text == "resume"
+            page.send("action", action="abort")
+            _pump(h, lambda: h.module.counts["abort"] == 1)
+            assert h.output("operator").text == "abort"
+        finally:
+            page.close()
+
+
+def test_assistance_request_keeps_the_frame_and_reason_for_the_dialog() -> None:
+    with _harness() as h:
+        page = Page(h.module.url)
+        try:
+            h.push("contour", rectangle_contour("failed", "area changed too fast"))
+            h.push("servo", Status(stage="assist", assist=True, reason="snake failure: area"))
+            _pump(h, lambda: h.module._assist is not None)
+            state = _state(h, page, lambda s: s["assist"] is not None)
+            assert state["assist"]["reason"] == "snake failure: area"
+            assert state["assist"]["overlay"]["status"] == "failed"
+            assert "vsServo asks for the operator" in state["banner"]
+            jpeg = httpx.get(h.module.url + "assist.jpg", timeout=5)
+            assert jpeg.status_code == 200 and jpeg.content[:2] == b"\xff\xd8"
+        finally:
+            page.close()
+
+
+def test_beyond_loopback_a_token_is_needed(tmp_path: Path) -> None:
+    token_file = tmp_path / "token"
+    token_file.write_text("s3cret-token-for-tests\n")
+    with _harness(token_file=str(token_file)) as h:
+        base = h.module.url.split("?")[0]
+        assert h.module.url.endswith("?token=s3cret-token-for-tests")
+        refused = httpx.get(base, timeout=5)
+        assert refused.status_code == 403 and b"access token" in refused.content
+        wrong = httpx.get(base + "?token=guess-guess-guess-guess", timeout=5)
+        assert wrong.status_code == 403
+        ok = httpx.get(h.module.url, timeout=5)
+        assert ok.status_code == 200 and "umbra operator console" in ok.text
+        assert ok.cookies.get("umbra_token") == "s3cret-token-for-tests"
+        with pytest.raises(InvalidStatus, match="HTTP 403"):
+            Page(base)
+        Page(h.module.url).close()
+        assert h.module.summary()["refused_requests"] == 3
+
+
+def test_listening_beyond_loopback_without_a_token_file_makes_one() -> None:
+    with _harness(host="0.0.0.0") as h:
+        token = h.module.url.split("?token=")[1]
+        assert len(token) >= 20
+        assert httpx.get(f"http://127.0.0.1:{h.module._server.port}/", timeout=5).status_code == 403
+
+
+def test_a_short_token_file_is_a_user_error(tmp_path: Path) -> None:
+    (tmp_path / "t").write_text("short\n")
+    with (
+        pytest.raises(UserError, match="at least 16 characters, found 5"),
+        _harness(token_file=str(tmp_path / "t")),
+    ):
+        pass
+
+
+def test_another_module_serves_its_page_on_the_consoles_server() -> None:
+    from fastapi.responses import HTMLResponse
+
+    from modules.operator.web_server import acquire_server, release_server
+
+    async def sketch() -> HTMLResponse:
+        return HTMLResponse("<h1>sketch</h1>")
+
+    with _harness() as h:
+        server = acquire_server(h.module.context)  # what a second module of the process does
+        try:
+            assert server is h.module._server
+            server.app.add_api_route("/sketch", sketch, methods=["GET"])
+            server.add_link("/sketch", "Active Sketch")
+            reply = httpx.get(h.module.url + "sketch", timeout=5)
+            assert reply.status_code == 200 and reply.text == "<h1>sketch</h1>"
+            page = Page(h.module.url)
+            try:
+                state = _state(h, page, lambda s: bool(s["links_extra"]))
+                assert state["links_extra"] == {"/sketch": "Active Sketch"}
+            finally:
+                page.close()
+            with pytest.raises(UserError, match=r"already serves on 127\.0\.0\.1"):
+                acquire_server(h.module.context, port=1)
+        finally:
+            release_server(server)
+        assert httpx.get(h.module.url, timeout=5).status_code == 200  # still the console's
+
+
+def test_zoom_sliders_drive_the_cameras_and_the_scripted_zoom_steps_aside() -> None:
+    from connectors.messages import Scalar
+
+    with _harness(zoom_names=["left", "right"]) as h:
+        h.push("zoom_auto", Scalar(value=0.2))
+        out = h.step(dt=0.01)
+        assert out["zoom_1"][0].value == 0.2 and out["zoom_2"][0].value == 0.2
+        page = Page(h.module.url)
+        try:
+            _pump(h, lambda: page.session in h.module.arbiter.sessions)
+            page.send("take")
+            page.send("zoom", camera="left", value=0.7)
+            page.send("zoom", camera="middle", value=0.5)
+            _pump(h, lambda: h.module.counts["refused"] == 1)
+            assert h.output("zoom_1").value == 0.7
+            h.push("zoom_auto", Scalar(value=0.3))  # a person zoomed: the script steps aside
+            h.step(dt=0.01)
+            assert h.output("zoom_1").value == 0.7 and h.output("zoom_2").value == 0.2
+            assert (
+                "expected a camera of ['left', 'right'], found 'middle'"
+                in (h.module._notices[-1]["text"])
+            )
+        finally:
+            page.close()

@@ -1,0 +1,25 @@
+"""The simulated operator clicks when nobody acts, and steps aside once a person took control."""
+
+from __future__ import annotations
+
+from connectors.messages import Status
+from modules.world.operator_sim import OperatorSim
+from runtime.harness import ModuleHarness
+from tests.operator.helpers import rectangle_contour
+
+
+def test_the_simulated_operator_clicks_only_while_no_person_acted() -> None:
+    with ModuleHarness(OperatorSim, {"click_delay_s": 0.1, "click_noise_px": 0.0}) as h:
+        h.push("console", Status(stage="nobody", values={"acted": 0.0, "viewers": 1.0}))
+        for _ in range(8):
+            h.push("truth", rectangle_contour())
+            h.step(dt=0.02)
+        click = h.output("seed").values
+        assert abs(click[0] - 340.0) < 5 and abs(click[1] - 230.0) < 5
+    with ModuleHarness(OperatorSim, {"click_delay_s": 0.1}) as h:
+        h.push("console", Status(stage="person", values={"acted": 1.0, "viewers": 1.0}))
+        for _ in range(20):
+            h.push("truth", rectangle_contour())
+            h.step(dt=0.02)
+        assert not h.outputs("seed")
+        assert h.module.summary()["stepped_aside_at_s"] is not None

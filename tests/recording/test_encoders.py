@@ -1,0 +1,200 @@
+"""Encodings of each message type, read back with the official Foxglove classes and JSON Schema."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import jsonschema
+import numpy as np
+import pytest
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
+from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
+from google.protobuf.descriptor_pb2 import FileDescriptorSet
+from scipy.spatial.transform import Rotation
+
+from connectors.messages import (
+    CameraModel,
+    Contour,
+    Image,
+    JointRates,
+    JointState,
+    Pose,
+    Scalar,
+    Status,
+    Text,
+    Twist,
+    Vector,
+    ZoomState,
+    message_types,
+)
+from runtime.recording.encoders import channel_encodings, decode_primary
+from runtime.recording.json_codec import decode_json, encode_json, json_schema
+
+RNG = np.random.default_rng(7)
+
+
+def _image() -> Image:
+    return Image(pixels=RNG.integers(0, 256, (48, 64, 3), dtype=np.uint8), stamp=1.25, seq=3)
+
+
+def _pose() -> Pose:
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("xyz", [0.3, -0.2, 1.1]).as_matrix()
+    T[:3, 3] = [0.63, -0.04, 0.35]
+    return Pose(matrix=T, parent="table", child="camera", stamp=0.5, seq=9)
+
+
+def _contour() -> Contour:
+    return Contour(
+        vertices=np.array([[10.0, 12.5], [40.25, 12.0], [40.0, 30.0], [11.0, 29.5]]),
+        centroid=np.array([25.3, 21.0]),
+        area=512.5,
+        orientation=0.01,
+        axes=np.array([30.0, 17.5]),
+        offending=np.array([2], dtype=np.int64),
+        stamp=2.0,
+        seq=4,
+    )
+
+
+SAMPLES = [
+    Scalar(value=-3.5, stamp=0.1, seq=1),
+    Vector(values=np.array([1.0, np.nan, np.inf]), stamp=0.2, seq=2),
+    Text(text="seed 320,240", stamp=0.3, seq=3),
+    Twist(vector=np.array([0.01, -0.02, 0.03, 0.0, 0.1, -0.2]), frame="camera", stamp=0.4, seq=4),
+    JointState(names=("j1", "j2"), position=np.array([0.1, -0.2]), velocity=np.array([0.0, 1e-9])),
+    JointRates(names=("j1", "j2"), rates=np.array([0.5, -0.5]), near_limit=True, gripper="open"),
+    ZoomState(zoom=0.25, raw=4096, moving=True),
+    Status(stage="approach", values={"error_x": 0.0117, "error_z": 0.18}, assist=False),
+    CameraModel(fx=800.0, fy=801.0, u0=640.0, v0=360.0, dist=np.array([0.1, -0.2, 0, 0, 0.01])),
+    _contour(),
+]
+
+
+def _equal(a: object, b: object) -> bool:
+    if type(a) is not type(b):
+        return False
+    for name in a.__struct_fields__:  # type: ignore[attr-defined]
+        va, vb = getattr(a, name), getattr(b, name)
+        if isinstance(va, np.ndarray):
+            if va.dtype != vb.dtype or va.shape != vb.shape:
+                return False
+            if not np.array_equal(va, vb, equal_nan=va.dtype.kind == "f"):
+                return False
+        elif va != vb:
+            return False
+    return True
+
+
+@pytest.mark.parametrize("sample", SAMPLES, ids=lambda s: type(s).__name__)
+def test_json_round_trip_is_exact_and_validates_against_its_schema(sample: object) -> None:
+    data = encode_json(sample)  # type: ignore[arg-type]
+    schema = json_schema(type(sample))  # type: ignore[arg-type]
+    jsonschema.validate(json.loads(data), schema)
+    assert schema["title"] == f"umbra.{type(sample).__name__}"
+    back = decode_json(type(sample), data)  # type: ignore[arg-type]
+    if isinstance(sample, Vector):  # JSON has no infinity: written null, read back NaN
+        assert np.array_equal(back.values, [1.0, np.nan, np.nan], equal_nan=True)
+    else:
+        assert _equal(sample, back)
+
+
+def test_every_message_type_has_a_schema_that_is_not_empty() -> None:
+    for msg_type in message_types().values():
+        for enc in channel_encodings(msg_type, "jpeg"):
+            assert enc.schema_name and len(enc.schema_data) > 100, msg_type
+            if enc.schema_encoding == "protobuf":
+                names = {f.name for f in FileDescriptorSet.FromString(enc.schema_data).file}
+                assert any(n.startswith("foxglove/") for n in names)
+
+
+def test_raw_image_decodes_with_the_official_class_to_the_same_pixels() -> None:
+    img = _image()
+    (enc,) = channel_encodings(Image, "raw")
+    raw = RawImage.FromString(enc.encode(img))
+    assert (raw.width, raw.height, raw.encoding, raw.step) == (64, 48, "bgr8", 64 * 3)
+    assert raw.frame_id == "camera"
+    assert raw.timestamp.seconds == 1 and raw.timestamp.nanos == 250_000_000
+    pixels = np.frombuffer(raw.data, np.uint8).reshape(48, 64, 3)
+    assert np.array_equal(pixels, img.pixels)
+    back = decode_primary(Image, enc.schema_name, enc.encode(img), 3)
+    assert np.array_equal(back.pixels, img.pixels) and back.stamp == img.stamp
+
+
+@pytest.mark.parametrize("fmt", ["jpeg", "png"])
+def test_compressed_images_decode_with_opencv(fmt: str) -> None:
+    smooth = np.zeros((48, 64, 3), np.uint8)
+    smooth[10:30, 20:50] = (40, 200, 60)  # a green patch on black, BGR
+    img = Image(pixels=smooth, stamp=0.5)
+    (enc,) = channel_encodings(Image, fmt, jpeg_quality=95)
+    comp = CompressedImage.FromString(enc.encode(img))
+    assert comp.format == fmt and comp.frame_id == "camera"
+    pixels = cv2.imdecode(np.frombuffer(comp.data, np.uint8), cv2.IMREAD_COLOR)
+    err = np.abs(pixels.astype(int) - smooth.astype(int))
+    assert err.max() == 0 if fmt == "png" else err.mean() < 3.0
+
+
+def test_pose_is_a_frame_transform_with_the_same_rotation_and_translation() -> None:
+    pose = _pose()
+    (enc,) = channel_encodings(Pose)
+    ft = FrameTransform.FromString(enc.encode(pose))
+    assert (ft.parent_frame_id, ft.child_frame_id) == ("table", "camera")
+    t = [ft.translation.x, ft.translation.y, ft.translation.z]
+    assert np.allclose(t, [0.63, -0.04, 0.35], atol=1e-15)
+    q = [ft.rotation.x, ft.rotation.y, ft.rotation.z, ft.rotation.w]
+    assert np.allclose(Rotation.from_quat(q).as_matrix(), pose.matrix[:3, :3], atol=1e-14)
+    back = decode_primary(Pose, enc.schema_name, enc.encode(pose), 9)
+    assert np.allclose(back.matrix, pose.matrix, atol=1e-14) and back.seq == 9
+
+
+def test_contour_view_draws_the_outline_as_a_closed_line_on_the_image() -> None:
+    c = _contour()
+    primary, view = channel_encodings(Contour)
+    assert view.suffix == "/annotations" and view.schema_name == "foxglove.ImageAnnotations"
+    ann = ImageAnnotations.FromString(view.encode(c))
+    outline = ann.points[0]
+    assert outline.type == PointsAnnotation.LINE_LOOP
+    assert [(p.x, p.y) for p in outline.points] == [tuple(v) for v in c.vertices.tolist()]
+    assert outline.timestamp.seconds == 2 and outline.timestamp.nanos == 0
+    assert ann.texts[0].text == "tracking"
+    assert _equal(decode_primary(Contour, primary.schema_name, primary.encode(c), 4), c)
+
+
+def test_camera_model_view_is_a_camera_calibration() -> None:
+    cam = SAMPLES[8]
+    _primary, view = channel_encodings(CameraModel)
+    cal = CameraCalibration.FromString(view.encode(cam))  # type: ignore[arg-type]
+    assert (cal.width, cal.height, cal.distortion_model) == (640, 480, "plumb_bob")
+    assert list(cal.K) == [800.0, 0.0, 640.0, 0.0, 801.0, 360.0, 0.0, 0.0, 1.0]
+    assert list(cal.P)[:3] == [800.0, 0.0, 640.0] and list(cal.D)[:2] == [0.1, -0.2]
+
+
+def test_a_compressed_image_declaring_too_many_pixels_is_refused_before_decoding() -> None:
+    (enc,) = channel_encodings(Image, "jpeg")
+    data = bytearray(CompressedImage.FromString(enc.encode(_image())).data)
+    i = 2
+    while data[i + 1] != 0xC0:  # walk the JPEG markers to the frame header
+        i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
+    data[i + 5 : i + 9] = (60000).to_bytes(2, "big") * 2  # height, width
+    forged = CompressedImage(data=bytes(data), format="jpeg").SerializeToString()
+    with pytest.raises(ValueError, match="declares 60000 x 60000 pixels"):
+        decode_primary(Image, "foxglove.CompressedImage", forged, 1)
+    with pytest.raises(ValueError, match="neither a PNG nor a JPEG"):
+        junk = CompressedImage(data=b"GIF89a" + bytes(20), format="jpeg").SerializeToString()
+        decode_primary(Image, "foxglove.CompressedImage", junk, 1)
+
+
+def test_json_arrays_must_be_numeric_and_match_their_shape() -> None:
+    good = json.loads(encode_json(SAMPLES[3]))
+    for arrays, why in (
+        ({"vector": {"dtype": "|O", "shape": [6]}}, "is not numeric"),
+        ({"vector": {"dtype": "<f8", "shape": [7]}}, "cannot reshape"),
+    ):
+        bad = json.dumps({**good, "_arrays": arrays}).encode()
+        with pytest.raises(ValueError, match=why):
+            decode_json(Twist, bad)

@@ -1,0 +1,48 @@
+"""``--record`` on a split run: one file per run, what both processes produced, in time order."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from runtime.recording.samples import iter_samples
+from tests.recording.conftest import GRAPH
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.slow
+def test_a_split_run_records_both_processes_into_one_file(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    proc = subprocess.run(
+        [
+            *(sys.executable, "-m", "runtime.cli.main", "run", str(GRAPH), "--duration", "4"),
+            *("--record", "--out", str(out), "--quiet"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=REPO,
+    )
+    assert "recording: " in proc.stderr and "from 2 processes" in proc.stderr, proc.stderr
+    assert sorted(p.name for p in out.glob("*.mcap")) == ["recording.mcap"]  # parts merged
+    with open(out / "recording.mcap", "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        times = [m.log_time for _s, _c, m in reader.iter_messages(log_time_order=False)]
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}
+    assert times == sorted(times)
+    by_process: dict[str, set[str]] = {}
+    for channel in summary.channels.values():
+        process = (channel.metadata or {}).get("umbra.process")
+        if process:
+            by_process.setdefault(process, set()).add(channel.topic)
+    assert "/camera/image" in by_process["umbra"] and "/servo/twist" in by_process["umbra"]
+    assert "/kinematics/joint_rates" in by_process["smart"]
+    assert meta["umbra.run"]["clock"] == "real" and meta["umbra.recording"]["dropped"] == "0"
+    rates = [s for s in iter_samples(out / "recording.mcap", ["/kinematics/joint_rates"])]
+    assert len(rates) > 300  # 100 Hz for about 4 s

@@ -1,0 +1,44 @@
+"""The recorder's queue: bounded, drops and counts on the real clock, waits on the sim clock."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from mcap.reader import make_reader
+
+from connectors.messages import Image
+from runtime.recording.samples import iter_samples
+from runtime.recording.writer import RecordingFile
+
+FRAME = np.zeros((120, 160, 3), np.uint8)  # 58 kB
+
+
+def _burst(path: Path, blocking: bool, n: int = 100) -> tuple[RecordingFile, list[bool]]:
+    rec = RecordingFile(path, blocking=blocking, max_items=1000, max_bytes=2 * FRAME.nbytes)
+    taken = [
+        rec.offer("/cam/image", Image(pixels=FRAME, stamp=i / 30, seq=i + 1), i / 30)
+        for i in range(n)
+    ]
+    rec.close()
+    return rec, taken
+
+
+def test_a_full_queue_drops_and_counts_on_the_real_clock(tmp_path: Path) -> None:
+    rec, taken = _burst(tmp_path / "real.mcap", blocking=False)
+    dropped = taken.count(False)
+    assert dropped > 0 and rec.dropped == dropped and rec.written == taken.count(True)
+    with open(tmp_path / "real.mcap", "rb") as f:
+        reader = make_reader(f)
+        stats = next(m for m in reader.iter_metadata() if m.name == "umbra.recording").metadata
+        count = reader.get_summary().statistics.message_count
+    assert stats["dropped"] == str(dropped) and stats["dropped:/cam/image"] == str(dropped)
+    assert count == rec.written  # what was not dropped is all in the file
+    seqs = [s.message.seq for s in iter_samples(tmp_path / "real.mcap")]
+    assert seqs == sorted(seqs) and len(seqs) == rec.written
+
+
+def test_the_sim_clock_waits_for_room_and_keeps_every_sample(tmp_path: Path) -> None:
+    rec, taken = _burst(tmp_path / "sim.mcap", blocking=True)
+    assert all(taken) and rec.dropped == 0 and rec.written == 100
+    assert [s.message.seq for s in iter_samples(tmp_path / "sim.mcap")] == list(range(1, 101))

@@ -1,0 +1,292 @@
+"""The live 3-D view in a real browser (Debian's Chromium through Playwright): video on the
+frustum, the transparency slider, "camera view", and a triad's box surviving reloads."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from connectors.messages import CameraModel, Image
+from connectors.sketch_messages import SketchBox
+from modules.calib.rotations import vector_from_rotation
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.view3d.geometry import (
+    frustum_from_model,
+    matrix_from_wxyz,
+    viewer_pose_from_camera,
+    viewer_pose_looking_at,
+)
+from modules.view3d.view3d import View3D
+from modules.view3d.viewer import FRUSTUM_SCALES
+from runtime.harness import ModuleHarness
+from tests.view3d.browser_support import (
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    block_outside_loopback,
+    canvas_box,
+    inside_quad,
+    needs_chromium,
+    project_to_page,
+    screenshot,
+    wait_for,
+    wait_value,
+)
+
+pytestmark = [pytest.mark.browser, needs_chromium]
+
+MAGENTA = np.array([255, 0, 255])  # the left camera's video, RGB
+T_BASE_CAM_LEFT = np.eye(4)
+_look = viewer_pose_looking_at([0.6, -0.9, 1.1], [0.6, 0.0, 0.25], 0.8)
+T_BASE_CAM_LEFT[:3, :3] = matrix_from_wxyz(_look.wxyz)
+T_BASE_CAM_LEFT[:3, 3] = _look.position
+FRAMES = {
+    "base->table": transform_from_xyz_rpy_deg([0, 0, 0.25], [0, 0, 0]),
+    "flange->tool": transform_from_xyz_rpy_deg([0, 0, 0.14], [0, 0, 0]),
+    "tool->camera": transform_from_xyz_rpy_deg([0, 0, -0.12], [0, 0, 0]),
+    "base->cam_left": T_BASE_CAM_LEFT,
+}
+LEFT_MODEL = CameraModel(
+    fx=600.0, fy=600.0, u0=320.0, v0=240.0, width=640, height=480, mount="cam_left", frame="left"
+)
+
+
+class View:
+    """A View3D module in a harness and one Chromium page showing it."""
+
+    def __init__(self, browser, params: dict, output_dir: Path) -> None:
+        self.harness = ModuleHarness(View3D, params, frames=FRAMES, output_dir=output_dir)
+        self.harness.__enter__()
+        self.module = self.harness.module
+        self.page = browser.new_page(viewport={"width": 1100, "height": 700})
+        block_outside_loopback(self.page)
+        self.page.goto(self.module.address)
+        self.client = wait_for(self._client, what="the browser to connect to viser")
+        self.settle_layout()
+
+    def settle_layout(self) -> None:
+        """Wait until the control panel is docked beside the canvas (the canvas narrows)."""
+        self.canvas = wait_value(
+            lambda: canvas_box(self.page), lambda c: 0 < c.width < 1000, what="the docked panel"
+        )
+
+    def _client(self):
+        clients = list(self.module.page.server.get_clients().values())
+        if not clients:
+            return None
+        try:
+            clients[0].camera.position  # noqa: B018  (raises until the browser reported it)
+        except AssertionError:
+            return None
+        return clients[0]
+
+    def feed(self, port: str, sample) -> None:
+        self.harness.push(port, sample)
+        self.harness.step(dt=0.05)
+
+    def close(self) -> None:
+        self.page.close()
+        self.harness.__exit__(None, None, None)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        chromium = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        yield chromium
+        chromium.close()
+
+
+@pytest.fixture(scope="module")
+def view(browser, tmp_path_factory):
+    v = View(
+        browser, {"port": 0, "animation_s": 0.3, "max_fps": 20}, tmp_path_factory.mktemp("view3d")
+    )
+    image = np.zeros((480, 640, 3), np.uint8)
+    image[:] = MAGENTA[::-1]  # BGR
+    v.feed("left_model", LEFT_MODEL)
+    v.feed("left_image", Image(pixels=image))
+    wait_for(lambda: v.module.page.cameras["left"].frames_sent > 0, what="a video frame sent")
+    yield v
+    v.close()
+
+
+def _image_quad(view: View, client) -> np.ndarray:
+    frustum = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT)
+    corners = frustum.image_plane_corners(frustum.image_depth(FRUSTUM_SCALES["left"]))
+    return project_to_page(client, view.canvas, corners)
+
+
+def _behind_camera(view: View) -> None:
+    """Put the viewer 0.35 m behind the left camera, looking where it looks."""
+    T = T_BASE_CAM_LEFT.copy()
+    T[:3, 3] -= 0.35 * T[:3, 2]
+    pose = viewer_pose_from_camera(T, 1.0)
+    view.module.page.set_viewer(view.client, pose)
+    wait_for(
+        lambda: (
+            np.linalg.norm(view.client.camera.position - T[:3, 3]) < 1e-4
+            and np.linalg.norm(view.client.camera.look_at - pose.look_at) < 1e-4
+        ),
+        what="the viewer camera to move",
+    )
+
+
+def _fraction_near(pixels: np.ndarray, color: np.ndarray, tolerance: float) -> float:
+    return float(np.mean(np.linalg.norm(pixels.astype(float) - color, axis=1) < tolerance))
+
+
+def test_video_pixels_inside_the_frustum_projection(view: View) -> None:
+    _behind_camera(view)
+    quad = _image_quad(view, view.client)
+    shot_shape = (
+        int(view.canvas.top + view.canvas.height),
+        int(view.canvas.left + view.canvas.width),
+    )
+
+    def video_in_place():
+        shot = screenshot(view.page)[: shot_shape[0], : shot_shape[1]]
+        inner = shot[inside_quad(quad, shot.shape[:2], 6.0)]
+        ring = shot[
+            inside_quad(quad, shot.shape[:2], -12.0) & ~inside_quad(quad, shot.shape[:2], -4.0)
+        ]
+        return (
+            _fraction_near(inner, MAGENTA, 30) > 0.97 and _fraction_near(ring, MAGENTA, 60) < 0.05,
+            inner.shape[0],
+        )
+
+    _, count = wait_value(video_in_place, lambda r: r[0], what="video in the frustum")
+    assert count > 5000  # the image covers a real area of the page
+
+
+def test_transparency_slider_blends_the_video_with_the_model(view: View) -> None:
+    """The slider (driven by keys in the page) sets the video's alpha: the page shows the
+    model through it, blended pixel by pixel (the green channel: magenta has none)."""
+    _behind_camera(view)
+    quad = _image_quad(view, view.client)
+    slider = view.page.locator('[role="slider"]').nth(1)  # folders: wrist, left, right
+    slider.focus()
+
+    def inner() -> np.ndarray:
+        shot = screenshot(view.page)
+        return shot[inside_quad(quad, shot.shape[:2], 10.0)].astype(float)
+
+    slider.press("Home")  # opacity 0: only the model behind the image
+    wait_for(lambda: view.module.page.cameras["left"].opacity == 0.0, what="opacity 0")
+    _behind_camera(view)  # arrow keys also steer viser's camera: put it back
+    behind = wait_value(
+        inner, lambda px: _fraction_near(px, MAGENTA, 100) < 0.01, what="a transparent video"
+    )
+    for _ in range(6):  # 6 steps of 0.05: opacity 0.3
+        slider.press("ArrowRight")
+    wait_for(lambda: abs(view.module.page.cameras["left"].opacity - 0.3) < 1e-9, what="0.3")
+    _behind_camera(view)
+    usable = behind[:, 1] > 100
+
+    def alpha(px: np.ndarray) -> float:
+        return float(np.median(1.0 - px[usable, 1] / behind[usable, 1]))
+
+    assert usable.mean() > 0.5
+    seen = wait_value(
+        lambda: alpha(inner()), lambda a: abs(a - 0.3) < 0.05, what="alpha 0.3 in the page"
+    )
+    assert abs(seen - 0.3) < 0.05
+    slider.press("End")
+    _behind_camera(view)
+    wait_value(
+        inner, lambda px: _fraction_near(px, MAGENTA, 30) > 0.95, what="the opaque video again"
+    )
+
+
+def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
+    view.module.page.set_viewer(view.client, view.module.page.overview)
+    wait_for(
+        lambda: (
+            np.linalg.norm(view.client.camera.position - view.module.page.overview.position) < 1e-4
+        ),
+        what="the overview",
+    )
+    view.page.get_by_role("button", name="View from left").click()
+    frustum = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT)
+
+    def error() -> tuple[float, float, float]:
+        """Viewer against the camera, as the browser last reported its camera: metres,
+        degrees, and the field of view's difference (rad)."""
+        cam = view.client.camera
+        R = matrix_from_wxyz(cam.wxyz)
+        angle = np.degrees(np.linalg.norm(vector_from_rotation(R.T @ T_BASE_CAM_LEFT[:3, :3])))
+        offset = float(np.linalg.norm(np.asarray(cam.position) - T_BASE_CAM_LEFT[:3, 3]))
+        return offset, float(angle), abs(cam.fov - frustum.fov_y)
+
+    def within(e) -> bool:
+        return e[0] < 1e-3 and e[1] < 0.1 and e[2] < 1e-6
+
+    # the browser reports its camera as it moves; once there, it stays there
+    wait_value(error, within, what="the viewer at the camera (1 mm, 0.1 deg)")
+    time.sleep(0.5)
+    final = error()
+    assert within(final), final
+    # and back to the overview, animated (it passes through poses in between)
+    view.page.get_by_role("button", name="Overview").click()
+    overview = view.module.page.overview
+    start = np.asarray(view.client.camera.position).copy()
+    total = np.linalg.norm(overview.position - start)
+    wait_value(
+        lambda: np.asarray(view.client.camera.position).copy(),
+        lambda p: 0.05 < np.linalg.norm(p - start) < total - 0.05,
+        timeout=5.0,
+        what="a pose between the camera and the overview (animated)",
+    )
+    wait_for(
+        lambda: np.linalg.norm(view.client.camera.position - overview.position) < 1e-3,
+        what="the overview",
+    )
+
+
+@pytest.mark.slow
+def test_triad_box_appears_and_survives_page_and_scene_reload(
+    view: View, browser, tmp_path
+) -> None:
+    T_box = transform_from_xyz_rpy_deg([0.5, 0.25, 0.33], [0, 0, 30])
+    view.feed("box", SketchBox(box_id="box-1", T_base_box=T_box, size=np.array([0.2, 0.12, 0.16])))
+    top = T_box[:3, 3] + np.array([0, 0, 0.08])
+    pose = viewer_pose_looking_at([0.5, -0.45, 1.3], top, 0.9)
+
+    def box_seen(v: View) -> bool:
+        v.module.page.set_viewer(v.client, pose)
+        wait_for(
+            lambda: (
+                np.linalg.norm(v.client.camera.position - pose.position) < 1e-4
+                and np.linalg.norm(v.client.camera.look_at - pose.look_at) < 1e-4
+            ),
+            what="viewer",
+        )
+        u, w = project_to_page(v.client, v.canvas, top[None])[0].round().astype(int)
+        patch = screenshot(v.page)[w - 4 : w + 5, u - 4 : u + 5].reshape(-1, 3).astype(int)
+        # the box's (lit) ochre, unlike the grey-white table and background
+        ochre = (patch[:, 0] - patch[:, 2] > 50) & (patch[:, 0] >= patch[:, 1])
+        ochre &= patch[:, 1] >= patch[:, 2]
+        return bool(ochre.mean() > 0.8)
+
+    wait_for(lambda: box_seen(view), what="the box in the page")
+    scene_path = Path(view.module.summary()["scene_file"])
+    wait_for(lambda: scene_path.exists() and "box-1" in scene_path.read_text(), what="saved")
+    view.page.reload()
+    view.client = wait_for(view._client, what="the reloaded page to connect")
+    view.settle_layout()
+    wait_for(lambda: box_seen(view), what="the box after a page reload")
+    # a new view (a new run) loading the scene file shows the box too
+    again = View(browser, {"port": 0, "load_scene": str(scene_path)}, tmp_path)
+    try:
+        wait_for(lambda: box_seen(again), what="the box from the reloaded scene file")
+        saved_again = Path(again.module.summary()["scene_file"])
+        wait_for(
+            lambda: saved_again.exists() and "box-1" in saved_again.read_text(),
+            what="the loaded scene saved in the new run's folder",
+        )
+    finally:
+        again.close()

@@ -1,0 +1,171 @@
+"""The View3D module without a browser: sketch items into the scene file, and back at start."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from connectors.errors import UserError
+from connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.view3d.scene_file import load_scene
+from modules.view3d.view3d import View3D
+from runtime.harness import ModuleHarness
+from tests.view3d.browser_support import wait_for
+
+FRAMES = {"base->table": transform_from_xyz_rpy_deg([0, 0, 0.25], [0, 0, 0])}
+
+
+def test_sketch_items_are_kept_saved_and_reloaded(tmp_path: Path) -> None:
+    K = np.array([[500.0, 0, 32], [0, 500.0, 24], [0, 0, 1]])
+    image = np.full((48, 64, 3), 90, np.uint8)
+    T_a = transform_from_xyz_rpy_deg([-0.15, 0, 1.5], [180, 0, 0])
+    T_b = transform_from_xyz_rpy_deg([0.15, 0, 1.5], [180, 0, 0])
+    T_box = transform_from_xyz_rpy_deg([0.5, 0.2, 0.1], [0, 0, 15])  # in the table frame
+    first = tmp_path / "first"
+    with ModuleHarness(View3D, {"port": 0}, frames=FRAMES, output_dir=first) as h:
+        h.push(
+            "snapshot",
+            StereoSnapshot(
+                snapshot_id="s1",
+                image_a=image,
+                image_b=image,
+                K_a=K,
+                K_b=K,
+                T_base_camera_a=T_a,
+                T_base_camera_b=T_b,
+            ),
+        )
+        h.push(
+            "box",
+            SketchBox(box_id="b1", T_base_box=T_box, size=np.array([0.2, 0.1, 0.1]), frame="table"),
+        )
+        h.push(
+            "primitive",
+            SketchPrimitive(
+                primitive_id="l1", kind="line", points=np.array([[0, 0, 0.3], [0.4, 0, 0.3]])
+            ),
+        )
+        h.step(dt=0.05)
+        page = h.module.page
+        wait_for(
+            lambda: len(page.snapshots) == 2 and "/sketch/boxes/b1" in page.meshes,
+            timeout=10,
+            what="items on the page",
+        )
+        assert page.snapshot_dropdown.options == ("s1/a", "s1/b")
+        np.testing.assert_allclose(page.snapshots["s1/b"][1].T_world_camera, T_b)
+        # the box came in the table frame: it is drawn in base, 25 cm higher
+        corners = page.meshes["/sketch/boxes/b1"].vertices
+        assert corners[:, 2].min() == pytest.approx(0.25 + 0.1 - 0.05)
+        path = Path(h.module.summary()["scene_file"])
+        wait_for(lambda: path.exists() and "l1" in path.read_text(), timeout=10, what="saved")
+    scene = load_scene(path)
+    assert sorted(scene.snapshots) == ["s1/a", "s1/b"] and list(scene.boxes) == ["b1"]
+    with ModuleHarness(
+        View3D, {"port": 0, "load_scene": str(path)}, frames=FRAMES, output_dir=tmp_path / "second"
+    ) as h:
+        page = h.module.page
+        wait_for(
+            lambda: len(page.snapshots) == 2 and "/sketch/boxes/b1" in page.meshes,
+            timeout=10,
+            what="items reloaded",
+        )
+
+
+def test_bad_parameters_and_scene_files_are_user_errors(tmp_path: Path) -> None:
+    with (
+        pytest.raises(UserError, match="pose_tool_mount"),
+        ModuleHarness(View3D, {"port": 0, "pose_tool_mount": "camera"}),
+    ):
+        pass
+    bad = tmp_path / "scene.json"
+    bad.write_text("{}")
+    with (
+        pytest.raises(UserError, match="not a scene file"),
+        ModuleHarness(View3D, {"port": 0, "load_scene": str(bad)}),
+    ):
+        pass
+
+
+def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> None:
+    from connectors.messages import CameraModel, Image
+    from modules.view3d.geometry import frustum_from_model, matrix_from_wxyz, viewer_pose_looking_at
+
+    look = viewer_pose_looking_at([0.6, -0.8, 1.2], [0.6, 0.0, 0.25], 0.8)
+    T_cam = np.eye(4)
+    T_cam[:3, :3] = matrix_from_wxyz(look.wxyz)
+    T_cam[:3, 3] = look.position
+    frames = {**FRAMES, "base->cam_left": T_cam, "mount->cam": np.eye(4)}
+    model = CameraModel(
+        fx=600.0,
+        fy=600.0,
+        u0=320.0,
+        v0=240.0,
+        width=640,
+        height=480,
+        mount="cam_left",
+        frame="left",
+    )
+    params = {"port": 0, "pose_tool_mount": "mount->cam"}
+    with ModuleHarness(View3D, params, frames=frames, output_dir=tmp_path) as h:
+        h.push("left_model", model)
+        h.push("left_image", Image(pixels=np.zeros((480, 640, 3), np.uint8)))
+        h.step(dt=0.05)
+        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        page, widgets = h.module.page, h.module.pose_tool
+        snapshot = page.take_snapshot("left")
+        assert snapshot is not None
+        h.step(dt=0.05)
+        wait_for(lambda: snapshot.id in page.snapshots, timeout=10, what="the snapshot")
+        frustum = frustum_from_model(model, T_cam)
+        depth = widgets.tool.image_depth(snapshot.id)
+        for X in ([0.3, -0.2, 0.25], [0.65, -0.2, 0.25], [0.65, 0.3, 0.25], [0.35, 0.25, 0.25]):
+            X = np.array(X)
+            on_image = frustum.points_from_pixels(frustum.pixel_of(X)[None], depth)[0]
+            origin = T_cam[:3, 3] + 0.5 * (on_image - T_cam[:3, 3])
+            widgets.mode.value = "image point"
+            widgets.handle_ray(origin, on_image - origin)
+            assert widgets.mode.value == "model point"  # the next click goes to the model
+            widgets.handle_ray(X + np.array([0, 0, 1.0]), np.array([0, 0, -1.0]))  # on the table
+            assert widgets.mode.value == "image point"
+        assert len(widgets.tool.complete_pairs()) == 4
+        widgets.solve()
+        assert "RMS" in widgets.note.content and widgets.tool.result.rms_px < 1e-3
+        np.testing.assert_allclose(widgets.tool.corrected_mount(), np.eye(4), atol=1e-6)
+        widgets.save()
+        assert (tmp_path / "mount_mount_cam.yaml").exists()
+        h.step(dt=0.05)
+        sent = h.output("mount")
+        assert (sent.parent, sent.child) == ("mount", "cam")
+        np.testing.assert_allclose(sent.matrix, np.eye(4), atol=1e-6)
+
+
+def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
+    from connectors.sketch_messages import SceneObjects
+
+    poses = np.stack(
+        [
+            transform_from_xyz_rpy_deg([0.6, 0.0, 0.3], [90, 0, 0]),
+            transform_from_xyz_rpy_deg([0.6, 0.5, 0.2], [0, 0, 30]),
+        ]
+    )
+    objects = SceneObjects(
+        names=("pipe", "package"),
+        kinds=("cylinder", "box"),
+        poses=poses,
+        sizes=np.array([[0.04, 0.04, 0.6], [0.3, 0.2, 0.2]]),
+        colors=np.array([[200, 200, 200], [150, 100, 50]]),
+    )
+    with ModuleHarness(View3D, {"port": 0}, frames=FRAMES, output_dir=tmp_path) as h:
+        h.push("objects", objects)
+        h.step(dt=0.05)
+        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        meshes = h.module.page.meshes
+        assert {"/objects/pipe", "/objects/package"} <= set(meshes)
+        from modules.view3d.geometry import ray_hit
+
+        hit = ray_hit([0.6, 0.0, 1.0], [0, 0, -1.0], list(meshes.values()))
+        assert hit.name == "/objects/pipe" and hit.point[2] == pytest.approx(0.34, abs=1e-3)
