@@ -33,17 +33,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 from benchmarks.common import table, write_results
+from tests.browser import CHROMIUM, launch
 
-CHROMIUM = "/usr/bin/chromium"
-ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 #: a websocket message that carries a video frame names viser's image property
 IMAGE_PROP = b"_image_data"
 
@@ -141,7 +132,7 @@ def _watch(url: str, seconds: float, viewport: tuple[int, int]) -> dict[str, Any
         ws.on("framereceived", on_frame)
 
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        browser = launch(p)
         page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
         page.on("websocket", on_websocket)
         page.goto(url)
@@ -185,7 +176,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short runs (a smoke run)")
     args = parser.parse_args()
-    if not Path(CHROMIUM).exists():
+    if not CHROMIUM.exists():
         print(f"bench_view3d: needs Chromium at {CHROMIUM}", file=sys.stderr)
         return 2
     duration = 14.0 if args.quick else 25.0

@@ -17,26 +17,15 @@ import numpy as np
 import pytest
 
 from modules.world.scene_objects import SketchScene
+from tests.browser import launch, needs_chromium
 
-CHROMIUM = Path("/usr/bin/chromium")
-ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 GRAPH = str(Path(__file__).resolve().parents[2] / "graphs" / "active_sketch_page.yaml")
 
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.slow,
     pytest.mark.timeout(400),
-    pytest.mark.skipif(
-        not CHROMIUM.exists(), reason="needs Debian's Chromium at /usr/bin/chromium"
-    ),
+    needs_chromium,
 ]
 
 
@@ -102,7 +91,7 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         _wait(ready, 90, "the page and the cameras' aim")
         time.sleep(4.0)  # PTUs slew, zoom settles, fresh frames
         with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+            browser = launch(p)
             page = browser.new_page(viewport={"width": 1400, "height": 900})
             page.goto(f"{base}/sketch")
             page.click("[data-testid=snapshot]")

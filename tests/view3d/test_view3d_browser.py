@@ -23,11 +23,10 @@ from modules.view3d.view3d import View3D
 from modules.view3d.viewer import FRUSTUM_SCALES
 from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (
-    CHROMIUM,
-    CHROMIUM_ARGS,
     block_outside_loopback,
     canvas_box,
     inside_quad,
+    launch,
     needs_chromium,
     project_to_page,
     screenshot,
@@ -96,7 +95,7 @@ def browser():
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
-        chromium = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        chromium = launch(p)
         yield chromium
         chromium.close()
 
