@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import collections
 import math
+import socket
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -40,7 +41,8 @@ class OperatorConsole(Module):
     snake drawn over it in the browser, the grab's stage and errors, link and arm health, and
     the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
     ``operator`` (start / pause / resume / abort for vsServo) and ``jog`` (dead-man teleoperation
-    twist in ``camera_frame``, for REG_VEL's ``jog`` input).
+    twist in ``camera_frame``, for REG_VEL's ``jog`` input: one per keep-alive from the page, so
+    REG_VEL's watchdog stops a jog whose keep-alives stop within its timeout).
 
     Many pages may watch; one holds control, and only its commands pass (the others are refused
     and counted). Listening beyond loopback needs the access token (``token_file``, or a random
@@ -91,7 +93,11 @@ class OperatorConsole(Module):
     )
     seed = Output(Vector, doc="seed for vsSnake: [u, v] or [u0, v0, u1, v1] px")
     operator = Output(Text, doc="grab command for vsServo: start / pause / resume / abort")
-    jog = Output(Twist, frame=from_param("camera_frame"), doc="dead-man jog twist, for REG_VEL")
+    jog = Output(
+        Twist,
+        frame=from_param("camera_frame"),
+        doc="dead-man jog twist for REG_VEL: one per keep-alive of the held jog, zero on release",
+    )
     presence = Output(Status, doc="`person` while a person holds control, else `nobody`")
     zoom_1 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[0]")
     zoom_2 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[1]")
@@ -118,7 +124,11 @@ class OperatorConsole(Module):
         self._notices: collections.deque[dict[str, Any]] = collections.deque(maxlen=30)
         self._notice_id = 0
         self._jogging = False
+        self._keepalive = False  #: a held jog's keep-alive arrived since the last step
         self._last_state = -math.inf
+        self._state_period = 1.0 / p.state_rate_hz
+        self._link_age: dict[str, float] = {}  #: oldest age per input since the last page update
+        self._link_seen: dict[str, float] = {}  #: arrival time of each input's sample last seen
         self._last_presence: tuple[str, int, int] | None = None
         self._last_servo_stage = ""
         self._assist: dict[str, Any] | None = None
@@ -128,6 +138,7 @@ class OperatorConsole(Module):
         #: per seed from a page: (wall time the click reached the web thread, wall time sent) [s]
         self.seed_sent_wall: list[tuple[float, float]] = []
         self._server: WebServer | None = None
+        self._refused_requests = 0  #: requests the token gate refused (kept after stop)
         self._app: ConsoleApp | None = None
         self.url = ""
         self._cpu0 = process_cpu_s()
@@ -147,9 +158,16 @@ class OperatorConsole(Module):
             self._app = ConsoleApp(self._server, self.inbox, p.jpeg_quality)
             self.url = self._server.url
             self.log.info("operator console: %s", self.url)
+            if p.host in ("0.0.0.0", "::"):  # every interface: name this machine for others
+                self.log.info(
+                    "operator console: from another computer open %s",
+                    self.url.replace(p.host if p.host != "::" else "[::]", socket.gethostname()),
+                )
 
     def stop(self) -> None:
         self._cpu_end = self._cpu_figures()
+        if self._server is not None:  # kept for the summary (the server goes below)
+            self._refused_requests = self._server.refused_requests
         if self._app is not None:
             self._app.close()
         if self._server is not None:
@@ -171,9 +189,13 @@ class OperatorConsole(Module):
         self._jog_step(wall)
         self._track_servo(now)
         self._presence()
-        if now - self._last_state >= 1.0 / self.params.state_rate_hz and self._app is not None:
+        app = self._app
+        if app is None or not app.stats.viewers:
+            return  # nobody watches: no page state
+        self._track_links(now)
+        if now - self._last_state >= self._state_period:
             self._last_state = now
-            self._app.state.put(self._state(now))
+            app.state.put(self._state(now))
 
     def _video(self, now: float) -> None:
         if not self.image.fresh:
@@ -190,9 +212,16 @@ class OperatorConsole(Module):
                 self._app.raw_frame(pixels, image.seq, time.time(), now - image.stamp)
             )
 
-    def _notice(self, text: str, session: str = "*", level: str = "info") -> None:
-        self._notice_id += 1
-        self._notices.append({"id": self._notice_id, "to": session, "level": level, "text": text})
+    def _notice(
+        self, text: str, session: str = "*", level: str = "info", page: bool = True
+    ) -> None:
+        """Log ``text``, and tell the page ``session`` (``*``: every page) unless ``page`` is
+        False."""
+        if page:
+            self._notice_id += 1
+            self._notices.append(
+                {"id": self._notice_id, "to": session, "level": level, "text": text}
+            )
         who = self.arbiter.sessions.get(session, "console") if session != "*" else "console"
         (self.log.warning if level == "error" else self.log.info)("%s: %s", who, text)
 
@@ -211,9 +240,9 @@ class OperatorConsole(Module):
             name = self.arbiter.sessions.get(s, s)
             if self.arbiter.leave(s):
                 self._notice(f"{name} disconnected; control is free")
-        elif event.kind == "bad":
+        elif event.kind == "bad":  # the web thread told the page at once; here the log
             self.counts["bad_messages"] += 1
-            self._notice(str(event.payload), s, "error")
+            self._notice(str(event.payload), s, "error", page=False)
         elif event.kind == "msg":
             self._message(s, event.payload.type, event.payload.fields, now, event.wall)
 
@@ -300,6 +329,7 @@ class OperatorConsole(Module):
             )
         was = self.deadman.held
         self.deadman.update(s, f["held"], f["axes"], f["speed"], f["jog_frame"], wall)
+        self._keepalive = self.deadman.held is not None
         if self.deadman.held is not None and was is None:
             self.counts["jogs"] += 1
             servo = self.servo.value
@@ -309,15 +339,20 @@ class OperatorConsole(Module):
 
     # -- periodic -----------------------------------------------------------------------------
     def _jog_step(self, wall: float) -> None:
+        """One jog twist per keep-alive that arrived since the last step (none in between: the
+        register's watchdog then zeroes a jog whose keep-alives stop, within its timeout); a
+        zero twist once, when the jog is released, its page goes, or the dead-man expires."""
+        keepalive, self._keepalive = self._keepalive, False
         held = self.deadman.current(wall)
         if held is not None and self.arbiter.holder != held.session:
             self.deadman.release()
             held = None
         if held is not None:
-            T = self._T_tool_camera if self._T_tool_camera is not None else np.eye(4)
-            twist = jog_twist(held.axes, held.speed, held.jog_frame, self._jog_limits, T)
-            self.jog.send(Twist(vector=twist, frame=self.params.camera_frame))
-            self._jogging = True
+            if keepalive:
+                T = self._T_tool_camera if self._T_tool_camera is not None else np.eye(4)
+                twist = jog_twist(held.axes, held.speed, held.jog_frame, self._jog_limits, T)
+                self.jog.send(Twist(vector=twist, frame=self.params.camera_frame))
+                self._jogging = True
         elif self._jogging:
             self.jog.send(Twist(vector=np.zeros(6), frame=self.params.camera_frame))
             self._jogging = False
@@ -346,6 +381,29 @@ class OperatorConsole(Module):
                     values={"acted": float(key[1]), "viewers": float(key[2])},
                 )
             )
+
+    def _links(self) -> tuple[tuple[str, Any], ...]:
+        return (
+            ("image", self.image),
+            ("contour", self.contour),
+            ("servo", self.servo),
+            ("joints", self.joints),
+        )
+
+    def _track_links(self, now: float) -> None:
+        """The oldest each input's latest sample got since the last page update [s]: now, or
+        when the next one replaced it. About its period while it flows, growing when it stops
+        (the age at a step alone is often 0: a sample comes with the tick that runs the console,
+        and a busy process runs it only then)."""
+        ages, seen = self._link_age, self._link_seen
+        for name, reg in self._links():
+            age = reg.age(now)
+            before = seen.get(name)
+            if before is not None and math.isfinite(before) and reg.received_at > before:
+                age = max(age, reg.received_at - before)  # the one before, when replaced
+            seen[name] = reg.received_at
+            if age > ages.get(name, -math.inf):
+                ages[name] = age
 
     def _track_servo(self, now: float) -> None:
         status = self.servo.get(now)
@@ -393,15 +451,12 @@ class OperatorConsole(Module):
                 for e in list(self._errors)[-150:]
             ],
             "links": [
-                view_state.link_view(name, reg.age(now), reg.link_alive)
-                for name, reg in (
-                    ("image", self.image),
-                    ("contour", self.contour),
-                    ("servo", self.servo),
-                    ("joints", self.joints),
-                )
+                view_state.link_view(name, self._link_age.pop(name, math.inf), reg.link_alive)
+                for name, reg in self._links()
             ],
-            "smart_alive": self.joints.link_alive and self.guard.link_alive,
+            "smart_alive": None  # nothing from the servo side yet (or none in this graph)
+            if self.joints.value is None and self.guard.value is None
+            else self.joints.link_alive and self.guard.link_alive,
             "joints": view_state.joints_view(self.joints.get(now), *self._q_limits),
             "control": self.arbiter.holder_name(),
             "control_session": self.arbiter.holder or "",
@@ -453,7 +508,9 @@ class OperatorConsole(Module):
                 viewers_max=st.viewers_max,
                 malformed=st.malformed,
                 replayed=st.replayed,
-                refused_requests=self._server.refused_requests if self._server else 0,
+                refused_requests=(
+                    self._server.refused_requests if self._server else self._refused_requests
+                ),
             )
             if len(lat):
                 out["latency_p50_ms"] = round(float(np.percentile(lat, 50)), 2)

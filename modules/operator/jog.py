@@ -1,10 +1,11 @@
 """The jog pad's dead-man: motion only while the operator holds a button or key.
 
-The page sends the held jog again every ~50 ms while a button or key is down, and a release
-when it goes up, when the page loses focus, or before it unloads. :class:`DeadMan` gives the
-twist to command now: zero once no keep-alive came for ``deadman_s`` (a frozen page, a dropped
-socket) or after a release. Time is the wall clock of the operator's hands (monotonic seconds),
-passed in. Pure.
+The page sends the held jog again every 40 ms while a button or key is down, and a release
+when it goes up, when the page loses focus or is hidden, or before it unloads. The console
+forwards one twist per keep-alive, so the register's watchdog zeroes a silent jog too.
+:class:`DeadMan` gives the twist to command now: zero once no keep-alive came for
+``deadman_s`` (a frozen page, a dropped socket) or after a release. Time is the wall clock of
+the operator's hands (monotonic seconds), passed in. Pure.
 """
 
 from __future__ import annotations

@@ -103,6 +103,8 @@ def zero_banner(servo: Status | None, guard: Status | None) -> str:
         why = _SERVO_ZERO[servo.stage]
         detail = f": {servo.reason}" if servo.reason and servo.stage == "assist" else ""
         return f"servo side at zero: {why}{detail}"
+    if servo is not None and servo.stage == "acquire" and servo.message.startswith("waiting"):
+        return f"servo side at zero: {servo.message}"  # e.g. waiting: snake has no contour
     return ""
 
 

@@ -43,14 +43,16 @@ class OperatorSim(Module):
     def step(self, now: float) -> None:
         if self._started is None:
             self._started = now
-        if self.clicked_at is not None or self.stepped_aside_at is not None:
+        if self.stepped_aside_at is not None:
             return
         console = self.console.get(now)
         if console is not None and (console.stage == "person" or console.values.get("acted")):
-            self.stepped_aside_at = now
+            self.stepped_aside_at = now  # also after its click: the person answers from now on
             self.log.info(
                 "a person took control of the console: the simulated operator steps aside"
             )
+            return
+        if self.clicked_at is not None:
             return
         truth = self.truth.get(now)
         if truth is None or truth.area <= 0:

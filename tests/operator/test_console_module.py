@@ -128,7 +128,9 @@ def test_clicks_outside_the_image_and_on_a_stale_page_are_refused_with_the_reaso
             page.close()
 
 
-def test_malformed_and_replayed_messages_are_refused_and_counted() -> None:
+def test_malformed_and_replayed_messages_are_refused_and_counted(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
     with _harness() as h:
         page = Page(h.module.url)
         try:
@@ -155,6 +157,11 @@ def test_malformed_and_replayed_messages_are_refused_and_counted() -> None:
             s = h.module.summary()
             assert (s["malformed"], s["replayed"]) == (4, 2)
             assert not h.outputs("jog")
+            # the page was told once (at once, by the web side); the log has each one too
+            texts = [n["text"] for n in h.module._notices]
+            assert not any(t.startswith(("malformed", "replayed")) for t in texts), texts
+            assert caplog.text.count("replayed message: expected") == 2
+            assert caplog.text.count("malformed") == 4
         finally:
             page.close()
 
@@ -229,13 +236,24 @@ def test_beyond_loopback_a_token_is_needed(tmp_path: Path) -> None:
             Page(base)
         Page(h.module.url).close()
         assert h.module.summary()["refused_requests"] == 3
+    assert h.module.summary()["refused_requests"] == 3  # still there once the server stopped
 
 
-def test_listening_beyond_loopback_without_a_token_file_makes_one() -> None:
+def test_listening_beyond_loopback_without_a_token_file_makes_one(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    import logging
+    import socket
+
+    caplog.set_level(logging.INFO)
     with _harness(host="0.0.0.0") as h:
         token = h.module.url.split("?token=")[1]
         assert len(token) >= 20
-        assert httpx.get(f"http://127.0.0.1:{h.module._server.port}/", timeout=5).status_code == 403
+        port = h.module._server.port
+        assert httpx.get(f"http://127.0.0.1:{port}/", timeout=5).status_code == 403
+        # printed at start, with this machine's name for the operator's computer
+        assert f"operator console: http://0.0.0.0:{port}/?token={token}" in caplog.text
+        assert f"open http://{socket.gethostname()}:{port}/?token={token}" in caplog.text
 
 
 def test_a_short_token_file_is_a_user_error(tmp_path: Path) -> None:
@@ -298,5 +316,42 @@ def test_zoom_sliders_drive_the_cameras_and_the_scripted_zoom_steps_aside() -> N
                 "expected a camera of ['left', 'right'], found 'middle'"
                 in (h.module._notices[-1]["text"])
             )
+        finally:
+            page.close()
+
+
+def test_the_page_shows_how_old_each_links_latest_sample_got() -> None:
+    with _harness(state_rate_hz=12.8) as h:  # a page update every 5/64 s
+        page = Page(h.module.url)
+        try:
+            _pump(h, lambda: page.session in h.module.arbiter.sessions)
+            h.push("contour", rectangle_contour())
+            seen: list[dict] = []
+            version = h.module._app.state.get()[0]
+            for k in range(64):  # steps of 1/64 s, an image every 4th: 4/64 s apart
+                if k % 4 == 0:
+                    h.push("image", image())
+                h.step(dt=1 / 64)
+                if h.module._app.state.get()[0] > version:
+                    version, state = h.module._app.state.get()
+                    seen.append({link["name"]: link["age_ms"] for link in state["links"]})
+            assert len(seen) >= 10
+            # at any one step the image is 1/64 .. 4/64 s old; each update shows the oldest
+            # it got since the one before (5 steps: a whole period of the image)
+            assert {ages["image"] for ages in seen[1:]} == {62.5}, seen
+            contour = [ages["contour"] for ages in seen]
+            assert contour == sorted(contour) and contour[-1] >= 900.0  # no contour since
+            assert seen[-1]["servo"] is None and seen[-1]["joints"] is None  # nothing came
+            # a busy process runs the console only in the ticks that bring an image: its age
+            # is 0 at every step, yet each image was 4/64 s old when the next one came
+            images = []
+            for _ in range(16):
+                h.clock.wait_until(h.now + 4 / 64)
+                h.push("image", image())
+                h.step(dt=0.0)
+                if h.module._app.state.get()[0] > version:
+                    version, state = h.module._app.state.get()
+                    images.append(state["links"][0]["age_ms"])
+            assert len(images) >= 4 and set(images[1:]) == {62.5}, images
         finally:
             page.close()

@@ -164,6 +164,11 @@ def test_banner_errors_and_joints_for_the_page() -> None:
     assert zero_banner(assist, None) == (
         "servo side at zero: vsServo asks for the operator: snake failure: border"
     )
+    waiting = Status(stage="acquire", message="waiting: snake has no contour")
+    assert zero_banner(waiting, Status(stage="passing")) == (
+        "servo side at zero: waiting: snake has no contour"
+    )
+    assert zero_banner(Status(stage="acquire", message="snake healthy 3 frame(s)"), None) == ""
     state = JointState(
         names=("j1", "j2"), position=np.radians([0.0, 45.0]), velocity=np.radians([10.0, 0.0])
     )

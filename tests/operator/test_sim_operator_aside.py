@@ -16,6 +16,11 @@ def test_the_simulated_operator_clicks_only_while_no_person_acted() -> None:
             h.step(dt=0.02)
         click = h.output("seed").values
         assert abs(click[0] - 340.0) < 5 and abs(click[1] - 230.0) < 5
+        assert h.module.summary()["stepped_aside_at_s"] is None
+        h.push("console", Status(stage="person", values={"acted": 1.0, "viewers": 1.0}))
+        h.step(dt=0.02)  # a person takes over after the click: noted in the summary
+        assert h.module.summary()["stepped_aside_at_s"] is not None
+        assert len(h.outputs("seed")) == 1
     with ModuleHarness(OperatorSim, {"click_delay_s": 0.1}) as h:
         h.push("console", Status(stage="person", values={"acted": 1.0, "viewers": 1.0}))
         for _ in range(20):

@@ -75,6 +75,7 @@ function render(s) {
   $("holder").textContent = s.control ? s.control + (mine ? " (you)" : "") : "nobody";
   $("take").disabled = !!s.control; $("release").disabled = !mine;
   $("viewers").textContent = `${s.viewers.length} viewer(s)`;
+  $("refused").textContent = s.refused ? `${s.refused} refused` : "";
   $("banner").style.display = s.banner ? "block" : "none"; $("banner").textContent = s.banner;
   $("stage-name").textContent = s.servo.stage; $("stage-msg").textContent = s.servo.message || "";
   const o = s.overlay;
@@ -85,7 +86,8 @@ function render(s) {
   plot(s.errors);
   $("links").innerHTML = s.links.map((l) => `<tr><td>${l.name}</td><td class="${l.alive ? "" : "bad"}">` +
     `${l.age_ms === null ? "–" : l.age_ms + " ms"}${l.alive ? "" : " (producer gone)"}</td></tr>`).join("");
-  $("smart").innerHTML = s.smart_alive ? '<span class="ok">smart process alive</span>' : '<span class="bad">smart process gone</span>';
+  $("smart").innerHTML = s.smart_alive === null ? "smart process: no data yet" :
+    s.smart_alive ? '<span class="ok">smart process alive</span>' : '<span class="bad">smart process gone</span>';
   $("joints").innerHTML = s.joints.map((j) => `<tr><td>${j.name}</td><td>${j.q_deg.toFixed(1)}°</td>` +
     `<td><div class="bar"><i style="left:${(j.q_frac * 97).toFixed(0)}px"></i></div></td>` +
     `<td class="${j.qd_frac > 0.9 ? "bad" : ""}">${j.qd_deg_s.toFixed(1)}°/s of ${j.qd_max_deg_s}</td></tr>`).join("");
@@ -113,10 +115,13 @@ function renderZoom(zooms) {
       label.textContent = `${z.name} `;
       input = document.createElement("input");
       Object.assign(input, { id: `zoom-${z.name}`, type: "range", min: 0, max: 1, step: 0.01 });
+      const shown = document.createElement("span");
+      shown.id = `zoom-${z.name}-value`;
       input.addEventListener("change", () => send("zoom", { camera: z.name, value: Number(input.value) }));
-      label.append(input); $("zoom").append(label, document.createElement("br"));
+      label.append(input, " ", shown); $("zoom").append(label, document.createElement("br"));
     }
     if (document.activeElement !== input) input.value = z.value;
+    $(`zoom-${z.name}-value`).textContent = `${z.value.toFixed(2)} (0 wide .. 1 tele)`;
   }
 }
 function el(tag, attrs) { const e = document.createElementNS(SVGNS, tag); for (const k in attrs) e.setAttribute(k, attrs[k]); return e; }
@@ -169,13 +174,14 @@ $("take").onclick = () => send("take");
 $("release").onclick = () => send("release");
 $("assist-hide").onclick = () => $("assist").close();
 
-// jog: keep-alive every 50 ms while held; release on up, leave, blur, hide, unload
+// jog: keep-alive every 40 ms while held (the console forwards each to REG_VEL, whose 0.1 s
+// watchdog stops a jog whose keep-alives stop); release on up, leave, blur, hide, unload
 function jogSend(held) {
   send("jog", { held, axes: jogHeld || [0, 0, 0, 0], jog_frame: $("jog-frame").value, speed: Number($("jog-speed").value) });
 }
 function holdJog(axis, sign) {
   jogHeld = [0, 0, 0, 0]; jogHeld[axis] = sign; jogSend(true);
-  clearInterval(jogTimer); jogTimer = setInterval(() => jogSend(true), 50);
+  clearInterval(jogTimer); jogTimer = setInterval(() => jogSend(true), 40);
 }
 function releaseJog() {
   if (jogTimer) { clearInterval(jogTimer); jogTimer = null; }
