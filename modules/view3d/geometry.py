@@ -91,6 +91,29 @@ class Frustum:
         return h[:2]
 
 
+def solid_pose(T: ArrayLike, tolerance: float = 1e-6) -> FloatArray | None:
+    """A box's or cylinder's pose (4x4) as a rigid transform, or None when it is not one.
+
+    Both solids are symmetric about their centre planes, so a pose whose axes are a
+    reflection (orthonormal, determinant -1) describes the same solid as the rigid pose with
+    its z axis turned round; that pose is returned. Anything else (scaled, sheared,
+    non-finite) is None: the solid cannot be drawn."""
+    M = np.asarray(T, dtype=float)
+    if M.shape != (4, 4) or not np.all(np.isfinite(M)):
+        return None
+    R = M[:3, :3]
+    if not (
+        np.allclose(R.T @ R, np.eye(3), atol=tolerance)
+        and np.allclose(M[3], (0.0, 0.0, 0.0, 1.0), atol=tolerance)
+    ):
+        return None
+    if np.linalg.det(R) > 0:
+        return M.copy()
+    rigid = M.copy()
+    rigid[:3, 2] = -R[:, 2]
+    return rigid
+
+
 def frustum_from_model(model: CameraModel, T_world_mount: ArrayLike) -> Frustum:
     """The frustum of a camera model whose mount is at ``T_world_mount``.
 

@@ -4,14 +4,22 @@ The operator takes snapshots with the camera whose mount is in doubt (each keeps
 graph *believes*), then, pair by pair, clicks a calibration feature in a snapshot's image (the
 click ray meets the image drawn on the frustum: a pixel) and the same feature on the model (the
 ray meets the model's surface: a 3-D point). With three pairs or more, over one or several
-snapshots taken at different PTU or arm poses, "Solve mount" finds the correction ``C`` of the
-camera's mount that best explains every click::
+snapshots taken at different PTU or arm poses, "Solve mount" finds the mount ``M`` (the graph's
+static frame ``parent->child``, believed ``M0``) that best explains every click, with the
+non-perspective n-point solver. Each snapshot's believed camera pose is split around the mount::
 
-    T_world_camera_true(i) = T_world_camera_believed(i) . C
+    T_world_camera(i) = T_world_parent(i) . M . T_child_camera(i)
 
-and reports every click's reprojection residual (drawn on the images, listed in the panel). The
-corrected mount of the graph's frame ``parent->child`` is ``T_parent_child . C``. "Save" writes
-it as a frames calibration file and a session file that ``umbra pose-tool`` solves the same way.
+* ``parent`` tied to the world by the static frames (a PTU's base ``base->ptu_left``): then
+  ``T_world_parent`` is that static pose and ``T_child_camera(i) = (T_world_parent M0)^-1
+  T_world_camera_believed(i)`` (the pan-tilt kinematics and the camera's mount in the head): the
+  rays of different snapshots do not meet, the report's non-perspective case;
+* otherwise ``parent`` moves (the arm's ``tool``, a PTU head) and ``child`` is the camera:
+  ``T_world_parent(i) = T_world_camera_believed(i) M0^-1``, ``T_child_camera = I``.
+
+Every click's reprojection residual is drawn on the images and listed in the panel. "Save"
+writes the mount as a frames calibration file and a session file that ``umbra pose-tool``
+solves the same way.
 """
 
 from __future__ import annotations
@@ -24,7 +32,7 @@ import numpy as np
 
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.calib.errors import CalibrationError
-from modules.calib.pose_tool import MountResult, MountSnapshot, solve_mount
+from modules.calib.pose_tool import MountResult, MountSnapshot, pose_error, solve_mount
 from modules.calib.pose_tool_file import frames_text, session_text
 from modules.geometry.transforms import invert_transform
 from modules.view3d.geometry import pixel_of_ray_on_image, ray_hit
@@ -49,10 +57,16 @@ class PoseTool:
         mount_child: str,
         T_parent_child: np.ndarray,
         image_depth: Callable[[str], float],
+        T_world_parent: np.ndarray | None = None,
     ) -> None:
+        """``T_parent_child``: the believed mount (4x4, m); ``T_world_parent``: the parent's
+        static pose in the view's world, or None when the parent moves (see the module)."""
         self.parent = mount_parent
         self.child = mount_child
         self.T_parent_child = np.asarray(T_parent_child, dtype=float)
+        self.T_world_parent = (
+            None if T_world_parent is None else np.asarray(T_world_parent, dtype=float)
+        )
         self.image_depth = image_depth
         self.pairs: list[Pair] = []
         self.result: MountResult | None = None
@@ -60,8 +74,12 @@ class PoseTool:
 
     # -- clicks -----------------------------------------------------------------------------
 
-    def click_image(self, origin, direction, snapshots: dict) -> Pair | None:
-        """A click ray on the snapshot images: the nearest image it meets starts a new pair."""
+    def click_image(
+        self, origin, direction, snapshots: dict, prefer: str | None = None
+    ) -> Pair | None:
+        """A click ray on the snapshot images starts a new pair: on the image of snapshot
+        ``prefer`` (the one the operator views from) when the ray meets it, else on the nearest
+        image it meets (the images of snapshots taken a few degrees apart cross each other)."""
         best = None
         for snapshot_id, (_, frustum) in snapshots.items():
             depth = self.image_depth(snapshot_id)
@@ -70,6 +88,8 @@ class PoseTool:
                 continue
             point = frustum.points_from_pixels(uv[None], depth)[0]
             distance = float(np.linalg.norm(point - np.asarray(origin, dtype=float)))
+            if snapshot_id == prefer:
+                distance = -1.0
             if best is None or distance < best[0]:
                 best = (distance, snapshot_id, uv)
         if best is None:
@@ -102,31 +122,55 @@ class PoseTool:
             by_id.setdefault(pair.snapshot_id, []).append(pair)
         out, ids = [], []
         for snapshot_id, pairs in by_id.items():
-            snap, frustum = snapshots[snapshot_id]
-            K = frustum.drawn_K  # the pixels were clicked on the drawn image
-            camera = PinholeCamera(Intrinsics(K[0, 0], K[1, 1], 0.0, K[0, 2], K[1, 2]))
+            snap, _ = snapshots[snapshot_id]
+            # the clicked pixels are the image's own pixels (the image is stretched over the
+            # drawn frustum), so the camera's own intrinsics map them to rays
+            K = np.asarray(snap.K, dtype=float)
+            camera = PinholeCamera(Intrinsics(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2]))
+            T_believed = np.asarray(snap.T_world_camera, dtype=float)
+            if self.T_world_parent is not None:  # a static parent: the chain after the mount
+                T_world_parent = self.T_world_parent
+                T_child_camera = invert_transform(T_world_parent @ self.T_parent_child) @ T_believed
+            else:  # a moving parent, the child is the camera
+                T_world_parent = T_believed @ invert_transform(self.T_parent_child)
+                T_child_camera = np.eye(4)
             out.append(
                 MountSnapshot(
                     camera,
                     np.array([p.point for p in pairs]),
                     np.array([p.pixel for p in pairs]),
-                    snap.T_world_camera,  # the believed camera pose: parent of the correction
+                    T_world_parent,
+                    T_child_camera,
                 )
             )
             ids.append(snapshot_id)
         return out, ids
 
     def solve(self, snapshots: dict) -> MountResult:
-        """The correction ``C`` (``result.T_parent_child``) from every complete pair."""
+        """The mount ``M`` (``result.T_parent_child``) from every complete pair, started at
+        the believed mount.
+
+        Every pair must come from snapshots of one camera: the correction is that camera's."""
+        cameras = sorted({snapshots[p.snapshot_id][0].camera for p in self.complete_pairs()})
+        if len(cameras) > 1:
+            raise CalibrationError(
+                f"the points are in snapshots of cameras {', '.join(cameras)}; one camera's "
+                "mount is solved at a time (clear the points and click one camera's snapshots)"
+            )
         mount_snapshots, ids = self._mount_snapshots(snapshots)
-        self.result = solve_mount(mount_snapshots, np.eye(4))
+        self.result = solve_mount(mount_snapshots, self.T_parent_child)
         self.result_ids = ids
         return self.result
 
     def corrected_mount(self) -> np.ndarray:
         if self.result is None:
             raise CalibrationError("solve the mount first")
-        return self.T_parent_child @ self.result.T_parent_child
+        return self.result.T_parent_child
+
+    def change(self) -> tuple[float, float]:
+        """How far the solved mount is from the believed one: (degrees, metres)."""
+        angle, offset = pose_error(self.corrected_mount(), self.T_parent_child)
+        return float(np.degrees(angle)), offset
 
     def residual_table(self) -> str:
         """The residual of every click, as a markdown table."""
@@ -159,15 +203,13 @@ class PoseTool:
             return [mount_path]  # a session file holds one camera model (no zoom changes)
         points: dict[str, np.ndarray] = {}
         entries = []
-        T_child_parent = invert_transform(self.T_parent_child)
         for snapshot, snapshot_id in zip(mount_snapshots, ids, strict=True):
             clicks = {}
             for k, (X, uv) in enumerate(zip(snapshot.points_world, snapshot.pixels, strict=True)):
                 name = f"{snapshot_id}-{k + 1}".replace("/", "_")
                 points[name] = X
                 clicks[name] = (float(uv[0]), float(uv[1]))
-            # parent frame pose at the snapshot: believed camera pose without the nominal mount
-            entries.append((snapshot.T_world_parent @ T_child_parent, np.eye(4), clicks))
+            entries.append((snapshot.T_world_parent, snapshot.T_child_camera, clicks))
         session_path = folder / "pose_tool_session.yaml"
         session_path.write_text(
             session_text(

@@ -10,7 +10,6 @@ import numpy as np
 import viser
 
 from modules.calib.errors import CalibrationError
-from modules.calib.rotations import vector_from_rotation
 from modules.view3d.pose_tool_panel import PoseTool
 from modules.view3d.viewer import SNAPSHOT_SCALE, ViewerPage
 
@@ -53,7 +52,8 @@ class PoseToolWidgets:
         mode = self.mode.value
         n = len(self.tool.pairs)
         if mode == "image point":
-            pair = self.tool.click_image(origin, direction, self.page.snapshots)
+            viewed = str(self.page.snapshot_dropdown.value)
+            pair = self.tool.click_image(origin, direction, self.page.snapshots, prefer=viewed)
             if pair is None:
                 self.note.content = "no snapshot image under that click"
                 return
@@ -109,10 +109,10 @@ class PoseToolWidgets:
                 point_size=0.01,
                 point_shape="diamond",
             )
-        angle = np.degrees(np.linalg.norm(vector_from_rotation(result.T_parent_child[:3, :3])))
-        offset = 1000 * np.linalg.norm(result.T_parent_child[:3, 3])
+        angle, offset = self.tool.change()
         self.note.content = (
-            f"mount corrected by {angle:.2f} deg and {offset:.1f} mm; RMS {result.rms_px:.2f} px"
+            f"mount corrected by {angle:.2f} deg and {1000 * offset:.1f} mm; "
+            f"RMS {result.rms_px:.2f} px"
             f"\n\n{self.tool.residual_table()}"
         )
 

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -174,6 +176,8 @@ class View3D(Module):
         self._updates = 0
         self._skipped_idle = 0
         self._shown: dict[str, object] = {}  # the samples on the page now, by input
+        self._failed = 0  # parts of updates that failed (malformed samples)
+        self._warned: set[str] = set()
         self._stopping = threading.Event()
         self._thread = threading.Thread(
             target=self._pusher, name=f"{self.name}-view3d", daemon=True
@@ -206,6 +210,7 @@ class View3D(Module):
             else {},
             "scene_items": self._scene.count() if hasattr(self, "_scene") else 0,
             "items_refused": getattr(self, "_refused", 0),
+            "update_parts_failed": getattr(self, "_failed", 0),
             "scene_file": str(getattr(self, "_scene_path", "")),
         }
 
@@ -223,13 +228,14 @@ class View3D(Module):
         T_nominal = self._lookup(parent, child, None)
         if T_nominal is None:
             self.log.warning(
-                "pose tool: no static frame %s->%s; the mount is solved as a "
-                "correction of the identity",
+                "pose tool: no static frame %s->%s; the mount is solved starting from the identity",
                 parent,
                 child,
             )
             T_nominal = np.eye(4)
-        tool = PoseTool(parent, child, T_nominal, snapshot_image_depth(self.page))
+        # a parent the static frames tie to the world stays put (a PTU's base); else it moves
+        T_world_parent = self._lookup(self.params.world_frame, parent, None)
+        tool = PoseTool(parent, child, T_nominal, snapshot_image_depth(self.page), T_world_parent)
         self._mounts: list[np.ndarray] = []
         self.pose_tool = PoseToolWidgets(
             self.page, tool, Path(self.context.output_dir), self._mount_saved
@@ -354,44 +360,78 @@ class View3D(Module):
             self.log.warning("cannot save the scene to %s: %s", self._scene_path, error)
 
     def _push(self, latest: dict[str, object]) -> None:
+        """Send what changed to the page. Each part (arm, workcell, solids, each camera) is
+        sent on its own: a malformed sample spoils its own part, never the others."""
         q = latest.get("joint_state")
         T_world_flange = None
-        if isinstance(q, JointState):
-            table = self.params.table
-            T_world_flange = self._T_world_base @ table.fk(q.position)
-        if isinstance(q, JointState) and self._shown.get("joint_state") is not q:
-            self._shown["joint_state"] = q
-            points = arm_joint_points(table, q.position, self._T_world_base, self._T_flange_tool)
-            T_tool = (
-                T_world_flange @ self._T_flange_tool if self._T_flange_tool is not None else None
-            )
-            self.page.set_arm(arm_link_segments(points), points[: table.n + 1], T_tool)
+        with self._part("arm"):
+            if isinstance(q, JointState):
+                table = self.params.table
+                T_world_flange = self._T_world_base @ table.fk(q.position)
+            if isinstance(q, JointState) and self._shown.get("joint_state") is not q:
+                self._shown["joint_state"] = q
+                points = arm_joint_points(
+                    table, q.position, self._T_world_base, self._T_flange_tool
+                )
+                T_tool = (
+                    T_world_flange @ self._T_flange_tool
+                    if self._T_flange_tool is not None
+                    else None
+                )
+                self.page.set_arm(arm_link_segments(points), points[: table.n + 1], T_tool)
         patch = latest.get("patch_pose")
         if isinstance(patch, Pose) and self._shown.get("patch_pose") is not patch:
             self._shown["patch_pose"] = patch
-            self._draw_static(patch)
+            with self._part("workcell"):
+                self._draw_static(patch)
         objects = latest.get("objects")
         if isinstance(objects, SceneObjects) and self._shown.get("objects") is not objects:
             self._shown["objects"] = objects
-            T = self._to_world(objects.frame)
-            poses = T @ np.asarray(objects.poses, dtype=float).reshape(-1, 4, 4)
-            self.page.set_objects(
-                objects.names,
-                objects.kinds,
-                poses,
-                np.asarray(objects.sizes).reshape(-1, 3),
-                np.asarray(objects.colors).reshape(-1, 3),
-            )
+            with self._part("scene objects"):
+                T = self._to_world(objects.frame)
+                poses = np.einsum(
+                    "ij,njk->nik", T, np.asarray(objects.poses, dtype=float).reshape(-1, 4, 4)
+                )
+                refused = self.page.set_objects(
+                    objects.names,
+                    objects.kinds,
+                    poses,
+                    np.asarray(objects.sizes, dtype=float).reshape(-1, 3),
+                    np.asarray(objects.colors).reshape(-1, 3),
+                )
+                if refused:
+                    self._warn_once(
+                        f"solids {refused}",
+                        "3-D view: solids %s not drawn: their pose is not a rotation (or a "
+                        "reflection) with a translation, or their size is not positive",
+                        refused,
+                    )
         for camera in CAMERAS:
-            frustum = self._camera_frustum(camera, latest, T_world_flange)
-            if frustum is None:
-                continue
-            image = latest.get(f"{camera}_image")
-            pixels = None
-            if isinstance(image, Image) and self._shown.get(f"{camera}_image") is not image:
-                self._shown[f"{camera}_image"] = image
-                pixels = np.asarray(image.pixels)
-            self.page.set_camera(camera, frustum, pixels)
+            with self._part(f"camera {camera}"):
+                frustum = self._camera_frustum(camera, latest, T_world_flange)
+                if frustum is None:
+                    continue
+                image = latest.get(f"{camera}_image")
+                pixels = None
+                if isinstance(image, Image) and self._shown.get(f"{camera}_image") is not image:
+                    self._shown[f"{camera}_image"] = image
+                    pixels = np.asarray(image.pixels)
+                self.page.set_camera(camera, frustum, pixels)
+
+    @contextlib.contextmanager
+    def _part(self, what: str) -> Iterator[None]:
+        """Run one part of an update; a failure is logged (once per part and message) and
+        counted, and the update goes on with the next part."""
+        try:
+            yield
+        except (ValueError, TypeError, IndexError, UserError, np.linalg.LinAlgError) as error:
+            self._failed += 1
+            self._warn_once(f"{what}: {error}", "3-D view: %s not updated: %s", what, error)
+
+    def _warn_once(self, key: str, message: str, *args: object) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            self.log.warning(message, *args)
 
     def _camera_frustum(
         self, camera: str, latest: dict[str, object], T_world_flange: np.ndarray | None
@@ -400,7 +440,11 @@ class View3D(Module):
         model = latest.get(f"{camera}_model")
         pose = latest.get(f"{camera}_pose")
         if not isinstance(model, CameraModel):
-            if camera != "wrist":
+            # without a model only the wrist camera is drawn (from wrist_intrinsics), and only
+            # once it has sent video or a pose: a graph without a wrist camera shows none
+            if camera != "wrist" or not (
+                isinstance(latest.get("wrist_image"), Image) or isinstance(pose, Pose)
+            ):
                 return None
             fx, fy, u0, v0, width, height = p.wrist_intrinsics
             model = CameraModel(

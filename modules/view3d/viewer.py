@@ -34,6 +34,7 @@ from modules.view3d.geometry import (
     box_mesh,
     cylinder_mesh,
     interpolate_viewer,
+    solid_pose,
     viewer_pose_from_camera,
     wxyz_from_matrix,
 )
@@ -97,7 +98,11 @@ class ViewerPage:
         self.cameras = {name: CameraState(name) for name in cameras}
         self.snapshots: dict[str, tuple[SceneSnapshot, Frustum]] = {}
         self.meshes: dict[str, Mesh] = {}  #: the model's surfaces, by scene node name
-        self._animations = 0
+        #: per browser (viser client id): the number of its latest viewer move, and the live
+        #: camera its viewer rides with after "View from ..."
+        self._generation: dict[int, int] = {}
+        self._following: dict[int, str] = {}
+        self._moving: set[int] = set()
         self.on_save: Callable[[], str] | None = None
         #: called with a new snapshot taken by a button (the module keeps it in its scene)
         self.on_snapshot: Callable[[SceneSnapshot], None] | None = None
@@ -182,27 +187,103 @@ class ViewerPage:
             -R[:, 1],
         )
 
-    def animate_to(self, client: viser.ClientHandle, target: ViewerPose) -> None:
-        """Move a browser's camera to ``target`` over ``animation_s`` seconds (own thread)."""
+    def animate_to(
+        self,
+        client: viser.ClientHandle,
+        target: ViewerPose | Callable[[], ViewerPose],
+        follow: str | None = None,
+    ) -> None:
+        """Move a browser's camera to ``target`` over ``animation_s`` seconds (own thread).
+
+        ``target`` may be a function, read at every step: the viewer flies to a camera that is
+        moving. With ``follow`` (a live camera's name) the viewer then stays on that camera as
+        it moves (the wrist camera rides the arm) until the next move of this browser's viewer
+        (Overview, another camera or snapshot). A new move cancels one still under way.
+        """
+        goal = target if callable(target) else (lambda: target)
+        with self._lock:
+            self._generation[client.client_id] = generation = (
+                self._generation.get(client.client_id, 0) + 1
+            )
+            self._following.pop(client.client_id, None)
         start = self.current_viewer(client)
 
-        def run() -> None:
+        def current() -> bool:
+            return self._generation.get(client.client_id) == generation
+
+        def fly() -> None:
             steps = max(1, int(self.animation_s * 30))
             for k in range(1, steps + 1):
-                self.set_viewer(client, interpolate_viewer(start, target, k / steps))
+                if not current():
+                    return
+                self.set_viewer(client, interpolate_viewer(start, goal(), k / steps))
                 time.sleep(self.animation_s / steps)
-            self.set_viewer(client, target)
+            if not current():
+                return
+            self.set_viewer(client, goal())
             # the browser reports its camera back as it applies each step; an echo of a step
             # can arrive after the last one, so the target is set once more when it has settled
             time.sleep(0.25)
-            self.set_viewer(client, target)
+            with self._lock:
+                if not current():
+                    return
+                if follow is not None:
+                    self._following[client.client_id] = follow
+            self.set_viewer(client, goal())
+
+        def run() -> None:
+            try:
+                fly()
+            finally:
+                with self._lock:
+                    if current():
+                        self._moving.discard(client.client_id)
+
+        with self._lock:
+            self._moving.add(client.client_id)
 
         threading.Thread(target=run, name="view3d-animate", daemon=True).start()
 
-    def view_from_camera(self, client: viser.ClientHandle, name: str) -> None:
+    def camera_viewer_pose(self, name: str) -> ViewerPose | None:
+        """The viewer pose that sees what live camera ``name`` sees now, or None."""
         frustum = self.cameras[name].frustum
-        if frustum is not None:
-            self.animate_to(client, viewer_pose_from_camera(frustum.T_world_camera, frustum.fov_y))
+        if frustum is None:
+            return None
+        return viewer_pose_from_camera(frustum.T_world_camera, frustum.fov_y)
+
+    def view_from_camera(self, client: viser.ClientHandle, name: str) -> None:
+        """Fly into a live camera's pose and field of view, and stay there as it moves."""
+        if self.cameras[name].frustum is None:
+            return
+        last = [self.camera_viewer_pose(name)]
+
+        def goal() -> ViewerPose:
+            pose = self.camera_viewer_pose(name)
+            if pose is not None:
+                last[0] = pose
+            return last[0]
+
+        self.animate_to(client, goal, follow=name)
+
+    def moving(self, client_id: int) -> bool:
+        """Whether a browser's viewer is being flown somewhere now."""
+        return client_id in self._moving
+
+    def following(self, client_id: int) -> str | None:
+        """The live camera a browser's viewer rides with, or None."""
+        return self._following.get(client_id)
+
+    def _move_followers(self, name: str) -> None:
+        """Keep the viewers that ride with camera ``name`` on its new pose."""
+        if name not in self._following.values():
+            return
+        pose = self.camera_viewer_pose(name)
+        clients = self.server.get_clients()
+        for client_id, camera in list(self._following.items()):
+            if client_id not in clients:
+                self._following.pop(client_id, None)  # the browser has gone
+            elif camera == name and pose is not None:
+                self.set_viewer(clients[client_id], pose)
 
     def view_from_snapshot(self, client: viser.ClientHandle, snapshot_id: str) -> None:
         if snapshot_id in self.snapshots:
@@ -229,11 +310,18 @@ class ViewerPage:
             opacity=opacity,
         )
 
-    def set_objects(self, names, kinds, poses, sizes, colors) -> None:
-        """The world's solids (Active Sketch's scene objects): boxes and cylinders."""
-        for name, kind, T, size, color in zip(names, kinds, poses, sizes, colors, strict=True):
+    def set_objects(self, names, kinds, poses, sizes, colors) -> list[str]:
+        """The world's solids (Active Sketch's scene objects): boxes and cylinders. Returns the
+        names of the solids it could not draw (a pose that is not a rotation or reflection, a
+        size that is not positive and finite); the others are drawn all the same."""
+        refused = []
+        for name, kind, pose, size, color in zip(names, kinds, poses, sizes, colors, strict=True):
             node = f"/objects/{_node(name)}"
-            T = np.asarray(T, dtype=float)
+            T = solid_pose(pose)
+            size = np.asarray(size, dtype=float)
+            if T is None or not (np.all(np.isfinite(size)) and np.all(size > 0)):
+                refused.append(str(name))
+                continue
             rgb = tuple(int(c) for c in color)
             if kind == "cylinder":
                 self.meshes[node] = cylinder_mesh(node, T, float(size[0]), float(size[2]))
@@ -246,7 +334,8 @@ class ViewerPage:
                     position=tuple(T[:3, 3]),
                 )
             else:
-                self.add_box(node, T, np.asarray(size, dtype=float), rgb)
+                self.add_box(node, T, size, rgb)
+        return refused
 
     def set_arm(
         self, segments: np.ndarray, joints: np.ndarray, T_world_tool: np.ndarray | None
@@ -348,6 +437,12 @@ class ViewerPage:
                     handle.image = pixels
             if pixels is not None and image_bgr is not None:
                 state.frames_sent += 1
+            moved = previous is None or not np.array_equal(
+                previous.T_world_camera, frustum.T_world_camera
+            )
+            moved = moved or not np.isclose(previous.fov_y, frustum.fov_y, rtol=0, atol=1e-9)
+        if moved:
+            self._move_followers(name)
 
     def refresh_image(self, name: str) -> None:
         """Send the last image again (after an opacity change)."""

@@ -6,10 +6,12 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import cv2
+import msgspec
 import numpy as np
 import pytest
 
-from connectors.messages import CameraModel, Image
+from connectors.messages import CameraModel, Image, Pose
 from connectors.sketch_messages import SketchBox
 from modules.calib.rotations import vector_from_rotation
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
@@ -162,6 +164,50 @@ def test_video_pixels_inside_the_frustum_projection(view: View) -> None:
     assert count > 5000  # the image covers a real area of the page
 
 
+def test_zoom_narrows_the_frustum_and_its_video(view: View) -> None:
+    """A zoomed camera model (longer focal length) narrows the frustum in the page: the video
+    fills the new, smaller projection and nothing of it is left outside."""
+    _behind_camera(view)
+    wide = _image_quad(view, view.client)
+    zoomed = msgspec.structs.replace(LEFT_MODEL, fx=1200.0, fy=1200.0)
+    narrow_frustum = frustum_from_model(zoomed, T_BASE_CAM_LEFT)
+    corners = narrow_frustum.image_plane_corners(narrow_frustum.image_depth(FRUSTUM_SCALES["left"]))
+    try:
+        view.feed("left_model", zoomed)
+        wait_for(
+            lambda: (
+                abs(view.module.page.cameras["left"].frustum.fov_y - narrow_frustum.fov_y) < 1e-12
+            ),
+            what="the zoomed frustum",
+        )
+
+        def video_in_narrow() -> bool:
+            _behind_camera(view)
+            narrow = project_to_page(view.client, view.canvas, corners)
+            shot = screenshot(view.page)
+            inner = shot[inside_quad(narrow, shot.shape[:2], 6.0)]
+            ring = shot[
+                inside_quad(narrow, shot.shape[:2], -12.0)
+                & ~inside_quad(narrow, shot.shape[:2], -4.0)
+            ]
+            area = cv2.contourArea(narrow.astype(np.float32))
+            return (
+                area < 0.5 * cv2.contourArea(wide.astype(np.float32))
+                # the frustum's edges, seen end on, cross the smaller image: 5 % of it
+                and _fraction_near(inner, MAGENTA, 30) > 0.9
+                and _fraction_near(ring, MAGENTA, 60) < 0.05
+            )
+
+        wait_for(video_in_narrow, what="the video in the narrowed frustum")
+    finally:
+        view.feed("left_model", LEFT_MODEL)
+        wide_fov = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT).fov_y
+        wait_for(
+            lambda: abs(view.module.page.cameras["left"].frustum.fov_y - wide_fov) < 1e-12,
+            what="the frustum back to its width",
+        )
+
+
 def test_transparency_slider_blends_the_video_with_the_model(view: View) -> None:
     """The slider (driven by keys in the page) sets the video's alpha: the page shows the
     model through it, blended pixel by pixel (the green channel: magenta has none)."""
@@ -201,6 +247,20 @@ def test_transparency_slider_blends_the_video_with_the_model(view: View) -> None
     )
 
 
+def _viewer_error(client, T_world_camera: np.ndarray, fov_y: float) -> tuple[float, float, float]:
+    """The viewer against a camera pose, as the browser last reported its camera: metres,
+    degrees, and the field of view's difference (rad)."""
+    cam = client.camera
+    R = matrix_from_wxyz(cam.wxyz)
+    angle = np.degrees(np.linalg.norm(vector_from_rotation(R.T @ T_world_camera[:3, :3])))
+    offset = float(np.linalg.norm(np.asarray(cam.position) - T_world_camera[:3, 3]))
+    return offset, float(angle), abs(cam.fov - fov_y)
+
+
+def _within(e: tuple[float, float, float]) -> bool:
+    return e[0] < 1e-3 and e[1] < 0.1 and e[2] < 1e-6
+
+
 def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
     view.module.page.set_viewer(view.client, view.module.page.overview)
     wait_for(
@@ -213,22 +273,13 @@ def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
     frustum = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT)
 
     def error() -> tuple[float, float, float]:
-        """Viewer against the camera, as the browser last reported its camera: metres,
-        degrees, and the field of view's difference (rad)."""
-        cam = view.client.camera
-        R = matrix_from_wxyz(cam.wxyz)
-        angle = np.degrees(np.linalg.norm(vector_from_rotation(R.T @ T_BASE_CAM_LEFT[:3, :3])))
-        offset = float(np.linalg.norm(np.asarray(cam.position) - T_BASE_CAM_LEFT[:3, 3]))
-        return offset, float(angle), abs(cam.fov - frustum.fov_y)
-
-    def within(e) -> bool:
-        return e[0] < 1e-3 and e[1] < 0.1 and e[2] < 1e-6
+        return _viewer_error(view.client, T_BASE_CAM_LEFT, frustum.fov_y)
 
     # the browser reports its camera as it moves; once there, it stays there
-    wait_value(error, within, what="the viewer at the camera (1 mm, 0.1 deg)")
+    wait_value(error, _within, what="the viewer at the camera (1 mm, 0.1 deg)")
     time.sleep(0.5)
     final = error()
-    assert within(final), final
+    assert _within(final), final
     # and back to the overview, animated (it passes through poses in between)
     view.page.get_by_role("button", name="Overview").click()
     overview = view.module.page.overview
@@ -244,6 +295,59 @@ def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
         lambda: np.linalg.norm(view.client.camera.position - overview.position) < 1e-3,
         what="the overview",
     )
+
+
+def test_camera_view_rides_with_a_moving_camera_until_overview(view: View) -> None:
+    """A wrist camera moves with the arm: "View from" keeps the viewer on the camera as it
+    moves (and a move during the flight changes where the flight ends); "Overview" lets go."""
+    frustum = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT)
+    moved = [
+        T_BASE_CAM_LEFT @ transform_from_xyz_rpy_deg([0.05 * k, -0.03 * k, 0.02], [2 * k, 0, -k])
+        for k in (1, 2, 3)
+    ]
+    try:
+        view.page.get_by_role("button", name="View from left").click()
+        view.feed("left_pose", Pose(matrix=moved[0], parent="base", child="left"))
+        wait_value(
+            lambda: _viewer_error(view.client, moved[0], frustum.fov_y),
+            _within,
+            what="the viewer at the camera's pose of during the flight",
+        )
+        wait_for(
+            lambda: view.module.page.following(view.client.client_id) == "left",
+            what="the flight's end",
+        )
+        view.feed("left_pose", Pose(matrix=moved[1], parent="base", child="left"))
+        wait_value(
+            lambda: _viewer_error(view.client, moved[1], frustum.fov_y),
+            _within,
+            what="the viewer riding with the moved camera (1 mm, 0.1 deg)",
+        )
+        view.page.get_by_role("button", name="Overview").click()
+        overview = view.module.page.overview
+        wait_for(
+            lambda: np.linalg.norm(view.client.camera.position - overview.position) < 1e-3,
+            what="the overview",
+        )
+        view.feed("left_pose", Pose(matrix=moved[2], parent="base", child="left"))
+        wait_for(
+            lambda: (
+                view.module.page.cameras["left"].frustum is not None
+                and np.allclose(view.module.page.cameras["left"].frustum.T_world_camera, moved[2])
+            ),
+            what="the camera moved on the page",
+        )
+        time.sleep(0.5)
+        assert np.linalg.norm(view.client.camera.position - overview.position) < 1e-3
+        assert view.module.page.following(view.client.client_id) is None
+    finally:
+        view.feed("left_pose", Pose(matrix=T_BASE_CAM_LEFT, parent="base", child="left"))
+        wait_for(
+            lambda: np.allclose(
+                view.module.page.cameras["left"].frustum.T_world_camera, T_BASE_CAM_LEFT
+            ),
+            what="the camera back in place",
+        )
 
 
 @pytest.mark.slow

@@ -49,9 +49,20 @@ def test_sketch_items_are_kept_saved_and_reloaded(tmp_path: Path) -> None:
             ),
         )
         h.step(dt=0.05)
+        plane = np.array([[0.3, -0.2, 0.0], [0.5, -0.2, 0.0], [0.5, 0.1, 0.0]])  # table frame
+        h.push(
+            "primitive",
+            SketchPrimitive(primitive_id="pl1", kind="plane", points=plane, frame="table"),
+        )
+        h.step(dt=0.05)
         page = h.module.page
+        nodes = page.server.scene._handle_from_node_name  # viser's scene tree, by node name
         wait_for(
-            lambda: len(page.snapshots) == 2 and "/sketch/boxes/b1" in page.meshes,
+            lambda: (
+                len(page.snapshots) == 2
+                and "/sketch/boxes/b1" in page.meshes
+                and {"/sketch/primitives/l1/edges", "/sketch/primitives/pl1/plane"} <= set(nodes)
+            ),
             timeout=10,
             what="items on the page",
         )
@@ -61,15 +72,23 @@ def test_sketch_items_are_kept_saved_and_reloaded(tmp_path: Path) -> None:
         corners = page.meshes["/sketch/boxes/b1"].vertices
         assert corners[:, 2].min() == pytest.approx(0.25 + 0.1 - 0.05)
         path = Path(h.module.summary()["scene_file"])
-        wait_for(lambda: path.exists() and "l1" in path.read_text(), timeout=10, what="saved")
+        wait_for(lambda: path.exists() and "pl1" in path.read_text(), timeout=10, what="saved")
     scene = load_scene(path)
     assert sorted(scene.snapshots) == ["s1/a", "s1/b"] and list(scene.boxes) == ["b1"]
+    assert sorted(scene.primitives) == ["l1", "pl1"]
+    # the plane came in the table frame: saved in base, 25 cm higher, a parallelogram
+    np.testing.assert_allclose(scene.primitives["pl1"].points[:, 2], 0.25)
+    np.testing.assert_allclose(scene.primitives["pl1"].plane_corners()[3], [0.3, 0.1, 0.25])
     with ModuleHarness(
         View3D, {"port": 0, "load_scene": str(path)}, frames=FRAMES, output_dir=tmp_path / "second"
     ) as h:
         page = h.module.page
         wait_for(
-            lambda: len(page.snapshots) == 2 and "/sketch/boxes/b1" in page.meshes,
+            lambda: (
+                len(page.snapshots) == 2
+                and "/sketch/boxes/b1" in page.meshes
+                and "/sketch/primitives/pl1/plane" in page.server.scene._handle_from_node_name
+            ),
             timeout=10,
             what="items reloaded",
         )
@@ -169,3 +188,43 @@ def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
 
         hit = ray_hit([0.6, 0.0, 1.0], [0, 0, -1.0], list(meshes.values()))
         assert hit.name == "/objects/pipe" and hit.point[2] == pytest.approx(0.34, abs=1e-3)
+
+
+def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
+    """A door whose axes are a reflection (as a world may send) is the same box and is drawn;
+    a scaled pose is not drawn; the other solids and the cameras are drawn in the same
+    update."""
+    from connectors.messages import CameraModel, Pose
+    from connectors.sketch_messages import SceneObjects
+    from modules.view3d.geometry import ray_hit
+
+    mirrored = np.eye(4)
+    mirrored[:3, :3] = np.column_stack([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    mirrored[:3, 3] = [0.9, -0.4, 0.5]
+    scaled = transform_from_xyz_rpy_deg([0.6, 0.5, 0.2], [0, 0, 30])
+    scaled[:3, :3] *= 2.0
+    objects = SceneObjects(
+        names=("door", "package", "crate"),
+        kinds=("box", "box", "box"),
+        poses=np.stack([mirrored, scaled, transform_from_xyz_rpy_deg([0.3, 0, 0.1], [0, 0, 0])]),
+        sizes=np.array([[0.4, 0.02, 0.6], [0.3, 0.2, 0.2], [0.1, 0.1, 0.1]]),
+        colors=np.array([[60, 110, 170], [150, 100, 50], [90, 90, 90]]),
+    )
+    model = CameraModel(fx=600.0, fy=600.0, u0=320.0, v0=240.0, width=640, height=480)
+    params = {"port": 0}
+    with ModuleHarness(View3D, params, frames=FRAMES, output_dir=tmp_path) as h:
+        h.push("objects", objects)
+        h.push("left_model", model)
+        T_left = transform_from_xyz_rpy_deg([0, 0, 1.5], [180, 0, 0])
+        h.push("left_pose", Pose(matrix=T_left, parent="base", child="left"))
+        h.step(dt=0.05)
+        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        meshes = h.module.page.meshes
+        assert {"/objects/door", "/objects/crate"} <= set(meshes)
+        assert "/objects/package" not in meshes
+        # the mirrored door is the same slab: 2 cm thick along world x at x = 0.9
+        hit = ray_hit([2.0, -0.4, 0.5], [-1.0, 0, 0], [meshes["/objects/door"]])
+        assert hit.point[0] == pytest.approx(0.91, abs=1e-9)
+        assert h.module.page.cameras["left"].frustum is not None
+        assert h.module.page.cameras["wrist"].frustum is None  # no wrist camera: none drawn
+        assert h.module.summary()["update_parts_failed"] == 0
