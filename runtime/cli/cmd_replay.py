@@ -12,6 +12,9 @@ from connectors.errors import UserError
 from runtime.cli.common import parse_module_set
 
 NAME = "replay"
+#: Past the recording's last sample [s]: less than any tick period, more than the scheduler's
+#: 1 ns tolerance and the rounding of tick times.
+END_MARGIN = 5e-9
 HELP = "run a graph with recorded outputs in place of the modules that produced them"
 
 
@@ -32,7 +35,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default="sim",
         help="sim: as fast as the machine goes (default); real: at the recorded pace",
     )
-    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="stop after S seconds (default: when the recording ends: a sim recording on the "
+        "sim clock after the tick of its last sample, as the recorded run did; otherwise once "
+        "every replayed sample was sent)",
+    )
     parser.add_argument(
         "--set",
         action="append",
@@ -77,11 +87,19 @@ def main(args: argparse.Namespace) -> int:
             f"{feed.index.clock or '?'} clock)",
             file=sys.stderr,
         )
+    duration = args.duration
+    if duration is None and args.clock == "sim" and feed.index.clock == "sim":
+        # the recorded ticks are the replay's: the tick of the last recorded sample runs, the
+        # next one does not. Otherwise the replay ends once every replayed sample was sent.
+        duration = max(0.0, (feed.index.end_ns - feed.index.t0_ns) / 1e9) + END_MARGIN
     options = SchedulerOptions(
-        clock=args.clock, duration=args.duration, output_dir=out, handle_signals=True
+        clock=args.clock, duration=duration, output_dir=out, handle_signals=True
     )
     result = run_process(plan, options)
     if not args.quiet:
         print(result.table(), file=sys.stderr)
         print(f"summary written to {out}", file=sys.stderr)
+    if feed.error is not None:  # damage found while replaying: the samples before it were sent
+        print(feed.error, file=sys.stderr)
+        return 2
     return result.exit_code

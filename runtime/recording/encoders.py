@@ -255,12 +255,13 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
             channels = {"bgr8": 3, "mono8": 1}.get(raw.encoding)
             if channels is None or raw.step != raw.width * channels:
                 raise ValueError(f"unsupported raw image encoding {raw.encoding!r}")
-            if len(raw.data) != raw.height * raw.step:
+            pixel_bytes = raw.data  # a copy on every access: once
+            if len(pixel_bytes) != raw.height * raw.step:
                 raise ValueError(
-                    f"image data holds {len(raw.data)} bytes, expected {raw.height * raw.step}"
+                    f"image data holds {len(pixel_bytes)} bytes, expected {raw.height * raw.step}"
                 )
             shape = (raw.height, raw.width) if channels == 1 else (raw.height, raw.width, 3)
-            pixels = np.frombuffer(raw.data, dtype=np.uint8).reshape(shape)
+            pixels = np.frombuffer(pixel_bytes, dtype=np.uint8).reshape(shape)
             return msg_type(
                 pixels=pixels, frame=raw.frame_id, stamp=_seconds(raw.timestamp), seq=seq
             )

@@ -1,10 +1,19 @@
 """Any message as JSON with a precise JSON schema: samples with no well-known schema.
 
 The object holds every field of the message (``stamp`` [s] and ``seq`` included) under its own
-name; a numpy array is a nested list of numbers (so a viewer plots ``/servo/twist.vector[2]``), and
-``_arrays`` gives each array's dtype and shape so that reading it back restores the exact array.
-JSON has no NaN or infinity: a non-finite number is written as ``null`` and read back as NaN.
+name; a numpy array is a flat list of numbers in row-major order (so a viewer plots
+``/servo/twist.vector[2]``; booleans as 0 and 1), and ``_arrays`` gives each array's dtype and
+shape so that reading it back restores the exact array. JSON has no NaN or infinity: a non-finite
+number is written as ``null`` and read back as NaN.
+
 The schema is derived from the message type's declared fields, so a type added later gets one too.
+It keeps to what Foxglove and Lichtblick read (their ``parseJsonSchema``: each property has one
+``type`` — boolean, string, number, integer, object with ``properties``, or array whose ``items``
+have one of those types — or the viewer refuses the whole channel): a float is ``number`` (its
+``null`` for a non-finite value is the one thing a strict validator would refuse), a
+``dict[str, float]`` an object of numbers with no fixed properties, an array a list of numbers. A
+field of a type that cannot be said that way is left out of ``properties`` (the schema's
+description names it) rather than making the channel unreadable.
 """
 
 from __future__ import annotations
@@ -22,66 +31,86 @@ from connectors.messages import Message
 SCHEMA_PREFIX = "umbra."
 
 _DECODER = msgspec.json.Decoder()
+_PRIMITIVE = {float: "number", int: "integer", str: "string", bool: "boolean"}
 
 
-def _field_schema(tp: Any) -> dict[str, Any]:
-    """JSON schema of one field type (``float``, ``tuple[str, ...]``, ``np.ndarray``...)."""
-    if tp is float:
-        return {"type": ["number", "null"]}
-    if tp is bool:
-        return {"type": "boolean"}
-    if tp is int:
-        return {"type": "integer"}
-    if tp is str:
-        return {"type": "string"}
+def _field_schema(tp: Any) -> dict[str, Any] | None:
+    """JSON schema of one field type (``float``, ``tuple[str, ...]``, ``np.ndarray``...), or None
+    when viewers cannot be told its type."""
+    if tp in _PRIMITIVE:
+        return {"type": _PRIMITIVE[tp]}
     if tp is np.ndarray:
-        return {"type": "array", "description": "nested lists of numbers; see `_arrays`"}
+        return {
+            "type": "array",
+            "items": {"type": "number"},
+            "description": "row-major; dtype and shape in `_arrays`",
+        }
     origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (types.UnionType, typing.Union):
+        kinds = [a for a in args if a is not type(None)]
+        return _field_schema(kinds[0]) if len(kinds) == 1 else None  # Optional[X]: X or null
     if origin in (tuple, list):
-        return {"type": "array", "items": _field_schema(args[0]) if args else {}}
-    if origin is dict:
-        return {"type": "object", "additionalProperties": _field_schema(args[1])}
-    if origin in (typing.Union, types.UnionType):
-        return {"anyOf": [_field_schema(a) for a in args]}
-    if tp is type(None):
-        return {"type": "null"}
-    return {"description": f"{tp!r} as JSON"}
+        items = {a for a in args if a is not Ellipsis}  # tuple[str, ...], list[float]
+        item = items.pop() if len(items) == 1 else None
+        if item not in _PRIMITIVE:
+            return None
+        return {"type": "array", "items": {"type": _PRIMITIVE[item]}}
+    if origin is dict and len(args) == 2 and args[0] is str and args[1] in _PRIMITIVE:
+        return {
+            "type": "object",
+            "properties": {},
+            "additionalProperties": {"type": _PRIMITIVE[args[1]]},
+        }
+    return None
 
 
 def json_schema(msg_type: type[Message]) -> dict[str, Any]:
     """The JSON schema of ``msg_type`` recorded as JSON (title ``umbra.<Type>``)."""
     props: dict[str, Any] = {}
     required = []
+    untyped = []
+    arrays: dict[str, Any] = {}
     for f in msgspec.structs.fields(msg_type):
-        props[f.name] = _field_schema(f.type)
+        schema = _field_schema(f.type)
+        if schema is None:
+            untyped.append(f.name)
+            continue
+        props[f.name] = schema
+        if f.type is np.ndarray:
+            arrays[f.name] = {
+                "type": "object",
+                "properties": {
+                    "dtype": {"type": "string"},
+                    "shape": {"type": "array", "items": {"type": "integer"}},
+                },
+                "required": ["dtype", "shape"],
+            }
         if f.default is msgspec.NODEFAULT and f.default_factory is msgspec.NODEFAULT:
             required.append(f.name)
     props["_arrays"] = {
         "type": "object",
         "description": "dtype and shape of each array field",
-        "additionalProperties": {
-            "type": "object",
-            "properties": {
-                "dtype": {"type": "string"},
-                "shape": {"type": "array", "items": {"type": "integer"}},
-            },
-            "required": ["dtype", "shape"],
-        },
+        "properties": arrays,
     }
     doc = (msg_type.__doc__ or "").strip().splitlines()
+    description = doc[0] if doc else msg_type.__name__
+    description += " Non-finite numbers are written null."
+    if untyped:
+        description += f" Fields of other types, not listed: {', '.join(untyped)}."
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": SCHEMA_PREFIX + msg_type.__name__,
-        "description": doc[0] if doc else msg_type.__name__,
+        "description": description,
         "type": "object",
         "properties": props,
-        "required": sorted(set(required) | {"stamp", "seq"}),
+        "required": sorted((set(required) | {"stamp", "seq"}) - set(untyped)),
     }
 
 
 def _array_hook(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        flat = obj.reshape(-1)
+        return (flat.astype(np.uint8) if flat.dtype == bool else flat).tolist()
     if isinstance(obj, np.generic):
         return obj.item()
     raise NotImplementedError(f"cannot write {type(obj).__name__} as JSON")

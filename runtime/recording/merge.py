@@ -3,9 +3,10 @@
 Each process of a split run records what it produced (``runtime.recording.tap``) into its part;
 when every process has ended the launcher merges the parts into the run's file: messages in log
 time order (the real clock is ``time.monotonic``, system-wide, so the processes' times compare),
-channels and schemas once each, the graph and frames once, and the recorders' counts summed. A part
-of a killed process reads to its last complete chunk. The parts are removed once the merged file is
-finished; when merging fails they stay, each one a readable recording.
+channels and schemas once each, the graph and frames once, and the recorders' counts summed;
+chunks are compressed as the parts' were. A part of a killed process reads to its last complete
+chunk. The parts are removed once the merged file is finished; when merging fails they stay, each
+one a readable recording.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from pathlib import Path
 from mcap.records import Channel, Message, Schema
 from mcap.writer import CompressionType, Writer
 
-from runtime.recording.reader import RecordingScan, read_records
+from runtime.recording.reader import RecordingScan, indexed_scan, read_records
 from runtime.recording.writer import PROFILE, TF_STATIC
 
 
@@ -26,6 +27,15 @@ def _stream(
 ) -> Iterator[tuple[int, int, int, Channel, Schema | None, Message]]:
     for n, (channel, schema, msg) in enumerate(read_records(path, scan)):
         yield msg.log_time, part, n, channel, schema, msg
+
+
+def _compression(parts: list[Path]) -> CompressionType:
+    """LZ4 unless a part was written uncompressed (raw images, ``writer.RecordingFile``)."""
+    for part in parts:
+        scan = indexed_scan(part)
+        if scan is not None and scan.chunk_indexes and not scan.chunk_indexes[0].compression:
+            return CompressionType.NONE
+    return CompressionType.LZ4
 
 
 def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> dict[str, int]:
@@ -37,7 +47,7 @@ def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> 
     topics: set[str] = set()
     messages = 0
     with open(out, "wb") as f:
-        writer = Writer(f, chunk_size=chunk_size, compression=CompressionType.LZ4)
+        writer = Writer(f, chunk_size=chunk_size, compression=_compression(parts))
         writer.start(profile=PROFILE, library="umbra")
         for log_time, part, _n, channel, schema, msg in heapq.merge(*streams):
             key = (part, channel.id)

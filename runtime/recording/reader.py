@@ -5,19 +5,41 @@ complete: it is read to its last complete record and marked ``finished = False``
 MCAP (foreign), that ends inside a record (truncated), or whose chunk fails its CRC or does not
 decompress (corrupted) is refused with ``FILE: error: ...`` (a ``UserError``: exit status 2, no
 traceback), saying what is wrong and where (byte offset).
+
+A finished recording can also be read through its summary section (:func:`indexed_scan`: channels,
+schemas, statistics, metadata and the chunk index, checked against the summary's CRC, without
+reading a chunk); :func:`read_messages` then reads only the chunks that hold the wanted channels,
+each checked against its CRC as it is read. That is how replay reads: a long recording starts at
+once, and a replay of a few channels does not decompress what it does not feed.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+import struct
+import zlib
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile, InvalidMagic, RecordLengthLimitExceeded
-from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.opcode import Opcode
+from mcap.reader import SeekingReader
+from mcap.records import (
+    Attachment,
+    Channel,
+    Chunk,
+    ChunkIndex,
+    Footer,
+    Header,
+    Message,
+    Metadata,
+    Schema,
+    Statistics,
+)
+from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
 
 from connectors.errors import UserError
 
@@ -64,6 +86,9 @@ class RecordingScan:
     #: False when the file has no footer (the run was killed): read up to its last full record
     finished: bool = False
     messages: int = 0
+    #: from the summary section (:func:`indexed_scan`), else None and empty
+    statistics: Statistics | None = None
+    chunk_indexes: list[ChunkIndex] = field(default_factory=list)
 
 
 def _fail(path: Path, what: str) -> UserError:
@@ -157,3 +182,116 @@ def scan_recording(path: str | Path) -> tuple[RecordingScan, list[tuple[str, int
     scan = RecordingScan(Path(path))
     times = [(ch.topic, msg.log_time) for ch, _s, msg in read_records(path, scan)]
     return scan, times
+
+
+#: Footer record: opcode (1), length (8), summary start (8), summary offset start (8), CRC (4).
+_FOOTER = 1 + 8 + 8 + 8 + 4
+_MAGIC = 8
+
+
+def indexed_scan(path: str | Path) -> RecordingScan | None:
+    """The scan of a finished recording from its summary section alone (no chunk is read), or None
+    when it has no usable one: no footer (a killed run), a summary that fails its CRC, no statistics
+    or no chunk index (another writer). :func:`read_records` then reads the file through and says
+    what is wrong with it, if anything."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size < 2 * _MAGIC + _FOOTER:
+                return None
+            reader = SeekingReader(f, validate_crcs=True, record_size_limit=RECORD_LIMIT)
+            f.seek(size - _MAGIC - _FOOTER)
+            footer = f.read(_FOOTER)
+            if footer[0] != Opcode.FOOTER:
+                return None
+            start, _offsets, crc = struct.unpack_from("<QQI", footer, 9)
+            if start == 0 or start >= size:
+                return None
+            if crc != 0:
+                f.seek(start)
+                if zlib.crc32(f.read(size - _MAGIC - 4 - start)) != crc:
+                    return None
+            summary = reader.get_summary()
+            if summary is None or summary.statistics is None or not summary.chunk_indexes:
+                return None
+            scan = RecordingScan(path, size=size, finished=True)
+            f.seek(_MAGIC)
+            header = Header.read(ReadDataStream(f)) if f.read(9)[:1] == bytes([1]) else None
+            if header is not None:
+                scan.profile, scan.library = header.profile, header.library
+            scan.schemas = dict(summary.schemas)
+            scan.channels = dict(summary.channels)
+            scan.statistics = summary.statistics
+            scan.messages = summary.statistics.message_count
+            scan.chunk_indexes = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+            if any(c.chunk_start_offset + c.chunk_length > start for c in scan.chunk_indexes):
+                return None
+            scan.metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+            scan.attachments = {a.name: a for a in reader.iter_attachments()}
+            return scan
+    except OSError as exc:
+        raise _fail(path, f"cannot read the recording: {exc.strerror}") from None
+    except Exception:  # damage in the summary: the full read says what and where
+        return None
+
+
+def _chunk_messages(
+    f: Any, index: ChunkIndex, wanted: set[int] | None, path: Path, scan: RecordingScan
+) -> Iterator[Message]:
+    """The messages of ``wanted`` channels in the chunk ``index`` points at (CRC checked)."""
+    where = f"the chunk at byte {index.chunk_start_offset} of {scan.size}"
+    try:
+        f.seek(index.chunk_start_offset)
+        head = f.read(9)
+        if len(head) < 9 or head[0] != Opcode.CHUNK:
+            raise ValueError("the chunk index points at no chunk")
+        if int.from_bytes(head[1:9], "little") + 9 != index.chunk_length:
+            raise ValueError("the chunk's length differs from its index entry")
+        records = breakup_chunk(Chunk.read(ReadDataStream(f)), validate_crc=True)
+    except CRCValidationError as exc:
+        raise _fail(path, f"corrupted: {where} fails its checksum ({exc})") from None
+    except Exception as exc:  # lz4, struct and mcap raise their own types on damage
+        raise _fail(path, f"corrupted: cannot read {where}: {type(exc).__name__}: {exc}") from None
+    for record in records:
+        if isinstance(record, Message) and (wanted is None or record.channel_id in wanted):
+            yield record
+
+
+def read_messages(
+    path: str | Path, topics: Iterable[str] | None = None, scan: RecordingScan | None = None
+) -> Iterator[tuple[Channel, Schema | None, Message]]:
+    """``(channel, schema, message)`` of ``topics`` (default all) in file order. With a ``scan``
+    from :func:`indexed_scan`, only the chunks holding those topics are read, each checked against
+    its CRC; otherwise the file is read through (:func:`read_records`). UserError for damage."""
+    wanted_topics = set(topics) if topics is not None else None
+    if scan is None or not scan.chunk_indexes:
+        for channel, schema, msg in read_records(path, scan):
+            if wanted_topics is None or channel.topic in wanted_topics:
+                yield channel, schema, msg
+        return
+    path = Path(path)
+    wanted = (
+        None
+        if wanted_topics is None
+        else {cid for cid, ch in scan.channels.items() if ch.topic in wanted_topics}
+    )
+    try:
+        f = open(path, "rb")  # noqa: SIM115 — closed in finally
+    except OSError as exc:
+        raise _fail(path, f"cannot read the recording: {exc.strerror}") from None
+    try:
+        for index in scan.chunk_indexes:
+            if wanted is not None and wanted.isdisjoint(index.message_index_offsets):
+                continue
+            for msg in _chunk_messages(f, index, wanted, path, scan):
+                channel = scan.channels.get(msg.channel_id)
+                if channel is None:
+                    raise _fail(
+                        path,
+                        f"corrupted: a message in the chunk at byte {index.chunk_start_offset} "
+                        f"names channel {msg.channel_id}, which was never declared",
+                    )
+                yield channel, scan.schemas.get(channel.schema_id), msg
+    finally:
+        f.close()

@@ -13,12 +13,17 @@ Before anything runs, :func:`plan_replay` checks that the graph matches the reco
 replaced module exists, each of its connected outputs was recorded, with the same message type,
 frame and joint names; replay never drives a guarded input (a drive) or stands in for a safety
 guard. Problems are reported as ``umbra check`` reports them (``GRAPH:LINE:COL: error: ...``).
+
+Reading: a finished recording is indexed from its summary section, so the replay starts without
+reading the file through; only the chunks holding the replayed outputs (those that feed a
+connection) are read, each checked against its CRC, on a thread of their own, with images decoded
+by two more threads ahead of the graph. A chunk found damaged on the way stops the replay there
+with ``FILE: error: ...`` and exit status 2 (the samples before it were replayed). A killed run's
+file (no summary) is read through once before anything runs.
 """
 
 from __future__ import annotations
 
-import queue
-import threading
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -32,13 +37,13 @@ from connectors.messages import Image, Message
 from connectors.module import Module
 from runtime.graph.plan import GraphPlan
 from runtime.hints import did_you_mean
-from runtime.recording.reader import RecordingScan, read_records
+from runtime.recording.reader import RecordingScan, indexed_scan, read_records
 from runtime.recording.samples import Sample, channel_type, iter_samples_parallel
 from runtime.recording.tap import topic_of
 from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT
 
-#: Samples read and decoded ahead of the replay.
-PREFETCH = 64
+#: Samples read and decoded ahead of the replay (720p raw: 2.8 MB each).
+PREFETCH = 32
 
 
 @dataclass
@@ -54,13 +59,23 @@ class RecordingIndex:
 
     @classmethod
     def read(cls, path: str | Path) -> RecordingIndex:
-        scan = RecordingScan(Path(path))
+        """From the summary section of a finished recording (no chunk read); a killed run's file
+        (no summary) is read through to its last complete chunk."""
+        scan = indexed_scan(path)
         counts: dict[int, int] = {}
-        first, last = None, 0
-        for channel, _schema, msg in read_records(path, scan):
-            counts[channel.id] = counts.get(channel.id, 0) + 1
-            first = msg.log_time if first is None else min(first, msg.log_time)
-            last = max(last, msg.log_time)
+        first: int | None = None
+        last = 0
+        if scan is not None and scan.statistics is not None:
+            stats = scan.statistics
+            counts = dict(stats.channel_message_counts)
+            if stats.message_count:
+                first, last = stats.message_start_time, stats.message_end_time
+        else:
+            scan = RecordingScan(Path(path))
+            for channel, _schema, msg in read_records(path, scan):
+                counts[channel.id] = counts.get(channel.id, 0) + 1
+                first = msg.log_time if first is None else min(first, msg.log_time)
+                last = max(last, msg.log_time)
         index = cls(scan)
         for cid, channel in scan.channels.items():
             msg_type = channel_type(channel)
@@ -87,44 +102,6 @@ class RecordingIndex:
         return index
 
 
-_END = object()
-
-
-def _prefetched(samples: Iterator[Sample], depth: int = PREFETCH) -> Iterator[Sample]:
-    """``samples`` read and decoded ``depth`` ahead on a thread of their own (reading, LZ4 and
-    JPEG decoding release the GIL, so they overlap the graph's work); its errors re-raised here."""
-    ahead: queue.Queue[Any] = queue.Queue(maxsize=depth)
-    stop = threading.Event()
-
-    def read() -> None:
-        try:
-            for sample in samples:
-                while not stop.is_set():
-                    try:
-                        ahead.put(sample, timeout=0.2)
-                        break
-                    except queue.Full:
-                        continue
-                if stop.is_set():
-                    return
-            ahead.put(_END)
-        except BaseException as exc:  # handed to the reader, raised in its tick
-            ahead.put(exc)
-
-    thread = threading.Thread(target=read, name="umbra-replay-read", daemon=True)
-    thread.start()
-    try:
-        while True:
-            item = ahead.get()
-            if item is _END:
-                return
-            if isinstance(item, BaseException):
-                raise item
-            yield item
-    finally:
-        stop.set()
-
-
 class ReplayFeed:
     """Recorded samples of the replaced outputs, read once in file order, handed out by time."""
 
@@ -132,14 +109,16 @@ class ReplayFeed:
         self, path: Path, index: RecordingIndex, outputs: dict[str, tuple[str, str]], sim: bool
     ) -> None:
         self.path, self.index, self.outputs = path, index, outputs
-        self._samples: Iterator[Sample] = _prefetched(
-            iter_samples_parallel(path, topics=list(outputs))
+        self._samples: Iterator[Sample] = iter_samples_parallel(
+            path, topics=list(outputs), depth=PREFETCH, scan=index.scan
         )
         self._next: Sample | None = None
         self._queues: dict[str, deque[tuple[str, Sample]]] = {}
         self._origin: float | None = 0.0 if sim else None
         self._exhausted = False
         self.sent = 0
+        #: why the replay stopped early (``FILE: error: ...``: damage found while reading)
+        self.error: str | None = None
 
     def _rel_ns(self, now: float) -> int:
         if self._origin is None:
@@ -155,6 +134,10 @@ class ReplayFeed:
                 except StopIteration:
                     self._exhausted = True
                     return
+                except UserError as exc:  # damage past the summary: stop here, say what
+                    self._exhausted = True
+                    self.error = str(exc)
+                    raise
             if self._next.log_ns - t0 > until_ns:
                 return
             module, port = self.outputs[self._next.topic]
@@ -188,6 +171,13 @@ class ReplayFeed:
             and rel > self.index.end_ns - self.index.t0_ns
         )
 
+    def close(self) -> None:
+        """Stop reading (the reading and decoding threads end); call when the run ends."""
+        self._exhausted = True
+        close = getattr(self._samples, "close", None)
+        if close is not None:
+            close()
+
 
 class ReplaySource(Module):
     """Stands in for a recorded module: sends its recorded outputs (see the module docstring)."""
@@ -197,12 +187,23 @@ class ReplaySource(Module):
     def step(self, now: float) -> None:
         feed = type(self).FEED
         assert feed is not None
-        for port, sample in feed.due(self.name, now):
+        if feed.error is not None:
+            return
+        try:
+            due = feed.due(self.name, now)
+        except UserError as exc:  # the recording is damaged here: a user error, exit status 2
+            self.context.request_stop(str(exc), 2)
+            return
+        for port, sample in due:
             self.outputs[port].send(sample)
         if feed.ended(now):
-            self.context.request_stop(
-                f"replay: the recording ends at {feed.index.end_ns / 1e9:.3f} s", 0
-            )
+            span = (feed.index.end_ns - feed.index.t0_ns) / 1e9
+            self.context.request_stop(f"replay: the recording ends at {span:.3f} s", 0)
+
+    def stop(self) -> None:
+        feed = type(self).FEED
+        if feed is not None:
+            feed.close()
 
     def summary(self) -> dict[str, Any]:
         feed = type(self).FEED
@@ -347,11 +348,12 @@ def plan_replay(
     problems = _problems(plan, index, names, path)
     if problems:
         raise CheckFailed(problems)
-    outputs = {
+    fed = {(c.src.module, c.src.port) for c in plan.connections}
+    outputs = {  # an output that feeds nothing is not read, let alone decoded
         topic_of(n, port): (n, port)
         for n in names
         for port in plan.modules[n].outputs
-        if topic_of(n, port) in index.topics
+        if (n, port) in fed and topic_of(n, port) in index.topics
     }
     feed = ReplayFeed(path, index, outputs, sim=clock == "sim")
     for n in names:

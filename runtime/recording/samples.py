@@ -9,7 +9,8 @@ the message and its time.
 
 from __future__ import annotations
 
-from collections import deque
+import queue
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -19,9 +20,9 @@ from typing import Any
 from mcap.records import Channel
 
 from connectors.errors import UserError
-from connectors.messages import Message, message_types
+from connectors.messages import Image, Message, message_types
 from runtime.recording.encoders import decode_primary
-from runtime.recording.reader import RecordingScan, read_records
+from runtime.recording.reader import RecordingScan, read_messages
 from runtime.recording.writer import META_ROLE, META_TYPE
 
 
@@ -45,12 +46,11 @@ def channel_type(channel: Channel) -> type[Message] | None:
 
 def _decoder(
     path: str | Path, topics: set[str] | None, scan: RecordingScan | None
-) -> Iterator[Callable[[], Sample]]:
-    """One job per wanted sample, in file order: calling it decodes the sample."""
+) -> Iterator[tuple[bool, Callable[[], Sample]]]:
+    """One job per wanted sample, in file order: ``(heavy, decode)``; calling ``decode`` decodes
+    the sample, ``heavy`` says it is an image (worth a thread of its own)."""
     types: dict[int, type[Message] | None] = {}
-    for channel, schema, msg in read_records(path, scan):
-        if topics is not None and channel.topic not in topics:
-            continue
+    for channel, schema, msg in read_messages(path, topics, scan):
         if channel.id not in types:
             types[channel.id] = channel_type(channel)
         msg_type = types[channel.id]
@@ -69,33 +69,74 @@ def _decoder(
                 ) from None
             return Sample(channel.topic, msg.log_time, msg.publish_time, sample)
 
-        yield decode
+        yield issubclass(msg_type, Image), decode
 
 
 def iter_samples(
     path: str | Path, topics: Iterable[str] | None = None, scan: RecordingScan | None = None
 ) -> Iterator[Sample]:
-    """Decoded samples in file order (only ``topics`` when given)."""
+    """Decoded samples in file order (only ``topics`` when given; with a ``scan`` from
+    ``reader.indexed_scan``, only the chunks holding them are read)."""
     wanted = set(topics) if topics is not None else None
-    for decode in _decoder(path, wanted, scan):
+    for _heavy, decode in _decoder(path, wanted, scan):
         yield decode()
 
 
+_END = object()
+
+
 def iter_samples_parallel(
-    path: str | Path, topics: Iterable[str] | None = None, workers: int = 2, depth: int = 32
+    path: str | Path,
+    topics: Iterable[str] | None = None,
+    workers: int = 2,
+    depth: int = 16,
+    scan: RecordingScan | None = None,
 ) -> Iterator[Sample]:
-    """As :func:`iter_samples`, decoded by ``workers`` threads at most ``depth`` samples ahead
-    (JPEG and PNG decoding release the GIL), still in file order."""
+    """As :func:`iter_samples`, read ahead on a thread of its own and images decoded by
+    ``workers`` threads (reading, LZ4, CRC and JPEG decoding release the GIL, so they overlap the
+    caller's work), at most ``depth`` samples ahead, still in file order. An error of the file
+    is raised here, after the samples before it."""
     wanted = set(topics) if topics is not None else None
-    with ThreadPoolExecutor(workers, thread_name_prefix="umbra-decode") as pool:
-        pending: deque[Future[Sample]] = deque()
+    ahead: queue.Queue[Any] = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="umbra-decode")
+
+    def put(item: Any) -> bool:
+        while not stop.is_set():
+            try:
+                ahead.put(item, timeout=0.2)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def read() -> None:
         try:
-            for decode in _decoder(path, wanted, None):
-                pending.append(pool.submit(decode))
-                if len(pending) >= depth:
-                    yield pending.popleft().result()
-            while pending:
-                yield pending.popleft().result()
-        finally:
-            for job in pending:
-                job.cancel()
+            for heavy, decode in _decoder(path, wanted, scan):
+                if heavy:
+                    job: Future[Sample] = pool.submit(decode)
+                else:  # a JSON or pose sample decodes in microseconds: not worth a hand-over
+                    job = Future()
+                    try:
+                        job.set_result(decode())
+                    except BaseException as exc:
+                        job.set_exception(exc)
+                if not put(job):
+                    return
+            put(_END)
+        except BaseException as exc:  # handed to the consumer, raised in its thread
+            put(exc)
+
+    reader = threading.Thread(target=read, name="umbra-read", daemon=True)
+    reader.start()
+    try:
+        while True:
+            item = ahead.get()
+            if item is _END:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield item.result()
+    finally:
+        stop.set()
+        pool.shutdown(wait=False, cancel_futures=True)

@@ -144,19 +144,24 @@ class RunRecorder:
         self.process = opts.process
         self.clock = scheduler.clock.kind
         self.path = part_path(opts.output_dir, settings, opts.process)
+        outputs = [
+            (module, port, settings.choice(module, port), self.plan.modules[module].outputs[port])
+            for module, port in recorded_outputs(self.plan, set(scheduler.modules))
+        ]
+        outputs = [o for o in outputs if o[2] != "off"]
+        # raw pixels do not compress: LZ4 would cost the recorder and every reader time for less
+        # than a percent; JPEG/PNG images and the rest stay small either way
+        raw_images = any(c == "raw" and issubclass(i.msg_type, Image) for _m, _p, c, i in outputs)
         self.file = RecordingFile(
             self.path,
             blocking=self.clock == "sim",
             jpeg_quality=settings.jpeg_quality,
+            compress=not raw_images,
             log=opts.log,
         )
         self.topics: list[str] = []
         self.moving_frames: set[str] = set()  # children of recorded poses
-        for module, port in recorded_outputs(self.plan, set(scheduler.modules)):
-            choice = settings.choice(module, port)
-            if choice == "off":
-                continue
-            info = self.plan.modules[module].outputs[port]
+        for module, port, choice, info in outputs:
             is_image = issubclass(info.msg_type, Image)
             topic = topic_of(module, port)
             meta = {

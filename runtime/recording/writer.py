@@ -8,7 +8,8 @@ holds a tick back; on the sim clock time is virtual, so the tick waits for room 
 recording is complete.
 
 The recorder's thread runs at a lower CPU priority (nice ``WRITER_NICE``), so the loop's thread
-gets the CPU first when it wakes. The file is chunked (LZ4) and
+gets the CPU first when it wakes. The file is chunked (LZ4, or uncompressed with ``compress=False``:
+raw camera pixels do not compress, LZ4 only costs time on both sides) and
 flushed at least every ``flush_period`` seconds of wall time, so a
 run that is killed leaves a file whose complete chunks read back (``runtime.recording.reader``):
 it loses at most the last chunk. ``close`` writes the counts and drops as metadata
@@ -82,6 +83,7 @@ class RecordingFile:
         chunk_size: int = 1024 * 1024,
         flush_period: float = 1.0,
         jpeg_quality: int = 90,
+        compress: bool = True,
         log: logging.Logger | None = None,
     ) -> None:
         self.path = Path(path)
@@ -90,7 +92,8 @@ class RecordingFile:
             self._file: BinaryIO = open(self.path, "wb")  # noqa: SIM115 — closed by the thread
         except OSError as exc:
             raise UserError(f"{path}: error: cannot write the recording: {exc.strerror}") from None
-        self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.LZ4)
+        compression = CompressionType.LZ4 if compress else CompressionType.NONE
+        self._writer = Writer(self._file, chunk_size=chunk_size, compression=compression)
         self._writer.start(profile=PROFILE, library="umbra")
         self._log = log or logging.getLogger("umbra.record")
         self._blocking = blocking

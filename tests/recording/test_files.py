@@ -110,11 +110,21 @@ def test_bad_files_are_refused_with_file_error_and_exit_2(
         bad.write_bytes(good[:8] + good[8 : 8 + 1 + 8 + 4 + 5 + 4 + 5])  # magic + header
         scan_size = len(bad.read_bytes())
         assert scan_size < 64
-    for command in (["record-info", str(bad)], ["replay", str(bad), str(GRAPH)]):
+    replay = ["replay", str(bad), str(GRAPH), "--out", str(tmp_path / "replay"), "--quiet"]
+    for command in (["record-info", str(bad)], replay):
         code, out, err = _cli(capsys, *command)
         assert code == 2, (command, out, err)
         (line,) = [x for x in err.splitlines() if x.startswith(f"{bad}: error: ")]
         assert expected in line and "Traceback" not in err
+    # a finished file is indexed from its summary: a damaged chunk is found when replay reaches
+    # it (the samples before it were replayed); any other damage is refused before anything runs
+    ran = (tmp_path / "replay" / "summary.json").exists()
+    assert ran == (damage == "corrupted")
+    if ran:
+        summary = json.loads((tmp_path / "replay" / "summary.json").read_text())
+        assert summary["exit_code"] == 2 and summary["reason"].startswith(f"{bad}: error: corr")
+        camera = next(m for m in summary["modules"] if m["module"] == "camera")
+        assert 0 < camera["sent"] < 45 + 45  # some images and truth contours, not all of them
 
 
 def test_header_only_file_is_what_the_test_thinks(pickup_run: Run) -> None:

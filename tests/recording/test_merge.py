@@ -16,8 +16,15 @@ from runtime.recording.samples import iter_samples
 from runtime.recording.writer import RecordingFile
 
 
-def _part(path: Path, process: str, topic: str, times: list[float], finish: bool = True) -> None:
-    rec = RecordingFile(path, blocking=True, chunk_size=2048, flush_period=0.0)
+def _part(
+    path: Path,
+    process: str,
+    topic: str,
+    times: list[float],
+    finish: bool = True,
+    compress: bool = True,
+) -> None:
+    rec = RecordingFile(path, blocking=True, chunk_size=2048, flush_period=0.0, compress=compress)
     rec.add_metadata("umbra.run", {"graph": "g", "process": process, "t0_ns": "1000000000"})
     rec.add_attachment("graph.yaml", "application/yaml", b"graph: g\n")
     rec.write_static_frames([("base", "table", np.eye(4))], times[0])
@@ -59,6 +66,18 @@ def test_parts_merge_in_time_order_with_static_frames_and_attachments_once(
     samples = list(iter_samples(out))
     twists = [s.message for s in samples if s.topic == "/servo/twist"]
     assert [t.vector[0] for t in twists] == list(range(30)) and twists[0].frame == "tool"
+    assert {c.compression for c in summary.chunk_indexes} == {"lz4"}
+
+
+def test_parts_written_uncompressed_merge_uncompressed(tmp_path: Path) -> None:
+    a, b = tmp_path / "rec-umbra.mcap", tmp_path / "rec-smart.mcap"
+    _part(a, "umbra", "/servo/twist", [1.0 + i / 30 for i in range(30)], compress=False)
+    _part(b, "smart", "/joints/value", [1.0 + i / 100 for i in range(100)])
+    merge_parts([a, b], tmp_path / "rec.mcap")
+    with open(tmp_path / "rec.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert {c.compression for c in summary.chunk_indexes} == {""}
+    assert summary.statistics.message_count == 131
 
 
 def test_a_killed_process_part_merges_up_to_its_last_chunk(tmp_path: Path) -> None:

@@ -50,6 +50,8 @@ def test_every_channel_has_a_schema_and_the_file_says_what_made_it(pickup_run: R
     assert meta["umbra.recording"]["dropped"] == "0"
     assert json.loads(meta["umbra.frames"]["flange->tool"])[2][3] == 0.14
     assert attachments["graph.yaml"] == GRAPH.read_bytes()
+    # raw pixels do not compress: chunks are left uncompressed (LZ4 only cost time)
+    assert {c.compression for c in summary.chunk_indexes} == {""}
 
 
 def test_images_are_the_frames_the_camera_sent(pickup_run: Run) -> None:
@@ -115,3 +117,64 @@ def test_joint_rates_are_json_valid_against_their_schema_and_exact(pickup_run: R
         assert obj["rates"] == sample.rates.tolist() and tuple(obj["names"]) == sample.names
         moving += bool(np.any(sample.rates != 0))
     assert moving > 20  # the arm was moving: the numbers are not all zeros
+
+
+def test_each_image_output_is_recorded_as_its_link_asks(tmp_path: Path) -> None:
+    """`record.ports` chooses per output: the camera lossless (PNG), the drawn view as JPEG, the
+    truth not at all; what is not named follows `record.images` (raw here: none left)."""
+    import cv2
+
+    from runtime.graph.check import load_graph
+    from tests.recording.conftest import run_graph
+
+    graph = tmp_path / "views.yaml"
+    graph.write_text(
+        "graph: views\nclock: sim\nseed: 1\n"
+        "record: {images: raw, ports: {camera.image: png, view.overlay: jpeg, camera.truth: off}}\n"
+        "modules:\n"
+        "  camera: {type: DigiCam, rate: 10, params: {source: sim, width: 160, height: 120,"
+        " fx: 140, fy: 140, u0: 80, v0: 60}}\n"
+        "  view: {type: Overlay}\n  show: {type: Printer, params: {max_rate_hz: 0.1}}\n"
+        "  truth: {type: Printer, params: {max_rate_hz: 0.1}}\n"
+        "connections: [camera.image -> view.image, view.overlay -> show.value,"
+        " camera.truth -> truth.value]\n"
+    )
+    watched = [("camera", "image"), ("view", "overlay")]
+    run = run_graph(load_graph(graph), tmp_path / "run", duration=0.5, watched=watched)
+    images = _decoded(run.recording, "/camera/image")
+    views = _decoded(run.recording, "/view/overlay")
+    assert len(images) == len(views) == 5
+    for (_t, png), (_now, sample) in zip(images, run.sent["camera.image"], strict=True):
+        assert png.format == "png"
+        pixels = cv2.imdecode(np.frombuffer(png.data, np.uint8), cv2.IMREAD_UNCHANGED)
+        assert np.array_equal(pixels, sample.pixels)  # lossless
+    for (_t, jpeg), (_now, sample) in zip(views, run.sent["view.overlay"], strict=True):
+        assert jpeg.format == "jpeg" and jpeg.data[:2] == b"\xff\xd8"
+        pixels = cv2.imdecode(np.frombuffer(jpeg.data, np.uint8), cv2.IMREAD_UNCHANGED)
+        error = np.abs(pixels.astype(int) - sample.pixels.astype(int))
+        assert pixels.shape == sample.pixels.shape and 0 < error.mean() < 3.0  # lossy, close
+    with open(run.recording, "rb") as f:
+        summary = make_reader(f).get_summary()
+    topics = {c.topic for c in summary.channels.values()}
+    assert "/camera/truth" not in topics and "/camera/truth/annotations" not in topics
+    assert {c.compression for c in summary.chunk_indexes} == {"lz4"}  # no raw image in it
+
+
+def test_every_json_channel_is_one_the_viewers_read_and_the_errors_plot(pickup_run: Run) -> None:
+    from tests.recording.viewer_rules import viewer_datatypes
+
+    with open(pickup_run.recording, "rb") as f:
+        summary = make_reader(f).get_summary()
+    json_topics = []
+    for channel in summary.channels.values():
+        schema = summary.schemas[channel.schema_id]
+        if schema.encoding == "jsonschema":
+            viewer_datatypes(json.loads(schema.data), schema.name)  # raises where a viewer would
+            json_topics.append(channel.topic)
+    assert {"/servo/status", "/servo/twist", "/joints/joint_state"} <= set(json_topics)
+    sent = pickup_run.sent.get("servo.twist")
+    _schema, twists = _json(pickup_run.recording, "/servo/twist")
+    assert [m["vector"][2] for _t, m in twists] == [s.vector[2] for _now, s in sent]
+    _schema, statuses = _json(pickup_run.recording, "/servo/status")
+    z = [m["values"]["error_z"] for _t, m in statuses if "error_z" in m["values"]]
+    assert len(z) > 20 and z[-1] < z[0] - 0.05  # /servo/status.values.error_z: the approach

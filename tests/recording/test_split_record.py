@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -45,4 +46,9 @@ def test_a_split_run_records_both_processes_into_one_file(tmp_path: Path) -> Non
     assert "/kinematics/joint_rates" in by_process["smart"]
     assert meta["umbra.run"]["clock"] == "real" and meta["umbra.recording"]["dropped"] == "0"
     rates = [s for s in iter_samples(out / "recording.mcap", ["/kinematics/joint_rates"])]
-    assert len(rates) > 300  # 100 Hz for about 4 s
+    smart = json.loads((out / "summary-smart.json").read_text())
+    calls = next(m for m in smart["modules"] if m["module"] == "kinematics")["calls"]
+    # every command the kinematics sent (one a step, and the safe stop's zero), however many
+    # steps a loaded machine let it run in 4 s
+    assert calls <= len(rates) <= calls + 1 and calls > 100
+    assert len(by_process["smart"]) == smart["recording"]["topics"]  # each output it recorded
