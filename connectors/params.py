@@ -10,19 +10,26 @@ A module declares its parameters as a nested class::
 (``ge``, ``gt``, ``le``, ``lt``, ``min_length``...). Choices are ``Literal`` types.
 Degrees and millimetres appear only in parameters named so (``roll_tolerance_deg``).
 
-Every float is finite (``.inf``, ``nan``, ``1e999``, ``Infinity`` are rejected, in lists too) unless
-its declaration says ``allow_inf_nan=True``. A check across parameters raises
-:class:`ParamProblem` naming the parameter at fault, so ``umbra check`` points at its line.
+Every float is finite (``.inf``, ``nan``, ``1e999``, ``Infinity`` are rejected, in lists too)
+unless its declaration says ``allow_inf_nan=True``. A number is never a boolean: ``timeout: true``
+or ``max_linear: yes`` is an error, not 1.0 (pydantic alone would take ``true`` for 1).
+A check across parameters raises :class:`ParamProblem` naming the parameter at fault, so
+``umbra check`` points at its line.
 A module whose safety depends on its rate overrides :meth:`Parameters.rate_problem`.
+A file the module writes is declared ``RunFile``: a path inside the run folder (or empty: none).
 """
 
 from __future__ import annotations
 
+import types
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Literal, get_args, get_origin
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 import pydantic
-from pydantic import ConfigDict, Field
+from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo
+
+from connectors.user_files import run_file_problem
 
 
 class Parameters(pydantic.BaseModel):
@@ -31,6 +38,15 @@ class Parameters(pydantic.BaseModel):
     model_config = ConfigDict(
         extra="forbid", frozen=True, arbitrary_types_allowed=True, allow_inf_nan=False
     )
+
+    @pydantic.field_validator("*", mode="before")
+    @classmethod
+    def _numbers_are_not_booleans(cls, value: Any, info: ValidationInfo) -> Any:
+        """``true``/``false`` where the declaration wants a number is a mistake, not 1 or 0."""
+        field = cls.model_fields.get(info.field_name or "")
+        if field is not None and _boolean_for_number(value, field.annotation):
+            raise ValueError("expected a number, found a boolean (true/false)")
+        return value
 
     def required_frames(self) -> list[tuple[str, str]]:
         """``(parent, child)`` pairs the graph's static frames must join for the module to start
@@ -41,6 +57,42 @@ class Parameters(pydantic.BaseModel):
         """Why the module cannot work at graph ``rate`` ``rate_hz`` [Hz] (None: triggered only);
         empty when it can. A watchdog says so when it would tick slower than its timeout."""
         return ""
+
+
+def _inside_run_folder(path: str) -> str:
+    why = run_file_problem(path) if path else ""
+    if why:
+        raise ValueError(f"path {path!r} {why}")
+    return path
+
+
+#: A file a module writes, relative to the run's output folder; empty: no file.
+RunFile = Annotated[str, AfterValidator(_inside_run_folder)]
+
+
+def _boolean_for_number(value: Any, annotation: Any) -> bool:
+    """Whether ``value`` holds a boolean where ``annotation`` wants an int or a float (in
+    lists, tuples and mapping values too)."""
+    origin = get_origin(annotation)
+    if annotation in (int, float):
+        return isinstance(value, bool)
+    if origin is Annotated:
+        return _boolean_for_number(value, get_args(annotation)[0])
+    if origin in (Union, types.UnionType):
+        members = get_args(annotation)
+        if bool in members or Any in members:
+            return False
+        return any(_boolean_for_number(value, m) for m in members)
+    args = get_args(annotation)
+    if origin in (list, set, frozenset) and args and isinstance(value, list | tuple | set):
+        return any(_boolean_for_number(v, args[0]) for v in value)
+    if origin is tuple and args and isinstance(value, list | tuple):
+        if len(args) == 2 and args[1] is Ellipsis:
+            return any(_boolean_for_number(v, args[0]) for v in value)
+        return any(_boolean_for_number(v, a) for v, a in zip(value, args, strict=False))
+    if origin is dict and len(args) == 2 and isinstance(value, Mapping):
+        return any(_boolean_for_number(v, args[1]) for v in value.values())
+    return False
 
 
 class ParamProblem(ValueError):

@@ -5,6 +5,9 @@ expected are refused before anything is read (a FIFO is opened without blocking)
 (a byte-order mark is allowed, and UTF-16/32 files that start with one are decoded); anything else
 is an error naming the line of the first bad byte. Every failure is a :class:`UserError` reading
 ``FILE: error: ...`` or ``FILE:LINE: error: ...``.
+
+Files a graph *writes* (a recording, a plot, a video) are named relative to the run folder and
+stay inside it: :func:`run_file_problem` refuses absolute paths and ``..``.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from __future__ import annotations
 import codecs
 import os
 import stat
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from connectors.errors import UserError
 
@@ -80,6 +83,20 @@ def decode_text(data: bytes, source: str) -> str:
 def read_text(path: str | Path, what: str, max_bytes: int = MAX_TEXT_BYTES) -> str:
     """The text of regular file ``path``, bounded and decoded as :func:`decode_text` says."""
     return decode_text(read_bytes(path, what, max_bytes), str(path))
+
+
+def run_file_problem(path: str) -> str:
+    """Why ``path`` does not name a file inside the run folder; empty when it does."""
+    if not path.strip():
+        return "is empty"
+    if "\x00" in path:
+        return "holds a NUL character"
+    posix = PurePosixPath(path.replace("\\", "/"))
+    if posix.is_absolute() or (len(path) > 1 and path[1] == ":"):
+        return "is absolute; files a graph writes stay in the run folder (give a relative path)"
+    if ".." in posix.parts:
+        return "leaves the run folder (`..`); files a graph writes stay in the run folder"
+    return ""
 
 
 def _kind(mode: int) -> str:

@@ -48,6 +48,7 @@ from runtime.hints import did_you_mean
 from runtime.links.auth import RunCredentials
 from runtime.links.config import (
     Endpoints,
+    check_config_file,
     check_endpoint,
     default_mesh,
     file_endpoints,
@@ -71,8 +72,9 @@ STOP_GRACE = 5.0
 #: Extra seconds given to a process told to ``finish`` (it drains its inputs first).
 FINISH_EXTRA = 6.0
 _POLL = 0.02
-#: Seconds between looks at the shared memory each child maps (``runtime.links.shm_sweep``).
-SHM_LOOK_PERIOD = 1.0
+#: Seconds between looks at the shared memory each child maps (``runtime.links.shm_sweep``):
+#: a segment mapped less than this before a child dies may be missed (a look costs ~1.5 ms).
+SHM_LOOK_PERIOD = 0.5
 
 
 def main(
@@ -123,6 +125,12 @@ def _config_file(plan: GraphPlan, args: argparse.Namespace) -> str | None:
     return None
 
 
+def _graph_links(plan: GraphPlan) -> str:
+    """``FILE:LINE`` of the graph's ``links:`` section (where its endpoints come from)."""
+    loc = plan.spec.links.loc
+    return f"{loc.file}:{loc.line}" if loc is not None else str(plan.spec.file)
+
+
 def _endpoints(values: list[str], where: str) -> list[str]:
     return [check_endpoint(v, where) for v in values]
 
@@ -154,17 +162,20 @@ def run_one(
     endpoints = Endpoints(
         _endpoints(args.listen, "--listen"), _endpoints(args.connect, "--connect")
     )
+    origin = "--listen/--connect"
     if endpoints.empty:
         endpoints = Endpoints(
             _endpoints(plan.spec.links.listen, "links.listen"),
             _endpoints(plan.spec.links.connect, "links.connect"),
         )
+        origin = _graph_links(plan)
     if endpoints.empty and config_file:
         endpoints = file_endpoints(config_file)
+        origin = config_file
     if endpoints.empty:
         endpoints = default_mesh(have)[name]
     check_exposure(
-        endpoints.listen, endpoints.connect, bool(getattr(args, "insecure", False)), "umbra run"
+        endpoints.listen, endpoints.connect, bool(getattr(args, "insecure", False)), origin
     )
     supervised = bool(getattr(args, "supervised", False))
     options = ProcessOptions(
@@ -307,10 +318,16 @@ class Supervisor:
             plan.spec.links.connect, "links.connect"
         )
         insecure = bool(getattr(args, "insecure", False))
-        check_exposure(extra_listen, extra_connect, insecure, "umbra run")
+        given = args.listen or args.connect
+        check_exposure(
+            extra_listen,
+            extra_connect,
+            insecure,
+            "--listen/--connect" if given else _graph_links(plan),
+        )
         if config_file:
-            for name in names:
-                config_for(config_file, name)  # every process has its file: say so now
+            for name in names:  # every process has a file zenoh accepts: say so now
+                check_config_file(config_for(config_file, name))
         if not insecure:
             self.credentials = RunCredentials(plan)
         servo = servo_processes(plan)
@@ -413,7 +430,7 @@ class Supervisor:
         verdict: tuple[int, str] | None = None
         abort_rest_at: float | None = None
         interrupts_seen = 0
-        next_look = time.monotonic() + 0.5
+        next_look = time.monotonic() + SHM_LOOK_PERIOD
         while True:
             now = time.monotonic()
             ended = []

@@ -60,16 +60,24 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(f"--out: {out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()):
         raise UserError(f"--out: {out} is not empty; give a new folder (keys are never mixed)")
-    written = write_keys(plan, out, args.days, _hosts(args.host, processes))
+    hosts = _hosts(args.host, processes)
+    written = write_keys(plan, out, args.days, hosts)
     print(f"wrote {len(written)} files to {out}:", file=sys.stderr)
     for path in written:
         print(f"  {path}", file=sys.stderr)
-    first = processes[0]
+    # the process given an address listens (the first one when none is); the others connect
+    listener = next(iter(hosts), processes[0])
+    address = hosts[listener][0] if listener in hosts else f"HOST-OF-{listener.upper()}"
+    connects = "".join(
+        f"\n  umbra run {args.graph} --process {p} --zenoh-config {out}/ "
+        f"--connect tls/{address}:7447"
+        for p in processes
+        if p != listener
+    )
     print(
         f"copy {out}/ to each host (it holds every process's private key: keep it private), "
-        f"then e.g.\n  umbra run {args.graph} --process {first} --zenoh-config {out}/ "
-        f"--listen tls/0.0.0.0:7447\n  umbra run {args.graph} --process {processes[1]} "
-        f"--zenoh-config {out}/ --connect tls/HOST-OF-{first.upper()}:7447\n"
+        f"then e.g.\n  umbra run {args.graph} --process {listener} --zenoh-config {out}/ "
+        f"--listen tls/0.0.0.0:7447{connects}\n"
         f"or on one host: umbra run {args.graph} --zenoh-config {out}/",
         file=sys.stderr,
     )

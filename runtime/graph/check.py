@@ -8,6 +8,7 @@ safety guards on the command path to a joint driver.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pydantic
@@ -54,6 +55,7 @@ class _Checker:
         self.check_scheduling()
         order = self.check_loops()
         self.check_guards()
+        self.check_zenoh_config()
         outputs = {
             n: set(m.outputs) if (m := self.modules.get(n)) else None for n in self.spec.modules
         }
@@ -384,6 +386,28 @@ class _Checker:
         return plan is None or module in unknown or plan.cls.SAFETY_GUARD
 
     # -- links ----------------------------------------------------------------------------------
+    def check_zenoh_config(self) -> None:
+        """``links.zenoh_config`` (relative to the graph file) is a zenoh configuration file, or
+        a folder written by ``umbra keys`` with one for every process: ``run`` would refuse it
+        only once the processes start."""
+        links = self.spec.links
+        if not links.zenoh_config:
+            return
+        from runtime.links.config import check_config_file
+        from runtime.links.exposure import config_for
+
+        path = Path(links.zenoh_config)
+        if not path.is_absolute():
+            path = Path(self.spec.file).parent / path
+        loc = links.zenoh_config_loc or links.loc or Location(self.spec.file, 1, 1)
+        processes = sorted({m.process for m in self.spec.modules.values()})
+        try:
+            for process in processes:
+                check_config_file(config_for(str(path), process))
+        except UserError as exc:
+            where, _, reason = str(exc).partition(": error: ")
+            self.error(loc, f"`links.zenoh_config`: {where}: {reason or where}")
+
     def links(self, plan: GraphPlan) -> list[LinkPlan]:
         out = []
         for conn in self.connections:

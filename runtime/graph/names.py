@@ -65,6 +65,38 @@ def endpoint_problem(endpoint: str) -> str:
     return ""
 
 
+#: Protocols whose links are encrypted and authenticated by certificates.
+TLS_PROTOCOLS = ("tls", "quic")
+#: Protocols whose links never leave this host (a Unix socket or pipe: a path, not an address).
+HOST_PROTOCOLS = ("unixsock-stream", "unixpipe")
+
+
+def endpoint_host(endpoint: str) -> tuple[str, str]:
+    """``(protocol, host)`` of a zenoh endpoint ``proto/host:port[?...][#...]``."""
+    protocol, _, rest = endpoint.partition("/")
+    address = rest.split("#", 1)[0].split("?", 1)[0]
+    if address.startswith("["):  # [v6]:port
+        return protocol, address[1 : address.find("]")]
+    return protocol, address.rsplit(":", 1)[0]
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` names this host only."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False  # a host name: it may resolve anywhere
+
+
+def plain_beyond_host(endpoint: str) -> bool:
+    """Whether ``endpoint`` is reachable from beyond this host without TLS (plain TCP, UDP,
+    websockets... on an address that is not loopback: ``0.0.0.0`` and host names included)."""
+    protocol, host = endpoint_host(endpoint)
+    return not (protocol in TLS_PROTOCOLS or protocol in HOST_PROTOCOLS or is_loopback(host))
+
+
 def _is_ip(text: str, version: int) -> bool:
     try:
         return ipaddress.ip_address(text).version == version

@@ -31,7 +31,12 @@ from connectors.frames import transform_from_xyz_rpy
 from connectors.limits import MAX_RATE_HZ, MIN_RATE_HZ
 from connectors.user_files import read_bytes
 from runtime.graph.located_yaml import MAX_BYTES, YList, YMap, load_located
-from runtime.graph.names import MAX_NAME_CHARS, endpoint_problem, key_prefix_problem
+from runtime.graph.names import (
+    MAX_NAME_CHARS,
+    endpoint_problem,
+    key_prefix_problem,
+    plain_beyond_host,
+)
 from runtime.graph.spec import (
     DEFAULT_PROCESS,
     ConnectionSpec,
@@ -426,6 +431,21 @@ class _Parser:
             bad = [(v, loc) for v, loc in zip(value, item_locs, strict=True) if endpoint_problem(v)]
             for endpoint, loc in bad:
                 self.error(loc, f"`links.{key}`: {endpoint_problem(endpoint)}")
+            exposed = [
+                (v, loc)
+                for v, loc in zip(value, item_locs, strict=True)
+                if not endpoint_problem(v) and plain_beyond_host(v)
+            ]
+            for endpoint, loc in exposed:
+                self.error(
+                    loc,
+                    f"`links.{key}`: `{endpoint}` is reachable beyond this host without TLS, "
+                    "where anyone who reaches it could drive the graph",
+                    "use `tls/` endpoints with the keys of `umbra keys GRAPH --out keys/` "
+                    "(`links.zenoh_config: keys/`); plain TCP beyond loopback only on the "
+                    "command line, with --listen/--connect and --insecure",
+                )
+            bad += exposed
             if not bad:
                 setattr(settings, key, list(value))
         for key in ("prefix", "zenoh_config"):
@@ -438,6 +458,8 @@ class _Parser:
                     )
                 else:
                     setattr(settings, key, section[key])
+                    if key == "zenoh_config":
+                        settings.zenoh_config_loc = section.val_loc[key]
         if "dispatch" in section:
             value = section["dispatch"]
             if value not in DISPATCH_MODES:

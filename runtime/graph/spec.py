@@ -81,6 +81,7 @@ class LinkSettings:
     #: once; "loop": always handed to the process's loop thread (see ``runtime.scheduler``).
     dispatch: str = "inline"
     loc: Location | None = None
+    zenoh_config_loc: Location | None = None
 
 
 @dataclass

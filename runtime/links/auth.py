@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
 import shutil
 import stat
@@ -29,8 +30,13 @@ from typing import Any
 import zenoh
 
 from connectors.errors import UserError
+from connectors.user_files import read_text
 from runtime.graph.plan import GraphPlan
 from runtime.links.acl import by_username, zenoh_acl
+
+_ZID_RE = re.compile(r"^[0-9a-f]{1,32}$")
+#: Largest link credentials file [bytes] (the rules of a graph of many processes fit easily).
+MAX_AUTH_BYTES = 4_000_000
 
 
 class RunCredentials:
@@ -85,9 +91,9 @@ def load_auth(path: str) -> dict[str, Any]:
     file = Path(path)
     try:
         mode = file.stat().st_mode
-        text = file.read_text()
     except OSError as exc:
         raise UserError(f"{path}: error: cannot read the link credentials: {exc}") from None
+    text = read_text(file, "link credentials file", MAX_AUTH_BYTES)
     if mode & (stat.S_IRWXG | stat.S_IRWXO):
         raise UserError(
             f"{path}: error: link credentials must be private (mode 0600), "
@@ -98,6 +104,11 @@ def load_auth(path: str) -> dict[str, Any]:
         for field in ("user", "password", "dictionary_file"):
             if not isinstance(auth[field], str) or not auth[field]:
                 raise ValueError(f"`{field}` must be a non-empty string")
+        zid = auth.get("zid")
+        if zid is not None and not (isinstance(zid, str) and _ZID_RE.match(zid)):
+            raise ValueError("`zid` must be a zenoh id (1 to 32 hex digits)")
+        if not isinstance(auth.get("access_control", {}), dict):
+            raise ValueError("`access_control` must be a mapping")
     except (ValueError, KeyError, TypeError) as exc:
         raise UserError(
             f"{path}: error: expected link credentials (user, password, dictionary_file), "
@@ -109,8 +120,11 @@ def load_auth(path: str) -> dict[str, Any]:
 def apply_auth(cfg: zenoh.Config, auth: dict[str, Any]) -> None:
     """Put ``auth`` (``load_auth``) into ``cfg``: password authentication and the graph's rules."""
     usrpwd = {k: auth[k] for k in ("user", "password", "dictionary_file")}
-    cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
-    if auth.get("zid"):
-        cfg.insert_json5("id", json.dumps(auth["zid"]))
-    if auth.get("access_control"):
-        cfg.insert_json5("access_control", json.dumps(auth["access_control"]))
+    try:
+        cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
+        if auth.get("zid"):
+            cfg.insert_json5("id", json.dumps(auth["zid"]))
+        if auth.get("access_control"):
+            cfg.insert_json5("access_control", json.dumps(auth["access_control"]))
+    except Exception as exc:  # zenoh refuses a value: the file is not what the launcher wrote
+        raise UserError(f"error: link credentials zenoh does not accept: {exc}") from None

@@ -26,6 +26,7 @@ from typing import Any
 import zenoh
 
 from connectors.errors import UserError
+from connectors.user_files import read_text
 from runtime.links.auth import apply_auth
 
 #: Lease of a zenoh link [ms]: a peer that sends nothing for this long is declared gone.
@@ -100,16 +101,36 @@ def _json(value: object) -> str:
     return json.dumps(value)
 
 
+#: Largest zenoh configuration file read [bytes].
+MAX_CONFIG_BYTES = 1_000_000
+_PARSER_AT = re.compile(r"-->\s*(\d+):(\d+)")
+_PARSER_WHY = re.compile(r"^\s*=\s*(.*?)(?: at /\S+)?\.?\s*$", re.MULTILINE)
+
+
 def _user_config(path: str) -> zenoh.Config:
     file = Path(path)
-    if not file.is_file():
-        raise UserError(f"{path}: error: no such zenoh configuration file (JSON5)")
+    read_text(file, "zenoh configuration file (JSON5)", MAX_CONFIG_BYTES)  # a bounded file
     try:
         cfg = zenoh.Config.from_file(str(file))
     except Exception as exc:  # zenoh raises ZError with its parser's message
-        raise UserError(f"{path}: error: not a valid zenoh configuration: {exc}") from None
+        raise UserError(_parser_error(path, str(exc))) from None
     _resolve_tls_files(cfg, file.resolve().parent)
     return cfg
+
+
+def _parser_error(path: str, text: str) -> str:
+    """zenoh's (multi-line) parser message as one ``FILE[:LINE:COL]: error:`` line."""
+    at = _PARSER_AT.search(text)
+    why = _PARSER_WHY.search(text)
+    where = f"{path}:{at.group(1)}:{at.group(2)}" if at else path
+    reason = why.group(1) if why else " ".join(text.split())[:200]
+    return f"{where}: error: not a valid zenoh configuration: {reason}"
+
+
+def check_config_file(path: str) -> None:
+    """UserError when ``path`` cannot be a zenoh configuration (missing, unreadable, not JSON5,
+    a setting zenoh refuses), before anything starts."""
+    build_config(Endpoints(), path)
 
 
 #: Zenoh TLS settings that name files.

@@ -1,23 +1,21 @@
 """Secure by default beyond loopback: no plain-text endpoint off this host unless asked for.
 
-An endpoint on a loopback address (``127.0.0.0/8``, ``::1``, ``localhost``) is reachable from
-this host only; any other address (``0.0.0.0`` and ``[::]`` included) is reachable from the
-network, where a link must use TLS (``tls/`` or ``quic/`` endpoints, with the certificates that
-``umbra keys`` makes) so that only the graph's processes can open it. ``--insecure`` lifts this.
+An endpoint on a loopback address (``127.0.0.0/8``, ``::1``, ``localhost``) or a Unix socket
+(``unixsock-stream/PATH``) is reachable from this host only; any other address (``0.0.0.0`` and
+``[::]`` included) is reachable from the network, where a link must use TLS (``tls/`` or
+``quic/`` endpoints, with the certificates that ``umbra keys`` makes) so that only the graph's
+processes can open it. ``--insecure`` lifts this.
 """
 
 from __future__ import annotations
 
-import ipaddress
 import json
 from pathlib import Path
 
 import zenoh
 
 from connectors.errors import UserError
-
-#: Protocols whose links are encrypted and authenticated by certificates.
-TLS_PROTOCOLS = ("tls", "quic")
+from runtime.graph.names import plain_beyond_host
 
 HOW_TO_TLS = (
     "make a CA, a certificate per process and the graph's access rules with "
@@ -28,38 +26,19 @@ HOW_TO_TLS = (
 )
 
 
-def endpoint_host(endpoint: str) -> tuple[str, str]:
-    """``(protocol, host)`` of a zenoh endpoint ``proto/host:port[?...][#...]``."""
-    protocol, _, rest = endpoint.partition("/")
-    address = rest.split("#", 1)[0].split("?", 1)[0]
-    if address.startswith("["):  # [v6]:port
-        return protocol, address[1 : address.find("]")]
-    return protocol, address.rsplit(":", 1)[0]
-
-
-def is_loopback(host: str) -> bool:
-    """Whether ``host`` names this host only."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False  # a host name: it may resolve anywhere
-
-
 def check_exposure(listen: list[str], connect: list[str], insecure: bool, where: str) -> None:
-    """UserError naming the first plain endpoint beyond loopback (unless ``insecure``)."""
+    """UserError naming the first plain endpoint beyond loopback (unless ``insecure``);
+    ``where`` says where the endpoints come from (``--listen/--connect``, a file)."""
     if insecure:
         return
-    for kind, endpoints in (("listening on", listen), ("connecting to", connect)):
+    for kind, endpoints in (("listen on", listen), ("connect to", connect)):
         for endpoint in endpoints:
-            protocol, host = endpoint_host(endpoint)
-            if protocol in TLS_PROTOCOLS or is_loopback(host):
+            if not plain_beyond_host(endpoint):
                 continue
             raise UserError(
-                f"{where}: refusing {kind} `{endpoint}` without TLS: it is reachable beyond "
-                f"this host, and anyone who reaches it could drive the graph. To run across "
-                f"hosts securely, {HOW_TO_TLS}"
+                f"{where}: error: refusing to {kind} `{endpoint}` without TLS: it is reachable "
+                f"beyond this host, and anyone who reaches it could drive the graph. To run "
+                f"across hosts securely, {HOW_TO_TLS}"
             )
 
 

@@ -31,16 +31,17 @@ def alive_key(prefix: str, process: str, marker: str = "none", session: str = "n
 
 
 def parse_alive_key(key: str) -> tuple[str, str, str] | None:
-    """``(process, marker, session)`` of a token key; None when it is not one of ours."""
+    """``(process, marker, session)`` of a token key; None when it is not one of ours.
+
+    Read from the end (``.../_alive/PROCESS/MARKER/SESSION``), so a key prefix that itself holds
+    an ``_alive`` chunk (``--prefix umbra/_alive``) still names its processes."""
     parts = key.split("/")
-    try:
-        at = parts.index(ALIVE)
-    except ValueError:
+    if len(parts) < 4 or parts[-4] != ALIVE:
         return None
-    rest = parts[at + 1 :]
-    if len(rest) != 3 or not all(rest):
+    process, marker, session = parts[-3:]
+    if not (process and marker and session):
         return None
-    return rest[0], rest[1], rest[2]
+    return process, marker, session
 
 
 @dataclass

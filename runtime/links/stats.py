@@ -56,6 +56,7 @@ class SubscribeStats:
     foreign: int = 0  #: samples from a session other than the producer's live one (dropped)
     after_gone: int = 0  #: samples while the producer was declared gone (dropped, never revive)
     unattributed: int = 0  #: samples before the producer's token was seen (dropped)
+    held: int = 0  #: samples that beat their producer's token, held and then let through
     oversize: int = 0  #: samples larger than ``max_bytes`` (dropped before decoding)
     implausible: int = 0  #: sequence numbers out of range or jumping too far ahead (dropped)
     max_bytes: int = 0  #: the largest sample this link accepts [bytes]
@@ -84,6 +85,7 @@ class SubscribeStats:
             "foreign": self.foreign,
             "after_gone": self.after_gone,
             "unattributed": self.unattributed,
+            "held": self.held,
             "oversize": self.oversize,
             "implausible": self.implausible,
             "max_bytes": self.max_bytes,

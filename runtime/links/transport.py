@@ -15,7 +15,9 @@ Trust: a consumer accepts a sample only from the live session of the process the
 the link's producer (others are counted as foreign and dropped; a producer declared gone stays
 gone until its token comes back, whatever arrives meanwhile), only when its size is within the
 link's bound (``runtime.links.bounds``; checked before anything is copied or decoded), and only
-with a plausible sequence number, tracked per producer session.
+with a plausible sequence number, tracked per producer session. A sample that overtakes its
+producer's token (a new session's first samples may) is held briefly and let through, in order,
+only once the token names its session.
 
 Commands never drop: a reliable link (every type but ``Image``) publishes with congestion control
 BLOCK; video may drop old frames: best-effort links use DROP. Both are ``express`` (no batching
@@ -33,6 +35,7 @@ import itertools
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from functools import partial
 from typing import Any
@@ -73,6 +76,12 @@ MAX_SEQ = 2**48
 MAX_SEQ_JUMP = 2**20
 #: Source ids (publishers) remembered per producer session: a producer has one or two per key.
 MAX_SOURCE_IDS = 8
+#: Samples a link holds while its producer's token has not arrived yet (a sample may overtake
+#: the token on the way): let through, in order, if the token comes within ``MAX_HOLD_S`` and
+#: names their session; dropped and counted otherwise.
+MAX_HELD = 64
+#: Longest a sample waits for its producer's token [s]: a command that waited longer is old.
+MAX_HOLD_S = 0.1
 
 __all__ = ["ALIVE", "ZenohTransport", "alive_key"]
 
@@ -136,6 +145,8 @@ class ZenohTransport:
         self._alive: set[str] = set()
         self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
         self._sessions = Sessions()
+        #: per producing process: what lets the samples held for its token go (``subscribe``)
+        self._releasers: dict[str, list[Callable[[], None]]] = {}
         self._session_id = str(session.zid())
         self._producer_params = {
             link.key: plan.modules[link.connection.src.module].params for link in plan.links
@@ -176,8 +187,8 @@ class ZenohTransport:
         if parsed is None:
             return
         name, marker, session = parsed
-        if name == self.process:
-            return
+        if name == self.process or name not in self._proc_index:
+            return  # this process, or a name the graph does not have: nobody to track
         up = sample.kind == zenoh.SampleKind.PUT
         if up and not self._sessions.token_up(name, session):
             self._log.warning(
@@ -200,6 +211,9 @@ class ZenohTransport:
             else:
                 self._alive.discard(name)
             self._state_changed()
+        if up:
+            for release in self._releasers.get(name, ()):
+                release()
         if up and not known:
             self._log.info("process `%s` is up (session %s)", name, session)
         elif not up and known:
@@ -446,17 +460,35 @@ class ZenohTransport:
         live, gone = self._sessions.live, self._sessions.gone
         trust, refused = _Trust(), self._refused
 
-        def attributed(sample: zenoh.Sample) -> bool:
+        held: deque[tuple[float, zenoh.Sample, bool]] = deque()
+        holding = threading.Lock()
+
+        def unowned(was_gone: bool, count: int = 1) -> None:
+            """Count (``count`` 1) or un-count (-1) a sample that came while no session of the
+            producer was live."""
+            if was_gone:
+                stats.after_gone += count
+            else:
+                stats.unattributed += count
+
+        def refuse_unowned(was_gone: bool) -> None:
+            if was_gone:
+                refused(stats, f"`{producer}` was declared gone; only its return revives it")
+            else:
+                refused(stats, f"`{producer}` has not announced its session yet")
+
+        def attributed(sample: zenoh.Sample) -> bool | None:
             """Whether ``sample`` comes from the live session of the link's producer (counted
-            when not)."""
+            when not); None when it is held for the producer's token (counted as refused until
+            the token lets it through)."""
             current = live.get(producer)  # type: ignore[arg-type]
-            if current is None:  # not up yet, or declared gone: nobody drives the link
-                if producer in gone:
-                    stats.after_gone += 1
-                    refused(stats, f"`{producer}` was declared gone; only its return revives it")
-                else:
-                    stats.unattributed += 1
-                    refused(stats, f"`{producer}` has not announced its session yet")
+            if current is None:  # not up yet, or declared gone: nobody drives the link now
+                was_gone = producer in gone
+                unowned(was_gone)
+                if len(held) < MAX_HELD:
+                    held.append((monotonic(), sample, was_gone))
+                    return None
+                refuse_unowned(was_gone)
                 return False
             info = sample.source_info
             if info is None:
@@ -481,7 +513,39 @@ class ZenohTransport:
 
         checks = self.checks
 
+        def let_go(now: float) -> None:
+            """Let the held samples go, oldest first (caller holds ``holding``): those that
+            waited too long are dropped; the others are judged again now that a session may be
+            live — never reviving anything, only the token does."""
+            while held:
+                at, sample, was_gone = held[0]
+                if live.get(producer) is None and now - at < MAX_HOLD_S:  # type: ignore[arg-type]
+                    return  # still waiting for the token
+                held.popleft()
+                if now - at >= MAX_HOLD_S:
+                    refuse_unowned(was_gone)  # counted when it came
+                    continue
+                unowned(was_gone, -1)  # judged again, as if it came now
+                before = stats.received
+                handle(sample)
+                stats.held += stats.received - before
+
+        def let_go_now() -> None:
+            with holding:
+                let_go(monotonic())
+
+        if producer is not None:
+            self._releasers.setdefault(producer, []).append(let_go_now)
+
         def on_sample(sample: zenoh.Sample) -> None:
+            if held:  # samples wait for the producer's token: they go first, in order
+                with holding:
+                    let_go(monotonic())
+                    handle(sample)
+                return
+            handle(sample)
+
+        def handle(sample: zenoh.Sample) -> None:
             if checks:
                 info = sample.source_info
                 if (

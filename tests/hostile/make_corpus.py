@@ -141,6 +141,11 @@ def graphs() -> None:
             "unknown parameter `timout`.*did you mean",
         ),
         "reg_timeout_float_tag": ("timeout: !!float fast", "bad value for tag"),
+        "reg_timeout_bool": ("timeout: true", "timeout.*expected a number, found a boolean"),
+        "reg_max_linear_yes": (
+            "timeout: 0.1, max_linear: yes",
+            "max_linear.*expected a number, found a boolean",
+        ),
     }
     for name, (params, error) in reg_params.items():
         graph_case(name, {reg: reg.replace("timeout: 0.1", params)}, "reg:", error)
@@ -287,12 +292,28 @@ def graphs() -> None:
         ("endpoint_no_protocol", "127.0.0.1:7447", "expected a zenoh endpoint"),
         ("endpoint_bad_host", "tcp/exa mple:7447", "is not an IP address or a host name"),
         ("endpoint_bad_ipv6", "tcp/[::zz]:7447", "is not an IP address"),
+        ("endpoint_plain_any", "tcp/0.0.0.0:7447", "reachable beyond this host without TLS"),
+        ("endpoint_plain_v6_any", "tcp/[::]:7447", "reachable beyond this host without TLS"),
+        ("endpoint_plain_name", "udp/robot.local:7447", "reachable beyond this host without TLS"),
     ):
         graph_case(
             name,
             {"graph: hostile_arm\n": f"graph: hostile_arm\nlinks: {{listen: ['{endpoint}']}}\n"},
             "links:",
             f"`links.listen`: .*{error}",
+        )
+    write("graphs/bad_zenoh.json5", "{ mode: 'emperor' }\n")
+    for name, config, error in (
+        ("zenoh_config_missing", "no_such.json5", "no such file"),
+        ("zenoh_config_bad", "bad_zenoh.json5", "not a valid zenoh configuration"),
+        ("zenoh_config_dev_zero", "/dev/zero", "not a regular file"),
+        ("zenoh_config_folder_without_keys", "../dh", "no zenoh configuration for process"),
+    ):
+        graph_case(
+            name,
+            {"graph: hostile_arm\n": f"graph: hostile_arm\nlinks: {{zenoh_config: '{config}'}}\n"},
+            "links:",
+            f"`links.zenoh_config`: .*{error}",
         )
     graph_case(
         "graph_name_space",
@@ -554,6 +575,12 @@ def sets() -> None:
         ("timeout_nan", "reg.timeout=nan", r"^--set reg.timeout: error: .*finite number"),
         ("timeout_NaN_yaml", "reg.timeout=.NaN", r"^--set reg.timeout: error: .*finite number"),
         ("timeout_zero", "reg.timeout=0", r"^--set reg.timeout: error: .*greater than 0"),
+        ("timeout_true", "reg.timeout=true", r"^--set reg.timeout: error: .*found a boolean"),
+        (
+            "initial_q_bool",
+            "jnts.initial_q_deg=[10, 50, -170, 5, 40, false]",
+            r"^--set jnts.initial_q_deg: error: .*found a boolean",
+        ),
         ("timeout_10s", "reg.timeout=10", r"^--set reg.timeout: error: .*less than or equal to 1"),
         (
             "max_linear_1e9",

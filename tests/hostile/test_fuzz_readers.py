@@ -27,11 +27,14 @@ from modules.arm.dh import DHError
 from modules.arm.dh_yaml import dh_table_from_yaml_text
 from modules.calib.camera_file import parse_cameras
 from modules.calib.correspondences import parse_correspondences
+from modules.calib.pose_tool_file import parse_session
 from modules.calib.zoom_xml import parse_zoom_xml
 from modules.calib.zoom_yaml import parse_zoom_yaml
 from modules.vision.image_file import read_image
 from runtime.graph.check import check_text
-from runtime.graph.names import endpoint_problem, key_prefix_problem
+from runtime.graph.names import endpoint_problem, key_prefix_problem, plain_beyond_host
+from runtime.links.auth import load_auth
+from runtime.links.config import Endpoints, build_config
 
 CORPUS = Path(__file__).parent / "corpus"
 REPO = Path(__file__).resolve().parents[2]
@@ -246,4 +249,61 @@ def test_key_prefixes_and_endpoints(text: str) -> None:
     """The checks answer with text for anything; what they accept has no zenoh wildcard."""
     if not key_prefix_problem(text):
         assert not set("*$?#") & set(text) and "//" not in text
-    endpoint_problem(text)
+    if not endpoint_problem(text):  # a valid endpoint is judged without failing
+        assert isinstance(plain_beyond_host(text), bool)
+
+
+SESSION_OK = b"""mount: flange->camera
+camera: {fx: 800, fy: 800, skew: 0, u0: 320, v0: 240, k1: 0, k2: 0, p1: 0, p2: 0, k3: 0}
+points:
+  a: [0.1, 0.0, 0.5]
+  b: [0.0, 0.1, 0.5]
+  c: [-0.1, 0.0, 0.6]
+snapshots:
+  - parent: {xyz: [0, 0, 0], rpy_deg: [0, 0, 0]}
+    clicks: {a: [480.0, 240.0], b: [320.0, 400.0], c: [186.7, 240.0]}
+"""
+
+
+@FUZZ
+@given(st.one_of(mutated(SESSION_OK), documents().map(str.encode)))
+def test_pose_tool_session_reader(data: bytes) -> None:
+    assert_user_error(lambda: parse_session(text_of(data), "session.yaml"), "session.yaml")
+
+
+CREDENTIALS_OK = b'{"user": "smart", "password": "0123abcd", "dictionary_file": "d.txt"}'
+
+
+@FUZZ
+@given(st.one_of(mutated(CREDENTIALS_OK), st.binary(max_size=200)))
+def test_link_credentials_reader(data: bytes) -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "auth.json"
+        path.write_bytes(data)
+        path.chmod(0o600)
+        assert_user_error(lambda: load_auth(str(path)), str(path))
+
+
+ZENOH_OK = b"""{
+  mode: "peer",
+  transport: {link: {tls: {root_ca_certificate: "ca.pem", enable_mtls: true}}},
+  access_control: {enabled: false, default_permission: "deny"},
+}
+"""
+
+
+@FUZZ
+@given(st.one_of(mutated(ZENOH_OK), st.binary(max_size=200)))
+def test_zenoh_configuration_reader(data: bytes) -> None:
+    """A user's zenoh file: read, or refused naming the file; endpoints and safety settings are
+    always ours (scouting stays off)."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "z.json5"
+        path.write_bytes(data)
+        try:
+            cfg = build_config(Endpoints(listen=["tcp/127.0.0.1:0"]), str(path))
+        except UserError as exc:
+            assert located(str(exc), str(path)) and "\n" not in str(exc), str(exc)
+        else:
+            assert cfg.get_json("scouting/multicast/enabled") == "false"
+            assert cfg.get_json("listen/endpoints") == '["tcp/127.0.0.1:0"]'

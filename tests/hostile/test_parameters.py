@@ -16,6 +16,7 @@ import pytest
 
 from connectors.errors import CheckFailed
 from connectors.limits import MAX_RATE_HZ
+from connectors.params import Parameters, RunFile, param
 from modules.arm.dh import puma560
 from modules.arm.jacobian import jacobian_and_pose
 from runtime.cli.cmd_describe import describe
@@ -73,6 +74,61 @@ def test_every_float_parameter_of_every_module_is_finite(bad: Any) -> None:
         else:
             accepted.append(f"{type_name}.{field_name} accepted {value!r}")
     assert not accepted, "\n".join(accepted)
+
+
+def test_no_number_parameter_of_any_module_takes_a_boolean() -> None:
+    registry, accepted = Registry(), []
+    for type_name, field_name, default in FLOAT_FIELDS:
+        params_cls = registry.get(type_name).Params
+        field = params_cls.model_fields[field_name]
+        value = _hostile_value(field.annotation, default, True)  # type: ignore[arg-type]
+        try:
+            params_cls(**{field_name: value})
+        except pydantic.ValidationError as exc:
+            if "found a boolean" not in str(exc):
+                accepted.append(f"{type_name}.{field_name}: {exc}")
+        else:
+            accepted.append(f"{type_name}.{field_name} accepted {value!r}")
+    assert not accepted, "\n".join(accepted)
+
+
+def test_a_boolean_for_a_number_is_refused_at_its_line(capsys) -> None:
+    text = ARM_GRAPH.replace("params: {timeout: 0.1}", "params: {timeout: true}")
+    (problem,) = _problems(text)
+    assert problem == (
+        "g.yaml:6:53: error: parameter `timeout` of `reg`: "
+        "expected a number, found a boolean (true/false)"
+    )
+    graph = CORPUS / "graphs" / "set_base.yaml"
+    argv = ["run", str(graph), "--clock", "sim", "--duration", "0.1", "--quiet"]
+    assert main([*argv, "--set", "reg.max_linear=yes"]) == 2
+    assert "`max_linear` of `reg`: expected a number, found a boolean" in capsys.readouterr().err
+    assert main([*argv, "--set", "jnts.initial_q_deg=[0, 90, -90, 0, 0, false]"]) == 2
+    assert "found a boolean" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("path", "ok"),
+    [
+        ("plot.png", True),
+        ("plots/errors.png", True),
+        ("", True),  # no file
+        ("../plot.png", False),
+        ("plots/../../plot.png", False),
+        ("/tmp/plot.png", False),
+        ("C:\\plot.png", False),
+        ("..\\..\\plot.png", False),
+    ],
+)
+def test_a_file_a_module_writes_stays_in_the_run_folder(path: str, ok: bool) -> None:
+    class Writes(Parameters):
+        path: RunFile = param("plot.png", "output file")
+
+    if ok:
+        assert Writes(path=path).path == path
+    else:
+        with pytest.raises(pydantic.ValidationError, match="run folder"):
+            Writes(path=path)
 
 
 @pytest.mark.parametrize(

@@ -14,6 +14,9 @@ import numpy as np
 from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import JointState, Scalar, Status, Twist
 
+#: Joint motion [rad] beyond which ArmWatch says the arm moved (far below a 0.1 mm step).
+MOVED_RAD = 1e-6
+
 
 class LinkWatch(Module):
     """A watchdog on one input: healthy while the producer is alive and the latest sample is at
@@ -127,8 +130,9 @@ class TwistSource(Module):
 
 
 class ArmWatch(Module):
-    """Watches the servo side: how far the joints moved from where they started [rad], the
-    longest gap between two of its own steps [s, wall time], and the guard's verdicts."""
+    """Watches the servo side: how far the joints moved from where they started [rad] and when
+    they first moved, the longest gap between two of its own steps [s, wall time], and the
+    guard's verdicts. Times are ``time.monotonic()``, which every process of a host shares."""
 
     TYPE = "ArmWatch"
 
@@ -138,11 +142,13 @@ class ArmWatch(Module):
     def start(self) -> None:
         self.q0: np.ndarray | None = None
         self.moved = 0.0
+        self.first_moved_at = math.nan  # when the joints first moved (time.monotonic)
         self.max_gap = 0.0
         self.max_gap_at = math.nan  # when it ended (time.monotonic)
         self.long_gaps: list[tuple[float, float]] = []  # (end [monotonic s], gap [s]) > 15 ms
         self._last_wall: float | None = None
         self.zeroed = 0  # times the guard went from passing to zero
+        self.zeroed_at: list[float] = []  # when each happened (time.monotonic), first 100
         self._passing = False
         self._seen_status = -1
 
@@ -161,12 +167,16 @@ class ArmWatch(Module):
             if self.q0 is None:
                 self.q0 = q.copy()
             self.moved = max(self.moved, float(np.max(np.abs(q - self.q0))))
+            if self.moved > MOVED_RAD and math.isnan(self.first_moved_at):
+                self.first_moved_at = round(wall, 4)
         status = self.guard.get(now)
         if status is not None and self.guard.seq != self._seen_status:
             self._seen_status = self.guard.seq
             passing = status.stage == "passing"
             if self._passing and not passing:
                 self.zeroed += 1
+                if len(self.zeroed_at) < 100:
+                    self.zeroed_at.append(round(time.monotonic(), 4))
                 self.log.info("guard zeroed: %s", status.reason or status.message)
             elif passing and not self._passing:
                 self.log.info("guard passing")
@@ -175,8 +185,10 @@ class ArmWatch(Module):
     def summary(self) -> dict[str, object]:
         return {
             "moved_rad": self.moved,
+            "first_moved_at": self.first_moved_at,
             "max_gap_s": self.max_gap,
             "max_gap_at": self.max_gap_at,
             "long_gaps": self.long_gaps,
             "zeroed": self.zeroed,
+            "zeroed_at": self.zeroed_at,
         }

@@ -115,10 +115,10 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
             for size in (64 << 20, 512 << 10) * 3:
                 pub.put(b"\x00" * size, source_info=source)
             time.sleep(0.5)  # the genuine commands keep flowing after the noise
-            assert not any("guard zeroed" in line for line in consumer.stderr), consumer.text
             # 4. the producer is killed; its recorded samples and new commands are replayed
             replay = [s.payload.to_bytes() for s in overheard[-20:]]
             spy.undeclare()
+            killed_at = time.monotonic()
             os.kill(producer.popen.pid, signal.SIGKILL)
             consumer.wait_for("process `umbra` is gone", timeout=5)
             for i in range(25):
@@ -138,7 +138,11 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
     arm = _module(summary, "arm")
     assert arm["moved_rad"] < 1e-9  # the arm never followed a foreign command
     assert _gaps_within(arm, attack_start, attack_end) < 2 * PERIOD, arm["long_gaps"]
-    assert arm["zeroed"] == 1  # once: when the producer was killed, not before
+    # the guard held through the noise and zeroed once, when the producer was killed
+    assert [t for t in arm["zeroed_at"] if t >= attack_start] == [
+        t for t in arm["zeroed_at"] if t >= killed_at
+    ]
+    assert len([t for t in arm["zeroed_at"] if t >= killed_at]) == 1, arm
     (sub,) = summary["links"]["subscribe"]
     assert sub["foreign"] == 25
     assert sub["implausible"] == 1 and sub["oversize"] == 3
@@ -203,7 +207,8 @@ def test_under_the_launcher_strangers_cannot_connect_and_insiders_cannot_command
     assert not folder.exists()  # the run's credentials are gone with it
     summary = _summary(tmp_path / "out", "smart")
     arm = _module(summary, "arm")
-    assert arm["moved_rad"] < 1e-9 and arm["zeroed"] == 0, arm
+    assert arm["moved_rad"] < 1e-9, arm
+    assert not [t for t in arm["zeroed_at"] if attack_start <= t <= attack_end], arm
     assert _gaps_within(arm, attack_start, attack_end) < 2 * PERIOD, arm["long_gaps"]
     assert summary["links"]["token_conflicts"] == 0  # the posing token never arrived
     twist = next(s for s in summary["links"]["subscribe"] if s["key"] == key)

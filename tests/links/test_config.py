@@ -71,9 +71,21 @@ def test_bad_user_file_is_a_user_error(tmp_path: Path, text: str, found: str) ->
     path.write_text(text)
     with pytest.raises(UserError, match=found) as err:
         build_config(Endpoints(), str(path))
-    assert str(path) in str(err.value)
-    with pytest.raises(UserError, match="no such zenoh configuration file"):
+    assert str(err.value).startswith(f"{path}")
+    assert "\n" not in str(err.value) and ".rs" not in str(err.value)  # one line, no Rust path
+    with pytest.raises(UserError, match=r"missing\.json5: error: cannot read .*: no such file"):
         build_config(Endpoints(), str(tmp_path / "missing.json5"))
+    with pytest.raises(UserError, match="not a regular file"):
+        build_config(Endpoints(), "/dev/zero")
+
+
+def test_a_syntax_error_in_a_user_file_names_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "bad.json5"
+    path.write_text('{\n  mode: "peer",\n  bogus: 1\n')
+    with pytest.raises(UserError) as err:
+        build_config(Endpoints(), str(path))
+    assert str(err.value).startswith(f"{path}:3:"), str(err.value)
+    assert str(err.value).count(": error: not a valid zenoh configuration: ") == 1
 
 
 def test_endpoints_are_checked() -> None:

@@ -216,7 +216,11 @@ def test_plain_tcp_beyond_loopback_is_refused_unless_insecure(
     check_exposure(["tcp/0.0.0.0:7447"], ["tcp/10.0.0.2:7447"], True, "x")  # --insecure
     check_exposure(["tls/0.0.0.0:7447", "tcp/127.0.0.1:1", "tcp/[::1]:2"], [], False, "x")
     check_exposure([], ["quic/robot.example:7447", "tcp/localhost:7447"], False, "x")
-    with pytest.raises(UserError, match=r"connecting to `tcp/robot\.example:7447`"):
+    check_exposure(["unixsock-stream//tmp/umbra.sock"], [], False, "x")  # never leaves the host
+    for beyond in ("udp/0.0.0.0:7447", "ws/10.0.0.2:7447", "tcp/127.0.0.1.nip.io:7447"):
+        with pytest.raises(UserError, match="without TLS"):
+            check_exposure([beyond], [], False, "x")
+    with pytest.raises(UserError, match=r"^x: error: refusing to connect to `tcp/robot\.example"):
         check_exposure([], ["tcp/robot.example:7447"], False, "x")
 
 

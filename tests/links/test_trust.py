@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 import zenoh
@@ -21,10 +21,11 @@ from connectors.codec import Codec
 from connectors.messages import Image, Message, Scalar, Twist
 from runtime.graph.check import check_spec, load_graph
 from runtime.graph.parse import parse_graph_text
-from runtime.graph.plan import GraphPlan
+from runtime.graph.plan import GraphPlan, LinkPlan
+from runtime.links import transport
 from runtime.links.bounds import ENVELOPE_BYTES, max_sample_bytes
 from runtime.links.config import Endpoints, build_config
-from runtime.links.identity import alive_key
+from runtime.links.identity import alive_key, parse_alive_key
 from runtime.links.transport import ZenohTransport
 from runtime.registry import Registry
 from tests.links.conftest import REPO
@@ -237,3 +238,108 @@ def test_an_images_bound_comes_from_its_producers_declared_size() -> None:
     assert (camera.width, camera.height) == (1280, 720)
     assert max_sample_bytes(Image, camera) == 1280 * 720 * 4 + 64 * 1024
     assert max_sample_bytes(Twist) == 6 * 8 + ENVELOPE_BYTES
+
+
+def test_a_key_prefix_holding_an_alive_chunk_still_names_its_processes() -> None:
+    assert parse_alive_key("umbra/_alive/_alive/smart/m1/abc") == ("smart", "m1", "abc")
+    assert parse_alive_key("umbra/g/_alive/_alive/none/abc") == ("_alive", "none", "abc")
+    assert parse_alive_key("umbra/g/_alive/smart/none") is None
+    assert parse_alive_key("umbra/g/smart/none/abc") is None
+    plan = load_graph(str(REPO / "graphs" / "counter_split.yaml"), prefix="umbra/_alive")
+    (link,) = {link.key: link for link in plan.links}.values()
+    assert link.key == "umbra/_alive/counter/count"
+    pair = _pair(plan)
+    try:
+        got: list[Message] = []
+        send = _ready(pair, [link], got)  # the producer sees its consumer come up
+        send(Scalar(value=1.0, seq=1))
+        assert _until(lambda: len(got) == 1)
+        assert pair.consumer.alive_processes() == {"umbra"}
+    finally:
+        pair.producer.close()
+        pair.consumer.close()
+
+
+def test_tokens_of_processes_the_graph_does_not_have_are_ignored(
+    counter_plan: GraphPlan, pair: Pair
+) -> None:
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _ready(pair, [link], got)
+    attacker = Attacker(pair, link.key)
+    try:
+        own = str(attacker.session.zid())
+        tokens = [
+            attacker.session.liveliness().declare_token(
+                alive_key(counter_plan.key_prefix, f"stranger{i}", "none", own)
+            )
+            for i in range(200)
+        ]
+        probe = attacker.session.liveliness().declare_token(
+            alive_key(counter_plan.key_prefix, "smart", "none", own)  # a process of the graph
+        )
+        assert _until(lambda: pair.producer.stats()["token_conflicts"] == 1)
+        send(Scalar(value=1.0, seq=1))
+        assert _until(lambda: len(got) == 1)
+        assert pair.consumer.alive_processes() == {"umbra"}  # no stranger is tracked
+        assert pair.consumer._sessions.live.keys() == {"umbra"}
+        for token in [*tokens, probe]:
+            token.undeclare()
+    finally:
+        attacker.close()
+
+
+def _before_the_token(pair: Pair, link: LinkPlan, got: list[Message]) -> Callable[..., None]:
+    """Wire ``link`` with the consumer up and the producer's publisher matched, but the
+    producer's token not declared yet: its samples overtake the token."""
+    sink = pair.producer.publisher(link)
+    pair.consumer.subscribe(link, got.append)
+    pair.consumer.announce()
+    publisher = pair.producer._pubs[link.key][0]
+    assert _until(lambda: publisher.matching_status.matching)
+    return lambda msg: sink(msg, 0.0)
+
+
+def test_samples_that_overtake_their_producers_token_wait_for_it(
+    counter_plan: GraphPlan, pair: Pair, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(transport, "MAX_HOLD_S", 5.0)  # however slow this machine is
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _before_the_token(pair, link, got)
+    for i in range(1, 4):
+        send(Scalar(value=float(i), seq=i))
+    assert _until(lambda: _sub(pair)["unattributed"] == 3)  # held, counted as refused so far
+    assert got == []
+    pair.producer.announce()  # the token: they go through, in order, before any later one
+    send(Scalar(value=4.0, seq=4))
+    assert _until(lambda: len(got) == 4)
+    assert [m.seq for m in got] == [1, 2, 3, 4]
+    sub = _sub(pair)
+    assert sub["held"] == 3 and sub["unattributed"] == 0 and sub["received"] == 4
+
+
+def test_samples_whose_token_comes_too_late_or_names_another_session_are_dropped(
+    counter_plan: GraphPlan, pair: Pair, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(transport, "MAX_HOLD_S", 0.2)
+    link = counter_plan.links[0]
+    got: list[Message] = []
+    send = _before_the_token(pair, link, got)
+    attacker = Attacker(pair, link.key)
+    try:
+        attacker.wait_matching()
+        send(Scalar(value=1.0, seq=1))  # waits too long: the token comes after 0.5 s
+        assert _until(lambda: _sub(pair)["unattributed"] == 1)
+        time.sleep(0.5)
+        attacker.put(Scalar(value=66.0, seq=2), None)  # from another session: held, then
+        assert _until(lambda: _sub(pair)["unattributed"] == 2)  # judged foreign
+        pair.producer.announce()
+        assert _until(lambda: _sub(pair)["foreign"] == 1)
+        send(Scalar(value=3.0, seq=3))
+        assert _until(lambda: len(got) == 1)
+    finally:
+        attacker.close()
+    assert [m.value for m in got] == [3.0]
+    sub = _sub(pair)
+    assert sub["unattributed"] == 1 and sub["held"] == 0 and sub["foreign"] == 1
