@@ -39,6 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import table, write_results  # noqa: E402
+from connectors import safe_yaml  # noqa: E402
 
 VISION = ("DigiCam", "vsSnake", "vsServo")
 LATENESS_GOAL = 0.10
@@ -74,7 +75,7 @@ def lean_graph(graph: Path, out: Path) -> Path:
 
     import yaml
 
-    doc = yaml.safe_load(graph.read_text())
+    doc = safe_yaml.load(graph.read_text(), str(graph))[1]
     drop = {n for n, m in doc["modules"].items() if m["type"] in LEAN_DROP}
     for name in drop:
         del doc["modules"][name]
@@ -96,7 +97,7 @@ def feed_graph(graph: Path, out: Path) -> Path:
     with a light consumer on each connected output: a ``Printer`` at most one line a minute."""
     import yaml
 
-    doc = yaml.safe_load(graph.read_text())
+    doc = safe_yaml.load(graph.read_text(), str(graph))[1]
     cameras = {n: m for n, m in doc["modules"].items() if m["type"] == "DigiCam"}
     modules: dict[str, object] = {  # one process
         n: {k: v for k, v in m.items() if k != "process"} for n, m in cameras.items()

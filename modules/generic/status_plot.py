@@ -10,6 +10,7 @@ from collections import defaultdict
 
 from connectors import Input, Module, Parameters, param
 from connectors.messages import Status
+from connectors.params import RunFile
 
 
 class StatusPlot(Module):
@@ -19,7 +20,9 @@ class StatusPlot(Module):
         keys: list[str] = param([], "figures to plot (empty: every figure seen)")
         scale: dict[str, float] = param({}, "multiply a figure before plotting, e.g. m -> mm: 1000")
         units: dict[str, str] = param({}, "unit shown in the legend per figure")
-        path: str = param("plot.png", "PNG file, relative to the run's output folder (empty: none)")
+        path: RunFile = param(
+            "plot.png", "PNG file, relative to the run's output folder (empty: none)"
+        )
         title: str = param("", "plot title (default: the module name)")
 
     status = Input(Status, trigger=True, doc="status stream with figures in `values`")

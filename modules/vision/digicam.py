@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from pathlib import Path
+from typing import Annotated, Literal
 
 import msgspec
 import numpy as np
-from pydantic import model_validator
+from pydantic import AfterValidator, model_validator
 
 from connectors import (
     Input,
@@ -26,6 +27,25 @@ from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting
 from modules.vision.scene import Scene, camera_looking_down, pose
 from modules.vision.sim_camera import CameraSpec, SceneFault, SimulatedCamera
+
+
+def _source_exists(text: str) -> str:
+    """A file source must name a file (as OpenCV opens it: relative to the working folder);
+    ``%`` patterns of image sequences, devices, URLs and ``sim`` are taken as they are."""
+    source = CaptureSource.parse(text) if text.strip() != "sim" else None
+    if source is not None and source.kind == "file" and "%" not in str(source.target):
+        path = Path(str(source.target))
+        if not path.is_file():
+            found = "a folder" if path.is_dir() else "no such file"
+            raise ValueError(
+                f"expected `sim`, a device index, a stream URL or a video file, found {text!r}"
+                f" ({found}, from {Path.cwd()})"
+            )
+    return text
+
+
+#: Where the frames come from, checked before anything starts.
+CameraSource = Annotated[str, AfterValidator(_source_exists)]
 
 
 class DigiCam(Module):
@@ -67,7 +87,7 @@ class DigiCam(Module):
     TYPE = "DigiCam"
 
     class Params(Parameters):
-        source: str = param("sim", "`sim`, a device index, a video file or a stream URL")
+        source: CameraSource = param("sim", "`sim`, a device index, a video file or a stream URL")
         width: int = param(
             0, "frame width; 0: the source's (sim: 640)", unit="px", ge=0, le=MAX_IMAGE_SIDE_PX
         )

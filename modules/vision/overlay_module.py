@@ -2,15 +2,33 @@
 
 from __future__ import annotations
 
+from pathlib import PurePath
+from typing import Annotated
+
 import numpy as np
+from pydantic import AfterValidator
 
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import Contour, Image, Status
+from connectors.params import RunFile
 from modules.servo.error_text import error_figure
 from modules.vision.features import polygon_features
 from modules.vision.overlay import draw_overlay
 from modules.vision.sanity import SanityLimits, bounding_shapes
 from modules.vision.video import VideoFileError, VideoWriter
+
+#: Containers the operator's video can be written in.
+VIDEO_SUFFIXES = (".avi", ".mp4")
+
+
+def _video_container(path: str) -> str:
+    if path and PurePath(path).suffix.lower() not in VIDEO_SUFFIXES:
+        raise ValueError(f"expected a file ending in .avi or .mp4, found {path!r}")
+    return path
+
+
+#: The operator's video: inside the run folder, in a container OpenCV writes.
+VideoFile = Annotated[RunFile, AfterValidator(_video_container)]
 
 
 class Overlay(Module):
@@ -27,7 +45,9 @@ class Overlay(Module):
     TYPE = "Overlay"
 
     class Params(Parameters):
-        video: str = param("", "video file to write (.avi or .mp4); empty: none")
+        video: VideoFile = param(
+            "", "video file to write in the run folder (.avi or .mp4); empty: none"
+        )
         video_fps: float = param(30.0, "frame rate written in the video file", unit="Hz", gt=0)
         rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
         ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
@@ -46,11 +66,6 @@ class Overlay(Module):
         self._path = None
         if self.params.video:
             self._path = self.context.output_dir / self.params.video
-            if self._path.suffix.lower() not in (".avi", ".mp4"):
-                raise UserError(
-                    f"{self.name}: parameter video must end in .avi or .mp4, got "
-                    f"{self.params.video!r}"
-                )
             self._path.parent.mkdir(parents=True, exist_ok=True)
         self._drawn = 0
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 from pathlib import Path
 
@@ -113,8 +114,11 @@ def enable_recording(plan: GraphPlan, args: argparse.Namespace) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    if args.duration is not None and not args.duration > 0:
-        raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
+    if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
+        raise UserError(
+            f"--duration must be a positive, finite number of seconds (leave it out to run"
+            f" until stopped), found {args.duration}"
+        )
     latency = args.cpu_latency_us
     if latency is not None and not is_latency_us(latency):
         raise UserError(

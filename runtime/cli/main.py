@@ -34,8 +34,9 @@ COMMAND_GROUP = "umbra.commands"
 
 
 #: A command-line word that is a value, not an option: a negative number or a comma-separated
-#: list that starts with one (``--q -0.5,0.2,...``, ``--seed -3,4``, ``--at -1e-3``).
-NEGATIVE_VALUE_RE = re.compile(r"^-(\d|\.\d)[\d.eE+\-,]*$")
+#: list that starts with one (``--q -0.5,0.2,...``, ``--seed -3,4``, ``--at -1e-3``), ``-inf``
+#: and ``-nan`` included, so that the command's own check names what is wrong with them.
+NEGATIVE_VALUE_RE = re.compile(r"^-(\d|\.\d|inf|nan)[\w.+\-,]*$", re.IGNORECASE)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -657,7 +657,13 @@ def sets() -> None:
         "run-duration-negative",
         ["run", graph, "--duration", "-1", "--out", "{tmp}/out"],
         2,
-        r"--duration must be a positive number",
+        r"--duration must be a positive, finite number",
+    )
+    case(
+        "run-duration-inf",
+        ["run", graph, "--duration", "inf", "--out", "{tmp}/out"],
+        2,
+        r"--duration must be a positive, finite number .*found inf",
     )
 
 
@@ -733,6 +739,12 @@ def dh_files() -> None:
     )
     case(
         "dh-q-inf", ["arm", "--dh", "dh/ok.yaml", "--q", "inf,0"], 2, r"--q expects 2 finite values"
+    )
+    case(
+        "dh-q-minus-inf",
+        ["arm", "--dh", "dh/ok.yaml", "--q", "-inf,0"],
+        2,
+        r"--q expects 2 finite values",
     )
     case("dh-q-deg-negative-ok", ["arm", "--q-deg", "-30,-10,0,0,-5,0"], 0, "")
     case(

@@ -103,9 +103,15 @@ def test_stream_that_stops_delivering_is_marked_stale_and_the_run_goes_on(video)
 
 @pytest.mark.parametrize(
     ("source", "words"),
-    [("/no/such/clip.avi", "not found"), ("9", "cannot open camera device 9")],
+    [
+        ("/no/such/clip.avi", "no such file"),
+        ("/", "a folder"),
+        ("9", "cannot open camera device 9"),
+    ],
 )
 def test_unusable_sources_are_user_errors_at_start(source: str, words: str) -> None:
+    """A missing file or a folder is refused with the parameters (so ``umbra check`` says it);
+    a device is known only when it is opened."""
     with pytest.raises(UserError, match=words):
         ModuleHarness(DigiCam, {"source": source}).start()
 
