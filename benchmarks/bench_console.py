@@ -1,10 +1,11 @@
 """Operator console benchmark: glass-to-glass latency, frames shown, CPU, servo lateness, clicks.
 
-For each camera size (640x480 and 1280x720 at 30 fps) the same two-process graph runs twice in
-this benchmark run: a camera (a looping MJPEG clip decoded in DigiCam's reader thread, as a
-device would be) and the console in `umbra`, a 100 Hz REG_VEL loop in `smart`. The first run
-has no page open (the same-run baseline); the second has a real Chromium page (Debian's, via
-Playwright) that holds control and clicks the image every 0.4 s.
+For each camera size (640x480 and 1280x720 at 30 fps) and each scheduling of the servo process
+(``--policies``: SCHED_FIFO priority 50 as the shipped graphs ask, and the default policy) the
+same two-process graph runs twice in this benchmark run: a camera (a looping MJPEG clip decoded
+in DigiCam's reader thread, as a device would be) and the console in `umbra`, a 100 Hz REG_VEL
+loop in `smart`. The first run has no page open (the same-run baseline); the second has a real
+Chromium page (Debian's, via Playwright) that holds control and clicks the image every 0.4 s.
 
 Figures: latency from a frame's stamp to the browser painting it (the page reports it to the
 console), frames painted per second, the console's CPU share of the `umbra` process (its web
@@ -12,7 +13,7 @@ and encoder threads plus its module steps), the `smart` process's tick lateness 
 without the page (ratio), and the time from a click reaching the console's web thread to the
 seed leaving its `seed` output (p95; the snake reads it with its next frame).
 
-    python benchmarks/bench_console.py [--quick]
+    python benchmarks/bench_console.py [--quick] [--policies fifo,default]
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ GRAPH = """
 graph: bench_console
 seed: 0
 clock: real
-processes: {{umbra: {{}}, smart: {{}}}}
+processes: {{umbra: {{}}, smart: {smart}}}
 modules:
   camera:                     # a video file, decoded in DigiCam's reader thread (as a device)
     type: DigiCam
@@ -77,9 +78,16 @@ def _video(folder: Path, w: int, h: int, frames: int = 90) -> Path:
     return path
 
 
-def _graph(folder: Path, w: int, h: int) -> Path:
-    path = folder / f"bench_console_{w}x{h}.yaml"
-    path.write_text(GRAPH.format(video=_video(folder, w, h)))
+#: The servo process's scheduling: as the shipped graphs run it (SCHED_FIFO priority 50, which
+#: needs root), and the default policy, where it shares the CPUs with the browser.
+POLICIES = {"fifo": "{realtime_priority: 50}", "default": "{}"}
+
+
+def _graph(folder: Path, w: int, h: int, policy: str) -> Path:
+    path = folder / f"bench_console_{w}x{h}_{policy}.yaml"
+    clip = folder / f"clip_{w}x{h}.avi"
+    video = clip if clip.exists() else _video(folder, w, h)
+    path.write_text(GRAPH.format(video=video, smart=POLICIES[policy]))
     return path
 
 
@@ -158,11 +166,11 @@ def _console_figures(umbra: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def run_size(folder: Path, w: int, h: int, duration: float) -> dict[str, Any]:
-    graph = _graph(folder, w, h)
-    result: dict[str, Any] = {"size": f"{w}x{h}"}
+def run_size(folder: Path, w: int, h: int, duration: float, policy: str) -> dict[str, Any]:
+    graph = _graph(folder, w, h, policy)
+    result: dict[str, Any] = {"size": f"{w}x{h}", "smart_policy": policy}
     for phase in ("baseline", "page"):
-        out = folder / f"{w}x{h}-{phase}"
+        out = folder / f"{w}x{h}-{policy}-{phase}"
         proc, found = _start(graph, out, duration)
         page: dict[str, Any] = {}
         if phase == "page":
@@ -182,7 +190,16 @@ def run_size(folder: Path, w: int, h: int, duration: float) -> dict[str, Any]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short runs (a smoke run)")
+    parser.add_argument(
+        "--policies",
+        default="fifo,default",
+        help="the servo process's scheduling, comma-separated: fifo (as shipped), default",
+    )
     args = parser.parse_args()
+    policies = [p for p in args.policies.split(",") if p]
+    if not policies or set(policies) - set(POLICIES):
+        print(f"bench_console: --policies takes {', '.join(POLICIES)}", file=sys.stderr)
+        return 2
     if not CHROMIUM.exists():
         print(f"bench_console: needs Chromium at {CHROMIUM}", file=sys.stderr)
         return 2
@@ -190,13 +207,15 @@ def main() -> int:
     results = []
     with tempfile.TemporaryDirectory(prefix="bench-console-") as tmp:
         for w, h in ((640, 480), (1280, 720)):
-            results.append(run_size(Path(tmp), w, h, duration))
+            for policy in policies:
+                results.append(run_size(Path(tmp), w, h, duration, policy))
     rows = []
     for r in results:
         page, base = r["page"], r["baseline"]
         rows.append(
             [
                 r["size"],
+                r["smart_policy"],
                 page["latency_p50_ms"],
                 page["latency_p95_ms"],
                 page["fps_shown"],
@@ -212,6 +231,7 @@ def main() -> int:
         )
     header = [
         "camera",
+        "smart policy",
         "g2g p50 ms",
         "g2g p95 ms",
         "fps shown",

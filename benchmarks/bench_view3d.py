@@ -13,7 +13,10 @@ Figures: the `smart` process's tick lateness p99 (ratio against the baseline), t
 module's step time, the video frames it handed to viser, and the frames per second the browser
 received (websocket messages carrying a video frame, counted in the page by Playwright).
 
-    python benchmarks/bench_view3d.py [--quick]
+    python benchmarks/bench_view3d.py [--quick] [--policy fifo|default]
+
+The servo process runs under SCHED_FIFO priority 50 as the shipped graphs ask
+(``--policy default``: the default policy, for comparison).
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ GRAPH = """
 graph: bench_view3d
 seed: 0
 clock: real
-processes: {{umbra: {{}}, smart: {{}}}}
+processes: {{umbra: {{}}, smart: {smart}}}
 frames:
   base->table: {{xyz: [0, 0, 0.25]}}
   flange->tool: {{xyz: [0, 0, 0.14]}}
@@ -82,9 +85,18 @@ VIEW = "  view: {type: View3D, process: umbra, rate: 30, params: {port: 0, max_f
 WIRE = "  - camera.image -> view.wrist_image\n  - joints.joint_state -> view.joint_state"
 
 
-def _graph(folder: Path, with_view: bool) -> Path:
-    path = folder / f"bench_view3d_{'view' if with_view else 'none'}.yaml"
-    path.write_text(GRAPH.format(view=VIEW if with_view else "", wire=WIRE if with_view else ""))
+#: The servo process's scheduling: as the shipped graphs run it (SCHED_FIFO priority 50, which
+#: needs root), and the default policy, where it shares the CPUs with the browser.
+POLICIES = {"fifo": "{realtime_priority: 50}", "default": "{}"}
+
+
+def _graph(folder: Path, with_view: bool, policy: str) -> Path:
+    path = folder / f"bench_view3d_{'view' if with_view else 'none'}_{policy}.yaml"
+    path.write_text(
+        GRAPH.format(
+            view=VIEW if with_view else "", wire=WIRE if with_view else "", smart=POLICIES[policy]
+        )
+    )
     return path
 
 
@@ -152,11 +164,11 @@ def _summary(out: Path, process: str) -> dict[str, Any]:
     return json.loads((out / f"summary-{process}.json").read_text())
 
 
-def run_phase(folder: Path, phase: str, duration: float) -> dict[str, Any]:
+def run_phase(folder: Path, phase: str, duration: float, policy: str) -> dict[str, Any]:
     with_view = phase != "no view"
     folder.mkdir(parents=True, exist_ok=True)
     out = folder / phase.replace(" ", "_").replace(",", "")
-    proc, found = _start(_graph(folder, with_view), out, duration, with_view)
+    proc, found = _start(_graph(folder, with_view, policy), out, duration, with_view)
     figures: dict[str, Any] = {}
     if phase in VIEWPORTS:
         figures.update(_watch(found["url"], duration - 8.0, VIEWPORTS[phase]))
@@ -175,6 +187,13 @@ def run_phase(folder: Path, phase: str, duration: float) -> dict[str, Any]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short runs (a smoke run)")
+    parser.add_argument(
+        "--policy",
+        choices=sorted(POLICIES),
+        default="fifo",
+        help="the servo process's scheduling: fifo (as shipped; results view3d.json) or default "
+        "(results view3d_default_policy.json)",
+    )
     args = parser.parse_args()
     if not CHROMIUM.exists():
         print(f"bench_view3d: needs Chromium at {CHROMIUM}", file=sys.stderr)
@@ -186,7 +205,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="bench-view3d-") as tmp:
         for k in range(rounds):  # phases interleaved: a machine's load drifts over minutes
             for phase in phases:
-                runs[phase].append(run_phase(Path(tmp) / f"round{k}", phase, duration))
+                runs[phase].append(run_phase(Path(tmp) / f"round{k}", phase, duration, args.policy))
     results: dict[str, Any] = {}
     for phase in phases:
         merged: dict[str, Any] = {"rounds": runs[phase]}
@@ -214,7 +233,7 @@ def main() -> int:
         )
     print(
         f"3-D view cost: median of {rounds} interleaved rounds of {duration:g} s; 1280x720 "
-        "camera at 30 fps; 100 Hz servo chain in `smart`; view max_fps 15"
+        f"camera at 30 fps; 100 Hz servo chain in `smart` ({args.policy} policy); view max_fps 15"
     )
     print(
         table(
@@ -231,7 +250,9 @@ def main() -> int:
         )
     )
     path = write_results(
-        "view3d", {"duration_s": duration, "rounds": rounds, "phases": results}, quick=args.quick
+        "view3d" if args.policy == "fifo" else "view3d_default_policy",
+        {"duration_s": duration, "rounds": rounds, "smart_policy": args.policy, "phases": results},
+        quick=args.quick,
     )
     print(f"results: {path}")
     return 0

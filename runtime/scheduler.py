@@ -46,11 +46,14 @@ from runtime.clock import make_clock
 from runtime.graph.plan import GraphPlan
 from runtime.links_api import LinkTransport
 from runtime.realtime import CpuLatencyHold
+from runtime.rt_priority import RealtimePriority, priority_for
 from runtime.stats import ModuleStats, RunResult
 
 INTERRUPTED = 130
 #: Why a sim-clock run holds no CPU latency it was asked for (what its summary says).
 SIM_CLOCK_NO_LATENCY = "sim clock: nothing waits for a CPU to wake"
+#: Why a sim-clock run takes no real-time priority it was asked for.
+SIM_CLOCK_NO_PRIORITY = "sim clock: nothing waits for a CPU"
 #: At most this many ticks in a row on a link's thread before the rest is left to the loop.
 REACT_ROUNDS = 16
 
@@ -283,6 +286,12 @@ class Scheduler:
             unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_LATENCY,
         )
         hold.acquire()
+        priority = RealtimePriority(
+            priority_for(self.plan.spec.realtime_priority, self.options.process),
+            self.options.log,
+            unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_PRIORITY,
+        )
+        priority.acquire()
         t0 = self.clock.now()
         if self.recorder is not None:
             self.recorder.start(t0)
@@ -311,6 +320,7 @@ class Scheduler:
                         failure = ModuleFailed(
                             slot.module.name, slot.stats.type_name, "stop", ticks, exc
                         )
+            priority.release()
             hold.release()
             self._restore_signals(old_handlers)
             if self.recorder is not None:
@@ -334,6 +344,8 @@ class Scheduler:
             extra["links"] = self.transport.stats()
         if hold.limit_us is not None:
             extra["realtime"] = hold.summary()
+        if priority.priority is not None:
+            extra["realtime_priority"] = priority.summary()
         if self.recorder is not None:
             extra["recording"] = self.recorder.summary()
         return RunResult(

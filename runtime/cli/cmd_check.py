@@ -7,6 +7,7 @@ import sys
 
 from connectors.errors import CheckFailed
 from runtime.graph.check import load_graph
+from runtime.graph.spec import GraphSpec
 from runtime.registry import Registry
 
 NAME = "check"
@@ -30,10 +31,7 @@ def main(args: argparse.Namespace) -> int:
             continue
         if args.quiet:
             continue
-        latency = plan.spec.cpu_latency_us
-        processes = [
-            f"{p} (cpu_latency_us {latency[p]})" if p in latency else p for p in plan.processes
-        ]
+        processes = [_process_text(p, plan.spec) for p in plan.processes]
         print(
             f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
             f"{len(plan.connections)} connections, processes: {', '.join(processes)}"
@@ -42,3 +40,16 @@ def main(args: argparse.Namespace) -> int:
             mode = "reliable" if link.reliable else "drop-oldest"
             print(f"  link {link.connection} ({link.msg_type.__name__}, {mode}): key `{link.key}`")
     return 2 if failed else 0
+
+
+def _process_text(name: str, spec: GraphSpec) -> str:
+    """A process and the real-time settings the graph asks for it."""
+    asks = [
+        f"{key} {values[name]}"
+        for key, values in (
+            ("cpu_latency_us", spec.cpu_latency_us),
+            ("realtime_priority", spec.realtime_priority),
+        )
+        if name in values
+    ]
+    return f"{name} ({', '.join(asks)})" if asks else name

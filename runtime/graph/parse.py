@@ -6,6 +6,7 @@ Format (see README "Graphs")::
     seed: 0                       # sim runs are reproducible for a seed
     clock: sim                    # default clock: sim | real
     processes: {umbra: {}, smart: {cpu_latency_us: 0}}   # hold idle CPUs awake: runtime.realtime
+    # smart: {realtime_priority: 80}  # its threads under SCHED_FIFO: runtime.rt_priority
     frames:
       tool->camera: {xyz: [0, 0.05, 0.1], rpy_deg: [0, 0, 90]}
     modules:
@@ -49,6 +50,7 @@ from runtime.graph.spec import (
 from runtime.hints import did_you_mean
 from runtime.realtime import NO_CONSTRAINT_US, is_latency_us
 from runtime.recording.settings import parse_record
+from runtime.rt_priority import MAX_PRIORITY, MIN_PRIORITY, is_priority
 
 TOP_KEYS = (
     "graph",
@@ -64,7 +66,7 @@ TOP_KEYS = (
     "record",
 )
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
-PROCESS_KEYS = ("cpu_latency_us",)
+PROCESS_KEYS = ("cpu_latency_us", "realtime_priority")
 LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config", "dispatch")
 DISPATCH_MODES = ("inline", "loop")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -212,6 +214,16 @@ class _Parser:
                 )
             else:
                 spec.cpu_latency_us[name] = value
+        if "realtime_priority" in body:
+            value = body["realtime_priority"]
+            if not is_priority(value):
+                self.error(
+                    body.val_loc["realtime_priority"],
+                    f"realtime_priority of process `{name}` must be a whole number from "
+                    f"{MIN_PRIORITY} to {MAX_PRIORITY} (SCHED_FIFO), found {value!r}",
+                )
+            else:
+                spec.realtime_priority[name] = value
 
     def frames(self, doc: YMap) -> list[StaticFrameSpec]:
         if "frames" not in doc:

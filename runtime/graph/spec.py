@@ -97,6 +97,8 @@ class GraphSpec:
     processes: dict[str, Location] = field(default_factory=dict)
     #: process -> the CPU wake-up latency [µs] it holds while running (``runtime.realtime``)
     cpu_latency_us: dict[str, int] = field(default_factory=dict)
+    #: process -> the SCHED_FIFO priority its threads run at (``runtime.rt_priority``)
+    realtime_priority: dict[str, int] = field(default_factory=dict)
     modules: dict[str, ModuleSpec] = field(default_factory=dict)
     connections: list[ConnectionSpec] = field(default_factory=list)
     frames: list[StaticFrameSpec] = field(default_factory=list)

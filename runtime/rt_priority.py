@@ -1,0 +1,116 @@
+"""Real-time scheduling for a process that closes a servo loop (Linux ``SCHED_FIFO``).
+
+On a shared host the servo process competes with everything else for the CPUs: a browser
+drawing the operator's 3-D view in software, a recording being compressed, a compiler. Under the
+default policy (``SCHED_OTHER``) the kernel shares the CPUs out fairly, so the servo tick waits
+its turn and is late. A ``SCHED_FIFO`` thread runs as soon as it is ready and keeps the CPU until
+it blocks, ahead of every ``SCHED_OTHER`` thread — what ``cyclictest``, ros2_control's
+``thread_priority`` and OROCOS's real-time activities use. The kernel still keeps 5 % of each
+second for other work (``/proc/sys/kernel/sched_rt_runtime_us``), so a runaway loop cannot
+lock the machine.
+
+The policy is set on every thread the process has when the loop starts (the scheduler's, and
+the link threads that run triggered modules on arrival), and threads they start later inherit
+it. Setting it needs root or ``CAP_SYS_NICE`` (or an ``rtprio`` limit from
+``/etc/security/limits.conf``); a process that cannot says why once and runs anyway, and its
+summary records it.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from typing import Any
+
+#: The priorities ``SCHED_FIFO`` takes on Linux (higher runs first).
+MIN_PRIORITY = 1
+MAX_PRIORITY = 99
+TASKS = "/proc/self/task"
+
+
+def is_priority(value: object) -> bool:
+    """Whether ``value`` is a ``SCHED_FIFO`` priority: a whole number from 1 to 99."""
+    return (
+        isinstance(value, int)
+        and not isinstance(value, bool)
+        and MIN_PRIORITY <= value <= MAX_PRIORITY
+    )
+
+
+def _threads() -> list[int]:
+    """The kernel ids of this process's threads."""
+    try:
+        return [int(tid) for tid in os.listdir(TASKS)]
+    except OSError:
+        return [0]  # no /proc: the calling thread only
+
+
+class RealtimePriority:
+    """From ``acquire()`` to ``release()``, runs every thread of this process under
+    ``SCHED_FIFO`` at ``priority`` (1–99); ``None`` asks nothing, and neither does one given an
+    ``unneeded`` reason. Never raises for a host that refuses: ``held`` and ``reason`` say what
+    happened, ``summary()`` goes into the run summary."""
+
+    def __init__(
+        self, priority: int | None, log: logging.Logger | None = None, unneeded: str = ""
+    ) -> None:
+        self.priority = priority
+        self.held = False
+        self.reason = unneeded
+        self._log = log or logging.getLogger("umbra")
+        self._set: list[int] = []
+
+    def acquire(self) -> None:
+        """Put every thread of the process under ``SCHED_FIFO`` (all or none)."""
+        if self.priority is None or self.reason:
+            return
+        param = os.sched_param(self.priority)
+        try:
+            for tid in _threads():
+                try:
+                    os.sched_setscheduler(tid, os.SCHED_FIFO, param)
+                except ProcessLookupError:
+                    continue  # the thread ended meanwhile
+                self._set.append(tid)
+        except OSError as exc:
+            self.reason = f"cannot set SCHED_FIFO: {exc.strerror or exc}"
+            self.release()
+            self._log.warning(
+                "realtime_priority %d not held (%s; it needs root, CAP_SYS_NICE or an rtprio "
+                "limit): running under the default policy",
+                self.priority,
+                self.reason,
+            )
+            return
+        self.held = True
+        self._log.info(
+            "running %d threads under SCHED_FIFO priority %d", len(self._set), self.priority
+        )
+
+    def release(self) -> None:
+        """Back to the default policy for every thread that was moved and every thread there is
+        now (ones started meanwhile inherited the real-time policy)."""
+        if not self._set:
+            return
+        normal = os.sched_param(0)
+        for tid in {*self._set, *_threads()}:
+            try:
+                os.sched_setscheduler(tid, os.SCHED_OTHER, normal)
+            except OSError:
+                continue  # ended, or never moved
+        self._set = []
+
+    def summary(self) -> dict[str, Any]:
+        """What the run summary says: the priority asked, whether the run held it, why not."""
+        out: dict[str, Any] = {"realtime_priority": self.priority, "held": self.held}
+        if self.reason:
+            out["reason"] = self.reason
+        return out
+
+
+def priority_for(requests: dict[str, int], process: str | None) -> int | None:
+    """The priority a process runs at: what the graph asks for ``process``; with every module
+    in one process (``process`` None), the highest any process asks. None: the default policy."""
+    if process is not None:
+        return requests.get(process)
+    return max(requests.values(), default=None)

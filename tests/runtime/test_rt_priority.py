@@ -1,0 +1,154 @@
+"""Real-time scheduling of a servo process: the graph setting, the threads it moves, the summary,
+and a host that refuses."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+
+from connectors import Input, Module
+from connectors.messages import Scalar
+from runtime.graph.check import check_text
+from runtime.rt_priority import RealtimePriority, priority_for
+from runtime.scheduler import Scheduler, SchedulerOptions
+from tests.runtime.fixtures import make_registry
+
+ROOT = os.geteuid() == 0
+needs_root = pytest.mark.skipif(not ROOT, reason="SCHED_FIFO needs root or CAP_SYS_NICE")
+
+GRAPH = """
+graph: rtprio
+clock: {clock}
+processes:
+  umbra: {{}}
+  smart: {{realtime_priority: {priority}}}
+modules:
+  src: {{type: Counter, process: umbra, rate: 100}}
+  probe: {{type: PolicyProbe, process: smart}}
+connections:
+  - src.count -> probe.value
+"""
+
+
+class PolicyProbe(Module):
+    """Records the scheduling policy of the thread each step runs on."""
+
+    TYPE = "PolicyProbe"
+    value = Input(Scalar, trigger=True)
+
+    def start(self) -> None:
+        self.policies: set[int] = set()
+
+    def step(self, now: float) -> None:
+        self.policies.add(os.sched_getscheduler(0))
+
+    def summary(self) -> dict[str, object]:
+        return {"policies": sorted(self.policies)}
+
+
+def _registry():
+    reg = make_registry()
+    reg.add(PolicyProbe)
+    return reg
+
+
+def _policies() -> dict[int, int]:
+    return {int(t): os.sched_getscheduler(int(t)) for t in os.listdir("/proc/self/task")}
+
+
+def test_the_graph_asks_per_process_and_bad_values_are_refused_at_their_line() -> None:
+    plan = check_text(GRAPH.format(clock="sim", priority=80), "rt.yaml", _registry())
+    assert plan.spec.realtime_priority == {"smart": 80}
+    assert priority_for(plan.spec.realtime_priority, "smart") == 80
+    assert priority_for(plan.spec.realtime_priority, "umbra") is None
+    assert priority_for(plan.spec.realtime_priority, None) == 80  # one process: the highest
+    for bad in ("0", "100", "high", "true", "50.5"):
+        with pytest.raises(Exception) as err:
+            check_text(GRAPH.format(clock="sim", priority=bad), "rt.yaml", _registry())
+        assert "rt.yaml:6:" in str(err.value)
+        assert "realtime_priority of process `smart` must be a whole number from 1 to 99" in str(
+            err.value
+        )
+
+
+@needs_root
+def test_every_thread_runs_under_sched_fifo_while_held_and_returns_after() -> None:
+    started = threading.Event()
+    stop = threading.Event()
+
+    def worker() -> None:  # a thread that exists before, as zenoh's do
+        started.set()
+        stop.wait(5)
+
+    thread = threading.Thread(target=worker, daemon=True)
+    thread.start()
+    started.wait(5)
+    before = _policies()
+    assert set(before.values()) == {os.SCHED_OTHER}
+    priority = RealtimePriority(5)
+    priority.acquire()
+    try:
+        held = _policies()
+        assert priority.held and set(held.values()) == {os.SCHED_FIFO}
+        assert held.keys() >= before.keys()
+        assert os.sched_getparam(0).sched_priority == 5
+        late: list[int] = []
+        later = threading.Thread(target=lambda: late.append(os.sched_getscheduler(0)))
+        later.start()
+        later.join()
+        assert late == [os.SCHED_FIFO]  # threads started meanwhile inherit it
+    finally:
+        priority.release()
+        stop.set()
+        thread.join()
+    assert set(_policies().values()) == {os.SCHED_OTHER}
+    assert priority.summary() == {"realtime_priority": 5, "held": True}
+
+
+@needs_root
+@pytest.mark.parametrize("clock", ["sim", "real"])
+def test_the_servo_process_steps_under_sched_fifo_on_the_real_clock(
+    clock: str, tmp_path: Path
+) -> None:
+    plan = check_text(GRAPH.format(clock=clock, priority=10), "rt.yaml", _registry())
+    options = SchedulerOptions(clock=clock, duration=0.1, output_dir=tmp_path)
+    result = Scheduler(plan, options).run().as_dict()
+    (probe,) = (m for m in result["modules"] if m["module"] == "probe")
+    if clock == "real":
+        assert result["realtime_priority"] == {"realtime_priority": 10, "held": True}
+        assert probe["policies"] == [os.SCHED_FIFO]
+    else:
+        assert result["realtime_priority"]["held"] is False
+        assert result["realtime_priority"]["reason"].startswith("sim clock")
+        assert probe["policies"] == [os.SCHED_OTHER]
+    assert set(_policies().values()) == {os.SCHED_OTHER}
+
+
+@needs_root
+def test_a_host_that_refuses_runs_anyway_and_says_why() -> None:
+    code = (
+        "import json, os;"
+        "from runtime.rt_priority import RealtimePriority;"
+        "os.setuid(65534);"  # nobody: no CAP_SYS_NICE, no rtprio limit
+        "p = RealtimePriority(10); p.acquire();"
+        "print(json.dumps([p.summary(), os.sched_getscheduler(0)]))"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=Path(__file__).resolve().parents[2],
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    summary, policy = json.loads(proc.stdout)
+    assert summary["held"] is False
+    assert summary["reason"].startswith("cannot set SCHED_FIFO")
+    assert policy == os.SCHED_OTHER  # nothing half-moved
+    assert "realtime_priority 10 not held" in proc.stderr
