@@ -123,9 +123,7 @@ def run_macro(macro: str, seed: int) -> dict:
             corners = scene.surface.corners
             prim = _place(s, rng, "plane", corners[[1, 0, 3]], scene.surface.center, zoom=0.4)
         else:  # place_device: a device in the closed gripper
-            s.arm.command_gripper("close")
-            for _ in range(80):
-                s._tick(np.zeros(6), "")
+            s.grip("close")
             edge = scene.package.front_bottom_edge
             prim = _place(s, rng, "line", edge, edge.mean(axis=0))
         options = {"angle_deg": 85.0} if macro == "move_around_axis" else None

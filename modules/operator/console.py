@@ -155,6 +155,7 @@ class OperatorConsole(Module):
 
             token = resolve_token(p.host, p.token_file, f"{self.name}")
             self._server = acquire_server(self.context, p.host, p.port, token)
+            self.arbiter = self._server.control  # one holder for every page of the server
             self._app = ConsoleApp(self._server, self.inbox, p.jpeg_quality)
             self.url = self._server.url
             self.log.info("operator console: %s", self.url)
@@ -233,7 +234,7 @@ class OperatorConsole(Module):
     def _handle(self, event: Event, now: float) -> None:
         s = event.session
         if event.kind == "join":
-            self.arbiter.join(s, event.payload)
+            self.arbiter.join(s, event.payload, event.browser)
             self._notice(f"{event.payload} is watching")
         elif event.kind == "leave":
             self.deadman.release(s)
@@ -344,7 +345,7 @@ class OperatorConsole(Module):
         zero twist once, when the jog is released, its page goes, or the dead-man expires."""
         keepalive, self._keepalive = self._keepalive, False
         held = self.deadman.current(wall)
-        if held is not None and self.arbiter.holder != held.session:
+        if held is not None and not self.arbiter.holds(held.session):
             self.deadman.release()
             held = None
         if held is not None:

@@ -29,7 +29,7 @@ import numpy as np
 from fastapi import WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, Response
 
-from modules.operator.access import TOKEN_COOKIE
+from modules.operator.access import TOKEN_COOKIE, VIEWER_SCOPE
 from modules.operator.mailbox import Inbox, Latest
 from modules.operator.protocol import MessageChecker, ProtocolError
 from modules.operator.web_server import WebServer
@@ -52,12 +52,14 @@ class RawFrame:
 @dataclass(frozen=True)
 class Event:
     """From the web thread to ``step``: ``kind`` join / leave / msg / bad, the session, a
-    payload, and the wall time it arrived (monotonic seconds)."""
+    payload, the wall time it arrived (monotonic seconds), and the page's browser key
+    (:func:`~modules.operator.access.viewer_key`; "" unknown)."""
 
     kind: str
     session: str
     payload: Any
     wall: float
+    browser: str = ""
 
 
 @dataclass
@@ -174,7 +176,8 @@ class ConsoleApp:
         flight = _InFlight()
         self.stats.viewers += 1
         self.stats.viewers_max = max(self.stats.viewers_max, self.stats.viewers)
-        self.inbox.put(Event("join", session, name, time.monotonic()))
+        browser = ws.scope.get(VIEWER_SCOPE, "")
+        self.inbox.put(Event("join", session, name, time.monotonic(), browser))
         await ws.send_text(json.dumps({"type": "welcome", "session": session, "name": name}))
         sender = asyncio.create_task(self._send_loop(ws, flight))
         try:

@@ -23,8 +23,11 @@ Example, in another module of the same process::
             release_server(self._server)
 
 Routes added after the server started are served at once. Every route, page and websocket
-alike, is behind the access-token gate (:mod:`modules.operator.access`). The server stops when
-the last module holding it releases it.
+alike, is behind the access-token gate (:mod:`modules.operator.access`), which also gives each
+browser its viewer cookie. The server holds the control table of all its pages
+(``server.control``, a :class:`~modules.operator.control.ControlArbiter`): the operator who
+holds control on one page holds it on every page of the server, and commands from everyone
+else are refused. The server stops when the last module holding it releases it.
 """
 
 from __future__ import annotations
@@ -39,20 +42,38 @@ import uvicorn
 from fastapi import FastAPI
 
 from connectors.errors import UserError
-from modules.operator.access import TOKEN_COOKIE, TOKEN_QUERY, is_loopback, token_matches
+from modules.operator.access import (
+    TOKEN_COOKIE,
+    TOKEN_QUERY,
+    VIEWER_COOKIE,
+    VIEWER_SCOPE,
+    is_loopback,
+    new_viewer_id,
+    token_matches,
+    viewer_key,
+)
+from modules.operator.control import ControlArbiter
 
 _LOG = logging.getLogger("umbra.operator")
 
 
 class _TokenGate:
-    """ASGI middleware: refuses HTTP requests and websockets without the access token."""
+    """ASGI middleware in front of every route: refuses another site's websocket or
+    state-changing request (POST...), and HTTP requests and websockets without the access token;
+    gives each browser its viewer cookie (one browser, one operator) and, when the token came in
+    the address, the token cookie; leaves the request's viewer key in the scope
+    (``scope[VIEWER_SCOPE]``, "" when the request carried no viewer cookie)."""
 
     def __init__(self, app: Any, server: WebServer) -> None:
         self.app = app
         self.server = server
 
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
-        if scope["type"] == "websocket" and not _same_origin(scope):
+        kind = scope["type"]
+        if kind not in ("http", "websocket"):
+            await self.app(scope, receive, send)
+            return
+        if kind == "websocket" and not _same_origin(scope):
             self.server.refused_requests += 1
             _LOG.warning(
                 "console: refused a websocket from another site's page (Origin %s, expected "
@@ -61,38 +82,84 @@ class _TokenGate:
             )
             await send({"type": "websocket.close", "code": 4403})
             return
-        if scope["type"] not in ("http", "websocket") or not self.server.token:
-            await self.app(scope, receive, send)
+        if kind == "http" and scope.get("method") not in _SAFE_METHODS and not _same_origin(scope):
+            self.server.refused_requests += 1
+            _LOG.warning(
+                "console: refused %s %s from another site's page (Origin %s, expected this "
+                "server's own address)",
+                scope.get("method"),
+                scope.get("path", ""),
+                _header(scope, b"origin"),
+            )
+            await _forbidden(send, b"403 forbidden: a request from another site's page\n")
             return
-        given = _query_token(scope) or _cookie_token(scope)
-        if token_matches(self.server.token, given):
-            await self.app(scope, receive, send)
+        query, cookie = _query_token(scope), _cookie(scope, TOKEN_COOKIE)
+        given = query or cookie
+        if self.server.token and not token_matches(self.server.token, given):
+            self.server.refused_requests += 1
+            client = scope.get("client") or ("?", 0)
+            _LOG.warning(
+                "console: refused %s %s from %s: expected the access token (?%s=...), found %s",
+                kind,
+                scope.get("path", ""),
+                client[0],
+                TOKEN_QUERY,
+                "a wrong one" if given else "none",
+            )
+            if kind == "websocket":
+                await send({"type": "websocket.close", "code": 4401})
+                return
+            await _forbidden(
+                send,
+                b"403 forbidden: this console needs its access token: open the address printed "
+                b"at start (it ends in ?token=...)\n",
+            )
             return
-        self.server.refused_requests += 1
-        client = scope.get("client") or ("?", 0)
-        _LOG.warning(
-            "console: refused %s %s from %s: expected the access token (?%s=...), found %s",
-            scope["type"],
-            scope.get("path", ""),
-            client[0],
-            TOKEN_QUERY,
-            "a wrong one" if given else "none",
-        )
-        if scope["type"] == "websocket":
-            await send({"type": "websocket.close", "code": 4401})
-            return
-        body = (
-            b"403 forbidden: this console needs its access token: open the address printed at "
-            b"start (it ends in ?token=...)\n"
-        )
-        await send(
-            {
-                "type": "http.response.start",
-                "status": 403,
-                "headers": [(b"content-type", b"text/plain; charset=utf-8")],
+        scope[VIEWER_SCOPE] = viewer_key(_cookie(scope, VIEWER_COOKIE))
+        cookies: list[tuple[str, str]] = []
+        if kind == "http":
+            if not scope[VIEWER_SCOPE]:
+                cookies.append((VIEWER_COOKIE, f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE_LAX}"))
+            if self.server.token and query and cookie != self.server.token:
+                cookies.append(
+                    (TOKEN_COOKIE, f"{TOKEN_COOKIE}={self.server.token}; {_COOKIE_STRICT}")
+                )
+        await self.app(scope, receive, _setting_cookies(send, cookies) if cookies else send)
+
+
+_SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
+_COOKIE_LAX = "Path=/; HttpOnly; SameSite=Lax"
+_COOKIE_STRICT = "Path=/; HttpOnly; SameSite=Strict"
+
+
+def _setting_cookies(send: Any, cookies: list[tuple[str, str]]) -> Any:
+    """``send`` that adds ``cookies`` (name, Set-Cookie value) to the response's headers,
+    unless the route set a cookie of that name itself."""
+
+    async def wrapped(message: dict) -> None:
+        if message["type"] == "http.response.start":
+            headers = list(message.get("headers", []))
+            present = {
+                value.split(b"=", 1)[0].strip() for key, value in headers if key == b"set-cookie"
             }
-        )
-        await send({"type": "http.response.body", "body": body})
+            for name, value in cookies:
+                if name.encode() not in present:
+                    headers.append((b"set-cookie", value.encode("latin-1")))
+            message = {**message, "headers": headers}
+        await send(message)
+
+    return wrapped
+
+
+async def _forbidden(send: Any, body: bytes) -> None:
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 403,
+            "headers": [(b"content-type", b"text/plain; charset=utf-8")],
+        }
+    )
+    await send({"type": "http.response.body", "body": body})
 
 
 def _header(scope: dict, name: bytes) -> str | None:
@@ -121,12 +188,12 @@ def _query_token(scope: dict) -> str | None:
     return values[0] if values else None
 
 
-def _cookie_token(scope: dict) -> str | None:
+def _cookie(scope: dict, wanted: str) -> str | None:
     for name, value in scope.get("headers", []):
         if name == b"cookie":
             for part in value.decode("latin-1").split(";"):
                 key, _, val = part.strip().partition("=")
-                if key == TOKEN_COOKIE:
+                if key == wanted:
                     return val
     return None
 
@@ -147,6 +214,9 @@ class WebServer:
         self.token = token
         self.refused_requests = 0
         self.links: dict[str, str] = {}  #: extra pages (path -> title) shown on the console
+        #: who holds control, shared by every page of this server (touched only by the modules'
+        #: ``step``, which the scheduler never runs at once)
+        self.control = ControlArbiter()
         self.app = FastAPI(docs_url=None, redoc_url=None, openapi_url=None)
         self._sock = socket.socket(
             socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM

@@ -7,10 +7,10 @@ calls act on one session. Snapshots are written as PNG images with a JSON of bot
     umbra sketch new S --seed 3                    a randomized scene, cameras wide
     umbra sketch aim S --at pipe_center --zoom 0.3   (or: aim S X Y Z)
     umbra sketch snapshot S                        -> S/snap1_a.png, S/snap1_b.png, S/snap1.json
-    umbra sketch place S line --a 540,252 113,148 --b 529,254 135,148
+    umbra sketch place S line --a 527,168 110,235 --b 547,169 103,232
     umbra sketch place S line --truth pipe --noise 0.5   (simulated clicks on the true pipe)
     umbra sketch macros S line1
-    umbra sketch plan S grab_pipe line1
+    umbra sketch plan S grab_pipe line1           (a triad: plan S make_box triad1)
     umbra sketch play S path1 --script "0:play 2:pause 2.5:back 3.5:play@0.5 5:speed@1"
 """
 
@@ -26,7 +26,8 @@ import numpy as np
 
 from connectors.cli_support import print_json
 from connectors.errors import UserError
-from modules.sketch.macros import MacroError
+from modules.sketch.command_text import VCR_ACTIONS
+from modules.sketch.macros import MacroError, check_options
 from modules.sketch.primitives import KINDS, PrimitiveError
 from modules.sketch.session import SessionError, SketchSession
 from modules.sketch.stereo import StereoPair
@@ -81,6 +82,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     folder: Path = args.session
     if args.action == "new":
+        if args.seed < 0:
+            raise UserError(f"sketch new: expected a seed >= 0, got {args.seed}")
         folder.mkdir(parents=True, exist_ok=True)
         _save(folder, {"seed": args.seed, "events": []})
         session = SketchSession(seed=args.seed)
@@ -107,12 +110,20 @@ def _event(args: argparse.Namespace) -> dict[str, Any]:
     if a == "aim":
         if (args.at is None) == (len(args.xyz) != 3):
             raise UserError("aim: expected X Y Z or --at FEATURE (one of them)")
+        if not all(np.isfinite(args.xyz)):
+            raise UserError(f"aim: expected finite X Y Z in metres, got {args.xyz}")
+        if args.zoom is not None and not (np.isfinite(args.zoom) and 0.0 <= args.zoom <= 1.0):
+            raise UserError(f"aim: expected --zoom within 0 .. 1, got {args.zoom}")
         return {"cmd": a, "xyz": args.xyz, "at": args.at, "zoom": args.zoom}
     if a == "snapshot":
         return {"cmd": a}
     if a == "place":
         if args.truth is None and not (args.a and args.b):
             raise UserError("place: expected --a U,V ... and --b U,V ..., or --truth FEATURE")
+        if not (np.isfinite(args.noise) and 0.0 <= args.noise <= 20.0):
+            raise UserError(f"place: expected --noise within 0 .. 20 px, got {args.noise}")
+        if args.truth is None:
+            _pixels(args.a), _pixels(args.b)  # refuse bad pixels before the event is kept
         return {
             "cmd": a,
             "kind": args.kind,
@@ -132,9 +143,15 @@ def _event(args: argparse.Namespace) -> dict[str, Any]:
                 options[key] = float(value)
             except ValueError:
                 raise UserError(f"plan --option: expected KEY=NUMBER, got {item!r}") from None
-            if not sep:
-                raise UserError(f"plan --option: expected KEY=NUMBER, got {item!r}")
+            if not sep or not np.isfinite(options[key]):
+                raise UserError(f"plan --option: expected KEY=NUMBER (finite), got {item!r}")
+        try:
+            check_options(args.macro, options)
+        except MacroError as exc:
+            raise UserError(f"plan --option: {exc}") from None
         return {"cmd": a, "macro": args.macro, "primitive": args.primitive, "options": options}
+    if not (np.isfinite(args.timeout) and 0 < args.timeout <= 3600):
+        raise UserError(f"play: expected --timeout within 0 .. 3600 s, got {args.timeout}")
     return {"cmd": a, "path": args.path, "script": _script(args.script), "timeout": args.timeout}
 
 
@@ -150,6 +167,15 @@ def _script(text: str) -> list[list[Any]]:
             raise UserError(f"play --script: expected T:ACTION[@NUMBER], got {word!r}") from None
         if not sep or not action:
             raise UserError(f"play --script: expected T:ACTION[@NUMBER], got {word!r}")
+        if not (np.isfinite(t) and t >= 0) or (number is not None and not np.isfinite(number)):
+            raise UserError(
+                f"play --script: expected a time >= 0 s and a finite number, got {word!r}"
+            )
+        if action not in VCR_ACTIONS:
+            raise UserError(
+                f"play --script: unknown action {action!r} in {word!r}; expected one of "
+                f"{', '.join(VCR_ACTIONS)}"
+            )
         steps.append([t, action, number])
     return steps
 
@@ -157,7 +183,9 @@ def _script(text: str) -> list[list[Any]]:
 def _apply(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[str, Any]:
     try:
         return _run(session, folder, e, replay)
-    except (SessionError, MacroError, PrimitiveError, VcrError, KeyError) as exc:
+    except (SessionError, MacroError, PrimitiveError, VcrError) as exc:
+        raise UserError(f"sketch {e['cmd']}: {exc}") from None
+    except ValueError as exc:  # a degenerate primitive or pose: the planner says why
         raise UserError(f"sketch {e['cmd']}: {exc}") from None
 
 
@@ -165,7 +193,9 @@ def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[st
     cmd = e["cmd"]
     if cmd == "aim":
         if e["at"]:
-            point = targets_from_objects(session.scene.message())[e["at"]]
+            point = _feature(session, e["at"], "aim --at")
+            if point.ndim != 1:
+                raise SessionError(f"aim --at: {e['at']!r} is not a point; try {e['at']}_center")
         else:
             point = np.asarray(e["xyz"], dtype=float)
         session.aim(point, e["zoom"])
@@ -192,7 +222,7 @@ def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[st
         }
     if cmd == "place":
         if e["truth"]:
-            points = targets_from_objects(session.scene.message())[e["truth"]]
+            points = _feature(session, e["truth"], "place --truth")
             if points.ndim == 1:
                 points = points[None, :]
             rng = np.random.default_rng(e["seed"])
@@ -214,6 +244,15 @@ def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[st
         }
     if cmd == "macros":
         return {"macros": dict(session.macros(e["primitive"]))}
+    if cmd == "plan" and e["macro"] == "make_box":
+        if not e["primitive"]:
+            raise SessionError("make_box: expected a triad's id")
+        box = session.make_box(e["primitive"])
+        return {
+            "box": box.box_id,
+            "center_m": np.round(box.T_base_box[:3, 3], 4).tolist(),
+            "size_m": np.round(box.size, 4).tolist(),
+        }
     if cmd == "plan":
         path = session.plan(e["macro"], e["primitive"], e["options"])
         return {
@@ -235,6 +274,14 @@ def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[st
     }
 
 
+def _feature(session: SketchSession, name: str, where: str) -> np.ndarray:
+    """A true scene feature by name (simulated clicks and aims)."""
+    features = targets_from_objects(session.scene.message())
+    if name not in features:
+        raise SessionError(f"{where}: unknown feature {name!r}; expected one of {sorted(features)}")
+    return features[name]
+
+
 def _kwargs(action: str, number: float | None) -> dict[str, float]:
     if number is None:
         return {}
@@ -249,8 +296,8 @@ def _pixels(words: list[str]) -> np.ndarray:
             out.append([float(parts[0]), float(parts[1])])
         except (ValueError, IndexError):
             raise UserError(f"place: expected pixels as U,V, got {w!r}") from None
-        if len(parts) != 2:
-            raise UserError(f"place: expected pixels as U,V, got {w!r}")
+        if len(parts) != 2 or not np.all(np.isfinite(out[-1])):
+            raise UserError(f"place: expected pixels as U,V (finite numbers), got {w!r}")
     return np.asarray(out)
 
 

@@ -8,7 +8,8 @@ One command per ``Text`` message; numbers are SI (metres, radians unless ``_deg`
     snapshot                     take a stereo snapshot pair
     place KIND U,V ... | U,V ... a primitive by its vertices in image a | image b
     plan MACRO [ID] [KEY=VALUE ...]   plan and check a macro for primitive ID (none: canned)
-    vcr ACTION [SPEED] [S]       play / pause / back / resume / speed / seek / stop the path
+    vcr ACTION [NUMBER]          play / back / resume [SPEED], speed SPEED (0.1 .. 1),
+                                 seek S (path units), pause, stop
 
 :func:`parse` returns a :class:`Command` or raises ``UserError`` saying what was expected.
 """
@@ -23,6 +24,7 @@ from connectors import UserError
 from modules.sketch.primitives import KINDS
 
 VERBS = ("aim", "zoom", "snapshot", "place", "plan", "vcr")
+VCR_ACTIONS = ("play", "back", "pause", "resume", "speed", "seek", "stop")
 
 
 @dataclass
@@ -73,8 +75,10 @@ def parse(text: str) -> Command:
     verb, rest = words[0], words[1:]
     if verb == "aim":
         values = _numbers(rest, "aim X Y Z [ZOOM]", text)
-        if len(values) not in (3, 4):
-            raise UserError(f"sketch command {text!r}: expected aim X Y Z [ZOOM]")
+        if len(values) not in (3, 4) or (len(values) == 4 and not 0.0 <= values[3] <= 1.0):
+            raise UserError(
+                f"sketch command {text!r}: expected aim X Y Z [ZOOM] with 0 <= ZOOM <= 1"
+            )
         return Command(
             verb, point=np.array(values[:3]), zoom=values[3] if len(values) > 3 else None
         )
@@ -110,10 +114,19 @@ def parse(text: str) -> Command:
             else:
                 ident = w
         return Command(verb, macro=rest[0], primitive_id=ident, options=options)
-    values = _numbers(rest[1:], "vcr speed / s", text) if len(rest) > 1 else []
-    if not rest:
-        raise UserError(f"sketch command {text!r}: expected vcr ACTION [SPEED] [S]")
+    if not rest or rest[0] not in VCR_ACTIONS:
+        raise UserError(
+            f"sketch command {text!r}: expected vcr ACTION [NUMBER] with ACTION one of "
+            f"{', '.join(VCR_ACTIONS)}"
+        )
     action = rest[0]
-    speed = values[0] if values and action in ("play", "back", "resume", "speed") else None
+    values = _numbers(rest[1:], f"vcr {action}", text)
+    takes = 1 if action in ("play", "back", "resume", "speed", "seek") else 0
+    if len(values) > takes or (action in ("speed", "seek") and not values):
+        what = {"seek": " S", "speed": " SPEED"}.get(action, " [SPEED]" if takes else "")
+        raise UserError(f"sketch command {text!r}: expected vcr {action}{what}")
+    speed = values[0] if values and action != "seek" else None
+    if speed is not None and not 0.1 <= speed <= 1.0:
+        raise UserError(f"sketch command {text!r}: expected a speed within 0.1 .. 1")
     s = values[0] if values and action == "seek" else None
     return Command(verb, action=action, speed=speed, s=s)

@@ -28,12 +28,12 @@ MENU: dict[str, list[tuple[str, str]]] = {
     ],
     "point": [
         ("move_to", "tool point to `standoff` (0.05 m) above the point, looking down"),
-        ("aim_along_ray", "tool axis along camera a's ray through the point, `standoff` back"),
+        ("aim_along_ray", "tool axis along camera a's ray, `standoff` (0.15 m) before the point"),
     ],
     "line": [
         ("grab_pipe", "grasp the line's middle from above, fingers across the axis"),
-        ("move_around_axis", "sweep `angle` (85 deg) about the line, right-hand rule"),
-        ("approach_side", "grasp the line's middle from the side facing the arm"),
+        ("move_around_axis", "sweep `angle_deg` (85) about the line, right-hand rule"),
+        ("approach_side", "grasp the middle from the arm's side, `elevation_deg` (20) below level"),
         ("move_parallel", "move the tool along the line by its length x `fraction` (1)"),
         ("aim_along_axis", "tool axis along the line, `standoff` (0.1 m) before its start"),
         ("place_device", "set the held device `standoff` (0.08 m) in front of the edge"),
@@ -43,6 +43,19 @@ MENU: dict[str, list[tuple[str, str]]] = {
         ("follow_perimeter", "follow the rectangle's outline at `standoff` (0.08 m)"),
     ],
     "triad": [("make_box", "keep the box as scene geometry (no motion)")],
+}
+
+#: the options each macro takes: name -> (lowest, highest) accepted value (m, deg or 1)
+OPTIONS: dict[str, dict[str, tuple[float, float]]] = {
+    "move_to": {"standoff": (0.0, 0.5)},
+    "aim_along_ray": {"standoff": (0.0, 0.5)},
+    "approach_side": {"elevation_deg": (0.0, 60.0)},
+    "move_around_axis": {"angle_deg": (-180.0, 180.0)},
+    "move_parallel": {"fraction": (-2.0, 2.0)},
+    "aim_along_axis": {"standoff": (0.0, 0.5)},
+    "place_device": {"standoff": (0.0, 0.5)},
+    "surface_scan": {"standoff": (0.02, 0.5), "spacing": (0.005, 0.2)},
+    "follow_perimeter": {"standoff": (0.02, 0.5)},
 }
 
 PREGRASP_M = 0.10
@@ -71,6 +84,29 @@ def menu_for(primitive: SketchPrimitive | None) -> list[tuple[str, str]]:
     return MENU["none" if primitive is None else primitive.kind]
 
 
+def check_options(macro: str, options: dict[str, float] | None) -> dict[str, float]:
+    """The options of ``macro`` as floats; raises MacroError for an option the macro does not
+    take, or a value that is not a finite number within its range (see :data:`OPTIONS`)."""
+    allowed = OPTIONS.get(macro, {})
+    out: dict[str, float] = {}
+    for key, value in (options or {}).items():
+        if key not in allowed:
+            expected = ", ".join(allowed) if allowed else "none"
+            raise MacroError(f"macro {macro!r} has no option {key!r}; its options: {expected}")
+        low, high = allowed[key]
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            number = float("nan")
+        if not (np.isfinite(number) and low <= number <= high):
+            raise MacroError(
+                f"macro {macro!r}: option {key} must be a number within {low:g} .. {high:g}, "
+                f"got {value!r}"
+            )
+        out[key] = number
+    return out
+
+
 def macro_keys(
     macro: str,
     primitive: SketchPrimitive | None,
@@ -82,12 +118,14 @@ def macro_keys(
     q_stow: FloatArray | None = None,
     camera_centre: FloatArray | None = None,
 ) -> MacroKeys:
-    """Key poses of ``macro`` for ``primitive`` from the current tool pose ``T_tool``."""
-    opts = dict(options or {})
+    """Key poses of ``macro`` for ``primitive`` from the current tool pose ``T_tool``.
+
+    ``make_box`` has no motion: its keys are empty (the caller keeps the triad's box)."""
     names = [m for m, _ in menu_for(primitive)]
     if macro not in names:
         kind = "nothing selected" if primitive is None else f"a {primitive.kind}"
         raise MacroError(f"macro {macro!r} is not on the menu for {kind}; expected one of {names}")
+    opts = check_options(macro, options)
     keys = MacroKeys(macro)
     if macro in ("ready", "stow"):
         target = q_ready if macro == "ready" else q_stow
@@ -121,9 +159,15 @@ def macro_keys(
         else:
             outward = m.copy()
             outward[2] = 0.0
-            approach = outward - (outward @ axis.direction) * axis.direction
-            approach[2] = 0.0
-            approach /= np.linalg.norm(approach)
+            level = outward - (outward @ axis.direction) * axis.direction
+            level[2] = 0.0
+            if np.linalg.norm(level) < 1e-6:
+                raise MacroError("approach_side: the line points at the arm; no side faces it")
+            level /= np.linalg.norm(level)
+            # tilted down below level: a horizontal approach at the table puts the Puma's wrist
+            # at its limit
+            dip = np.radians(opts.get("elevation_deg", 20.0))
+            approach = np.cos(dip) * level + np.sin(dip) * DOWN
         grasp = tool_pose(m, approach, axis.direction, x_hint)
         pre = grasp.copy()
         pre[:3, 3] = m - PREGRASP_M * approach

@@ -12,6 +12,11 @@ is solved for the joints starting from the previous one (damped Gauss-Newton,
   tool within ``max_linear`` / ``max_angular`` (the guard's clamps) would be slower than
   ``min_rate``.
 
+When the straight Cartesian way to the macro's first key pose is refused, a joint-space transit
+there is tried (:mod:`modules.sketch.transit`); its samples are checked for what matters for a
+joint motion (limits, and that the twist interface can command it) instead of the Jacobian's
+smallest singular value; the segments after the first key stay straight tool lines.
+
 The path parameter ``s`` is the joint-space arc length (rad, Euclidean); the nominal playing
 rate ``checks["rate"]`` (rad/s of s) is the largest that respects every speed limit.
 """
@@ -30,6 +35,7 @@ from modules.arm.dh import DHTable
 from modules.arm.jacobian import jacobian_and_pose
 from modules.sketch.macros import MacroKeys
 from modules.sketch.tool_poses import interpolate
+from modules.sketch.transit import goal_candidates, transit_options, transit_problem
 from modules.world.ik import IKFailed, solve_ik
 
 FloatArray = NDArray[np.float64]
@@ -65,6 +71,7 @@ def plan_path(
     when a check fails (the samples up to the failure are kept for display)."""
     q_now = np.asarray(q_now, dtype=float)
     T_now = table.fk(q_now, T_flange_tool)
+    transit = 0
     if keys.joint_targets:
         joints = _joint_line(q_now, keys.joint_targets, limits.step_rad)
         poses = np.stack([table.fk(q, T_flange_tool) for q in joints])
@@ -80,6 +87,12 @@ def plan_path(
     checks: dict[str, float] = {"samples": float(len(joints))}
     if not reason:
         reason = _check(joints, poses[: len(joints)], table, T_flange_tool, limits, checks)
+    if reason and keys.poses:
+        other = _with_transit(keys, table, T_flange_tool, q_now, gripper_now, limits)
+        if other is not None:
+            joints, poses, gripper, transit = other
+            checks = {"samples": float(len(joints)), "transit_samples": float(transit)}
+            reason = _check(joints, poses, table, T_flange_tool, limits, checks, transit)
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(joints, axis=0), axis=1))])
     keep = np.concatenate([[True], np.diff(s) > 1e-9])
     n = len(joints)
@@ -96,6 +109,25 @@ def plan_path(
         reason=reason or ("" if n >= 2 and s[-1] > 1e-6 else "the path has no length"),
         checks={k: float(v) for k, v in checks.items()},
     )
+
+
+def _with_transit(keys: MacroKeys, table, T_flange_tool, q_now, gripper_now, limits):
+    """(joints, poses, gripper, transit samples) of the macro with a joint-space transit to its
+    first key pose, or None when no transit and straight rest pass (see module docstring)."""
+    rest, rest_index = interpolate(keys.poses, limits.step_m, limits.step_rad)
+    for q_goal in goal_candidates(table, keys.poses[0], q_now, T_flange_tool, limits.limit_margin):
+        rest_joints, why = _solve(rest, table, T_flange_tool, q_goal, limits)
+        if why:
+            continue
+        for moves in transit_options(q_now, q_goal, limits.step_rad):
+            if transit_problem(table, T_flange_tool, moves, limits.limit_margin, 0.1):
+                continue
+            joints = np.concatenate([moves, rest_joints[1:]])
+            poses = np.stack([table.fk(q, T_flange_tool) for q in moves] + list(rest[1:]))
+            gripper = [gripper_now] * (len(moves) - 1) + [keys.gripper[0]]
+            gripper += [keys.gripper[k] for k in rest_index[1:]]
+            return joints, poses, np.asarray(gripper, dtype=float), len(moves) - 1
+    return None
 
 
 def _joint_line(q0: FloatArray, targets: list[FloatArray], step: float) -> FloatArray:
@@ -139,7 +171,11 @@ def _nearest_turn(table: DHTable, q: FloatArray, q_prev: FloatArray) -> FloatArr
     return out
 
 
-def _check(joints, poses, table: DHTable, T_flange_tool, limits: PathLimits, checks) -> str:
+def _check(
+    joints, poses, table: DHTable, T_flange_tool, limits: PathLimits, checks, transit: int = 0
+) -> str:
+    """The checks of the module docstring; the first ``transit`` samples are a joint transit
+    (already checked by :func:`transit_problem`) and skip the singular-value check."""
     margins = np.array([table.limit_margin(q) for q in joints])
     worst = np.unravel_index(np.argmin(margins), margins.shape)
     checks["min_limit_margin_deg"] = float(np.degrees(margins[worst]))
@@ -155,6 +191,7 @@ def _check(joints, poses, table: DHTable, T_flange_tool, limits: PathLimits, che
             for q in joints
         ]
     )
+    sigmas[:transit] = np.inf
     checks["min_sigma"] = float(sigmas.min())
     if sigmas.min() < limits.min_sigma:
         i = int(np.argmin(sigmas))

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath
+from connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
 from modules.arm.dh import puma560
 from modules.arm.dls import DLSSettings, solve_dls
 from modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
@@ -27,9 +27,10 @@ from modules.arm.velocity_register import RegisterSettings, VelocityRegister
 from modules.geometry.transforms import translation
 from modules.ptu.ptu_model import aim_in_base
 from modules.ptu.sim_ptu import SimPtu
+from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.macros import MacroError, macro_keys, menu_for
 from modules.sketch.path_check import PathLimits, plan_path
-from modules.sketch.primitives import place_primitive
+from modules.sketch.primitives import place_primitive, triad_box
 from modules.sketch.rig import RigCamera, default_rig
 from modules.sketch.stereo import StereoNoise, StereoPair
 from modules.trajectory.player import PathPlayer
@@ -99,7 +100,9 @@ class SketchSession:
         self.snapshots: dict[str, StereoSnapshot] = {}
         self.primitives: dict[str, SketchPrimitive] = {}
         self.paths: dict[str, ToolPath] = {}
+        self.boxes: dict[str, SketchBox] = {}
         self.player: PathPlayer | None = None
+        self._watch: dict[str, FloatArray] = {}
 
     # -- world --------------------------------------------------------------------------------
     @property
@@ -118,12 +121,32 @@ class SketchSession:
         return model, cam.T_base_camera(pan, tilt, model)
 
     def aim(self, point: ArrayLike, zoom: float | None = None, settle: bool = True) -> None:
-        """Slew both PTUs to watch ``point`` (m, base); set the zoom; wait until they stop."""
-        for cam, unit in zip(self.cameras, self.ptus, strict=True):
-            unit.command(*aim_in_base(cam.geometry, cam.T_base_ptu, point))
+        """Slew both PTUs to watch ``point`` (m, base); set the zoom (0 wide .. 1 tele); wait
+        until they stop. Raises SessionError (nothing moves) for a point out of the units'
+        travel or a zoom out of range."""
+        p = np.asarray(point, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise SessionError(f"aim: expected a finite 3-D point (m, base), got {point!r}")
+        if zoom is not None and not (np.isfinite(zoom) and 0.0 <= zoom <= 1.0):
+            raise SessionError(f"aim: expected a zoom within 0 .. 1, got {zoom}")
+        try:
+            angles = [aim_in_base(c.geometry, c.T_base_ptu, p) for c in self.cameras]
+        except ValueError as exc:
+            raise SessionError(f"aim at {np.round(p, 3).tolist()} m: {exc}") from None
+        for unit, (pan, tilt) in zip(self.ptus, angles, strict=True):
+            unit.command(pan, tilt)
         if zoom is not None:
             self.zooms = [float(zoom), float(zoom)]
         while settle and any(u.moving for u in self.ptus):
+            self._tick(np.zeros(6), "")
+
+    def grip(self, action: str) -> None:
+        """Open or close the gripper ("open" / "close") and wait until it gets there (the arm
+        holds still); e.g. a device taken in hand before place_device."""
+        if action not in ("open", "close"):
+            raise SessionError(f"grip: expected open or close, got {action!r}")
+        self._tick(np.zeros(6), action)
+        while self.arm.gripper_moving:
             self._tick(np.zeros(6), "")
 
     # -- snapshots and primitives -------------------------------------------------------------
@@ -201,10 +224,23 @@ class SketchSession:
     def macros(self, primitive_id: str | None = None) -> list[tuple[str, str]]:
         return menu_for(self._primitive(primitive_id))
 
+    def make_box(self, primitive_id: str) -> SketchBox:
+        """The triad macro: keep the box the triad spans as scene geometry (no motion)."""
+        prim = self._primitive(primitive_id)
+        if prim is None or prim.kind != "triad":
+            kind = prim.kind if prim is not None else "nothing"
+            raise MacroError(f"make_box needs a triad, got {kind}")
+        box = triad_box(prim)
+        self.boxes[box.box_id] = box
+        return box
+
     def plan(
         self, macro: str, primitive_id: str | None = None, options: dict | None = None
     ) -> ToolPath:
-        """Plan and check ``macro`` from the arm's current joints (``ok`` False: refused)."""
+        """Plan and check ``macro`` from the arm's current joints (``ok`` False: refused).
+        ``make_box`` has no motion: use :meth:`make_box`."""
+        if macro == "make_box":
+            raise MacroError("make_box has no motion to plan; call make_box(primitive_id)")
         prim = self._primitive(primitive_id)
         cam_a = self.camera_state(0)[1][:3, 3]
         keys = macro_keys(
@@ -228,7 +264,11 @@ class SketchSession:
             stamp=self.time,
         )
         self.paths[path.path_id] = path
-        self._watch = keys.watch
+        watch = keys.watch
+        if watch is None and len(path.T_base_tool):
+            watch = np.asarray(path.T_base_tool[-1][:3, 3])  # canned motions: the tool's goal
+        if watch is not None:
+            self._watch[path.path_id] = watch
         return path
 
     # -- the VCR ------------------------------------------------------------------------------
@@ -254,21 +294,28 @@ class SketchSession:
         """Play a path: VCR ``script`` of (time after start [s], action, kwargs); default: play.
 
         Runs until the path is done and the gripper settled, or ``timeout``. When ``watch``, the
-        cameras are first slewed to watch the macro's goal (the report's behaviour).
+        cameras are slewed to watch the macro's goal as it starts (the report's behaviour).
         """
-        if watch and getattr(self, "_watch", None) is not None:
+        if not (np.isfinite(timeout) and timeout > 0):
+            raise SessionError(f"play: expected a timeout > 0 s, got {timeout}")
+        steps = list(script or [(0.0, "play", {})])
+        length = float(self.paths[path_id].s[-1]) if path_id in self.paths else 0.0
+        for when, action, kwargs in steps:  # refuse a bad step before anything moves
+            _check_step(when, action, kwargs, length)
+        player = self.load(path_id)
+        goal = self._watch.get(path_id)
+        if watch and goal is not None:
             for cam, unit in zip(self.cameras, self.ptus, strict=True):
                 with contextlib.suppress(ValueError):  # out of the units' travel: keep the view
-                    unit.command(*aim_in_base(cam.geometry, cam.T_base_ptu, self._watch))
-        player = self.load(path_id)
-        pending = sorted(script or [(0.0, "play", {})], key=lambda e: e[0])
+                    unit.command(*aim_in_base(cam.geometry, cam.T_base_ptu, goal))
+        pending = sorted(steps, key=lambda e: e[0])
         log = PlayLog()
         start = self.time
         settle = 0
         while self.time - start < timeout:
             while pending and pending[0][0] <= self.time - start + 1e-9:
                 _, action, kwargs = pending.pop(0)
-                player.command(action, **kwargs)
+                player.command(action, **kwargs, q_measured=self.arm.q_reported)
             out = player.step(self.dt, self.arm.q_reported)
             guard = self._tick(out.twist_tool, out.gripper)
             if guard and out.mode in ("playing", "backing", "seeking", "pausing"):
@@ -328,3 +375,25 @@ class SketchSession:
         if primitive_id not in self.primitives:
             raise MacroError(f"no primitive {primitive_id!r}; placed: {sorted(self.primitives)}")
         return self.primitives[primitive_id]
+
+
+def _check_step(when: float, action: str, kwargs: dict, length: float) -> None:
+    """A VCR script step: time (s after the start), action and its speed (0.1 .. 1) or seek
+    target (0 .. ``length``, path units)."""
+    where = f"script step {when}:{action}"
+    if not (np.isfinite(when) and when >= 0):
+        raise SessionError(f"{where}: expected a time >= 0 s, got {when}")
+    if action not in VCR_ACTIONS:
+        raise SessionError(f"{where}: unknown action; expected one of {', '.join(VCR_ACTIONS)}")
+    takes = {"seek": {"s"}, "pause": set(), "stop": set()}.get(action, {"speed"})
+    unknown = set(kwargs) - takes
+    if unknown:
+        expected = " or ".join(sorted(takes)) or "nothing"
+        raise SessionError(f"{where}: takes {expected}, got {sorted(unknown)}")
+    speed, s = kwargs.get("speed"), kwargs.get("s")
+    if action == "speed" and speed is None:
+        raise SessionError(f"{where}: expected a speed within 0.1 .. 1")
+    if speed is not None and not (np.isfinite(speed) and 0.1 <= speed <= 1.0):
+        raise SessionError(f"{where}: expected a speed within 0.1 .. 1, got {speed}")
+    if action == "seek" and (s is None or not (np.isfinite(s) and 0.0 <= s <= length)):
+        raise SessionError(f"{where}: expected a seek target within 0 .. {length:.4g}, got {s}")

@@ -25,16 +25,32 @@ from modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
 from modules.sketch.session import Q_READY, Q_STOW
 from modules.sketch.stereo import StereoNoise, StereoPair
 
+_MOVING = ("playing", "backing", "seeking", "pausing", "halting", "gripping", "at_stop")
+
+
+def _ends_the_snapshot(exc: Exception) -> bool:
+    """Whether a refusal is the snapshot's own (it ends a waiting snapshot)."""
+    return str(exc).startswith("snapshot:")
+
+
+class _NotYet(UserError):
+    """A snapshot that must wait: a camera is settling or has no frame to match its model."""
+
 
 class Sketch(Module):
     """Active Sketch (LDRD report section 3) on the operator's side.
 
     Text commands (``modules/sketch/command_text.py``: aim, zoom, snapshot, place, plan, vcr)
     from the console, the CLI or a scripted operator. A snapshot freezes both images with both
-    camera models (zoom included) and poses, and is refused while a PTU is slewing. Placed
+    camera models (zoom included) and poses: it is refused while a PTU is slewing, within
+    ``settle_time`` of an aim, a zoom or PTU motion, and until each camera has a frame newer
+    than that and than its camera model (so image and model belong together): the snapshot is
+    then taken as soon as they are, within ``snapshot_wait``, and replied to then. Placed
     primitives are constrained to the epipolar lines and triangulated with their covariance
-    (``pixel_sigma`` and the calibration sigmas); a triad also gives a box. A plan is checked
-    (reach, joint limits, singularities, speed) before it is sent; only a path that passed is
+    (``pixel_sigma`` and the calibration sigmas); a triad's macro ``make_box`` sends the box it
+    spans (scene geometry for the 3-D view, no motion). A plan is checked
+    (reach, joint limits, singularities, speed) before it is sent, and refused while the player
+    moves the arm (the plan starts from the arm's joints); only a path that passed is
     sent to the player; VCR commands go to the player for the current path. When a path starts
     playing the cameras are slewed to watch its goal. ``status.message`` holds the outcome of the
     last command and the macro menu of the last primitive.
@@ -50,6 +66,12 @@ class Sketch(Module):
         rotation_sigma: float = param(2e-4, "camera orientation error", unit="rad", ge=0)
         translation_sigma: float = param(2e-4, "camera position error", unit="m", ge=0)
         max_image_age: float = param(0.5, "snapshot: newest image at most this old", unit="s", gt=0)
+        settle_time: float = param(
+            0.2, "snapshot: after an aim, zoom or PTU motion, wait", unit="s", ge=0, le=5
+        )
+        snapshot_wait: float = param(
+            3.0, "snapshot: wait at most this long for settled cameras", unit="s", ge=0, le=30
+        )
 
     command = Input(Text, required=False, doc="operator commands (scripted operator, CLI)")
     console = Input(Text, required=False, doc="operator commands from the /sketch page")
@@ -65,7 +87,7 @@ class Sketch(Module):
     vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
     snapshot = Output(StereoSnapshot, doc="stereo snapshot pairs")
     primitive = Output(SketchPrimitive, doc="placed, triangulated primitives")
-    box = Output(SketchBox, doc="boxes from triads")
+    box = Output(SketchBox, doc="boxes kept from triads (make_box)")
     path = Output(ToolPath, doc="checked paths (only those that passed)")
     plan_preview = Output(ToolPath, doc="every plan, passed or refused, for display")
     vcr = Output(VcrCommand, doc="VCR commands for the player")
@@ -88,21 +110,57 @@ class Sketch(Module):
         self._watch: dict[str, np.ndarray] = {}
         self._started_paths: set[str] = set()
         self._counts = {"commands": 0, "refused": 0}
+        #: per camera, the last time its view changed (aim or zoom sent, its PTU seen moving)
+        self._moved_at = {"a": float("-inf"), "b": float("-inf")}
+        self._now = 0.0
+        #: deadline of a snapshot waiting for the cameras to settle (None: none is waiting)
+        self._snapshot_due: float | None = None
 
     def step(self, now: float) -> None:
+        self._now = now
+        for side, port in (("a", self.ptu_state_a), ("b", self.ptu_state_b)):
+            unit = port.get(now)
+            if unit is not None and port.fresh and unit.moving:
+                self._moved_at[side] = now
+        if self._snapshot_due is not None:
+            self._reply(lambda: f"snapshot {self._snapshot(now).snapshot_id}", now)
         for port in (self.command, self.console):
             command = port.get(now)
             if command is not None and port.fresh:
-                self._obey(command, now)
+                self._counts["commands"] += 1
+                self._reply(lambda text=command.text: self._command(text, now), now)
 
-    def _obey(self, command: Text, now: float) -> None:
-        self._counts["commands"] += 1
+    def _command(self, text: str, now: float) -> str:
+        cmd = parse(text)
+        if self._snapshot_due is not None and cmd.verb not in ("vcr", "snapshot"):
+            raise UserError(f"{cmd.verb}: a snapshot is being taken; send it again after that")
+        return self._run(cmd, now)
+
+    def _reply(self, action, now: float) -> None:
+        """Run a command and send its outcome; a snapshot that must wait for the cameras to
+        settle is retried each tick (no reply yet) until ``snapshot_wait`` has passed."""
+        pending = self._snapshot_due
         try:
-            message = self._run(parse(command.text), now)
-            self.status.send(Status(stage="ok", message=message))
+            message = action()
+        except _NotYet as exc:
+            if pending is None:
+                self._snapshot_due = now + self.params.snapshot_wait
+            elif now >= pending:
+                self._snapshot_due = None
+                self._refuse(f"{exc} (waited {self.params.snapshot_wait:.1f} s)")
+            return
         except (UserError, MacroError, PrimitiveError, ValueError) as exc:
-            self._counts["refused"] += 1
-            self.status.send(Status(stage="refused", message=str(exc), reason=str(exc)))
+            if _ends_the_snapshot(exc):
+                self._snapshot_due = None
+            self._refuse(str(exc))
+            return
+        if message.startswith("snapshot "):
+            self._snapshot_due = None
+        self.status.send(Status(stage="ok", message=message))
+
+    def _refuse(self, message: str) -> None:
+        self._counts["refused"] += 1
+        self.status.send(Status(stage="refused", message=message, reason=message))
 
     # -- commands -----------------------------------------------------------------------------
     def _run(self, cmd: Command, now: float) -> str:
@@ -127,8 +185,10 @@ class Sketch(Module):
     def _aim(self, point: np.ndarray) -> None:
         for out in (self.ptu_a, self.ptu_b):
             out.send(PtuCommand(mode="point", point=point, frame=self.params.world_frame))
+        self._moved_at = {side: self._now for side in self._moved_at}
 
     def _zoom(self, zoom: float) -> None:
+        self._moved_at = {side: self._now for side in self._moved_at}
         self.zoom_a.send(Scalar(value=zoom))
         self.zoom_b.send(Scalar(value=zoom))
 
@@ -147,6 +207,17 @@ class Sketch(Module):
                 raise UserError(f"snapshot: camera {side}'s image is {image.age(now):.2f} s old")
             if unit is not None and unit.moving:
                 raise UserError(f"snapshot: PTU {side} is still slewing; wait until it stops")
+            settled = self._moved_at[side] + self.params.settle_time
+            if now < settled:
+                raise _NotYet(
+                    f"snapshot: camera {side} moved {now - self._moved_at[side]:.2f} s ago; "
+                    f"expected it still for {self.params.settle_time:.2f} s"
+                )
+            if image.received_at <= max(settled, model.received_at):
+                raise _NotYet(
+                    f"snapshot: camera {side} has no frame since its view or zoom last changed; "
+                    "wait for the next frame"
+                )
             parts.append((frame, cam, pose.matrix @ cam.T_mount_camera))
         (ia, ca, Ta), (ib, cb, Tb) = parts
         sid = f"snap{len(self.snapshots) + 1}"
@@ -189,16 +260,11 @@ class Sketch(Module):
         )
         self.primitives[pid] = prim
         self.primitive.send(prim)
-        if prim.kind == "triad":
-            self.box.send(triad_box(prim))
         menu = ", ".join(m for m, _ in menu_for(prim))
         sigma = np.sqrt(np.max(np.linalg.eigvalsh(prim.covariances), axis=1)) * 1e3
         return f"{pid} placed (largest sigma {np.round(sigma, 2).tolist()} mm); macros: {menu}"
 
     def _plan(self, cmd: Command, now: float) -> str:
-        state = self.joint_state.get(now)
-        if state is None:
-            raise UserError("plan: no joint state from the arm yet")
         prim = None
         if cmd.primitive_id:
             prim = self.primitives.get(cmd.primitive_id)
@@ -206,6 +272,16 @@ class Sketch(Module):
                 raise UserError(
                     f"plan: no primitive {cmd.primitive_id!r}; placed: {sorted(self.primitives)}"
                 )
+        if cmd.macro == "make_box":
+            return self._make_box(prim)
+        state = self.joint_state.get(now)
+        if state is None:
+            raise UserError("plan: no joint state from the arm yet")
+        vcr = self.vcr_state.get(now)
+        if vcr is not None and vcr.mode in _MOVING:
+            raise UserError(
+                f"plan: the arm is moving ({vcr.path_id} {vcr.mode}); pause it, then plan"
+            )
         q = np.asarray(state.position, dtype=float)
         keys = macro_keys(
             cmd.macro,
@@ -233,14 +309,27 @@ class Sketch(Module):
         self.plan_preview.send(path)
         if not path.ok:
             raise UserError(f"plan {cmd.macro}: refused: {path.reason}")
-        if keys.watch is not None:
-            self._watch[path.path_id] = keys.watch
+        watch = keys.watch
+        if watch is None and len(path.T_base_tool):
+            watch = np.asarray(path.T_base_tool[-1][:3, 3])  # canned motions: the tool's goal
+        if watch is not None:
+            self._watch[path.path_id] = watch
         self.current_path = path.path_id
         self.path.send(path)
         return (
             f"{path.path_id} ({cmd.macro}) checked: {len(path.s)} samples, "
             f"{path.checks.get('duration', 0.0):.1f} s at full speed"
         )
+
+    def _make_box(self, prim: SketchPrimitive | None) -> str:
+        """The triad's macro: its box is kept as scene geometry (no motion)."""
+        if prim is None or prim.kind != "triad":
+            raise UserError(f"make_box: expected a triad, got {prim.kind if prim else 'nothing'}")
+        box = triad_box(prim)
+        self.box.send(box)
+        size = np.round(box.size, 3).tolist()
+        centre = np.round(box.T_base_box[:3, 3], 3).tolist()
+        return f"box {box.box_id} kept: centre {centre} m, size {size} m"
 
     def _vcr(self, cmd: Command, now: float) -> str:
         if not self.current_path:

@@ -5,7 +5,8 @@ fundamental matrix ``F`` (``x_b^T F x_a = 0``, ideal pixels) to keep each right-
 the epipolar line of its mate while it is dragged (exact for the simulated cameras, which have
 no distortion; the Sketch module re-applies the exact constraint, distortion included, when the
 primitive is placed), the camera matrices for the test tools, every primitive with its vertices
-reprojected from 3-D, and the planned tool path projected into both images.
+reprojected from 3-D, its centroid (m, base: where the cameras aim) and largest sigma (mm), the
+macro menu of each kind of primitive, and the planned tool path projected into both images.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 from connectors.messages import Status
 from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.geometry.rays import fundamental_matrix
-from modules.sketch.macros import menu_for
+from modules.sketch.macros import MENU, menu_for
 from modules.sketch.stereo import StereoPair
 
 
@@ -37,6 +38,7 @@ def page_state(
         "snapshot": None,
         "primitives": [],
         "menu": [list(m) for m in menu_for(None)],
+        "menus": {kind: [list(m) for m in items] for kind, items in MENU.items()},
         "path": None,
         "vcr": None,
         "status": None,
@@ -62,6 +64,7 @@ def page_state(
             "pixels_b": _r(prim.pixels_b),
             "edges": np.asarray(prim.edges).tolist(),
             "points_m": _r(prim.points, 5),
+            "centroid_m": _r(np.mean(prim.points, axis=0), 5),
             "sigma_mm": _r(np.sqrt(np.linalg.eigvalsh(prim.covariances)[:, -1]) * 1e3, 2),
         }
         if pair is not None:

@@ -48,7 +48,17 @@ class JointPath:
         """Joint curvature at ``s`` (joint units per path unit²)."""
         return self._spline(np.clip(s, 0.0, self.length), 2)
 
-    def nearest_s(self, q: ArrayLike, samples: int = 400) -> float:
-        """The path parameter whose joints are nearest ``q`` (dense sampling, Euclidean)."""
-        grid = np.linspace(0.0, self.length, samples)
+    def nearest_s(
+        self,
+        q: ArrayLike,
+        samples: int = 400,
+        around: float | None = None,
+        window: float = np.inf,
+    ) -> float:
+        """The path parameter whose joints are nearest ``q`` (dense sampling, Euclidean), over
+        the whole path or within ``window`` of ``around`` (path units)."""
+        low, high = 0.0, self.length
+        if around is not None:
+            low, high = max(0.0, around - window), min(self.length, around + window)
+        grid = np.linspace(low, high, samples)
         return float(grid[np.argmin(np.linalg.norm(self.q(grid) - np.asarray(q), axis=1))])

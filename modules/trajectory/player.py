@@ -7,6 +7,14 @@ a proportional correction ``gain * (q(s) - q_measured)``, and turns the joint ra
 tool twist they produce at the measured joints (``J(q) qd``, re-expressed in the tool frame).
 That twist is the command that goes through the safety guard (REG_VEL) and the resolved-rate
 kinematics (WOLVERINE_KIN), which give back the same joint rates away from singularities.
+Only a moving VCR commands motion along the path: paused, halted, done or waiting for the
+gripper, the command only settles the last of the tracking lag (every joint within
+``SETTLE_BAND`` of the path) and is zero otherwise (the player never pulls an arm that was
+moved off the path back to it on its own), and play / back / resume
+/ seek are refused while the arm is more than ``max_start_error`` from the path where it
+stands (it was moved since: plan again). After a halt (a hard stop that froze the path
+parameter while the arm coasted on) a start first takes up the path where the arm is: the
+nearest point within ``RESYNC_WINDOW`` of where it froze.
 
 Gripper events: where the path's gripper opening changes at a waypoint, the VCR stops there
 (a stop point); the player commands the gripper ("close" / "open" going forwards, the reverse
@@ -46,6 +54,10 @@ class PlayerOutput:
 
 
 MAX_WAYPOINTS = 20_000
+RESYNC_WINDOW = 0.3  #: path units (rad of joint arc)
+SETTLE_BAND = 0.01  #: rad: standing still, a smaller tracking error is still corrected
+_MOVING = ("playing", "backing", "seeking", "pausing", "halting")
+_STARTS = ("play", "resume", "back", "seek")
 
 
 def _check_path(path: ToolPath, table: DHTable, rate: float) -> None:
@@ -84,6 +96,7 @@ class PathPlayer:
         stop_time_s: float = 0.25,
         gain: float = 4.0,
         gripper_time: float = 0.7,
+        max_start_error: float = 0.05,
     ) -> None:
         if not path.ok:
             raise VcrError(f"path {path.path_id} failed its checks: {path.reason}")
@@ -99,6 +112,10 @@ class PathPlayer:
         self.joint_path = JointPath(path.s, path.joints)
         self.gain = gain
         self.gripper_time = gripper_time
+        self.max_start_error = max_start_error
+        #: after a halt, how far along the path (path units: rad of joint arc) the arm is
+        #: looked for: a stalled servo tick at full rate coasts about rate x stall
+        self.resync_window = RESYNC_WINDOW
         g = np.asarray(path.gripper, dtype=float)
         if g.shape != (len(path.s),):
             g = np.full(len(path.s), np.nan)
@@ -116,10 +133,30 @@ class PathPlayer:
         self._pending_gripper = ""
 
     # -- commands -----------------------------------------------------------------------------
-    def command(self, action: str, speed: float | None = None, s: float | None = None) -> None:
-        """A VCR command (play, back, pause, resume, speed, seek, stop)."""
+    def command(
+        self,
+        action: str,
+        speed: float | None = None,
+        s: float | None = None,
+        q_measured: ArrayLike | None = None,
+    ) -> None:
+        """A VCR command (play, back, pause, resume, speed, seek, stop). With ``q_measured``
+        (rad), a start from standstill is refused (VcrError) when the arm is off the path."""
         st = self.vcr.state
         end = self.joint_path.length
+        if action in _STARTS and q_measured is not None and st.mode not in _MOVING:
+            q = np.asarray(q_measured, dtype=float)
+            if st.mode == "halted":  # the arm may have coasted on after a hard stop: take up
+                # the path where the arm is (the nearest point near where it froze)
+                near = self.joint_path.nearest_s(q, 200, around=st.s, window=self.resync_window)
+                st.s = near
+            off = float(np.max(np.abs(self.joint_path.q(st.s) - q)))
+            if not off <= self.max_start_error:
+                raise VcrError(
+                    f"{action} refused: the arm is {np.degrees(off):.1f} deg off path "
+                    f"{self.path.path_id} at s={st.s:.3f}; expected at most "
+                    f"{np.degrees(self.max_start_error):.1f} deg (it was moved: plan again)"
+                )
         if action == "back" and self._end_done and st.s >= end - 1e-9 and end in self.events:
             self._grip(self.events[end][0], then="back")  # undo the end's event, then back
             return
@@ -159,7 +196,13 @@ class PathPlayer:
             if end in self.events:
                 self._grip(self.events[end][1], then="")
         q_d = self.joint_path.q(st.s)
-        qd = self.joint_path.dq_ds(st.s) * st.s_dot + self.gain * (q_d - q_meas)
+        error = q_d - q_meas
+        if st.mode in _MOVING and self._hold <= 0:
+            qd = self.joint_path.dq_ds(st.s) * st.s_dot + self.gain * error
+        elif np.max(np.abs(error)) <= SETTLE_BAND:
+            qd = self.gain * error  # standing on the path: the last of the lag settles
+        else:
+            qd = np.zeros_like(q_d)  # standing off the path: no pull back to it
         J, T_base_tool = jacobian_and_pose(self.table, q_meas, self.T_flange_tool)
         twist_base = J @ qd
         R = T_base_tool[:3, :3]

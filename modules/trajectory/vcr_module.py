@@ -22,11 +22,14 @@ class VcrPlayer(Module):
     Its output is a tool twist (tool point, tool frame) for the safety register (REG_VEL, frame
     ``tool``) and the kinematics; gripper events of the path go out as open / close through the
     register too. It halts on the path, and stays halted until the next play or back, when:
-    the command link's producer is gone (lost console: a jerk-limited stop), the joint state is
-    older than ``max_state_age`` or the register reports a guard stop (then ``s`` freezes at
-    once: the guard has already stopped the arm). A command older than ``max_command_age`` when
-    it arrives is stale and refused. A path is checked again here before it is loaded (size,
-    finite numbers, joint limits, joint rates at its playing rate). Give it a ``rate``.
+    the command link's producer is gone (lost console: a jerk-limited stop), a command older
+    than ``max_command_age`` arrives (it is refused, and a moving player stops smoothly: the
+    console's link is lagging), the joint state is older than ``max_state_age`` or the register
+    reports a guard stop (then ``s`` freezes at once: the guard has already stopped the arm).
+    A path is checked again here before it is loaded (size, finite numbers, joint limits, joint
+    rates at its playing rate), and a new path is refused while the current one moves the arm.
+    Standing still it commands no motion; play / back / resume / seek are refused while the arm
+    is more than ``max_start_error`` off the path. Give it a ``rate``.
     """
 
     TYPE = "VCR_PLAYER"
@@ -40,6 +43,9 @@ class VcrPlayer(Module):
         gripper_time: float = param(0.7, "wait for a gripper event", unit="s", gt=0)
         max_command_age: float = param(0.5, "older commands are refused", unit="s", gt=0)
         max_state_age: float = param(0.2, "oldest joint state used", unit="s", gt=0)
+        max_start_error: float = param(
+            0.05, "play refused when a joint is off the path by more than", unit="rad", gt=0, le=0.5
+        )
 
     path = Input(ToolPath, required=False, doc="the checked path to play (from the planner)")
     command = Input(VcrCommand, required=False, doc="VCR commands from the console")
@@ -66,12 +72,12 @@ class VcrPlayer(Module):
         path = self.path.get(now)
         if path is not None and self.path.fresh:
             self._load(path)
+        state = self.joint_state.get(now)
         command = self.command.get(now)
         if command is not None:
             self._console_seen = True
         if command is not None and self.command.fresh:
-            self._obey(command, now)
-        state = self.joint_state.get(now)
+            self._obey(command, now, state)
         if self.player is None or state is None or dt <= 0:
             self._send_idle()
             return
@@ -88,6 +94,14 @@ class VcrPlayer(Module):
         self._send(out)
 
     def _load(self, path: ToolPath) -> None:
+        if self.player is not None and self.player.vcr.state.mode in _MOVING:
+            self._refused += 1
+            self._problem = (
+                f"path {path.path_id} refused: {self.player.path.path_id} is "
+                f"{self.player.vcr.state.mode}; pause it first"
+            )
+            self.log.warning("VCR_PLAYER %s: %s", self.name, self._problem)
+            return
         try:
             self.player = PathPlayer(
                 path,
@@ -96,6 +110,7 @@ class VcrPlayer(Module):
                 stop_time_s=self.params.stop_time,
                 gain=self.params.gain,
                 gripper_time=self.params.gripper_time,
+                max_start_error=self.params.max_start_error,
             )
             self._problem = ""
         except VcrError as exc:
@@ -103,14 +118,16 @@ class VcrPlayer(Module):
             self._problem = str(exc)
             self.log.warning("VCR_PLAYER %s: %s", self.name, exc)
 
-    def _obey(self, command: VcrCommand, now: float) -> None:
+    def _obey(self, command: VcrCommand, now: float, state: JointState | None) -> None:
         age = now - command.stamp
-        if age > self.params.max_command_age:
+        if not age <= self.params.max_command_age:
             self._refused += 1
             self._problem = (
                 f"stale command {command.action!r}: {age:.3f} s old, expected at most "
                 f"{self.params.max_command_age:.3f} s"
             )
+            if self.player is not None and self.player.vcr.state.mode in _MOVING:
+                self._halt(self._problem)
             return
         if self.player is None:
             self._problem = f"command {command.action!r} but no path is loaded"
@@ -124,7 +141,10 @@ class VcrPlayer(Module):
             speed = None
             if command.speed > 0 and command.action in ("speed", "play", "resume", "back"):
                 speed = command.speed
-            self.player.command(command.action, speed=speed, s=command.s)
+            q = None if state is None else np.asarray(state.position, dtype=float)
+            if q is None and command.action in ("play", "resume", "back", "seek"):
+                raise VcrError(f"{command.action} refused: no joint state from the arm yet")
+            self.player.command(command.action, speed=speed, s=command.s, q_measured=q)
             self._problem = ""
         except VcrError as exc:
             self._refused += 1
@@ -132,6 +152,8 @@ class VcrPlayer(Module):
 
     def _halt(self, reason: str, freeze: bool = False) -> None:
         assert self.player is not None
+        if self.player.vcr.state.mode == "halting" and not freeze:
+            return  # already stopping smoothly on the path
         self._halts += 1
         self.player.halt(reason, freeze=freeze)
 
@@ -158,7 +180,13 @@ class VcrPlayer(Module):
         path_id = self.player.path.path_id if self.player else ""
         self.state.send(VcrState(path_id=path_id, mode="idle", reason=self._problem))
 
+    def stop(self) -> None:
+        self._final = self.summary()
+        self.player = None  # the Ruckig objects go before the interpreter's teardown
+
     def summary(self) -> dict[str, object]:
+        if getattr(self, "_final", None) is not None:
+            return dict(self._final)
         st = self.player.vcr.state if self.player else None
         return {
             "path": self.player.path.path_id if self.player else "",

@@ -65,9 +65,12 @@ class Door:
     """A cabinet door on a vertical hinge, facing the arm (-x), opening towards it.
 
     ``hinge`` (m): bottom point of the hinge axis; the closed panel runs from the hinge along
-    -y for ``width``. ``angle`` (rad): opening, positive towards the arm (a rotation about -z).
-    The handle is a vertical bar ``handle_offset`` along the panel from the hinge, standing
-    ``handle_standoff`` in front of it, centred ``handle_height`` above the hinge's bottom.
+    -y for ``width``, its front face (towards the arm) in the plane x = hinge x, its back
+    ``thickness`` behind it. ``angle`` (rad): opening, positive towards the arm (a rotation
+    about -z: by the right-hand rule about the hinge line taken from its top to its bottom).
+    The handle is a level bar along the panel, centred ``handle_offset`` along it from the
+    hinge, standing ``handle_standoff`` in front of it on two posts, ``handle_height`` above
+    the hinge's bottom.
     """
 
     hinge: FloatArray
@@ -83,15 +86,16 @@ class Door:
 
     @property
     def R_base_panel(self) -> FloatArray:
-        """Panel frame: x along the panel from the hinge, y out of its front face, z up."""
-        R_closed = np.column_stack([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        """Panel frame (a proper rotation, determinant +1): x along the panel from the hinge,
+        y into the panel (from its front face to its back), z up; origin at ``hinge``."""
+        R_closed = np.column_stack([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
         return rot_z(-self.angle)[:3, :3] @ R_closed
 
     @property
     def handle_center(self) -> FloatArray:
         R = self.R_base_panel
         return self.hinge + R @ np.array(
-            [self.handle_offset, self.handle_standoff, self.handle_height]
+            [self.handle_offset, -self.handle_standoff, self.handle_height]
         )
 
     @property
@@ -240,7 +244,7 @@ class SketchScene:
             )
         d = self.door
         R = d.R_base_panel
-        panel_center = d.hinge + R @ np.array([d.width / 2, -d.thickness / 2, d.height / 2])
+        panel_center = d.hinge + R @ np.array([d.width / 2, d.thickness / 2, d.height / 2])
         out.append(
             (
                 "door",
@@ -270,7 +274,7 @@ class SketchScene:
         )
         for k in (-1, 1):
             post = d.hinge + R @ np.array(
-                [d.handle_offset + k * 0.04, d.handle_standoff / 2, d.handle_height]
+                [d.handle_offset + k * 0.04, -d.handle_standoff / 2, d.handle_height]
             )
             out.append(
                 (
@@ -339,7 +343,7 @@ def targets_from_objects(objects: SceneObjects) -> dict[str, FloatArray]:
         out[name] = np.stack([T[:3, 3] - half, T[:3, 3] + half])
         out[f"{name}_center"] = T[:3, 3]
     T, size = solid("door")
-    hinge_mid = T[:3, 3] - T[:3, :3] @ np.array([size[0] / 2, -size[1] / 2, 0.0])
+    hinge_mid = T[:3, 3] - T[:3, :3] @ np.array([size[0] / 2, size[1] / 2, 0.0])
     out["hinge"] = np.stack(
         [
             hinge_mid + np.array([0.0, 0.0, size[2] / 2]),

@@ -53,6 +53,7 @@ class SketchWorld(Module):
         self.judge = SketchJudge(scene)
         self._macro = ""
         self._succeeded: list[str] = []
+        self._verdicts: dict[str, dict[str, float]] = {}  #: each macro's figures at success
         self._next_objects = 0.0
         self._started: float | None = None
         self._last_key: tuple | None = None
@@ -79,9 +80,6 @@ class SketchWorld(Module):
 
     def _report(self, now: float, v) -> None:
         ok = bool(self._macro) and v.success(self._macro)
-        if ok and self._macro not in self._succeeded:
-            self._succeeded.append(self._macro)
-            self.log.info("SketchWorld: %s succeeded (%s)", self._macro, "; ".join(v.events))
         values = {
             "grasp_distance_mm": v.grasp_distance_m * 1e3,
             "grasp_angle_deg": float(np.degrees(v.grasp_angle_rad)),
@@ -92,6 +90,10 @@ class SketchWorld(Module):
             "device_error_mm": v.device_error_m * 1e3,
             "success": float(ok),
         }
+        if ok and self._macro not in self._succeeded:
+            self._succeeded.append(self._macro)
+            self._verdicts[self._macro] = {k: round(x, 3) for k, x in values.items()}
+            self.log.info("SketchWorld: %s succeeded (%s)", self._macro, "; ".join(v.events))
         key = (self._macro, ok, len(v.events))
         if key != self._last_key:
             self._last_key = key
@@ -113,6 +115,7 @@ class SketchWorld(Module):
         v = self.judge.verdicts
         return {
             "succeeded": list(self._succeeded),
+            "verdicts": dict(self._verdicts),
             "door_angle_deg": float(np.degrees(self.judge.scene.door.angle)),
             "grasp_distance_mm": float(v.grasp_distance_m * 1e3),
             "events": list(v.events),

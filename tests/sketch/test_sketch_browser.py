@@ -1,8 +1,13 @@
-"""The /sketch page in real Chromium: a line dragged onto the pipe in both images (the right-hand
-handles stay on their epipolar lines), Grab Pipe, play, pause, back, resume: the grasp completes."""
+"""The /sketch page in real Chromium, on graphs/active_sketch_page.yaml split over umbra and
+smart (no console: the page's operator takes control there): a line dragged onto the pipe in
+both images (the right-hand handles stay on their epipolar lines), Grab Pipe, a second page
+without control that cannot play it, play, pause, back, resume, speed: the grasp completes;
+and the door: the cameras zoomed out and aimed from the page, a line on the handle (Grab Pipe),
+a line on the hinge (Move Around Axis): the door opens."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -11,6 +16,7 @@ import subprocess
 import sys
 import time
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -55,9 +61,10 @@ def _project(P, points) -> np.ndarray:
     return h[:, :2] / h[:, 2:3]
 
 
-def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
-    from playwright.sync_api import sync_playwright
-
+@contextlib.contextmanager
+def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
+    """The page graph on the nominal scene; yields the page's base address and, after the
+    block, the run's summaries."""
     port = _free_port()
     base = f"http://127.0.0.1:{port}"
     run = subprocess.Popen(
@@ -79,6 +86,7 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         text=True,
         start_new_session=True,
     )
+    summaries: list[dict] = []
     try:
 
         def ready():
@@ -86,93 +94,12 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
                 st = _state(base)
             except OSError:
                 return None
-            return st if st.get("status") and st["status"]["message"].startswith("aiming") else None
+            status = st.get("status")
+            return st if status and status["message"].startswith("aiming") else None
 
         _wait(ready, 90, "the page and the cameras' aim")
-        time.sleep(4.0)  # PTUs slew, zoom settles, fresh frames
-        with sync_playwright() as p:
-            browser = launch(p)
-            page = browser.new_page(viewport={"width": 1400, "height": 900})
-            page.goto(f"{base}/sketch")
-            page.click("[data-testid=snapshot]")
-            page.wait_for_function(
-                "window.sketch.state && window.sketch.state.snapshot", timeout=20000
-            )
-            st = page.evaluate("window.sketch.state")
-            pipe = SketchScene.nominal().pipe.ends
-            truth_a, truth_b = (
-                _project(st["snapshot"]["P_a"], pipe),
-                _project(st["snapshot"]["P_b"], pipe),
-            )
-            page.click("[data-testid=drop-line]")
-
-            def drag(side: str, i: int, uv) -> None:
-                box = page.locator(f"#svg-{side}").bounding_box()
-                handle = _wait(
-                    lambda: page.locator(f"[data-testid=handle-{side}{i}]").bounding_box(),
-                    5,
-                    f"handle {side}{i}",
-                )
-                page.mouse.move(
-                    handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2
-                )
-                page.mouse.down()
-                page.mouse.move(
-                    box["x"] + uv[0] * box["width"] / 640,
-                    box["y"] + uv[1] * box["height"] / 480,
-                    steps=8,
-                )
-                page.mouse.up()
-
-            for i in range(2):
-                drag("a", i, truth_a[i])
-            for i in range(2):  # aim 12 px off the pipe's image: the handle stays on its line
-                drag("b", i, truth_b[i] + [0.0, 12.0])
-            a = np.array(page.evaluate("window.sketch.a"))
-            b = np.array(page.evaluate("window.sketch.b"))
-            F = np.array(st["snapshot"]["F"])
-            for i in range(2):
-                line = F @ np.append(a[i], 1.0)
-                distance = abs(line @ np.append(b[i], 1.0)) / np.hypot(line[0], line[1])
-                assert distance < 1e-6, f"right-hand handle {i} is {distance} px off its line"
-            assert np.max(np.abs(a - truth_a)) < 2.0
-            page.click("[data-testid=place]")
-            page.wait_for_function("window.sketch.state.primitives.length === 1", timeout=20000)
-            placed = page.evaluate("window.sketch.state.primitives[0]")
-            error = np.linalg.norm(np.array(placed["points_m"]) - pipe, axis=1)
-            assert error.max() < 0.006, error
-            page.click("[data-testid=macro-grab_pipe]")
-            page.wait_for_function(
-                "window.sketch.state.path && window.sketch.state.path.ok", timeout=20000
-            )
-            assert len(page.evaluate("window.sketch.state.path.preview_a")) > 10
-
-            def until(condition: str, button: str, timeout: float) -> None:
-                """Wait for ``condition``; a halt on the way (a guard stop when the loaded
-                machine stalls a tick) is met as an operator would: press ``button`` again."""
-                end = time.monotonic() + timeout
-                while time.monotonic() < end:
-                    if page.evaluate(condition):
-                        return
-                    if page.evaluate("window.sketch.state.vcr.mode") == "halted":
-                        time.sleep(0.5)
-                        page.click(f"[data-testid={button}]")
-                    time.sleep(0.2)
-                raise AssertionError(f"timed out waiting for {condition}")
-
-            page.click("[data-testid=play]")
-            until("window.sketch.state.vcr.progress > 0.2", "play", 40)
-            page.click("[data-testid=pause]")
-            page.wait_for_function(
-                "['paused', 'halted'].includes(window.sketch.state.vcr.mode)", timeout=10000
-            )
-            paused_at = page.evaluate("window.sketch.state.vcr.progress")
-            page.click("[data-testid=back]")
-            until(f"window.sketch.state.vcr.progress < {paused_at} - 0.05", "back", 30)
-            page.click("[data-testid=resume]")
-            until("window.sketch.state.vcr.mode === 'done'", "resume", 90)
-            browser.close()
-        time.sleep(1.5)  # the gripper closes, the world judges
+        time.sleep(3.0)  # PTUs slew, zoom settles, fresh frames
+        yield base, summaries
     finally:
         os.killpg(run.pid, signal.SIGINT)
         try:
@@ -180,7 +107,228 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         except subprocess.TimeoutExpired:
             os.killpg(run.pid, signal.SIGKILL)
             run.wait(10)
-    summaries = [json.loads(f.read_text()) for f in tmp_path.rglob("summary*.json")]
+        output = run.stdout.read() if run.stdout else ""
+        summaries += [json.loads(f.read_text()) for f in tmp_path.rglob("summary*.json")]
+        if not summaries:
+            print(output[-3000:])
+
+
+def _world(summaries: list[dict]) -> dict:
     world = [m for s in summaries for m in s.get("modules", []) if m["module"] == "world"]
-    assert world and world[0]["succeeded"] == ["grab_pipe"], run.stdout.read()[-3000:]
-    assert world[0]["grasp_distance_mm"] < 5.0
+    assert world, "no summary of the world"
+    return world[0]
+
+
+class Operator:
+    """What a person does on the /sketch page, by mouse."""
+
+    def __init__(self, page) -> None:
+        self.page = page
+
+    def take_control(self) -> str:
+        """Take control (nobody holds it in this graph: it has no console); the page's name."""
+        self.page.wait_for_function(
+            "document.getElementById('you').textContent.length > 0", timeout=20000
+        )
+        self.page.click("[data-testid=take]")
+        self.page.wait_for_function(
+            "document.getElementById('holder').textContent.endsWith(' (you)')", timeout=10000
+        )
+        return self.page.inner_text("[data-testid=holder]").removesuffix(" (you)")
+
+    def state(self) -> dict:
+        return self.page.evaluate("window.sketch.state")
+
+    def snapshot(self) -> dict:
+        before = (self.state() or {}).get("snapshot") or {}
+        self.page.click("[data-testid=snapshot]")
+        self.page.wait_for_function(
+            f"window.sketch.state.snapshot && window.sketch.state.snapshot.id !== "
+            f"{json.dumps(before.get('id'))}",
+            timeout=20000,
+        )
+        return self.state()["snapshot"]
+
+    def drag(self, side: str, i: int, uv) -> None:
+        box = self.page.locator(f"#svg-{side}").bounding_box()
+        handle = _wait(
+            lambda: self.page.locator(f"[data-testid=handle-{side}{i}]").bounding_box(),
+            5,
+            f"handle {side}{i}",
+        )
+        self.page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
+        self.page.mouse.down()
+        self.page.mouse.move(
+            box["x"] + uv[0] * box["width"] / 640, box["y"] + uv[1] * box["height"] / 480, steps=8
+        )
+        self.page.mouse.up()
+
+    def place(self, kind: str, points: np.ndarray, b_offset_px=(0.0, 0.0)) -> dict:
+        """Drop a primitive, drag its vertices onto the projections of ``points`` in both
+        images (image b's aimed ``b_offset_px`` off), place it; returns the placed primitive."""
+        snap = self.state()["snapshot"]
+        a, b = _project(snap["P_a"], points), _project(snap["P_b"], points)
+        count = len(self.state()["primitives"])
+        self.page.click(f"[data-testid=drop-{kind}]")
+        for i in range(len(points)):
+            self.drag("a", i, a[i])
+        for i in range(len(points)):
+            self.drag("b", i, b[i] + np.asarray(b_offset_px))
+        self.check_epipolar(snap)
+        assert np.max(np.abs(np.array(self.page.evaluate("window.sketch.a")) - a)) < 2.0
+        self.page.click("[data-testid=place]")
+        self.page.wait_for_function(
+            f"window.sketch.state.primitives.length === {count + 1}", timeout=20000
+        )
+        return self.state()["primitives"][-1]
+
+    def check_epipolar(self, snap: dict) -> None:
+        """Every right-hand handle lies on the epipolar line of its left-hand mate."""
+        a = np.array(self.page.evaluate("window.sketch.a"))
+        b = np.array(self.page.evaluate("window.sketch.b"))
+        F = np.array(snap["F"])
+        for i in range(len(a)):
+            line = F @ np.append(a[i], 1.0)
+            distance = abs(line @ np.append(b[i], 1.0)) / np.hypot(line[0], line[1])
+            assert distance < 1e-6, f"right-hand handle {i} is {distance} px off its line"
+
+    def plan(self, macro: str) -> dict:
+        before = json.dumps((self.state().get("path") or {}).get("id"))
+        self.page.click(f"[data-testid=macro-{macro}]")
+        self.page.wait_for_function(
+            f"window.sketch.state.path && window.sketch.state.path.macro === '{macro}' && "
+            f"window.sketch.state.path.id !== {before}",
+            timeout=30000,
+        )
+        path = self.state()["path"]
+        assert path["ok"], path["reason"]
+        assert len(path["preview_a"]) > 10 and len(path["preview_b"]) > 10  # shown before play
+        return path
+
+    def until(self, condition: str, button: str, timeout: float) -> None:
+        """Wait for ``condition``; a halt on the way (a guard stop when the loaded machine
+        stalls a tick) is met as an operator would: press ``button`` again."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if self.page.evaluate(condition):
+                return
+            if self.page.evaluate("(window.sketch.state.vcr || {}).mode") == "halted":
+                time.sleep(0.5)
+                self.page.click(f"[data-testid={button}]")
+            time.sleep(0.2)
+        raise AssertionError(f"timed out waiting for {condition}: {self.state()['vcr']}")
+
+    def slider(self, testid: str, value: float) -> None:
+        self.page.fill(f"[data-testid={testid}]", str(value))
+        self.page.dispatch_event(f"[data-testid={testid}]", "change")
+
+
+def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
+    from playwright.sync_api import sync_playwright
+
+    with _graph(tmp_path) as (base, summaries), sync_playwright() as p:
+        browser = launch(p)
+        page = browser.new_page(viewport={"width": 1400, "height": 1000})
+        page.goto(f"{base}/sketch")
+        op = Operator(page)
+        name = op.take_control()
+        op.snapshot()
+        pipe = SketchScene.nominal().pipe.ends
+        # image b's handles aimed 12 px off the pipe's image: they stay on their lines
+        placed = op.place("line", pipe, b_offset_px=(0.0, 12.0))
+        error = np.linalg.norm(np.array(placed["points_m"]) - pipe, axis=1)
+        assert error.max() < 0.006, error
+        # the triangulated line is drawn back in both images, with its uncertainty listed
+        for side in ("a", "b"):
+            assert page.locator(f"#svg-{side} polyline.reproj").count() == 1
+            assert page.locator(f"#svg-{side} circle.reproj-dot").count() == 2
+        assert "line1 line at" in page.inner_text("[data-testid=primitives]")
+        assert max(placed["sigma_mm"]) < 10.0
+        op.plan("grab_pipe")
+        # a second page, without control, sees who holds it and cannot play the macro
+        watcher = browser.new_page(viewport={"width": 1400, "height": 1000})
+        watcher.goto(f"{base}/sketch")
+        watcher.wait_for_function(
+            f"document.getElementById('holder').textContent === {name!r} && "
+            "window.sketch.state && window.sketch.state.path",
+            timeout=20000,
+        )
+        before = watcher.evaluate("window.sketch.state.vcr")
+        watcher.click("[data-testid=play]")
+        watcher.wait_for_function(
+            "document.getElementById('notice').textContent === "
+            f"{'refused vcr play: ' + name + ' holds control'!r}",
+            timeout=10000,
+        )
+        time.sleep(1.5)
+        after = watcher.evaluate("window.sketch.state.vcr")
+        assert (after or {}).get("mode") != "playing", after
+        assert (after or {}).get("progress", 0.0) == (before or {}).get("progress", 0.0)
+        watcher.close()
+        page.click("[data-testid=play]")
+        op.until("window.sketch.state.vcr.progress > 0.2", "play", 40)
+        page.click("[data-testid=pause]")
+        page.wait_for_function(
+            "['paused', 'halted'].includes(window.sketch.state.vcr.mode)", timeout=10000
+        )
+        paused_at = page.evaluate("window.sketch.state.vcr.progress")
+        page.click("[data-testid=back]")
+        op.until(f"window.sketch.state.vcr.progress < {paused_at} - 0.05", "back", 30)
+        page.click("[data-testid=resume]")
+        op.until("window.sketch.state.vcr.mode === 'playing'", "resume", 10)
+        op.slider("speed", 0.5)
+        op.until("window.sketch.state.vcr.speed === 0.5", "resume", 10)
+        op.until("window.sketch.state.vcr.mode === 'done'", "resume", 90)
+        browser.close()
+        time.sleep(1.5)  # the gripper closes, the world judges
+    world = _world(summaries)
+    assert world["succeeded"] == ["grab_pipe"]
+    assert world["grasp_distance_mm"] < 5.0
+
+
+def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):
+    from playwright.sync_api import sync_playwright
+
+    door = SketchScene.nominal().door
+    handle = np.stack(
+        [door.handle_center - 0.05 * door.handle_axis, door.handle_center + 0.05 * door.handle_axis]
+    )
+    with _graph(tmp_path) as (base, summaries), sync_playwright() as p:
+        browser = launch(p)
+        page = browser.new_page(viewport={"width": 1400, "height": 1000})
+        page.goto(f"{base}/sketch")
+        op = Operator(page)
+        op.take_control()
+        # the cameras watch the pipe, zoomed in: the door is out of view. Zoom out, find the
+        # handle, aim at it and zoom in again
+        op.slider("zoom", 0.0)
+        time.sleep(3.0)
+        assert max(op.snapshot()["zoom"]) < 0.05
+        point = op.place("point", door.handle_center[None, :])
+        assert np.linalg.norm(np.array(point["points_m"][0]) - door.handle_center) < 0.02
+        assert page.evaluate("document.getElementById('select').value") == point["id"]
+        op.slider("zoom", 0.2)
+        page.click("[data-testid=aim]")
+        time.sleep(4.0)
+        snap = op.snapshot()
+        assert min(snap["zoom"]) > 0.15
+        # the handle is now near the middle of both images
+        for side in ("a", "b"):
+            uv = _project(snap[f"P_{side}"], door.handle_center[None, :])[0]
+            assert np.linalg.norm(uv - [320, 240]) < 80, (side, uv)
+        op.place("line", handle)
+        op.plan("grab_pipe")
+        page.click("[data-testid=play]")
+        op.until("window.sketch.state.vcr.mode === 'done'", "play", 90)
+        time.sleep(1.5)  # the gripper closes on the bar
+        hinge = op.place("line", np.stack([door.hinge_top, door.hinge]))  # top to bottom
+        assert "move_around_axis" in page.inner_text("[data-testid=menu]")
+        assert hinge["kind"] == "line"
+        op.plan("move_around_axis")
+        page.click("[data-testid=play]")
+        op.until("window.sketch.state.vcr.mode === 'done'", "play", 90)
+        browser.close()
+        time.sleep(1.0)
+    world = _world(summaries)
+    assert "move_around_axis" in world["succeeded"], world
+    assert world["door_angle_deg"] > 80.0

@@ -65,3 +65,64 @@ def test_cli_user_errors_exit_2_without_traceback(tmp_path: Path, run_json, caps
     assert "expected pixels as U,V, got '3'" in capsys.readouterr().err
     assert umbra_main(["sketch", "plan", s, "grab_pipe", "line9"]) == 2
     assert "no primitive 'line9'" in capsys.readouterr().err
+
+
+def test_cli_bad_input_exits_2_says_what_was_expected_and_keeps_the_session(
+    tmp_path: Path, run_json, capsys
+):
+    s = str(tmp_path / "s")
+    run_json("new", s, "--seed", "3")
+    run_json("aim", s, "--at", "pipe_center", "--zoom", "0.3")
+    run_json("snapshot", s)
+    run_json("place", s, "line", "--truth", "pipe")
+    run_json("plan", s, "grab_pipe", "line1")
+    capsys.readouterr()
+    state = (tmp_path / "s" / "session.json").read_text()
+    cases = [
+        (["place", s, "line", "--a", "1,2,3", "4,5", "--b", "1,2", "3,4"], "got '1,2,3'"),
+        (["place", s, "line", "--a", "abc", "4,5", "--b", "1,2", "3,4"], "got 'abc'"),
+        (["place", s, "line", "--a", "nan,5", "4,5", "--b", "1,2", "3,4"], "(finite numbers)"),
+        (["place", s, "line", "--truth", "pipe", "--noise", "nan"], "--noise within 0 .. 20"),
+        (["place", s, "line", "--truth", "nothing"], "unknown feature 'nothing'; expected"),
+        (["plan", s, "fly_away", "line1"], "'fly_away' is not on the menu for a line"),
+        (["plan", s, "move_around_axis", "line1", "--option", "angle_deg=nan"], "(finite)"),
+        (["plan", s, "move_around_axis", "line1", "--option", "angle_deg=1e308"], "-180 .. 180"),
+        (["plan", s, "grab_pipe", "line1", "--option", "standoff=0.1"], "its options: none"),
+        (["plan", s, "make_box", "line1"], "make_box needs a triad, got line"),
+        (["aim", s, "nan", "0", "0"], "expected finite X Y Z"),
+        (["aim", s, "5", "5", "5"], "outside the unit's travel"),
+        (["aim", s, "0.5", "0", "0.3", "--zoom", "nan"], "--zoom within 0 .. 1"),
+        (["play", s, "path1", "--script", "0:fly"], "unknown action 'fly'"),
+        (["play", s, "path1", "--script", "nan:play"], "a time >= 0 s"),
+        (["play", s, "path1", "--script", "0:play@nan"], "a finite number"),
+        (["play", s, "path1", "--script", "0:play@5"], "a speed within 0.1 .. 1, got 5.0"),
+        (["play", s, "path1", "--script", "0:pause@0.5"], "0.0:pause: takes nothing"),
+        (["play", s, "path1", "--timeout", "nan"], "--timeout within 0 .. 3600"),
+        (["new", str(tmp_path / "t"), "--seed", "-1"], "expected a seed >= 0, got -1"),
+    ]
+    for args, message in cases:
+        assert umbra_main(["sketch", *args]) == 2, args
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err, (args, err)
+        assert (tmp_path / "s" / "session.json").read_text() == state  # nothing was kept
+    # an aim beyond the units' travel used to end in a traceback: a separate process shows none
+    done = _umbra("aim", s, "5", "5", "5")
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "tilt 62.9 deg is outside the unit's travel" in done.stderr
+    # and the session still plays its checked path
+    assert run_json("play", s, "path1")["success"]
+
+
+def test_cli_clicks_by_pixels_as_in_the_readme(tmp_path: Path, run_json):
+    """The README's sequence: clicks typed as pixels on the pipe of scene 3 grab it."""
+    s = str(tmp_path / "s")
+    run_json("new", s, "--seed", "3")
+    run_json("aim", s, "--at", "pipe_center", "--zoom", "0.3")
+    run_json("snapshot", s)
+    line = run_json("place", s, "line", "--a", "527,168", "110,235", "--b", "547,169", "103,232")
+    assert line["primitive"] == "line1"
+    assert "grab_pipe" in run_json("macros", s, "line1")["macros"]
+    assert run_json("plan", s, "grab_pipe", "line1")["ok"]
+    script = "0:play 2:pause 2.5:back 3.5:play@0.5 5:speed@1"
+    played = run_json("play", s, "path1", "--script", script)
+    assert played["mode"] == "done" and played["success"], played

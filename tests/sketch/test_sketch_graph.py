@@ -38,6 +38,23 @@ def test_graph_checks():
     assert "15 modules" in done.stdout and "processes: umbra, smart" in done.stdout
 
 
+def test_the_players_twist_must_go_through_the_guard(tmp_path: Path):
+    text = Path(GRAPH).read_text()
+    assert "  - player.twist -> register.command\n" in text
+    bypass = text.replace(
+        "  - player.twist -> register.command\n", "  - player.twist -> kinematics.tool_twist\n"
+    ).replace("  - register.twist -> kinematics.tool_twist\n", "")
+    (tmp_path / "bypass.yaml").write_text(bypass)
+    done = subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", "check", str(tmp_path / "bypass.yaml")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "`joints.rates` must be fed through a safety guard" in done.stderr
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(400)
 def test_single_process_sim_clock_grabs_the_pipe_and_opens_the_door(tmp_path: Path):
@@ -64,6 +81,7 @@ def test_single_process_sim_clock_grabs_the_pipe_and_opens_the_door(tmp_path: Pa
     world = _module(summaries, "world")
     assert world["succeeded"] == ["grab_pipe", "move_around_axis"]
     assert world["door_angle_deg"] > 80.0
+    assert world["verdicts"]["grab_pipe"]["grasp_distance_mm"] < 5.0
     player = _module(summaries, "player")
     assert player["halts"] == 0 and player["refused_commands"] == 0
     register = _module(summaries, "register")
@@ -72,29 +90,34 @@ def test_single_process_sim_clock_grabs_the_pipe_and_opens_the_door(tmp_path: Pa
 
 @pytest.mark.slow
 @pytest.mark.timeout(400)
-def test_split_over_zenoh_grabs_the_pipe(tmp_path: Path):
+def test_split_over_zenoh_grabs_the_pipe_and_opens_the_door(tmp_path: Path):
     done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "runtime.cli.main",
-            "run",
-            GRAPH,
-            "--out",
-            str(tmp_path),
-            "--quiet",
-            "--set",
-            "world.end_after=[grab_pipe]",
-        ],
+        [sys.executable, "-m", "runtime.cli.main", "run", GRAPH, "--out", str(tmp_path)],
         capture_output=True,
         text=True,
-        timeout=240,
+        timeout=300,
     )
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    notes = [
+        line
+        for line in (done.stdout + done.stderr).splitlines()
+        if any(w in line for w in ("operator", "WARNING", "refused", "halt", "failed", "world"))
+    ]
+    assert done.returncode == 0, "\n".join(notes[-60:])
     summaries = _summary(tmp_path)
     world = _module(summaries, "world")
-    assert world["succeeded"] == ["grab_pipe"]
-    assert world["grasp_distance_mm"] < 5.0
+    assert world["succeeded"] == ["grab_pipe", "move_around_axis"]
+    assert world["verdicts"]["grab_pipe"]["grasp_distance_mm"] < 5.0
+    assert world["verdicts"]["grab_pipe"]["grasp_angle_deg"] < 3.0
+    assert world["verdicts"]["move_around_axis"]["door_max_deg"] >= 80.0
+    # the servo side ran the player, the guard, the arm, the world and (as DESIGN.md has it)
+    # the pan-tilt units and the zoom cameras; the operator's side the rest
+    smart = next(s for s in summaries if any(m["module"] == "player" for m in s["modules"]))
+    on_smart = {m["module"] for m in smart["modules"]}
+    assert {"player", "register", "joints", "world", "ptu_left", "ptu_right"} <= on_smart
+    assert {"sony_left", "sony_right"} <= on_smart and "sketch" not in on_smart
+    assert "process `smart` finished: macros succeeded: grab_pipe, move_around_axis" in (
+        done.stdout + done.stderr
+    )
     # on a loaded machine a stalled tick may trip the guard; the player then halts on the path
     # and the scripted operator presses play again, as a person would
     player, operator = _module(summaries, "player"), _module(summaries, "operator")

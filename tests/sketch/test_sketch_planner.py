@@ -101,3 +101,25 @@ def test_move_around_axis_sweeps_about_the_line_by_the_right_hand_rule():
     turned = (turned + 180.0) % 360.0 - 180.0
     assert turned == pytest.approx(-85.0, abs=1e-3)  # about -z: clockwise seen from above
     assert np.all(path.gripper == 0.0)
+
+
+def test_a_wrist_that_must_turn_over_gets_a_joint_transit_the_kinematics_can_follow():
+    from modules.sketch.transit import twist_round_trip_error
+
+    pipe = SketchScene.nominal().pipe
+    path = _plan("approach_side", _line(pipe.ends))
+    assert path.ok, path.reason
+    n = int(path.checks["transit_samples"])
+    assert n > 10
+    # the wrist bend (j5) changes sign on the way: through its singularity, in joint space
+    assert path.joints[0, 4] < -0.5 and path.joints[n, 4] > 0.5
+    errors = [
+        twist_round_trip_error(TABLE, T_FT, path.joints[i], path.joints[i + 1] - path.joints[i])
+        for i in range(n)
+    ]
+    assert max(errors) <= 0.1
+    # after the transit the approach is a straight tool line onto the grasp
+    tool = np.array([TABLE.fk(q, T_FT)[:3, 3] for q in path.joints[n:]])
+    direction = (tool[-1] - tool[0]) / np.linalg.norm(tool[-1] - tool[0])
+    off_line = np.cross(tool - tool[0], direction)
+    assert np.abs(off_line).max() < 1e-6

@@ -34,6 +34,7 @@ class _Arm:
     def __init__(self, h: ModuleHarness) -> None:
         self.h = h
         self.q = Q_READY.copy()
+        self.offset = np.zeros(6)  # where the arm is, off the path (rad)
 
     def tick(self, n: int = 1) -> None:
         for _ in range(n):
@@ -41,7 +42,7 @@ class _Arm:
             self.h.step(DT)
             player = self.h.module.player
             if player is not None:
-                self.q = player.joint_path.q(player.vcr.state.s)
+                self.q = player.joint_path.q(player.vcr.state.s) + self.offset
 
 
 def _command(h, action, **kw):
@@ -132,3 +133,71 @@ def test_paths_the_servo_side_cannot_trust_are_refused(path):
     for message, bad in cases.items():
         with pytest.raises(VcrError, match=message):
             PathPlayer(bad, TABLE, T_ft)
+
+
+def test_a_stale_command_or_stale_joints_halt_a_moving_player_on_the_path(path):
+    with ModuleHarness(VcrPlayer, {"max_command_age": 0.5}) as h:
+        arm = _Arm(h)
+        h.push("path", path)
+        arm.tick()
+        _command(h, "play")
+        arm.tick(150)
+        assert h.output("state").mode == "playing"
+        h.push("command", VcrCommand(action="speed", speed=0.5, path_id="p1", stamp=h.now - 0.8))
+        arm.tick(40)
+        state = h.output("state")
+        assert state.mode == "halted" and state.s_dot == 0.0
+        assert state.reason.startswith("stale command 'speed'") and "expected at most 0.500" in (
+            state.reason
+        )
+        assert state.speed == 1.0  # the stale command itself was not obeyed
+        assert np.all(h.output("twist").vector == 0.0)  # halted: no motion commanded
+        _command(h, "play")
+        arm.tick(100)
+        assert h.output("state").mode == "playing"
+        # the arm's joint state stops arriving: the player freezes at once
+        for _ in range(30):
+            h.step(DT)
+        state = h.output("state")
+        assert state.mode == "halted" and state.reason.startswith("joint state is stale")
+        # meanwhile the arm coasted on along the path (here 0.1 path units: some joint is more
+        # than max_start_error off where the path froze): play takes the path up where it is
+        player = h.module.player
+        coasted = player.joint_path.q(state.s + 0.1)
+        assert np.max(np.abs(coasted - player.joint_path.q(state.s))) > 0.05
+        arm.q = coasted
+        h.push("joint_state", JointState(names=TABLE.names, position=coasted))
+        _command(h, "play")
+        h.step(DT)
+        state_after = h.output("state")
+        assert state_after.mode == "playing" and abs(state_after.s - (state.s + 0.1)) < 0.01
+
+
+def test_a_new_path_is_refused_while_playing_and_a_start_off_the_path_is_refused(path):
+    import msgspec
+
+    other = msgspec.structs.replace(path, path_id="p2")
+    with ModuleHarness(VcrPlayer, {}) as h:
+        arm = _Arm(h)
+        h.push("path", path)
+        arm.tick()
+        _command(h, "play")
+        arm.tick(100)
+        h.push("path", other)
+        arm.tick()
+        state = h.output("state")
+        assert state.path_id == "p1" and state.mode == "playing"
+        assert "path p2 refused: p1 is playing; pause it first" in state.reason
+        _command(h, "pause")
+        arm.tick(60)
+        assert h.output("state").mode == "paused"
+        # the arm is moved away while paused (e.g. jogged): the player does not pull it back,
+        # and refuses to play on from where the path is no longer
+        arm.offset = np.radians([0, 0, 0, 0, 6.0, 0])
+        arm.tick(5)
+        assert np.all(h.output("twist").vector == 0.0)
+        _command(h, "play")
+        arm.tick(5)
+        state = h.output("state")
+        assert state.mode == "paused"
+        assert "play refused: the arm is 6.0 deg off path p1" in state.reason

@@ -1,10 +1,13 @@
 // Active Sketch page: draws the server's state, drags vertices (image b's on epipolar lines),
-// and posts Sketch text commands. Geometry beyond the epipolar projection is the server's.
-const sk = { state: null, version: -1, snap: null, drag: null, a: [], b: [], kind: "" };
+// and posts Sketch text commands. Geometry beyond the epipolar projection is the server's, and
+// so is control: the server refuses commands unless this browser holds it (shown on top).
+const sk = { state: null, version: -1, snap: null, drag: null, a: [], b: [], kind: "", selected: null };
 window.sketch = sk;
 const NS = "http://www.w3.org/2000/svg";
 const DEFAULTS = { point: [[320, 240]], line: [[220, 240], [420, 240]],
   plane: [[220, 160], [220, 320], [420, 320]], triad: [[320, 300], [440, 300], [240, 360], [320, 180]] };
+const EDGES = { point: [], line: [[0, 1]], plane: [[0, 1], [1, 2]], triad: [[0, 1], [0, 2], [0, 3]] };
+const $ = (id) => document.getElementById(id);
 
 function epiLine(p) {  // l = F [u, v, 1] in image b
   const F = sk.state.snapshot.F;
@@ -14,9 +17,19 @@ function onLine(p, a) {  // p moved onto the epipolar line of a
   const l = epiLine(a), d = (l[0] * p[0] + l[1] * p[1] + l[2]) / (l[0] * l[0] + l[1] * l[1]);
   return [p[0] - d * l[0], p[1] - d * l[1]];
 }
-async function send(text) {
-  const r = await fetch("/sketch/command", { method: "POST", body: JSON.stringify({ text }) });
-  if (!r.ok) document.getElementById("status").textContent = (await r.json()).error;
+async function post(url, body) {  // the server's answer, or its refusal, shown on the page
+  const r = await fetch(url, { method: "POST", body: JSON.stringify(body) });
+  const reply = await r.json().catch(() => ({ error: `HTTP ${r.status}` }));
+  $("notice").textContent = r.ok ? reply.message : reply.error;
+  $("notice").className = r.ok ? "" : "error";
+}
+const send = (text) => post("/sketch/command", { text });
+function drawControl(c) {
+  $("holder").textContent = c.holder ? c.holder + (c.mine ? " (you)" : "") : "nobody";
+  $("take").disabled = !!c.holder; $("release").disabled = !c.mine;
+  $("you").textContent = c.you ? `you: ${c.you}` + (c.mine ? "" : " (watching: take control to command)") : "";
+  $("refused").textContent = `${c.refused} refused`;
+  document.body.className = c.mine ? "operator" : "viewer";
 }
 function el(svg, name, attrs) {
   const e = document.createElementNS(NS, name);
@@ -27,16 +40,44 @@ function el(svg, name, attrs) {
 function polyline(svg, pts, cls) {
   if (pts && pts.length) el(svg, "polyline", { points: pts.map((p) => p.join(",")).join(" "), class: cls });
 }
+function selectedPrimitive() {
+  return (sk.state.primitives || []).find((p) => p.id === sk.selected) || null;
+}
+function drawPrimitive(svg, prim, side) {  // the triangulated vertices projected back
+  const pts = prim["reprojected_" + side];
+  if (!pts) return;
+  for (const [i, j] of prim.edges) polyline(svg, [pts[i], pts[j]], "reproj");
+  pts.forEach((p) => el(svg, "circle", { cx: p[0], cy: p[1], r: 4, class: "reproj-dot" }));
+}
+function drawMenu() {
+  const st = sk.state, prim = selectedPrimitive();
+  const menu = st.menus ? st.menus[prim ? prim.kind : "none"] : st.menu;
+  $("menu").innerHTML = "";
+  for (const [name, help] of menu) {
+    const b = document.createElement("button");
+    b.textContent = name; b.title = help; b.dataset.testid = "macro-" + name;
+    b.onclick = () => send(`plan ${name} ${prim ? prim.id : ""}`.trim());
+    $("menu").appendChild(b);
+  }
+  const sel = $("select"), ids = ["", ...st.primitives.map((p) => p.id)];
+  if ([...sel.options].map((o) => o.value).join() !== ids.join()) {
+    sel.innerHTML = "";
+    for (const id of ids) sel.add(new Option(id || "(nothing: canned motions)", id));
+  }
+  sel.value = prim ? prim.id : "";
+  $("aim").disabled = !prim;
+  $("primitives").textContent = st.primitives.map((p) =>
+    `${p.id} ${p.kind} at ${p.centroid_m.map((x) => x.toFixed(3)).join(", ")} m, sigma ${p.sigma_mm.join(" / ")} mm`).join("; ");
+}
 function draw() {
   const st = sk.state;
   for (const side of ["a", "b"]) {
-    const svg = document.getElementById("svg-" + side);
+    const svg = $("svg-" + side);
     svg.innerHTML = "";
-    for (const prim of st.primitives) polyline(svg, prim["reprojected_" + side], "reproj");
+    for (const prim of st.primitives) drawPrimitive(svg, prim, side);
     if (st.path) polyline(svg, st.path["preview_" + side], "preview");
     const verts = sk[side];
-    const edges = { point: [], line: [[0, 1]], plane: [[0, 1], [1, 2]], triad: [[0, 1], [0, 2], [0, 3]] }[sk.kind] || [];
-    for (const [i, j] of edges) el(svg, "line", { x1: verts[i][0], y1: verts[i][1], x2: verts[j][0], y2: verts[j][1], class: "edge" });
+    for (const [i, j] of EDGES[sk.kind] || []) el(svg, "line", { x1: verts[i][0], y1: verts[i][1], x2: verts[j][0], y2: verts[j][1], class: "edge" });
     if (side === "b" && st.snapshot) {
       sk.a.forEach((p) => {
         const l = epiLine(p);
@@ -48,23 +89,16 @@ function draw() {
       c.addEventListener("pointerdown", (ev) => { sk.drag = { side, i }; ev.preventDefault(); });
     });
   }
-  document.getElementById("menu").innerHTML = "";
-  for (const [name, help] of st.menu) {
-    const b = document.createElement("button");
-    b.textContent = name; b.title = help; b.dataset.testid = "macro-" + name;
-    const last = st.primitives.length ? st.primitives[st.primitives.length - 1].id : "";
-    b.onclick = () => send(`plan ${name} ${last}`.trim());
-    document.getElementById("menu").appendChild(b);
-  }
+  drawMenu();
   const p = st.path;
-  document.getElementById("plan").textContent = p ? `${p.id} ${p.macro}: ${p.ok ? "checked, " + p.duration_s.toFixed(1) + " s" : "REFUSED: " + p.reason}` : "";
+  $("plan").textContent = p ? `${p.id} ${p.macro}: ${p.ok ? "checked, " + p.duration_s.toFixed(1) + " s" : "REFUSED: " + p.reason}` : "";
   const v = st.vcr;
-  document.getElementById("vcr").textContent = v ? `${v.path} ${v.mode} ${(100 * v.progress).toFixed(1)} % x${v.speed.toFixed(1)} ${v.reason}` : "";
-  document.getElementById("status").textContent = st.status ? `${st.status.stage}: ${st.status.message}` : "";
+  $("vcr").textContent = v ? `${v.path} ${v.mode} ${(100 * v.progress).toFixed(1)} % x${v.speed.toFixed(1)} ${v.reason}` : "";
+  $("status").textContent = st.status ? `${st.status.stage}: ${st.status.message}` : "";
 }
 function pointer(ev) {
   if (!sk.drag) return;
-  const svg = document.getElementById("svg-" + sk.drag.side), r = svg.getBoundingClientRect();
+  const svg = $("svg-" + sk.drag.side), r = svg.getBoundingClientRect();
   const p = [(ev.clientX - r.left) * 640 / r.width, (ev.clientY - r.top) * 480 / r.height];
   if (sk.drag.side === "a") {
     sk.a[sk.drag.i] = p;
@@ -76,7 +110,9 @@ function pointer(ev) {
 }
 document.addEventListener("pointermove", pointer);
 document.addEventListener("pointerup", () => { sk.drag = null; });
-document.getElementById("snapshot").onclick = () => send("snapshot");
+$("take").onclick = () => post("/sketch/control", { action: "take" });
+$("release").onclick = () => post("/sketch/control", { action: "release" });
+$("snapshot").onclick = () => send("snapshot");
 document.querySelectorAll(".drop").forEach((b) => b.onclick = () => {
   if (!sk.state || !sk.state.snapshot) return;
   sk.kind = b.dataset.kind;
@@ -84,22 +120,35 @@ document.querySelectorAll(".drop").forEach((b) => b.onclick = () => {
   sk.b = sk.a.map((p) => onLine(p, p));
   draw();
 });
-document.getElementById("place").onclick = () => {
+$("place").onclick = () => {
   const f = (pts) => pts.map((p) => `${p[0].toFixed(3)},${p[1].toFixed(3)}`).join(" ");
   if (sk.kind) send(`place ${sk.kind} ${f(sk.a)} | ${f(sk.b)}`);
 };
+$("select").onchange = (ev) => { sk.selected = ev.target.value || null; draw(); };
+const zoomValue = () => Number($("zoom").value).toFixed(2);
+$("zoom-value").textContent = zoomValue();
+$("zoom").oninput = () => { $("zoom-value").textContent = zoomValue(); };
+$("zoom").onchange = () => send(`zoom ${zoomValue()}`);
+$("aim").onclick = () => {
+  const prim = selectedPrimitive();
+  if (prim) send(`aim ${prim.centroid_m.join(" ")} ${zoomValue()}`);
+};
 document.querySelectorAll(".vcr").forEach((b) => b.onclick = () => send(`vcr ${b.dataset.action}`));
-document.getElementById("speed").onchange = (ev) => send(`vcr speed ${ev.target.value}`);
+$("speed").onchange = (ev) => send(`vcr speed ${ev.target.value}`);
 async function poll() {
   try {
     const st = await (await fetch("/sketch/state")).json();
-    if (st.version !== sk.version) {
+    sk.control = st.control; drawControl(st.control);
+    if (st.version > 0 && st.version !== sk.version) {
+      const known = sk.state ? sk.state.primitives.map((p) => p.id) : [];
       sk.version = st.version; sk.state = st;
       if (st.snapshot && st.snapshot.id !== sk.snap) {
         sk.snap = st.snapshot.id;
-        for (const s of ["a", "b"]) document.getElementById("img-" + s).src = `/sketch/image/${s}.jpg?v=${sk.snap}`;
-        sk.a = []; sk.b = []; sk.kind = "";
+        for (const s of ["a", "b"]) $("img-" + s).src = `/sketch/image/${s}.jpg?v=${sk.snap}`;
+        sk.a = []; sk.b = []; sk.kind = ""; sk.selected = null;
       }
+      const added = st.primitives.filter((p) => !known.includes(p.id));
+      if (added.length) sk.selected = added[added.length - 1].id;  // a new primitive: selected
       draw();
     }
   } finally { setTimeout(poll, 200); }
