@@ -267,7 +267,7 @@ class OperatorConsole(Module):
             return
         try:
             if kind == "jog":
-                self._jog_message(s, f, wall)
+                self._jog_message(s, f, now, wall)
             elif kind == "click":
                 frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
                 self._send_seed(point_seed(frame, f["u"], f["v"]), wall, "click")
@@ -322,7 +322,13 @@ class OperatorConsole(Module):
         for camera in self._zoom:
             self._send_zoom(camera, value)
 
-    def _jog_message(self, s: str, f: dict[str, Any], wall: float) -> None:
+    def _jog_message(self, s: str, f: dict[str, Any], now: float, wall: float) -> None:
+        if f["held"]:  # nobody jogs blind: the page must show live video (a release always goes)
+            try:
+                self.history.frame_for(f["frame"], now, self.params.stale_page_s)
+            except Refused as exc:
+                self.deadman.release(s)
+                raise Refused(f"jog refused: {exc}") from None
         if f["held"] and f["jog_frame"] == "tool" and self._T_tool_camera is None:
             raise Refused(
                 f"tool-frame jog refused: expected a static frame {self.params.tool_frame}->"

@@ -25,7 +25,7 @@ _SCHEMA: dict[str, dict[str, str]] = {
     "click": {"u": "num", "v": "num", "frame": "int"},
     "box": {"u0": "num", "v0": "num", "u1": "num", "v1": "num", "frame": "int"},
     "action": {"action": "str"},
-    "jog": {"held": "bool", "axes": "axes", "jog_frame": "str", "speed": "num"},
+    "jog": {"held": "bool", "axes": "axes", "jog_frame": "str", "speed": "num", "frame": "int"},
     "painted": {"frame": "int", "latency_ms": "num"},
     "zoom": {"camera": "str", "value": "num"},
 }

@@ -128,6 +128,38 @@ def test_clicks_outside_the_image_and_on_a_stale_page_are_refused_with_the_reaso
             page.close()
 
 
+def test_nobody_jogs_on_a_frozen_page_but_a_live_one_jogs_and_a_release_always_goes() -> None:
+    """A held jog names the frame the page shows; a page whose video froze (that frame older
+    than ``stale_page_s``) is refused and nothing moves, while its release still passes."""
+    with _harness(stale_page_s=0.5) as h:
+        page = Page(h.module.url)
+        try:
+            _pump(h, lambda: page.session in h.module.arbiter.sessions)
+            page.send("take")
+            _pump(h, lambda: h.module.arbiter.holder == page.session)
+            old = _frame_seq(h)
+            for _ in range(40):  # 0.8 s of run time: the page still shows `old`
+                h.push("image", image())
+                h.step(dt=0.02)
+            page.send("jog", held=True, axes=[1, 0, 0, 0], jog_frame="camera", speed=1.0, frame=old)
+            _pump(h, lambda: h.module.counts["refused"] == 1)
+            texts = [n["text"] for n in h.module._notices if n["level"] == "error"]
+            assert texts[-1].startswith("jog refused: stale page: the image you acted on is 0.")
+            assert not any(np.any(t.vector) for t in h.outputs("jog"))
+            live = _frame_seq(h)
+            page.send(
+                "jog", held=True, axes=[1, 0, 0, 0], jog_frame="camera", speed=1.0, frame=live
+            )
+            _pump(h, lambda: any(np.any(t.vector) for t in h.outputs("jog")))
+            page.send(
+                "jog", held=False, axes=[0, 0, 0, 0], jog_frame="camera", speed=1.0, frame=old
+            )
+            _pump(h, lambda: not np.any(h.outputs("jog")[-1].vector))
+            assert h.module.counts["refused"] == 1  # the release on the old frame went through
+        finally:
+            page.close()
+
+
 def test_malformed_and_replayed_messages_are_refused_and_counted(
     caplog: pytest.LogCaptureFixture,
 ) -> None:

@@ -46,11 +46,15 @@ def test_messages_are_checked_for_shape_session_and_order() -> None:
         (_msg(seq=3, type="action", action="dance"), "expected one of ['start', 'pause'"),
         (_msg(seq=3, type="jog", held=1, axes=[0, 0, 0, 0], jog_frame="tool", speed=1), "held"),
         (
-            _msg(seq=3, type="jog", held=True, axes=[0, 0, 0, 0], jog_frame="world", speed=1),
+            _msg(
+                seq=3, type="jog", held=True, axes=[0, 0, 0, 0], jog_frame="world", speed=1, frame=1
+            ),
             "expected jog_frame one of ['tool', 'camera'], found 'world'",
         ),
         (
-            _msg(seq=3, type="jog", held=True, axes=[0, 0, 0, 0], jog_frame="tool", speed=2),
+            _msg(
+                seq=3, type="jog", held=True, axes=[0, 0, 0, 0], jog_frame="tool", speed=2, frame=1
+            ),
             "expected speed in [0, 1], found 2",
         ),
     ]

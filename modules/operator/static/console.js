@@ -177,7 +177,7 @@ $("assist-hide").onclick = () => $("assist").close();
 // jog: keep-alive every 40 ms while held (the console forwards each to REG_VEL, whose 0.1 s
 // watchdog stops a jog whose keep-alives stop); release on up, leave, blur, hide, unload
 function jogSend(held) {
-  send("jog", { held, axes: jogHeld || [0, 0, 0, 0], jog_frame: $("jog-frame").value, speed: Number($("jog-speed").value) });
+  send("jog", { held, axes: jogHeld || [0, 0, 0, 0], jog_frame: $("jog-frame").value, speed: Number($("jog-speed").value), frame: ui.frame || 0 });
 }
 function holdJog(axis, sign) {
   jogHeld = [0, 0, 0, 0]; jogHeld[axis] = sign; jogSend(true);
