@@ -56,10 +56,13 @@ from runtime.links.config import (
     loopback_mesh,
 )
 from runtime.links.exposure import (
+    authenticates,
     check_exposure,
     config_for,
+    routed_mode,
     uses_tls,
 )
+from runtime.links.host_auth import host_credentials
 from runtime.links.shm_sweep import mapped_segments, remove_orphans
 from runtime.links.stats import link_lines
 from runtime.realtime import latency_limit
@@ -144,7 +147,12 @@ def run_one(
     Endpoints: ``--listen``/``--connect`` when given, else the graph's ``links:``, else those of
     the zenoh configuration file, else a fixed loopback mesh (process i of the graph listens on
     tcp/127.0.0.1:7447+i and connects to the ones before it), so processes started by hand on one
-    host find each other with no flags."""
+    host find each other with no flags.
+
+    Credentials: the launcher's (``--link-auth``), else those of the zenoh configuration file when
+    it authenticates on its own (TLS, a password), else, unless ``--insecure``, those derived
+    from this user's secret (``runtime.links.host_auth``), shared by every process of the graph
+    this user starts by hand on this host."""
     import logging
 
     from runtime.links.process import ProcessOptions, run_linked_process
@@ -174,10 +182,28 @@ def run_one(
         origin = config_file
     if endpoints.empty:
         endpoints = default_mesh(have)[name]
-    check_exposure(
-        endpoints.listen, endpoints.connect, bool(getattr(args, "insecure", False)), origin
-    )
+    insecure = bool(getattr(args, "insecure", False))
+    check_exposure(endpoints.listen, endpoints.connect, insecure, origin)
     supervised = bool(getattr(args, "supervised", False))
+    link_auth = getattr(args, "link_auth", None)
+    auth = None
+    routed = routed_mode(config_file)
+    if routed and not (link_auth or insecure or authenticates(config_file)):
+        logging.getLogger("umbra").warning(
+            "process `%s`: %s: mode `%s` links through a zenoh router, which does not hold the "
+            "graph's credentials: links are not authenticated (set TLS or usrpwd up in that file)",
+            name,
+            config_file,
+            routed,
+        )
+    elif not (link_auth or insecure or authenticates(config_file)):
+        auth = host_credentials(plan, name)
+        logging.getLogger("umbra").info(
+            "process `%s`: links authenticated with this user's secret %s (only the graph's "
+            "processes this user starts on this host can join; --insecure: anyone)",
+            name,
+            auth["secret_file"],
+        )
     options = ProcessOptions(
         process=name,
         output_dir=out,
@@ -185,7 +211,8 @@ def run_one(
         clock=clock,
         duration=duration,
         zenoh_config=config_file,
-        link_auth=getattr(args, "link_auth", None),
+        link_auth=link_auth,
+        auth=auth,
         link_checks=not getattr(args, "unchecked_links", False),
         ready_timeout=READY_TIMEOUT if supervised else None,
         quiet=args.quiet,

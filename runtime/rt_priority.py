@@ -58,7 +58,7 @@ class RealtimePriority:
         self.held = False
         self.reason = unneeded
         self._log = log or logging.getLogger("umbra")
-        self._set: list[int] = []
+        self._before: dict[int, tuple[int, int]] = {}  # thread -> its policy and priority
 
     def acquire(self) -> None:
         """Put every thread of the process under ``SCHED_FIFO`` (all or none)."""
@@ -68,10 +68,11 @@ class RealtimePriority:
         try:
             for tid in _threads():
                 try:
+                    before = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
                     os.sched_setscheduler(tid, os.SCHED_FIFO, param)
                 except ProcessLookupError:
                     continue  # the thread ended meanwhile
-                self._set.append(tid)
+                self._before[tid] = before
         except OSError as exc:
             self.reason = f"cannot set SCHED_FIFO: {exc.strerror or exc}"
             self.release()
@@ -84,21 +85,21 @@ class RealtimePriority:
             return
         self.held = True
         self._log.info(
-            "running %d threads under SCHED_FIFO priority %d", len(self._set), self.priority
+            "running %d threads under SCHED_FIFO priority %d", len(self._before), self.priority
         )
 
     def release(self) -> None:
-        """Back to the default policy for every thread that was moved and every thread there is
-        now (ones started meanwhile inherited the real-time policy)."""
-        if not self._set:
+        """Every thread that was moved back to the policy it had; threads started meanwhile
+        (they inherited the real-time policy) to the default one."""
+        if not self._before:
             return
-        normal = os.sched_param(0)
-        for tid in {*self._set, *_threads()}:
+        for tid in {*self._before, *_threads()}:
+            policy, priority = self._before.get(tid, (os.SCHED_OTHER, 0))
             try:
-                os.sched_setscheduler(tid, os.SCHED_OTHER, normal)
+                os.sched_setscheduler(tid, policy, os.sched_param(priority))
             except OSError:
-                continue  # ended, or never moved
-        self._set = []
+                continue  # ended meanwhile
+        self._before = {}
 
     def summary(self) -> dict[str, Any]:
         """What the run summary says: the priority asked, whether the run held it, why not."""

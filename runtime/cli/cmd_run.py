@@ -39,7 +39,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--process",
         metavar="NAME",
         help="run only this process, e.g. on another host (default endpoints: a loopback mesh "
-        "on tcp/127.0.0.1:7447+i for the i-th process)",
+        "on tcp/127.0.0.1:7447+i for the i-th process; the processes you start by hand on this "
+        "host authenticate each other with credentials derived from your secret in "
+        "$XDG_RUNTIME_DIR/umbra/ or ~/.cache/umbra/, unless --zenoh-config authenticates)",
     )
     parser.add_argument(
         "--single-process",
@@ -71,8 +73,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--insecure",
         action="store_true",
-        help="allow listening beyond loopback without TLS, and run the processes of this host "
-        "without per-run credentials (anyone who reaches an endpoint can drive the graph)",
+        help="allow listening beyond loopback without TLS, and run processes without "
+        "credentials: neither the launcher's per-run ones nor, with --process, those derived "
+        "from your secret (anyone who reaches an endpoint can drive the graph)",
     )
     parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
     parser.add_argument(

@@ -1,8 +1,8 @@
 """Zenoh access-control rules derived from a graph: nobody writes a policy by hand.
 
-Every process of the graph is a subject (identified by the user name it authenticates with, or
-by the common name of its certificate). Seen from any process's zenoh node, a peer of subject
-``Y`` may:
+Every process of the graph is a subject (identified by the user name it authenticates with, by
+the common name of its certificate, or by the zenoh id the credentials give it). Seen from any
+process's zenoh node, a peer of subject ``Y`` may:
 
 * put (and end, ``delete``) only the keys of ``Y``'s own outputs that cross processes — so an
   operator console's commands are accepted only from the console's process;
@@ -23,8 +23,10 @@ from typing import Any
 from runtime.graph.plan import GraphPlan
 from runtime.links.identity import ALIVE
 
-#: Subject of a process: the zenoh subject fields naming it (user or certificate names).
-SubjectOf = Callable[[str], dict[str, list[str]]]
+#: Subject of a process: the zenoh subject fields naming it (user or certificate names, zenoh
+#: ids), or a list of such subjects of which any one names it.
+Subject = dict[str, list[str]]
+SubjectOf = Callable[[str], Subject | list[Subject]]
 
 
 def by_username(process: str) -> dict[str, list[str]]:
@@ -74,7 +76,11 @@ def zenoh_acl(plan: GraphPlan, subject_of: SubjectOf) -> dict[str, Any]:
         return rid
 
     for process in plan.populated_processes:
-        subjects.append({"id": process, **subject_of(process)})
+        named = subject_of(process)
+        ids = []
+        for i, fields in enumerate(named if isinstance(named, list) else [named]):
+            ids.append(process if i == 0 else f"{process}#{i + 1}")
+            subjects.append({"id": ids[-1], **fields})
         mine = [
             rule(
                 f"{process}: liveliness",
@@ -114,7 +120,7 @@ def zenoh_acl(plan: GraphPlan, subject_of: SubjectOf) -> dict[str, Any]:
                     consumes[process],
                 )
             )
-        policies.append({"id": f"{process}: graph", "rules": mine, "subjects": [process]})
+        policies.append({"id": f"{process}: graph", "rules": mine, "subjects": ids})
     return {
         "enabled": True,
         "default_permission": "deny",

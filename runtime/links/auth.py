@@ -8,7 +8,11 @@ user could read it. Each child's zenoh configuration then carries:
 * zenoh's ``usrpwd`` transport authentication: a session that cannot show one of the run's
   passwords is refused when it opens a link, so a stranger on this host cannot even connect;
 * the access-control rules derived from the graph (``runtime.links.acl``) with the user names as
-  subjects: a process may publish only its own outputs and declare only its own liveliness token.
+  subjects: a process may publish only its own outputs and declare only its own liveliness token;
+* a key shared by the run's processes that proves their liveliness tokens
+  (``runtime.links.identity``).
+
+Processes started by hand derive the same from a secret of the user (``runtime.links.host_auth``).
 
 Cost: the password exchange happens once per link, when it opens; the rules are checked by zenoh
 on each message (measured by ``benchmarks/bench_links.py``). The folder is removed when the run
@@ -35,6 +39,7 @@ from runtime.graph.plan import GraphPlan
 from runtime.links.acl import by_username, zenoh_acl
 
 _ZID_RE = re.compile(r"^[0-9a-f]{1,32}$")
+_KEY_RE = re.compile(r"^[0-9a-f]{64}$")
 #: Largest link credentials file [bytes] (the rules of a graph of many processes fit easily).
 MAX_AUTH_BYTES = 4_000_000
 
@@ -53,6 +58,7 @@ class RunCredentials:
         self.folder = Path(tempfile.mkdtemp(prefix="umbra-auth-"))  # mode 0700
         processes = plan.populated_processes
         passwords = {p: secrets.token_hex(24) for p in processes}
+        token_key = secrets.token_hex(32)  # proves the run's liveliness tokens
         #: zenoh id of each process (lowercase hex without a leading zero, as zenoh wants it)
         self.zids = {p: format(secrets.randbits(127) | 1 << 126, "x") for p in processes}
         dictionary = self.folder / "dictionary.txt"
@@ -70,6 +76,7 @@ class RunCredentials:
                 "password": passwords[process],
                 "dictionary_file": str(dictionary),
                 "zid": self.zids[process],
+                "token_key": token_key,
                 "access_control": zenoh_acl(plan, subject),
             }
             _private_write(path, json.dumps(auth))
@@ -107,6 +114,9 @@ def load_auth(path: str) -> dict[str, Any]:
         zid = auth.get("zid")
         if zid is not None and not (isinstance(zid, str) and _ZID_RE.match(zid)):
             raise ValueError("`zid` must be a zenoh id (1 to 32 hex digits)")
+        key = auth.get("token_key")
+        if key is not None and not (isinstance(key, str) and _KEY_RE.match(key)):
+            raise ValueError("`token_key` must be 64 hex digits")
         if not isinstance(auth.get("access_control", {}), dict):
             raise ValueError("`access_control` must be a mapping")
     except (ValueError, KeyError, TypeError) as exc:

@@ -69,6 +69,32 @@ def uses_tls(config_file: str | None) -> bool:
     return bool(value)
 
 
+def authenticates(config_file: str | None) -> bool:
+    """Whether ``config_file`` authenticates sessions on its own: TLS (a CA to verify peers
+    with) or a zenoh user name and password."""
+    if not config_file:
+        return False
+    if uses_tls(config_file):
+        return True
+    try:
+        cfg = zenoh.Config.from_file(config_file)
+        return bool(json.loads(cfg.get_json("transport/auth/usrpwd/user")))
+    except Exception:
+        return False
+
+
+def routed_mode(config_file: str | None) -> str:
+    """The mode ``config_file`` sets when it is not ``peer`` (``client``, ``router``: links then
+    go through a zenoh router); empty otherwise."""
+    if not config_file:
+        return ""
+    try:
+        mode = json.loads(zenoh.Config.from_file(config_file).get_json("mode"))
+    except Exception:
+        return ""
+    return mode if isinstance(mode, str) and mode != "peer" else ""
+
+
 def has_access_control(config_file: str | None) -> bool:
     """Whether ``config_file`` enables zenoh access control of its own."""
     if not config_file:

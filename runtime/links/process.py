@@ -60,6 +60,8 @@ class ProcessOptions:
     zenoh_config: str | None = None
     #: the launcher's per-run credentials file of this process (``runtime.links.auth``)
     link_auth: str | None = None
+    #: credentials of a process started by hand (``runtime.links.host_auth``), when no file
+    auth: dict[str, Any] | None = None
     #: identity checks and size bounds on received samples (off only to measure their cost)
     link_checks: bool = True
     ready_timeout: float | None = None  # None: wait for consumers forever
@@ -137,7 +139,7 @@ def run_linked_process(
     ``summary-<process>.json``. UserError for a bad configuration (nothing started then)."""
     log = log or logging.getLogger("umbra")
     options.output_dir.mkdir(parents=True, exist_ok=True)
-    auth = load_auth(options.link_auth) if options.link_auth else None
+    auth = load_auth(options.link_auth) if options.link_auth else options.auth
     if auth is not None and has_access_control(options.zenoh_config):
         auth.pop("access_control", None)  # the file's rules (``umbra keys``: by certificate)
     config = build_config(options.endpoints, options.zenoh_config, auth)
@@ -146,7 +148,12 @@ def run_linked_process(
     session = open_session(config)
     log.info("process `%s`: %s", options.process, describe(config))
     transport = ZenohTransport(
-        session, plan, options.process, log=log.getChild("links"), checks=options.link_checks
+        session,
+        plan,
+        options.process,
+        log=log.getChild("links"),
+        checks=options.link_checks,
+        token_key=auth.get("token_key") if auth else None,
     )
     try:
         scheduler = Scheduler(

@@ -4,12 +4,13 @@ Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overr
 
 * ``P/<module>/<port>`` — samples of one output, one publisher per output whatever the number of
   consumers; a ``delete`` on it marks the end of the stream (the producer stopped cleanly);
-* ``P/_alive/<process>/<marker>/<session>`` — a liveliness token held by each running process of
-  the graph. Zenoh removes it when the process's session ends for any reason (exit, crash, kill -9,
-  link lost for longer than the lease), which is how consumers learn that a producing process is
-  gone. The marker names a file the process keeps in /dev/shm: a peer that sees the file shares
-  this host's shared memory. ``session`` is the zenoh id of the process's session, which also
-  stamps every sample it publishes (``runtime.links.identity``).
+* ``P/_alive/<process>/<marker>/<session>/<proof>`` — a liveliness token held by each running
+  process of the graph. Zenoh removes it when the process's session ends for any reason (exit,
+  crash, kill -9, link lost for longer than the lease), which is how consumers learn that a
+  producing process is gone. The marker names a file the process keeps in /dev/shm: a peer that
+  sees the file shares this host's shared memory. ``session`` is the zenoh id of the process's
+  session, which also stamps every sample it publishes; ``proof`` shows the token was made by a
+  holder of the run's credentials (``runtime.links.identity``).
 
 Trust: a consumer accepts a sample only from the live session of the process the graph names as
 the link's producer (others are counted as foreign and dropped; a producer declared gone stays
@@ -33,6 +34,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import secrets
 import threading
 import time
 from collections import deque
@@ -48,7 +50,16 @@ from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
 from runtime.links.bounds import max_sample_bytes
-from runtime.links.identity import ALIVE, Sessions, alive_key, parse_alive_key
+from runtime.links.identity import (
+    ALIVE,
+    Sessions,
+    Token,
+    alive_key,
+    alive_pattern,
+    parse_alive_key,
+    proven,
+    sign,
+)
 from runtime.links.pool import (
     DESCRIPTOR_MAGIC,
     FORWARD_MAGIC,
@@ -91,10 +102,10 @@ class _Trust:
     publishers' ``zenoh.EntityGlobalId``) already matched to it: the fast path is one set
     lookup."""
 
-    __slots__ = ("ids", "session")
+    __slots__ = ("ids", "token")
 
     def __init__(self) -> None:
-        self.session: str | None = None
+        self.token: Token | None = None  #: the producer's token these ids were matched under
         self.ids: set[Any] = set()
 
 
@@ -121,6 +132,7 @@ class ZenohTransport:
         shm: ShmWriter | None = None,
         frame_pool: bool = True,
         checks: bool = True,
+        token_key: str | None = None,
     ) -> None:
         self._session = session
         self.prefix = plan.key_prefix
@@ -154,6 +166,10 @@ class ZenohTransport:
         #: identity and size checks: samples stamped with this session's id, and received ones
         #: checked (off only to measure their cost: ``benchmarks/bench_links.py``)
         self.checks = checks
+        #: key proving this process's token and checking the others' (``identity.sign``)
+        self._token_key = token_key
+        self.forged_tokens = 0
+        self._last_forged_log = -ERROR_LOG_PERIOD
         self.liveliness_flaps = 0
         #: Changes whenever a producer's liveliness or the end of a stream changes (what
         #: ``producer_alive`` answers): the scheduler re-reads link states only then.
@@ -168,7 +184,7 @@ class ZenohTransport:
         self._token: Any = None
         self._closed = False
         self._alive_sub = session.liveliness().declare_subscriber(
-            f"{self.prefix}/{ALIVE}/*/*/*", self._on_liveliness, history=True
+            alive_pattern(self.prefix), self._on_liveliness, history=True
         )
 
     def _state_changed(self) -> None:
@@ -183,14 +199,18 @@ class ZenohTransport:
 
     # -- liveliness -----------------------------------------------------------------------------
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
-        parsed = parse_alive_key(str(sample.key_expr))
-        if parsed is None:
+        token = parse_alive_key(str(sample.key_expr))
+        if token is None:
             return
-        name, marker, session = parsed
+        name, marker, session, _proof = token
         if name == self.process or name not in self._proc_index:
             return  # this process, or a name the graph does not have: nobody to track
         up = sample.kind == zenoh.SampleKind.PUT
-        if up and not self._sessions.token_up(name, session):
+        if not proven(self._token_key, token):
+            if up:
+                self._forged(token)
+            return
+        if up and not self._sessions.token_up(token):
             self._log.warning(
                 "a second token of process `%s` (session %s) while its session %s is live: "
                 "ignored; only the live session drives its links",
@@ -199,7 +219,7 @@ class ZenohTransport:
                 self._sessions.live.get(name),
             )
             return
-        if not up and not self._sessions.token_down(name, session):
+        if not up and not self._sessions.token_down(token):
             return  # the token of a session that is not (or no longer) the live one
         with self._lock:
             known = name in self._alive
@@ -223,12 +243,29 @@ class ZenohTransport:
             else:
                 self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
 
+    def _forged(self, token: Token) -> None:
+        """Count a token whose proof is wrong; log at most every ``ERROR_LOG_PERIOD`` s."""
+        self.forged_tokens += 1
+        now = time.monotonic()
+        if now - self._last_forged_log >= ERROR_LOG_PERIOD:
+            self._last_forged_log = now
+            self._log.warning(
+                "a token of process `%s` (session %s) without a valid proof: ignored (%d so "
+                "far); it was not declared by the graph's process",
+                token.process,
+                token.session,
+                self.forged_tokens,
+            )
+
     def announce(self) -> None:
         """Declare this process's liveliness token (after every subscription is declared)."""
         if self._token is None:
             marker = self._marker.id if self._marker is not None else "none"
+            if marker == "none":  # no shared /dev/shm: still one marker per start
+                marker = f"none-{secrets.token_hex(8)}"
+            proof = sign(self._token_key, self.process, marker, self._session_id)
             self._token = self._session.liveliness().declare_token(
-                alive_key(self.prefix, self.process, marker, self._session_id)
+                alive_key(self.prefix, self.process, marker, self._session_id, proof)
             )
 
     def alive_processes(self) -> set[str]:
@@ -457,7 +494,7 @@ class ZenohTransport:
         read_compact = self._decoder().compact_reader(expected) or (lambda data: None)
         bound = max_sample_bytes(expected, self._producer_params.get(key))
         stats.max_bytes = bound
-        live, gone = self._sessions.live, self._sessions.gone
+        current, gone = self._sessions.current, self._sessions.gone
         trust, refused = _Trust(), self._refused
 
         held: deque[tuple[float, zenoh.Sample, bool]] = deque()
@@ -481,8 +518,8 @@ class ZenohTransport:
             """Whether ``sample`` comes from the live session of the link's producer (counted
             when not); None when it is held for the producer's token (counted as refused until
             the token lets it through)."""
-            current = live.get(producer)  # type: ignore[arg-type]
-            if current is None:  # not up yet, or declared gone: nobody drives the link now
+            token = current.get(producer)  # type: ignore[arg-type]
+            if token is None:  # not up yet, or declared gone: nobody drives the link now
                 was_gone = producer in gone
                 unowned(was_gone)
                 if len(held) < MAX_HELD:
@@ -497,15 +534,15 @@ class ZenohTransport:
                 return False
             source = info.source_id
             zid = str(source.zid)
-            if zid != current:
+            if zid != token.session:
                 stats.foreign += 1
-                refused(stats, f"session {zid} is not `{producer}`'s live session {current}")
+                refused(stats, f"session {zid} is not `{producer}`'s live session {token.session}")
                 return False
-            if trust.session != current:  # a new session of the producer: a new count
-                if trust.session is not None:
+            if trust.token is not token:  # a new token of the producer: a new count
+                if trust.token is not None:
                     stats.restarts += 1
                 stats.last_seq = 0
-                trust.session = current
+                trust.token = token
                 trust.ids = set()
             if len(trust.ids) < MAX_SOURCE_IDS:
                 trust.ids.add(source)
@@ -519,7 +556,7 @@ class ZenohTransport:
             live — never reviving anything, only the token does."""
             while held:
                 at, sample, was_gone = held[0]
-                if live.get(producer) is None and now - at < MAX_HOLD_S:  # type: ignore[arg-type]
+                if current.get(producer) is None and now - at < MAX_HOLD_S:  # type: ignore[arg-type]
                     return  # still waiting for the token
                 held.popleft()
                 if now - at >= MAX_HOLD_S:
@@ -551,7 +588,7 @@ class ZenohTransport:
                 if (
                     info is None
                     or info.source_id not in trust.ids
-                    or live.get(producer) != trust.session  # type: ignore[arg-type]
+                    or current.get(producer) is not trust.token  # type: ignore[arg-type]
                 ) and not attributed(sample):
                     return
             if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
@@ -685,6 +722,7 @@ class ZenohTransport:
             "liveliness_flaps": self.liveliness_flaps,
             "session": self._session_id,
             "token_conflicts": self._sessions.conflicts,
+            "forged_tokens": self.forged_tokens,
         }
 
     def close(self) -> None:

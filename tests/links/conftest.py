@@ -88,7 +88,14 @@ def plugin_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     lines = "".join(f"{name} = {target}\n" for name, target in PROBES.items())
     (dist / "entry_points.txt").write_text(f"[umbra.modules]\n{lines}")
     path = os.pathsep.join([str(root), str(REPO), os.environ.get("PYTHONPATH", "")])
-    return dict(os.environ, PYTHONPATH=path.rstrip(os.pathsep), PYTHONUNBUFFERED="1")
+    runtime_dir = tmp_path_factory.mktemp("xdg_runtime")  # link secrets of by-hand processes
+    runtime_dir.chmod(0o700)
+    return dict(
+        os.environ,
+        PYTHONPATH=path.rstrip(os.pathsep),
+        PYTHONUNBUFFERED="1",
+        XDG_RUNTIME_DIR=str(runtime_dir),
+    )
 
 
 @dataclass

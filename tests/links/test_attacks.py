@@ -7,10 +7,13 @@ the run went on. The servo side runs with a real-time scheduling policy (``chrt 
 robot's computer: on this shared test machine an ordinary process misses 20-50 ms now and then
 with no attack at all; with the policy, none in steady state.
 
-* By hand, without credentials (``--process`` on loopback: the weakest setup, where only the
-  links' own checks stand): a foreign peer commanding as itself, a sequence-number jam and
-  floods of 64 MB and 512 kB samples carrying a copied source id, then a replay after the
-  producer is killed.
+* By hand with ``--insecure`` (``--process`` on loopback without credentials: the weakest setup,
+  where only the links' own checks stand): a foreign peer commanding as itself, a
+  sequence-number jam and floods of 64 MB and 512 kB samples carrying a copied source id, then a
+  replay after the producer is killed.
+* By hand as started by default (credentials derived from the user's secret): a peer without
+  them, as itself or claiming the producer's zenoh id, cannot open a session with either
+  process.
 * Under the launcher (per-run credentials and the graph's access rules): a peer without
   credentials cannot open a session; an insider with the credentials of another process of the
   graph connects but can neither command the arm nor pose as the producer.
@@ -79,7 +82,7 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
     key = "umbra/attack/source/twist"
     p_smart, p_umbra = free_loopback_ports(2)
     smart_ep, umbra_ep = f"tcp/127.0.0.1:{p_smart}", f"tcp/127.0.0.1:{p_umbra}"
-    common = ("--out", "out", "--duration", "60")
+    common = ("--out", "out", "--duration", "60", "--insecure")
     runs: list[Running] = []
     codec = Codec()
     try:
@@ -148,6 +151,73 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
     assert sub["implausible"] == 1 and sub["oversize"] == 3
     assert sub["after_gone"] >= 50 - 5  # a few may race the liveliness news
     assert sub["decode_errors"] == 0 and sub["stale_dropped"] <= 5
+
+
+def test_by_hand_with_derived_credentials_a_peer_without_them_cannot_connect(
+    plugin_env: dict[str, str], tmp_path: Path
+) -> None:
+    """The producer runs with a real-time policy below the servo side's: on this shared machine a
+    producer stalled for 0.1 s would let REG_VEL's watchdog zero the arm, which is no part of
+    what is tested here."""
+    (tmp_path / "g.yaml").write_text(guarded_arm_graph("byhand_auth"))
+    key = "umbra/byhand_auth/source/twist"
+    p_smart, p_umbra = free_loopback_ports(2)
+    smart_ep, umbra_ep = f"tcp/127.0.0.1:{p_smart}", f"tcp/127.0.0.1:{p_umbra}"
+    common = ("--out", "out", "--duration", "60")
+    runs: list[Running] = []
+    codec = Codec()
+    try:
+        consumer = start_umbra(
+            plugin_env, tmp_path, "run", "g.yaml", "--process", "smart", "--listen", smart_ep,
+            *common, prefix=_realtime(),
+        )  # fmt: skip
+        runs.append(consumer)
+        producer = start_umbra(
+            plugin_env, tmp_path, "run", "g.yaml", "--process", "umbra", "--connect", smart_ep,
+            "--listen", umbra_ep, *common, prefix=("chrt", "-f", "10"),
+        )  # fmt: skip
+        runs.append(producer)
+        consumer.wait_for("guard passing")
+        up = consumer.wait_for("process `umbra` is up")
+        producer_zid = re.search(r"session ([0-9a-f]+)", up).group(1)  # type: ignore[union-attr]
+        attack_start = time.monotonic()
+        for zid in (None, producer_zid):  # as itself, then in the producer's name
+            cfg = build_config(Endpoints(connect=[smart_ep, umbra_ep]))
+            if zid is not None:
+                cfg.insert_json5("id", json.dumps(zid))
+            attacker = zenoh.open(cfg)
+            try:
+                overheard: list[zenoh.Sample] = []
+                spy = attacker.declare_subscriber(key, overheard.append)
+                pub = attacker.declare_publisher(
+                    key, congestion_control=zenoh.CongestionControl.BLOCK
+                )
+                time.sleep(1.0)
+                assert list(attacker.info.peers_zid()) == []  # refused by both processes
+                spy.undeclare()
+                assert overheard == []  # 100 genuine commands went by, none to it
+                for i in range(25):
+                    msg = Twist(vector=FOREIGN.vector, frame="camera", seq=10**5 + i)
+                    pub.put(codec.encode(msg), source_info=zenoh.SourceInfo(pub.id, i))
+                    time.sleep(0.02)
+            finally:
+                attacker.close()
+        attack_end = time.monotonic()
+        consumer.popen.send_signal(signal.SIGINT)
+        assert consumer.finish() == 130, consumer.text
+    finally:
+        stop_all(runs)
+    summary = _summary(tmp_path / "out", "smart")
+    arm = _module(summary, "arm")
+    assert arm["moved_rad"] < 1e-9, arm
+    register = _module(summary, "register")
+    assert not [t for t in arm["zeroed_at"] if attack_start <= t <= attack_end], register
+    assert _gaps_within(arm, attack_start, attack_end) < 2 * PERIOD, arm["long_gaps"]
+    (sub,) = summary["links"]["subscribe"]
+    assert sub["received"] > 200  # the genuine commands kept flowing
+    for counter in ("foreign", "implausible", "oversize", "decode_errors", "after_gone"):
+        assert sub[counter] == 0, (counter, sub)  # stopped by zenoh, before the link's checks
+    assert summary["links"]["token_conflicts"] == 0 and summary["links"]["forged_tokens"] == 0
 
 
 def _auth_folder(launcher: Running) -> Path:

@@ -28,6 +28,7 @@ def test_credentials_are_private_per_process_and_removed_with_the_run() -> None:
         umbra, smart = (load_auth(str(creds.files[p])) for p in ("umbra", "smart"))
         assert (umbra["user"], smart["user"]) == ("umbra", "smart")
         assert umbra["password"] != smart["password"] and len(umbra["password"]) == 48
+        assert umbra["token_key"] == smart["token_key"] and len(umbra["token_key"]) == 64
         dictionary = Path(umbra["dictionary_file"])
         assert stat.S_IMODE(dictionary.stat().st_mode) == 0o600
         lines = dictionary.read_text().splitlines()

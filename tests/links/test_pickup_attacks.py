@@ -1,8 +1,10 @@
 """Noise on the split pick-up's command link: the pick-up still grasps (real processes, real
 clock, real zenoh on loopback).
 
-The processes are started by hand (``--process``, no credentials): the weakest setup, where only
-the links' own checks stand between a peer on an open port and the arm. While vsServo drives the
+The processes are started by hand (``--process``) with ``--insecure`` (no credentials): the
+weakest setup, where only the links' own checks stand between a peer on an open port and the arm
+(by default processes started by hand authenticate each other, and such a peer cannot connect:
+see ``test_attacks``). While vsServo drives the
 arm down to the tool, a foreign peer connected to both processes commands as itself, jams the
 sequence numbers in the producer's name (a copied source id) and floods the link with 64 MB and
 512 kB samples. Every one of them is dropped and counted, the servo ticks keep their period, and
@@ -57,12 +59,12 @@ def test_the_pick_up_grasps_through_noise_on_its_command_link(
     try:
         smart = start_umbra(
             plugin_env, tmp_path, "run", graph, "--process", "smart", "--listen", smart_ep,
-            "--out", "out", prefix=_realtime(),
+            "--out", "out", "--insecure", prefix=_realtime(),
         )  # fmt: skip
         runs.append(smart)
         vision = start_umbra(
             plugin_env, tmp_path, "run", graph, "--process", "umbra", "--connect", smart_ep,
-            "--listen", umbra_ep, "--out", "out", prefix=VISION_POLICY,
+            "--listen", umbra_ep, "--out", "out", "--insecure", prefix=VISION_POLICY,
         )  # fmt: skip
         runs.append(vision)
         vision.wait_for("stage approach", timeout=90)

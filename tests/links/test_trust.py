@@ -5,11 +5,14 @@ copies their source id — the strongest claim a peer can make without credentia
 authentication that claim is accepted while the producer lives (what closes it is the launcher's
 per-run credentials and access-control rules, see ``test_attacks``); these tests pin down the rest:
 a gone producer stays gone, sequence numbers cannot be jammed, sizes are bounded, a second token
-does not take over, a restarted producer starts a new count.
+does not take over, a restarted producer starts a new count; with the run's token key, a token
+without its proof makes nobody appear.
 """
 
 from __future__ import annotations
 
+import json
+import secrets
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -24,8 +27,8 @@ from runtime.graph.parse import parse_graph_text
 from runtime.graph.plan import GraphPlan, LinkPlan
 from runtime.links import transport
 from runtime.links.bounds import ENVELOPE_BYTES, max_sample_bytes
-from runtime.links.config import Endpoints, build_config
-from runtime.links.identity import alive_key, parse_alive_key
+from runtime.links.config import Endpoints, build_config, free_loopback_ports
+from runtime.links.identity import alive_key, parse_alive_key, sign
 from runtime.links.transport import ZenohTransport
 from runtime.registry import Registry
 from tests.links.conftest import REPO
@@ -241,10 +244,10 @@ def test_an_images_bound_comes_from_its_producers_declared_size() -> None:
 
 
 def test_a_key_prefix_holding_an_alive_chunk_still_names_its_processes() -> None:
-    assert parse_alive_key("umbra/_alive/_alive/smart/m1/abc") == ("smart", "m1", "abc")
-    assert parse_alive_key("umbra/g/_alive/_alive/none/abc") == ("_alive", "none", "abc")
-    assert parse_alive_key("umbra/g/_alive/smart/none") is None
-    assert parse_alive_key("umbra/g/smart/none/abc") is None
+    assert parse_alive_key("umbra/_alive/_alive/smart/m1/abc/p") == ("smart", "m1", "abc", "p")
+    assert parse_alive_key("umbra/g/_alive/_alive/none/abc/p") == ("_alive", "none", "abc", "p")
+    assert parse_alive_key("umbra/g/_alive/smart/none/abc") is None
+    assert parse_alive_key("umbra/g/smart/none/abc/p") is None
     plan = load_graph(str(REPO / "graphs" / "counter_split.yaml"), prefix="umbra/_alive")
     (link,) = {link.key: link for link in plan.links}.values()
     assert link.key == "umbra/_alive/counter/count"
@@ -312,6 +315,7 @@ def test_samples_that_overtake_their_producers_token_wait_for_it(
     assert _until(lambda: _sub(pair)["unattributed"] == 3)  # held, counted as refused so far
     assert got == []
     pair.producer.announce()  # the token: they go through, in order, before any later one
+    assert _until(lambda: "umbra" in pair.consumer.alive_processes())  # else 4 is held too
     send(Scalar(value=4.0, seq=4))
     assert _until(lambda: len(got) == 4)
     assert [m.seq for m in got] == [1, 2, 3, 4]
@@ -343,3 +347,89 @@ def test_samples_whose_token_comes_too_late_or_names_another_session_are_dropped
     assert [m.value for m in got] == [3.0]
     sub = _sub(pair)
     assert sub["unattributed"] == 1 and sub["held"] == 0 and sub["foreign"] == 1
+
+
+def _session(listen: list[str], connect: list[str], zid: str | None = None) -> zenoh.Session:
+    cfg = build_config(Endpoints(listen, connect))
+    if zid is not None:
+        cfg.insert_json5("id", json.dumps(zid))
+    return zenoh.open(cfg)
+
+
+def test_tokens_without_the_runs_proof_are_ignored_and_the_producer_returns_only_as_itself(
+    counter_plan: GraphPlan,
+) -> None:
+    """As if a peer got past zenoh's checks (its sessions here are not authenticated at all):
+    with the run's token key, a token it declares in the producer's name, with its own zenoh id
+    or the producer's, makes nobody appear; the producer started again with the same zenoh id
+    (as a process started by hand is: its id is derived from the user's secret) is let back in
+    and starts a new count."""
+    key, wrong = secrets.token_hex(32), secrets.token_hex(32)
+    prefix, link = counter_plan.key_prefix, counter_plan.links[0]
+    port_p, port_c = free_loopback_ports(2)
+    producer_ep, consumer_ep = f"tcp/127.0.0.1:{port_p}", f"tcp/127.0.0.1:{port_c}"
+    zid = format(secrets.randbits(127) | 1 << 126, "x")
+    consumer = ZenohTransport(_session([consumer_ep], []), counter_plan, "smart", token_key=key)
+    got: list[Message] = []
+    consumer.subscribe(link, got.append)
+    consumer.announce()
+    attacker = _session([], [consumer_ep])
+    started: list[ZenohTransport] = []
+
+    def start() -> Callable[[Scalar], None]:
+        session = _session([producer_ep], [consumer_ep], zid)
+        producer = ZenohTransport(session, counter_plan, "umbra", token_key=key)
+        started.append(producer)
+        sink = producer.publisher(link)
+        producer.announce()
+        assert producer.wait_ready(threading.Event(), timeout=10)
+        assert _until(lambda: consumer.producer_alive(link))
+        return lambda msg: sink(msg, 0.0)
+
+    def stop() -> None:
+        started[-1]._session.close()  # dies without ending its streams (as kill -9 would)
+        assert _until(lambda: not consumer.producer_alive(link))
+
+    try:
+        send = start()
+        for i in range(1, 21):
+            send(Scalar(value=float(i), seq=i))
+        assert _until(lambda: len(got) == 20)
+        own = str(attacker.zid())
+        liveliness = attacker.liveliness()
+        tokens = [liveliness.declare_token(alive_key(prefix, "umbra", "none", own))]
+        assert _until(lambda: consumer.forged_tokens == 1)
+        assert consumer._sessions.conflicts == 0  # not even a rival: ignored outright
+        stop()
+        for proof in (sign(wrong, "umbra", "none", zid), "0" * 32):  # in the producer's id
+            tokens.append(liveliness.declare_token(alive_key(prefix, "umbra", "none", zid, proof)))
+        assert _until(lambda: consumer.forged_tokens == 3)
+        pub = attacker.declare_publisher(link.key, congestion_control=zenoh.CongestionControl.BLOCK)
+        assert _until(lambda: pub.matching_status.matching)
+        codec = Codec()
+        for i in range(21, 31):
+            pub.put(codec.encode(Scalar(value=-1.0, seq=i)))
+        assert _until(lambda: _sub_of(consumer)["after_gone"] == 10)
+        assert not consumer.producer_alive(link) and len(got) == 20
+        send = start()  # the genuine producer again, same zenoh id, a new token
+        for i in range(1, 6):
+            send(Scalar(value=100.0 + i, seq=i))
+        assert _until(lambda: len(got) == 25)
+        for token in tokens:
+            token.undeclare()
+    finally:
+        attacker.close()
+        for transport_ in [*started, consumer]:
+            transport_.close()
+    assert [m.seq for m in got] == [*range(1, 21), *range(1, 6)]
+    sub = _sub_of(consumer)
+    assert sub["restarts"] == 1 and sub["stale_dropped"] == 0
+    # refused while the producer was gone, or (held for a token that came within 0.1 s)
+    # judged again once it was back: not its session
+    assert sub["after_gone"] + sub["foreign"] == 10
+    assert consumer.stats()["forged_tokens"] == 3
+
+
+def _sub_of(consumer: ZenohTransport) -> dict:
+    (sub,) = consumer.stats()["subscribe"]
+    return sub

@@ -50,7 +50,7 @@ while time.monotonic() < deadline and not list(s.info.peers_zid()):
     time.sleep(0.05)
 time.sleep(0.5)
 print("peers", len(list(s.info.peers_zid())), flush=True)
-token = s.liveliness().declare_token(f"{alive}/umbra/none/{s.zid()}")
+token = s.liveliness().declare_token(f"{alive}/umbra/none/{s.zid()}/none")
 codec = Codec()
 for i in range(50):
     twist = Twist(vector=np.array([0.05, 0, 0, 0, 0, 0.0]), frame="camera", seq=1 + i)
