@@ -20,17 +20,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.common import table, write_results
+from benchmarks.common import start_graph, table, write_results
 from tests.browser import CHROMIUM, launch
 
 GOALS = {"latency_p95_ms": 100.0, "fps_shown": 25.0, "seed_latency_p95_ms": 50.0}
@@ -91,30 +89,6 @@ def _graph(folder: Path, w: int, h: int, policy: str) -> Path:
     return path
 
 
-def _start(graph: Path, out: Path, duration: float) -> tuple[subprocess.Popen, dict[str, str]]:
-    proc = subprocess.Popen(
-        ["umbra", "run", str(graph), "--duration", str(duration), "--out", str(out), "--quiet"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    found: dict[str, str] = {}
-    got = threading.Event()
-
-    def read() -> None:
-        assert proc.stdout is not None
-        for line in proc.stdout:
-            if "operator console: " in line and "url" not in found:
-                found["url"] = line.split("operator console: ", 1)[1].strip()
-                got.set()
-
-    threading.Thread(target=read, daemon=True).start()
-    if not got.wait(60):
-        proc.kill()
-        raise RuntimeError("the console did not print its address")
-    return proc, found
-
-
 def _watch(url: str, seconds: float) -> dict[str, Any]:
     """A page that watches, holds control and clicks the image every 0.4 s."""
     from playwright.sync_api import sync_playwright
@@ -171,10 +145,10 @@ def run_size(folder: Path, w: int, h: int, duration: float, policy: str) -> dict
     result: dict[str, Any] = {"size": f"{w}x{h}", "smart_policy": policy}
     for phase in ("baseline", "page"):
         out = folder / f"{w}x{h}-{policy}-{phase}"
-        proc, found = _start(graph, out, duration)
+        proc, url = start_graph(graph, out, duration, "operator console: ")
         page: dict[str, Any] = {}
         if phase == "page":
-            page = _watch(found["url"], duration - 6.0)
+            page = _watch(url, duration - 6.0)
         proc.wait(duration + 60)
         umbra, smart = _summary(out, "umbra"), _summary(out, "smart")
         figures = _console_figures(umbra)

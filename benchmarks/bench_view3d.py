@@ -23,10 +23,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -35,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from benchmarks.common import table, write_results
+from benchmarks.common import start_graph, table, write_results
 from tests.browser import CHROMIUM, launch
 
 #: a websocket message that carries a video frame names viser's image property
@@ -100,32 +98,6 @@ def _graph(folder: Path, with_view: bool, policy: str) -> Path:
     return path
 
 
-def _start(
-    graph: Path, out: Path, duration: float, wait_url: bool
-) -> tuple[subprocess.Popen, dict[str, str]]:
-    proc = subprocess.Popen(
-        ["umbra", "run", str(graph), "--duration", str(duration), "--out", str(out), "--quiet"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    found: dict[str, str] = {}
-    got = threading.Event()
-
-    def read() -> None:
-        assert proc.stdout is not None
-        for line in proc.stdout:
-            if "3-D view: " in line and "url" not in found:
-                found["url"] = line.split("3-D view: ", 1)[1].strip()
-                got.set()
-
-    threading.Thread(target=read, daemon=True).start()
-    if wait_url and not got.wait(60):
-        proc.kill()
-        raise RuntimeError("the 3-D view did not print its address")
-    return proc, found
-
-
 def _watch(url: str, seconds: float, viewport: tuple[int, int]) -> dict[str, Any]:
     """Open the page and count the video frames it receives over its websocket."""
     from playwright.sync_api import sync_playwright
@@ -168,10 +140,11 @@ def run_phase(folder: Path, phase: str, duration: float, policy: str) -> dict[st
     with_view = phase != "no view"
     folder.mkdir(parents=True, exist_ok=True)
     out = folder / phase.replace(" ", "_").replace(",", "")
-    proc, found = _start(_graph(folder, with_view, policy), out, duration, with_view)
+    after = "3-D view: " if with_view else None
+    proc, url = start_graph(_graph(folder, with_view, policy), out, duration, after)
     figures: dict[str, Any] = {}
     if phase in VIEWPORTS:
-        figures.update(_watch(found["url"], duration - 8.0, VIEWPORTS[phase]))
+        figures.update(_watch(url, duration - 8.0, VIEWPORTS[phase]))
     proc.wait(duration + 60)
     umbra, smart = _summary(out, "umbra"), _summary(out, "smart")
     figures["smart_lateness_p99_ms"] = smart.get("lateness_p99_ms")

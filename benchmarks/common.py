@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import platform
+import subprocess
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -62,3 +64,31 @@ def write_results(name: str, data: dict[str, Any], *, quick: bool) -> Path:
     }
     path.write_text(json.dumps(payload, indent=2, default=float))
     return path
+
+
+def start_graph(
+    graph: Path, out: Path, duration: float, address_after: str | None
+) -> tuple[subprocess.Popen, str]:
+    """``umbra run graph`` for ``duration`` seconds into ``out``; with ``address_after``, waits
+    (60 s at most) for the log line holding it and returns the address that follows it."""
+    proc = subprocess.Popen(
+        ["umbra", "run", str(graph), "--duration", str(duration), "--out", str(out), "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    found: list[str] = []
+    got = threading.Event()
+
+    def read() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:  # read to the end: a full pipe would stall the run
+            if address_after and address_after in line and not found:
+                found.append(line.split(address_after, 1)[1].strip())
+                got.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    if address_after and not got.wait(60):
+        proc.kill()
+        raise RuntimeError(f"the run did not print {address_after!r}")
+    return proc, found[0] if found else ""

@@ -59,6 +59,36 @@ class StereoSnapshot(Message, frozen=True, kw_only=True):
 
     FRAME_KIND: ClassVar[str] = "frame"
 
+    @classmethod
+    def of_pair(
+        cls,
+        stamp: float,
+        snapshot_id: str,
+        a: tuple[CameraModel, np.ndarray, np.ndarray],
+        b: tuple[CameraModel, np.ndarray, np.ndarray],
+        frame: str = "base",
+    ) -> StereoSnapshot:
+        """The pair from each camera's ``(model, image, T_frame_camera)``: intrinsics,
+        distortion, zoom and name from the model, the pose [m] in ``frame``."""
+        (ma, ia, Ta), (mb, ib, Tb) = a, b
+        return cls(
+            stamp=stamp,
+            snapshot_id=snapshot_id,
+            image_a=ia,
+            image_b=ib,
+            K_a=ma.K,
+            K_b=mb.K,
+            dist_a=np.asarray(ma.dist),
+            dist_b=np.asarray(mb.dist),
+            zoom_a=ma.zoom,
+            zoom_b=mb.zoom,
+            camera_a_name=ma.frame,
+            camera_b_name=mb.frame,
+            T_base_camera_a=Ta,
+            T_base_camera_b=Tb,
+            frame=frame,
+        )
+
     def camera_model(self, side: str) -> CameraModel:
         """The model of camera ``side`` ("a" or "b"), mounted in ``frame`` at its pose."""
         if side not in ("a", "b"):

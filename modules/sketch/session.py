@@ -172,22 +172,7 @@ class SketchSession:
                 image = np.zeros((model.height, model.width, 3), np.uint8)
             parts.append((model, T, image))
         (ma, Ta, ia), (mb, Tb, ib) = parts
-        snap = StereoSnapshot(
-            stamp=self.time,
-            snapshot_id=sid,
-            image_a=ia,
-            image_b=ib,
-            K_a=ma.K,
-            K_b=mb.K,
-            dist_a=np.asarray(ma.dist),
-            dist_b=np.asarray(mb.dist),
-            zoom_a=ma.zoom,
-            zoom_b=mb.zoom,
-            camera_a_name=ma.frame,
-            camera_b_name=mb.frame,
-            T_base_camera_a=Ta,
-            T_base_camera_b=Tb,
-        )
+        snap = StereoSnapshot.of_pair(self.time, sid, (ma, ia, Ta), (mb, ib, Tb))
         self.snapshots[sid] = snap
         return snap
 

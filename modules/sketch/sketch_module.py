@@ -221,22 +221,8 @@ class Sketch(Module):
             parts.append((frame, cam, pose.matrix @ cam.T_mount_camera))
         (ia, ca, Ta), (ib, cb, Tb) = parts
         sid = f"snap{len(self.snapshots) + 1}"
-        snap = StereoSnapshot(
-            stamp=now,
-            snapshot_id=sid,
-            image_a=ia.pixels,
-            image_b=ib.pixels,
-            K_a=ca.K,
-            K_b=cb.K,
-            dist_a=np.asarray(ca.dist),
-            dist_b=np.asarray(cb.dist),
-            zoom_a=ca.zoom,
-            zoom_b=cb.zoom,
-            camera_a_name=ca.frame,
-            camera_b_name=cb.frame,
-            T_base_camera_a=Ta,
-            T_base_camera_b=Tb,
-            frame=self.params.world_frame,
+        snap = StereoSnapshot.of_pair(
+            now, sid, (ca, ia.pixels, Ta), (cb, ib.pixels, Tb), frame=self.params.world_frame
         )
         self.snapshots[sid] = snap
         self.snapshot.send(snap)
