@@ -204,26 +204,31 @@ class _Parser:
 
     def process_settings(self, name: str, body: YMap, spec: GraphSpec) -> None:
         self.unknown_keys(body, PROCESS_KEYS, f"process `{name}`")
-        if "cpu_latency_us" in body:
-            value = body["cpu_latency_us"]
-            if not is_latency_us(value):
-                self.error(
-                    body.val_loc["cpu_latency_us"],
-                    f"cpu_latency_us of process `{name}` must be a whole number of microseconds "
-                    f"from 0 to {NO_CONSTRAINT_US}, found {value!r}",
-                )
+        settings = (  # key, the check, what it must be, where the spec keeps it
+            (
+                "cpu_latency_us",
+                is_latency_us,
+                f"a whole number of microseconds from 0 to {NO_CONSTRAINT_US}",
+                spec.cpu_latency_us,
+            ),
+            (
+                "realtime_priority",
+                is_priority,
+                f"a whole number from {MIN_PRIORITY} to {MAX_PRIORITY} (SCHED_FIFO)",
+                spec.realtime_priority,
+            ),
+        )
+        for key, valid, expected, into in settings:
+            if key not in body:
+                continue
+            value = body[key]
+            if valid(value):
+                into[name] = value
             else:
-                spec.cpu_latency_us[name] = value
-        if "realtime_priority" in body:
-            value = body["realtime_priority"]
-            if not is_priority(value):
                 self.error(
-                    body.val_loc["realtime_priority"],
-                    f"realtime_priority of process `{name}` must be a whole number from "
-                    f"{MIN_PRIORITY} to {MAX_PRIORITY} (SCHED_FIFO), found {value!r}",
+                    body.val_loc[key],
+                    f"{key} of process `{name}` must be {expected}, found {value!r}",
                 )
-            else:
-                spec.realtime_priority[name] = value
 
     def frames(self, doc: YMap) -> list[StaticFrameSpec]:
         if "frames" not in doc:
