@@ -113,6 +113,14 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
             print(output[-3000:])
 
 
+def _done(path: dict) -> str:
+    """The page condition: the player finished ``path`` (not an earlier path that is done)."""
+    return (
+        "window.sketch.state.vcr && window.sketch.state.vcr.mode === 'done' && "
+        f"window.sketch.state.vcr.path === {json.dumps(path['id'])}"
+    )
+
+
 def _world(summaries: list[dict]) -> dict:
     world = [m for s in summaries for m in s.get("modules", []) if m["module"] == "world"]
     assert world, "no summary of the world"
@@ -317,16 +325,16 @@ def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):
             uv = _project(snap[f"P_{side}"], door.handle_center[None, :])[0]
             assert np.linalg.norm(uv - [320, 240]) < 80, (side, uv)
         op.place("line", handle)
-        op.plan("grab_pipe")
+        grab = op.plan("grab_pipe")
         page.click("[data-testid=play]")
-        op.until("window.sketch.state.vcr.mode === 'done'", "play", 90)
+        op.until(_done(grab), "play", 90)
         time.sleep(1.5)  # the gripper closes on the bar
         hinge = op.place("line", np.stack([door.hinge_top, door.hinge]))  # top to bottom
         assert "move_around_axis" in page.inner_text("[data-testid=menu]")
         assert hinge["kind"] == "line"
-        op.plan("move_around_axis")
+        swing = op.plan("move_around_axis")
         page.click("[data-testid=play]")
-        op.until("window.sketch.state.vcr.mode === 'done'", "play", 90)
+        op.until(_done(swing), "play", 90)  # this path's end, not the grab's
         browser.close()
         time.sleep(1.0)
     world = _world(summaries)
