@@ -51,6 +51,19 @@ def _state(h: ModuleHarness, page: Page, pred, timeout: float = 5.0) -> dict:
     raise AssertionError("no such state in time")
 
 
+def _operator(h: ModuleHarness) -> Page:
+    """A page connected to the console that has taken control."""
+    page = Page(h.module.url)
+    try:
+        _pump(h, lambda: page.session in h.module.arbiter.sessions)
+        page.send("take")
+        _pump(h, lambda: h.module.arbiter.holder == page.session)
+    except BaseException:
+        page.close()
+        raise
+    return page
+
+
 def _frame_seq(h: ModuleHarness) -> int:
     return h.module.image.value.seq
 
@@ -106,11 +119,8 @@ def test_click_from_the_holder_seeds_and_a_viewer_without_control_is_refused() -
 
 def test_clicks_outside_the_image_and_on_a_stale_page_are_refused_with_the_reason() -> None:
     with _harness(stale_page_s=1.0) as h:
-        page = Page(h.module.url)
+        page = _operator(h)
         try:
-            _pump(h, lambda: page.session in h.module.arbiter.sessions)
-            page.send("take")
-            _pump(h, lambda: h.module.arbiter.holder == page.session)
             old = _frame_seq(h)
             page.send("click", u=700.0, v=20.0, frame=old)
             _pump(h, lambda: h.module.counts["refused"] == 1)
@@ -132,11 +142,8 @@ def test_nobody_jogs_on_a_frozen_page_but_a_live_one_jogs_and_a_release_always_g
     """A held jog names the frame the page shows; a page whose video froze (that frame older
     than ``stale_page_s``) is refused and nothing moves, while its release still passes."""
     with _harness(stale_page_s=0.5) as h:
-        page = Page(h.module.url)
+        page = _operator(h)
         try:
-            _pump(h, lambda: page.session in h.module.arbiter.sessions)
-            page.send("take")
-            _pump(h, lambda: h.module.arbiter.holder == page.session)
             old = _frame_seq(h)
             for _ in range(40):  # 0.8 s of run time: the page still shows `old`
                 h.push("image", image())
@@ -164,11 +171,8 @@ def test_malformed_and_replayed_messages_are_refused_and_counted(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     with _harness() as h:
-        page = Page(h.module.url)
+        page = _operator(h)
         try:
-            _pump(h, lambda: page.session in h.module.arbiter.sessions)
-            page.send("take")
-            _pump(h, lambda: h.module.arbiter.holder == page.session)
             page.raw("{not json")
             assert "expected JSON" in page.recv_text("notice")["text"]
             replay = json.dumps({"session": page.session, "seq": 1, "type": "take"})
@@ -209,11 +213,8 @@ def test_another_sites_page_cannot_open_the_socket() -> None:
 
 def test_resume_is_refused_while_the_snake_is_not_healthy() -> None:
     with _harness() as h:
-        page = Page(h.module.url)
+        page = _operator(h)
         try:
-            _pump(h, lambda: page.session in h.module.arbiter.sessions)
-            page.send("take")
-            _pump(h, lambda: h.module.arbiter.holder == page.session)
             h.push("contour", rectangle_contour("failed", "contour touches the image border"))
             page.send("action", action="resume")
             _pump(h, lambda: h.module.counts["refused"] == 1)
