@@ -98,6 +98,21 @@ class Pose(Message, frozen=True, kw_only=True):
     FRAME_KIND: ClassVar[str] = "pose"
 
 
+class Poses(Message, frozen=True, kw_only=True):
+    """Poses of several frames in one: ``matrices[i]`` (4 x 4, m) is ``T_frame_children[i]``.
+
+    ``matrices`` is N x 4 x 4 for the N names in ``children``: e.g. every link frame of an arm in
+    its base frame (``T_base_link1`` ... ``T_base_flange``), what a viewer needs to draw the arm's
+    frames.
+    """
+
+    matrices: np.ndarray
+    children: tuple[str, ...]
+    frame: str
+
+    FRAME_KIND: ClassVar[str] = "frame"
+
+
 class JointState(Message, frozen=True, kw_only=True):
     """Joint positions [rad or m] and velocities [rad/s or m/s], one per joint in ``names``."""
 

@@ -24,7 +24,14 @@ def jacobian_and_pose(
 
     One pass over the chain gives both; ``T_base_tool`` is ``T_base_flange`` without a tool.
     """
-    T = table.frames(q)
+    return jacobian_and_pose_at_frames(table, table.frames(q), T_flange_tool)
+
+
+def jacobian_and_pose_at_frames(
+    table: DHTable, T: FloatArray, T_flange_tool: ArrayLike | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """As :func:`jacobian_and_pose`, from the DH frames ``T`` (``(n + 1, 4, 4)``, ``T_base_i``
+    for ``i = 0 .. n``, :meth:`DHTable.frames`) when the caller needs them too."""
     T_end = T[-1] if T_flange_tool is None else T[-1] @ np.asarray(T_flange_tool, dtype=float)
     z = T[:-1, :3, 2]  # (n, 3) joint axes z_{i-1}
     o = T[:-1, :3, 3]  # (n, 3) origins o_{i-1}

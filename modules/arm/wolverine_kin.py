@@ -6,11 +6,15 @@ import numpy as np
 
 from connectors import Input, Output, from_param, param
 from connectors.limits import MAX_COMMAND_AGE_S
-from connectors.messages import JointRates, JointState, Pose, Status, Twist
+from connectors.messages import JointRates, JointState, Pose, Poses, Status, Twist
 from connectors.module import Module
 from modules.arm.arm_params import ArmParams
 from modules.arm.dls import DLSSettings, solve_dls
-from modules.arm.jacobian import jacobian_and_pose, manipulability, tool_twist_in_base
+from modules.arm.jacobian import (
+    jacobian_and_pose_at_frames,
+    manipulability,
+    tool_twist_in_base,
+)
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 
@@ -20,8 +24,10 @@ class WolverineKin(Module):
     Each new tool twist (tool point, tool-frame coordinates) is re-expressed in the base frame
     and solved for joint rates with damped least squares at the latest joint state: damping rises
     only near a singularity, and rates over the arm's limits are scaled down together (direction
-    kept). Also publishes the tool pose (``T_base_tool``) and a status with the manipulability
-    and the near-singularity / near-limit flags. Without a recent joint state it sends zero rates.
+    kept). Also publishes the tool pose (``T_base_tool``), the pose of every DH link frame in the
+    base frame (``T_base_link1`` ... ``T_base_flange``: the arm's frames for a viewer or a
+    recording) and a status with the manipulability and the near-singularity / near-limit flags.
+    Without a recent joint state it sends zero rates.
     """
 
     TYPE = "WOLVERINE_KIN"
@@ -29,6 +35,10 @@ class WolverineKin(Module):
     class Params(ArmParams):
         base_frame: str = param("base", "frame of the arm's base (DH frame 0)")
         tool_frame: str = param("tool", "frame of the tool point (flange + tool transform)")
+        flange_frame: str = param("flange", "frame of the last DH link (the flange)")
+        link_frame_prefix: str = param(
+            "link", "DH frames 1 .. n-1 are named PREFIX1 .. PREFIX<n-1> in `link_poses`"
+        )
         tool_xyz: list[float] = param(
             [0.0, 0.0, 0.0],
             "tool point in the flange frame",
@@ -50,12 +60,24 @@ class WolverineKin(Module):
             0.1, "oldest joint state used", unit="s", gt=0, le=MAX_COMMAND_AGE_S
         )
 
+        @property
+        def tool_pose_frames(self) -> str:
+            """``base->tool``: the frames ``tool_pose`` relates (parent->child)."""
+            return f"{self.base_frame}->{self.tool_frame}"
+
     tool_twist = Input(Twist, frame=from_param("tool_frame"), trigger=True, doc="tool twist")
     joint_state = Input(
         JointState, joints=from_param("joint_names"), feedback=True, doc="measured joint angles"
     )
     joint_rates = Output(JointRates, joints=from_param("joint_names"), doc="joint rate command")
-    tool_pose = Output(Pose, doc="T_base_tool at the joint state used")
+    tool_pose = Output(
+        Pose, frame=from_param("tool_pose_frames"), doc="T_base_tool at the joint state used"
+    )
+    link_poses = Output(
+        Poses,
+        frame=from_param("base_frame"),
+        doc="T_base_link of each DH frame 1 .. n (link1 ... flange) at the joint state used",
+    )
     status = Output(Status, doc="manipulability, flags, why rates are zero (on change)")
 
     def start(self) -> None:
@@ -66,6 +88,11 @@ class WolverineKin(Module):
             eps=p.dls_eps, lambda_max=p.dls_lambda_max, limit_margin=np.radians(p.limit_margin_deg)
         )
         self._zero = np.zeros(self.table.n)
+        n = self.table.n
+        self.link_names = (
+            *(f"{p.link_frame_prefix}{i}" for i in range(1, n)),
+            p.flange_frame,
+        )
         self._last_flags: tuple[str, bool, bool] | None = None
         self._zeroed = 0
         self._singular = 0
@@ -84,7 +111,8 @@ class WolverineKin(Module):
             return
         assert state is not None
         q = np.asarray(state.position, dtype=float)
-        J, T_base_tool = jacobian_and_pose(self.table, q, self.T_flange_tool)
+        T_base_links = self.table.frames(q)
+        J, T_base_tool = jacobian_and_pose_at_frames(self.table, T_base_links, self.T_flange_tool)
         result = solve_dls(
             J,
             tool_twist_in_base(T_base_tool, twist.vector),
@@ -103,6 +131,9 @@ class WolverineKin(Module):
         )
         self.tool_pose.send(
             Pose(matrix=T_base_tool, parent=self.params.base_frame, child=self.params.tool_frame)
+        )
+        self.link_poses.send(
+            Poses(matrices=T_base_links[1:], children=self.link_names, frame=self.params.base_frame)
         )
         self._send(rates, "", J, result.scale, result.sigma_min)
 

@@ -9,6 +9,8 @@ type          primary channel                              view channel
 Image         ``foxglove.RawImage`` (bgr8/mono8) or        —
               ``foxglove.CompressedImage`` (jpeg, png)
 Pose          ``foxglove.FrameTransform`` (parent→child)   —
+Poses         ``foxglove.FrameTransforms`` (frame→each     —
+              child: an arm's link frames)
 Contour       JSON ``umbra.Contour``                       ``.../annotations``:
                                                            ``foxglove.ImageAnnotations``
 CameraModel   JSON ``umbra.CameraModel``                   ``.../calibration``:
@@ -47,7 +49,7 @@ from google.protobuf.timestamp_pb2 import Timestamp
 from mcap_protobuf.schema import build_file_descriptor_set
 from scipy.spatial.transform import Rotation
 
-from connectors.messages import CameraModel, Contour, Image, Message, Pose
+from connectors.messages import CameraModel, Contour, Image, Message, Pose, Poses
 from runtime.recording.json_codec import decode_json, encode_json, json_schema
 
 IMAGE_FORMATS = ("raw", "jpeg", "png")
@@ -155,6 +157,31 @@ def _pose(sample: Pose) -> Any:
     return frame_transform(sample.parent, sample.child, sample.matrix, sample.stamp)
 
 
+def _poses(sample: Poses) -> FrameTransforms:
+    matrices = np.asarray(sample.matrices, dtype=float).reshape(-1, 4, 4)
+    if len(matrices) != len(sample.children):
+        raise ValueError(
+            f"Poses holds {len(matrices)} matrices for {len(sample.children)} children"
+        )
+    return FrameTransforms(
+        transforms=[
+            frame_transform(sample.frame, child, T, sample.stamp)
+            for child, T in zip(sample.children, matrices, strict=True)
+        ]
+    )
+
+
+def _matrix(ft: Any) -> np.ndarray:
+    """T_parent_child (4 x 4) of a ``foxglove.FrameTransform``."""
+    T = np.eye(4)
+    q = ft.rotation
+    T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+    T[:3, 3] = [ft.translation.x, ft.translation.y, ft.translation.z]
+    if not np.isfinite(T).all():
+        raise ValueError(f"transform {ft.parent_frame_id}->{ft.child_frame_id} is not finite")
+    return T
+
+
 # -- views ----------------------------------------------------------------------------------------
 _GREEN = Color(r=0.1, g=0.9, b=0.2, a=1.0)
 _RED = Color(r=1.0, g=0.2, b=0.1, a=1.0)
@@ -237,6 +264,8 @@ def channel_encodings(
         return [_protobuf(CompressedImage, "", lambda s: compressed_image(s, images, jpeg_quality))]
     if issubclass(msg_type, Pose):
         return [_protobuf(FrameTransform, "", _pose)]
+    if issubclass(msg_type, Poses):
+        return [_protobuf(FrameTransforms, "", _poses)]
     primary = _json(msg_type)
     if issubclass(msg_type, Contour):
         return [primary, _protobuf(ImageAnnotations, "/annotations", contour_annotations)]
@@ -276,22 +305,37 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
             )
         if schema_name == "foxglove.FrameTransform":
             ft = FrameTransform.FromString(data)
-            T = np.eye(4)
-            q = ft.rotation
-            T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
-            T[:3, 3] = [ft.translation.x, ft.translation.y, ft.translation.z]
             return msg_type(
-                matrix=T,
+                matrix=_matrix(ft),
                 parent=ft.parent_frame_id,
                 child=ft.child_frame_id,
                 stamp=_seconds(ft.timestamp),
                 seq=seq,
             )
+        if schema_name == "foxglove.FrameTransforms":
+            return _decode_poses(msg_type, FrameTransforms.FromString(data), seq)
     except ProtobufDecodeError as exc:
         raise ValueError(f"not a {schema_name} message: {exc}") from None
     if schema_name.startswith("umbra."):
         return decode_json(msg_type, data)
     raise ValueError(f"no reader for schema {schema_name!r}")
+
+
+def _decode_poses(msg_type: type[Message], fts: FrameTransforms, seq: int) -> Message:
+    """A ``Poses`` sample from ``foxglove.FrameTransforms`` that share one parent frame."""
+    transforms = list(fts.transforms)
+    if not transforms:
+        raise ValueError("FrameTransforms holds no transform")
+    parents = {t.parent_frame_id for t in transforms}
+    if len(parents) != 1:
+        raise ValueError(f"FrameTransforms of one Poses sample share a parent, found {parents}")
+    return msg_type(
+        matrices=np.stack([_matrix(t) for t in transforms]),
+        children=tuple(t.child_frame_id for t in transforms),
+        frame=parents.pop(),
+        stamp=_seconds(transforms[0].timestamp),
+        seq=seq,
+    )
 
 
 #: The most pixels a recorded compressed image may declare (a header cannot make us allocate more).

@@ -15,9 +15,9 @@ frame and joint names; replay never drives a guarded input (a drive) or stands i
 guard. Problems are reported as ``umbra check`` reports them (``GRAPH:LINE:COL: error: ...``).
 
 Reading: a finished recording is indexed from its summary section, so the replay starts without
-reading the file through; only the chunks holding the replayed outputs (those that feed a
-connection) are read, each checked against its CRC, on a thread of their own, with images decoded
-by two more threads ahead of the graph. A chunk found damaged on the way stops the replay there
+reading the file through; only the chunks holding the replayed outputs (all but images that feed
+nothing) are read, each checked against its CRC, on a thread of their own, with images decoded by
+two more threads ahead of the graph. A chunk found damaged on the way stops the replay there
 with ``FILE: error: ...`` and exit status 2 (the samples before it were replayed). A killed run's
 file (no summary) is read through once before anything runs.
 """
@@ -349,11 +349,12 @@ def plan_replay(
     if problems:
         raise CheckFailed(problems)
     fed = {(c.src.module, c.src.port) for c in plan.connections}
-    outputs = {  # an output that feeds nothing is not read, let alone decoded
+    outputs = {  # an image that feeds nothing is not read, let alone decoded
         topic_of(n, port): (n, port)
         for n in names
-        for port in plan.modules[n].outputs
-        if (n, port) in fed and topic_of(n, port) in index.topics
+        for port, info in plan.modules[n].outputs.items()
+        if topic_of(n, port) in index.topics
+        and ((n, port) in fed or not issubclass(info.msg_type, Image))
     }
     feed = ReplayFeed(path, index, outputs, sim=clock == "sim")
     for n in names:

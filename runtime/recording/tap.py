@@ -1,9 +1,12 @@
-"""Recording a whole run: every connected output of a process, into one MCAP file.
+"""Recording a whole run: every output of a process, into one MCAP file.
 
 The scheduler calls :func:`attach` after wiring (``SchedulerOptions.record``): each output of this
-process that feeds at least one connection — to a module here or, over a link, in another
-process — gets one more sink that hands its samples to a :class:`RecordingFile`, so every sample
-of every connection is recorded once, by the process that produced it. The topic of output
+process — feeding a connection to a module here or, over a link, in another process, or feeding
+nothing, as ``ros2 bag record --all`` records a topic nobody subscribes to (the arm's link frames,
+a solver's status) — gets one more sink that hands its samples to a :class:`RecordingFile`, so
+every sample is recorded once, by the process that produced it. The exception is an image output
+that feeds nothing (an operator view drawn for a video file): it costs an encoding per frame, so
+it is recorded only when ``record.ports`` names it. The topic of output
 ``module.port`` is ``/module/port``. Recording starts with the graph file and the frames as
 attachments, and the run, parameters, modules and versions as metadata; ``/tf_static`` holds the
 static frames (but those whose child a recorded pose moves: a frame has one parent in a viewer).
@@ -72,11 +75,18 @@ def versions() -> dict[str, str]:
     return found
 
 
-def recorded_outputs(plan: GraphPlan, local: set[str]) -> list[tuple[str, str]]:
-    """``(module, port)`` of every output in ``local`` that feeds a connection, in data order."""
+def recorded_outputs(
+    plan: GraphPlan, local: set[str], named: set[str] | frozenset[str] = frozenset()
+) -> list[tuple[str, str]]:
+    """``(module, port)`` of every output of the modules in ``local``, in data order, but image
+    outputs that feed no connection unless ``named`` (``module.port``) holds them."""
     fed = {(c.src.module, c.src.port) for c in plan.connections}
     return [
-        (m, p) for m in plan.order if m in local for p in plan.modules[m].outputs if (m, p) in fed
+        (m, p)
+        for m in plan.order
+        if m in local
+        for p, info in plan.modules[m].outputs.items()
+        if (m, p) in fed or f"{m}.{p}" in named or not issubclass(info.msg_type, Image)
     ]
 
 
@@ -146,7 +156,9 @@ class RunRecorder:
         self.path = part_path(opts.output_dir, settings, opts.process)
         outputs = [
             (module, port, settings.choice(module, port), self.plan.modules[module].outputs[port])
-            for module, port in recorded_outputs(self.plan, set(scheduler.modules))
+            for module, port in recorded_outputs(
+                self.plan, set(scheduler.modules), set(settings.ports)
+            )
         ]
         outputs = [o for o in outputs if o[2] != "off"]
         # raw pixels do not compress: LZ4 would cost the recorder and every reader time for less

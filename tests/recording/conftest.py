@@ -24,6 +24,9 @@ WATCHED = [
     ("servo", "twist"),
     ("register", "twist"),
     ("kinematics", "joint_rates"),
+    ("kinematics", "link_poses"),
+    ("kinematics", "tool_pose"),
+    ("joints", "joint_state"),
 ]
 
 

@@ -11,6 +11,7 @@ import pytest
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
 from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
@@ -24,6 +25,7 @@ from connectors.messages import (
     JointRates,
     JointState,
     Pose,
+    Poses,
     Scalar,
     Status,
     Text,
@@ -156,6 +158,47 @@ def test_pose_is_a_frame_transform_with_the_same_rotation_and_translation() -> N
     assert np.allclose(Rotation.from_quat(q).as_matrix(), pose.matrix[:3, :3], atol=1e-14)
     back = decode_primary(Pose, enc.schema_name, enc.encode(pose), 9)
     assert np.allclose(back.matrix, pose.matrix, atol=1e-14) and back.seq == 9
+
+
+def _link_poses() -> Poses:
+    from modules.arm.dh import puma560
+
+    T = puma560().frames([0.1, -0.4, 0.3, 0.2, -0.5, 0.7])[1:]
+    names = ("link1", "link2", "link3", "link4", "link5", "flange")
+    return Poses(matrices=T, children=names, frame="base", stamp=2.5, seq=4)
+
+
+def test_poses_are_one_frame_transforms_message_with_a_transform_per_child() -> None:
+    poses = _link_poses()
+    (enc,) = channel_encodings(Poses)
+    assert enc.schema_name == "foxglove.FrameTransforms"
+    fts = FrameTransforms.FromString(enc.encode(poses))
+    assert [t.child_frame_id for t in fts.transforms] == list(poses.children)
+    for t, T in zip(fts.transforms, poses.matrices, strict=True):
+        assert t.parent_frame_id == "base" and t.timestamp.ToNanoseconds() == 2_500_000_000
+        assert np.allclose([t.translation.x, t.translation.y, t.translation.z], T[:3, 3])
+        q = [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]
+        assert np.allclose(Rotation.from_quat(q).as_matrix(), T[:3, :3], atol=1e-14)
+    back = decode_primary(Poses, enc.schema_name, enc.encode(poses), 4)
+    assert back.children == poses.children and back.frame == "base" and back.stamp == 2.5
+    assert np.allclose(back.matrices, poses.matrices, atol=1e-14)
+
+
+def test_frame_transforms_that_are_not_one_poses_sample_are_refused() -> None:
+    (enc,) = channel_encodings(Poses)
+    fts = FrameTransforms.FromString(enc.encode(_link_poses()))
+    fts.transforms[2].parent_frame_id = "table"
+    with pytest.raises(ValueError, match="share a parent"):
+        decode_primary(Poses, enc.schema_name, fts.SerializeToString(), 0)
+    fts.transforms[2].parent_frame_id = "base"
+    fts.transforms[3].translation.z = float("nan")
+    with pytest.raises(ValueError, match="not finite"):
+        decode_primary(Poses, enc.schema_name, fts.SerializeToString(), 0)
+    with pytest.raises(ValueError, match="no transform"):
+        decode_primary(Poses, enc.schema_name, FrameTransforms().SerializeToString(), 0)
+    short = Poses(matrices=np.eye(4)[None], children=("a", "b"), frame="base")
+    with pytest.raises(ValueError, match="1 matrices for 2 children"):
+        enc.encode(short)
 
 
 def test_contour_view_draws_the_outline_as_a_closed_line_on_the_image() -> None:

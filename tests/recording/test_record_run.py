@@ -101,7 +101,80 @@ def test_camera_poses_are_frame_transforms_of_the_world(pickup_run: Run) -> None
         ((_s, _c, msg),) = reader.iter_messages(["/tf_static"])
     static = FrameTransforms.FromString(msg.data)
     pairs = {(t.parent_frame_id, t.child_frame_id) for t in static.transforms}
-    assert {("base", "table"), ("flange", "tool")} <= pairs
+    assert ("base", "table") in pairs
+    # the kinematics' recorded tool pose moves `tool`, the world's true camera pose `camera`:
+    # the graph's static frames to them are left out, so each keeps one parent in a viewer
+    assert not {c for _p, c in pairs} & {"tool", "camera"}
+
+
+def _T(ft: object) -> np.ndarray:
+    T = np.eye(4)
+    q = ft.rotation  # type: ignore[attr-defined]
+    T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+    t = ft.translation  # type: ignore[attr-defined]
+    T[:3, 3] = [t.x, t.y, t.z]
+    return T
+
+
+def test_the_arm_link_frames_are_frame_transforms_at_the_measured_joints(
+    pickup_run: Run,
+) -> None:
+    """What Foxglove's 3-D panel draws as the arm: each DH frame in the base frame, equal to the
+    Puma 560's forward kinematics at the joint state the kinematics used."""
+    from modules.arm.dh import puma560
+
+    arm = puma560()
+    sent = pickup_run.sent["kinematics.link_poses"]
+    recorded = _decoded(pickup_run.recording, "/kinematics/link_poses")
+    assert len(recorded) == len(sent) > 100
+    states = pickup_run.sent["joints.joint_state"]
+    tools = _decoded(pickup_run.recording, "/kinematics/tool_pose")
+    assert len(tools) == len(recorded)
+    moved = 0.0
+    first_flange = None
+    for (log_ns, fts), (now, poses), (_t, tool) in zip(recorded, sent, tools, strict=True):
+        assert log_ns == round(now * 1e9)
+        names = [t.child_frame_id for t in fts.transforms]
+        assert names == ["link1", "link2", "link3", "link4", "link5", "flange"]
+        assert {t.parent_frame_id for t in fts.transforms} == {"base"}
+        T_base = np.stack([_T(t) for t in fts.transforms])
+        assert np.allclose(T_base, poses.matrices, atol=1e-12)
+        # the joint state the kinematics solved at: fed back, one of the two latest by this tick
+        latest = [s.position for t, s in states if t <= now][-2:]
+        assert any(np.allclose(T_base, arm.frames(q)[1:], atol=1e-9) for q in latest)
+        T_flange_tool = np.eye(4)
+        T_flange_tool[2, 3] = 0.14
+        assert (tool.parent_frame_id, tool.child_frame_id) == ("base", "tool")
+        assert np.allclose(_T(tool), T_base[-1] @ T_flange_tool, atol=1e-9)
+        first_flange = T_base[-1] if first_flange is None else first_flange
+        moved = max(moved, float(np.linalg.norm(T_base[-1][:3, 3] - first_flange[:3, 3])))
+    assert moved > 0.01  # the arm moved: the frames are not one pose repeated
+
+
+def test_every_frame_has_one_parent_and_hangs_from_the_base(pickup_run: Run) -> None:
+    """A viewer keeps one transform tree: no frame with two parents, every frame reachable from
+    the arm's base (the camera through the table, the links directly)."""
+    from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+
+    parents: dict[str, set[str]] = {}
+    with open(pickup_run.recording, "rb") as f:
+        for schema, _c, msg in make_reader(f).iter_messages():
+            if schema.name == "foxglove.FrameTransforms":
+                found = list(FrameTransforms.FromString(msg.data).transforms)
+            elif schema.name == "foxglove.FrameTransform":
+                found = [FrameTransform.FromString(msg.data)]
+            else:
+                continue
+            for t in found:
+                parents.setdefault(t.child_frame_id, set()).add(t.parent_frame_id)
+    assert all(len(p) == 1 for p in parents.values()), parents
+    parent = {child: next(iter(p)) for child, p in parents.items()}
+    for frame in parent:
+        root, hops = frame, 0
+        while root in parent and hops < 20:
+            root, hops = parent[root], hops + 1
+        assert root == "base", (frame, root)
+    assert {"camera", "patch", "table", "tool", "flange", "link1"} <= set(parent)
 
 
 def test_joint_rates_are_json_valid_against_their_schema_and_exact(pickup_run: Run) -> None:
@@ -158,6 +231,36 @@ def test_each_image_output_is_recorded_as_its_link_asks(tmp_path: Path) -> None:
     topics = {c.topic for c in summary.channels.values()}
     assert "/camera/truth" not in topics and "/camera/truth/annotations" not in topics
     assert {c.compression for c in summary.chunk_indexes} == {"lz4"}  # no raw image in it
+
+
+def test_outputs_nobody_reads_are_recorded_but_images_only_when_named(tmp_path: Path) -> None:
+    """As `ros2 bag record --all`: an output that feeds nothing is recorded (the camera's truth
+    contour here); an image that feeds nothing (the drawn view) costs an encoding per frame and
+    is recorded only when `record.ports` names it."""
+    from runtime.graph.check import load_graph
+    from tests.recording.conftest import run_graph
+
+    def topics(record: str) -> set[str]:
+        graph = tmp_path / f"{len(record)}.yaml"
+        graph.write_text(
+            f"graph: quiet\nclock: sim\nseed: 1\nrecord: {record}\n"
+            "modules:\n"
+            "  camera: {type: DigiCam, rate: 10, params: {source: sim, width: 160, height: 120,"
+            " fx: 140, fy: 140, u0: 80, v0: 60}}\n"
+            "  view: {type: Overlay}\n"
+            "connections: [camera.image -> view.image]\n"
+        )
+        out = tmp_path / f"run{len(record)}"
+        run = run_graph(load_graph(graph), out, duration=0.5, watched=[])
+        with open(run.recording, "rb") as f:
+            summary = make_reader(f).get_summary()
+            counts = summary.statistics.channel_message_counts
+        return {c.topic for i, c in summary.channels.items() if counts.get(i)}
+
+    unnamed = topics("{images: raw}")
+    assert {"/camera/image", "/camera/truth"} <= unnamed and "/view/overlay" not in unnamed
+    named = topics("{images: raw, ports: {view.overlay: jpeg}}")
+    assert {"/camera/image", "/camera/truth", "/view/overlay"} <= named
 
 
 def test_every_json_channel_is_one_the_viewers_read_and_the_errors_plot(pickup_run: Run) -> None:
