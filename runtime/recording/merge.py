@@ -38,6 +38,29 @@ def _compression(parts: list[Path]) -> CompressionType:
     return CompressionType.LZ4
 
 
+def _register(
+    writer: Writer,
+    schema_ids: dict[tuple[str, str, bytes], int],
+    schema: Schema | None,
+    channel: Channel,
+) -> int:
+    """Channel ``channel`` (and its schema, once) in the merged file; its new id."""
+    sid = 0
+    if schema is not None:
+        skey = (schema.name, schema.encoding, bytes(schema.data))
+        if skey not in schema_ids:
+            schema_ids[skey] = writer.register_schema(
+                name=schema.name, encoding=schema.encoding, data=schema.data
+            )
+        sid = schema_ids[skey]
+    return writer.register_channel(
+        topic=channel.topic,
+        message_encoding=channel.message_encoding,
+        schema_id=sid,
+        metadata=dict(channel.metadata or {}),
+    )
+
+
 def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> dict[str, int]:
     """Merge recordings ``parts`` into ``out``; returns counts (messages, parts)."""
     scans = [RecordingScan(p) for p in parts]
@@ -55,20 +78,7 @@ def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> 
                 if channel.topic in topics and channel.topic == TF_STATIC:
                     channel_ids[key] = None  # every process writes the static frames: once
                 else:
-                    sid = 0
-                    if schema is not None:
-                        skey = (schema.name, schema.encoding, bytes(schema.data))
-                        if skey not in schema_ids:
-                            schema_ids[skey] = writer.register_schema(
-                                name=schema.name, encoding=schema.encoding, data=schema.data
-                            )
-                        sid = schema_ids[skey]
-                    channel_ids[key] = writer.register_channel(
-                        topic=channel.topic,
-                        message_encoding=channel.message_encoding,
-                        schema_id=sid,
-                        metadata=dict(channel.metadata or {}),
-                    )
+                    channel_ids[key] = _register(writer, schema_ids, schema, channel)
                     topics.add(channel.topic)
             cid = channel_ids[key]
             if cid is None:
@@ -81,6 +91,11 @@ def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> 
                 sequence=msg.sequence,
             )
             messages += 1
+        for part, scan in enumerate(scans):  # channels that carried nothing: declared all the same
+            for channel in scan.channels.values():
+                if (part, channel.id) not in channel_ids and channel.topic not in topics:
+                    _register(writer, schema_ids, scan.schemas.get(channel.schema_id), channel)
+                    topics.add(channel.topic)
         _merged_metadata(writer, scans)
         writer.finish()
     return {"messages": messages, "parts": len(parts)}

@@ -90,6 +90,18 @@ def recorded_outputs(
     ]
 
 
+def moving_frames(plan: GraphPlan, settings: RecordSettings) -> set[str]:
+    """Children of the ``Pose`` outputs (declared ``parent->child``) recorded in any process."""
+    found = set()
+    for module, port in recorded_outputs(plan, set(plan.modules), set(settings.ports)):
+        info = plan.modules[module].outputs[port]
+        if settings.choice(module, port) == "off" or not issubclass(info.msg_type, Pose):
+            continue
+        if info.frame and "->" in info.frame:
+            found.add(info.frame.split("->", 1)[1])
+    return found
+
+
 def run_metadata(plan: GraphPlan, clock: str, process: str | None) -> dict[str, dict[str, str]]:
     """The metadata records that say what produced a recording."""
     spec = plan.spec
@@ -172,7 +184,9 @@ class RunRecorder:
             log=opts.log,
         )
         self.topics: list[str] = []
-        self.moving_frames: set[str] = set()  # children of recorded poses
+        # children of poses recorded by any process of the run: every part leaves them out of
+        # its static frames, whichever part's static frames the merged file keeps
+        self.moving_frames = moving_frames(self.plan, settings)
         for module, port, choice, info in outputs:
             is_image = issubclass(info.msg_type, Image)
             topic = topic_of(module, port)
@@ -183,8 +197,6 @@ class RunRecorder:
                 META_JOINTS: ",".join(info.joints or ()),
             }
             self.file.declare(topic, info.msg_type, meta, images=choice if is_image else "raw")
-            if issubclass(info.msg_type, Pose) and info.frame and "->" in info.frame:
-                self.moving_frames.add(info.frame.split("->", 1)[1])
             scheduler.modules[module].outputs[port].sinks.append(self.file.sink(topic))
             self.topics.append(topic)
 

@@ -9,7 +9,7 @@ import pytest
 from mcap.reader import make_reader
 
 from connectors.errors import UserError
-from connectors.messages import Image, Scalar, Twist
+from connectors.messages import Image, Scalar, Status, Twist
 from runtime.recording.merge import merge_parts
 from runtime.recording.reader import RecordingScan
 from runtime.recording.samples import iter_samples
@@ -41,6 +41,27 @@ def _part(
         data_end = summary_start - 13  # DataEnd: opcode, length, CRC
         assert data[data_end] == 0x0F
         path.write_bytes(data[:data_end])
+
+
+def test_a_channel_that_carried_nothing_is_still_in_the_merged_file(tmp_path: Path) -> None:
+    """An output nobody sent on (a solver's status that never changed) keeps its channel, with
+    its schema, as a single-process recording keeps it."""
+    a, b = tmp_path / "rec-umbra.mcap", tmp_path / "rec-smart.mcap"
+    _part(a, "umbra", "/servo/twist", [1.0, 1.1])
+    rec = RecordingFile(b, blocking=True, chunk_size=2048, flush_period=0.0)
+    rec.declare("/kinematics/status", Status, {"umbra.port": "kinematics.status"})
+    rec.declare("/joints/value", Scalar, {"umbra.port": "joints.value"})
+    rec.offer("/joints/value", Scalar(value=1.0, stamp=1.05, seq=1), 1.05)
+    rec.close()
+    merge_parts([a, b], tmp_path / "rec.mcap")
+    with open(tmp_path / "rec.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    channels = {c.topic: c for c in summary.channels.values()}
+    assert {"/servo/twist", "/joints/value", "/kinematics/status"} <= set(channels)
+    status = channels["/kinematics/status"]
+    assert summary.statistics.channel_message_counts.get(status.id, 0) == 0
+    assert summary.schemas[status.schema_id].name == "umbra.Status"
 
 
 def test_parts_merge_in_time_order_with_static_frames_and_attachments_once(

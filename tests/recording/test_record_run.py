@@ -13,6 +13,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from scipy.spatial.transform import Rotation
 
 from tests.recording.conftest import GRAPH, Run
+from tests.recording.frame_tree import assert_one_tree
 
 
 def _decoded(path: Path, topic: str) -> list[tuple[int, object]]:
@@ -154,27 +155,8 @@ def test_the_arm_link_frames_are_frame_transforms_at_the_measured_joints(
 def test_every_frame_has_one_parent_and_hangs_from_the_base(pickup_run: Run) -> None:
     """A viewer keeps one transform tree: no frame with two parents, every frame reachable from
     the arm's base (the camera through the table, the links directly)."""
-    from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
-
-    parents: dict[str, set[str]] = {}
-    with open(pickup_run.recording, "rb") as f:
-        for schema, _c, msg in make_reader(f).iter_messages():
-            if schema.name == "foxglove.FrameTransforms":
-                found = list(FrameTransforms.FromString(msg.data).transforms)
-            elif schema.name == "foxglove.FrameTransform":
-                found = [FrameTransform.FromString(msg.data)]
-            else:
-                continue
-            for t in found:
-                parents.setdefault(t.child_frame_id, set()).add(t.parent_frame_id)
-    assert all(len(p) == 1 for p in parents.values()), parents
-    parent = {child: next(iter(p)) for child, p in parents.items()}
-    for frame in parent:
-        root, hops = frame, 0
-        while root in parent and hops < 20:
-            root, hops = parent[root], hops + 1
-        assert root == "base", (frame, root)
-    assert {"camera", "patch", "table", "tool", "flange", "link1"} <= set(parent)
+    frames = assert_one_tree(pickup_run.recording, root="base")
+    assert {"camera", "patch", "table", "tool", "flange", "link1"} <= frames
 
 
 def test_joint_rates_are_json_valid_against_their_schema_and_exact(pickup_run: Run) -> None:

@@ -12,6 +12,7 @@ from mcap.reader import make_reader
 
 from runtime.recording.samples import iter_samples
 from tests.recording.conftest import GRAPH
+from tests.recording.frame_tree import assert_one_tree
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -52,3 +53,6 @@ def test_a_split_run_records_both_processes_into_one_file(tmp_path: Path) -> Non
     # steps a loaded machine let it run in 4 s
     assert calls <= len(rates) <= calls + 1 and calls > 100
     assert len(by_process["smart"]) == smart["recording"]["topics"]  # each output it recorded
+    # the umbra part's static frames also leave out what the smart part's poses move
+    frames = assert_one_tree(out / "recording.mcap", root="base")
+    assert {"camera", "tool", "flange", "link3", "table"} <= frames
