@@ -84,10 +84,10 @@ def draw_overlay(
             cv2.polylines(canvas, [_fixed(polygon)], True, CONTOUR_BGR, 1, cv2.LINE_AA, _SHIFT)
         bad = np.zeros(len(polygon), dtype=bool)
         bad[offending[(offending >= 0) & (offending < len(polygon))]] = True
-        for index, uv in enumerate(polygon):
+        for index, (u, v) in enumerate(_fixed(polygon).tolist()):  # one conversion for all
             color = OFFENDING_BGR if bad[index] else VERTEX_BGR
             radius = 3 if bad[index] else 2
-            cv2.circle(canvas, _point(uv), radius << _SHIFT, color, -1, cv2.LINE_AA, _SHIFT)
+            cv2.circle(canvas, (u, v), radius << _SHIFT, color, -1, cv2.LINE_AA, _SHIFT)
     if features is not None:
         _draw_axes(canvas, features)
     _draw_text(canvas, lines)

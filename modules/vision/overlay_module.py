@@ -15,7 +15,8 @@ from modules.servo.error_text import error_figure
 from modules.vision.features import polygon_features
 from modules.vision.overlay import draw_overlay
 from modules.vision.sanity import SanityLimits, bounding_shapes
-from modules.vision.video import VideoFileError, VideoWriter
+from modules.vision.video import VideoFileError
+from modules.vision.video_thread import ThreadedVideoWriter
 
 #: Containers the operator's video can be written in.
 VIDEO_SUFFIXES = (".avi", ".mp4")
@@ -39,7 +40,9 @@ class Overlay(Module):
     them equal to the snake's), the centroid and principal axes, and text lines: the contour's
     status and reason, and the servo's stage and message when ``status`` is connected. With
     ``video`` set, every drawn image is also written to that file in the run's output folder
-    (``.avi``: Motion-JPEG, ``.mp4``: MPEG-4), at ``video_fps``.
+    (``.avi``: Motion-JPEG, ``.mp4``: MPEG-4), at ``video_fps``, encoded on a thread of its own
+    (on the real clock a frame the encoder cannot take is dropped and counted in the summary's
+    ``video_dropped``; on the sim clock the file holds every frame).
     """
 
     TYPE = "Overlay"
@@ -62,7 +65,7 @@ class Overlay(Module):
         self._limits = SanityLimits(
             rectangle_margin=self.params.rectangle_margin, ellipse_scale=self.params.ellipse_scale
         )
-        self._writer: VideoWriter | None = None
+        self._writer: ThreadedVideoWriter | None = None
         self._path = None
         if self.params.video:
             self._path = self.context.output_dir / self.params.video
@@ -72,12 +75,17 @@ class Overlay(Module):
     def stop(self) -> None:
         if self._writer is not None:
             self._writer.close()
+            if self._writer.error:
+                self.log.error("%s: video not finished: %s", self.name, self._writer.error)
 
     def summary(self) -> dict[str, object]:
         out: dict[str, object] = {"frames": self._drawn}
         if self._writer is not None:
             out["video"] = str(self._path)
             out["video_frames"] = self._writer.frames
+            out["video_dropped"] = self._writer.dropped
+            if self._writer.error:
+                out["video_error"] = self._writer.error
         return out
 
     def step(self, now: float) -> None:
@@ -141,8 +149,11 @@ class Overlay(Module):
     def _write(self, drawn: np.ndarray) -> None:
         if self._writer is None:
             try:
-                self._writer = VideoWriter(
-                    self._path, self.params.video_fps, (drawn.shape[1], drawn.shape[0])
+                self._writer = ThreadedVideoWriter(
+                    self._path,
+                    self.params.video_fps,
+                    (drawn.shape[1], drawn.shape[0]),
+                    wait=self.context.clock == "sim",  # the sim clock's file holds every frame
                 )
             except VideoFileError as exc:
                 raise UserError(f"{self.name}: {exc}") from None

@@ -60,8 +60,8 @@ def test_writes_a_video_that_reads_back(tmp_path) -> None:
             h.push("contour", contour)
             h.push("image", image)
             h.step(0.1)
-        summary = h.module.summary()
-    assert summary["video_frames"] == 8
+    summary = h.module.summary()  # after stop: the encoder's thread has written every frame
+    assert summary["video_frames"] == 8 and summary["video_dropped"] == 0
     capture = cv2.VideoCapture(str(tmp_path / "run" / "overlay.avi"))
     count = 0
     while capture.read()[0]:
