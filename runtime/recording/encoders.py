@@ -321,11 +321,18 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
     raise ValueError(f"no reader for schema {schema_name!r}")
 
 
+#: The most frames one recorded ``Poses`` sample may hold (an arm has a few; a header cannot make
+#: a reader build millions of matrices).
+MAX_POSES = 1024
+
+
 def _decode_poses(msg_type: type[Message], fts: FrameTransforms, seq: int) -> Message:
     """A ``Poses`` sample from ``foxglove.FrameTransforms`` that share one parent frame."""
-    transforms = list(fts.transforms)
-    if not transforms:
-        raise ValueError("FrameTransforms holds no transform")
+    transforms = fts.transforms
+    if not transforms or len(transforms) > MAX_POSES:
+        raise ValueError(
+            f"a Poses sample holds 1 to {MAX_POSES} transforms, found {len(transforms)}"
+        )
     parents = {t.parent_frame_id for t in transforms}
     if len(parents) != 1:
         raise ValueError(f"FrameTransforms of one Poses sample share a parent, found {parents}")

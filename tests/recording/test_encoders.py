@@ -194,8 +194,11 @@ def test_frame_transforms_that_are_not_one_poses_sample_are_refused() -> None:
     fts.transforms[3].translation.z = float("nan")
     with pytest.raises(ValueError, match="not finite"):
         decode_primary(Poses, enc.schema_name, fts.SerializeToString(), 0)
-    with pytest.raises(ValueError, match="no transform"):
+    with pytest.raises(ValueError, match="1 to 1024 transforms, found 0"):
         decode_primary(Poses, enc.schema_name, FrameTransforms().SerializeToString(), 0)
+    many = FrameTransforms(transforms=[fts.transforms[0]] * 1025)
+    with pytest.raises(ValueError, match="found 1025"):
+        decode_primary(Poses, enc.schema_name, many.SerializeToString(), 0)
     short = Poses(matrices=np.eye(4)[None], children=("a", "b"), frame="base")
     with pytest.raises(ValueError, match="1 matrices for 2 children"):
         enc.encode(short)
