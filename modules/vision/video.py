@@ -41,14 +41,18 @@ class VideoWriter:
         if not self._writer.isOpened():
             raise VideoFileError(f"{self.path}: cannot open for writing ({CODECS[suffix]} codec)")
 
-    def write(self, frame: NDArray[np.uint8]) -> None:
-        """Append one frame; it must have the size given at opening."""
+    def check_frame(self, frame: NDArray[np.uint8]) -> None:
+        """VideoFileError unless ``frame`` is H x W x 3 of the size given at opening."""
         height, width = frame.shape[:2]
         if (width, height) != self.size_wh or frame.ndim != 3 or frame.shape[2] != 3:
             raise VideoFileError(
                 f"{self.path}: frames must be {self.size_wh[0]}x{self.size_wh[1]}x3, "
                 f"got shape {frame.shape}"
             )
+
+    def write(self, frame: NDArray[np.uint8]) -> None:
+        """Append one frame; it must have the size given at opening."""
+        self.check_frame(frame)
         self._writer.write(np.ascontiguousarray(frame, dtype=np.uint8))
         self.frames += 1
 

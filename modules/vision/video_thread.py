@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.vision.video import VideoFileError, VideoWriter
+from modules.vision.video import VideoWriter
 
 _CLOSE = None
 
@@ -53,12 +53,7 @@ class ThreadedVideoWriter:
 
     def write(self, frame: NDArray[np.uint8]) -> bool:
         """Queue one frame (the caller must not change it afterwards); False when dropped."""
-        height, width = frame.shape[:2]
-        if (width, height) != self.size_wh or frame.ndim != 3 or frame.shape[2] != 3:
-            raise VideoFileError(
-                f"{self.path}: frames must be {self.size_wh[0]}x{self.size_wh[1]}x3, "
-                f"got shape {frame.shape}"
-            )
+        self._writer.check_frame(frame)
         if self._closed or self.error:
             self.dropped += 1
             return False
