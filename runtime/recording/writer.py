@@ -36,7 +36,7 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from connectors.errors import UserError
-from connectors.messages import Image, Message
+from connectors.messages import Image, Message, Pose, Poses
 from runtime.recording.encoders import ChannelEncoding, channel_encodings, frame_transforms
 
 #: Channel metadata keys (strings), read by record-info and replay.
@@ -96,6 +96,8 @@ class RecordingFile:
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=compression)
         self._writer.start(profile=PROFILE, library="umbra")
         self._log = log or logging.getLogger("umbra.record")
+        #: child frame -> (parent, topic) of the transforms written so far (viewers keep one)
+        self._parents: dict[str, tuple[str, str]] = {}
         self._blocking = blocking
         self._max_items, self._max_bytes = max_items, max_bytes
         self._flush_period = flush_period
@@ -209,6 +211,27 @@ class RecordingFile:
                 channel_id=cid, log_time=log_ns, publish_time=pub_ns, data=data, sequence=seq
             )
         info.written += 1
+        if isinstance(sample, Pose):
+            self._one_parent(sample.child, sample.parent, info.topic)
+        elif isinstance(sample, Poses):
+            for child in sample.children:
+                self._one_parent(child, sample.frame, info.topic)
+
+    def _one_parent(self, child: str, parent: str, topic: str) -> None:
+        """Warn once when ``child`` is given a second parent: a viewer's transform tree keeps one
+        parent per frame, so the frame would jump between the two."""
+        first = self._parents.setdefault(child, (parent, topic))
+        if first[0] != parent and first[0] != "":
+            self._log.warning(
+                "recording: frame `%s` has two parents, `%s` (%s) and `%s` (%s); a viewer keeps "
+                "one: rename the frame in the graph's `frames:` or in the module's parameters",
+                child,
+                first[0],
+                first[1],
+                parent,
+                topic,
+            )
+            self._parents[child] = ("", topic)  # said once
 
     def _static(self, frames: list[tuple[str, str, Any]], now: float) -> None:
         key = ("foxglove.FrameTransforms", "protobuf")
@@ -221,6 +244,8 @@ class RecordingFile:
             metadata={META_ROLE: "view"},
         )
         ns = max(0, round(now * 1e9))
+        for parent, child, _T in frames:
+            self._one_parent(child, parent, TF_STATIC)
         data = frame_transforms(frames, now).SerializeToString()
         self._writer.add_message(channel_id=cid, log_time=ns, publish_time=ns, data=data)
 

@@ -42,3 +42,24 @@ def test_the_sim_clock_waits_for_room_and_keeps_every_sample(tmp_path: Path) -> 
     rec, taken = _burst(tmp_path / "sim.mcap", blocking=True)
     assert all(taken) and rec.dropped == 0 and rec.written == 100
     assert [s.message.seq for s in iter_samples(tmp_path / "sim.mcap")] == list(range(1, 101))
+
+
+def test_a_frame_given_a_second_parent_is_said_once(tmp_path: Path, caplog) -> None:
+    """A viewer keeps one parent per frame: the recorder says which frame got two, and where."""
+    import logging
+
+    from connectors.messages import Pose, Poses
+
+    rec = RecordingFile(tmp_path / "tree.mcap", blocking=True)
+    rec.write_static_frames([("base", "table", np.eye(4)), ("base", "link3", np.eye(4))], 0.0)
+    links = Poses(matrices=np.stack([np.eye(4)] * 2), children=("link2", "link3"), frame="base")
+    with caplog.at_level(logging.WARNING, logger="umbra.record"):
+        for i in range(3):
+            rec.offer("/kin/links", links, 0.01 * i)  # same parent as the static frame: fine
+            rec.offer("/world/table", Pose(matrix=np.eye(4), parent="room", child="table"), 0.01)
+        rec.offer("/kin/other", Poses(matrices=np.eye(4)[None], children=("link2",), frame="x"), 1)
+        rec.close()
+    said = [r.getMessage() for r in caplog.records if "two parents" in r.getMessage()]
+    assert len(said) == 2, said
+    assert "frame `table` has two parents, `base` (/tf_static) and `room` (/world/table)" in said[0]
+    assert "frame `link2` has two parents, `base` (/kin/links) and `x` (/kin/other)" in said[1]
