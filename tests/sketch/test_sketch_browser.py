@@ -253,6 +253,7 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         assert "line1 line at" in page.inner_text("[data-testid=primitives]")
         assert max(placed["sigma_mm"]) < 10.0
         op.plan("grab_pipe")
+        page.screenshot(path=str(tmp_path / "sketch_page.png"))  # the README's picture
         # a second page, without control, sees who holds it and cannot play the macro
         watcher = browser.new_page(viewport={"width": 1400, "height": 1000})
         watcher.goto(f"{base}/sketch")
