@@ -95,7 +95,7 @@ class SchedulerOptions:
     dispatch: str = "inline"
     #: the CPU wake-up latency [µs] held while the loop runs (``runtime.realtime``); None: none
     cpu_latency_us: int | None = None
-    #: record every connected output of this process (``runtime.recording.settings``); None:
+    #: record every output of this process (``runtime.recording.tap``); None:
     #: as the graph's ``record:`` says
     record: Any = None
 

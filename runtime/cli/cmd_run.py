@@ -89,7 +89,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--record",
         action="store_true",
-        help="record every connection into one MCAP file in the run folder (Foxglove-ready; "
+        help="record every output (connected or not; an image nobody reads only when "
+        "`record.ports` names it) into one MCAP file in the run folder (Foxglove-ready; "
         "settings: the graph's `record:`)",
     )
     parser.add_argument(

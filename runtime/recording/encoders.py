@@ -275,9 +275,29 @@ def channel_encodings(
 
 
 # -- reading back ---------------------------------------------------------------------------------
+#: The message type each Foxglove schema of a primary channel is read back as.
+_SCHEMA_CARRIES: dict[str, type[Message]] = {
+    "foxglove.RawImage": Image,
+    "foxglove.CompressedImage": Image,
+    "foxglove.FrameTransform": Pose,
+    "foxglove.FrameTransforms": Poses,
+}
+
+
 def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: int) -> Message:
     """The sample of ``msg_type`` on a primary channel with ``schema_name``; ValueError when the
     bytes are not one (``seq``: the MCAP message's sequence number, the sample's ``seq``)."""
+    carried = _SCHEMA_CARRIES.get(schema_name)
+    if schema_name.startswith("umbra."):
+        carried_name = schema_name.removeprefix("umbra.")
+        if carried_name != msg_type.__name__:
+            raise ValueError(
+                f"schema {schema_name} carries {carried_name}, not {msg_type.__name__}"
+            )
+    elif carried is not None and not issubclass(msg_type, carried):
+        raise ValueError(
+            f"schema {schema_name} carries {carried.__name__}, not {msg_type.__name__}"
+        )
     try:
         if schema_name == "foxglove.RawImage":
             raw = RawImage.FromString(data)

@@ -231,15 +231,34 @@ def replay_class(original: type[Module], feed: ReplayFeed) -> type[Module]:
 def default_replaced(plan: GraphPlan, index: RecordingIndex) -> list[str]:
     """Modules replaced when the user names none: those whose recorded outputs are images (the
     cameras), so the graph's vision and servo run on the recorded approach."""
+    fed = {(c.src.module, c.src.port) for c in plan.connections}
     found = []
     for name in plan.order:
         mplan = plan.modules[name]
-        if any(
-            issubclass(p.msg_type, Image) and topic_of(name, port) in index.topics
+        if any(  # an image nobody reads (a view drawn for a video file) is not a camera
+            issubclass(p.msg_type, Image)
+            and (name, port) in fed
+            and topic_of(name, port) in index.topics
             for port, p in mplan.outputs.items()
         ):
             found.append(name)
     return found
+
+
+def fed_outputs(
+    plan: GraphPlan, index: RecordingIndex, names: list[str]
+) -> dict[str, tuple[str, str]]:
+    """Topic -> (module, port) of the recorded outputs of ``names`` that a replay sends: those
+    that feed a connection, and those of other types than images that feed nothing (a re-record
+    then holds them again; an image nobody reads is not decoded)."""
+    fed = {(c.src.module, c.src.port) for c in plan.connections}
+    return {
+        topic_of(n, port): (n, port)
+        for n in names
+        for port, info in plan.modules[n].outputs.items()
+        if topic_of(n, port) in index.topics
+        and ((n, port) in fed or not issubclass(info.msg_type, Image))
+    }
 
 
 def _problems(
@@ -251,6 +270,7 @@ def _problems(
     consumers: dict[tuple[str, str], list[Any]] = {}
     for conn in plan.connections:
         consumers.setdefault((conn.src.module, conn.src.port), []).append(conn)
+    sent = fed_outputs(plan, index, [n for n in replaced if n in plan.modules])
     for name in replaced:
         mplan = plan.modules.get(name)
         if mplan is None:
@@ -273,7 +293,7 @@ def _problems(
             )
         for port, info in mplan.outputs.items():
             conns = consumers.get((name, port), [])
-            if not conns:
+            if not conns and topic_of(name, port) not in sent:
                 continue
             for conn in conns:
                 dst = plan.modules.get(conn.dst.module)
@@ -348,15 +368,7 @@ def plan_replay(
     problems = _problems(plan, index, names, path)
     if problems:
         raise CheckFailed(problems)
-    fed = {(c.src.module, c.src.port) for c in plan.connections}
-    outputs = {  # an image that feeds nothing is not read, let alone decoded
-        topic_of(n, port): (n, port)
-        for n in names
-        for port, info in plan.modules[n].outputs.items()
-        if topic_of(n, port) in index.topics
-        and ((n, port) in fed or not issubclass(info.msg_type, Image))
-    }
-    feed = ReplayFeed(path, index, outputs, sim=clock == "sim")
+    feed = ReplayFeed(path, index, fed_outputs(plan, index, names), sim=clock == "sim")
     for n in names:
         mplan = plan.modules[n]
         mplan.cls = replay_class(mplan.cls, feed)

@@ -62,7 +62,7 @@ def _decoder(
         ) -> Sample:
             try:
                 sample = decode_primary(t, name, msg.data, msg.sequence)
-            except ValueError as exc:
+            except (ValueError, TypeError) as exc:  # TypeError: fields not of its type
                 raise UserError(
                     f"{path}: error: message {msg.sequence} on `{channel.topic}` at "
                     f"{msg.log_time / 1e9:.6f} s does not decode as {name}: {exc}"

@@ -2,7 +2,7 @@
 
 ::
 
-    record: true                        # record every connection, images as JPEG
+    record: true                        # record every output, images as JPEG
     record:
       images: raw                       # raw | jpeg | png: how image outputs are recorded
       jpeg_quality: 90                  # 1..100

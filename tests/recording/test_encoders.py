@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import cv2
 import jsonschema
@@ -202,6 +203,22 @@ def test_frame_transforms_that_are_not_one_poses_sample_are_refused() -> None:
     short = Poses(matrices=np.eye(4)[None], children=("a", "b"), frame="base")
     with pytest.raises(ValueError, match="1 matrices for 2 children"):
         enc.encode(short)
+
+
+def test_a_channel_whose_schema_carries_another_type_is_refused() -> None:
+    """The channel's declared type and its schema must agree: a recording that says Contour on
+    a FrameTransforms schema (or a JSON schema of another type) is not read as either."""
+    (poses,) = channel_encodings(Poses)
+    with pytest.raises(
+        ValueError, match=re.escape("foxglove.FrameTransforms carries Poses, not Contour")
+    ):
+        decode_primary(Contour, poses.schema_name, poses.encode(_link_poses()), 0)
+    with pytest.raises(ValueError, match=re.escape("foxglove.RawImage carries Image, not Pose")):
+        decode_primary(Pose, "foxglove.RawImage", b"", 0)
+    twist = Twist(vector=np.zeros(6), frame="tool")
+    (json_twist,) = channel_encodings(Twist)
+    with pytest.raises(ValueError, match=re.escape("umbra.Twist carries Twist, not Scalar")):
+        decode_primary(Scalar, json_twist.schema_name, json_twist.encode(twist), 0)
 
 
 def test_contour_view_draws_the_outline_as_a_closed_line_on_the_image() -> None:

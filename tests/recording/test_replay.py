@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -137,6 +138,48 @@ def test_replay_refuses_outputs_that_were_not_recorded_or_of_another_type(
         plan_replay(load_graph(other), scalars, ["t"], "sim")
     with pytest.raises(UserError, match="no module to replace"):
         plan_replay(load_graph(recorded), rec, None, "sim")
+
+
+def test_a_recorded_output_nobody_reads_is_checked_before_it_is_replayed(tmp_path: Path) -> None:
+    """A replaced module also sends its recorded outputs that feed nothing (so a re-record holds
+    them again): they are checked as the connected ones are, before anything runs."""
+    other = tmp_path / "other.yaml"
+    other.write_text(
+        "graph: other\nclock: sim\nmodules:\n  c: {type: Counter, rate: 10}\n"
+        "  t: {type: TwistSource, rate: 10}\n  p: {type: Printer}\n"
+        "connections: [c.count -> p.value]\n"
+    )
+    wrong = tmp_path / "wrong.mcap"  # `t.twist` feeds nothing here, and was recorded as numbers
+    writer = RecordingFile(wrong, blocking=True)
+    writer.declare("/c/count", Scalar, {"umbra.port": "c.count"})
+    writer.declare("/t/twist", Scalar, {"umbra.port": "t.twist"})
+    writer.offer("/c/count", Scalar(value=1.0, stamp=0.0, seq=1), 0.0)
+    writer.offer("/t/twist", Scalar(value=1.0, stamp=0.0, seq=1), 0.0)
+    writer.close()
+    with pytest.raises(
+        CheckFailed,
+        match=re.escape("`t.twist` carries Twist, the recording's `/t/twist` carries Scalar"),
+    ):
+        plan_replay(load_graph(other), wrong, ["c", "t"], "sim")
+    _feed, names = plan_replay(load_graph(other), wrong, ["c"], "sim")  # `t` not replaced: fine
+    assert names == ["c"]
+
+
+def test_the_default_replay_stands_in_for_cameras_not_for_a_drawn_view(tmp_path: Path) -> None:
+    """An image nobody reads is recorded when `record.ports` names it (the Overlay's drawn view),
+    but the module that drew it is not a camera: replay re-runs it on the replayed images."""
+    graph = tmp_path / "view.yaml"
+    graph.write_text(
+        "graph: view\nclock: sim\nseed: 1\nrecord: {images: raw, ports: {view.overlay: png}}\n"
+        "modules:\n"
+        "  camera: {type: DigiCam, rate: 10, params: {source: sim, width: 160, height: 120,"
+        " fx: 140, fy: 140, u0: 80, v0: 60}}\n"
+        "  view: {type: Overlay}\n"
+        "connections: [camera.image -> view.image]\n"
+    )
+    run = run_graph(load_graph(graph), tmp_path / "run", duration=0.5, watched=[])
+    _feed, names = plan_replay(load_graph(graph), run.recording, None, "sim")
+    assert names == ["camera"]
 
 
 def test_replay_of_a_counter_sends_the_recorded_values_at_their_times(tmp_path: Path) -> None:
