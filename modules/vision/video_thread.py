@@ -38,29 +38,30 @@ class ThreadedVideoWriter:
         self._writer = VideoWriter(path, fps, size_wh)  # errors of the file: here, at once
         self.path = self._writer.path
         self.size_wh = self._writer.size_wh
-        self.dropped = 0
         self.error = ""
+        self._refused = 0  # frames the caller offered that found no room (or no encoder)
+        self._lost = 0  # frames queued that the encoder could not write (after an error)
         self._wait = wait
         self._queue: queue.Queue[NDArray[np.uint8] | None] = queue.Queue(maxsize=max(1, depth))
+        self._closed = False
         self._thread = threading.Thread(target=self._run, name="umbra-video", daemon=True)
         self._thread.start()
-        self._closed = False
 
     @property
     def frames(self) -> int:
         """Frames written to the file so far."""
         return self._writer.frames
 
+    @property
+    def dropped(self) -> int:
+        """Frames offered that are not in the file: no room, or the encoder failed."""
+        return self._refused + self._lost
+
     def write(self, frame: NDArray[np.uint8]) -> bool:
         """Queue one frame (the caller must not change it afterwards); False when dropped."""
         self._writer.check_frame(frame)
-        if self._closed or self.error:
-            self.dropped += 1
-            return False
-        try:
-            self._queue.put(frame, block=self._wait)
-        except queue.Full:
-            self.dropped += 1
+        if not self._put(frame, self._wait):
+            self._refused += 1
             return False
         return True
 
@@ -69,15 +70,34 @@ class ThreadedVideoWriter:
         if self._closed:
             return
         self._closed = True
-        self._queue.put(_CLOSE)
+        self._put(_CLOSE, wait=True, closing=True)
         self._thread.join()
         self._writer.close()
 
-    def _run(self) -> None:
-        while (frame := self._queue.get()) is not _CLOSE:
-            if self.error:
-                continue
+    def _put(self, item: NDArray[np.uint8] | None, wait: bool, closing: bool = False) -> bool:
+        """Queue ``item``; never waits on an encoder that has stopped."""
+        while self._thread.is_alive():
+            if not closing and (self._closed or self.error):
+                return False
             try:
-                self._writer.write(frame)
-            except Exception as exc:  # a full disk must not end the run, nor stop the queue
-                self.error = f"{self.path}: {exc}"
+                self._queue.put(item, timeout=0.2 if wait else None, block=wait)
+                return True
+            except queue.Full:
+                if not wait:
+                    return False
+        return False
+
+    def _run(self) -> None:
+        try:
+            while (frame := self._queue.get()) is not _CLOSE:
+                if self.error:
+                    self._lost += 1
+                    continue
+                try:
+                    self._writer.write(frame)
+                except Exception as exc:  # a full disk must not end the run, nor stop the queue
+                    self.error = f"{self.path}: {exc}"
+                    self._lost += 1
+        except BaseException as exc:  # the thread ends: say so, so nobody waits on it
+            self.error = self.error or f"{self.path}: video encoder stopped: {exc!r}"
+            raise

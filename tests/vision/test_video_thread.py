@@ -89,3 +89,49 @@ def test_a_frame_of_another_size_is_refused_where_it_is_offered(tmp_path: Path) 
 def test_a_file_that_cannot_be_written_is_refused_at_once(tmp_path: Path) -> None:
     with pytest.raises(VideoFileError, match="must end in"):
         ThreadedVideoWriter(tmp_path / "v.gif", 10.0, (160, 120), wait=True)
+
+
+def test_a_failing_encoder_counts_what_it_lost_and_never_holds_the_caller(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A full disk: the frames queued behind the failure are counted, later ones refused, and
+    closing returns; an encoder thread that died outright holds nobody either."""
+    busy, release = _held_encoder(monkeypatch)
+    calls = []
+    held = VideoWriter.write
+
+    def failing(self: VideoWriter, frame: np.ndarray) -> None:
+        calls.append(1)
+        if len(calls) >= 2:
+            raise OSError("No space left on device")
+        held(self, frame)
+
+    monkeypatch.setattr(VideoWriter, "write", failing)
+    video = ThreadedVideoWriter(tmp_path / "v.avi", 10.0, (160, 120), wait=True, depth=2)
+    video.write(_frame(1))
+    assert busy.wait(5.0)
+    video.write(_frame(2))  # the disk is full when it comes: lost
+    video.write(_frame(3))  # queued behind the failure: lost
+    release.set()
+    for _ in range(50):
+        if video.error:
+            break
+        threading.Event().wait(0.05)
+    assert "No space left on device" in video.error
+    assert not video.write(_frame(4))  # refused at once, the sim clock not held
+    video.close()
+    assert video.frames == 1 and video.dropped == 3  # frames 2, 3 and 4
+
+    class Stop(BaseException):
+        pass
+
+    def dies(self: VideoWriter, frame: np.ndarray) -> None:
+        raise Stop
+
+    monkeypatch.setattr(VideoWriter, "write", dies)
+    monkeypatch.setattr(threading, "excepthook", lambda args: None)  # the thread's end is expected
+    dead = ThreadedVideoWriter(tmp_path / "w.avi", 10.0, (160, 120), wait=True, depth=1)
+    for i in range(5):  # the first kills the encoder; none of them may wait forever
+        dead.write(_frame(i))
+    dead.close()
+    assert "video encoder stopped" in dead.error and dead.frames == 0
