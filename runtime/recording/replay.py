@@ -10,8 +10,9 @@ replay's tick time (exactly the original stamp on the sim clock); other stamps a
 same offset as the times.
 
 Before anything runs, :func:`plan_replay` checks that the graph matches the recording: every
-replaced module exists, each of its connected outputs was recorded, with the same message type,
-frame and joint names; replay never drives a guarded input (a drive) or stands in for a safety
+replaced module exists, each of its connected outputs was recorded, and every output it will send
+(its recorded outputs that feed nothing too) has the same message type, frame and joint names in
+the recording; replay never drives a guarded input (a drive) or stands in for a safety
 guard. Problems are reported as ``umbra check`` reports them (``GRAPH:LINE:COL: error: ...``).
 
 Reading: a finished recording is indexed from its summary section, so the replay starts without
