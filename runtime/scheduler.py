@@ -43,6 +43,7 @@ from connectors.messages import Message
 from connectors.module import Module, ModuleContext
 from connectors.ports import Register
 from runtime.clock import make_clock
+from runtime.gc_pause import HeapFreeze
 from runtime.graph.plan import GraphPlan
 from runtime.links_api import LinkTransport
 from runtime.realtime import CpuLatencyHold
@@ -292,6 +293,7 @@ class Scheduler:
             unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_PRIORITY,
         )
         priority.acquire()
+        heap = HeapFreeze(enabled=self.clock.kind == "real")  # no full collection mid-loop
         t0 = self.clock.now()
         if self.recorder is not None:
             self.recorder.start(t0)
@@ -307,6 +309,7 @@ class Scheduler:
                     break
                 started.append(slot)
             if failure is None and user_error is None:
+                heap.acquire()
                 for slot in self._slots:
                     slot.next_due = t0
                 ticks, failure = self._loop(t0, lateness)
@@ -320,6 +323,7 @@ class Scheduler:
                         failure = ModuleFailed(
                             slot.module.name, slot.stats.type_name, "stop", ticks, exc
                         )
+            heap.release()
             priority.release()
             hold.release()
             self._restore_signals(old_handlers)
@@ -346,6 +350,8 @@ class Scheduler:
             extra["realtime"] = hold.summary()
         if priority.priority is not None:
             extra["realtime_priority"] = priority.summary()
+        if heap.enabled:
+            extra["gc"] = heap.summary()
         if self.recorder is not None:
             extra["recording"] = self.recorder.summary()
         return RunResult(

@@ -37,11 +37,14 @@ connections:
 """
 
 
-def guarded_arm_graph(name: str, extra_process: bool = False) -> str:
+def guarded_arm_graph(
+    name: str, extra_process: bool = False, realtime_priority: int | None = None
+) -> str:
     """The servo path of the split pick-up without vision: a constant twist (zero) from process
     `umbra` through REG_VEL, ROTATE_KIN, WOLVERINE_KIN to a simulated Puma in `smart`, watched
     by an ArmWatch at the servo rate (100 Hz). ``extra_process``: a third process `ui` of the
-    graph (an insider) whose only output is a counter watched in `smart`."""
+    graph (an insider) whose only output is a counter watched in `smart`. ``realtime_priority``:
+    the `smart` process's threads under SCHED_FIFO at that priority (the graph's own setting)."""
     ui = (
         "  tick: {type: Counter, process: ui, rate: 10}\n"
         "  ticks: {type: LinkWatch, process: smart, rate: 20, params: {timeout: 1.0}}\n"
@@ -49,7 +52,9 @@ def guarded_arm_graph(name: str, extra_process: bool = False) -> str:
         else ""
     )
     ui_link = "  - tick.count -> ticks.input\n" if extra_process else ""
-    processes = "{umbra: {}, smart: {}, ui: {}}" if extra_process else "{umbra: {}, smart: {}}"
+    smart = f"{{realtime_priority: {realtime_priority}}}" if realtime_priority else "{}"
+    ui_process = ", ui: {}" if extra_process else ""
+    processes = f"{{umbra: {{}}, smart: {smart}{ui_process}}}"
     return f"""
 graph: {name}
 clock: real
