@@ -1,12 +1,13 @@
 """Garbage collection kept out of a real-time loop's way.
 
 CPython's cyclic collector sometimes runs a full collection, which walks every tracked object of
-the process: after importing zenoh, numpy, scipy and OpenCV that is some 70,000 objects and
+the process: after importing zenoh, numpy, scipy and OpenCV that is some 100,000 objects and
 20-50 ms on a small machine, long enough for a 100 Hz servo loop to miss several ticks at a
-random moment. Objects made while starting (modules, tables, libraries) live for the whole run,
-so :class:`HeapFreeze` collects once before the loop and freezes them (``gc.freeze``): later
-collections walk only what the loop itself makes, which takes microseconds. Reference counting
-still frees everything at once; only cycles wait for the (now cheap) collector.
+random moment. What the process made before its run (libraries, the graph, the modules) lives for
+the whole run, so :class:`HeapFreeze` collects once before the run's clock starts and freezes it
+(``gc.freeze``): later collections walk only what was made since, which takes microseconds.
+Reference counting still frees everything at once; only cycles wait for the (now cheap) collector.
+Objects that module ``start`` makes (after the clock started) are not frozen: a few thousand.
 """
 
 from __future__ import annotations

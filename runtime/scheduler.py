@@ -293,7 +293,9 @@ class Scheduler:
             unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_PRIORITY,
         )
         priority.acquire()
-        heap = HeapFreeze(enabled=self.clock.kind == "real")  # no full collection mid-loop
+        # no full collection mid-loop; before t0, so the collection takes no time of the run
+        heap = HeapFreeze(enabled=self.clock.kind == "real")
+        heap.acquire()
         t0 = self.clock.now()
         if self.recorder is not None:
             self.recorder.start(t0)
@@ -309,7 +311,6 @@ class Scheduler:
                     break
                 started.append(slot)
             if failure is None and user_error is None:
-                heap.acquire()
                 for slot in self._slots:
                     slot.next_due = t0
                 ticks, failure = self._loop(t0, lateness)

@@ -27,6 +27,7 @@ HELP = "run the benchmarks (each against a baseline measured in the same run) an
 #: Fastest first, so a short look comes before the long runs.
 ORDER = (
     "scheduler",
+    "gc_pause",
     "servo_tick",
     "pose_tool",
     "snake",
