@@ -230,11 +230,15 @@ def _dispatch_run(
     errors: list[BaseException] = []
 
     def send(first: int) -> None:
-        time.sleep(0.05)  # the loop is running (and mostly idle: its module runs at 200 Hz)
+        # once the loop is running (and mostly idle: its module runs at 200 Hz)
+        deadline = time.monotonic() + 5.0
+        while not getattr(watch, "threads", None) and time.monotonic() < deadline:
+            time.sleep(0.005)
+        time.sleep(0.02)
         try:
             for i in range(per_sender):
                 deliver(Scalar(value=float(first + i), seq=i + 1))
-                time.sleep(0.0005)
+                time.sleep(0.002)  # the loop idle between most samples: they come inline
         except BaseException as exc:
             errors.append(exc)
 
