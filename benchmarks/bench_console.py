@@ -28,7 +28,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.common import start_graph, table, write_results
+from benchmarks.common import POLICIES, start_graph, table, write_results
 from tests.browser import CHROMIUM, launch
 
 GOALS = {"latency_p95_ms": 100.0, "fps_shown": 25.0, "seed_latency_p95_ms": 50.0}
@@ -78,9 +78,6 @@ def _video(folder: Path, w: int, h: int, frames: int = 90) -> Path:
 
 #: The servo process's scheduling: as the shipped graphs run it (SCHED_FIFO priority 50, which
 #: needs root), and the default policy, where it shares the CPUs with the browser.
-POLICIES = {"fifo": "{realtime_priority: 50}", "default": "{}"}
-
-
 def _graph(folder: Path, w: int, h: int, policy: str) -> Path:
     path = folder / f"bench_console_{w}x{h}_{policy}.yaml"
     clip = folder / f"clip_{w}x{h}.avi"

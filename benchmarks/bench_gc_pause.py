@@ -27,6 +27,8 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import table, write_results  # noqa: E402
 
+FROZEN = "full collection, heap frozen, a pick-up built after"
+
 
 def built_pickup() -> object:
     """The pick-up's modules, built and started in this process (kept alive by the result)."""
@@ -71,7 +73,7 @@ def main() -> None:
     del keep, after
     rows = {
         "full collection, heap as built (baseline)": baseline,
-        "full collection, heap frozen, a pick-up built after": frozen,
+        FROZEN: frozen,
     }
     stats = {
         name: {"p50_ms": float(np.median(v)), "max_ms": float(np.max(v))}
@@ -87,7 +89,13 @@ def main() -> None:
     )
     path = write_results(
         "gc_pause",
-        {"tracked_objects": tracked, "frozen_objects": heap.frozen, "repeats": repeats, **stats},
+        {
+            "tracked_objects": tracked,
+            "frozen_objects": heap.frozen,
+            "repeats": repeats,
+            **stats,
+            "frozen_p50_x_baseline": stats[FROZEN]["p50_ms"] / base,
+        },
         quick=args.quick,
     )
     print(f"\nwrote {path}")

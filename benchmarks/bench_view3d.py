@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from benchmarks.common import start_graph, table, write_results
+from benchmarks.common import POLICIES, start_graph, table, write_results
 from tests.browser import CHROMIUM, launch
 
 #: a websocket message that carries a video frame names viser's image property
@@ -85,9 +85,6 @@ WIRE = "  - camera.image -> view.wrist_image\n  - joints.joint_state -> view.joi
 
 #: The servo process's scheduling: as the shipped graphs run it (SCHED_FIFO priority 50, which
 #: needs root), and the default policy, where it shares the CPUs with the browser.
-POLICIES = {"fifo": "{realtime_priority: 50}", "default": "{}"}
-
-
 def _graph(folder: Path, with_view: bool, policy: str) -> Path:
     path = folder / f"bench_view3d_{'view' if with_view else 'none'}_{policy}.yaml"
     path.write_text(

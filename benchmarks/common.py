@@ -66,6 +66,11 @@ def write_results(name: str, data: dict[str, Any], *, quick: bool) -> Path:
     return path
 
 
+#: The servo process's scheduling in the benchmarks that compare it with a page open: the graph's
+#: `processes.smart` entry for SCHED_FIFO (as the shipped graphs ask) and for the default policy.
+POLICIES = {"fifo": "{realtime_priority: 50}", "default": "{}"}
+
+
 def start_graph(
     graph: Path, out: Path, duration: float, address_after: str | None
 ) -> tuple[subprocess.Popen, str]:

@@ -52,7 +52,6 @@ class SketchWorld(Module):
         )
         self.judge = SketchJudge(scene)
         self._macro = ""
-        self._succeeded: list[str] = []
         self._verdicts: dict[str, dict[str, float]] = {}  #: each macro's figures at success
         self._next_objects = 0.0
         self._started: float | None = None
@@ -90,8 +89,7 @@ class SketchWorld(Module):
             "device_error_mm": v.device_error_m * 1e3,
             "success": float(ok),
         }
-        if ok and self._macro not in self._succeeded:
-            self._succeeded.append(self._macro)
+        if ok and self._macro not in self._verdicts:
             self._verdicts[self._macro] = {k: round(x, 3) for k, x in values.items()}
             self.log.info("SketchWorld: %s succeeded (%s)", self._macro, "; ".join(v.events))
         key = (self._macro, ok, len(v.events))
@@ -105,16 +103,16 @@ class SketchWorld(Module):
         wanted = self.params.end_after
         if not wanted:
             return
-        if all(m in self._succeeded for m in wanted):
+        if all(m in self._verdicts for m in wanted):
             self.context.request_stop(f"macros succeeded: {', '.join(wanted)}", 0)
         elif self._started is not None and now - self._started > self.params.timeout_s:
-            missing = [m for m in wanted if m not in self._succeeded]
+            missing = [m for m in wanted if m not in self._verdicts]
             self.context.request_stop(f"timeout: not succeeded: {', '.join(missing)}", 1)
 
     def summary(self) -> dict[str, object]:
         v = self.judge.verdicts
         return {
-            "succeeded": list(self._succeeded),
+            "succeeded": list(self._verdicts),  # in the order they succeeded
             "verdicts": dict(self._verdicts),
             "door_angle_deg": float(np.degrees(self.judge.scene.door.angle)),
             "grasp_distance_mm": float(v.grasp_distance_m * 1e3),

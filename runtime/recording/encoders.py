@@ -149,7 +149,8 @@ def frame_transform(parent: str, child: str, T_parent_child: np.ndarray, stamp: 
 
 
 def frame_transforms(static: list[tuple[str, str, np.ndarray]], stamp: float) -> FrameTransforms:
-    """``foxglove.FrameTransforms`` of the graph's static frames ``(parent, child, T)``."""
+    """``foxglove.FrameTransforms`` of frames ``(parent, child, T_parent_child)``: the graph's
+    static frames, or the frames of one ``Poses`` sample."""
     return FrameTransforms(transforms=[frame_transform(p, c, T, stamp) for p, c, T in static])
 
 
@@ -163,11 +164,9 @@ def _poses(sample: Poses) -> FrameTransforms:
         raise ValueError(
             f"Poses holds {len(matrices)} matrices for {len(sample.children)} children"
         )
-    return FrameTransforms(
-        transforms=[
-            frame_transform(sample.frame, child, T, sample.stamp)
-            for child, T in zip(sample.children, matrices, strict=True)
-        ]
+    return frame_transforms(
+        [(sample.frame, child, T) for child, T in zip(sample.children, matrices, strict=True)],
+        sample.stamp,
     )
 
 

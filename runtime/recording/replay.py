@@ -40,7 +40,7 @@ from runtime.graph.plan import GraphPlan
 from runtime.hints import did_you_mean
 from runtime.recording.reader import RecordingScan, indexed_scan, read_records
 from runtime.recording.samples import Sample, channel_type, iter_samples_parallel
-from runtime.recording.tap import topic_of
+from runtime.recording.tap import recorded_outputs, topic_of
 from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT
 
 #: Samples read and decoded ahead of the replay (720p raw: 2.8 MB each).
@@ -251,14 +251,11 @@ def fed_outputs(
 ) -> dict[str, tuple[str, str]]:
     """Topic -> (module, port) of the recorded outputs of ``names`` that a replay sends: those
     that feed a connection, and those of other types than images that feed nothing (a re-record
-    then holds them again; an image nobody reads is not decoded)."""
-    fed = {(c.src.module, c.src.port) for c in plan.connections}
+    then holds them again; an image nobody reads is not decoded): what ``--record`` records."""
     return {
         topic_of(n, port): (n, port)
-        for n in names
-        for port, info in plan.modules[n].outputs.items()
+        for n, port in recorded_outputs(plan, set(names))
         if topic_of(n, port) in index.topics
-        and ((n, port) in fed or not issubclass(info.msg_type, Image))
     }
 
 

@@ -90,16 +90,26 @@ def recorded_outputs(
     ]
 
 
+def kept_outputs(
+    plan: GraphPlan, local: set[str], settings: RecordSettings
+) -> list[tuple[str, str, str, Any]]:
+    """``(module, port, choice, port info)`` of the outputs of ``local`` that are recorded:
+    :func:`recorded_outputs`, but those ``record.ports`` turns off."""
+    found = []
+    for module, port in recorded_outputs(plan, local, set(settings.ports)):
+        choice = settings.choice(module, port)
+        if choice != "off":
+            found.append((module, port, choice, plan.modules[module].outputs[port]))
+    return found
+
+
 def moving_frames(plan: GraphPlan, settings: RecordSettings) -> set[str]:
     """Children of the ``Pose`` outputs (declared ``parent->child``) recorded in any process."""
-    found = set()
-    for module, port in recorded_outputs(plan, set(plan.modules), set(settings.ports)):
-        info = plan.modules[module].outputs[port]
-        if settings.choice(module, port) == "off" or not issubclass(info.msg_type, Pose):
-            continue
-        if info.frame and "->" in info.frame:
-            found.add(info.frame.split("->", 1)[1])
-    return found
+    return {
+        info.frame.split("->", 1)[1]
+        for _m, _p, _c, info in kept_outputs(plan, set(plan.modules), settings)
+        if issubclass(info.msg_type, Pose) and info.frame and "->" in info.frame
+    }
 
 
 def run_metadata(plan: GraphPlan, clock: str, process: str | None) -> dict[str, dict[str, str]]:
@@ -166,13 +176,7 @@ class RunRecorder:
         self.process = opts.process
         self.clock = scheduler.clock.kind
         self.path = part_path(opts.output_dir, settings, opts.process)
-        outputs = [
-            (module, port, settings.choice(module, port), self.plan.modules[module].outputs[port])
-            for module, port in recorded_outputs(
-                self.plan, set(scheduler.modules), set(settings.ports)
-            )
-        ]
-        outputs = [o for o in outputs if o[2] != "off"]
+        outputs = kept_outputs(self.plan, set(scheduler.modules), settings)
         # raw pixels do not compress: LZ4 would cost the recorder and every reader time for less
         # than a percent; JPEG/PNG images and the rest stay small either way
         raw_images = any(c == "raw" and issubclass(i.msg_type, Image) for _m, _p, c, i in outputs)

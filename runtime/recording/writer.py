@@ -96,8 +96,9 @@ class RecordingFile:
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=compression)
         self._writer.start(profile=PROFILE, library="umbra")
         self._log = log or logging.getLogger("umbra.record")
-        #: child frame -> (parent, topic) of the transforms written so far (viewers keep one)
+        #: child frame -> (parent, topic) of its first transform (a viewer keeps one parent)
         self._parents: dict[str, tuple[str, str]] = {}
+        self._two_parents: set[str] = set()  # frames already reported
         self._blocking = blocking
         self._max_items, self._max_bytes = max_items, max_bytes
         self._flush_period = flush_period
@@ -221,7 +222,8 @@ class RecordingFile:
         """Warn once when ``child`` is given a second parent: a viewer's transform tree keeps one
         parent per frame, so the frame would jump between the two."""
         first = self._parents.setdefault(child, (parent, topic))
-        if first[0] != parent and first[0] != "":
+        if first[0] != parent and child not in self._two_parents:
+            self._two_parents.add(child)
             self._log.warning(
                 "recording: frame `%s` has two parents, `%s` (%s) and `%s` (%s); a viewer keeps "
                 "one: rename the frame in the graph's `frames:` or in the module's parameters",
@@ -231,7 +233,6 @@ class RecordingFile:
                 parent,
                 topic,
             )
-            self._parents[child] = ("", topic)  # said once
 
     def _static(self, frames: list[tuple[str, str, Any]], now: float) -> None:
         key = ("foxglove.FrameTransforms", "protobuf")

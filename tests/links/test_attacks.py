@@ -62,6 +62,33 @@ def _realtime() -> tuple[str, ...]:
     return ("chrt", "-f", "20")
 
 
+def _start_by_hand(
+    env: dict[str, str],
+    tmp_path: Path,
+    runs: list[Running],
+    extra: tuple[str, ...],
+    producer_prefix: tuple[str, ...] = (),
+) -> tuple[Running, Running, str, str]:
+    """Processes `smart` (real-time policy, listening) and `umbra` (connecting to it) of
+    ``g.yaml`` started by hand, each added to ``runs``; returns them and their endpoints once
+    the guard passes the producer's commands."""
+    p_smart, p_umbra = free_loopback_ports(2)
+    smart_ep, umbra_ep = f"tcp/127.0.0.1:{p_smart}", f"tcp/127.0.0.1:{p_umbra}"
+    common = ("--out", "out", "--duration", "60", *extra)
+    consumer = start_umbra(
+        env, tmp_path, "run", "g.yaml", "--process", "smart", "--listen", smart_ep, *common,
+        prefix=_realtime(),
+    )  # fmt: skip
+    runs.append(consumer)
+    producer = start_umbra(
+        env, tmp_path, "run", "g.yaml", "--process", "umbra", "--connect", smart_ep,
+        "--listen", umbra_ep, *common, prefix=producer_prefix,
+    )  # fmt: skip
+    runs.append(producer)
+    consumer.wait_for("guard passing")
+    return consumer, producer, smart_ep, umbra_ep
+
+
 def _gaps_within(arm: dict, start: float, end: float) -> float:
     """The longest gap between two servo ticks [s] that ended within ``[start, end]``."""
     return max((gap for at, gap in arm["long_gaps"] if start <= at <= end), default=0.0)
@@ -80,23 +107,12 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
 ) -> None:
     (tmp_path / "g.yaml").write_text(guarded_arm_graph("attack"))
     key = "umbra/attack/source/twist"
-    p_smart, p_umbra = free_loopback_ports(2)
-    smart_ep, umbra_ep = f"tcp/127.0.0.1:{p_smart}", f"tcp/127.0.0.1:{p_umbra}"
-    common = ("--out", "out", "--duration", "60", "--insecure")
     runs: list[Running] = []
     codec = Codec()
     try:
-        consumer = start_umbra(
-            plugin_env, tmp_path, "run", "g.yaml", "--process", "smart", "--listen", smart_ep,
-            *common, prefix=_realtime(),
-        )  # fmt: skip
-        runs.append(consumer)
-        producer = start_umbra(
-            plugin_env, tmp_path, "run", "g.yaml", "--process", "umbra", "--connect", smart_ep,
-            "--listen", umbra_ep, *common,
-        )  # fmt: skip
-        runs.append(producer)
-        consumer.wait_for("guard passing")
+        consumer, producer, smart_ep, umbra_ep = _start_by_hand(
+            plugin_env, tmp_path, runs, ("--insecure",)
+        )
         attacker = zenoh.open(build_config(Endpoints(connect=[smart_ep, umbra_ep])))
         try:
             overheard: list[zenoh.Sample] = []
@@ -161,23 +177,12 @@ def test_by_hand_with_derived_credentials_a_peer_without_them_cannot_connect(
     what is tested here."""
     (tmp_path / "g.yaml").write_text(guarded_arm_graph("byhand_auth"))
     key = "umbra/byhand_auth/source/twist"
-    p_smart, p_umbra = free_loopback_ports(2)
-    smart_ep, umbra_ep = f"tcp/127.0.0.1:{p_smart}", f"tcp/127.0.0.1:{p_umbra}"
-    common = ("--out", "out", "--duration", "60")
     runs: list[Running] = []
     codec = Codec()
     try:
-        consumer = start_umbra(
-            plugin_env, tmp_path, "run", "g.yaml", "--process", "smart", "--listen", smart_ep,
-            *common, prefix=_realtime(),
-        )  # fmt: skip
-        runs.append(consumer)
-        producer = start_umbra(
-            plugin_env, tmp_path, "run", "g.yaml", "--process", "umbra", "--connect", smart_ep,
-            "--listen", umbra_ep, *common, prefix=("chrt", "-f", "10"),
-        )  # fmt: skip
-        runs.append(producer)
-        consumer.wait_for("guard passing")
+        consumer, _producer, smart_ep, umbra_ep = _start_by_hand(
+            plugin_env, tmp_path, runs, (), producer_prefix=("chrt", "-f", "10")
+        )
         up = consumer.wait_for("process `umbra` is up")
         producer_zid = re.search(r"session ([0-9a-f]+)", up).group(1)  # type: ignore[union-attr]
         attack_start = time.monotonic()
