@@ -173,17 +173,22 @@ class DHTable:
         return np.minimum(q - self.q_min, self.q_max - q)
 
 
+#: The Puma 560's shoulder height: floor mounting surface to the shoulder axis, 26.45 in (m).
+PUMA560_SHOULDER_HEIGHT_M = 26.45 * 0.0254
+
+
 def puma560() -> DHTable:
     """The Puma 560 as Corke's Robotics Toolbox (Python) models it: standard DH, SI units.
 
-    ``d = (0.6718, 0, 0.15005, 0.4318, 0, 0)``, ``a = (0, 0.4318, 0.0203, 0, 0, 0)``,
+    ``d = (0.67183, 0, 0.15005, 0.4318, 0, 0)``, ``a = (0, 0.4318, 0.0203, 0, 0, 0)``,
     ``alpha = (pi/2, 0, -pi/2, pi/2, -pi/2, 0)``, no offsets; base frame on the floor mounting
-    surface below the shoulder (d1 = 26.45 in). Joint limits are Corke's (degrees:
+    surface below the shoulder (d1 = 26.45 in = 0.67183 m, :data:`PUMA560_SHOULDER_HEIGHT_M`;
+    Corke's toolbox rounds it to 0.6718). Joint limits are Corke's (degrees:
     +-160, -45..225, -225..45, -110..170, +-100, +-266). Rate limits are nominal values of the
     order of the Puma 560's top joint speeds (rad/s: 1.4, 1.3, 2.1, 4.0, 4.2, 4.0); set your
     own for a real arm.
     """
-    d = (0.6718, 0.0, 0.15005, 0.4318, 0.0, 0.0)
+    d = (PUMA560_SHOULDER_HEIGHT_M, 0.0, 0.15005, 0.4318, 0.0, 0.0)
     a = (0.0, 0.4318, 0.0203, 0.0, 0.0, 0.0)
     alpha = (np.pi / 2, 0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0.0)
     limits_deg = ((-160, 160), (-45, 225), (-225, 45), (-110, 170), (-100, 100), (-266, 266))

@@ -6,7 +6,7 @@ Format::
     joints:                  # in order from the base
       - name: j1             # required, unique
         type: revolute       # revolute (default) or prismatic
-        d: 0.6718            # metres (default 0)
+        d: 0.67183           # metres (default 0)
         a: 0.0               # metres (default 0)
         alpha_deg: 90        # link twist: alpha (rad) or alpha_deg
         theta_deg: 0         # constant joint angle offset: theta (rad) or theta_deg

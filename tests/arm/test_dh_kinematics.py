@@ -20,17 +20,24 @@ def random_q(rng: np.random.Generator, table: DHTable = PUMA) -> np.ndarray:
 def test_zero_pose_is_the_sum_of_the_dh_offsets():
     # At q = 0 every rotation cancels (alpha 90, 0, -90, 90, -90, 0): R = I, and the flange sits
     # at x = a2 + a3, y = -d3, z = d1 + d4 (Corke's RTB documents (0.4521, -0.15, 0.4318) for a
-    # base at the shoulder, i.e. without d1 = 0.6718).
+    # base at the shoulder, i.e. without d1 = 26.45 in = 0.67183 m).
     T = PUMA.fk(np.zeros(6))
     np.testing.assert_allclose(T[:3, :3], np.eye(3), atol=1e-12)
-    np.testing.assert_allclose(T[:3, 3], [0.4318 + 0.0203, -0.15005, 0.6718 + 0.4318], atol=1e-12)
+    np.testing.assert_allclose(T[:3, 3], [0.4318 + 0.0203, -0.15005, 0.67183 + 0.4318], atol=1e-5)
+
+
+def test_shoulder_height_is_26_45_inches():
+    # Corke's PUMA 560 survey: the shoulder axis stands 26.45 in above the mounting surface; one
+    # inch is 0.0254 m exactly, so d1 = 0.67183 m (0.6718 is 0.03 mm low on every z).
+    assert PUMA.joints[0].d == pytest.approx(0.67183, abs=1e-9)
+    assert PUMA.fk(np.zeros(6))[2, 3] - 0.4318 == pytest.approx(26.45 * 0.0254, abs=1e-12)
 
 
 def test_shoulder_up_pose_computed_by_hand():
     # q2 = +90 deg swings the upper arm straight up: elbow at height d1 + a2, the forearm offset
     # a3 adds height, d4 runs along -x of the base; wrist axes: x = +z, y = +y, z = -x.
     T = PUMA.fk([0, np.pi / 2, 0, 0, 0, 0])
-    np.testing.assert_allclose(T[:3, 3], [-0.4318, -0.15005, 0.6718 + 0.4318 + 0.0203], atol=1e-12)
+    np.testing.assert_allclose(T[:3, 3], [-0.4318, -0.15005, 0.67183 + 0.4318 + 0.0203], atol=1e-5)
     np.testing.assert_allclose(T[:3, :3], [[0, 0, -1], [0, 1, 0], [1, 0, 0]], atol=1e-12)
 
 

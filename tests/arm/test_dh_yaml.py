@@ -11,7 +11,7 @@ from modules.arm.dh_yaml import dh_table_from_dict, load_dh_table
 PUMA_YAML = """\
 name: puma560
 joints:
-  - {name: j1, d: 0.6718, a: 0, alpha_deg: 90, limits_deg: [-160, 160], max_rate: 1.4}
+  - {name: j1, d: 0.67183, a: 0, alpha_deg: 90, limits_deg: [-160, 160], max_rate: 1.4}
   - {name: j2, d: 0, a: 0.4318, alpha_deg: 0, limits_deg: [-45, 225], max_rate: 1.3}
   - {name: j3, d: 0.15005, a: 0.0203, alpha_deg: -90, limits_deg: [-225, 45], max_rate: 2.1}
   - {name: j4, d: 0.4318, a: 0, alpha_deg: 90, limits_deg: [-110, 170], max_rate: 4.0}
