@@ -20,6 +20,9 @@ class PublishStats:
     shm_samples: int = 0  #: through zenoh shared memory
     pool_samples: int = 0  #: through this process's frame pool (read in place by consumers)
     pool_full: int = 0  #: large samples sent the zenoh way because no pool slot was free
+    #: large samples sent the zenoh way because a session other than the graph's processes was
+    #: connected (an observer, a foreign client: it gets bytes, never a pool descriptor)
+    pool_declined: int = 0
     forwarded: int = 0  #: samples passed on from a pool slot they arrived in, without a copy
     put_errors: int = 0
 
@@ -34,6 +37,7 @@ class PublishStats:
             "shm_samples": self.shm_samples,
             "pool_samples": self.pool_samples,
             "pool_full": self.pool_full,
+            "pool_declined": self.pool_declined,
             "forwarded": self.forwarded,
             "put_errors": self.put_errors,
         }

@@ -23,8 +23,10 @@ only once the token names its session.
 Commands never drop: a reliable link (every type but ``Image``) publishes with congestion control
 BLOCK; video may drop old frames: best-effort links use DROP. Both are ``express`` (no batching
 delay). Large samples are sent in one of two ways: when every consumer of the output runs on this
-host, through this process's frame pool (``runtime.links.pool``: one copy, the consumer reads the
-shared memory in place, and the small descriptor is sent with BLOCK so no slot is orphaned);
+host and no session other than the graph's proven processes is connected (``runtime.links.wire``:
+an observer or a foreign client gets the sample's bytes), through this process's frame pool
+(``runtime.links.pool``: one copy, the consumer reads the shared memory in place, and the small
+descriptor is sent with BLOCK so no slot is orphaned);
 otherwise through zenoh's shared memory (``runtime.links.shm``), which zenoh turns into bytes for a
 consumer on another host. Samples are decoded on zenoh's threads; a sample that does not decode is
 counted and dropped with one log line (rate-limited), and the process keeps running.
@@ -45,7 +47,16 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError, array_bytes, array_fields
+from connectors.codec import (
+    FRAME_MAGIC,
+    FRAMED_MIN_BYTES,
+    FRAMED_VERSION,
+    Codec,
+    DecodeError,
+    array_bytes,
+    array_fields,
+)
+from connectors.compact import COMPACT_VERSION
 from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
@@ -74,6 +85,7 @@ from runtime.links.pool import (
 )
 from runtime.links.shm import ShmWriter
 from runtime.links.stats import PublishStats, SubscribeStats
+from runtime.links.wire import only_graph_peers, pool_encoding, sample_encoding
 
 #: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
 END_GRACE = 0.05
@@ -279,9 +291,13 @@ class ZenohTransport:
         if link.key in self._pubs:
             self._pubs[link.key][1].links.append(str(link.connection))
             return _no_sink
+        type_name = link.msg_type.__name__
+        encoding = sample_encoding(type_name, COMPACT_VERSION)  # docs/wire-format.md
+        framed_encoding = sample_encoding(type_name, FRAMED_VERSION)
         if link.reliable:
             pub = self._session.declare_publisher(
                 link.key,
+                encoding=encoding,
                 congestion_control=zenoh.CongestionControl.BLOCK,
                 priority=zenoh.Priority.DATA_HIGH,
                 express=True,
@@ -289,6 +305,7 @@ class ZenohTransport:
         else:
             pub = self._session.declare_publisher(
                 link.key,
+                encoding=encoding,
                 congestion_control=zenoh.CongestionControl.DROP,
                 priority=zenoh.Priority.DATA,
                 express=True,
@@ -310,11 +327,13 @@ class ZenohTransport:
                     return
                 data = encode(sample)
                 size = len(data)
+                # a framed sample (large arrays) says so in its encoding
+                framed = size >= FRAMED_MIN_BYTES and data[:4] == FRAME_MAGIC
                 if size < threshold:
-                    put(data)
+                    put(data, encoding=framed_encoding) if framed else put(data)
                 else:
                     before = counters.shm_samples
-                    put(wrap(data))
+                    put(wrap(data), encoding=framed_encoding if framed else encoding)
                     stats.shm_samples += counters.shm_samples - before
             except Exception as exc:  # session closing, or a zenoh error: count, never raise
                 stats.put_errors += 1
@@ -345,6 +364,7 @@ class ZenohTransport:
         columns = [self._column(self.process, c) for c in consumers]
         descriptors = self._session.declare_publisher(
             link.key,
+            encoding=pool_encoding(link.msg_type.__name__),
             congestion_control=zenoh.CongestionControl.BLOCK,
             priority=zenoh.Priority.DATA,
             express=True,
@@ -352,6 +372,8 @@ class ZenohTransport:
         descriptor_source, stamp = zenoh.SourceInfo(descriptors.id, 0), self.checks
         frame, frame_header = self._codec.frame, self._codec.frame_header
         reader, peer_pid = self._reader, self._peer_pid
+        # a descriptor only while every connected session is a proven process of the graph
+        only_graph = only_graph_peers(self._session, lambda: self._sessions.live.values())
 
         array_names = array_fields(link.msg_type)
 
@@ -386,6 +408,9 @@ class ZenohTransport:
                 return False
             if not all(c in peer_pid for c in consumers):  # a dict read: atomic, no lock
                 return False  # a consumer on another host (or not known yet)
+            if not only_graph():  # an observer or a foreign client would get a descriptor
+                stats.pool_declined += 1
+                return False
             descriptor = forward(sample)
             if descriptor is not None:
                 size = len(descriptor)  # the frame itself stays where it is
