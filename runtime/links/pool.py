@@ -36,6 +36,7 @@ import mmap
 import os
 import re
 import secrets
+import stat
 import struct
 import weakref
 from collections.abc import Callable
@@ -332,11 +333,16 @@ class HostMarker:
 
 
 def marker_pid(marker: str) -> int | None:
-    """The pid behind another process's marker when it is visible here (same /dev/shm) and in
-    this pid namespace (so its death can be checked), else None."""
+    """The pid behind another process's marker when it is visible here (same /dev/shm), owned
+    by this user (a pool of ours is mode 0600: a process of another user could not read it) and
+    in this pid namespace (so its death can be checked), else None."""
     match = MARKER_RE.match(marker)
     if match is None or int(match.group(1)) != PID_NS:
         return None
-    if not (SHM_DIR / f"umbra-host-{marker}").exists():
+    try:
+        st = os.lstat(SHM_DIR / f"umbra-host-{marker}")
+    except OSError:
+        return None
+    if st.st_uid != os.geteuid() or not stat.S_ISREG(st.st_mode):
         return None
     return int(match.group(2))
