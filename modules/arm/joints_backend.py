@@ -90,6 +90,10 @@ class JointsBackend(ABC):
     def stop(self) -> None:
         """Bring the joints to rest and release the hardware."""
 
+    def counters(self) -> dict[str, int]:
+        """Event counts for the run's summary (e.g. drive watchdog stops)."""
+        return {}
+
 
 def backend_class(name: str) -> type[JointsBackend]:
     """The backend class registered as ``name`` (imported on demand)."""
@@ -110,7 +114,10 @@ class SimJointsBackend(JointsBackend):
 
     The held command is integrated from the previous ``read`` to ``now`` in sub-steps of at
     most ``max_substep`` seconds, so results do not depend much on the module's rate. The first
-    ``read`` after ``start`` sets the time base (no integration).
+    ``read`` after ``start`` sets the time base (no integration). The drive's watchdog
+    (``settings.watchdog``) bounds how long a command is obeyed: a gap between two steps (the
+    process stopped, starved or suspended) integrates the command for that long at most, then the
+    joints decelerate to rest, and the reading says so until the next command.
     """
 
     def __init__(
@@ -125,7 +132,6 @@ class SimJointsBackend(JointsBackend):
         self.joint_names = table.names
         self.sim = SimJoints(table, q0, settings, gripper_opening)
         self.max_substep = max_substep
-        self._command = np.zeros(table.n)
         self._time: float | None = None
 
     @classmethod
@@ -140,6 +146,7 @@ class SimJointsBackend(JointsBackend):
             lag_tau=params.lag_tau,
             calibration_error=tuple(error.tolist()),
             gripper_travel_time=params.gripper_travel_time,
+            watchdog=params.drive_watchdog,
         )
         try:
             return cls(table, q0, settings, params.gripper_initial)
@@ -155,29 +162,37 @@ class SimJointsBackend(JointsBackend):
         elapsed = now - self._time
         if elapsed <= 0:
             return
-        steps = max(1, int(np.ceil(elapsed / self.max_substep - 1e-9)))
-        dt = elapsed / steps
-        for _ in range(steps):
-            self.sim.step(self._command, dt)
+        self.sim.advance(elapsed, self.max_substep)
         self._time = now
 
     def read(self, now: float) -> JointReading:
         self._advance(now)
+        stopped = self.sim.watchdog_stopped
         return JointReading(
             position=self.sim.q_reported,
             velocity=self.sim.qd,
             gripper=self.sim.gripper_opening,
+            ok=not stopped,
+            message=(
+                f"drive watchdog: no command for over {self.sim.settings.watchdog:g} s, "
+                "joints stopped"
+                if stopped
+                else "running"
+            ),
             true_position=self.sim.q_true,
         )
 
     def command(self, rates: ArrayLike, now: float) -> bool:
         self._advance(now)
-        self._command = self.table.check_q(rates)
+        self.sim.hold(rates)
         return True
+
+    def counters(self) -> dict[str, int]:
+        return {"drive_watchdog_stops": self.sim.watchdog_stops}
 
     def command_gripper(self, command: str) -> bool:
         self.sim.command_gripper(command)
         return True
 
     def stop(self) -> None:
-        self._command = np.zeros(self.table.n)
+        self.sim.hold(np.zeros(self.table.n))

@@ -14,6 +14,15 @@ The plant (rendering, the true tool pose) uses ``q_true``; kinematics run on ``q
 This is what makes an open-loop grab miss and a visual servo necessary.
 
 The gripper opening goes from 0 (closed) to 1 (open) in ``gripper_travel_time`` seconds.
+
+The drive's own watchdog: a rate given with :meth:`SimJoints.hold` is obeyed for at most
+``watchdog`` seconds of plant time; after that :meth:`SimJoints.advance` integrates a zero command
+(the joints decelerate through the lag and the acceleration limit and stay at rest) until the next
+``hold``, however long the gap between two calls is. This is what a real CiA 402 drive does with a
+heartbeat consumer (0x1016) on its master or a command deadline: a master that freezes (SIGSTOP,
+Ctrl-Z, a hung process) cannot leave the arm running at its last rate. :meth:`SimJoints.step` is
+the bare plant step under a rate the caller gives for that step.
+
 Units: radians (metres for prismatic joints), seconds.
 """
 
@@ -30,6 +39,9 @@ FloatArray = NDArray[np.float64]
 
 GRIPPER_COMMANDS = ("open", "close")
 
+#: Joint speed below which a joint coasting on the watchdog's zero command is at rest [rad/s].
+REST_SPEED = 1e-9
+
 
 @dataclass(frozen=True)
 class SimJointSettings:
@@ -40,12 +52,14 @@ class SimJointSettings:
         lag_tau: time constant of the rate response (s); 0 for none.
         calibration_error: offsets ``q_true - q_reported`` per joint (rad); empty for none.
         gripper_travel_time: time for a full open or close (s).
+        watchdog: the drive's command timeout (s): a held rate is obeyed this long at most.
     """
 
     accel_max: float = 8.0
     lag_tau: float = 0.02
     calibration_error: tuple[float, ...] = ()
     gripper_travel_time: float = 0.5
+    watchdog: float = 0.1
 
     def __post_init__(self) -> None:
         if not self.accel_max > 0:
@@ -56,6 +70,8 @@ class SimJointSettings:
             raise ValueError(
                 f"gripper_travel_time must be positive, got {self.gripper_travel_time}"
             )
+        if not self.watchdog > 0:
+            raise ValueError(f"watchdog must be positive, got {self.watchdog}")
 
 
 class SimJoints:
@@ -85,6 +101,10 @@ class SimJoints:
         self._qd = np.zeros(table.n)
         self._gripper = float(np.clip(gripper_opening, 0.0, 1.0))
         self._gripper_target = self._gripper
+        self._command = np.zeros(table.n)
+        self._command_left = 0.0  # plant time the held command is still obeyed (s)
+        self._cut = False  # a non-zero held command outlived its watchdog
+        self.watchdog_stops = 0  # how many held non-zero commands the watchdog cut
         self.time = 0.0
 
     @property
@@ -111,6 +131,50 @@ class SimJoints:
     def gripper_moving(self) -> bool:
         """True while the gripper travels towards its commanded opening."""
         return self._gripper != self._gripper_target
+
+    @property
+    def watchdog_stopped(self) -> bool:
+        """True while the watchdog holds the joints at zero (a non-zero command timed out)."""
+        return self._cut
+
+    def hold(self, commanded_rates: ArrayLike) -> None:
+        """Obey ``commanded_rates`` (rad/s) from now for at most ``settings.watchdog`` seconds."""
+        self._command = self.table.check_q(commanded_rates).copy()
+        self._command_left = self.settings.watchdog
+        self._cut = False
+
+    def advance(self, elapsed: float, max_substep: float) -> None:
+        """Run the plant ``elapsed`` seconds in sub-steps of at most ``max_substep`` seconds:
+        the held command until its watchdog time is used up, a zero command after."""
+        if elapsed <= 0:
+            return
+        held = min(elapsed, self._command_left)
+        self._run(self._command, held, max_substep)
+        self._command_left -= held
+        rest = elapsed - held
+        if rest <= 0:
+            return
+        if not self._cut and np.any(self._command != 0):
+            self._cut = True
+            self.watchdog_stops += 1
+        self._command = np.zeros(self.table.n)
+        self._command_left = 0.0
+        self._run(self._command, rest, max_substep, coast=True)
+
+    def _run(
+        self, command: FloatArray, elapsed: float, max_substep: float, coast: bool = False
+    ) -> None:
+        """Equal sub-steps over ``elapsed``; ``coast``: a zero command, stop stepping at rest."""
+        if elapsed <= 0:
+            return
+        steps = max(1, int(np.ceil(elapsed / max_substep - 1e-9)))
+        dt = elapsed / steps
+        for done in range(steps):
+            if coast and not self.gripper_moving and np.all(np.abs(self._qd) < REST_SPEED):
+                self._qd = np.zeros(self.table.n)
+                self.time += dt * (steps - done)
+                return
+            self.step(command, dt)
 
     def command_gripper(self, command: str) -> None:
         """Start opening (``"open"``) or closing (``"close"``) the gripper."""

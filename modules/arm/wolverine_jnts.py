@@ -45,6 +45,14 @@ class WolverineJnts(Module):
             [], "sim: unknown offsets, true minus reported angles (empty: none)", unit="deg"
         )
         gripper_travel_time: float = param(0.5, "sim: full gripper travel", unit="s", gt=0)
+        drive_watchdog: float = param(
+            0.1,
+            "sim: the drive's own command timeout; a rate is obeyed this long at most after the "
+            "last command, then the joints stop (canopen: heartbeat consumer in its YAML file)",
+            unit="s",
+            gt=0,
+            le=MAX_COMMAND_AGE_S,
+        )
         gripper_initial: float = param(1.0, "sim: initial gripper opening 0..1", ge=0, le=1)
         canopen_config: str = param("", "canopen: YAML file of the bus and the drives")
 
@@ -159,7 +167,8 @@ class WolverineJnts(Module):
             self._started = False
 
     def summary(self) -> dict[str, int]:
-        return {"zeroed_ticks": self._zeroed}
+        counters = self.backend.counters() if hasattr(self, "backend") else {}
+        return {"zeroed_ticks": self._zeroed, **counters}
 
 
 def _check_canopen_config(path: str, table: DHTable) -> None:

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from modules.arm.dh import puma560
+from modules.arm.joints_backend import SimJointsBackend
 from modules.arm.sim_joints import SimJoints, SimJointSettings
 
 PUMA = puma560()
@@ -80,3 +81,56 @@ def test_bad_setup_is_rejected():
         SimJoints(PUMA, Q0, SimJointSettings(calibration_error=(0.1,)))
     with pytest.raises(ValueError, match="outside the joint limits"):
         SimJoints(PUMA, np.radians([0, 45, 180, 0, 45, 0]))
+
+
+def commanded_backend(rate: float, watchdog: float = 0.1) -> tuple[SimJointsBackend, float]:
+    """A sim backend whose joint 1 has run 1 s at ``rate`` (rad/s), commanded every 10 ms; and
+    the time of its last command (s)."""
+    settings = SimJointSettings(lag_tau=0.02, accel_max=8.0, watchdog=watchdog)
+    backend = SimJointsBackend(PUMA, Q0, settings)
+    backend.start()
+    rates = np.r_[rate, np.zeros(5)]
+    t = 0.0
+    for _ in range(101):
+        backend.read(t)
+        backend.command(rates, t)
+        t += 0.01
+    return backend, t - 0.01
+
+
+@pytest.mark.parametrize("gap_s", [1.0, 5.0, 3600.0])
+def test_a_gap_between_steps_carries_the_command_for_the_watchdog_time_only(gap_s: float):
+    rate = 0.5
+    backend, t_last = commanded_backend(rate)
+    before = backend.read(t_last).position[0]
+    reading = backend.read(t_last + gap_s)  # the process was stopped for gap_s
+    travel = reading.position[0] - before
+    # 0.1 s at the held rate, then the stop through the 20 ms lag and the 8 rad/s^2 limit:
+    # between rate * watchdog and rate * (watchdog + lag) + rate^2 / (2 accel); on a drive
+    # without its own watchdog it was rate * gap_s (0.5 rad in 1 s).
+    assert rate * 0.1 < travel <= rate * (0.1 + 0.02) + rate**2 / (2 * 8.0)
+    assert reading.velocity[0] == 0.0
+    assert not reading.ok and "drive watchdog" in reading.message
+    assert backend.counters() == {"drive_watchdog_stops": 1}
+    backend.command(np.r_[rate, np.zeros(5)], t_last + gap_s)  # a fresh command moves it again
+    assert backend.read(t_last + gap_s + 0.05).ok
+
+
+def test_the_stop_does_not_depend_on_how_long_the_gap_was():
+    ends = []
+    for gap_s in (1.0, 5.0):
+        backend, t_last = commanded_backend(0.5)
+        ends.append(backend.read(t_last + gap_s).position)
+    np.testing.assert_allclose(ends[0], ends[1], atol=1e-12)
+
+
+def test_regular_commands_are_obeyed_as_before():
+    """Commands every 10 ms never reach a 0.1 s watchdog: same path as the bare plant."""
+    backend, t_last = commanded_backend(0.5)
+    plant = SimJoints(PUMA, Q0, SimJointSettings(lag_tau=0.02, accel_max=8.0))
+    for _ in range(round(t_last / 0.002)):
+        plant.step(np.r_[0.5, np.zeros(5)], 0.002)
+    np.testing.assert_allclose(backend.read(t_last).position, plant.q_reported, atol=1e-9)
+    assert backend.counters() == {"drive_watchdog_stops": 0}
+    with pytest.raises(ValueError, match="watchdog must be positive"):
+        SimJointSettings(watchdog=0.0)
