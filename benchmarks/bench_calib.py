@@ -45,7 +45,7 @@ from modules.calib.synthetic import (
     random_pose,
     ring_of_cameras,
 )
-from modules.calib.zoom_interp import METHODS, leave_one_out
+from modules.calib.zoom_interp import leave_one_out
 from modules.calib.zoom_io import load_zoom_table
 from modules.geometry.rays import triangulate_pixels
 
@@ -451,11 +451,37 @@ def bench_undistort(count: int, seed: int) -> dict:
 # -- 6. zoom interpolation -----------------------------------------------------------------------
 
 
+#: the project's rule (the report's linear one) and two focal-length laws it is compared with
+METHODS = ("linear", "geometric", "pchip")
+
+
+def _focal_law(zooms: np.ndarray, focal: np.ndarray, z: float, method: str) -> float:
+    """A comparison law for the focal length: linear in ``log f`` or a PCHIP through ``log f``."""
+    from scipy.interpolate import PchipInterpolator
+
+    if method == "geometric" or len(zooms) < 3:
+        return float(np.exp(np.interp(z, zooms, np.log(focal))))
+    return float(np.exp(PchipInterpolator(zooms, np.log(focal))(z)))
+
+
+def _leave_one_out(table_, method: str) -> dict:
+    result = leave_one_out(table_.zooms, table_.intrinsics, table_.extrinsics)
+    if method == "linear":
+        return result
+    for column, key in ((0, "fx_rel"), (1, "fy_rel")):
+        errors = []
+        for i in range(1, len(table_.zooms) - 1):
+            keep = np.arange(len(table_.zooms)) != i
+            focal = table_.intrinsics[:, column]
+            got = _focal_law(table_.zooms[keep], focal[keep], table_.zooms[i], method)
+            errors.append(got / focal[i] - 1.0)
+        result[key] = np.asarray(errors)
+    return result
+
+
 def bench_zoom() -> dict:
     table_ = load_zoom_table(REPORT_FILE)
-    results = {
-        m: leave_one_out(table_.zooms, table_.intrinsics, table_.extrinsics, m) for m in METHODS
-    }
+    results = {m: _leave_one_out(table_, m) for m in METHODS}
     zooms = results["linear"]["zoom"]
     rows = []
     for i, z in enumerate(zooms):

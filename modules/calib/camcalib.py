@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from connectors import Input, Module, Output, Parameters, param
 from connectors.limits import MAX_IMAGE_SIDE_PX
 from connectors.messages import CameraModel, ZoomState
 from modules.calib.camera_message import camera_message
-from modules.calib.zoom_interp import DEFAULT_METHOD
 from modules.calib.zoom_io import load_zoom_table
 from modules.calib.zoom_table import ZoomTable
 
@@ -28,8 +27,9 @@ class CamCalib(Module):
 
     Reads the zoom calibration file at start (Appendix D XML, or its YAML form); on each new zoom
     sample whose zoom differs from the last one used by more than ``zoom_tolerance`` it
-    interpolates the table and publishes a ``CameraModel``. Zooms outside the tabulated range are
-    clamped to it (and counted); samples without a known zoom (NaN) are ignored.
+    interpolates the table linearly (the report's rule, :mod:`modules.calib.zoom_interp`) and
+    publishes a ``CameraModel``. Zooms outside the tabulated range are clamped to it (and
+    counted); samples without a known zoom (NaN) are ignored.
     """
 
     TYPE = "CamCalib"
@@ -39,9 +39,6 @@ class CamCalib(Module):
             "", "zoom calibration file (.xml as Appendix D, or .yaml); empty: the report's file"
         )
         camera: str = param("", "camera name in the file (<SR_cam>); empty: its only camera")
-        method: Literal["linear", "geometric", "pchip"] = param(
-            DEFAULT_METHOD, "interpolation between tabulated zooms (linear is the report's)"
-        )
         zoom_tolerance: float = param(
             1e-6, "smallest zoom change that recomputes the model", unit="1", ge=0, le=0.1
         )
@@ -80,7 +77,7 @@ class CamCalib(Module):
             return
         self._last_zoom = zoom
         self._computed += 1
-        model = self.table.sample(zoom, self.params.method).camera()
+        model = self.table.sample(zoom).camera()
         self.camera.send(
             camera_message(
                 model,

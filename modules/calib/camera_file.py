@@ -10,7 +10,6 @@
         zoom_file: zoom_cam.xml              # relative to this file
         zoom: 0.2
         camera: zcam                         # optional: name in the zoom file
-        method: pchip                        # optional: zoom interpolation
         mount_pose: {xyz: [0.4, 0.1, 0.0], rpy_deg: [0, -5, 0]}   # the file's mount frame
 
 Poses are the camera's (or mount's) pose in the common reference frame: translation ``xyz``
@@ -30,7 +29,6 @@ from modules.calib import yaml_nodes as yn
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.calib.rotations import invert_transform
 from modules.calib.yaml_nodes import SpotError
-from modules.calib.zoom_interp import DEFAULT_METHOD, METHODS
 from modules.calib.zoom_io import load_zoom_table
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
 
@@ -65,13 +63,16 @@ def _from_zoom_file(fields: dict[str, yaml.Node], base: Path) -> PinholeCamera:
         )
     path = base / yn.text(fields["zoom_file"], "zoom_file")
     name = yn.text(fields["camera"], "camera") if "camera" in fields else None
-    method = yn.text(fields["method"], "method") if "method" in fields else DEFAULT_METHOD
-    if method not in METHODS:
-        raise SpotError.at(fields["method"], f"method must be one of {', '.join(METHODS)}")
+    if "method" in fields and yn.text(fields["method"], "method") != "linear":
+        raise SpotError.at(
+            fields["method"],
+            "zoom interpolation is linear between tabulated zooms (the report's rule); "
+            f"expected no 'method' or 'linear', found {yn.text(fields['method'], 'method')!r}",
+        )
     zoom = yn.number(fields["zoom"], "zoom")
     table = load_zoom_table(path, name)
     try:
-        in_mount = table.sample(zoom, method).camera()
+        in_mount = table.sample(zoom).camera()
     except ValueError as error:
         raise SpotError.at(fields["zoom"], str(error)) from None
     T_mount_ref = invert_transform(_pose(fields["mount_pose"], "mount_pose"))

@@ -27,7 +27,6 @@ from modules.calib.npnp import View, solve_npnp
 from modules.calib.refine import calibrate
 from modules.calib.rotations import xyz_from_rotation
 from modules.calib.targeting import triangulate_measured
-from modules.calib.zoom_interp import DEFAULT_METHOD, METHODS
 from modules.calib.zoom_io import (
     check_writable,
     load_zoom_file,
@@ -89,12 +88,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     zoom.add_argument("file", metavar="FILE", help="zoom calibration file (.xml or .yaml)")
     zoom.add_argument(
         "--at", type=float, required=True, metavar="Z", help="normalized zoom 0 (wide) .. 1 (tele)"
-    )
-    zoom.add_argument(
-        "--method",
-        choices=METHODS,
-        default=DEFAULT_METHOD,
-        help=f"interpolation (default {DEFAULT_METHOD}; linear is the report's)",
     )
     zoom.add_argument("--camera", default="", help="camera name in the file")
     zoom.add_argument("--json", action="store_true", help="print one JSON object")
@@ -240,12 +233,12 @@ def _write_fit(path: Path, camera: str, sample: ZoomSample, append: bool) -> Non
 
 def _zoom(args: argparse.Namespace) -> int:
     table = load_zoom_table(args.file, args.camera or None)
-    sample = table.sample(args.at, args.method)
+    sample = table.sample(args.at)
     if args.json:
         print_json(sample.as_dict())
         return 0
     print(
-        f"camera {table.name!r} at zoom {args.at:g} ({args.method} interpolation; "
+        f"camera {table.name!r} at zoom {args.at:g} (linear interpolation; "
         f"{len(table)} entries from {table.zooms[0]:g} to {table.zooms[-1]:g} in {args.file})"
     )
     print("\n".join(_describe_sample(sample)))

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.calib.rotations import rotation_from_xyz
-from modules.calib.zoom_interp import DEFAULT_METHOD, check_zooms, interpolate
+from modules.calib.zoom_interp import check_zooms, interpolate
 
 FloatArray = NDArray[np.float64]
 
@@ -91,9 +91,9 @@ class ZoomTable:
     def __len__(self) -> int:
         return len(self.zooms)
 
-    def sample(self, zoom: float, method: str = DEFAULT_METHOD) -> ZoomSample:
-        """Parameters at ``zoom`` (0..1, within the table) by the given interpolation method."""
-        intr, extr = interpolate(self.zooms, self.intrinsics, self.extrinsics, zoom, method)
+    def sample(self, zoom: float) -> ZoomSample:
+        """Parameters at ``zoom`` (0..1, within the table), linear between tabulated zooms."""
+        intr, extr = interpolate(self.zooms, self.intrinsics, self.extrinsics, zoom)
         return ZoomSample(float(zoom), intr, extr)
 
     def row(self, index: int) -> ZoomSample:

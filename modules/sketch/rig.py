@@ -50,7 +50,7 @@ class RigCamera:
         low, high = float(self.zoom_table.zooms[0]), float(self.zoom_table.zooms[-1])
         z = min(max(zoom, low), high)
         return camera_message(
-            self.zoom_table.sample(z, "linear").camera(),
+            self.zoom_table.sample(z).camera(),
             zoom=z,
             width=self.width,
             height=self.height,

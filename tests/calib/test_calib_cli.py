@@ -37,9 +37,7 @@ def write_fit_csv(path: Path, noise_px: float = 0.1, seed: int = 41) -> None:
 
 
 def test_zoom_json_shape_and_values(capsys) -> None:
-    code, out, _ = run(
-        ["calib", "zoom", str(REPORT_FILE), "--at", "0.125", "--method", "linear", "--json"], capsys
-    )
+    code, out, _ = run(["calib", "zoom", str(REPORT_FILE), "--at", "0.125", "--json"], capsys)
     assert code == 0
     data = json.loads(out)
     assert set(data) == {"zoom", "intrinsics", "extrinsics"}

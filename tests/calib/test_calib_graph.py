@@ -95,7 +95,7 @@ frames:
 modules:
   sweep: {type: ZoomSweep, rate: 10, params: {step: 0.05}}
   left: {type: CamCalib, params: {mount_frame: ptu_left, camera_name: left}}
-  right: {type: CamCalib, params: {mount_frame: ptu_right, camera_name: right, method: linear}}
+  right: {type: CamCalib, params: {mount_frame: ptu_right, camera_name: right, zoom_tolerance: 0.0}}
   probe: {type: ModelProbe}
   pixels: {type: TargetPixels, rate: 10}
   target: {type: Targeting, params: {reference_frame: base, max_gap: 0.001}}
@@ -124,7 +124,7 @@ def test_graph_recomputes_on_zoom_change_and_targets(tmp_path: Path) -> None:
     np.testing.assert_allclose([m.zoom for m in seen], np.arange(10) * 0.05)
     table = load_zoom_table(REPORT_FILE)
     for model in seen:
-        assert model.fx == pytest.approx(table.sample(model.zoom, "pchip").intrinsics[0])
+        assert model.fx == pytest.approx(table.sample(model.zoom).intrinsics[0])
         assert model.mount == "ptu_left" and model.frame == "left"
     assert scheduler.modules["left"].summary()["models_computed"] == 10
     points = scheduler.modules["points"].seen
@@ -133,7 +133,7 @@ def test_graph_recomputes_on_zoom_change_and_targets(tmp_path: Path) -> None:
 
 
 def test_graph_with_bad_parameter_is_refused() -> None:
-    bad = GRAPH.replace("method: linear", "method: spline")
+    bad = GRAPH.replace("zoom_tolerance: 0.0", "zoom_tolerance: 0.5")
     with pytest.raises(UserError) as caught:
         check_text(bad, "calib.yaml", registry())
-    assert "calib.yaml:" in str(caught.value) and "method" in str(caught.value)
+    assert "calib.yaml:" in str(caught.value) and "zoom_tolerance" in str(caught.value)

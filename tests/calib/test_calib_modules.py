@@ -20,13 +20,13 @@ from runtime.harness import ModuleHarness
 
 def test_camcalib_publishes_model_at_zoom_and_only_on_change() -> None:
     table = load_zoom_table(REPORT_FILE)
-    with ModuleHarness(CamCalib, {"method": "linear", "mount_frame": "tool"}) as h:
+    with ModuleHarness(CamCalib, {"mount_frame": "tool"}) as h:
         h.push("zoom", ZoomState(zoom=0.125))
         sent = h.step(0.1)
         model = sent["camera"][0]
         assert model.fx == pytest.approx((1004.12 + 1208.51) / 2)
         assert model.zoom == 0.125 and model.mount == "tool" and model.frame == "camera"
-        expected = table.sample(0.125, "linear").camera()
+        expected = table.sample(0.125).camera()
         np.testing.assert_allclose(
             model.T_mount_camera, invert_transform(transform(expected.R, expected.d))
         )
@@ -39,17 +39,6 @@ def test_camcalib_publishes_model_at_zoom_and_only_on_change() -> None:
         h.push("zoom", ZoomState(zoom=1.0))
         assert h.step(0.1)["camera"][0].fx == 29600.0
         assert h.module.summary() == {"models_computed": 2, "zoom_clamped": 0, "zoom_unknown": 1}
-
-
-def test_camcalib_default_method_is_pchip(tmp_path) -> None:
-    table = load_zoom_table(REPORT_FILE)
-    path = tmp_path / "cam.yaml"
-    write_zoom_yaml(path, ZoomFile((table,)))
-    with ModuleHarness(CamCalib, {"calibration_file": str(path)}) as h:
-        h.push("zoom", ZoomState(zoom=0.2))
-        model = h.step(0.1)["camera"][0]
-    assert model.fx == pytest.approx(table.sample(0.2, "pchip").intrinsics[0])
-    assert model.fx != pytest.approx(table.sample(0.2, "linear").intrinsics[0], rel=1e-3)
 
 
 def test_camcalib_clamps_outside_table(tmp_path) -> None:

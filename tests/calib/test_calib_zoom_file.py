@@ -40,24 +40,16 @@ def test_report_file_loads_as_printed() -> None:
 
 def test_interpolation_on_report_table() -> None:
     table = load_zoom_table(REPORT_FILE)
-    for method in ("linear", "geometric", "pchip"):
-        for i, zoom in enumerate(table.zooms):  # exact at tabulated zooms
-            sample = table.sample(zoom, method)
-            np.testing.assert_allclose(sample.intrinsics, table.intrinsics[i], rtol=1e-12)
-            np.testing.assert_allclose(sample.extrinsics, table.extrinsics[i], atol=1e-15)
+    for i, zoom in enumerate(table.zooms):  # exact at tabulated zooms
+        sample = table.sample(zoom)
+        np.testing.assert_allclose(sample.intrinsics, table.intrinsics[i], rtol=1e-12)
+        np.testing.assert_allclose(sample.extrinsics, table.extrinsics[i], atol=1e-15)
     # Linear, as the report: halfway between 0.1 and 0.15.
-    linear = table.sample(0.125, "linear")
+    linear = table.sample(0.125)
     assert linear.intrinsics[0] == pytest.approx((1004.12 + 1208.51) / 2)
     assert linear.extrinsics[2] == pytest.approx((0.008 + 0.014) / 2)
-    # Geometric: the geometric mean of the focal lengths at the midpoint.
-    assert table.sample(0.125, "geometric").intrinsics[0] == pytest.approx(
-        np.sqrt(1004.12 * 1208.51)
-    )
-    # Focal length increases with zoom for every method (monotone data, monotone interpolants).
-    zooms = np.linspace(0, 1, 401)
-    for method in ("linear", "geometric", "pchip"):
-        fx = [table.sample(z, method).intrinsics[0] for z in zooms]
-        assert np.all(np.diff(fx) > 0)
+    fx = [table.sample(z).intrinsics[0] for z in np.linspace(0, 1, 401)]
+    assert np.all(np.diff(fx) > 0)
 
 
 def test_camera_model_at_zoom() -> None:
@@ -68,17 +60,15 @@ def test_camera_model_at_zoom() -> None:
     assert np.linalg.det(camera.R) == pytest.approx(1.0)
     # Small angles: R ~ I + [theta]_x.
     np.testing.assert_allclose(camera.R[2, 1], 0.009, atol=1e-3)
-    as_dict = table.sample(0.2, "linear").as_dict()
+    as_dict = table.sample(0.2).as_dict()
     assert set(as_dict["intrinsics"]) == {"fx", "fy", "skew", "u0", "v0", "k1", "k2", "p1", "p2"}
     assert set(as_dict["extrinsics"]) == {"dx", "dy", "dz", "rx", "ry", "rz"}
 
 
-def test_zoom_outside_range_or_unknown_method() -> None:
+def test_zoom_outside_range() -> None:
     table = load_zoom_table(REPORT_FILE)
     with pytest.raises(ValueError, match=r"0\.\.1"):
         table.sample(1.5)
-    with pytest.raises(ValueError, match="unknown interpolation"):
-        table.sample(0.5, "cubic")
     short = parse_zoom_xml(format_zoom_xml(load_zoom_file(REPORT_FILE))).camera()
     assert short.sample(1.0).intrinsics[0] == 29600.0
 
@@ -294,7 +284,7 @@ def test_malformed_yaml_reports_file_and_line(tmp_path: Path, name: str) -> None
 
 def test_good_yaml_loads() -> None:
     table = parse_zoom_yaml(GOOD_YAML).camera()
-    assert table.sample(0.15, "linear").intrinsics[0] == pytest.approx(850.0)
+    assert table.sample(0.15).intrinsics[0] == pytest.approx(850.0)
 
 
 def test_missing_file_and_unknown_extension(tmp_path: Path) -> None:
