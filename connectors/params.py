@@ -125,9 +125,11 @@ class ParamInfo:
     name: str
     type: str
     default: Any
+    """The default value; meaningless when ``required`` (the user must give one)."""
     unit: str
     doc: str
     constraints: str
+    required: bool = False
 
 
 def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
@@ -135,7 +137,8 @@ def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
     out: list[ParamInfo] = []
     for name, field in params_cls.model_fields.items():
         extra = field.json_schema_extra if isinstance(field.json_schema_extra, dict) else {}
-        default = field.get_default(call_default_factory=True)
+        required = field.is_required()
+        default = None if required else field.get_default(call_default_factory=True)
         constraints = _bounds_text(field.metadata)
         out.append(
             ParamInfo(
@@ -145,9 +148,34 @@ def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
                 unit=str(extra.get("unit", "")),
                 doc=field.description or "",
                 constraints=constraints,
+                required=required,
             )
         )
     return out
+
+
+def validation_problems(params_cls: type[Parameters], exc: pydantic.ValidationError) -> list[str]:
+    """One plain sentence per problem of a failed ``params_cls(**values)``, each naming the
+    parameter (no pydantic jargon, no URLs): for messages outside a graph file (the harness)."""
+    problems = []
+    for err in exc.errors():
+        loc = err.get("loc") or ()
+        name = ".".join(str(part) for part in loc)
+        cause = (err.get("ctx") or {}).get("error")
+        if err["type"] == "missing":
+            problems.append(f"parameter `{name}` is required and was not given")
+        elif err["type"] == "extra_forbidden":
+            known = ", ".join(params_cls.model_fields) or "none"
+            problems.append(f"unknown parameter `{name}` (parameters: {known})")
+        elif isinstance(cause, ParamProblem):
+            problems.append(
+                f"parameter `{cause.field}` {str(cause).removeprefix(cause.field + ' ')}"
+            )
+        elif cause is not None:
+            problems.append(f"parameter `{name}`: {cause}")
+        else:
+            problems.append(f"parameter `{name}`: {err['msg']}, found {err.get('input')!r}")
+    return problems
 
 
 def _bounds_text(metadata: list[Any]) -> str:

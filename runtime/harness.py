@@ -26,6 +26,7 @@ from connectors.errors import UserError
 from connectors.frames import FrameTree
 from connectors.messages import Message
 from connectors.module import Module, ModuleContext
+from connectors.params import validation_problems
 from runtime.clock import SimClock
 from runtime.registry import Registry
 
@@ -52,7 +53,8 @@ class ModuleHarness:
         try:
             validated = cls.Params(**(params or {}))
         except pydantic.ValidationError as exc:
-            raise UserError(f"bad parameters for {cls.type_name()}: {exc}") from None
+            problems = "; ".join(validation_problems(cls.Params, exc))
+            raise UserError(f"bad parameters for {cls.type_name()}: {problems}") from None
         if isinstance(frames, dict):
             tree = FrameTree()
             for key, T in frames.items():
@@ -110,7 +112,10 @@ class ModuleHarness:
             )
         seq = self._seq.get(input_name, 0) + 1
         self._seq[input_name] = seq
-        stamped = msgspec.structs.replace(sample, seq=seq, stamp=sample.stamp or self.now)
+        stamp = sample.stamp or self.now
+        stamped = msgspec.structs.replace(
+            sample, seq=seq, stamp=stamp, origin=sample.origin or stamp
+        )
         self.module.registers[input_name].write(stamped, self.now)
         return stamped
 
@@ -120,6 +125,7 @@ class ModuleHarness:
             self.start()
         before = {n: len(v) for n, v in self._sent.items()}
         self.clock.wait_until(self.now + dt)
+        self.module.origin_track.reset()
         self.module.step(self.now)
         for reg in self.module.registers.values():
             reg.fresh = False

@@ -4,7 +4,13 @@ Each script ``benchmarks/bench_<name>.py`` measures its baseline in the same run
 and writes ``benchmarks/results/<name>.json`` (``<name>.quick.json`` with ``--quick``, so that a
 smoke run never replaces the reference figures); this command runs the ones named (all by default,
 fastest first) one after the other with this interpreter, then prints one line per benchmark:
-exit status, minutes taken, the results file it wrote. A stopped run still prints that summary.
+exit status, minutes taken, the results file it wrote, and whether the goals recorded in that file
+were met ("missed: ..." names each one that was not). A stopped run still prints that summary.
+
+Goals are read from the results file, however the script wrote them: a ``met``, ``goal_met`` or
+``meets_goal`` boolean (the goal is named by its key); a ``goals`` mapping of names to booleans;
+or a ``goals`` mapping of thresholds ``<figure>_max`` / ``<figure>_min`` next to the figure
+``<figure>`` itself. A threshold whose figure is not in the file is not judged.
 """
 
 from __future__ import annotations
@@ -12,6 +18,7 @@ from __future__ import annotations
 import argparse
 import ast
 import contextlib
+import json
 import os
 import subprocess
 import sys
@@ -43,12 +50,67 @@ ORDER = (
 
 @dataclass
 class Outcome:
-    """How one benchmark ran: exit status (None: not finished), wall time [s], results file."""
+    """How one benchmark ran: exit status (None: not finished), wall time [s], results file, and
+    the goals that file says were missed."""
 
     name: str
     status: int | None
     seconds: float
     results: Path | None
+    missed: tuple[str, ...] = ()
+
+
+_MET_KEYS = ("met", "goal_met", "meets_goal")
+
+
+def missed_goals(data: object, where: str = "") -> list[str]:
+    """The goals a results document says were missed, each as ``name (detail)`` (see the module
+    docstring for the forms read)."""
+    missed: list[str] = []
+    if isinstance(data, list):
+        for index, item in enumerate(data):
+            missed += missed_goals(item, f"{where}[{index}]")
+        return missed
+    if not isinstance(data, dict):
+        return missed
+    for key, value in data.items():
+        if key in _MET_KEYS and value is False:
+            detail = f"ratio {data['ratio']:.3g}" if isinstance(data.get("ratio"), float) else ""
+            missed.append((where or "goal") + (f" ({detail})" if detail else ""))
+        elif key == "goals" and isinstance(value, dict):
+            missed += _missed_in_goals(value, data)
+            nested = {name: goal for name, goal in value.items() if isinstance(goal, dict)}
+            missed += missed_goals(nested, where)
+        elif isinstance(value, dict | list):
+            missed += missed_goals(value, key if not where else f"{where}/{key}")
+    return missed
+
+
+def _missed_in_goals(goals: dict[str, object], figures: dict[str, object]) -> list[str]:
+    missed = []
+    for name, goal in goals.items():
+        if goal is False:
+            missed.append(name)
+            continue
+        if isinstance(goal, bool) or not isinstance(goal, int | float):
+            continue  # nested goals ({"met": ...}) are read by missed_goals
+        for suffix, worse in (("_max", float.__gt__), ("_min", float.__lt__)):
+            figure = figures.get(name.removesuffix(suffix)) if name.endswith(suffix) else None
+            judged = isinstance(figure, int | float) and not isinstance(figure, bool)
+            if judged and worse(float(figure), float(goal)):  # type: ignore[arg-type]
+                sign = ">" if suffix == "_max" else "<"
+                missed.append(f"{name.removesuffix(suffix)} {figure:.3g} {sign} {goal:g}")
+    return missed
+
+
+def read_missed(results: Path | None) -> tuple[str, ...]:
+    """Missed goals recorded in a results file (none when there is no readable file)."""
+    if results is None:
+        return ()
+    try:
+        return tuple(missed_goals(json.loads(results.read_text())))
+    except (OSError, ValueError):
+        return ("results file unreadable",)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -105,7 +167,8 @@ def run_one(name: str, script: Path, quick: bool) -> Outcome:
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C: status stays None, "stopped"
         status = subprocess.run(argv, env=dict(os.environ, PYTHONPATH=path)).returncode
     wrote = results.exists() and results.stat().st_mtime != before
-    return Outcome(name, status, time.monotonic() - start, results if wrote else None)
+    written = results if wrote else None
+    return Outcome(name, status, time.monotonic() - start, written, read_missed(written))
 
 
 def print_summary(outcomes: list[Outcome]) -> None:
@@ -113,13 +176,17 @@ def print_summary(outcomes: list[Outcome]) -> None:
     print("\nbenchmark     status        min  results")
     for o in outcomes:
         wrote = str(o.results) if o.results else "(none written)"
-        print(f"{o.name:<12}  {_state(o.status):<12} {o.seconds / 60:4.1f}  {wrote}")
+        print(f"{o.name:<12}  {_state(o):<12} {o.seconds / 60:4.1f}  {wrote}")
+        if o.missed:
+            print(f"{'':<12}  missed: {'; '.join(o.missed)}")
 
 
-def _state(status: int | None) -> str:
-    if status is None:
+def _state(outcome: Outcome) -> str:
+    if outcome.status is None:
         return "stopped"
-    return "ok" if status == 0 else f"failed ({status})"
+    if outcome.status != 0:
+        return f"failed ({outcome.status})"
+    return "goal missed" if outcome.missed else "ok"
 
 
 def main(args: argparse.Namespace) -> int:
@@ -146,4 +213,4 @@ def main(args: argparse.Namespace) -> int:
             print("umbra bench: interrupted", file=sys.stderr)
             return 130
     print_summary(outcomes)
-    return 0 if all(o.status == 0 for o in outcomes) else 1
+    return 0 if all(o.status == 0 and not o.missed for o in outcomes) else 1

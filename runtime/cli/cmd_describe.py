@@ -51,7 +51,8 @@ def describe(cls: type) -> str:
     for p in params:
         unit = f" [{p.unit}]" if p.unit else ""
         cons = f", {p.constraints}" if p.constraints else ""
-        lines.append(f"  {p.name}: {p.type} = {p.default!r}{unit}{cons}  {p.doc}")
+        default = "(required)" if p.required else f"= {p.default!r}"
+        lines.append(f"  {p.name}: {p.type} {default}{unit}{cons}  {p.doc}")
     return "\n".join(lines)
 
 

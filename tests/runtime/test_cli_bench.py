@@ -106,3 +106,27 @@ def test_ctrl_c_stops_and_still_prints_what_ran(tmp_path: Path) -> None:
     assert " ok " in summary["first"]
     assert "second" in summary and " ok " not in summary["second"]
     assert "third" not in summary  # not started after the stop
+
+
+def test_a_missed_goal_is_not_ok(tmp_path: Path) -> None:
+    """A benchmark that exits 0 but records a missed goal (``p99 ratio 2.61 (goal <= 1.2)``)."""
+    _fake(
+        tmp_path,
+        "slow",
+        'json.dump({"p99_ratio": 2.61, "goals": {"p99_ratio_max": 1.2}}, '
+        'open(out / "slow.json", "w"))',
+    )
+    _fake(
+        tmp_path,
+        "links",
+        'json.dump({"hosts": {"a": {"goals": {"small": {"ratio": 1.34, "met": False}}}}}, '
+        'open(out / "links.json", "w"))',
+    )
+    _fake(tmp_path, "fine", 'json.dump({"goal_met": True}, open(out / "fine.json", "w"))')
+    done = _bench("slow", "links", "fine", "--dir", str(tmp_path))
+    assert done.returncode == 1
+    summary = done.stdout.split("benchmark     status")[1]
+    assert "slow          goal missed" in summary and "missed: p99_ratio 2.61 > 1.2" in summary
+    assert "links         goal missed" in summary
+    assert "missed: hosts/a/small (ratio 1.34)" in summary
+    assert "fine          ok" in summary

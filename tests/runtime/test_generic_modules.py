@@ -70,13 +70,28 @@ def test_bad_parameters_are_a_user_error() -> None:
 
 def test_printer_prints_rate_limited(capsys) -> None:
     with ModuleHarness("Printer", {"max_rate_hz": 2.0}, name="p") as h:
-        for k in range(10):
+        for k in range(100):
             h.push("value", Scalar(value=float(k)))
             h.step(0.1)
     lines = capsys.readouterr().out.splitlines()
-    # steps at 0.1 .. 1.0 s, at most 2 lines per second: printed at 0.1 and 0.6 s
-    assert lines == ["[p] t=0.000 Scalar(seq=1, value=0)", "[p] t=0.500 Scalar(seq=6, value=5)"]
-    assert h.module.summary() == {"seen": 10, "printed": 2}
+    # 10 s of samples at 10 Hz, at most 2 lines per second in the long run
+    printed = [float(line.rsplit("value=", 1)[1].rstrip(")")) for line in lines]
+    assert lines[0].startswith("[p] t=0.000 Scalar(seq=1")
+    assert printed[:3] == [0.0, 3.0, 8.0]  # credit 1 at start, then one line per 0.5 s
+    assert h.module.summary() == {"seen": 100, "printed": len(lines)}
+    assert 20 <= len(lines) <= 21
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.3])
+def test_printer_fed_at_its_rate_prints_every_sample(capsys, jitter: float) -> None:
+    """10 Hz into a 10 Hz Printer: all 50 samples printed, on steps whose spacing rounds just
+    under 0.1 s (0.7 - 0.6) or jitters by 30 % of the period."""
+    with ModuleHarness("Printer", {"max_rate_hz": 10.0}, name="p") as h:
+        for k in range(50):
+            h.push("value", Scalar(value=float(k)))
+            h.step(0.1 + (jitter * 0.1 * (1 if k % 2 else -1) if jitter else 0.0))
+    assert h.module.summary() == {"seen": 50, "printed": 50}
+    assert len(capsys.readouterr().out.splitlines()) == 50
 
 
 def test_recorder_writes_mcap_that_reads_back(tmp_path: Path) -> None:
@@ -109,3 +124,26 @@ def test_reading_a_non_recording_is_a_user_error(tmp_path: Path) -> None:
     junk.write_bytes(b"not an mcap file at all")
     with pytest.raises(UserError, match="error: not an MCAP file"):
         list(read_recording(junk))
+
+
+def test_required_parameters_are_described_and_named_when_missing() -> None:
+    from connectors import Module, Parameters, param
+    from runtime.cli.cmd_describe import describe
+
+    class Needs(Module):
+        """Needs a gain."""
+
+        class Params(Parameters):
+            gain: float = param(..., "factor, no default", gt=0)
+            bias: float = param(0.0, "added")
+
+    text = describe(Needs)
+    assert "gain: float (required), > 0  factor, no default" in text
+    assert "PydanticUndefined" not in text and "bias: float = 0.0" in text
+    with pytest.raises(UserError) as caught:
+        ModuleHarness(Needs, {"bias": True, "nope": 1})
+    message = str(caught.value)
+    assert "parameter `gain` is required and was not given" in message
+    assert "unknown parameter `nope` (parameters: gain, bias)" in message
+    assert "parameter `bias`: expected a number, found a boolean" in message
+    assert "pydantic" not in message and "validation error" not in message
