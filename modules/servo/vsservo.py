@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from typing import Literal
 
-import cv2
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
 from connectors.limits import MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
 from connectors.messages import CameraModel, Contour, Status, Text, Twist
+from modules.calib.distortion import undistort_points
 from modules.servo.error_text import error_figure
 from modules.servo.features import (
     FeatureError,
@@ -100,7 +100,7 @@ class VsServo(Module):
     camera = Input(CameraModel, required=False, feedback=True, doc="calibrated camera (zoom)")
     twist = Output(Twist, frame=from_param("camera_frame"), doc="camera velocity command")
     status = Output(Status, doc="stage, errors, operator-assistance requests")
-    gripper = Output(Text, doc="gripper command: open / close")
+    gripper = Output(Text, events=True, doc="gripper command: open / close")
 
     def start(self) -> None:
         p = self.params
@@ -163,8 +163,9 @@ class VsServo(Module):
     def _normalized(self, vertices: np.ndarray) -> np.ndarray:
         if self._distortion is None:
             return self._intrinsics.normalize(vertices)
-        points = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 1, 2)
-        return cv2.undistortPoints(points, self._K, self._distortion).reshape(-1, 2)
+        # the whole model, skew included (cv2.undistortPoints drops K's skew)
+        points = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+        return undistort_points(points, self._K, self._distortion, normalized=True)
 
     def _observe(self, now: float) -> Observation | None:
         contour = self.contour.get(now)
