@@ -24,3 +24,9 @@ MIN_RATE_HZ = 1e-3
 MAX_JOINT_ACCEL_RAD_S2 = 1000.0
 #: Largest image side a module allocates [px].
 MAX_IMAGE_SIDE_PX = 8192
+#: Most pixels of an image a reader decodes (a header declaring more is refused undecoded).
+MAX_IMAGE_PIXELS = MAX_IMAGE_SIDE_PX * MAX_IMAGE_SIDE_PX
+#: Largest record of a recording, and largest chunk once inflated [bytes]: one raw image of the
+#: largest side at 4 bytes a pixel, with room for its envelope. A longer record or a chunk that
+#: declares (or inflates to) more is refused before it is read or inflated.
+MAX_RECORDING_RECORD_BYTES = 4 * MAX_IMAGE_PIXELS + (1 << 20)

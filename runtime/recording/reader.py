@@ -6,6 +6,11 @@ MCAP (foreign), that ends inside a record (truncated), or whose chunk fails its 
 decompress (corrupted) is refused with ``FILE: error: ...`` (a ``UserError``: exit status 2, no
 traceback), saying what is wrong and where (byte offset).
 
+Nothing a file declares is allocated unchecked: a record longer than the file or than
+:data:`~connectors.limits.MAX_RECORDING_RECORD_BYTES` is refused before it is read, and a chunk is
+inflated by :mod:`runtime.recording.chunks`, which checks its declared size first and stops at it
+(a decompression bomb costs a header check, not gigabytes).
+
 A finished recording can also be read through its summary section (:func:`indexed_scan`: channels,
 schemas, statistics, metadata and the chunk index, checked against the summary's CRC, without
 reading a chunk); :func:`read_messages` then reads only the chunks that hold the wanted channels,
@@ -16,6 +21,7 @@ once, and a replay of a few channels does not decompress what it does not feed.
 from __future__ import annotations
 
 import os
+import re
 import struct
 import zlib
 from collections.abc import Iterable, Iterator
@@ -39,25 +45,30 @@ from mcap.records import (
     Schema,
     Statistics,
 )
-from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
+from mcap.stream_reader import CRCValidationError, StreamReader
 
 from connectors.errors import UserError
-
-#: Records larger than this are refused (a corrupted length must not allocate gigabytes).
-RECORD_LIMIT = 512 * 1024 * 1024
+from connectors.limits import MAX_RECORDING_RECORD_BYTES
+from runtime.recording.chunks import chunk_records
 
 
 class _Counting:
-    """A file wrapper that remembers where each read started (to tell a clean end from a cut)."""
+    """A file wrapper that remembers where each read started (to tell a clean end from a cut), and
+    never asks for more than the file holds (a length field cannot make it allocate gigabytes)."""
 
-    def __init__(self, f: Any) -> None:
+    def __init__(self, f: Any, size: int | None = None) -> None:
         self._f = f
-        self.pos = 0
+        self.pos = f.tell() if size is not None else 0
+        self.size = size if size is not None else os.fstat(f.fileno()).st_size
         self.last_start = 0
         self.short = False  # a read came back with less than asked: the file stops mid-record
 
     def read(self, n: int = -1) -> bytes:
         self.last_start = self.pos
+        left = max(0, self.size - self.pos)
+        if n < 0 or n > left:
+            self.short = self.short or 0 < left < n
+            n = left
         data = self._f.read(n)
         self.pos += len(data)
         if 0 < len(data) < n:
@@ -120,9 +131,14 @@ def read_records(
         if scan.size == 0:
             raise _fail(path, "empty file (0 bytes), not an MCAP recording")
         counting = _Counting(f)
-        reader = StreamReader(counting, validate_crcs=True, record_size_limit=RECORD_LIMIT)  # type: ignore[arg-type]
+        reader = StreamReader(
+            counting,  # type: ignore[arg-type]
+            emit_chunks=True,
+            validate_crcs=True,
+            record_size_limit=_record_limit(scan.size),
+        )
         try:
-            for record in reader.records:
+            for record in _unchunked(reader.records, counting, path, scan):
                 if isinstance(record, Message):
                     channel = scan.channels.get(record.channel_id)
                     if channel is None:
@@ -165,16 +181,52 @@ def read_records(
                 path, _damage(f"a checksum does not match ({exc})", counting, scan)
             ) from None
         except RecordLengthLimitExceeded as exc:
-            raise _fail(
-                path,
-                _damage(
-                    f"a record claims {exc.length} bytes (limit {RECORD_LIMIT})", counting, scan
-                ),
-            ) from None
+            raise _fail(path, _too_long(exc, counting.pos - 9, scan)) from None
         except Exception as exc:  # mcap, struct, lz4 and zstd raise their own types on damage
             raise _fail(path, _damage(f"{type(exc).__name__}: {exc}", counting, scan)) from None
     finally:
         f.close()
+
+
+def _record_limit(size: int) -> int:
+    """The longest record a file of ``size`` bytes can hold and a reader accepts [bytes]."""
+    return min(MAX_RECORDING_RECORD_BYTES, size)
+
+
+def _too_long(exc: RecordLengthLimitExceeded, start: int, scan: RecordingScan) -> str:
+    """Why a record whose header claims more than :func:`_record_limit` is refused: truncated
+    when it could be a record the file was cut in, else corrupted."""
+    found = re.search(r"length (\d+)", str(exc))
+    claims = int(found.group(1)) if found else MAX_RECORDING_RECORD_BYTES + 1
+    where = f"the record at byte {start} of {scan.size} claims {claims} bytes"
+    if claims <= MAX_RECORDING_RECORD_BYTES:
+        return f"truncated: the file ends inside a record ({where}, after {scan.messages} messages)"
+    return (
+        f"corrupted: {where}, more than the {MAX_RECORDING_RECORD_BYTES} a recording's record "
+        f"may hold (after {scan.messages} messages)"
+    )
+
+
+def _unchunked(
+    records: Iterable[Any], counting: _Counting, path: Path, scan: RecordingScan
+) -> Iterator[Any]:
+    """``records`` with each chunk replaced by its records, inflated within its declared size."""
+    for record in records:
+        if not isinstance(record, Chunk):
+            yield record
+            continue
+        start = counting.last_start
+        try:
+            inner = chunk_records(record)
+        except CRCValidationError as exc:
+            raise _fail(
+                path, f"corrupted: the chunk near byte {start} fails its checksum ({exc})"
+            ) from None
+        except Exception as exc:  # lz4, zstd, struct and mcap raise their own types on damage
+            raise _fail(
+                path, f"corrupted: cannot read the chunk near byte {start} of {scan.size}: {exc}"
+            ) from None
+        yield from inner
 
 
 def scan_recording(path: str | Path) -> tuple[RecordingScan, list[tuple[str, int]]]:
@@ -200,7 +252,7 @@ def indexed_scan(path: str | Path) -> RecordingScan | None:
             size = os.fstat(f.fileno()).st_size
             if size < 2 * _MAGIC + _FOOTER:
                 return None
-            reader = SeekingReader(f, validate_crcs=True, record_size_limit=RECORD_LIMIT)
+            reader = SeekingReader(f, validate_crcs=True, record_size_limit=_record_limit(size))
             f.seek(size - _MAGIC - _FOOTER)
             footer = f.read(_FOOTER)
             if footer[0] != Opcode.FOOTER:
@@ -248,7 +300,15 @@ def _chunk_messages(
             raise ValueError("the chunk index points at no chunk")
         if int.from_bytes(head[1:9], "little") + 9 != index.chunk_length:
             raise ValueError("the chunk's length differs from its index entry")
-        records = breakup_chunk(Chunk.read(ReadDataStream(f)), validate_crc=True)
+        if index.uncompressed_size > MAX_RECORDING_RECORD_BYTES:
+            raise ValueError(
+                f"it declares {index.uncompressed_size} bytes uncompressed, more than the "
+                f"{MAX_RECORDING_RECORD_BYTES} a recording's chunk may hold"
+            )
+        if index.chunk_length > scan.size - index.chunk_start_offset:
+            raise ValueError(f"its index claims {index.chunk_length} bytes, past the file's end")
+        chunk = Chunk.read(ReadDataStream(_Counting(f, scan.size)))  # type: ignore[arg-type]
+        records = chunk_records(chunk, validate_crc=True)
     except CRCValidationError as exc:
         raise _fail(path, f"corrupted: {where} fails its checksum ({exc})") from None
     except Exception as exc:  # lz4, struct and mcap raise their own types on damage

@@ -1,0 +1,126 @@
+"""Opening an MCAP chunk without trusting it: its declared size is checked before it is inflated.
+
+The ``mcap`` library inflates a whole chunk whatever it holds, so a 98 kB zstd chunk or a 13 MB
+LZ4 one can expand to gigabytes. Here a chunk whose header declares more than
+:data:`~connectors.limits.MAX_RECORDING_RECORD_BYTES` uncompressed is refused unread, and the
+inflation itself stops one byte past the declared size: a chunk that inflates to more (or less)
+than its header says is refused too. Memory is bounded by the limit whatever the bytes are.
+
+Errors are ``ValueError`` naming what was expected and what was found; the readers add the file
+and the byte offset.
+"""
+
+from __future__ import annotations
+
+import io
+import zlib
+from typing import Any
+
+import lz4.frame
+import zstandard
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
+from mcap.records import Channel, Chunk, McapRecord, Message, Schema
+from mcap.stream_reader import CRCValidationError
+
+from connectors.limits import MAX_RECORDING_RECORD_BYTES
+
+#: Compressions a recording's chunks may use (the empty string: stored as is).
+COMPRESSIONS = ("", "lz4", "zstd")
+#: Bytes asked of a streaming decompressor at a time.
+_STEP = 1 << 20
+
+
+def check_chunk_size(uncompressed_size: int, limit: int = MAX_RECORDING_RECORD_BYTES) -> None:
+    """ValueError when a chunk header declares more than ``limit`` bytes once inflated."""
+    if uncompressed_size > limit:
+        raise ValueError(
+            f"a chunk declares {uncompressed_size} bytes uncompressed, more than the {limit} "
+            "a recording's chunk may hold"
+        )
+
+
+def inflate(chunk: Chunk, limit: int = MAX_RECORDING_RECORD_BYTES) -> bytes:
+    """The uncompressed bytes of ``chunk``, exactly its declared ``uncompressed_size`` of them;
+    ValueError (never more than ``limit`` bytes allocated) when it declares or holds another
+    size."""
+    declared = chunk.uncompressed_size
+    check_chunk_size(declared, limit)
+    if chunk.compression not in COMPRESSIONS:
+        raise ValueError(
+            f"unknown chunk compression {chunk.compression!r} (expected one of lz4, zstd or none)"
+        )
+    if chunk.compression == "zstd":
+        data = _zstd(chunk.data, declared)
+    elif chunk.compression == "lz4":
+        data = _lz4(chunk.data, declared)
+    else:
+        data = bytes(chunk.data[: declared + 1])
+    if len(data) != declared:
+        more = "more" if len(data) > declared else f"{len(data)} bytes,"
+        raise ValueError(
+            f"a chunk ({chunk.compression or 'stored'}) declares {declared} bytes uncompressed "
+            f"but holds {more} than that"
+        )
+    return data
+
+
+def _zstd(data: bytes, declared: int) -> bytes:
+    """At most ``declared + 1`` bytes of the zstd frame ``data`` (window bounded too)."""
+    window = 1 << max(20, min(27, declared.bit_length()))  # a writer's window fits its chunk
+    dctx = zstandard.ZstdDecompressor(max_window_size=window)
+    out = bytearray()
+    with dctx.stream_reader(io.BytesIO(data), read_across_frames=False) as reader:
+        while len(out) <= declared:
+            part = reader.read(min(_STEP, declared + 1 - len(out)))
+            if not part:
+                break
+            out += part
+    return bytes(out)
+
+
+def _lz4(data: bytes, declared: int) -> bytes:
+    """At most ``declared + 1`` bytes of the LZ4 frame ``data``."""
+    dctx = lz4.frame.LZ4FrameDecompressor()
+    out = bytearray(dctx.decompress(data, max_length=min(_STEP, declared + 1)))
+    while len(out) <= declared and not dctx.eof and not dctx.needs_input:
+        part = dctx.decompress(b"", max_length=min(_STEP, declared + 1 - len(out)))
+        if not part:
+            break
+        out += part
+    return bytes(out)
+
+
+def chunk_records(chunk: Chunk, validate_crc: bool = True) -> list[McapRecord]:
+    """The schemas, channels and messages of ``chunk`` (bounded inflation, CRC checked);
+    ValueError or CRCValidationError on damage."""
+    data = inflate(chunk)
+    if validate_crc and chunk.uncompressed_crc != 0:
+        crc = zlib.crc32(data)
+        if crc != chunk.uncompressed_crc:
+            raise CRCValidationError(expected=chunk.uncompressed_crc, actual=crc, record=chunk)
+    stream = ReadDataStream(io.BytesIO(data))
+    records: list[McapRecord] = []
+    while stream.count < len(data):
+        start = stream.count
+        opcode = stream.read1()
+        length = stream.read8()
+        if length > len(data) - stream.count:
+            raise ValueError(
+                f"a record at byte {start} of a chunk claims {length} bytes; "
+                f"the chunk holds {len(data) - stream.count} more"
+            )
+        body = stream.count
+        record: Any = None
+        if opcode == Opcode.CHANNEL:
+            record = Channel.read(stream)
+        elif opcode == Opcode.MESSAGE:
+            record = Message.read(stream, length)
+        elif opcode == Opcode.SCHEMA:
+            record = Schema.read(stream)
+        if stream.count - body > length:
+            raise ValueError(f"a record at byte {start} of a chunk runs past its own length")
+        stream.read(length - (stream.count - body))
+        if record is not None:
+            records.append(record)
+    return records
