@@ -7,7 +7,10 @@ Every YAML file the project reads goes through :func:`compose` (node tree with l
 * nesting deeper than ``max_depth`` (also after following aliases), and alias expansion to more
   than ``max_nodes`` nodes ("billion laughs") or onto itself (a recursive alias);
 * a mapping key given twice (after YAML's own ``<<`` merges, later keys win as YAML says);
-* values a tag cannot make (``!!float abc``, a 5000-digit integer, ``!!python/...`` tags).
+* values a tag cannot make (``!!float abc``, a 5000-digit integer, ``!!python/...`` tags);
+* a mapping key that YAML 1.1 reads as a boolean (an unquoted ``off``, ``on``, ``yes``, ``no``,
+  ``true``, ``false``...): no key of the project's files is a boolean, so it is a name that must
+  be quoted. :func:`boolean_hint` says the same of a value found where a name was expected.
 """
 
 from __future__ import annotations
@@ -21,6 +24,21 @@ from connectors.errors import UserError
 MAX_DEPTH = 64
 MAX_NODES = 100_000
 _MERGE_TAG = "tag:yaml.org,2002:merge"
+_BOOL_TAG = "tag:yaml.org,2002:bool"
+
+
+def boolean_hint(value: Any, text: str = "") -> str:
+    """For a boolean found where a name or text was expected: a sentence saying YAML 1.1 read
+    the unquoted word (``text`` when known, e.g. ``off``) as a boolean, and to quote it; else
+    empty."""
+    if not isinstance(value, bool):
+        return ""
+    word = f"`{text}`" if text else "an unquoted yes/no/on/off/true/false"
+    quoted = f"'{text}'" if text else "'off'"
+    return (
+        f" (YAML 1.1 reads {word} as the boolean {str(value).lower()}: "
+        f"quote it, as in {quoted}, to use it as a name)"
+    )
 
 
 class YamlError(UserError):
@@ -158,6 +176,13 @@ def _no_duplicate_keys(node: yaml.MappingNode) -> None:
     for key, _value in node.value:
         if not isinstance(key, yaml.ScalarNode) or key.tag == _MERGE_TAG:
             continue
+        if key.tag == _BOOL_TAG and key.style is None:
+            value = yaml.SafeLoader.bool_values.get(key.value.lower())
+            raise Refused(
+                _line(key),
+                f"key `{key.value}` is not a name{boolean_hint(bool(value), key.value)}",
+                key.start_mark.column + 1,
+            )
         ident = (key.tag, key.value)
         if ident in seen:
             raise Refused(

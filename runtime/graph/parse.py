@@ -30,6 +30,7 @@ import numpy as np
 from connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from connectors.frames import transform_from_xyz_rpy
 from connectors.limits import MAX_RATE_HZ, MIN_RATE_HZ
+from connectors.safe_yaml import boolean_hint
 from connectors.user_files import read_bytes
 from runtime.graph.located_yaml import MAX_BYTES, YList, YMap, load_located
 from runtime.graph.names import (
@@ -303,14 +304,21 @@ class _Parser:
         self.unknown_keys(body, MODULE_KEYS, f"module `{name}`")
         if "type" not in body or not isinstance(body["type"], str):
             self.error(
-                body.val_loc.get("type", key_loc), f"module `{name}` needs `type: TYPE_NAME`"
+                body.val_loc.get("type", key_loc),
+                f"module `{name}` needs `type: TYPE_NAME`{boolean_hint(body.get('type'))}",
             )
             return None
         process = DEFAULT_PROCESS
         process_loc = body.val_loc.get("process", key_loc)
         if "process" in body:
             process = str(body["process"])
-            if process not in processes:
+            if isinstance(body["process"], bool):
+                self.error(
+                    process_loc,
+                    f"process of module `{name}` must be a process name, found "
+                    f"{body['process']!r}{boolean_hint(body['process'])}",
+                )
+            elif process not in processes:
                 known = list(processes) or [DEFAULT_PROCESS]
                 extra = "" if processes else " (the graph declares no `processes:`)"
                 self.error(
@@ -497,7 +505,7 @@ def _kind(value: Any) -> str:
         return "a mapping"
     if isinstance(value, list):
         return "a list"
-    return f"{type(value).__name__} {value!r}"[:80]
+    return f"{type(value).__name__} {value!r}"[:80] + boolean_hint(value)
 
 
 def _plain(value: Any) -> Any:
