@@ -49,6 +49,7 @@ from google.protobuf.timestamp_pb2 import Timestamp
 from mcap_protobuf.schema import build_file_descriptor_set
 from scipy.spatial.transform import Rotation
 
+from connectors.image_header import check_image_size
 from connectors.messages import CameraModel, Contour, Image, Message, Pose, Poses
 from runtime.recording.json_codec import decode_json, encode_json, json_schema
 
@@ -315,10 +316,15 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
             )
         if schema_name == "foxglove.CompressedImage":
             comp = CompressedImage.FromString(data)
-            check_image_size(comp.data)
+            width, height = check_image_size(comp.data)  # before decoding: as the decoder reads it
             pixels = cv2.imdecode(np.frombuffer(comp.data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
             if pixels is None:
                 raise ValueError(f"{comp.format or 'compressed'} image does not decode")
+            if pixels.shape[:2] != (height, width):
+                raise ValueError(
+                    f"image decodes to {pixels.shape[1]} x {pixels.shape[0]} pixels, its header "
+                    f"declares {width} x {height}"
+                )
             return msg_type(
                 pixels=pixels, frame=comp.frame_id, stamp=_seconds(comp.timestamp), seq=seq
             )
@@ -362,37 +368,6 @@ def _decode_poses(msg_type: type[Message], fts: FrameTransforms, seq: int) -> Me
         stamp=_seconds(transforms[0].timestamp),
         seq=seq,
     )
-
-
-#: The most pixels a recorded compressed image may declare (a header cannot make us allocate more).
-MAX_IMAGE_PIXELS = 8192 * 8192
-_PNG = b"\x89PNG\r\n\x1a\n"
-_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
-
-
-def image_size(data: bytes) -> tuple[int, int]:
-    """(width, height) a PNG or JPEG header declares; ValueError when it is neither."""
-    if data[:8] == _PNG and len(data) >= 24:
-        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
-    if data[:2] == b"\xff\xd8":
-        i = 2
-        while i + 9 <= len(data):
-            if data[i] != 0xFF:
-                raise ValueError(f"JPEG marker expected at byte {i}")
-            marker, length = data[i + 1], int.from_bytes(data[i + 2 : i + 4], "big")
-            if marker in _SOF:
-                h = int.from_bytes(data[i + 5 : i + 7], "big")
-                return int.from_bytes(data[i + 7 : i + 9], "big"), h
-            i += 2 + length
-        raise ValueError("JPEG without a frame header")
-    raise ValueError("neither a PNG nor a JPEG image")
-
-
-def check_image_size(data: bytes) -> None:
-    """ValueError when a compressed image declares more than ``MAX_IMAGE_PIXELS``."""
-    w, h = image_size(data)
-    if w * h > MAX_IMAGE_PIXELS or w == 0 or h == 0:
-        raise ValueError(f"image declares {w} x {h} pixels (at most {MAX_IMAGE_PIXELS})")
 
 
 def _seconds(ts: Timestamp) -> float:
