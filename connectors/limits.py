@@ -30,3 +30,23 @@ MAX_IMAGE_PIXELS = MAX_IMAGE_SIDE_PX * MAX_IMAGE_SIDE_PX
 #: largest side at 4 bytes a pixel, with room for its envelope. A longer record or a chunk that
 #: declares (or inflates to) more is refused before it is read or inflated.
 MAX_RECORDING_RECORD_BYTES = 4 * MAX_IMAGE_PIXELS + (1 << 20)
+
+# -- the operator's web pages (modules/webdoor): what one client may make the page server hold --
+#: Largest request head (request line and headers) a page server reads [bytes].
+MAX_PAGE_HEAD_BYTES = 16 * 1024
+#: Largest request body a page server reads (a sketch command is at most 2000 characters) [bytes].
+MAX_PAGE_BODY_BYTES = 16 * 1024
+#: Largest websocket message a page may send (its commands are small JSON objects) [bytes].
+MAX_PAGE_MESSAGE_BYTES = 4096
+#: Open connections to one page server, every client together.
+MAX_PAGE_CONNECTIONS = 64
+#: Open connections to one page server from one client address (loopback: every local client).
+MAX_PAGE_CONNECTIONS_PER_CLIENT = 32
+#: Longest a request may take to arrive whole, head then body [s].
+MAX_PAGE_REQUEST_S = 5.0
+#: Messages a page may send on its socket per second, sustained (a held jog and the painted
+#: reports of 30 fps video are about 55) and in a burst; beyond either its socket is closed.
+MAX_PAGE_MESSAGES_PER_S = 120.0
+MAX_PAGE_MESSAGE_BURST = 240
+#: Malformed or refused-as-replayed messages after which a page's socket is closed.
+MAX_PAGE_BAD_MESSAGES = 20

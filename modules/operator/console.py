@@ -14,7 +14,6 @@ from connectors import Input, Module, Output, Parameters, UserError, from_param,
 from connectors.messages import Contour, Image, JointState, Scalar, Status, Text, Twist, Vector
 from modules.arm.arm_params import load_arm
 from modules.operator import view_state
-from modules.operator.access import resolve_token
 from modules.operator.actions import (
     FrameHistory,
     Refused,
@@ -26,8 +25,9 @@ from modules.operator.actions import (
 from modules.operator.control import ControlArbiter
 from modules.operator.cpu import process_cpu_s, thread_cpu_s
 from modules.operator.jog import DeadMan, JogLimits, jog_twist
-from modules.operator.mailbox import Inbox
+from modules.operator.mailbox import Lanes
 from modules.vision.sanity import SanityLimits
+from modules.webdoor.secret import resolve_token
 
 if TYPE_CHECKING:  # the web side is imported only when the console serves (not in batch trials)
     from modules.operator.console_app import ConsoleApp, Event
@@ -45,9 +45,10 @@ class OperatorConsole(Module):
     REG_VEL's watchdog stops a jog whose keep-alives stop within its timeout).
 
     Many pages may watch; one holds control, and only its commands pass (the others are refused
-    and counted). Listening beyond loopback needs the access token (``token_file``, or a random
-    one printed at start). A seed from the simulated operator (``sim_seed``) is passed on only
-    while no person has taken control. The address is logged at start. ``serve: false`` runs
+    and counted). Every page, route and socket needs the per-run access token (``token_file``, or
+    a random one printed in the address at start), loopback too (:mod:`modules.webdoor`). A seed
+    from the simulated operator (``sim_seed``) is passed on only while no person has taken
+    control. The address is logged at start. ``serve: false`` runs
     without a web server (batch trials): only the simulated operator's seed is passed on.
     """
 
@@ -55,9 +56,9 @@ class OperatorConsole(Module):
 
     class Params(Parameters):
         serve: bool = param(True, "serve the page (false: no web server, for batch trials)")
-        host: str = param("127.0.0.1", "address to listen on (beyond loopback: token needed)")
+        host: str = param("127.0.0.1", "address to listen on (the access token is always needed)")
         port: int = param(0, "TCP port (0: a free one, printed at start)", ge=0, le=65535)
-        token_file: str = param("", "file whose first line is the access token (optional)")
+        token_file: str = param("", "file whose first line is the access token (else a random one)")
         stale_page_s: float = param(
             0.5, "actions on an image older than this are refused", unit="s", gt=0
         )
@@ -91,11 +92,14 @@ class OperatorConsole(Module):
     zoom_auto = Input(
         Scalar, required=False, doc="zoom request passed to every zoom output until a person zooms"
     )
-    seed = Output(Vector, doc="seed for vsSnake: [u, v] or [u0, v0, u1, v1] px")
-    operator = Output(Text, doc="grab command for vsServo: start / pause / resume / abort")
+    seed = Output(Vector, events=True, doc="seed for vsSnake: [u, v] or [u0, v0, u1, v1] px")
+    operator = Output(
+        Text, events=True, doc="grab command for vsServo: start / pause / resume / abort"
+    )
     jog = Output(
         Twist,
         frame=from_param("camera_frame"),
+        origin_from=("image",),  # a jog is as old as the picture the operator acts on
         doc="dead-man jog twist for REG_VEL: one per keep-alive of the held jog, zero on release",
     )
     presence = Output(Status, doc="`person` while a person holds control, else `nobody`")
@@ -120,7 +124,8 @@ class OperatorConsole(Module):
         self.arbiter = ControlArbiter()
         self.deadman = DeadMan(p.deadman_s)
         self.history = FrameHistory()
-        self.inbox: Inbox[Event] = Inbox()
+        self.lanes: Lanes[Event] = Lanes()
+        self._logged_refusal: dict[str, tuple[float, int]] = {}  #: session -> (wall, count)
         self._notices: collections.deque[dict[str, Any]] = collections.deque(maxlen=30)
         self._notice_id = 0
         self._jogging = False
@@ -153,16 +158,19 @@ class OperatorConsole(Module):
             from modules.operator.console_app import ConsoleApp
             from modules.operator.web_server import acquire_server
 
-            token = resolve_token(p.host, p.token_file, f"{self.name}")
+            token = resolve_token(p.token_file, self.name)
             self._server = acquire_server(self.context, p.host, p.port, token)
             self.arbiter = self._server.control  # one holder for every page of the server
-            self._app = ConsoleApp(self._server, self.inbox, p.jpeg_quality)
+            self._app = ConsoleApp(self._server, self.lanes, p.jpeg_quality)
             self.url = self._server.url
             self.log.info("operator console: %s", self.url)
             if p.host in ("0.0.0.0", "::"):  # every interface: name this machine for others
                 self.log.info(
-                    "operator console: from another computer open %s",
-                    self.url.replace(p.host if p.host != "::" else "[::]", socket.gethostname()),
+                    "operator console: from another computer open %s (plain HTTP: the token "
+                    "travels in clear; prefer an SSH tunnel to a loopback console)",
+                    self.url.replace(
+                        self.url.split("/")[2].rsplit(":", 1)[0], socket.gethostname()
+                    ),
                 )
 
     def stop(self) -> None:
@@ -183,8 +191,9 @@ class OperatorConsole(Module):
             self._t0 = now
         wall = time.monotonic()
         self._video(now)
-        for event in self.inbox.drain():
+        for event in self.lanes.drain():
             self._handle(event, now)
+        self.lanes.set_holders(frozenset(s for s in self.arbiter.sessions if self.arbiter.holds(s)))
         self._sim_seed(now)
         self._zoom_auto(now)
         self._jog_step(wall)
@@ -213,22 +222,30 @@ class OperatorConsole(Module):
                 self._app.raw_frame(pixels, image.seq, time.time(), now - image.stamp)
             )
 
-    def _notice(
-        self, text: str, session: str = "*", level: str = "info", page: bool = True
-    ) -> None:
-        """Log ``text``, and tell the page ``session`` (``*``: every page) unless ``page`` is
+    def _notice(self, text: str, session: str = "*", level: str = "info", log: bool = True) -> None:
+        """Tell the page ``session`` (``*``: every page) ``text``, and log it unless ``log`` is
         False."""
-        if page:
-            self._notice_id += 1
-            self._notices.append(
-                {"id": self._notice_id, "to": session, "level": level, "text": text}
-            )
+        self._notice_id += 1
+        self._notices.append({"id": self._notice_id, "to": session, "level": level, "text": text})
+        if not log:
+            return
         who = self.arbiter.sessions.get(session, "console") if session != "*" else "console"
         (self.log.warning if level == "error" else self.log.info)("%s: %s", who, text)
 
     def _refuse(self, session: str, text: str) -> None:
+        """Tell the page ``session`` why; the log says it at most once a second per page (a page
+        sending refused commands in a flood is not a flood of log lines)."""
         self.counts["refused"] += 1
-        self._notice(text, session, "error")
+        wall = time.monotonic()
+        last, count = self._logged_refusal.get(session, (-math.inf, 0))
+        logged = wall - last >= 1.0
+        if logged:
+            more = self.counts["refused"] - count - 1 if count else 0
+            text_log = f"{text} (and {more} more refusals since)" if more > 0 else text
+            self._logged_refusal[session] = (wall, self.counts["refused"])
+            who = self.arbiter.sessions.get(session, "console")
+            self.log.warning("%s: %s", who, text_log)
+        self._notice(text, session, "error", log=False)
 
     # -- events from the pages ----------------------------------------------------------------
     def _handle(self, event: Event, now: float) -> None:
@@ -238,12 +255,10 @@ class OperatorConsole(Module):
             self._notice(f"{event.payload} is watching")
         elif event.kind == "leave":
             self.deadman.release(s)
+            self._logged_refusal.pop(s, None)
             name = self.arbiter.sessions.get(s, s)
             if self.arbiter.leave(s):
                 self._notice(f"{name} disconnected; control is free")
-        elif event.kind == "bad":  # the web thread told the page at once; here the log
-            self.counts["bad_messages"] += 1
-            self._notice(str(event.payload), s, "error", page=False)
         elif event.kind == "msg":
             self._message(s, event.payload.type, event.payload.fields, now, event.wall)
 
@@ -493,12 +508,14 @@ class OperatorConsole(Module):
 
     def summary(self) -> dict[str, object]:
         out: dict[str, object] = {
-            "url": self.url,
+            "url": self.url.split("?")[0],  # not the token: summaries are files
             "seeds": self.counts["seeds"],
             "sim_seeds": self.counts["sim_seeds"],
             "sim_seeds_ignored": self.counts["sim_seeds_ignored"],
             "refused": self.counts["refused"],
-            "bad_messages": self.counts["bad_messages"],
+            "bad_messages": 0
+            if self._app is None
+            else self._app.stats.malformed + self._app.stats.replayed,
             "control_refusals": self.arbiter.refused,
             "person_acted": self.arbiter.person_acted,
             "jogs": self.counts["jogs"],
@@ -515,6 +532,8 @@ class OperatorConsole(Module):
                 viewers_max=st.viewers_max,
                 malformed=st.malformed,
                 replayed=st.replayed,
+                closed_abusers=st.closed_abusers,
+                lane_full=st.lane_full,
                 refused_requests=(
                     self._server.refused_requests if self._server else self._refused_requests
                 ),

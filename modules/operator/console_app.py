@@ -1,8 +1,15 @@
 """The console's web side: its page, its websocket, and the frame pump (runs in the web thread).
 
 Nothing here touches the graph: the module hands over frames and a state snapshot through
-:class:`~modules.operator.mailbox.Latest`, and takes back checked messages through an
-:class:`~modules.operator.mailbox.Inbox` that its ``step`` drains.
+:class:`~modules.operator.mailbox.Latest`, and takes back checked messages through
+:class:`~modules.operator.mailbox.Lanes` that its ``step`` drains: a page's arrival and departure
+and the holder's commands never wait behind anything another page sends.
+
+Each socket has a message budget (:class:`~modules.webdoor.rate.MessageBudget`): beyond its rate,
+its burst or its malformed messages it is closed (1008, with the reason); a message larger than
+:data:`~connectors.limits.MAX_PAGE_MESSAGE_BYTES` is refused by the websocket protocol itself
+(1009) before it is read whole. Malformed messages are answered on their socket and counted,
+never queued for ``step``.
 
 Video: each new camera image is JPEG-encoded once (in one encoder thread, only while a page
 watches) and sent as a binary websocket message ``[4-byte header length][JSON header][JPEG]``.
@@ -16,6 +23,7 @@ import asyncio
 import concurrent.futures
 import itertools
 import json
+import logging
 import secrets
 import struct
 import threading
@@ -29,10 +37,13 @@ import numpy as np
 from fastapi import WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, Response
 
-from modules.operator.access import TOKEN_COOKIE, VIEWER_SCOPE
-from modules.operator.mailbox import Inbox, Latest
+from modules.operator.mailbox import Lanes, Latest
 from modules.operator.protocol import MessageChecker, ProtocolError
 from modules.operator.web_server import WebServer
+from modules.webdoor.rate import MessageBudget
+from modules.webdoor.viewer import VIEWER_SCOPE
+
+_LOG = logging.getLogger("umbra.operator")
 
 ACK_TIMEOUT_S = 1.0
 MAX_IN_FLIGHT = 2  #: frames on their way to a page (hides the round trip; never a queue)
@@ -51,7 +62,7 @@ class RawFrame:
 
 @dataclass(frozen=True)
 class Event:
-    """From the web thread to ``step``: ``kind`` join / leave / msg / bad, the session, a
+    """From the web thread to ``step``: ``kind`` join / leave / msg, the session, a
     payload, the wall time it arrived (monotonic seconds), and the page's browser key
     (:func:`~modules.operator.access.viewer_key`; "" unknown)."""
 
@@ -72,6 +83,8 @@ class WebStats:
     painted_wall: list[float] = field(default_factory=list)
     malformed: int = 0
     replayed: int = 0
+    closed_abusers: int = 0  #: sockets closed over their message budget
+    lane_full: int = 0  #: messages refused because their session's lane was full
     viewers: int = 0
     viewers_max: int = 0
     encoder_tid: int = 0
@@ -85,9 +98,9 @@ def _static(name: str) -> str:
 class ConsoleApp:
     """Routes of one console on a :class:`WebServer`, under ``prefix`` ("" for the root)."""
 
-    def __init__(self, server: WebServer, inbox: Inbox[Event], jpeg_quality: int) -> None:
+    def __init__(self, server: WebServer, lanes: Lanes[Event], jpeg_quality: int) -> None:
         self.server = server
-        self.inbox = inbox
+        self.lanes = lanes
         self.frames: Latest[RawFrame] = Latest()
         self.state: Latest[dict[str, Any]] = Latest()
         self.assist_frame: Latest[np.ndarray] = Latest()
@@ -114,10 +127,7 @@ class ConsoleApp:
 
     # -- HTTP ------------------------------------------------------------------------------
     async def _index(self) -> HTMLResponse:
-        response = HTMLResponse(self._page, headers={"cache-control": "no-store"})
-        if self.server.token:
-            response.set_cookie(TOKEN_COOKIE, self.server.token, httponly=True, samesite="strict")
-        return response
+        return HTMLResponse(self._page, headers={"cache-control": "no-store"})
 
     async def _script(self) -> Response:
         return Response(self._js, media_type="text/javascript")
@@ -173,55 +183,78 @@ class ConsoleApp:
         client = ws.client
         name = f"viewer {next(self._names)} ({client.host if client else '?'})"
         checker = MessageChecker(session)
+        budget = MessageBudget()
         flight = _InFlight()
         self.stats.viewers += 1
         self.stats.viewers_max = max(self.stats.viewers_max, self.stats.viewers)
         browser = ws.scope.get(VIEWER_SCOPE, "")
-        self.inbox.put(Event("join", session, name, time.monotonic(), browser))
-        await ws.send_text(json.dumps({"type": "welcome", "session": session, "name": name}))
-        sender = asyncio.create_task(self._send_loop(ws, flight))
+        self.lanes.joined(Event("join", session, name, time.monotonic(), browser))
+        sender: asyncio.Task | None = None
         try:
+            await ws.send_text(json.dumps({"type": "welcome", "session": session, "name": name}))
+            sender = asyncio.create_task(self._send_loop(ws, flight))
             while True:
                 message = await ws.receive()
                 if message["type"] == "websocket.disconnect":
                     break
-                raw = message.get("text")
-                if raw is None:
-                    raw = "<binary message: expected JSON text>"
-                try:
-                    msg = checker.check(raw)
-                except ProtocolError as exc:
-                    text = str(exc)
-                    if text.startswith("replayed"):
-                        self.stats.replayed += 1
-                    else:
-                        self.stats.malformed += 1
-                    self.inbox.put(Event("bad", session, text, time.monotonic()))
-                    await ws.send_text(
-                        json.dumps({"type": "notice", "level": "error", "text": text})
-                    )
-                    continue
-                if msg.type == "painted":
-                    if msg.fields["latency_ms"] > 0:  # 0: overtaken by a newer frame, not drawn
-                        self._painted(msg.fields["latency_ms"])
-                    flight.painted()
-                    continue
-                if not self.inbox.put(Event("msg", session, msg, time.monotonic())):
-                    await ws.send_text(
-                        json.dumps(
-                            {
-                                "type": "notice",
-                                "level": "error",
-                                "text": "refused: the console is overloaded (inbox full)",
-                            }
-                        )
-                    )
-        except (WebSocketDisconnect, RuntimeError):
+                why = budget.spend(time.monotonic())
+                if not why:
+                    why = await self._one(ws, session, checker, budget, flight, message)
+                if why:
+                    self.stats.closed_abusers += 1
+                    _LOG.warning("console: closed the socket of %s: %s", name, why)
+                    await ws.close(1008, why[:120])
+                    break
+        except (WebSocketDisconnect, RuntimeError, OSError):
             pass
         finally:
-            sender.cancel()
+            if sender is not None:
+                sender.cancel()
             self.stats.viewers -= 1
-            self.inbox.put(Event("leave", session, None, time.monotonic()))
+            self.lanes.left(session, Event("leave", session, None, time.monotonic()))
+
+    async def _one(
+        self,
+        ws: WebSocket,
+        session: str,
+        checker: MessageChecker,
+        budget: MessageBudget,
+        flight: _InFlight,
+        message: dict[str, Any],
+    ) -> str:
+        """Check one message and queue it for ``step``; "" or why the socket must close."""
+        raw = message.get("text")
+        if raw is None:
+            raw = "<binary message: expected JSON text>"
+        try:
+            msg = checker.check(raw)
+        except ProtocolError as exc:
+            text = str(exc)
+            if text.startswith("replayed"):
+                self.stats.replayed += 1
+            else:
+                self.stats.malformed += 1
+            why = budget.spoiled()
+            if not why:
+                await ws.send_text(json.dumps({"type": "notice", "level": "error", "text": text}))
+            return why
+        if msg.type == "painted":
+            if msg.fields["latency_ms"] > 0:  # 0: overtaken by a newer frame, not drawn
+                self._painted(msg.fields["latency_ms"])
+            flight.painted()
+            return ""
+        if not self.lanes.put(session, Event("msg", session, msg, time.monotonic())):
+            self.stats.lane_full += 1
+            await ws.send_text(
+                json.dumps(
+                    {
+                        "type": "notice",
+                        "level": "error",
+                        "text": "refused: too many of your messages are waiting (slow down)",
+                    }
+                )
+            )
+        return ""
 
     def _painted(self, latency_ms: float) -> None:
         if len(self.stats.latency_ms) < 100_000:

@@ -23,8 +23,9 @@ Example, in another module of the same process::
             release_server(self._server)
 
 Routes added after the server started are served at once. Every route, page and websocket
-alike, is behind the access-token gate (:mod:`modules.operator.access`), which also gives each
-browser its viewer cookie. The server holds the control table of all its pages
+alike, is behind the door (:mod:`modules.webdoor`): the per-run access token, the Host names the
+server was started for, its own pages' Origin, bounded bodies, messages and connections; the
+gate also gives each browser its viewer cookie. The server holds the control table of all its pages
 (``server.control``, a :class:`~modules.operator.control.ControlArbiter`): the operator who
 holds control on one page holds it on every page of the server, and commands from everyone
 else are refused. The server stops when the last module holding it releases it.
@@ -33,7 +34,6 @@ else are refused. The server stops when the last module holding it releases it.
 from __future__ import annotations
 
 import asyncio
-import logging
 import socket
 import threading
 from typing import Any
@@ -42,177 +42,23 @@ import uvicorn
 from fastapi import FastAPI
 
 from connectors.errors import UserError
-from modules.operator.access import (
-    TOKEN_COOKIE,
-    TOKEN_QUERY,
-    VIEWER_COOKIE,
-    VIEWER_SCOPE,
-    is_loopback,
-    new_viewer_id,
-    token_matches,
-    viewer_key,
-)
 from modules.operator.control import ControlArbiter
-
-_LOG = logging.getLogger("umbra.operator")
-
-
-class _TokenGate:
-    """ASGI middleware in front of every route: refuses another site's websocket or
-    state-changing request (POST...), and HTTP requests and websockets without the access token;
-    gives each browser its viewer cookie (one browser, one operator) and, when the token came in
-    the address, the token cookie; leaves the request's viewer key in the scope
-    (``scope[VIEWER_SCOPE]``, "" when the request carried no viewer cookie)."""
-
-    def __init__(self, app: Any, server: WebServer) -> None:
-        self.app = app
-        self.server = server
-
-    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
-        kind = scope["type"]
-        if kind not in ("http", "websocket"):
-            await self.app(scope, receive, send)
-            return
-        if kind == "websocket" and not _same_origin(scope):
-            self.server.refused_requests += 1
-            _LOG.warning(
-                "console: refused a websocket from another site's page (Origin %s, expected "
-                "this server's own address)",
-                _header(scope, b"origin"),
-            )
-            await send({"type": "websocket.close", "code": 4403})
-            return
-        if kind == "http" and scope.get("method") not in _SAFE_METHODS and not _same_origin(scope):
-            self.server.refused_requests += 1
-            _LOG.warning(
-                "console: refused %s %s from another site's page (Origin %s, expected this "
-                "server's own address)",
-                scope.get("method"),
-                scope.get("path", ""),
-                _header(scope, b"origin"),
-            )
-            await _forbidden(send, b"403 forbidden: a request from another site's page\n")
-            return
-        query, cookie = _query_token(scope), _cookie(scope, TOKEN_COOKIE)
-        given = query or cookie
-        if self.server.token and not token_matches(self.server.token, given):
-            self.server.refused_requests += 1
-            client = scope.get("client") or ("?", 0)
-            _LOG.warning(
-                "console: refused %s %s from %s: expected the access token (?%s=...), found %s",
-                kind,
-                scope.get("path", ""),
-                client[0],
-                TOKEN_QUERY,
-                "a wrong one" if given else "none",
-            )
-            if kind == "websocket":
-                await send({"type": "websocket.close", "code": 4401})
-                return
-            await _forbidden(
-                send,
-                b"403 forbidden: this console needs its access token: open the address printed "
-                b"at start (it ends in ?token=...)\n",
-            )
-            return
-        scope[VIEWER_SCOPE] = viewer_key(_cookie(scope, VIEWER_COOKIE))
-        cookies: list[tuple[str, str]] = []
-        if kind == "http":
-            if not scope[VIEWER_SCOPE]:
-                cookies.append((VIEWER_COOKIE, f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE_LAX}"))
-            if self.server.token and query and cookie != self.server.token:
-                cookies.append(
-                    (TOKEN_COOKIE, f"{TOKEN_COOKIE}={self.server.token}; {_COOKIE_STRICT}")
-                )
-        await self.app(scope, receive, _setting_cookies(send, cookies) if cookies else send)
-
-
-_SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
-_COOKIE_LAX = "Path=/; HttpOnly; SameSite=Lax"
-_COOKIE_STRICT = "Path=/; HttpOnly; SameSite=Strict"
-
-
-def _setting_cookies(send: Any, cookies: list[tuple[str, str]]) -> Any:
-    """``send`` that adds ``cookies`` (name, Set-Cookie value) to the response's headers,
-    unless the route set a cookie of that name itself."""
-
-    async def wrapped(message: dict) -> None:
-        if message["type"] == "http.response.start":
-            headers = list(message.get("headers", []))
-            present = {
-                value.split(b"=", 1)[0].strip() for key, value in headers if key == b"set-cookie"
-            }
-            for name, value in cookies:
-                if name.encode() not in present:
-                    headers.append((b"set-cookie", value.encode("latin-1")))
-            message = {**message, "headers": headers}
-        await send(message)
-
-    return wrapped
-
-
-async def _forbidden(send: Any, body: bytes) -> None:
-    await send(
-        {
-            "type": "http.response.start",
-            "status": 403,
-            "headers": [(b"content-type", b"text/plain; charset=utf-8")],
-        }
-    )
-    await send({"type": "http.response.body", "body": body})
-
-
-def _header(scope: dict, name: bytes) -> str | None:
-    for key, value in scope.get("headers", []):
-        if key == name:
-            return value.decode("latin-1")
-    return None
-
-
-def _same_origin(scope: dict) -> bool:
-    """A browser names the page that opens a websocket (Origin); only this server's own pages
-    may (another site open in the operator's browser must not drive the arm). Clients that are
-    not browsers send no Origin."""
-    origin = _header(scope, b"origin")
-    if origin is None:
-        return True
-    from urllib.parse import urlsplit
-
-    return urlsplit(origin).netloc == (_header(scope, b"host") or "")
-
-
-def _query_token(scope: dict) -> str | None:
-    from urllib.parse import parse_qs
-
-    values = parse_qs(scope.get("query_string", b"").decode("latin-1")).get(TOKEN_QUERY)
-    return values[0] if values else None
-
-
-def _cookie(scope: dict, wanted: str) -> str | None:
-    for name, value in scope.get("headers", []):
-        if name == b"cookie":
-            for part in value.decode("latin-1").split(";"):
-                key, _, val = part.strip().partition("=")
-                if key == wanted:
-                    return val
-    return None
+from modules.webdoor.gate import Gate
+from modules.webdoor.hosts import allowed_hosts
+from modules.webdoor.secret import TOKEN_QUERY
+from modules.webdoor.transport import Connections, uvicorn_options
 
 
 class WebServer:
-    """A FastAPI app served by uvicorn in a daemon thread, on ``host``:``port`` (0: a free one).
-
-    ``token`` non-empty: every request needs it (query ``?token=`` or the cookie). Listening
-    beyond loopback without a token is refused.
+    """A FastAPI app served by uvicorn in a daemon thread, on ``host``:``port`` (0: a free one),
+    behind the door (:mod:`modules.webdoor`) with the access ``token`` (required, loopback too).
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, token: str = "") -> None:
-        if not is_loopback(host) and not token:
-            raise UserError(
-                f"console: listening on {host} (beyond loopback) needs an access token, found none"
-            )
+        if not token:
+            raise UserError(f"console: serving on {host} needs an access token, found none")
         self.host = host
         self.token = token
-        self.refused_requests = 0
         self.links: dict[str, str] = {}  #: extra pages (path -> title) shown on the console
         #: who holds control, shared by every page of this server (touched only by the modules'
         #: ``step``, which the scheduler never runs at once)
@@ -230,12 +76,15 @@ class WebServer:
                 f"console: expected to listen on {host}:{port}, found {exc.strerror or exc}"
             ) from None
         self.port = int(self._sock.getsockname()[1])
+        self.connections = Connections()
+        self.gate = Gate(self.app, token, allowed_hosts(host, self.port))
         config = uvicorn.Config(
-            _TokenGate(self.app, self),
+            self.gate,
             log_level="warning",
             lifespan="off",
             timeout_graceful_shutdown=1,
             ws_ping_interval=None,
+            **uvicorn_options(self.connections),
         )
         self._server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
@@ -243,11 +92,17 @@ class WebServer:
         self.users = 0
 
     @property
+    def refused_requests(self) -> int:
+        """Requests and sockets the door refused (bad Host, Origin, token, body, connections)."""
+        return self.gate.refusals.total + self.connections.refused + self.connections.half_open
+
+    @property
     def url(self) -> str:
-        """The address to open (with the token when there is one)."""
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        suffix = f"/?{TOKEN_QUERY}={self.token}" if self.token else "/"
-        return f"http://{host}:{self.port}{suffix}"
+        """The address to open on this machine, with the token (bound to every interface:
+        the loopback one; the server answers to the names :mod:`modules.webdoor.hosts` says)."""
+        host = {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(self.host, self.host)
+        host = f"[{host}]" if ":" in host else host
+        return f"http://{host}:{self.port}/?{TOKEN_QUERY}={self.token}"
 
     def add_link(self, path: str, title: str) -> None:
         """List another page of this server on the console (a link in its header)."""

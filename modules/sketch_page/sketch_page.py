@@ -21,12 +21,13 @@ from fastapi.responses import HTMLResponse, JSONResponse, Response
 from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import Status, Text
 from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
-from modules.operator.access import VIEWER_SCOPE, resolve_token
 from modules.operator.control import Decision
-from modules.operator.mailbox import Inbox, Latest
+from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
 from modules.sketch.command_text import parse
 from modules.sketch_page.page_state import page_state
+from modules.webdoor.secret import resolve_token
+from modules.webdoor.viewer import VIEWER_SCOPE
 
 MAX_COMMAND_CHARS = 2000
 #: the web side waits at most this long for ``step`` to decide on a request [s]
@@ -61,8 +62,9 @@ class SketchPage(Module):
     actions come back as Sketch text commands (``modules/sketch/command_text.py``), checked here
     before they are queued; the module sends them on ``command`` (wire it to Sketch.console).
     The web side never touches the graph: it reads the latest messages through
-    :class:`~modules.operator.mailbox.Latest` and queues requests in an
-    :class:`~modules.operator.mailbox.Inbox` that ``step`` drains and answers.
+    :class:`~modules.operator.mailbox.Latest` and queues requests in
+    :class:`~modules.operator.mailbox.Lanes` (one per browser; the holder's first) that ``step``
+    drains and answers.
 
     Several viewers, one operator, as on the console and with the same holder: the page uses
     the control table of its web server (``server.control``), so control taken on the console
@@ -101,17 +103,18 @@ class SketchPage(Module):
     plan_preview = Input(ToolPath, required=False, doc="plans, passed or refused (Sketch)")
     vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
     sketch_status = Input(Status, required=False, doc="Sketch's reply to each command")
-    command = Output(Text, doc="the page's commands (to Sketch.console)")
+    command = Output(Text, events=True, doc="the page's commands (to Sketch.console)")
 
     def start(self) -> None:
         p = self.params
-        token = resolve_token(p.host or "127.0.0.1", p.token_file, self.name)
+        token = resolve_token(p.token_file, self.name)
         self._server = acquire_server(self.context, p.host or None, p.port or None, token)
         self._control = self._server.control  # shared with the console of this server
         self._state: Latest[dict[str, Any]] = Latest()
         self._control_view: Latest[dict[str, Any]] = Latest()
         self._images: Latest[tuple[str, bytes, bytes]] = Latest()
-        self._inbox: Inbox[_Request] = Inbox(capacity=64)
+        #: requests by browser: the holder's never wait behind another browser's
+        self._inbox: Lanes[_Request] = Lanes(per_session=4, budget=16, holder_capacity=64)
         self._primitives: list[SketchPrimitive] = []
         self._vcr_key: tuple | None = None
         self._control_key: tuple | None = None
@@ -178,6 +181,8 @@ class SketchPage(Module):
         for request in self._inbox.drain():
             if request.reply.set_running_or_notify_cancel():  # else the web side gave up
                 request.reply.set_result(self._decide(request, wall))
+        holder = self._control.holder_browser()
+        self._inbox.set_holders(frozenset((holder,)) if holder else frozenset())
         self._publish_control()
         self._watch_page(vcr, seen, wall)
 
@@ -373,8 +378,10 @@ class SketchPage(Module):
         """Queue the request for ``step`` and answer with its decision."""
         host = request.client.host if request.client else "?"
         reply: concurrent.futures.Future = concurrent.futures.Future()
-        if not self._inbox.put(_Request(viewer, host, kind, text, reply)):
-            return JSONResponse({"ok": False, "error": "refused: too many requests queued"}, 429)
+        if not self._inbox.put(viewer, _Request(viewer, host, kind, text, reply)):
+            return JSONResponse(
+                {"ok": False, "error": "refused: too many of your requests are waiting"}, 429
+            )
         try:
             decision = await asyncio.wait_for(asyncio.wrap_future(reply), REPLY_TIMEOUT_S)
         except TimeoutError:  # cancelled: step drops it, it is never sent late

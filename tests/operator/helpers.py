@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
+import httpx
 import numpy as np
 from websockets.sync.client import ClientConnection, connect
 
@@ -32,6 +33,19 @@ def rectangle_contour(status: str = "tracking", reason: str = "") -> Contour:
     return contour_message(
         vertices, polygon_features(vertices), status, reason, 0.0, offending=[3, 4]
     )
+
+
+def client(url: str) -> tuple[httpx.Client, str]:
+    """An HTTP client that opened ``url`` (with its token) as a browser does: the server set the
+    token's cookie and redirected to the address without it. Returns the client (it sends the
+    page's own Origin, as a browser's page does on a POST) and the server's root address."""
+    root = url.split("?")[0].split("/", 3)
+    base = "/".join(root[:3])
+    http = httpx.Client(timeout=10, follow_redirects=True, headers={"Origin": base})
+    opened = http.get(url)
+    assert opened.status_code == 200, opened.text
+    assert "token=" not in str(opened.url) and http.cookies.get("umbra_token")
+    return http, base
 
 
 class Page:

@@ -33,7 +33,7 @@ def test_a_held_jog_replaces_the_command_and_stops_when_its_keepalives_stop() ->
         for _ in range(9):  # no keep-alive for 0.1 s and more: zero, and why
             h.step(dt=0.012)
         assert not np.any(h.output("twist").vector)
-        assert h.output("status").reason.startswith("jog: command is 0.1")
+        assert h.output("status").reason.startswith("jog: no new command for 0.1")
         h.push("jog", _twist(0, 0, 0, 0, 0, 0))  # release: back to the (halted) command
         h.step(dt=0.01)
         assert h.output("status").reason.startswith("halted by assist")

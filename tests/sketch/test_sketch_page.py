@@ -75,7 +75,9 @@ class Browser:
 
     def __init__(self, url: str) -> None:
         self.root, _, query = url.partition("/sketch")
-        self.client = httpx.Client(timeout=10)
+        # a browser's page sends its own Origin on a POST; the token in the address is swapped
+        # for a cookie and a redirect to the address without it
+        self.client = httpx.Client(timeout=10, follow_redirects=True, headers={"Origin": self.root})
         assert self.client.get(self.root + "/sketch" + query).status_code == 200  # the page
         assert self.client.cookies.get("umbra_viewer")
 
@@ -207,9 +209,13 @@ def test_a_viewer_without_control_is_refused_and_counted_the_holder_passes(
         assert bob.control("take")[0] == 200
         assert alice.command("vcr play")[0] == 403
         assert bob.command("vcr play")[0] == 200
-        # a client that never loaded the page (no viewer cookie) cannot command
+        # a client that never loaded the page (the token's cookie, no viewer cookie) cannot
         bare = httpx.post(
-            alice.root + "/sketch/command", content=json.dumps({"text": "vcr play"}), timeout=5
+            alice.root + "/sketch/command",
+            content=json.dumps({"text": "vcr play"}),
+            cookies={"umbra_token": h.module.url.split("?token=")[1]},
+            headers={"x-umbra-csrf": "1"},
+            timeout=5,
         )
         assert bare.status_code == 403 and "no viewer cookie" in bare.json()["error"]
         assert h.module.summary()["control_refused"] == refused + 2
@@ -240,7 +246,7 @@ class ConsolePage:
 
     def __init__(self, console_url: str, cookies: httpx.Cookies) -> None:
         jar = "; ".join(f"{k}={v}" for k, v in cookies.items())
-        ws_url = console_url.replace("http://", "ws://").rstrip("/") + "/ws"
+        ws_url = console_url.split("?")[0].replace("http://", "ws://").rstrip("/") + "/ws"
         self.ws = connect(ws_url, open_timeout=5, additional_headers={"Cookie": jar})
         welcome = self.recv("welcome")
         self.session, self.name, self.seq = welcome["session"], welcome["name"], 0
@@ -270,7 +276,7 @@ def test_one_holder_for_the_console_and_the_sketch_page_of_one_server() -> None:
     ):
         server = console.module._server
         assert sketch.module._server is server and console.module.arbiter is server.control
-        assert sketch.module.url == console.module.url.rstrip("/") + "/sketch"
+        assert sketch.module.url == console.module.url.replace("/?", "/sketch?")
         # one person: the console page and the sketch page in one browser
         alice = Browser(sketch.module.url)
         alice_console = ConsolePage(console.module.url, alice.client.cookies)
@@ -337,7 +343,10 @@ def test_every_route_of_the_page_needs_the_token(tmp_path: Path) -> None:
                 reply = httpx.request(method, root + path + query, content=b"{}", timeout=5)
                 assert reply.status_code == 403, (method, path, query)
                 assert b"access token" in reply.content
-        assert h.module._server.refused_requests == 2 * len(routes)
+        # a POST needs the cookie: the token in its address is not enough
+        posted = httpx.post(root + "/sketch/control?token=s3cret-token-for-the-sketch", timeout=5)
+        assert posted.status_code == 403 and b"cookie" in posted.content
+        assert h.module._server.refused_requests == 2 * len(routes) + 1
         # the address with the token: the page, and its requests carry the cookie it sets
         op = Browser(url)
         assert op.client.cookies.get("umbra_token") == "s3cret-token-for-the-sketch"
@@ -362,10 +371,12 @@ def test_beyond_loopback_the_page_makes_a_token_and_prints_it(
         token = h.module.url.split("?token=")[1]
         assert len(token) >= 20
         port = h.module._server.port
-        assert f"Active Sketch page: http://0.0.0.0:{port}/sketch?token={token}" in caplog.text
+        assert f"Active Sketch page: http://127.0.0.1:{port}/sketch?token={token}" in caplog.text
         assert httpx.get(f"http://127.0.0.1:{port}/sketch/state", timeout=5).status_code == 403
-        reply = httpx.get(f"http://127.0.0.1:{port}/sketch/state?token={token}", timeout=5)
-        assert reply.status_code == 200
+        reply = httpx.get(
+            f"http://127.0.0.1:{port}/sketch/state?token={token}", follow_redirects=True, timeout=5
+        )
+        assert reply.status_code == 200 and "control" in reply.json()
 
 
 def test_a_request_step_never_answered_is_dropped_not_sent_late(

@@ -1,0 +1,258 @@
+"""The ASGI middleware in front of every route and socket of a page server.
+
+In this order, for HTTP requests and websockets alike:
+
+1. ``Host`` must name this server (:mod:`modules.webdoor.hosts`), else 421: a DNS-rebinding page
+   sends its own name.
+2. ``Origin``, when present, must be one of this server's own pages, else 403: another site open
+   in the operator's browser gets nothing.
+3. The access token: in the cookie, or in the address (``?token=``). A GET whose address carries
+   it is answered with the cookie (HttpOnly, SameSite=Strict) and a redirect to the same address
+   without it, so it leaves the address bar and the history. State-changing requests (POST...)
+   need the cookie *and* either the page's own ``Origin`` or the :data:`CSRF_HEADER` (a header
+   another site's page cannot send without a CORS grant, which this server never gives).
+4. A request body is refused past :data:`~connectors.limits.MAX_PAGE_BODY_BYTES` before it is
+   read (``Content-Length``, then counting a streamed body), and must arrive whole within
+   :data:`~connectors.limits.MAX_PAGE_REQUEST_S`; the route then gets it from memory.
+
+It also gives each browser its viewer cookie (:mod:`modules.webdoor.viewer`) and leaves the
+request's viewer key in ``scope[VIEWER_SCOPE]``. Refusals are counted; the log says each kind
+at most once a second (a flood of refusals is not a flood of log lines).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from collections import Counter
+from typing import Any
+from urllib.parse import parse_qsl, urlencode
+
+from connectors.limits import MAX_PAGE_BODY_BYTES, MAX_PAGE_REQUEST_S
+from modules.webdoor.hosts import host_allowed, origin_allowed
+from modules.webdoor.secret import CSRF_HEADER, TOKEN_COOKIE, TOKEN_QUERY, token_matches
+from modules.webdoor.viewer import VIEWER_COOKIE, VIEWER_SCOPE, new_viewer_id, viewer_key
+
+_LOG = logging.getLogger("umbra.webdoor")
+_SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
+_COOKIE = "Path=/; HttpOnly; SameSite=Strict"
+
+
+class Refusals:
+    """Refused requests by reason; logs each reason at most once per ``period`` [s]."""
+
+    def __init__(self, period: float = 1.0) -> None:
+        self.counts: Counter[str] = Counter()
+        self.period = period
+        self._logged: dict[str, tuple[float, int]] = {}
+
+    @property
+    def total(self) -> int:
+        return sum(self.counts.values())
+
+    def add(self, reason: str, detail: str) -> None:
+        self.counts[reason] += 1
+        now = time.monotonic()
+        last, count = self._logged.get(reason, (-float("inf"), 0))
+        if now - last >= self.period:
+            more = self.counts[reason] - count - 1
+            _LOG.warning(
+                "page server: refused %s%s", detail, f" (and {more} more like it)" if more else ""
+            )
+            self._logged[reason] = (now, self.counts[reason])
+
+
+class Gate:
+    """ASGI middleware: ``app`` behind the door of a server with ``token`` answering to
+    ``allowed`` hosts (see the module docstring)."""
+
+    def __init__(self, app: Any, token: str, allowed: frozenset[str]) -> None:
+        if not token:
+            raise ValueError("a page server needs an access token")
+        self.app = app
+        self.token = token
+        self.allowed = allowed
+        self.refusals = Refusals()
+
+    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
+        kind = scope["type"]
+        if kind not in ("http", "websocket"):
+            await self.app(scope, receive, send)
+            return
+        refusal = self._check(scope)
+        if refusal is not None:
+            status, reason, text = refusal
+            client = (scope.get("client") or ("?", 0))[0]
+            self.refusals.add(reason, f"{kind} {scope.get('path', '')} from {client}: {text}")
+            await _refuse(kind, send, status, text)
+            return
+        query = _query(scope)
+        if kind == "http" and scope.get("method") == "GET" and TOKEN_QUERY in query:
+            await self._exchange(scope, send, query)
+            return
+        scope[VIEWER_SCOPE] = viewer_key(_cookie(scope, VIEWER_COOKIE))
+        if kind == "http":
+            body = await self._body(scope, receive, send)
+            if body is None:
+                return
+            receive = _replay(body, receive)
+            if not scope[VIEWER_SCOPE]:
+                send = _with_cookie(send, f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE}")
+        await self.app(scope, receive, send)
+
+    def _check(self, scope: dict) -> tuple[int, str, str] | None:
+        """(status, reason, text) of a refusal, or None to let the request in."""
+        host = _header(scope, b"host")
+        if not host_allowed(host, self.allowed):
+            return (
+                421,
+                "host",
+                f"expected a Host this server was started for ({', '.join(sorted(self.allowed))}),"
+                f" found {host!r}",
+            )
+        origin = _header(scope, b"origin")
+        if not origin_allowed(origin, self.allowed):
+            return 403, "origin", f"a request from another site's page (Origin {origin!r})"
+        cookie = _cookie(scope, TOKEN_COOKIE)
+        if scope["type"] == "http" and scope.get("method") not in _SAFE_METHODS:
+            if not token_matches(self.token, cookie):
+                return 403, "token", "expected the access token's cookie on a POST, found none"
+            if origin is None and _header(scope, CSRF_HEADER.encode()) is None:
+                return (
+                    403,
+                    "csrf",
+                    f"expected the page's own Origin or the {CSRF_HEADER} header on a POST, "
+                    "found neither",
+                )
+            return None
+        given = _query(scope).get(TOKEN_QUERY)
+        if token_matches(self.token, cookie) or token_matches(self.token, given):
+            return None
+        return (
+            403,
+            "token",
+            "this page needs its access token: open the address printed at start (it ends in "
+            f"?{TOKEN_QUERY}=...); found {'a wrong one' if cookie or given else 'none'}",
+        )
+
+    async def _exchange(self, scope: dict, send: Any, query: dict[str, str]) -> None:
+        """The token of the address for a cookie, and a redirect to the address without it."""
+        rest = urlencode([(k, v) for k, v in query.items() if k != TOKEN_QUERY])
+        path = (scope.get("raw_path") or scope.get("path", "/").encode()).decode("latin-1")
+        headers = [
+            (b"location", (path + (f"?{rest}" if rest else "")).encode("latin-1")),
+            (b"set-cookie", f"{TOKEN_COOKIE}={self.token}; {_COOKIE}".encode()),
+            (b"cache-control", b"no-store"),
+            (b"referrer-policy", b"no-referrer"),
+        ]
+        if not viewer_key(_cookie(scope, VIEWER_COOKIE)):
+            headers.append(
+                (b"set-cookie", f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE}".encode())
+            )
+        await send({"type": "http.response.start", "status": 303, "headers": headers})
+        await send({"type": "http.response.body", "body": b""})
+
+    async def _body(self, scope: dict, receive: Any, send: Any) -> bytes | None:
+        """The whole request body, or None once a refusal was sent (too large, too slow)."""
+        length = _header(scope, b"content-length")
+        if length is not None:
+            if not length.strip().isdigit():
+                await self._refuse_body(scope, send, 400, f"Content-Length {length!r}")
+                return None
+            if int(length) > MAX_PAGE_BODY_BYTES:
+                await self._refuse_body(scope, send, 413, f"{int(length)} bytes")
+                return None
+        chunks: list[bytes] = []
+        size = 0
+        deadline = time.monotonic() + MAX_PAGE_REQUEST_S
+        while True:
+            try:
+                message = await asyncio.wait_for(receive(), deadline - time.monotonic())
+            except TimeoutError:
+                await self._refuse_body(scope, send, 408, f"more than {MAX_PAGE_REQUEST_S:g} s")
+                return None
+            if message["type"] != "http.request":
+                return b"".join(chunks)  # disconnected: the route sees an empty body
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > MAX_PAGE_BODY_BYTES:
+                await self._refuse_body(scope, send, 413, f"over {size} bytes (streamed)")
+                return None
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                return b"".join(chunks)
+
+    async def _refuse_body(self, scope: dict, send: Any, status: int, found: str) -> None:
+        text = (
+            f"expected a request body of at most {MAX_PAGE_BODY_BYTES} bytes arriving within "
+            f"{MAX_PAGE_REQUEST_S:g} s, found {found}"
+        )
+        client = (scope.get("client") or ("?", 0))[0]
+        self.refusals.add(f"body{status}", f"{scope.get('path', '')} from {client}: {text}")
+        await _refuse("http", send, status, text)
+
+
+async def _refuse(kind: str, send: Any, status: int, text: str) -> None:
+    if kind == "websocket":  # before the handshake is accepted: the client gets HTTP 403
+        await send({"type": "websocket.close", "code": 4000 + status, "reason": text[:120]})
+        return
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"text/plain; charset=utf-8"),
+                (b"connection", b"close"),
+                (b"cache-control", b"no-store"),
+            ],
+        }
+    )
+    await send({"type": "http.response.body", "body": f"{status} refused: {text}\n".encode()})
+
+
+def _replay(body: bytes, receive: Any) -> Any:
+    """``receive`` that gives ``body`` whole once, then waits on the connection."""
+    sent = False
+
+    async def replay() -> dict:
+        nonlocal sent
+        if not sent:
+            sent = True
+            return {"type": "http.request", "body": body, "more_body": False}
+        return await receive()
+
+    return replay
+
+
+def _with_cookie(send: Any, cookie: str) -> Any:
+    """``send`` that adds a Set-Cookie header to the response."""
+
+    async def wrapped(message: dict) -> None:
+        if message["type"] == "http.response.start":
+            headers = [*message.get("headers", []), (b"set-cookie", cookie.encode("latin-1"))]
+            message = {**message, "headers": headers}
+        await send(message)
+
+    return wrapped
+
+
+def _header(scope: dict, name: bytes) -> str | None:
+    for key, value in scope.get("headers", []):
+        if key == name:
+            return value.decode("latin-1")
+    return None
+
+
+def _query(scope: dict) -> dict[str, str]:
+    return dict(parse_qsl(scope.get("query_string", b"").decode("latin-1")))
+
+
+def _cookie(scope: dict, wanted: str) -> str | None:
+    for name, value in scope.get("headers", []):
+        if name == b"cookie":
+            for part in value.decode("latin-1").split(";"):
+                key, _, val = part.strip().partition("=")
+                if key == wanted:
+                    return val
+    return None
