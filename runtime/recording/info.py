@@ -14,6 +14,9 @@ from runtime.recording.writer import META_ROLE, META_TYPE
 
 #: An interval longer than this many times the channel's median interval is a gap.
 GAP_FACTOR = 3.0
+#: Fewest messages a channel needs for a rate: fewer are events (two messages 10 ms apart are two
+#: events, not a 100 Hz stream).
+MIN_RATE_MESSAGES = 5
 
 
 @dataclass
@@ -27,7 +30,8 @@ class TopicInfo:
     count: int = 0
     first: float = 0.0
     last: float = 0.0
-    rate_hz: float = 0.0
+    #: (count - 1) / span [Hz]; None for an event channel (fewer than MIN_RATE_MESSAGES messages)
+    rate_hz: float | None = None
     median_interval: float = 0.0
     max_gap: float = 0.0
     gaps: int = 0
@@ -109,7 +113,8 @@ def recording_info(path: str | Path) -> RecordingInfo:
         if stamps.size > 1:
             gaps = np.diff(stamps)
             span = stamps[-1] - stamps[0]
-            t.rate_hz = float((stamps.size - 1) / span) if span > 0 else 0.0
+            if stamps.size >= MIN_RATE_MESSAGES and span > 0:
+                t.rate_hz = float((stamps.size - 1) / span)
             t.median_interval = float(np.median(gaps))
             t.max_gap = float(gaps.max())
             if t.median_interval > 0:
@@ -149,12 +154,17 @@ def format_info(info: RecordingInfo) -> str:
     )
     for t in info.topics:
         dropped = "-" if t.dropped is None else str(t.dropped)
+        rate = "event" if t.rate_hz is None else f"{t.rate_hz:.2f}"
         lines.append(
-            f"{t.topic:<{width}}  {t.schema:<26} {t.count:>6} {t.rate_hz:>8.2f} "
+            f"{t.topic:<{width}}  {t.schema:<26} {t.count:>6} {rate:>8} "
             f"{t.max_gap:>9.3f} {t.gaps:>4} {dropped:>7}"
         )
     lines.append("")
     lines.append(f"gaps: intervals longer than {GAP_FACTOR:g} x the channel's median interval")
+    lines.append(
+        f"rate: (count - 1) / time from first to last message; event: fewer than "
+        f"{MIN_RATE_MESSAGES} messages, no rate"
+    )
     return "\n".join(lines)
 
 
