@@ -6,12 +6,17 @@ A third-party package adds module types by declaring, in its own pyproject.toml:
     MyFilter = "my_package.filter:MyFilter"
 
 The runtime never imports a concrete module by name; it asks the registry.
+
+A type name belongs to one distribution. Two installed distributions that register different
+objects under one name (a plug-in's ``Gain`` beside the built-in one) make discovery fail with a
+:class:`UserError` naming both distributions and how to rename one: the registry never picks one
+silently.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 
 from connectors.errors import UserError
 from connectors.module import Module
@@ -30,7 +35,15 @@ class Registry:
 
     def _eps(self) -> dict[str, object]:
         if self._entry_points is None:
-            self._entry_points = {ep.name: ep for ep in entry_points(group=GROUP)}
+            found: dict[str, list[EntryPoint]] = {}
+            for ep in entry_points(group=GROUP):
+                same = found.setdefault(ep.name, [])
+                if all(other.value != ep.value for other in same):  # one dist seen twice: once
+                    same.append(ep)
+            clashes = {name: eps for name, eps in found.items() if len(eps) > 1}
+            if clashes:
+                raise UserError(_clash_message(clashes))
+            self._entry_points = {name: eps[0] for name, eps in found.items()}
         return self._entry_points
 
     def add(self, cls: type[Module], name: str | None = None) -> None:
@@ -71,3 +84,25 @@ class Registry:
         if name in self.broken:
             return f"module type `{name}` failed to load: {self.broken[name]}"
         return f"unknown module type `{name}`{did_you_mean(name, self.names())}"
+
+
+def _distribution(ep: EntryPoint) -> str:
+    dist = getattr(ep, "dist", None)
+    return f"{dist.name} {dist.version}" if dist is not None else "an unknown distribution"
+
+
+def _clash_message(clashes: dict[str, list[EntryPoint]]) -> str:
+    """What went wrong and how to fix it, for each type name registered more than once."""
+    lines = []
+    for name, eps in sorted(clashes.items()):
+        owners = " and ".join(f"{_distribution(ep)} ({ep.value})" for ep in eps)
+        lines.append(f"module type `{name}` is registered by {owners}")
+    example = next(iter(sorted(clashes)))
+    return (
+        f"expected each name in the `{GROUP}` entry-point group to name one module type, found "
+        + "; ".join(lines)
+        + ". Rename the plug-in's type: in its pyproject.toml under "
+        f'[project.entry-points."{GROUP}"] give it a name of its own (e.g. '
+        f'`My{example} = "..."`, and TYPE = "My{example}" on the class), reinstall it, and use '
+        "that name in graphs; or uninstall one of the distributions (pip uninstall NAME)"
+    )
