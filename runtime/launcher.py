@@ -219,6 +219,7 @@ def run_one(
         cpu_latency_us=latency_limit(
             plan.spec.cpu_latency_us, name, getattr(args, "cpu_latency_us", None)
         ),
+        publish_all=bool(getattr(args, "publish_all", False)),
     )
     result = run_linked_process(
         plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")
@@ -319,6 +320,8 @@ class Supervisor:
             cmd.append("--insecure")
         if getattr(args, "unchecked_links", False):
             cmd.append("--unchecked-links")
+        if getattr(args, "publish_all", False):
+            cmd.append("--publish-all")
         if getattr(args, "cpu_latency_us", None) is not None:
             cmd += ["--cpu-latency-us", str(args.cpu_latency_us)]
         if args.quiet:
@@ -428,7 +431,9 @@ class Supervisor:
         self.out.mkdir(parents=True, exist_ok=True)
         old = {}
         if threading.current_thread() is threading.main_thread():
-            old = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+            # Ctrl-Z (SIGTSTP) too: a suspended run cannot watch the arm, so it stops safely
+            stops = (signal.SIGINT, signal.SIGTERM, signal.SIGTSTP)
+            old = {s: signal.signal(s, self._on_signal) for s in stops}
         started = time.time()
         try:
             self._start()

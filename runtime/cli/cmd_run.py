@@ -98,6 +98,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         choices=("raw", "jpeg", "png"),
         help="with --record: how images are recorded (default: the graph's, else jpeg)",
     )
+    parser.add_argument(
+        "--publish-all",
+        action="store_true",
+        help="split runs: every process also publishes the outputs that feed no other process, "
+        "each on its key PREFIX/MODULE/PORT, for observers (`umbra topics`, viewers); links are "
+        "always published",
+    )
     parser.add_argument("--quiet", action="store_true", help="no summary table")
     # a process started by the launcher: commands on stdin, bounded wait for its consumers
     parser.add_argument("--supervised", action="store_true", help=argparse.SUPPRESS)

@@ -9,18 +9,27 @@ process's zenoh node, a peer of subject ``Y`` may:
 * declare subscribers only on the keys ``Y`` consumes;
 * declare a liveliness token only under ``P/_alive/Y/`` (its own identity), and watch or query the
   graph's tokens;
+* answer and ask clock queries under ``P/_clock/`` (the graph's time base; a reply counts only
+  from the session the producer's proven token names);
 
 and is sent only what it consumes. Everything else is denied (``default_permission: deny``), so a
 peer that authenticates but is not a process of the graph can do nothing at all. The same rules
 go into every process's configuration (``zenoh_acl``).
+
+An *observer* (``Observer``: ``umbra topics``, a viewer) is a read-only subject: it may declare
+subscribers on its keys (by default every output key of the graph, ``output_keys``) and is sent
+their samples and ends of stream; it may watch and query the graph's liveliness tokens. It may
+not put, delete, declare a token or query anything else.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from runtime.graph.plan import GraphPlan
+from runtime.links.clock_sync import CLOCK
 from runtime.links.identity import ALIVE
 
 #: Subject of a process: the zenoh subject fields naming it (user or certificate names, zenoh
@@ -44,6 +53,43 @@ def by_certificate(graph: str) -> SubjectOf:
     return lambda process: {"cert_common_names": [common_name(graph, process)]}
 
 
+#: User name of the observer of a local run (``@`` is in no process name, so no process has it).
+OBSERVER_USER = "observer@umbra"
+
+
+@dataclass(frozen=True)
+class Observer:
+    """A read-only subject: who (zenoh subject fields) and the key expressions it may read."""
+
+    name: str
+    subject: dict[str, list[str]]
+    keys: tuple[str, ...]
+
+
+def output_key(prefix: str, module: str, port: str) -> str:
+    """Key of the samples of output ``port`` of ``module`` (docs/wire-format.md, section 1)."""
+    return f"{prefix}/{module}/{port}"
+
+
+def output_keys(plan: GraphPlan) -> list[str]:
+    """The key of every output of every module of ``plan`` (links and the others)."""
+    return sorted(
+        output_key(plan.key_prefix, name, port)
+        for name, module in plan.modules.items()
+        for port in module.outputs
+    )
+
+
+def local_observer(plan: GraphPlan) -> Observer:
+    """The observer of a run on this host: user ``OBSERVER_USER``, every output key of ``plan``."""
+    return Observer("local", {"usernames": [OBSERVER_USER]}, tuple(output_keys(plan)))
+
+
+def observer_certificate_name(graph: str, observer: str) -> str:
+    """Common name of observer ``observer``'s certificate (``@``: never a process's)."""
+    return f"{observer}@observer.{graph}.umbra"
+
+
 def link_keys(plan: GraphPlan) -> tuple[dict[str, set[str]], dict[str, set[str]]]:
     """Keys each process publishes and keys each process consumes."""
     produces: dict[str, set[str]] = {p: set() for p in plan.populated_processes}
@@ -54,8 +100,10 @@ def link_keys(plan: GraphPlan) -> tuple[dict[str, set[str]], dict[str, set[str]]
     return produces, consumes
 
 
-def zenoh_acl(plan: GraphPlan, subject_of: SubjectOf) -> dict[str, Any]:
-    """The ``access_control`` section for every process of ``plan``."""
+def zenoh_acl(
+    plan: GraphPlan, subject_of: SubjectOf, observers: Sequence[Observer] = ()
+) -> dict[str, Any]:
+    """The ``access_control`` section for every process of ``plan`` (and ``observers``)."""
     produces, consumes = link_keys(plan)
     prefix = plan.key_prefix
     alive_all = f"{prefix}/{ALIVE}/**"
@@ -95,6 +143,12 @@ def zenoh_acl(plan: GraphPlan, subject_of: SubjectOf) -> dict[str, Any]:
                 [f"{prefix}/{ALIVE}/{process}/**"],
             ),
             rule(f"{process}: tokens to it", ["liveliness_token"], ["egress"], [alive_all]),
+            rule(  # the graph's one time base (runtime.links.clock_sync): replies are checked
+                f"{process}: clocks",  # against the replier's proven session
+                ["declare_queryable", "query", "reply"],
+                ["ingress", "egress"],
+                [f"{prefix}/{CLOCK}/**"],
+            ),
         ]
         if produces[process]:
             mine.append(
@@ -121,6 +175,21 @@ def zenoh_acl(plan: GraphPlan, subject_of: SubjectOf) -> dict[str, Any]:
                 )
             )
         policies.append({"id": f"{process}: graph", "rules": mine, "subjects": ids})
+    for observer in observers:
+        oid = f"observer {observer.name}"
+        subjects.append({"id": oid, **observer.subject})
+        reads = [
+            rule(f"{oid}: subscribe", ["declare_subscriber"], ["ingress"], observer.keys),
+            rule(f"{oid}: samples to it", ["put", "delete"], ["egress"], observer.keys),
+            rule(
+                f"{oid}: watch tokens",
+                ["declare_liveliness_subscriber", "liveliness_query"],
+                ["ingress"],
+                [alive_all],
+            ),
+            rule(f"{oid}: tokens to it", ["liveliness_token", "reply"], ["egress"], [alive_all]),
+        ]
+        policies.append({"id": f"{oid}: read only", "rules": reads, "subjects": [oid]})
     return {
         "enabled": True,
         "default_permission": "deny",

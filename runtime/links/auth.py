@@ -10,7 +10,10 @@ user could read it. Each child's zenoh configuration then carries:
 * the access-control rules derived from the graph (``runtime.links.acl``) with the user names as
   subjects: a process may publish only its own outputs and declare only its own liveliness token;
 * a key shared by the run's processes that proves their liveliness tokens
-  (``runtime.links.identity``).
+  (``runtime.links.identity``);
+* the run's observer password (user ``observer@umbra``, also in the dictionary), which each
+  process writes into its run file (``runtime.links.runs``) for ``umbra topics`` of this user;
+  the rules let the observer read every output key and the tokens, nothing else.
 
 Processes started by hand derive the same from a secret of the user (``runtime.links.host_auth``).
 
@@ -36,7 +39,7 @@ import zenoh
 from connectors.errors import UserError
 from connectors.user_files import read_text
 from runtime.graph.plan import GraphPlan
-from runtime.links.acl import by_username, zenoh_acl
+from runtime.links.acl import OBSERVER_USER, by_username, local_observer, zenoh_acl
 
 _ZID_RE = re.compile(r"^[0-9a-f]{1,32}$")
 _KEY_RE = re.compile(r"^[0-9a-f]{64}$")
@@ -57,7 +60,8 @@ class RunCredentials:
     def __init__(self, plan: GraphPlan) -> None:
         self.folder = Path(tempfile.mkdtemp(prefix="umbra-auth-"))  # mode 0700
         processes = plan.populated_processes
-        passwords = {p: secrets.token_hex(24) for p in processes}
+        passwords = {p: secrets.token_hex(24) for p in [*processes, OBSERVER_USER]}
+        observer = local_observer(plan)
         token_key = secrets.token_hex(32)  # proves the run's liveliness tokens
         #: zenoh id of each process (lowercase hex without a leading zero, as zenoh wants it)
         self.zids = {p: format(secrets.randbits(127) | 1 << 126, "x") for p in processes}
@@ -77,7 +81,8 @@ class RunCredentials:
                 "dictionary_file": str(dictionary),
                 "zid": self.zids[process],
                 "token_key": token_key,
-                "access_control": zenoh_acl(plan, subject),
+                "access_control": zenoh_acl(plan, subject, [observer]),
+                "observer": {"user": OBSERVER_USER, "password": passwords[OBSERVER_USER]},
             }
             _private_write(path, json.dumps(auth))
             self.files[process] = path

@@ -10,7 +10,10 @@ from it what the launcher hands its children (``runtime.links.auth``):
 * a zenoh id per process, by which a process that connects knows the one it connected to (that
   side of a link shows no password: ``usrpwd`` goes one way);
 * the access-control rules derived from the graph (``runtime.links.acl``): each process publishes
-  only its outputs, subscribes only to its inputs, declares only its own liveliness token.
+  only its outputs, subscribes only to its inputs, declares only its own liveliness token;
+* an observer password (user ``observer@umbra``): ``umbra topics``, ``echo`` and ``hz`` of this
+  user join the graph with it, allowed to read every output key and the liveliness tokens and
+  nothing else (``runtime.links.acl.Observer``).
 
 The folder is ``$XDG_RUNTIME_DIR/umbra/`` (emptied when the user logs out) or else
 ``~/.cache/umbra/``, mode 0700; the secret is one file per graph name and key prefix, mode 0600,
@@ -40,7 +43,7 @@ from typing import Any
 
 from connectors.errors import UserError
 from runtime.graph.plan import GraphPlan
-from runtime.links.acl import zenoh_acl
+from runtime.links.acl import OBSERVER_USER, local_observer, zenoh_acl
 
 #: Bytes of the secret (written as hex digits).
 SECRET_BYTES = 32
@@ -88,7 +91,8 @@ def _private(path: Path, st: os.stat_result, kind: str, want: int) -> None:
         )
 
 
-def _folder(folder: Path) -> Path:
+def private_folder(folder: Path) -> Path:
+    """``folder``, made mode 0700 when missing; UserError when it is not private to this user."""
     folder.parent.mkdir(parents=True, exist_ok=True)
     with contextlib.suppress(FileExistsError):
         folder.mkdir(mode=0o700)
@@ -136,7 +140,7 @@ def load_secret(graph: str, prefix: str, folder: Path | None = None) -> tuple[by
     none yet); UserError when the folder or the file is not private to this user."""
     where = folder or secret_folder()
     try:
-        path = _folder(where) / secret_name(graph, prefix)
+        path = private_folder(where) / secret_name(graph, prefix)
         try:
             path.lstat()
         except FileNotFoundError:
@@ -194,13 +198,14 @@ def _write_dictionary(path: Path, text: str) -> None:
 
 def host_credentials(plan: GraphPlan, process: str, folder: Path | None = None) -> dict[str, Any]:
     """Credentials of ``process`` of ``plan`` in the form ``runtime.links.auth.load_auth``
-    gives (plus ``secret_file``); UserError when the secret's folder or file is not private."""
+    gives (plus ``secret_file``, and ``observer``: the observer's user name and password);
+    UserError when the secret's folder or file is not private."""
     secret, file = load_secret(plan.spec.name, plan.key_prefix, folder)
     host = HostSecret(secret, file)
-    processes = plan.populated_processes
+    users = [*plan.populated_processes, OBSERVER_USER]
     dictionary = file.with_name(file.name + ".dict")
     try:
-        _write_dictionary(dictionary, "".join(f"{p}:{host.password(p)}\n" for p in processes))
+        _write_dictionary(dictionary, "".join(f"{p}:{host.password(p)}\n" for p in users))
     except OSError as exc:
         raise UserError(f"{dictionary}: error: cannot write the link passwords: {exc}") from None
     return {
@@ -209,6 +214,7 @@ def host_credentials(plan: GraphPlan, process: str, folder: Path | None = None) 
         "dictionary_file": str(dictionary),
         "zid": host.zid(process),
         "token_key": host.token_key(),
-        "access_control": zenoh_acl(plan, host.subject),
+        "access_control": zenoh_acl(plan, host.subject, [local_observer(plan)]),
         "secret_file": str(file),
+        "observer": {"user": OBSERVER_USER, "password": host.password(OBSERVER_USER)},
     }

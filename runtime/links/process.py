@@ -20,6 +20,7 @@ stop now. End of input (the launcher is gone) aborts too.
 from __future__ import annotations
 
 import logging
+import os
 import signal
 import threading
 import time
@@ -29,11 +30,14 @@ from typing import Any, TextIO
 
 import zenoh
 
+from connectors.errors import UserError
 from runtime.graph.plan import GraphPlan
 from runtime.links.auth import load_auth
 from runtime.links.bounds import inbound_limit
 from runtime.links.config import Endpoints, build_config, describe
 from runtime.links.exposure import has_access_control
+from runtime.links.publish_all import AllOutputs
+from runtime.links.runs import RunFile, describe_outputs, write_run_file
 from runtime.links.session import open_session
 from runtime.links.transport import ZenohTransport
 from runtime.run import write_summary
@@ -68,6 +72,11 @@ class ProcessOptions:
     quiet: bool = False
     #: the CPU wake-up latency [µs] held while running (``runtime.realtime``); None: none
     cpu_latency_us: int | None = None
+    #: publish every output of this process's modules for observers (``runtime.links.publish_all``)
+    publish_all: bool = False
+    #: write a run file for observers of this user (``runtime.links.runs``); off in tests that
+    #: share no user folder
+    run_file: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -129,6 +138,41 @@ def _interruptible(stop: threading.Event, scheduler: Scheduler) -> dict[int, Any
     return {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
+def _run_file(
+    plan: GraphPlan,
+    options: ProcessOptions,
+    auth: dict[str, Any] | None,
+    own_rules: bool,
+    supervised: bool,
+) -> Path | None:
+    """Write this process's run file for observers of this user (None when the user's folder
+    cannot take one: observing is then unavailable, the run goes on)."""
+    if own_rules or (auth is None and options.zenoh_config):
+        access = "config"
+    elif auth is None:
+        access = "insecure"
+    else:
+        access = "credentials"
+    entry = RunFile(
+        graph=plan.spec.name,
+        prefix=plan.key_prefix,
+        process=options.process,
+        pid=os.getpid(),
+        listen=list(options.endpoints.listen),
+        access=access,
+        publish_all=options.publish_all,
+        outputs=describe_outputs(plan, options.process),
+        observer=auth.get("observer") if auth and access == "credentials" else None,
+        started=time.time(),
+        run_id=f"launcher-{os.getppid()}" if supervised else "by-hand",
+    )
+    try:
+        return write_run_file(entry)
+    except (OSError, UserError) as exc:
+        logging.getLogger("umbra").warning("no run file for observers: %s", exc)
+        return None
+
+
 def run_linked_process(
     plan: GraphPlan,
     options: ProcessOptions,
@@ -140,7 +184,8 @@ def run_linked_process(
     log = log or logging.getLogger("umbra")
     options.output_dir.mkdir(parents=True, exist_ok=True)
     auth = load_auth(options.link_auth) if options.link_auth else options.auth
-    if auth is not None and has_access_control(options.zenoh_config):
+    own_rules = has_access_control(options.zenoh_config)
+    if auth is not None and own_rules:
         auth.pop("access_control", None)  # the file's rules (``umbra keys``: by certificate)
     config = build_config(options.endpoints, options.zenoh_config, auth)
     if options.link_checks and config.get_json(RX_LIMIT) == zenoh.Config().get_json(RX_LIMIT):
@@ -173,6 +218,20 @@ def run_linked_process(
     except BaseException:
         transport.close()
         raise
+    everything = (
+        AllOutputs(
+            session,
+            plan,
+            options.process,
+            scheduler.modules,
+            {link.key for link in plan.links},
+            log.getChild("links"),
+        )
+        if options.publish_all
+        else None
+    )
+    supervised = control is not None
+    run_file = _run_file(plan, options, auth, own_rules, supervised) if options.run_file else None
     stop = threading.Event()
     try:
         transport.announce()
@@ -193,7 +252,11 @@ def run_linked_process(
             log.info("process `%s`: links ready, running", options.process)
         result = scheduler.run()
     finally:
+        if everything is not None:
+            everything.close()
         transport.close()
+        if run_file is not None:
+            run_file.unlink(missing_ok=True)
     result.extra.update(options.extra)
     write_summary(result, options.output_dir, options.process)
     return result

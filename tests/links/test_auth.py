@@ -32,7 +32,13 @@ def test_credentials_are_private_per_process_and_removed_with_the_run() -> None:
         dictionary = Path(umbra["dictionary_file"])
         assert stat.S_IMODE(dictionary.stat().st_mode) == 0o600
         lines = dictionary.read_text().splitlines()
-        assert lines == [f"umbra:{umbra['password']}", f"smart:{smart['password']}"]
+        observer = umbra["observer"]
+        assert observer == smart["observer"] and observer["user"] == "observer@umbra"
+        assert lines == [
+            f"umbra:{umbra['password']}",
+            f"smart:{smart['password']}",
+            f"observer@umbra:{observer['password']}",
+        ]
         # `smart` connects to `umbra` (mesh order): it knows it by the zenoh id it was given
         subjects = {s["id"]: s for s in smart["access_control"]["subjects"]}
         assert subjects["umbra"] == {"id": "umbra", "zids": [umbra["zid"]]}

@@ -123,7 +123,13 @@ def test_credentials_derive_from_the_secret_alone(tmp_path: Path) -> None:
     dictionary = Path(smart["dictionary_file"])
     assert stat.S_IMODE(dictionary.stat().st_mode) == 0o600
     lines = dictionary.read_text().splitlines()
-    assert lines == [f"umbra:{umbra['password']}", f"smart:{smart['password']}"]
+    observer = smart["observer"]
+    assert observer == umbra["observer"] and observer["user"] == "observer@umbra"
+    assert lines == [
+        f"umbra:{umbra['password']}",
+        f"smart:{smart['password']}",
+        f"observer@umbra:{observer['password']}",
+    ]
     # a peer is known by its user name when it connected to us, by its zenoh id when we did
     subjects = {s["id"]: s for s in smart["access_control"]["subjects"]}
     assert subjects["umbra"] == {"id": "umbra", "usernames": ["umbra"]}

@@ -1,0 +1,238 @@
+"""Observing a running graph: a read-only zenoh session that subscribes to ``P/**`` and decodes.
+
+``Observation.open`` joins a graph as an observer (``runtime.links.acl.Observer``):
+
+* on this host, with no setup: the run files of this user's processes (``runtime.links.runs``)
+  give the prefix, the endpoints to connect to and the run's observer credentials;
+* elsewhere: a zenoh configuration (``umbra keys GRAPH --observer NAME`` writes one: mutual TLS
+  with an observer certificate) and the endpoints to connect to.
+
+``subscribe(on_sample)`` calls ``on_sample(Observed)`` on zenoh's threads for every sample and end
+of stream under the key expression (``P/**`` by default), decoded with ``connectors.codec``;
+``producers()`` maps each live process to its session (the liveliness tokens, section 2 of
+``docs/wire-format.md``). Other tools (a Foxglove bridge) use this; the ``umbra topics``,
+``echo`` and ``hz`` commands too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from connectors.codec import Codec
+from connectors.errors import UserError
+from connectors.messages import Message
+from runtime.links.config import Endpoints, build_config
+from runtime.links.identity import alive_pattern, parse_alive_key
+from runtime.links.pool import DESCRIPTOR_MAGIC, FORWARD_MAGIC
+from runtime.links.runs import RunFile, live_runs, observer_endpoint
+from runtime.links.session import open_session
+from runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
+
+#: Seconds to wait for the sessions of a run's processes when joining it.
+JOIN_TIMEOUT = 3.0
+
+
+@dataclass
+class Observed:
+    """One sample (or end of stream) seen by an observer."""
+
+    key: str
+    #: "sample", "end" (the producer ended the stream) or "undecodable"
+    kind: str
+    message: Message | None
+    #: the type the encoding names ("" when it names none)
+    type_name: str
+    size: int  #: payload bytes
+    source: str  #: zenoh id of the session that put it ("" when unstamped)
+    arrival: float  #: ``time.monotonic()`` at arrival [s]
+    error: str = ""
+
+
+@dataclass
+class Run:
+    """A graph running on this host, from its processes' run files."""
+
+    graph: str
+    prefix: str
+    run_id: str
+    processes: list[RunFile] = field(default_factory=list)
+
+    @property
+    def access(self) -> str:
+        return self.processes[0].access if self.processes else "credentials"
+
+
+def local_runs(folder: Path | None = None) -> list[Run]:
+    """The graphs this user runs on this host now, by graph and prefix."""
+    runs: dict[tuple[str, str, str], Run] = {}
+    for entry in live_runs(folder):
+        at = (entry.graph, entry.prefix, entry.run_id)
+        runs.setdefault(at, Run(*at)).processes.append(entry)
+    return list(runs.values())
+
+
+def choose_run(graph: str | None, folder: Path | None = None, run_id: str | None = None) -> Run:
+    """The local run of ``graph`` (or the only one; ``run_id`` picks one of several runs);
+    UserError saying what runs otherwise."""
+    runs = local_runs(folder)
+    if graph is not None:
+        runs = [r for r in runs if graph in (r.graph, r.prefix)]
+    if run_id is not None:
+        runs = [r for r in runs if r.run_id == run_id]
+    if len(runs) == 1:
+        return runs[0]
+    if not runs:
+        what = f"graph `{graph}`" if graph else "no graph"
+        raise UserError(
+            f"error: {what} runs on this host for this user (no live run file in "
+            f"{_runs_folder_text(folder)}); start one with `umbra run GRAPH`, or observe a "
+            f"run elsewhere with --zenoh-config OBSERVER.json5 --connect ENDPOINT"
+        )
+    names = "; ".join(f"{r.graph} (prefix {r.prefix}, {r.run_id})" for r in runs)
+    raise UserError(
+        f"error: expected one graph running on this host, found {len(runs)}: {names}; name "
+        f"one with --graph NAME (or its prefix) or --run RUN"
+    )
+
+
+def _runs_folder_text(folder: Path | None) -> str:
+    from runtime.links.runs import runs_folder
+
+    return str(runs_folder(folder))
+
+
+def _local_config(run: Run) -> zenoh.Config:
+    endpoints = sorted({observer_endpoint(e) for p in run.processes for e in p.listen})
+    if run.access == "config":
+        raise UserError(
+            f"error: graph `{run.graph}` runs with a zenoh configuration of its own (TLS "
+            f"certificates): observe it with an observer certificate, `umbra keys GRAPH --out "
+            f"DIR --observer NAME`, then --zenoh-config DIR/observer-NAME.json5 --connect "
+            f"{endpoints[0] if endpoints else 'ENDPOINT'}"
+        )
+    cfg = build_config(Endpoints(connect=endpoints))
+    observer = run.processes[0].observer
+    if run.access == "credentials" and observer:
+        usrpwd = {"user": observer["user"], "password": observer["password"]}
+        cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
+    return cfg
+
+
+class Observation:
+    """A read-only session on a graph's keys (see the module docstring)."""
+
+    def __init__(self, session: zenoh.Session, prefix: str, run: Run | None = None) -> None:
+        self.session = session
+        self.prefix = prefix
+        self.run = run
+        self._subs: list[Any] = []
+        self._local = threading.local()
+
+    @classmethod
+    def open(
+        cls,
+        graph: str | None = None,
+        *,
+        prefix: str | None = None,
+        zenoh_config: str | None = None,
+        connect: list[str] | None = None,
+        folder: Path | None = None,
+        run_id: str | None = None,
+    ) -> Observation:
+        """Join a graph: a local run of this user (``graph`` names it when several run), or,
+        with ``zenoh_config`` and ``connect``, a run elsewhere (``prefix``, else
+        ``umbra/<graph>``). UserError when there is none or it cannot be joined."""
+        if zenoh_config or connect:
+            if not (prefix or graph):
+                raise UserError("error: with --connect, name the graph (--graph) or --prefix")
+            cfg = build_config(Endpoints(connect=list(connect or [])), zenoh_config)
+            session = open_session(cfg)
+            return cls(session, prefix or f"umbra/{graph}")
+        run = choose_run(graph, folder, run_id)
+        session = open_session(_local_config(run))
+        observation = cls(session, run.prefix, run)
+        observation._wait_joined(len(run.processes))
+        return observation
+
+    def _wait_joined(self, count: int) -> None:
+        """Wait until a session is open to each of the run's ``count`` processes; UserError
+        when none opens (the credentials are refused, or the run just ended)."""
+        deadline = time.monotonic() + JOIN_TIMEOUT
+        while time.monotonic() < deadline:
+            if len(list(self.session.info.transports())) >= count:
+                return
+            time.sleep(0.02)
+        joined = len(list(self.session.info.transports()))
+        if joined == 0:
+            self.close()
+            graph = self.run.graph if self.run else self.prefix
+            raise UserError(
+                f"error: cannot join graph `{graph}`: none of its {count} processes accepted "
+                f"this observer's session within {JOIN_TIMEOUT:g} s (access refused, or the "
+                f"run is ending)"
+            )
+
+    def _codec(self) -> Codec:
+        try:
+            return self._local.codec
+        except AttributeError:
+            codec = self._local.codec = Codec()
+            return codec
+
+    def observed(self, sample: zenoh.Sample) -> Observed:
+        """``sample`` decoded (any zenoh thread)."""
+        key, now = str(sample.key_expr), time.monotonic()
+        info = sample.source_info
+        source = str(info.source_id.zid) if info is not None else ""
+        parsed = parse_encoding(str(sample.encoding))
+        type_name = parsed[2] if parsed else ""
+        if sample.kind == zenoh.SampleKind.DELETE:
+            return Observed(key, "end", None, type_name, 0, source, now)
+        data = sample.payload.to_bytes()
+        if (parsed and parsed[0] == POOL_MEDIA_TYPE) or data[:4] in (
+            DESCRIPTOR_MAGIC,
+            FORWARD_MAGIC,
+        ):
+            why = "a frame-pool descriptor (only the graph's processes read it)"
+            return Observed(key, "undecodable", None, type_name, len(data), source, now, why)
+        try:
+            msg = self._codec().decode(data)
+        except Exception as exc:
+            return Observed(key, "undecodable", None, type_name, len(data), source, now, str(exc))
+        return Observed(key, "sample", msg, type(msg).__name__, len(data), source, now)
+
+    def subscribe(self, on_sample: Callable[[Observed], None], key_expr: str | None = None) -> None:
+        """Call ``on_sample`` for every sample and end of stream under ``key_expr`` (default
+        every output of the graph, ``P/*/*``)."""
+        observed = self.observed
+        self._subs.append(
+            self.session.declare_subscriber(
+                key_expr or f"{self.prefix}/*/*", lambda s: on_sample(observed(s))
+            )
+        )
+
+    def producers(self, timeout: float = 1.0) -> dict[str, str]:
+        """Zenoh session id of each process of the graph whose liveliness token is up."""
+        found: dict[str, str] = {}
+        for reply in self.session.liveliness().get(alive_pattern(self.prefix), timeout=timeout):
+            ok = getattr(reply, "ok", None)
+            token = parse_alive_key(str(ok.key_expr)) if ok is not None else None
+            if token is not None:
+                found[token.process] = token.session
+        return found
+
+    def close(self) -> None:
+        for sub in self._subs:
+            with contextlib.suppress(Exception):  # the session may be closing already
+                sub.undeclare()
+        self._subs.clear()
+        self.session.close()
