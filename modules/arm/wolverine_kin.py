@@ -25,8 +25,9 @@ class WolverineKin(Module):
     and solved for joint rates with damped least squares at the latest joint state: damping rises
     only near a singularity, and rates over the arm's limits are scaled down together (direction
     kept). Also publishes the tool pose (``T_base_tool``), the pose of every DH link frame in the
-    base frame (``T_base_link1`` ... ``T_base_flange``: the arm's frames for a viewer or a
-    recording) and a status with the manipulability and the near-singularity / near-limit flags.
+    base frame (``T_base_link1`` ... ``T_base_flange``, in chain order: a recording or a live
+    viewer shows them as the chain base → link1 → … → flange, each link in the one before) and a
+    status with the manipulability and the near-singularity / near-limit flags.
     Without a recent joint state it sends zero rates.
     """
 
@@ -76,7 +77,8 @@ class WolverineKin(Module):
     link_poses = Output(
         Poses,
         frame=from_param("base_frame"),
-        doc="T_base_link of each DH frame 1 .. n (link1 ... flange) at the joint state used",
+        doc="T_base_link of each DH frame 1 .. n in chain order (link1 ... flange) at the joint "
+        "state used",
     )
     status = Output(Status, doc="manipulability, flags, why rates are zero (on change)")
 

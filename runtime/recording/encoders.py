@@ -9,27 +9,53 @@ type          primary channel                              view channel
 Image         ``foxglove.RawImage`` (bgr8/mono8) or        —
               ``foxglove.CompressedImage`` (jpeg, png)
 Pose          ``foxglove.FrameTransform`` (parent→child)   —
-Poses         ``foxglove.FrameTransforms`` (frame→each     —
-              child: an arm's link frames)
+Poses         ``foxglove.FrameTransforms``: a chain        —
+              (frame→child 1→child 2→…, each relative
+              to the one before: an arm's link frames)
+JointState    ``foxglove.JointStates`` (one joint per      —
+              name; the gripper's opening as a last
+              joint named ``gripper``)
 Contour       JSON ``umbra.Contour``                       ``.../annotations``:
                                                            ``foxglove.ImageAnnotations``
 CameraModel   JSON ``umbra.CameraModel``                   ``.../calibration``:
-                                                           ``foxglove.CameraCalibration``
+                                                           ``foxglove.CameraCalibration``;
+                                                           ``.../mount``: mount→camera frame
+                                                           (``foxglove.FrameTransform``)
 any other     JSON ``umbra.<Type>`` with its JSON schema   —
 ============  ===========================================  =======================================
 
+One table for both the recorder and the live Foxglove server (``modules.foxglove_live``): the same
+schemas, topics and frames in a file and on a live connection.
+
+Frames: a camera's images, its calibration and the transform tree name one frame. A
+``CameraModel`` names its ``frame`` (the camera) and ``mount`` (the frame its zoom-dependent
+extrinsics start from), and its ``.../mount`` view is that transform, so a viewer reaches the
+camera's frame from the mount's static frame; image outputs name the same frame (DigiCam's
+``camera_frame`` = CamCalib's ``camera_name``). A ``Poses`` sample holds ``T_frame_child`` of every
+child in chain order (the message's meaning); written as a chain, each child in the one before,
+so a viewer draws the arm link by link rather than a star from its base. Read back, the chain is
+composed again (a star from older recordings reads back too).
+
 Protobuf classes and schemas come from ``foxglove-schemas-protobuf`` (the schema is the class's
 FileDescriptorSet, as ``mcap-protobuf-support`` builds it); JSON schemas from
-``runtime.recording.json_codec``. No channel has an empty schema. Times in the Foxglove messages
-are the sample's ``stamp`` [s]; a Foxglove image and its annotations share it, so a viewer draws
-the snake on the frame it was found in.
+``runtime.recording.json_codec``. No channel has an empty schema.
+
+Time: every time written is wall-clock time, ``stamp + offset`` with one ``offset`` [s] (wall −
+the run's clock) taken when the recording (or live server) starts, so a viewer's time line shows
+the date and lines up with other wall-clock data; the run's own stamps stay in JSON messages'
+``stamp`` field and, for every message, as its time minus the offset (a recording's metadata
+``umbra.run`` holds ``clock_offset_ns``). A Foxglove image and its annotations share one
+timestamp, so a viewer draws the snake on the frame it was found in. An encoder that has nothing
+to write for a sample (a camera model whose mount is its own frame) returns ``b""``.
 """
 
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import cv2
@@ -40,6 +66,8 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.JointState_pb2 import JointState as FoxgloveJoint
+from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 from foxglove_schemas_protobuf.Point2_pb2 import Point2
 from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
 from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
@@ -50,10 +78,12 @@ from mcap_protobuf.schema import build_file_descriptor_set
 from scipy.spatial.transform import Rotation
 
 from connectors.image_header import check_image_size
-from connectors.messages import CameraModel, Contour, Image, Message, Pose, Poses
+from connectors.messages import CameraModel, Contour, Image, JointState, Message, Pose, Poses
 from runtime.recording.json_codec import decode_json, encode_json, json_schema
 
 IMAGE_FORMATS = ("raw", "jpeg", "png")
+#: The joint of a ``foxglove.JointStates`` message that carries ``JointState.gripper`` (0..1).
+GRIPPER_JOINT = "gripper"
 PROTOBUF = "protobuf"
 JSON = "json"
 
@@ -74,9 +104,21 @@ class ChannelEncoding:
         return bool(self.suffix)
 
 
-def _stamp(seconds: float) -> Timestamp:
+def wall_offset(now: float) -> float:
+    """Wall-clock time minus the run's clock [s], read once at ``now`` (the run's clock) when a
+    recording or live server starts: every time it writes is the run's time plus this."""
+    return time.time() - now
+
+
+def time_ns(seconds: float, offset: float = 0.0) -> int:
+    """``seconds + offset`` in whole nanoseconds, each rounded on its own (a wall-clock offset of
+    ~1.8e9 s added in floating point would cost the stamp its last ~240 ns)."""
+    return max(0, round(seconds * 1e9) + round(offset * 1e9))
+
+
+def _stamp(seconds: float, offset: float = 0.0) -> Timestamp:
     ts = Timestamp()
-    ns = max(0, round(seconds * 1e9))
+    ns = time_ns(seconds, offset)
     ts.seconds, ts.nanos = divmod(ns, 1_000_000_000)
     return ts
 
@@ -88,8 +130,12 @@ def _protobuf(cls: Any, suffix: str, encode: Callable[[Message], Any]) -> Channe
         schema_encoding=PROTOBUF,
         schema_data=build_file_descriptor_set(cls).SerializeToString(),
         message_encoding=PROTOBUF,
-        encode=lambda sample: encode(sample).SerializeToString(),
+        encode=lambda sample: _serialized(encode(sample)),
     )
+
+
+def _serialized(message: Any) -> bytes:
+    return b"" if message is None else message.SerializeToString()
 
 
 def _json(msg_type: type[Message]) -> ChannelEncoding:
@@ -104,8 +150,9 @@ def _json(msg_type: type[Message]) -> ChannelEncoding:
 
 
 # -- images ---------------------------------------------------------------------------------------
-def raw_image(sample: Image) -> RawImage:
-    """``foxglove.RawImage`` of a BGR (H x W x 3) or gray (H x W) uint8 image."""
+def raw_image(sample: Image, offset: float = 0.0) -> RawImage:
+    """``foxglove.RawImage`` of a BGR (H x W x 3) or gray (H x W) uint8 image (time: stamp +
+    ``offset`` [s])."""
     pixels = np.ascontiguousarray(sample.pixels)
     if pixels.dtype != np.uint8 or pixels.ndim not in (2, 3):
         raise ValueError(f"images are uint8 H x W [x 3], found {pixels.dtype} {pixels.shape}")
@@ -115,7 +162,7 @@ def raw_image(sample: Image) -> RawImage:
     if encoding is None:
         raise ValueError(f"images have 1 or 3 channels, found {channels}")
     return RawImage(
-        timestamp=_stamp(sample.stamp),
+        timestamp=_stamp(sample.stamp, offset),
         frame_id=sample.frame,
         width=w,
         height=h,
@@ -125,7 +172,9 @@ def raw_image(sample: Image) -> RawImage:
     )
 
 
-def compressed_image(sample: Image, fmt: str, jpeg_quality: int) -> CompressedImage:
+def compressed_image(
+    sample: Image, fmt: str, jpeg_quality: int, offset: float = 0.0
+) -> CompressedImage:
     """``foxglove.CompressedImage`` (``jpeg`` or ``png``) encoded by OpenCV."""
     if fmt == "jpeg":
         ok, buf = cv2.imencode(".jpg", sample.pixels, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
@@ -134,41 +183,84 @@ def compressed_image(sample: Image, fmt: str, jpeg_quality: int) -> CompressedIm
     if not ok:
         raise ValueError(f"OpenCV could not encode a {sample.pixels.shape} image as {fmt}")
     return CompressedImage(
-        timestamp=_stamp(sample.stamp), frame_id=sample.frame, data=buf.tobytes(), format=fmt
+        timestamp=_stamp(sample.stamp, offset),
+        frame_id=sample.frame,
+        data=buf.tobytes(),
+        format=fmt,
     )
 
 
 # -- poses ----------------------------------------------------------------------------------------
-def frame_transform(parent: str, child: str, T_parent_child: np.ndarray, stamp: float) -> Any:
-    """``foxglove.FrameTransform``: pose of ``child`` in ``parent`` (m, quaternion x y z w)."""
+def frame_transform(
+    parent: str, child: str, T_parent_child: np.ndarray, stamp: float, offset: float = 0.0
+) -> Any:
+    """``foxglove.FrameTransform``: pose of ``child`` in ``parent`` (m, quaternion x y z w) at
+    ``stamp + offset`` [s]."""
     T = np.asarray(T_parent_child, dtype=float)
     x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat()
-    ft = FrameTransform(timestamp=_stamp(stamp), parent_frame_id=parent, child_frame_id=child)
+    ft = FrameTransform(
+        timestamp=_stamp(stamp, offset), parent_frame_id=parent, child_frame_id=child
+    )
     ft.translation.x, ft.translation.y, ft.translation.z = (float(v) for v in T[:3, 3])
     ft.rotation.x, ft.rotation.y, ft.rotation.z, ft.rotation.w = float(x), float(y), float(z), w
     return ft
 
 
-def frame_transforms(static: list[tuple[str, str, np.ndarray]], stamp: float) -> FrameTransforms:
+def frame_transforms(
+    static: list[tuple[str, str, np.ndarray]], stamp: float, offset: float = 0.0
+) -> FrameTransforms:
     """``foxglove.FrameTransforms`` of frames ``(parent, child, T_parent_child)``: the graph's
     static frames, or the frames of one ``Poses`` sample."""
-    return FrameTransforms(transforms=[frame_transform(p, c, T, stamp) for p, c, T in static])
+    return FrameTransforms(
+        transforms=[frame_transform(p, c, T, stamp, offset) for p, c, T in static]
+    )
 
 
-def _pose(sample: Pose) -> Any:
-    return frame_transform(sample.parent, sample.child, sample.matrix, sample.stamp)
+def _pose(sample: Pose, offset: float = 0.0) -> Any:
+    return frame_transform(sample.parent, sample.child, sample.matrix, sample.stamp, offset)
 
 
-def _poses(sample: Poses) -> FrameTransforms:
+def poses_chain(sample: Poses) -> list[tuple[str, str, np.ndarray]]:
+    """``(parent, child, T_parent_child)`` of a ``Poses`` sample as a chain: its first child in
+    ``frame``, each next child in the one before (``T_frame_children[i]`` composed back)."""
     matrices = np.asarray(sample.matrices, dtype=float).reshape(-1, 4, 4)
     if len(matrices) != len(sample.children):
         raise ValueError(
             f"Poses holds {len(matrices)} matrices for {len(sample.children)} children"
         )
-    return frame_transforms(
-        [(sample.frame, child, T) for child, T in zip(sample.children, matrices, strict=True)],
-        sample.stamp,
-    )
+    chain = []
+    parent, T_frame_parent = sample.frame, np.eye(4)
+    for child, T_frame_child in zip(sample.children, matrices, strict=True):
+        chain.append((parent, child, np.linalg.solve(T_frame_parent, T_frame_child)))
+        parent, T_frame_parent = child, T_frame_child
+    return chain
+
+
+def _poses(sample: Poses, offset: float = 0.0) -> FrameTransforms:
+    return frame_transforms(poses_chain(sample), sample.stamp, offset)
+
+
+def joint_states(sample: JointState, offset: float = 0.0) -> JointStates:
+    """``foxglove.JointStates``: each joint's position [rad or m] and velocity (when the sample
+    has one per joint), then the gripper's opening (0 closed .. 1 open) as joint ``gripper``."""
+    position = np.asarray(sample.position, dtype=float).reshape(-1)
+    velocity = np.asarray(sample.velocity, dtype=float).reshape(-1)
+    names = tuple(sample.names)
+    if len(position) != len(names) or velocity.size not in (0, len(names)):
+        raise ValueError(
+            f"JointState holds {len(position)} positions and {velocity.size} velocities "
+            f"for {len(names)} joints"
+        )
+    if GRIPPER_JOINT in names:
+        raise ValueError(f"joint name `{GRIPPER_JOINT}` is kept for the gripper's opening")
+    out = JointStates(timestamp=_stamp(sample.stamp, offset))
+    for i, name in enumerate(names):
+        joint = FoxgloveJoint(name=name, position=float(position[i]))
+        if velocity.size:
+            joint.velocity = float(velocity[i])
+        out.joints.append(joint)
+    out.joints.append(FoxgloveJoint(name=GRIPPER_JOINT, position=float(sample.gripper)))
+    return out
 
 
 def _matrix(ft: Any) -> np.ndarray:
@@ -189,9 +281,9 @@ _WHITE = Color(r=1.0, g=1.0, b=1.0, a=1.0)
 _SHADE = Color(r=0.0, g=0.0, b=0.0, a=0.6)
 
 
-def contour_annotations(sample: Contour) -> ImageAnnotations:
+def contour_annotations(sample: Contour, offset: float = 0.0) -> ImageAnnotations:
     """The snake drawn on its image: outline (green tracking, red failed), centroid, status."""
-    stamp = _stamp(sample.stamp)
+    stamp = _stamp(sample.stamp, offset)
     color = _GREEN if sample.status == "tracking" else _RED
     out = ImageAnnotations()
     vertices = np.asarray(sample.vertices, dtype=float).reshape(-1, 2)
@@ -236,12 +328,12 @@ def contour_annotations(sample: Contour) -> ImageAnnotations:
     return out
 
 
-def camera_calibration(sample: CameraModel) -> CameraCalibration:
+def camera_calibration(sample: CameraModel, offset: float = 0.0) -> CameraCalibration:
     """``foxglove.CameraCalibration``: K, OpenCV's plumb-bob distortion, P = [K | 0]."""
     K = sample.K
     P = np.hstack([K, np.zeros((3, 1))])
     return CameraCalibration(
-        timestamp=_stamp(sample.stamp),
+        timestamp=_stamp(sample.stamp, offset),
         frame_id=sample.frame,
         width=int(sample.width),
         height=int(sample.height),
@@ -253,24 +345,54 @@ def camera_calibration(sample: CameraModel) -> CameraCalibration:
     )
 
 
+def camera_mount(sample: CameraModel, offset: float = 0.0) -> Any:
+    """``foxglove.FrameTransform`` mount → camera frame (``T_mount_camera``, zoom-dependent), or
+    None when the model names one frame for both."""
+    if not sample.mount or not sample.frame or sample.mount == sample.frame:
+        return None
+    return frame_transform(sample.mount, sample.frame, sample.T_mount_camera, sample.stamp, offset)
+
+
+def view_frames(sample: Message) -> list[tuple[str, str]]:
+    """``(parent, child)`` of every transform the encodings of ``sample`` write."""
+    if isinstance(sample, Pose):
+        return [(sample.parent, sample.child)]
+    if isinstance(sample, Poses):
+        return [(p, c) for p, c, _T in poses_chain(sample)]
+    if isinstance(sample, CameraModel) and (ft := camera_mount(sample)) is not None:
+        return [(ft.parent_frame_id, ft.child_frame_id)]
+    return []
+
+
 # -- the table ----------------------------------------------------------------------------------
 def channel_encodings(
-    msg_type: type[Message], images: str = "raw", jpeg_quality: int = 90
+    msg_type: type[Message], images: str = "raw", jpeg_quality: int = 90, offset: float = 0.0
 ) -> list[ChannelEncoding]:
-    """The channels recording ``msg_type`` (primary first); ``images``: raw, jpeg or png."""
+    """The channels of ``msg_type`` (primary first); ``images``: raw, jpeg or png; ``offset``
+    [s]: wall-clock time minus the run's clock, added to every time written."""
     if issubclass(msg_type, Image):
         if images == "raw":
-            return [_protobuf(RawImage, "", raw_image)]
-        return [_protobuf(CompressedImage, "", lambda s: compressed_image(s, images, jpeg_quality))]
+            return [_protobuf(RawImage, "", partial(raw_image, offset=offset))]
+        encode = partial(compressed_image, fmt=images, jpeg_quality=jpeg_quality, offset=offset)
+        return [_protobuf(CompressedImage, "", encode)]
     if issubclass(msg_type, Pose):
-        return [_protobuf(FrameTransform, "", _pose)]
+        return [_protobuf(FrameTransform, "", partial(_pose, offset=offset))]
     if issubclass(msg_type, Poses):
-        return [_protobuf(FrameTransforms, "", _poses)]
+        return [_protobuf(FrameTransforms, "", partial(_poses, offset=offset))]
+    if issubclass(msg_type, JointState):
+        return [_protobuf(JointStates, "", partial(joint_states, offset=offset))]
     primary = _json(msg_type)
     if issubclass(msg_type, Contour):
-        return [primary, _protobuf(ImageAnnotations, "/annotations", contour_annotations)]
+        annotations = partial(contour_annotations, offset=offset)
+        return [primary, _protobuf(ImageAnnotations, "/annotations", annotations)]
     if issubclass(msg_type, CameraModel):
-        return [primary, _protobuf(CameraCalibration, "/calibration", camera_calibration)]
+        return [
+            primary,
+            _protobuf(
+                CameraCalibration, "/calibration", partial(camera_calibration, offset=offset)
+            ),
+            _protobuf(FrameTransform, "/mount", partial(camera_mount, offset=offset)),
+        ]
     return [primary]
 
 
@@ -281,6 +403,7 @@ _SCHEMA_CARRIES: dict[str, type[Message]] = {
     "foxglove.CompressedImage": Image,
     "foxglove.FrameTransform": Pose,
     "foxglove.FrameTransforms": Poses,
+    "foxglove.JointStates": JointState,
 }
 
 
@@ -339,6 +462,8 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
             )
         if schema_name == "foxglove.FrameTransforms":
             return _decode_poses(msg_type, FrameTransforms.FromString(data), seq)
+        if schema_name == "foxglove.JointStates":
+            return _decode_joints(msg_type, JointStates.FromString(data), seq)
     except ProtobufDecodeError as exc:
         raise ValueError(f"not a {schema_name} message: {exc}") from None
     if schema_name.startswith("umbra."):
@@ -352,20 +477,54 @@ MAX_POSES = 1024
 
 
 def _decode_poses(msg_type: type[Message], fts: FrameTransforms, seq: int) -> Message:
-    """A ``Poses`` sample from ``foxglove.FrameTransforms`` that share one parent frame."""
+    """A ``Poses`` sample from ``foxglove.FrameTransforms`` of a chain (each transform's parent
+    the child before it) or, as older recordings hold, a star (every transform from one frame)."""
     transforms = fts.transforms
     if not transforms or len(transforms) > MAX_POSES:
         raise ValueError(
             f"a Poses sample holds 1 to {MAX_POSES} transforms, found {len(transforms)}"
         )
-    parents = {t.parent_frame_id for t in transforms}
-    if len(parents) != 1:
-        raise ValueError(f"FrameTransforms of one Poses sample share a parent, found {parents}")
+    frame = transforms[0].parent_frame_id
+    children = tuple(t.child_frame_id for t in transforms)
+    parents = [t.parent_frame_id for t in transforms]
+    if parents == [frame, *children[:-1]]:  # a chain: compose T_frame_child
+        matrices, T = [], np.eye(4)
+        for t in transforms:
+            T = T @ _matrix(t)
+            matrices.append(T)
+    elif set(parents) == {frame}:
+        matrices = [_matrix(t) for t in transforms]
+    else:
+        raise ValueError(
+            f"FrameTransforms of one Poses sample form a chain or share a parent, found "
+            f"parents {parents} for {list(children)}"
+        )
     return msg_type(
-        matrices=np.stack([_matrix(t) for t in transforms]),
-        children=tuple(t.child_frame_id for t in transforms),
-        frame=parents.pop(),
+        matrices=np.stack(matrices),
+        children=children,
+        frame=frame,
         stamp=_seconds(transforms[0].timestamp),
+        seq=seq,
+    )
+
+
+def _decode_joints(msg_type: type[Message], js: JointStates, seq: int) -> Message:
+    """A ``JointState`` from ``foxglove.JointStates`` written by :func:`joint_states`."""
+    joints = list(js.joints)
+    if not joints or joints[-1].name != GRIPPER_JOINT or len(joints) > MAX_POSES:
+        raise ValueError(f"JointStates end with joint `{GRIPPER_JOINT}` (at most {MAX_POSES})")
+    arm = joints[:-1]
+    with_velocity = [j.HasField("velocity") for j in arm]
+    if any(with_velocity) and not all(with_velocity):
+        raise ValueError("JointStates give a velocity for some joints but not all")
+    return msg_type(
+        names=tuple(j.name for j in arm),
+        position=np.array([j.position for j in arm], dtype=float),
+        velocity=np.array([j.velocity for j in arm], dtype=float)
+        if all(with_velocity) and arm
+        else np.zeros(0),
+        gripper=float(joints[-1].position),
+        stamp=_seconds(js.timestamp),
         seq=seq,
     )
 

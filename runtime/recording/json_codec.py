@@ -9,8 +9,7 @@ number is written as ``null`` and read back as NaN.
 The schema is derived from the message type's declared fields, so a type added later gets one too.
 It keeps to what Foxglove and Lichtblick read (their ``parseJsonSchema``: each property has one
 ``type`` — boolean, string, number, integer, object with ``properties``, or array whose ``items``
-have one of those types — or the viewer refuses the whole channel): a float is ``number`` (its
-``null`` for a non-finite value is the one thing a strict validator would refuse), a
+have one of those types — or the viewer refuses the whole channel): a float is ``number``, a
 ``dict[str, float]`` an object of numbers with no fixed properties, an array a list of numbers. A
 field of a type that cannot be said that way is left out of ``properties`` (the schema's
 description names it) rather than making the channel unreadable.
@@ -18,6 +17,7 @@ description names it) rather than making the channel unreadable.
 
 from __future__ import annotations
 
+import math
 import types
 import typing
 from typing import Any
@@ -32,6 +32,9 @@ SCHEMA_PREFIX = "umbra."
 
 _DECODER = msgspec.json.Decoder()
 _PRIMITIVE = {float: "number", int: "integer", str: "string", bool: "boolean"}
+#: How a non-finite float is spelled in ``_nonfinite`` (and read back).
+NONFINITE = {"NaN": float("nan"), "Infinity": float("inf"), "-Infinity": float("-inf")}
+NONFINITE_KEY = "_nonfinite"
 
 
 def _field_schema(tp: Any) -> dict[str, Any] | None:
@@ -85,16 +88,26 @@ def json_schema(msg_type: type[Message]) -> dict[str, Any]:
                 },
                 "required": ["dtype", "shape"],
             }
-        if f.default is msgspec.NODEFAULT and f.default_factory is msgspec.NODEFAULT:
+        may_be_absent = f.type is float or f.type is np.ndarray or schema["type"] == "object"
+        no_default = f.default is msgspec.NODEFAULT and f.default_factory is msgspec.NODEFAULT
+        if no_default and not may_be_absent:
             required.append(f.name)
     props["_arrays"] = {
         "type": "object",
         "description": "dtype and shape of each array field",
         "properties": arrays,
     }
+    props[NONFINITE_KEY] = {
+        "type": "object",
+        "description": "fields left out because they hold NaN or an infinity: each as strings "
+        '("NaN", "Infinity", "-Infinity" or the number), a whole array row-major, a map\'s value '
+        "as <field>.<key>",
+        "properties": {},
+        "additionalProperties": {"type": "array", "items": {"type": "string"}},
+    }
     doc = (msg_type.__doc__ or "").strip().splitlines()
     description = doc[0] if doc else msg_type.__name__
-    description += " Non-finite numbers are written null."
+    description += f" A field holding NaN or an infinity is given in `{NONFINITE_KEY}` instead."
     if untyped:
         description += f" Fields of other types, not listed: {', '.join(untyped)}."
     return {
@@ -103,7 +116,7 @@ def json_schema(msg_type: type[Message]) -> dict[str, Any]:
         "description": description,
         "type": "object",
         "properties": props,
-        "required": sorted((set(required) | {"stamp", "seq"}) - set(untyped)),
+        "required": sorted((set(required) | {"seq"}) - set(untyped)),
     }
 
 
@@ -129,16 +142,75 @@ def _array_fields(msg_type: type[Message]) -> tuple[str, ...]:
     return names
 
 
+def _spelled(x: float) -> str:
+    """A float as a string that reads back exactly (``NONFINITE`` spellings for the others)."""
+    if x != x:
+        return "NaN"
+    if x in (float("inf"), float("-inf")):
+        return "Infinity" if x > 0 else "-Infinity"
+    return repr(float(x))
+
+
+def _nonfinite(sample: Message) -> dict[str, list[str]]:
+    """Each field (or ``field.key`` of a map) of ``sample`` holding a non-finite float."""
+    found: dict[str, list[str]] = {}
+    for name, kind in _float_fields(type(sample)):
+        value = getattr(sample, name)
+        if kind == "float":
+            if isinstance(value, float) and not math.isfinite(value):
+                found[name] = [_spelled(value)]
+        elif kind == "array":
+            numeric = isinstance(value, np.ndarray) and value.dtype.kind in "fc"
+            if numeric and not np.isfinite(value).all():
+                found[name] = [_spelled(float(v)) for v in value.reshape(-1).real]
+        elif isinstance(value, dict):
+            for key, v in value.items():
+                if isinstance(v, float) and not math.isfinite(v):
+                    found[f"{name}.{key}"] = [_spelled(v)]
+    return found
+
+
+_FLOAT_FIELDS: dict[type, tuple[tuple[str, str], ...]] = {}
+
+
+def _float_fields(msg_type: type[Message]) -> tuple[tuple[str, str], ...]:
+    """``(name, "float" | "array" | "map")`` of the fields that may hold a non-finite float."""
+    found = _FLOAT_FIELDS.get(msg_type)
+    if found is None:
+        kinds = []
+        for f in msgspec.structs.fields(msg_type):
+            if f.type is float:
+                kinds.append((f.name, "float"))
+            elif f.type is np.ndarray:
+                kinds.append((f.name, "array"))
+            elif typing.get_origin(f.type) is dict:
+                kinds.append((f.name, "map"))
+        found = _FLOAT_FIELDS[msg_type] = tuple(kinds)
+    return found
+
+
 def encode_json(sample: Message) -> bytes:
-    """``sample`` as a JSON object (see the module docstring); msgspec writes the fields (NaN and
-    infinity as ``null``), and ``_arrays`` is appended to the object."""
-    body = _FAST.encode(sample)
+    """``sample`` as a JSON object (see the module docstring): msgspec writes the fields,
+    ``_arrays`` is appended, and a field holding a non-finite value goes to ``_nonfinite``."""
     arrays = {}
     for name in _array_fields(type(sample)):
         value = getattr(sample, name)
         if isinstance(value, np.ndarray):
             arrays[name] = {"dtype": value.dtype.str, "shape": list(value.shape)}
-    return body[:-1] + b',"_arrays":' + _FAST.encode(arrays) + b"}"
+    nonfinite = _nonfinite(sample)
+    if not nonfinite:
+        body = _FAST.encode(sample)
+        return body[:-1] + b',"_arrays":' + _FAST.encode(arrays) + b"}"
+    obj = msgspec.structs.asdict(sample)
+    for path in nonfinite:
+        name, _, key = path.partition(".")
+        if key and name in obj and not (isinstance(obj[name], float)):
+            obj[name] = {k: v for k, v in obj[name].items() if k != key}
+        else:
+            obj.pop(path, None)
+    obj["_arrays"] = arrays
+    obj[NONFINITE_KEY] = nonfinite
+    return _FAST.encode(obj)
 
 
 #: Array kinds a recording may hold: bool, integers, floats, complex (never objects).
@@ -157,6 +229,29 @@ def _array(name: str, value: Any, head: Any) -> np.ndarray:
         return out.reshape(shape)
     except (TypeError, KeyError, ValueError) as exc:
         raise ValueError(f"array `{name}`: {exc}") from None
+
+
+def _restore_nonfinite(obj: dict[str, Any], nonfinite: Any) -> None:
+    """Put the values ``_nonfinite`` holds back into ``obj``; ValueError when malformed."""
+    if not isinstance(nonfinite, dict):
+        raise ValueError(f"`{NONFINITE_KEY}` must be an object")
+    for path, spelled in nonfinite.items():
+        if not isinstance(spelled, list) or not all(isinstance(v, str) for v in spelled):
+            raise ValueError(f"`{NONFINITE_KEY}.{path}` must be a list of strings")
+        try:
+            values = [NONFINITE[v] if v in NONFINITE else float(v) for v in spelled]
+        except ValueError:
+            raise ValueError(f"`{NONFINITE_KEY}.{path}`: not numbers: {spelled[:4]}") from None
+        name, _, key = path.partition(".")
+        if key:
+            target = obj.setdefault(name, {})
+            if not isinstance(target, dict):
+                raise ValueError(f"`{NONFINITE_KEY}.{path}`: `{name}` is not a map")
+            target[key] = values[0] if len(values) == 1 else values
+        elif name in obj or path in obj:
+            raise ValueError(f"`{path}` is given both as a value and in `{NONFINITE_KEY}`")
+        else:
+            obj[name] = values
 
 
 _FIELDS: dict[type, dict[str, Any]] = {}
@@ -178,6 +273,7 @@ def decode_json(msg_type: type[Message], data: bytes) -> Message:
     if not isinstance(obj, dict):
         raise ValueError(f"expected a JSON object, found {type(obj).__name__}")
     arrays = obj.pop("_arrays", {}) or {}
+    _restore_nonfinite(obj, obj.pop(NONFINITE_KEY, {}) or {})
     fields = _fields(msg_type)
     kwargs: dict[str, Any] = {}
     for name, value in obj.items():
@@ -186,8 +282,10 @@ def decode_json(msg_type: type[Message], data: bytes) -> Message:
             raise ValueError(f"field `{name}` is not a field of {msg_type.__name__}")
         if name in arrays:
             kwargs[name] = _array(name, value, arrays[name])
-        elif value is None and f.type is float:
+        elif value is None and f.type is float:  # recordings before `_nonfinite`
             kwargs[name] = float("nan")
+        elif f.type is float and isinstance(value, list) and len(value) == 1:
+            kwargs[name] = float(value[0])
         elif typing.get_origin(f.type) is tuple:
             kwargs[name] = tuple(value)
         elif f.type is float and isinstance(value, int):

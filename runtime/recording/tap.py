@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from connectors.messages import Image, Pose
+from runtime.recording.encoders import time_ns, wall_offset
 from runtime.recording.settings import RecordSettings
 from runtime.recording.writer import (
     META_FRAME,
@@ -185,6 +186,8 @@ class RunRecorder:
             blocking=self.clock == "sim",
             jpeg_quality=settings.jpeg_quality,
             compress=not raw_images,
+            # one offset for the whole file: every time written is wall-clock time
+            clock_offset=wall_offset(scheduler.clock.now()),
             log=opts.log,
         )
         self.topics: list[str] = []
@@ -207,8 +210,10 @@ class RunRecorder:
     def start(self, now: float) -> None:
         """Metadata, the graph file, the static frames; call before the first tick."""
         for name, data in run_metadata(self.plan, self.clock, self.process).items():
-            if name == "umbra.run":
-                data["t0_ns"] = str(max(0, round(now * 1e9)))  # the first tick's time
+            if name == "umbra.run":  # the first tick's time, on the file's wall-clock line
+                offset = self.file.clock_offset
+                data["t0_ns"] = str(time_ns(now, offset))
+                data["clock_offset_ns"] = str(round(offset * 1e9))  # wall − the run's clock
             self.file.add_metadata(name, data)
         try:
             text = Path(self.plan.spec.file).read_bytes()

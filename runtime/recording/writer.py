@@ -15,8 +15,12 @@ run that is killed leaves a file whose complete chunks read back (``runtime.reco
 it loses at most the last chunk. ``close`` writes the counts and drops as metadata
 ``umbra.recording`` and finishes the file (index, summary, footer).
 
-Message times: ``log_time`` is the tick time [ns on the run's clock] at which the sample was sent,
-``publish_time`` the sample's ``stamp`` [ns], the MCAP ``sequence`` its ``seq``.
+Message times are wall-clock time: ``log_time`` is the tick time at which the sample was sent,
+``publish_time`` the sample's ``stamp`` (and the Foxglove messages' own timestamps too), each
+[ns] plus ``clock_offset`` (wall − the run's clock, read once when the recording starts: see
+``runtime.recording.encoders``); the run's clock is therefore ``publish_time - clock_offset``
+for every message, and JSON messages keep their ``stamp`` as is. The MCAP ``sequence`` is the
+sample's ``seq``.
 """
 
 from __future__ import annotations
@@ -36,8 +40,14 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from connectors.errors import UserError
-from connectors.messages import Image, Message, Pose, Poses
-from runtime.recording.encoders import ChannelEncoding, channel_encodings, frame_transforms
+from connectors.messages import CameraModel, Image, Message, Pose, Poses
+from runtime.recording.encoders import (
+    ChannelEncoding,
+    channel_encodings,
+    frame_transforms,
+    time_ns,
+    view_frames,
+)
 
 #: Channel metadata keys (strings), read by record-info and replay.
 META_TYPE = "umbra.type"
@@ -84,9 +94,11 @@ class RecordingFile:
         flush_period: float = 1.0,
         jpeg_quality: int = 90,
         compress: bool = True,
+        clock_offset: float = 0.0,
         log: logging.Logger | None = None,
     ) -> None:
         self.path = Path(path)
+        self.clock_offset = clock_offset  #: wall-clock time minus the run's clock [s]
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._file: BinaryIO = open(self.path, "wb")  # noqa: SIM115 — closed by the thread
@@ -176,7 +188,9 @@ class RecordingFile:
 
     # -- the recorder's thread ------------------------------------------------------------------
     def _register(self, info: ChannelInfo) -> None:
-        info.encodings = channel_encodings(info.msg_type, info.images, self._jpeg_quality)
+        info.encodings = channel_encodings(
+            info.msg_type, info.images, self._jpeg_quality, self.clock_offset
+        )
         for enc in info.encodings:
             key = (enc.schema_name, enc.schema_encoding)
             if key not in self._schemas:
@@ -197,8 +211,8 @@ class RecordingFile:
             )
 
     def _write(self, info: ChannelInfo, sample: Message, now: float) -> None:
-        log_ns = max(0, round(now * 1e9))
-        pub_ns = max(0, round(sample.stamp * 1e9))
+        log_ns = time_ns(now, self.clock_offset)
+        pub_ns = time_ns(sample.stamp, self.clock_offset)
         seq = sample.seq & 0xFFFFFFFF
         for enc, cid in zip(info.encodings, info.ids, strict=True):
             try:
@@ -208,15 +222,18 @@ class RecordingFile:
                 if info.failed == 1:
                     self._log.warning("recording `%s`: cannot encode a sample: %s", info.topic, exc)
                 continue
+            if not data:  # nothing to write for this sample (see encoders)
+                continue
             self._writer.add_message(
                 channel_id=cid, log_time=log_ns, publish_time=pub_ns, data=data, sequence=seq
             )
         info.written += 1
-        if isinstance(sample, Pose):
-            self._one_parent(sample.child, sample.parent, info.topic)
-        elif isinstance(sample, Poses):
-            for child in sample.children:
-                self._one_parent(child, sample.frame, info.topic)
+        if isinstance(sample, (Pose, Poses, CameraModel)):
+            try:
+                for parent, child in view_frames(sample):
+                    self._one_parent(child, parent, info.topic)
+            except ValueError:  # counted above as a sample that did not encode
+                pass
 
     def _one_parent(self, child: str, parent: str, topic: str) -> None:
         """Warn once when ``child`` is given a second parent: a viewer's transform tree keeps one
@@ -244,10 +261,10 @@ class RecordingFile:
             schema_id=self._schemas[key],
             metadata={META_ROLE: "view"},
         )
-        ns = max(0, round(now * 1e9))
+        ns = time_ns(now, self.clock_offset)
         for parent, child, _T in frames:
             self._one_parent(child, parent, TF_STATIC)
-        data = frame_transforms(frames, now).SerializeToString()
+        data = frame_transforms(frames, now, self.clock_offset).SerializeToString()
         self._writer.add_message(channel_id=cid, log_time=ns, publish_time=ns, data=data)
 
     def _handle(self, item: Any) -> None:

@@ -89,6 +89,9 @@ def _equal(a: object, b: object) -> bool:
                 return False
             if not np.array_equal(va, vb, equal_nan=va.dtype.kind == "f"):
                 return False
+        elif isinstance(va, float) and va != va:  # NaN is NaN
+            if not (isinstance(vb, float) and vb != vb):
+                return False
         elif va != vb:
             return False
     return True
@@ -99,18 +102,60 @@ def test_json_round_trip_is_exact_and_validates_against_its_schema(sample: objec
     data = encode_json(sample)  # type: ignore[arg-type]
     schema = json_schema(type(sample))  # type: ignore[arg-type]
     obj = json.loads(data)
-    if isinstance(sample, Vector):  # the one exception the schema states: non-finite is null
-        assert obj["values"] == [1.0, None, None] and "Non-finite" in schema["description"]
-        obj["values"] = [1.0, 0.0, 0.0]
     jsonschema.Draft202012Validator.check_schema(schema)
-    jsonschema.validate(obj, schema)
-    assert set(obj) == set(schema["properties"])  # every field typed, nothing left out
+    jsonschema.validate(obj, schema)  # non-finite values too: the schema says where they go
+    if isinstance(sample, Vector):  # NaN and infinities: the field moves to `_nonfinite`
+        assert "values" not in obj
+        assert obj["_nonfinite"] == {"values": ["1.0", "NaN", "Infinity"]}
+        obj["values"] = obj.pop("_nonfinite")
+    assert set(obj) | {"_nonfinite"} == set(schema["properties"])  # every field typed
     assert schema["title"] == f"umbra.{type(sample).__name__}"
     back = decode_json(type(sample), data)  # type: ignore[arg-type]
-    if isinstance(sample, Vector):  # JSON has no infinity: written null, read back NaN
-        assert np.array_equal(back.values, [1.0, np.nan, np.nan], equal_nan=True)
-    else:
-        assert _equal(sample, back)
+    assert _equal(sample, back)  # exact: NaN, +inf and -inf read back as they were
+
+
+NONFINITE = [
+    ZoomState(zoom=float("nan"), raw=0, stamp=0.5, seq=1),
+    Scalar(value=float("-inf"), stamp=0.5, seq=2),
+    Status(stage="track", values={"error_x": float("inf"), "error_z": 0.25}, stamp=0.5, seq=3),
+    Vector(values=np.array([[np.nan, 1e-300], [-np.inf, 0.1]]), stamp=0.5, seq=4),
+]
+
+
+@pytest.mark.parametrize("sample", NONFINITE, ids=lambda s: type(s).__name__)
+def test_non_finite_values_validate_against_their_schema_and_read_back_exactly(
+    sample: object,
+) -> None:
+    data = encode_json(sample)  # type: ignore[arg-type]
+    schema = json_schema(type(sample))  # type: ignore[arg-type]
+    obj = json.loads(data)  # strict JSON: no NaN or Infinity tokens
+    assert b"NaN," not in data and b"Infinity," not in data and b"null" not in data
+    jsonschema.validate(obj, schema)
+    assert obj["_nonfinite"], obj
+    assert _equal(sample, decode_json(type(sample), data))  # type: ignore[arg-type]
+    # the schema refuses what the old recordings wrote: null where a number belongs
+    old = dict(obj, **{"zoom": None} if "zoom" in obj["_nonfinite"] else {"value": None})
+    if isinstance(sample, (ZoomState, Scalar)):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(old, schema)
+    # a map's own value that is not finite leaves the others plottable
+    if isinstance(sample, Status):
+        assert obj["values"] == {"error_z": 0.25}
+        assert obj["_nonfinite"] == {"values.error_x": ["Infinity"]}
+
+
+def test_a_malformed_nonfinite_entry_is_refused() -> None:
+    good = json.loads(encode_json(NONFINITE[0]))
+    for bad, why in (
+        ({"zoom": "NaN"}, "list of strings"),
+        ({"zoom": ["many"]}, "not numbers"),
+        ([1], "must be an object"),
+    ):
+        with pytest.raises(ValueError, match=why):
+            decode_json(ZoomState, json.dumps({**good, "_nonfinite": bad}).encode())
+    both = json.dumps({**good, "zoom": 0.5}).encode()
+    with pytest.raises(ValueError, match="both"):
+        decode_json(ZoomState, both)
 
 
 def test_every_message_type_has_a_schema_that_is_not_empty() -> None:
@@ -169,29 +214,113 @@ def _link_poses() -> Poses:
     return Poses(matrices=T, children=names, frame="base", stamp=2.5, seq=4)
 
 
-def test_poses_are_one_frame_transforms_message_with_a_transform_per_child() -> None:
+def _T(t: FrameTransform) -> np.ndarray:
+    T = np.eye(4)
+    q = [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]
+    T[:3, :3] = Rotation.from_quat(q).as_matrix()
+    T[:3, 3] = [t.translation.x, t.translation.y, t.translation.z]
+    return T
+
+
+def test_poses_are_one_frame_transforms_message_chaining_each_link_to_the_one_before() -> None:
     poses = _link_poses()
-    (enc,) = channel_encodings(Poses)
+    (enc,) = channel_encodings(Poses, offset=1.7e9)
     assert enc.schema_name == "foxglove.FrameTransforms"
     fts = FrameTransforms.FromString(enc.encode(poses))
     assert [t.child_frame_id for t in fts.transforms] == list(poses.children)
+    parents = [t.parent_frame_id for t in fts.transforms]
+    assert parents == ["base", "link1", "link2", "link3", "link4", "link5"]  # a chain
+    T_base = np.eye(4)
     for t, T in zip(fts.transforms, poses.matrices, strict=True):
-        assert t.parent_frame_id == "base" and t.timestamp.ToNanoseconds() == 2_500_000_000
-        assert np.allclose([t.translation.x, t.translation.y, t.translation.z], T[:3, 3])
-        q = [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]
-        assert np.allclose(Rotation.from_quat(q).as_matrix(), T[:3, :3], atol=1e-14)
+        assert t.timestamp.ToNanoseconds() == 1_700_000_002_500_000_000  # stamp + wall offset
+        T_base = T_base @ _T(t)  # what a viewer's transform tree composes
+        assert np.allclose(T_base, T, atol=1e-12)
+    # the link from link2 to link3 is the arm's own: its length does not depend on the base
+    step = fts.transforms[2]
+    expected = np.linalg.inv(poses.matrices[1]) @ poses.matrices[2]
+    assert np.allclose(_T(step), expected, atol=1e-12)
     back = decode_primary(Poses, enc.schema_name, enc.encode(poses), 4)
-    assert back.children == poses.children and back.frame == "base" and back.stamp == 2.5
-    assert np.allclose(back.matrices, poses.matrices, atol=1e-14)
+    assert back.children == poses.children and back.frame == "base"
+    assert back.stamp == pytest.approx(1.7e9 + 2.5, abs=1e-6)
+    assert np.allclose(back.matrices, poses.matrices, atol=1e-12)
+
+
+def test_a_star_of_frame_transforms_from_older_recordings_still_reads_back() -> None:
+    poses = _link_poses()
+    star = FrameTransforms(
+        transforms=[
+            FrameTransform(parent_frame_id="base", child_frame_id=c) for c in poses.children
+        ]
+    )
+    for ft, T in zip(star.transforms, poses.matrices, strict=True):
+        x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat()
+        ft.rotation.x, ft.rotation.y, ft.rotation.z, ft.rotation.w = x, y, z, w
+        ft.translation.x, ft.translation.y, ft.translation.z = T[:3, 3]
+    back = decode_primary(Poses, "foxglove.FrameTransforms", star.SerializeToString(), 1)
+    assert np.allclose(back.matrices, poses.matrices, atol=1e-12)
+
+
+def test_joint_state_is_foxglove_joint_states_with_the_gripper_as_a_last_joint() -> None:
+    from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+
+    state = JointState(
+        names=("j1", "j2", "j3"),
+        position=np.array([0.1, -0.2, 1.5]),
+        velocity=np.array([0.0, 0.25, -1.0]),
+        gripper=0.75,
+        stamp=3.0,
+        seq=8,
+    )
+    (enc,) = channel_encodings(JointState, offset=10.0)
+    assert enc.schema_name == "foxglove.JointStates"
+    js = JointStates.FromString(enc.encode(state))
+    assert js.timestamp.ToNanoseconds() == 13_000_000_000
+    assert [j.name for j in js.joints] == ["j1", "j2", "j3", "gripper"]
+    assert [j.position for j in js.joints] == [0.1, -0.2, 1.5, 0.75]
+    assert [j.velocity for j in js.joints[:3]] == [0.0, 0.25, -1.0]
+    assert not js.joints[3].HasField("velocity") and not js.joints[0].HasField("effort")
+    back = decode_primary(JointState, enc.schema_name, enc.encode(state), 8)
+    assert back.names == state.names and back.gripper == 0.75 and back.seq == 8
+    assert np.array_equal(back.position, state.position)
+    assert np.array_equal(back.velocity, state.velocity)
+    no_rates = JointState(names=("j1",), position=np.array([0.5]))
+    back = decode_primary(JointState, enc.schema_name, enc.encode(no_rates), 0)
+    assert back.velocity.size == 0 and back.position.tolist() == [0.5]
+    with pytest.raises(ValueError, match="kept for the gripper"):
+        enc.encode(JointState(names=("gripper",), position=np.array([0.0])))
+
+
+def test_a_camera_model_names_its_frame_and_the_transform_from_its_mount() -> None:
+    T = np.eye(4)
+    T[:3, 3] = [0.0026, -0.0412, -0.0056]
+    model = CameraModel(
+        fx=800.0,
+        fy=800.0,
+        u0=320.0,
+        v0=240.0,
+        mount="cam_left",
+        frame="left_camera",
+        T_mount_camera=T,
+        stamp=1.0,
+    )
+    encs = channel_encodings(CameraModel)
+    assert [e.suffix for e in encs] == ["", "/calibration", "/mount"]
+    calib = CameraCalibration.FromString(encs[1].encode(model))
+    mount = FrameTransform.FromString(encs[2].encode(model))
+    assert calib.frame_id == "left_camera" == mount.child_frame_id
+    assert mount.parent_frame_id == "cam_left"
+    assert np.allclose(_T(mount), T, atol=1e-15)
+    same = CameraModel(fx=800.0, fy=800.0, u0=320.0, v0=240.0, mount="camera", frame="camera")
+    assert encs[2].encode(same) == b""  # nothing to write: a frame is not its own parent
 
 
 def test_frame_transforms_that_are_not_one_poses_sample_are_refused() -> None:
     (enc,) = channel_encodings(Poses)
     fts = FrameTransforms.FromString(enc.encode(_link_poses()))
     fts.transforms[2].parent_frame_id = "table"
-    with pytest.raises(ValueError, match="share a parent"):
+    with pytest.raises(ValueError, match="form a chain or share a parent"):
         decode_primary(Poses, enc.schema_name, fts.SerializeToString(), 0)
-    fts.transforms[2].parent_frame_id = "base"
+    fts.transforms[2].parent_frame_id = "link2"
     fts.transforms[3].translation.z = float("nan")
     with pytest.raises(ValueError, match="not finite"):
         decode_primary(Poses, enc.schema_name, fts.SerializeToString(), 0)
@@ -236,7 +365,7 @@ def test_contour_view_draws_the_outline_as_a_closed_line_on_the_image() -> None:
 
 def test_camera_model_view_is_a_camera_calibration() -> None:
     cam = SAMPLES[8]
-    _primary, view = channel_encodings(CameraModel)
+    _primary, view, _mount = channel_encodings(CameraModel)
     cal = CameraCalibration.FromString(view.encode(cam))  # type: ignore[arg-type]
     assert (cal.width, cal.height, cal.distortion_model) == (640, 480, "plumb_bob")
     assert list(cal.K) == [800.0, 0.0, 640.0, 0.0, 801.0, 360.0, 0.0, 0.0, 1.0]

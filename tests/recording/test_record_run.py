@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from itertools import accumulate
 from pathlib import Path
 
 import jsonschema
@@ -22,6 +23,13 @@ def _decoded(path: Path, topic: str) -> list[tuple[int, object]]:
         return [
             (msg.log_time, proto) for _s, _c, msg, proto in reader.iter_decoded_messages([topic])
         ]
+
+
+def _offset_ns(path: Path) -> int:
+    """Wall-clock time minus the run's clock [ns] that the recording added to every time."""
+    with open(path, "rb") as f:
+        meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    return int(meta["umbra.run"]["clock_offset_ns"])
 
 
 def _json(path: Path, topic: str) -> tuple[dict, list[tuple[int, dict]]]:
@@ -58,13 +66,35 @@ def test_every_channel_has_a_schema_and_the_file_says_what_made_it(pickup_run: R
 def test_images_are_the_frames_the_camera_sent(pickup_run: Run) -> None:
     sent = pickup_run.sent["camera.image"]
     images = _decoded(pickup_run.recording, "/camera/image")
+    off = _offset_ns(pickup_run.recording)
     assert len(images) == len(sent) == 45
     for (log_ns, raw), (now, sample) in zip(images, sent, strict=True):
-        assert log_ns == round(now * 1e9)
+        assert log_ns == round(now * 1e9) + off
         assert (raw.width, raw.height, raw.encoding) == (640, 480, "bgr8")
         assert raw.frame_id == "camera"
         assert raw.data == sample.pixels.tobytes()
-        assert raw.timestamp.ToNanoseconds() == round(sample.stamp * 1e9)
+        assert raw.timestamp.ToNanoseconds() == round(sample.stamp * 1e9) + off
+
+
+def test_times_are_wall_clock_with_the_run_clock_kept(pickup_run: Run) -> None:
+    """A viewer's time line shows the day of the run: every log time, publish time and
+    timestamp is the run's clock plus one offset read when the recording started; the run's
+    own stamps stay in JSON messages and in the offset."""
+    import time
+
+    off = _offset_ns(pickup_run.recording)
+    run_started = pickup_run.recording.stat().st_mtime  # the file is younger than a minute
+    assert abs(off / 1e9 - time.time()) < 600 and off / 1e9 < run_started + 1  # sim t=0 -> today
+    with open(pickup_run.recording, "rb") as f:
+        reader = make_reader(f)
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}
+        times = [(m.log_time, m.publish_time) for _s, _c, m in reader.iter_messages()]
+    assert int(meta["umbra.run"]["t0_ns"]) == off  # the first tick (sim 0) on the wall line
+    assert min(t for pair in times for t in pair) >= off
+    assert max(t for pair in times for t in pair) <= off + 2_000_000_000  # a 1.5 s run
+    _schema, twists = _json(pickup_run.recording, "/servo/twist")
+    sent = pickup_run.sent["servo.twist"]
+    assert [m["stamp"] for _t, m in twists] == [s.stamp for _n, s in sent]  # the run's clock
 
 
 def test_snake_annotations_are_the_contours_drawn_on_their_own_frames(pickup_run: Run) -> None:
@@ -120,8 +150,8 @@ def _T(ft: object) -> np.ndarray:
 def test_the_arm_link_frames_are_frame_transforms_at_the_measured_joints(
     pickup_run: Run,
 ) -> None:
-    """What Foxglove's 3-D panel draws as the arm: each DH frame in the base frame, equal to the
-    Puma 560's forward kinematics at the joint state the kinematics used."""
+    """What Foxglove's 3-D panel draws as the arm: a chain of DH frames, each in the one before,
+    composing to the Puma 560's forward kinematics at the joint state the kinematics used."""
     from modules.arm.dh import puma560
 
     arm = puma560()
@@ -133,12 +163,14 @@ def test_the_arm_link_frames_are_frame_transforms_at_the_measured_joints(
     assert len(tools) == len(recorded)
     moved = 0.0
     first_flange = None
+    off = _offset_ns(pickup_run.recording)
     for (log_ns, fts), (now, poses), (_t, tool) in zip(recorded, sent, tools, strict=True):
-        assert log_ns == round(now * 1e9)
+        assert log_ns == round(now * 1e9) + off
         names = [t.child_frame_id for t in fts.transforms]
         assert names == ["link1", "link2", "link3", "link4", "link5", "flange"]
-        assert {t.parent_frame_id for t in fts.transforms} == {"base"}
-        T_base = np.stack([_T(t) for t in fts.transforms])
+        parents = [t.parent_frame_id for t in fts.transforms]
+        assert parents == ["base", "link1", "link2", "link3", "link4", "link5"]  # a chain
+        T_base = np.stack(list(accumulate((_T(t) for t in fts.transforms), np.matmul)))
         assert np.allclose(T_base, poses.matrices, atol=1e-12)
         # the joint state the kinematics solved at: fed back, one of the two latest by this tick
         latest = [s.position for t, s in states if t <= now][-2:]
@@ -166,9 +198,10 @@ def test_joint_rates_are_json_valid_against_their_schema_and_exact(pickup_run: R
     assert len(messages) == len(sent) > 100
     moving = 0
     validator = jsonschema.Draft202012Validator(schema)
+    off = _offset_ns(pickup_run.recording)
     for (log_ns, obj), (now, sample) in zip(messages, sent, strict=True):
         validator.validate(obj)
-        assert log_ns == round(now * 1e9) and obj["seq"] == sample.seq
+        assert log_ns == round(now * 1e9) + off and obj["seq"] == sample.seq
         assert obj["rates"] == sample.rates.tolist() and tuple(obj["names"]) == sample.names
         moving += bool(np.any(sample.rates != 0))
     assert moving > 20  # the arm was moving: the numbers are not all zeros
@@ -256,10 +289,23 @@ def test_every_json_channel_is_one_the_viewers_read_and_the_errors_plot(pickup_r
         if schema.encoding == "jsonschema":
             viewer_datatypes(json.loads(schema.data), schema.name)  # raises where a viewer would
             json_topics.append(channel.topic)
-    assert {"/servo/status", "/servo/twist", "/joints/joint_state"} <= set(json_topics)
+    assert {"/servo/status", "/servo/twist"} <= set(json_topics)
+    assert "/joints/joint_state" not in json_topics  # foxglove.JointStates
     sent = pickup_run.sent.get("servo.twist")
     _schema, twists = _json(pickup_run.recording, "/servo/twist")
     assert [m["vector"][2] for _t, m in twists] == [s.vector[2] for _now, s in sent]
     _schema, statuses = _json(pickup_run.recording, "/servo/status")
     z = [m["values"]["error_z"] for _t, m in statuses if "error_z" in m["values"]]
     assert len(z) > 20 and z[-1] < z[0] - 0.05  # /servo/status.values.error_z: the approach
+
+
+def test_joint_states_are_foxglove_joint_states_of_the_measured_joints(pickup_run: Run) -> None:
+    sent = pickup_run.sent["joints.joint_state"]
+    recorded = _decoded(pickup_run.recording, "/joints/joint_state")
+    assert len(recorded) == len(sent) > 100
+    off = _offset_ns(pickup_run.recording)
+    for (_log, js), (_now, state) in zip(recorded, sent, strict=True):
+        assert type(js).__name__ == "JointStates"  # decoded by its own schema
+        assert [j.name for j in js.joints] == [*state.names, "gripper"]
+        assert [j.position for j in js.joints] == [*state.position.tolist(), state.gripper]
+        assert js.timestamp.ToNanoseconds() == round(state.stamp * 1e9) + off

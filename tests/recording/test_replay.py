@@ -251,14 +251,39 @@ def test_the_replay_command_runs_and_records_the_replay(
     assert counts == [float(n) for n in range(10)] and gained == [5.0 * c for c in counts]
 
 
+def _unshifted(proto: Any, off: int) -> None:
+    """Take ``off`` [ns] from every ``google.protobuf.Timestamp`` inside ``proto`` (in place)."""
+    for field, value in proto.ListFields():
+        if field.message_type is None:
+            continue
+        items = value if hasattr(value, "add") else [value]  # repeated, or one message
+        for item in items:
+            if field.message_type.full_name == "google.protobuf.Timestamp":
+                item.FromNanoseconds(item.ToNanoseconds() - off)
+            else:
+                _unshifted(item, off)
+
+
 def _messages(path: Path) -> dict[str, list[tuple[int, int, int, bytes]]]:
+    """Each topic's messages, times on the run's clock: the file's wall-clock offset taken from
+    log and publish times and from the Foxglove messages' own timestamps."""
     from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
 
     found: dict[str, list[tuple[int, int, int, bytes]]] = {}
     with open(path, "rb") as f:
-        for _s, channel, msg in make_reader(f).iter_messages(log_time_order=False):
+        reader = make_reader(f)
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}
+        off = int(meta["umbra.run"]["clock_offset_ns"])
+        factory = DecoderFactory()
+        for schema, channel, msg in reader.iter_messages(log_time_order=False):
+            data = msg.data
+            if schema is not None and schema.encoding == "protobuf":
+                proto = factory.decoder_for("protobuf", schema)(data)
+                _unshifted(proto, off)
+                data = proto.SerializeToString()
             found.setdefault(channel.topic, []).append(
-                (msg.log_time, msg.publish_time, msg.sequence, msg.data)
+                (msg.log_time - off, msg.publish_time - off, msg.sequence, data)
             )
     return found
 
@@ -268,7 +293,8 @@ def test_the_replay_command_recorded_again_gives_the_same_file_message_for_messa
 ) -> None:
     """`umbra replay` of the camera, recorded with the same settings: every channel of the
     replay's recording (commands, joint states, poses, contours, annotations) holds the same
-    messages, byte for byte, at the same times, as the recorded run's: no sample more or less."""
+    messages, byte for byte, at the same times on the run's clock (each file has its own
+    wall-clock offset), as the recorded run's: no sample more or less."""
     out = tmp_path / "again"
     args = ["--record", "--record-images", "raw", "--out", str(out), "--quiet"]
     code, err = _cli(capsys, "replay", str(pickup_run.recording), str(GRAPH), *args)

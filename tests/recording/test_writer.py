@@ -51,11 +51,11 @@ def test_a_frame_given_a_second_parent_is_said_once(tmp_path: Path, caplog) -> N
     from connectors.messages import Pose, Poses
 
     rec = RecordingFile(tmp_path / "tree.mcap", blocking=True)
-    rec.write_static_frames([("base", "table", np.eye(4)), ("base", "link3", np.eye(4))], 0.0)
+    rec.write_static_frames([("base", "table", np.eye(4)), ("link2", "link3", np.eye(4))], 0.0)
     links = Poses(matrices=np.stack([np.eye(4)] * 2), children=("link2", "link3"), frame="base")
     with caplog.at_level(logging.WARNING, logger="umbra.record"):
         for i in range(3):
-            rec.offer("/kin/links", links, 0.01 * i)  # same parent as the static frame: fine
+            rec.offer("/kin/links", links, 0.01 * i)  # a chain: link3 in link2, as static: fine
             rec.offer("/world/table", Pose(matrix=np.eye(4), parent="room", child="table"), 0.01)
         rec.offer("/kin/other", Poses(matrices=np.eye(4)[None], children=("link2",), frame="x"), 1)
         rec.close()
