@@ -16,6 +16,8 @@ MAX_TOOL_SPEED_M_S = 1.0
 MAX_TOOL_ANGULAR_RAD_S = math.pi
 #: Longest time a watchdog may trust a command or a joint state [s].
 MAX_COMMAND_AGE_S = 1.0
+#: Oldest sensor data a guard may let a command be made from [s] (``max_origin_age``).
+MAX_ORIGIN_AGE_S = 2.0
 #: Highest module rate the scheduler runs [Hz].
 MAX_RATE_HZ = 10_000.0
 #: Lowest module rate [Hz]: one tick every 1000 s; a graph that ticks less is a mistake.

@@ -1,7 +1,10 @@
 """Message types: small immutable records with numpy payloads.
 
 Every sample carries ``stamp`` (seconds on the run's clock: the time the data describes, e.g. the
-instant a frame was exposed) and ``seq`` (per-output sequence number, filled in by the output port).
+instant a frame was exposed), ``seq`` (per-output sequence number, filled in by the output port)
+and ``origin`` (seconds, same clock: the capture time of the oldest sensor data the sample was
+derived from; the output port fills it in, see ``connectors.ports``). A command computed now from
+a 30-second-old image has a fresh ``stamp`` and an ``origin`` 30 s old: guards judge the origin.
 Units are SI: metres, radians, seconds. Arrays are numpy arrays; treat them as read-only.
 
 Frame-bearing types say so with ``FRAME_KIND``: a ``Twist`` is expressed in one frame (``frame``);
@@ -20,10 +23,13 @@ _EMPTY = np.zeros(0)
 
 
 class Message(msgspec.Struct, frozen=True, kw_only=True):
-    """Base of every message: sample time ``stamp`` [s] and sequence number ``seq``."""
+    """Base of every message: sample time ``stamp`` [s], sequence number ``seq`` and ``origin``
+    [s], the capture time of the oldest sensor data behind the sample (0: not set yet, filled in
+    when sent; ``-inf``: cannot be dated, which every guard treats as old)."""
 
     stamp: float = 0.0
     seq: int = 0
+    origin: float = 0.0
 
     #: "frame" (one frame in ``frame``), "pose" (``parent`` -> ``child``) or "" (no frame).
     FRAME_KIND: ClassVar[str] = ""

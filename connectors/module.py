@@ -33,7 +33,7 @@ import numpy as np
 
 from connectors.frames import FrameTree
 from connectors.params import Parameters
-from connectors.ports import Input, Output, OutputPort, Register
+from connectors.ports import Input, OriginTrack, Output, OutputPort, Register
 
 
 @dataclass
@@ -74,6 +74,8 @@ class Module:
         self.log = self.context.log.getChild(name)
         self._registers: dict[str, Register[Any]] = {}
         self._outputs: dict[str, OutputPort] = {}
+        #: the oldest origin read in the current step (reset by the runtime before each step)
+        self.origin_track = OriginTrack()
 
     # -- declarations -------------------------------------------------------------------------
     @classmethod
@@ -124,12 +126,20 @@ class Module:
     def bind_ports(self, clock: Callable[[], float]) -> None:
         """Create this instance's input registers and output ports."""
         cls = type(self)
+        track = self.origin_track
         for name, decl in self.input_decls(self.params).items():
-            self._registers[name] = Register(name, decl.max_age)
+            self._registers[name] = Register(name, decl.max_age, track)
             if isinstance(getattr(cls, name, None), Input):
                 self.__dict__[name] = self._registers[name]  # plain lookup, no descriptor call
         for name, decl in self.output_decls().items():
-            self._outputs[name] = OutputPort(name, decl.msg_type, clock)
+            dated_by = (
+                None
+                if decl.origin_from is None
+                else [self._registers[i] for i in decl.origin_from if i in self._registers]
+            )
+            self._outputs[name] = OutputPort(
+                name, decl.msg_type, clock, track, events=decl.events, dated_by=dated_by
+            )
             if isinstance(getattr(cls, name, None), Output):
                 self.__dict__[name] = self._outputs[name]
 

@@ -8,10 +8,26 @@ A module declares its ports as class attributes::
 
 Frames and joint names may be literal (``frame="camera"``) or taken from a parameter of the module
 instance (``frame=from_param("camera_frame")``), so one module type serves several frames.
+
+Freshness: every sample carries ``origin``, the capture time of the oldest sensor data behind it.
+The runtime sets it: a sample sent during ``step`` takes the oldest origin of the inputs the
+module read in that step (``get`` or ``value``; an event input counts only when it brought a new
+event), or its own stamp when it read none. An output may narrow that: ``origin_from=("image",)``
+takes the origin of the latest sample on those inputs only (vsSnake's contour: the image it
+converged on; a jog: the image the operator's page shows), and ``measured=True`` marks a sensor
+(joint encoders, a camera, the simulated plant) whose samples start a new origin at their stamp,
+which is what makes origins advance around a control loop. A module may also set ``origin`` on
+the sample it sends. ``umbra check`` follows the same declarations to bound origin ages.
+
+Streams are of two kinds, declared on the output: state (the default: images, contours, poses,
+joint states, statuses, twists) is latest-only end to end — a slow consumer gets the newest
+sample and the superseded ones are counted, never queued; ``events=True`` (operator actions,
+gripper commands, paths) is ordered and lossless.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
@@ -37,6 +53,19 @@ def from_param(name: str) -> ParamRef:
 
 FrameSpec = str | ParamRef | None
 JointsSpec = tuple[str, ...] | ParamRef | None
+
+
+class OriginTrack:
+    """The oldest origin [s] among the inputs a module read in the current step (``inf``: none)."""
+
+    __slots__ = ("oldest",)
+
+    def __init__(self) -> None:
+        self.oldest = float("inf")
+
+    def reset(self) -> None:
+        """Start a step: nothing read yet."""
+        self.oldest = float("inf")
 
 
 class _PortDecl:
@@ -84,6 +113,10 @@ class Input(_PortDecl):
     are counted as violations. ``feedback``: carries measured plant state (joint angles, camera
     pose), not a command; guard checks do not follow it. ``requires_guard``: every command path
     feeding this input must pass through a safety-guard module (a watchdog register).
+    ``max_origin_age`` [s] (a number or ``from_param``): the oldest origin the module accepts on
+    this input (it refuses older commands itself, in its own words); ``umbra check`` computes the
+    worst origin age the graph's rates allow on every path into it and refuses a graph that
+    cannot meet the bound.
     """
 
     kind = "input"
@@ -99,6 +132,7 @@ class Input(_PortDecl):
         max_age: float | None = None,
         feedback: bool = False,
         requires_guard: bool = False,
+        max_origin_age: float | ParamRef | None = None,
         doc: str = "",
     ) -> None:
         super().__init__(msg_type, frame, joints, doc)
@@ -107,6 +141,14 @@ class Input(_PortDecl):
         self.max_age = max_age
         self.feedback = feedback
         self.requires_guard = requires_guard
+        self.max_origin_age = max_origin_age
+
+    def resolve_max_origin_age(self, params: Any) -> float | None:
+        """The origin bound [s] for a module built with ``params`` (None: not declared)."""
+        if isinstance(self.max_origin_age, ParamRef):
+            value = getattr(params, self.max_origin_age.name)
+            return None if value is None else float(value)
+        return self.max_origin_age
 
     def __get__(self, instance: Any, owner: type | None = None) -> Any:
         if instance is None:
@@ -115,7 +157,14 @@ class Input(_PortDecl):
 
 
 class Output(_PortDecl):
-    """An output port declaration; at run time ``self.<name>.send(msg)`` publishes a sample."""
+    """An output port declaration; at run time ``self.<name>.send(msg)`` publishes a sample.
+
+    ``events``: an ordered, lossless stream (operator actions, gripper commands, paths): every
+    sample reaches every consumer, in order. Otherwise a state stream, latest-only.
+    ``measured``: a sensor's output (a measurement of the plant at its stamp): its origin is its
+    stamp, whatever the module read to make it. ``origin_from``: the inputs whose latest samples
+    date this output (the oldest of them; ``-inf``, undatable, while none has a sample).
+    """
 
     kind = "output"
 
@@ -125,9 +174,18 @@ class Output(_PortDecl):
         *,
         frame: FrameSpec = None,
         joints: JointsSpec = None,
+        events: bool = False,
+        measured: bool = False,
+        origin_from: tuple[str, ...] | None = None,
         doc: str = "",
     ) -> None:
         super().__init__(msg_type, frame, joints, doc)
+        if measured and origin_from:
+            raise TypeError("a measured output starts its own origin: no `origin_from`")
+        self.events = events
+        self.measured = measured
+        #: None: the inputs read in the step; (): none (measured); else these inputs' latest
+        self.origin_from: tuple[str, ...] | None = () if measured else origin_from
 
     def __get__(self, instance: Any, owner: type | None = None) -> Any:
         if instance is None:
@@ -139,24 +197,62 @@ class Register(Generic[M]):
     """The latest sample on an input, its arrival time, and whether it is new since the last step.
 
     Reading never blocks. ``get(now)`` returns the sample, or None when there is none yet or it is
-    older than the input's ``max_age`` (then a violation is counted).
+    older than the input's ``max_age`` (then a violation is counted). Reading (``get`` or
+    ``value``) enters the sample's origin into the module's :class:`OriginTrack`; on an event
+    input only a new event (``fresh``) does.
     """
 
-    __slots__ = ("_max_age", "fresh", "link_alive", "name", "received_at", "value", "violations")
+    __slots__ = (
+        "_max_age",
+        "_track",
+        "_value",
+        "events",
+        "fresh",
+        "link_alive",
+        "name",
+        "received_at",
+        "superseded",
+        "violations",
+    )
 
-    def __init__(self, name: str, max_age: float | None = None) -> None:
+    def __init__(
+        self, name: str, max_age: float | None = None, track: OriginTrack | None = None
+    ) -> None:
         self.name = name
-        self.value: M | None = None
+        self._value: M | None = None
         self.received_at = float("-inf")
         self.fresh = False
         self.violations = 0
+        #: samples of a state stream replaced by a newer one before any step read them
+        self.superseded = 0
+        #: True when fed by an events output (ordered, lossless)
+        self.events = False
         #: False when the producer is in another process that is known to be gone.
         self.link_alive = True
         self._max_age = max_age
+        self._track = track
+
+    @property
+    def value(self) -> M | None:
+        """The latest sample (None when none arrived); reading it counts as reading the input."""
+        sample = self._value
+        if sample is not None:
+            track = self._track
+            if (
+                track is not None
+                and sample.origin < track.oldest
+                and (self.fresh or not self.events)
+            ):
+                track.oldest = sample.origin
+        return sample
+
+    @value.setter
+    def value(self, sample: M | None) -> None:
+        self._value = sample
 
     def write(self, sample: M, now: float) -> None:
         """Store ``sample`` as the latest value, received at ``now`` [s]."""
-        self.value = sample
+        self._value = sample
         self.received_at = now
         self.fresh = True
 
@@ -164,9 +260,15 @@ class Register(Generic[M]):
         """Seconds since the latest sample arrived (infinite when none has)."""
         return now - self.received_at
 
+    def origin_age(self, now: float) -> float:
+        """Seconds since the capture of the oldest sensor data behind the latest sample (infinite
+        when there is none, or it cannot be dated)."""
+        sample = self._value
+        return float("inf") if sample is None else now - sample.origin
+
     def get(self, now: float) -> M | None:
         """The latest sample, or None when none arrived or it is older than ``max_age``."""
-        if self.value is None:
+        if self._value is None:
             return None
         if self._max_age is not None and now - self.received_at > self._max_age:
             self.violations += 1
@@ -176,28 +278,69 @@ class Register(Generic[M]):
     @property
     def seq(self) -> int:
         """Sequence number of the latest sample (-1 when none)."""
-        return -1 if self.value is None else self.value.seq
+        return -1 if self._value is None else self._value.seq
 
 
 Sink = Callable[[Message, float], None]
 
 
 class OutputPort:
-    """A bound output: stamps each sample with a sequence number (and time, when unset) and hands
-    it to every connected sink (input registers, delayed writers, link publishers)."""
+    """A bound output: stamps each sample with a sequence number, a time (when unset) and an
+    origin (when unset: see the module docstring), and hands it to every connected sink (input
+    registers, delayed writers, link publishers)."""
 
-    __slots__ = ("_clock", "_seq", "last", "msg_type", "name", "sinks")
+    __slots__ = (
+        "_clock",
+        "_dated_by",
+        "_seq",
+        "_track",
+        "events",
+        "last",
+        "msg_type",
+        "name",
+        "sinks",
+    )
 
-    def __init__(self, name: str, msg_type: type[Message], clock: Callable[[], float]) -> None:
+    def __init__(
+        self,
+        name: str,
+        msg_type: type[Message],
+        clock: Callable[[], float],
+        track: OriginTrack | None = None,
+        *,
+        events: bool = False,
+        dated_by: list[Register[Any]] | None = None,
+    ) -> None:
+        """``dated_by``: the registers whose latest samples date this output (``[]``: a
+        measurement, dated by its own stamp; None: the inputs read in the step, ``track``)."""
         self.name = name
         self.msg_type = msg_type
         self.sinks: list[Sink] = []
         self.last: Message | None = None
+        self.events = events
         self._seq = 0
         self._clock = clock
+        self._track = track
+        self._dated_by = dated_by
+
+    def _origin(self, stamp: float) -> float:
+        """The origin of a sample stamped ``stamp`` whose module set none (module docstring)."""
+        dated_by = self._dated_by
+        if dated_by is None:
+            track = self._track
+            return track.oldest if track is not None and track.oldest < stamp else stamp
+        if not dated_by:
+            return stamp
+        oldest = math.inf
+        for reg in dated_by:
+            sample = reg._value
+            if sample is not None and sample.origin < oldest:
+                oldest = sample.origin
+        return -math.inf if oldest == math.inf else min(oldest, stamp)
 
     def send(self, msg: Message) -> Message:
-        """Publish ``msg``; returns the stamped sample (``msg.stamp`` kept when non-zero)."""
+        """Publish ``msg``; returns the stamped sample (``msg.stamp`` and ``msg.origin`` kept when
+        non-zero)."""
         if type(msg) is not self.msg_type and not isinstance(msg, self.msg_type):
             raise TypeError(
                 f"output `{self.name}` carries {self.msg_type.__name__}, "
@@ -206,7 +349,8 @@ class OutputPort:
         now = self._clock()
         self._seq += 1
         stamp = msg.stamp if msg.stamp else now
-        sample = msgspec.structs.replace(msg, seq=self._seq, stamp=stamp)
+        origin = msg.origin or self._origin(stamp)
+        sample = msgspec.structs.replace(msg, seq=self._seq, stamp=stamp, origin=origin)
         self.last = sample
         for sink in self.sinks:
             sink(sample, now)

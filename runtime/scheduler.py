@@ -4,9 +4,15 @@ Every tick, in the graph's data order, a module runs when its rate makes it due 
 trigger inputs received a new sample earlier in the same tick — so a sample crosses a chain in one
 tick. Delayed connections (``~>``) are written after the tick, so their consumers read the previous
 tick's value. Link samples from other processes are written into registers at the start of a tick:
-on a reliable link one sample per register per tick, in order (the rest wait for the next tick,
-which follows at once), so a consumer sees every command as it would in one process; on a
-best-effort link (video) the latest sample wins.
+on an events link (declared ``events`` on its output: operator actions, gripper, paths) one sample
+per register per tick, in order (the rest wait for the next tick, which follows at once), so a
+consumer sees every event as it would in one process; on a state link (everything else: images,
+contours, poses, joint states, statuses, twists) the newest sample wins and the ones it replaced
+are counted (``superseded``), so a starved consumer catches up at once instead of working through
+a backlog of the past.
+
+Before each step the module's :class:`~connectors.ports.OriginTrack` is reset, so what it sends
+takes the oldest origin among the inputs it reads in that step.
 
 Reacting to a link sample (``dispatch: inline``, the default on the real clock): when a sample
 arrives while the loop is idle, waiting for its next due time, the tick runs at once on the thread
@@ -41,7 +47,7 @@ import numpy as np
 from connectors.errors import ModuleFailed, UserError
 from connectors.messages import Message
 from connectors.module import Module, ModuleContext
-from connectors.ports import Register
+from connectors.ports import OriginTrack, Register
 from runtime.clock import make_clock
 from runtime.gc_pause import HeapFreeze
 from runtime.graph.plan import GraphPlan
@@ -70,6 +76,7 @@ class _Slot:
     k: int
     trigger_regs: list[Register[Any]]
     all_regs: list[Register[Any]]
+    track: OriginTrack
 
 
 @dataclass
@@ -178,6 +185,7 @@ class Scheduler:
                     k=0,
                     trigger_regs=[module.registers[t] for t in mplan.triggers],
                     all_regs=list(module.registers.values()),
+                    track=module.origin_track,
                 )
             )
 
@@ -190,6 +198,7 @@ class Scheduler:
             if src_here and dst_here and link is None:
                 out = self.modules[conn.src.module].outputs[conn.src.port]
                 reg = self.modules[conn.dst.module].registers[conn.dst.port]
+                reg.events = out.events
                 if conn.delayed:
                     out.sinks.append(self._delayed_writer(reg))
                 else:
@@ -200,6 +209,7 @@ class Scheduler:
                     out.sinks.append(self.transport.publisher(link))
                 if dst_here:
                     reg = self.modules[conn.dst.module].registers[conn.dst.port]
+                    reg.events = link.reliable
                     self.transport.subscribe(
                         link, self._deliverer(reg, link.reliable), self._arrived
                     )
@@ -347,6 +357,9 @@ class Scheduler:
         extra: dict[str, Any] = {}
         if self.transport is not None:
             extra["links"] = self.transport.stats()
+            extra["links"]["superseded"] = {
+                str(link.connection): reg.superseded for reg, link in self._link_regs
+            }
         if hold.limit_us is not None:
             extra["realtime"] = hold.summary()
         if priority.priority is not None:
@@ -432,6 +445,7 @@ class Scheduler:
                         break
             if not run_it:
                 continue
+            slot.track.oldest = math.inf
             start = perf()
             try:
                 slot.module.step(now)
@@ -468,17 +482,20 @@ class Scheduler:
             reg.link_alive = alive(link)
 
     def _drain(self, now: float) -> None:
-        """Several samples since the last tick: on a reliable link one per register, in order
-        (the rest wait for the next tick); on a best-effort link the latest wins."""
+        """Several samples since the last tick: on an events link one per register, in order
+        (the rest wait for the next tick); on a state link the newest wins and the samples it
+        replaced are counted as ``superseded``."""
         inbound = self._inbound
         written: set[int] = set()
         held = []
         for _ in range(len(inbound)):  # samples arriving meanwhile wait for the next tick
             item = inbound.popleft()
             reg, sample, in_order = item
-            if in_order and id(reg) in written:
-                held.append(item)
-                continue
+            if id(reg) in written:
+                if in_order:
+                    held.append(item)
+                    continue
+                reg.superseded += 1
             reg.write(sample, now)
             written.add(id(reg))
         if held:
@@ -499,6 +516,7 @@ class Scheduler:
             module = slot.module
             hook = getattr(module, "safe_stop", None)
             try:
+                slot.track.oldest = math.inf
                 if callable(hook):
                     hook(now)
                     sent = True
@@ -515,6 +533,7 @@ class Scheduler:
             return
         for slot in started:
             if any(reg.fresh for reg in slot.trigger_regs):
+                slot.track.oldest = math.inf
                 try:
                     slot.module.step(now)
                 except Exception as exc:
@@ -537,11 +556,15 @@ class Scheduler:
         old = {}
 
         def on_signal(signum: int, frame: Any) -> None:
-            self.request_stop(f"interrupted by {signal.Signals(signum).name}", INTERRUPTED)
+            name = signal.Signals(signum).name
+            if signum == signal.SIGTSTP:  # Ctrl-Z: a suspended loop cannot watch the arm
+                self.request_stop("suspended by Ctrl-Z (SIGTSTP): stopped safely instead", 130)
+            else:
+                self.request_stop(f"interrupted by {name}", INTERRUPTED)
             if self._wake is not None:
                 self._wake.set()
 
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGTSTP):
             old[sig] = signal.signal(sig, on_signal)
         return old
 

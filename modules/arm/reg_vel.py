@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, from_param, param
-from connectors.limits import MAX_COMMAND_AGE_S, MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
+from connectors.limits import (
+    MAX_COMMAND_AGE_S,
+    MAX_ORIGIN_AGE_S,
+    MAX_TOOL_ANGULAR_RAD_S,
+    MAX_TOOL_SPEED_M_S,
+)
 from connectors.messages import Status, Text, Twist
 from modules.arm.velocity_register import RegisterOutput, RegisterSettings, VelocityRegister
 
@@ -16,12 +21,15 @@ class RegVel(Module):
     A non-zero ``jog`` (the operator's dead-man teleoperation) replaces the command until a
     zero jog releases it, under the same watchdog and clamps.
 
-    The output drops to zero when the command is older than ``timeout`` (by arrival time),
+    The output drops to zero when the command was made from sensor data older than
+    ``max_origin_age`` (its origin: the capture of the image it was computed from, on the
+    graph's one time base), when no new command arrived for ``timeout`` (the link's watchdog),
     when its producer's process is gone (link liveliness), when ``halt`` reports an operator
     assistance request, or when the command is not a finite 6-vector. Linear and angular speeds
     are clamped (each part scaled as a vector, keeping its direction). Gripper commands pass
     only while the command link is healthy. Give it a ``rate``: the watchdog acts on its own
-    clock, not on the arrival of commands.
+    clock, not on the arrival of commands. The twist it passes keeps its command's origin; a
+    zero is dated now (stopping needs no data).
     """
 
     TYPE = "REG_VEL"
@@ -37,6 +45,13 @@ class RegVel(Module):
         max_angular: float = param(
             0.5, "angular speed clamp |w|", unit="rad/s", ge=0, le=MAX_TOOL_ANGULAR_RAD_S
         )
+        max_origin_age: float = param(
+            0.25,
+            "oldest sensor data a passed command may be made from",
+            unit="s",
+            gt=0,
+            le=MAX_ORIGIN_AGE_S,
+        )
         frame: str = param("camera", "frame of the twist in and out")
 
         def rate_problem(self, rate_hz: float | None) -> str:
@@ -51,23 +66,37 @@ class RegVel(Module):
                 )
             return ""
 
-    command = Input(Twist, frame=from_param("frame"), doc="twist command (e.g. from vsServo)")
+    command = Input(
+        Twist,
+        frame=from_param("frame"),
+        max_origin_age=from_param("max_origin_age"),
+        doc="twist command (e.g. from vsServo)",
+    )
     jog = Input(
         Twist,
         frame=from_param("frame"),
         required=False,
+        max_origin_age=from_param("max_origin_age"),
         doc="operator's dead-man jog; a non-zero jog replaces the command while fresh",
     )
     gripper_in = Input(Text, required=False, doc="gripper command: open / close")
     halt = Input(Status, required=False, doc="upstream status; assist=True forces zero")
     twist = Output(Twist, frame=from_param("frame"), doc="guarded, clamped twist")
-    gripper = Output(Text, doc="gripper command, passed while the link is healthy")
-    status = Output(Status, doc="'passing' or 'zero' with the reason (sent when it changes)")
+    gripper = Output(Text, events=True, doc="gripper command, passed while the link is healthy")
+    status = Output(
+        Status,
+        doc="'passing' or 'zero' with the reason and the command's ages (on change, and at least "
+        "every 0.1 s)",
+    )
+
+    #: Longest time between two status samples [s]: a state stream, so a lost one is replaced.
+    STATUS_PERIOD_S = 0.1
 
     def start(self) -> None:
         p = self.params
-        self._register = VelocityRegister(RegisterSettings(p.timeout, p.max_linear, p.max_angular))
-        self._jog = VelocityRegister(RegisterSettings(p.timeout, p.max_linear, p.max_angular))
+        settings = RegisterSettings(p.timeout, p.max_linear, p.max_angular, p.max_origin_age)
+        self._register = VelocityRegister(settings)
+        self._jog = VelocityRegister(settings)
         self._jog_ticks = 0
         self._jog_held = False
         self._last_reason: str | None = None
@@ -75,12 +104,17 @@ class RegVel(Module):
         self._frame_problem = ""
         self._zeroed = 0
         self._clamped = 0
+        self._stale_zeroes = 0  # ticks at zero for old sensor data
+        self._watchdog_zeroes = 0  # ticks at zero for want of a new command (a running stream)
+        self._status_at = -float("inf")
+        self._passing_origin_ages: list[float] = []  # [s] of the commands passed, for the summary
+        self._last_out: RegisterOutput | None = None
 
     def step(self, now: float) -> None:
         command = self.command.get(now)
         if command is not None and self.command.fresh:
             if command.frame == self.params.frame:
-                self._register.put(command.vector, self.command.received_at)
+                self._register.put(command.vector, self.command.received_at, command.origin)
                 self._frame_problem = ""
             else:
                 self._register.clear()
@@ -95,25 +129,48 @@ class RegVel(Module):
         jogging = self._jog_step(now) if self.jog.value is not None else None
         if jogging is not None:
             out = jogging
-        self.twist.send(Twist(vector=out.twist, frame=self.params.frame))
-        self._zeroed += not out.passing
-        self._clamped += out.clamped
+        origin = (self._jog if jogging is not None else self._register).origin
+        self.twist.send(
+            Twist(vector=out.twist, frame=self.params.frame, origin=origin if out.passing else now)
+        )
+        self._count(out)
         gripper = self.gripper_in.get(now)
         if gripper is not None and self.gripper_in.fresh and out.passing:
             self.gripper.send(Text(text=gripper.text, stamp=gripper.stamp))
         reason_key = out.zero_reason or ("passing jog" if jogging is not None else "")
-        if reason_key != self._last_reason:
-            self._last_reason = reason_key
-            if out.zero_reason:
+        if reason_key != self._last_reason or now - self._status_at >= self.STATUS_PERIOD_S:
+            if reason_key != self._last_reason and out.zero_reason:
                 self._last_zero_reason = out.zero_reason
+            self._last_reason = reason_key
+            self._status_at = now
             self.status.send(
                 Status(
                     stage="zero" if out.zero_reason else "passing",
                     message=out.zero_reason or reason_key or "passing commands",
                     reason=out.zero_reason,
-                    values={"age": float(min(out.age, 1e9))},
+                    values={
+                        "age": float(min(out.age, 1e9)),
+                        "origin_age": float(min(out.origin_age, 1e9)),
+                        "stale": float(out.stale),
+                    },
                 )
             )
+
+    def _count(self, out: RegisterOutput) -> None:
+        """Tally the tick for the summary: passed (and from how old data), clamped, zeroed and
+        why (old data; a running command stream that paused past the watchdog)."""
+        self._clamped += out.clamped
+        if out.passing:
+            if len(self._passing_origin_ages) < 1_000_000:
+                self._passing_origin_ages.append(out.origin_age)
+        else:
+            self._zeroed += 1
+            self._stale_zeroes += out.stale
+            last = self._last_out
+            self._watchdog_zeroes += out.zero_reason.startswith("no new command") and (
+                last is not None and last.passing
+            )
+        self._last_out = out
 
     def _jog_step(self, now: float) -> RegisterOutput | None:
         """The jog's output while a jog is held, else None (the command passes).
@@ -129,7 +186,7 @@ class RegVel(Module):
                 self._jog.clear()  # a release: back to the command
                 self._jog_held = False
             else:
-                self._jog.put(vector, self.jog.received_at)
+                self._jog.put(vector, self.jog.received_at, jog.origin)
                 self._jog_held = True
         if not self._jog_held:
             return None
@@ -140,9 +197,18 @@ class RegVel(Module):
         return RegisterOutput(out.twist, f"jog: {out.zero_reason}", False, out.age)
 
     def summary(self) -> dict[str, object]:
+        ages = np.asarray(self._passing_origin_ages)
         return {
             "jog_ticks": self._jog_ticks,
             "zeroed_ticks": self._zeroed,
             "clamped_ticks": self._clamped,
+            "stale_zero_ticks": self._stale_zeroes,
+            "watchdog_zeroes": self._watchdog_zeroes,
+            "passed_origin_age_ms": {
+                "p50": float(np.percentile(ages, 50) * 1e3) if ages.size else None,
+                "p99": float(np.percentile(ages, 99) * 1e3) if ages.size else None,
+                "max": float(ages.max() * 1e3) if ages.size else None,
+                "ticks": int(ages.size),
+            },
             "last_zero_reason": self._last_zero_reason,
         }

@@ -5,7 +5,9 @@ clamped (each part scaled as a vector, so the direction is kept). It outputs zer
 why, when:
 
 * no command has arrived yet;
-* the latest command is older than ``timeout`` (its age is ``now - stamp``);
+* the latest command arrived longer than ``timeout`` ago (the link's watchdog);
+* the latest command was made from sensor data older than ``max_origin_age`` (its ``origin``:
+  a command computed now from a 30-second-old image is refused however recently it arrived);
 * the producer is gone (the caller says so, e.g. from link liveliness);
 * the caller names another reason to halt (e.g. a failed sanity check upstream);
 * the command is not a finite 6-vector.
@@ -33,21 +35,28 @@ class RegisterSettings:
     """Watchdog and clamps of the register.
 
     Attributes:
-        timeout: largest accepted command age (s).
+        timeout: largest accepted time since the command arrived (s).
         max_linear: largest linear speed |v| (m/s).
         max_angular: largest angular speed |w| (rad/s).
+        max_origin_age: oldest sensor data a passed command may be made from (s).
     """
 
     timeout: float = 0.2
     max_linear: float = 0.1
     max_angular: float = 0.5
+    max_origin_age: float = 0.25
 
     def __post_init__(self) -> None:
-        if not (self.timeout > 0 and self.max_linear >= 0 and self.max_angular >= 0):
+        if not (
+            self.timeout > 0
+            and self.max_linear >= 0
+            and self.max_angular >= 0
+            and self.max_origin_age > 0
+        ):
             raise ValueError(
-                "register settings: timeout must be > 0 and speed limits >= 0, got "
-                f"timeout={self.timeout}, max_linear={self.max_linear}, "
-                f"max_angular={self.max_angular}"
+                "register settings: timeout and max_origin_age must be > 0 and speed limits "
+                f">= 0, got timeout={self.timeout}, max_linear={self.max_linear}, "
+                f"max_angular={self.max_angular}, max_origin_age={self.max_origin_age}"
             )
 
 
@@ -55,14 +64,18 @@ class RegisterSettings:
 class RegisterOutput:
     """What the register emits: ``twist`` ``[v; w]``; ``zero_reason`` is empty when it passes.
 
-    ``clamped`` tells that a speed limit scaled the command; ``age`` is the command's age (s),
-    or infinity when there is none.
+    ``clamped`` tells that a speed limit scaled the command; ``age`` is the time since the
+    command arrived (s) and ``origin_age`` the age of the sensor data it was made from (s), both
+    infinite when there is none. ``stale`` tells that the zero is for old data (``origin_age``
+    over the bound): the run's verdict then says "stopped: data too old".
     """
 
     twist: FloatArray
     zero_reason: str
     clamped: bool
     age: float
+    origin_age: float = float("inf")
+    stale: bool = False
 
     @property
     def passing(self) -> bool:
@@ -77,10 +90,17 @@ class VelocityRegister:
         self.settings = settings
         self._twist: FloatArray | None = None
         self._stamp = -np.inf
+        self._origin = -np.inf
         self._bad = ""
 
-    def put(self, twist: ArrayLike, stamp: float) -> None:
-        """Store a command ``[v; w]`` sampled at ``stamp`` (seconds on the run's clock)."""
+    @property
+    def origin(self) -> float:
+        """Capture time [s] of the oldest sensor data behind the held command (-inf: none)."""
+        return self._origin
+
+    def put(self, twist: ArrayLike, stamp: float, origin: float | None = None) -> None:
+        """Store a command ``[v; w]`` that arrived at ``stamp`` and was made from sensor data
+        captured at ``origin`` (seconds on the run's clock; None: ``stamp``; -inf: undatable)."""
         xi = np.asarray(twist, dtype=float).reshape(-1)
         if xi.shape != (6,) or not np.all(np.isfinite(xi)):
             self._twist = None
@@ -89,6 +109,7 @@ class VelocityRegister:
             self._twist = xi.copy()
             self._bad = ""
         self._stamp = float(stamp)
+        self._origin = float(stamp if origin is None else origin)
 
     @property
     def empty(self) -> bool:
@@ -99,6 +120,7 @@ class VelocityRegister:
         """Forget the held command (output is zero until the next :meth:`put`)."""
         self._twist = None
         self._stamp = -np.inf
+        self._origin = -np.inf
         self._bad = ""
 
     def output(self, now: float, producer_alive: bool = True, halt: str = "") -> RegisterOutput:
@@ -109,8 +131,10 @@ class VelocityRegister:
             producer_alive: False when the command's producer has disappeared.
             halt: a non-empty reason forces zero (e.g. an upstream failure).
         """
-        age = now - self._stamp
-        reason = ""
+        age = float(now - self._stamp)
+        origin_age = float(now - self._origin)
+        settings = self.settings
+        reason, stale = "", False
         if halt:
             reason = halt
         elif not producer_alive:
@@ -119,11 +143,20 @@ class VelocityRegister:
             reason = self._bad
         elif self._twist is None:
             reason = "no command received yet"
-        elif age > self.settings.timeout:
-            reason = f"command is {age:.3f} s old (timeout {self.settings.timeout:.3f} s)"
+        elif origin_age > settings.max_origin_age:
+            stale = True
+            limit = settings.max_origin_age
+            reason = f"command made from {_sensor_data(origin_age)} (limit {limit:.2f} s)"
+        elif age > settings.timeout:
+            reason = f"no new command for {age:.3f} s (link watchdog {settings.timeout:.3f} s)"
         if reason:
-            return RegisterOutput(_ZERO, reason, False, float(age))
-        twist, clamped = clamp_twist(
-            self._twist, self.settings.max_linear, self.settings.max_angular
-        )
-        return RegisterOutput(twist, "", clamped, float(age))
+            return RegisterOutput(_ZERO, reason, False, age, origin_age, stale)
+        twist, clamped = clamp_twist(self._twist, settings.max_linear, settings.max_angular)
+        return RegisterOutput(twist, "", clamped, age, origin_age)
+
+
+def _sensor_data(age: float) -> str:
+    """Old data in the operator's words: "sensor data 1.30 s old", or undatable."""
+    return (
+        f"sensor data {age:.2f} s old" if np.isfinite(age) else "sensor data that cannot be dated"
+    )

@@ -79,9 +79,14 @@ class WolverineJnts(Module):
         JointRates, joints=from_param("joint_names"), requires_guard=True, doc="joint rates"
     )
     gripper_in = Input(Text, required=False, requires_guard=True, doc="gripper: open / close")
-    joint_state = Output(JointState, joints=from_param("joint_names"), doc="reported joints")
+    joint_state = Output(
+        JointState, joints=from_param("joint_names"), measured=True, doc="reported joints"
+    )
     true_joint_state = Output(
-        JointState, joints=from_param("joint_names"), doc="sim: the plant's true joints"
+        JointState,
+        joints=from_param("joint_names"),
+        measured=True,
+        doc="sim: the plant's true joints",
     )
     status = Output(Status, doc="driver state and why commands are zeroed (on change)")
 

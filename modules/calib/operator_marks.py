@@ -50,11 +50,19 @@ class SimMarks(Module):
 
     camera_a = Input(CameraModel, trigger=True, doc="model of camera a (e.g. from CamCalib)")
     camera_b = Input(CameraModel, trigger=True, doc="model of camera b")
-    pixel_a = Output(Vector, doc="[u, v] of the point in camera a's image, as clicked (px)")
-    pixel_b = Output(Vector, doc="[u, v] of the point in camera b's image, as clicked (px)")
-    truth = Output(Vector, doc="the true point [x, y, z] in reference_frame (m)")
-    pose_a = Output(Pose, doc="pose of camera a's mount in reference_frame (static frames)")
-    pose_b = Output(Pose, doc="pose of camera b's mount in reference_frame (static frames)")
+    pixel_a = Output(
+        Vector, measured=True, doc="[u, v] of the point in camera a's image, as clicked (px)"
+    )
+    pixel_b = Output(
+        Vector, measured=True, doc="[u, v] of the point in camera b's image, as clicked (px)"
+    )
+    truth = Output(Vector, measured=True, doc="the true point [x, y, z] in reference_frame (m)")
+    pose_a = Output(
+        Pose, measured=True, doc="pose of camera a's mount in reference_frame (static frames)"
+    )
+    pose_b = Output(
+        Pose, measured=True, doc="pose of camera b's mount in reference_frame (static frames)"
+    )
 
     def start(self) -> None:
         self._point = np.asarray(self.params.point_m, dtype=float)

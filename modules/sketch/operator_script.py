@@ -54,7 +54,7 @@ class SketchOperatorSim(Module):
     vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
     ptu_a = Input(PtuState, required=False, feedback=True, doc="PTU a state")
     ptu_b = Input(PtuState, required=False, feedback=True, doc="PTU b state")
-    command = Output(Text, doc="commands for Sketch")
+    command = Output(Text, events=True, doc="commands for Sketch")
 
     def start(self) -> None:
         for i, step in enumerate(self.params.script):

@@ -52,7 +52,7 @@ class VcrPlayer(Module):
     joint_state = Input(JointState, feedback=True, doc="measured joints")
     guard = Input(Status, required=False, feedback=True, doc="REG_VEL status: zero = guard stop")
     twist = Output(Twist, frame=from_param("tool_frame"), doc="tool twist command (to REG_VEL)")
-    gripper = Output(Text, doc="gripper events: open / close (to REG_VEL)")
+    gripper = Output(Text, events=True, doc="gripper events: open / close (to REG_VEL)")
     state = Output(VcrState, doc="mode, path parameter, speed, halt reason")
 
     def start(self) -> None:

@@ -113,7 +113,7 @@ class View3D(Module):
         SceneObjects, required=False, feedback=True, doc="the world's solids (pipe, door, ...)"
     )
     status = Output(Status, doc="page address, browsers connected, video frames sent")
-    mount = Output(Pose, doc="the camera mount the pose tool solved and saved")
+    mount = Output(Pose, events=True, doc="the camera mount the pose tool solved and saved")
 
     # -- lifecycle ------------------------------------------------------------------------------
 

@@ -24,7 +24,7 @@ class SketchCam(Module):
     camera_model = Input(CameraModel, feedback=True, doc="model at the current zoom (CamCalib)")
     mount_pose = Input(Pose, feedback=True, doc="T_world_mount of the PTU (PTU.mount_pose)")
     objects = Input(SceneObjects, feedback=True, doc="the scene's solids (SketchWorld)")
-    image = Output(Image, doc="BGR frames")
+    image = Output(Image, measured=True, doc="BGR frames")
 
     def start(self) -> None:
         self._frames = 0

@@ -31,7 +31,7 @@ class OperatorSim(Module):
     console = Input(
         Status, required=False, doc="the console's presence: a person acted -> step aside"
     )
-    seed = Output(Vector, doc="the click: seed point [u, v] for vsSnake")
+    seed = Output(Vector, events=True, doc="the click: seed point [u, v] for vsSnake")
 
     def start(self) -> None:
         self._started: float | None = None  # clock time [s] of the first step

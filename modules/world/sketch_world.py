@@ -38,8 +38,8 @@ class SketchWorld(Module):
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper")
     path = Input(ToolPath, required=False, feedback=True, doc="the macro being played")
-    objects = Output(SceneObjects, doc="the true solids of the scene")
-    status = Output(Status, doc="the verdict of the macro being played")
+    objects = Output(SceneObjects, measured=True, doc="the true solids of the scene")
+    status = Output(Status, measured=True, doc="the verdict of the macro being played")
 
     def start(self) -> None:
         p = self.params

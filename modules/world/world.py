@@ -89,9 +89,11 @@ class SimWorld(Module):
         doc="the operator console's presence: once a person took control, an assist request "
         "no longer ends the run (the person answers it)",
     )
-    camera_pose = Output(Pose, frame="table->camera", doc="true T_table_camera")
-    patch_pose = Output(Pose, frame="table->patch", doc="true T_table_patch")
-    status = Output(Status, doc="world state: running, grasped or missed, with errors")
+    camera_pose = Output(Pose, frame="table->camera", measured=True, doc="true T_table_camera")
+    patch_pose = Output(Pose, frame="table->patch", measured=True, doc="true T_table_patch")
+    status = Output(
+        Status, measured=True, doc="world state: running, grasped or missed, with errors"
+    )
 
     def start(self) -> None:
         p = self.params

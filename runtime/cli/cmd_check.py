@@ -37,8 +37,10 @@ def main(args: argparse.Namespace) -> int:
             f"{len(plan.connections)} connections, processes: {', '.join(processes)}"
         )
         for link in plan.links:
-            mode = "reliable" if link.reliable else "drop-oldest"
-            print(f"  link {link.connection} ({link.msg_type.__name__}, {mode}): key `{link.key}`")
+            print(
+                f"  link {link.connection} ({link.msg_type.__name__}, {link.policy}): "
+                f"key `{link.key}`"
+            )
     return 2 if failed else 0
 
 

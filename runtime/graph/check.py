@@ -28,8 +28,6 @@ from runtime.registry import Registry
 
 #: Frames every graph knows without declaring them.
 WELL_KNOWN_FRAMES = ("base", "world", "lab", "tool", "flange", "camera")
-#: Message types whose links must never drop a sample (commands); others may drop old samples.
-BEST_EFFORT_TYPES = ("Image",)
 
 
 class _Checker:
@@ -413,9 +411,11 @@ class _Checker:
         for conn in self.connections:
             if plan.modules[conn.src.module].process == plan.modules[conn.dst.module].process:
                 continue
-            msg_type = plan.modules[conn.src.module].outputs[conn.src.port].msg_type
+            producer = plan.modules[conn.src.module]
+            msg_type = producer.outputs[conn.src.port].msg_type
+            events = producer.cls.output_decls()[conn.src.port].events
             key = f"{plan.key_prefix}/{conn.src.module}/{conn.src.port}"
-            out.append(LinkPlan(conn, key, msg_type, msg_type.__name__ not in BEST_EFFORT_TYPES))
+            out.append(LinkPlan(conn, key, msg_type, events))
         return out
 
 

@@ -42,14 +42,35 @@ class ModulePlan:
         return self.spec.process
 
 
+#: Message types of bulk data (frames): sent at data priority, below commands and state.
+BULK_TYPES = ("Image", "StereoSnapshot")
+
+
 @dataclass
 class LinkPlan:
-    """A connection that crosses processes and becomes a zenoh link on ``key``."""
+    """A connection that crosses processes and becomes a zenoh link on ``key``.
+
+    ``reliable``: the output is declared ``events`` (operator actions, gripper, paths): ordered
+    and lossless (zenoh congestion control BLOCK). Otherwise a state stream, latest-only: the
+    publisher drops rather than queues under congestion (DROP) and the consumer takes the newest.
+    """
 
     connection: ConnectionSpec
     key: str
     msg_type: type
     reliable: bool
+
+    @property
+    def bulk(self) -> bool:
+        """Frames (images): below commands and state in zenoh's priorities."""
+        return self.msg_type.__name__ in BULK_TYPES
+
+    @property
+    def policy(self) -> str:
+        """What ``umbra check`` says of the link's delivery."""
+        if self.reliable:
+            return "events: ordered, lossless"
+        return "state: latest-only" + (", bulk" if self.bulk else "")
 
 
 @dataclass

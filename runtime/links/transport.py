@@ -20,11 +20,14 @@ with a plausible sequence number, tracked per producer session. A sample that ov
 producer's token (a new session's first samples may) is held briefly and let through, in order,
 only once the token names its session.
 
-Commands never drop: a reliable link (every type but ``Image``) publishes with congestion control
-BLOCK; video may drop old frames: best-effort links use DROP. Both are ``express`` (no batching
-delay). Large samples are sent in one of two ways: when every consumer of the output runs on this
-host and no session other than the graph's proven processes is connected (``runtime.links.wire``:
-an observer or a foreign client gets the sample's bytes), through this process's frame pool
+Events never drop: an events link (its output declared ``events``: operator actions, gripper,
+paths) publishes with congestion control BLOCK; state (images, contours, poses, joint states,
+statuses, twists) is latest-only: DROP, so a congested link loses old samples rather than queueing
+them (the consumer's scheduler likewise takes the newest, ``runtime.scheduler``). Frames go at
+data priority, everything else above them; all are ``express`` (no batching delay). Large samples
+are sent in one of two ways: when every consumer of the output runs on this host and no session
+other than the graph's proven processes is connected (``runtime.links.wire``: an observer or a
+foreign client gets the sample's bytes), through this process's frame pool
 (``runtime.links.pool``: one copy, the consumer reads the shared memory in place, and the small
 descriptor is sent with BLOCK so no slot is orphaned);
 otherwise through zenoh's shared memory (``runtime.links.shm``), which zenoh turns into bytes for a
@@ -44,6 +47,7 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
+import msgspec
 import numpy as np
 import zenoh
 
@@ -61,6 +65,7 @@ from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
 from runtime.links.bounds import max_sample_bytes
+from runtime.links.clock_sync import ClockSync, on_our_clock
 from runtime.links.identity import (
     ALIVE,
     Sessions,
@@ -195,6 +200,15 @@ class ZenohTransport:
         self._reader = PoolReader()
         self._token: Any = None
         self._closed = False
+        producers = {
+            self._producer_of[link.key]
+            for link in plan.links
+            if plan.modules[link.connection.dst.module].process == process
+        }
+        #: the graph's one time base: our offset to each producer's clock (``clock_sync``)
+        self.clocks = ClockSync(
+            session, self.prefix, process, producers, self._sessions.live.get, log=self._log
+        )
         self._alive_sub = session.liveliness().declare_subscriber(
             alive_pattern(self.prefix), self._on_liveliness, history=True
         )
@@ -244,8 +258,11 @@ class ZenohTransport:
                 self._alive.discard(name)
             self._state_changed()
         if up:
+            self.clocks.poke()
             for release in self._releasers.get(name, ()):
                 release()
+        else:
+            self.clocks.forget(name)  # a new session of it is measured afresh
         if up and not known:
             self._log.info("process `%s` is up (session %s)", name, session)
         elif not up and known:
@@ -279,6 +296,7 @@ class ZenohTransport:
             self._token = self._session.liveliness().declare_token(
                 alive_key(self.prefix, self.process, marker, self._session_id, proof)
             )
+            self.clocks.start()
 
     def alive_processes(self) -> set[str]:
         """Other processes of the graph whose liveliness token is visible now."""
@@ -294,22 +312,15 @@ class ZenohTransport:
         type_name = link.msg_type.__name__
         encoding = sample_encoding(type_name, COMPACT_VERSION)  # docs/wire-format.md
         framed_encoding = sample_encoding(type_name, FRAMED_VERSION)
-        if link.reliable:
-            pub = self._session.declare_publisher(
-                link.key,
-                encoding=encoding,
-                congestion_control=zenoh.CongestionControl.BLOCK,
-                priority=zenoh.Priority.DATA_HIGH,
-                express=True,
-            )
-        else:
-            pub = self._session.declare_publisher(
-                link.key,
-                encoding=encoding,
-                congestion_control=zenoh.CongestionControl.DROP,
-                priority=zenoh.Priority.DATA,
-                express=True,
-            )
+        pub = self._session.declare_publisher(
+            link.key,
+            encoding=encoding,
+            congestion_control=(
+                zenoh.CongestionControl.BLOCK if link.reliable else zenoh.CongestionControl.DROP
+            ),
+            priority=zenoh.Priority.DATA if link.bulk else zenoh.Priority.DATA_HIGH,
+            express=True,
+        )
         stats = PublishStats(link.key, [str(link.connection)], link.reliable)
         self._pubs[link.key] = (pub, stats)
         encode = self._codec.compact_writer(link.msg_type)
@@ -520,6 +531,7 @@ class ZenohTransport:
         bound = max_sample_bytes(expected, self._producer_params.get(key))
         stats.max_bytes = bound
         current, gone = self._sessions.current, self._sessions.gone
+        offsets = self.clocks.offsets
         trust, refused = _Trust(), self._refused
 
         held: deque[tuple[float, zenoh.Sample, bool]] = deque()
@@ -676,6 +688,10 @@ class ZenohTransport:
             if key in ended:
                 ended.discard(key)
                 self._state_changed()
+            translate = on_our_clock(offsets.get(producer))  # type: ignore[arg-type]
+            if translate is not None:  # another clock, or none measured yet (undatable)
+                stamp, origin = translate(msg.stamp, msg.origin)
+                msg = msgspec.structs.replace(msg, stamp=stamp, origin=origin)
             for d in delivers:
                 d(msg)
             for hook in hooks:
@@ -748,6 +764,7 @@ class ZenohTransport:
             "session": self._session_id,
             "token_conflicts": self._sessions.conflicts,
             "forged_tokens": self.forged_tokens,
+            "clocks": self.clocks.summary(),
         }
 
     def close(self) -> None:
@@ -762,6 +779,7 @@ class ZenohTransport:
                 self._log.debug("end of stream on %s failed: %s", pub.key_expr, exc)
         if self._pubs:
             time.sleep(END_GRACE)  # ends of stream first: consumers then see a clean stop
+        self.clocks.close()
         try:
             if self._token is not None:
                 self._token.undeclare()

@@ -25,6 +25,7 @@ file (no summary) is read through once before anything runs.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -158,7 +159,7 @@ class ReplayFeed:
                 stamp = 0.0  # stamped with its send time: the port stamps it with this tick's
             else:
                 stamp = max(0.0, origin + (sample.publish_ns - t0) / 1e9)
-            out.append((port, msgspec.structs.replace(sample.message, stamp=stamp)))
+            out.append((port, _restamped(sample.message, stamp, now)))
         self.sent += len(out)
         return out
 
@@ -371,3 +372,16 @@ def plan_replay(
         mplan = plan.modules[n]
         mplan.cls = replay_class(mplan.cls, feed)
     return feed, names
+
+
+def _restamped(message: Message, stamp: float, now: float) -> Message:
+    """``message`` stamped ``stamp`` for the replay (0: its send time, ``now``), its data as old
+    at that stamp as it was when recorded (``origin`` moved with the stamp); a message recorded
+    without an origin (an older recording, a schema that holds none) gets the one its port gives
+    it."""
+    if message.origin == -math.inf:  # undatable when recorded: undatable now
+        return msgspec.structs.replace(message, stamp=stamp)
+    recorded_age = message.stamp - message.origin if message.origin else None
+    if recorded_age is None or not math.isfinite(recorded_age):
+        return msgspec.structs.replace(message, stamp=stamp, origin=0.0)
+    return msgspec.structs.replace(message, stamp=stamp, origin=(stamp or now) - recorded_age)

@@ -43,7 +43,7 @@ def test_reg_vel_passes_fresh_commands_and_zeroes_stale_ones():
         assert np.any(h.output("twist").vector)  # 0.05 s old: still within the timeout
         sent = h.step(0.01)
         assert not np.any(h.output("twist").vector)
-        assert "old (timeout 0.050 s)" in sent["status"][0].reason
+        assert "no new command for 0.060 s (link watchdog 0.050 s)" in sent["status"][0].reason
 
 
 def test_reg_vel_zeroes_when_the_producer_is_gone_or_halts():

@@ -24,7 +24,7 @@ def test_passes_a_fresh_command_and_zeroes_it_after_the_timeout():
     out = register.output(now=1.2001)
     assert not out.passing
     np.testing.assert_array_equal(out.twist, np.zeros(6))
-    assert "old (timeout 0.200 s)" in out.zero_reason
+    assert "(link watchdog 0.200 s)" in out.zero_reason
 
 
 def test_zero_before_any_command_and_when_the_producer_is_gone():
@@ -63,3 +63,34 @@ def test_clamps_scale_linear_and_angular_parts_keeping_direction():
 def test_settings_are_validated():
     with pytest.raises(ValueError, match="timeout"):
         RegisterSettings(timeout=0.0)
+
+
+def test_a_fresh_arrival_made_from_old_sensor_data_is_refused_in_operator_words():
+    """The defect of a starved vision process: a command computed now from an image 1.3 s old
+    arrives on time, and the register must refuse it all the same."""
+    register = VelocityRegister(SETTINGS)  # max_origin_age 0.25 s
+    register.put(np.r_[0.02, 0, 0, 0, 0, 0], stamp=10.0, origin=8.7)
+    out = register.output(now=10.001)
+    assert not out.passing and out.stale
+    np.testing.assert_array_equal(out.twist, np.zeros(6))
+    assert out.zero_reason == "command made from sensor data 1.30 s old (limit 0.25 s)"
+    assert out.origin_age == pytest.approx(1.301)
+    register.put(np.r_[0.02, 0, 0, 0, 0, 0], stamp=10.01, origin=9.9)  # fresh data again
+    out = register.output(now=10.02)
+    assert out.passing and not out.stale and out.origin_age == pytest.approx(0.12)
+
+
+def test_a_held_command_goes_to_zero_when_its_data_grows_older_than_the_bound():
+    register = VelocityRegister(SETTINGS)
+    register.put(np.r_[0.02, 0, 0, 0, 0, 0], stamp=1.0, origin=0.9)
+    assert register.output(now=1.15).passing  # data 0.25 s old: at the bound
+    out = register.output(now=1.1501)
+    assert out.stale and "0.25 s old" in out.zero_reason
+
+
+def test_a_command_that_cannot_be_dated_is_old():
+    register = VelocityRegister(SETTINGS)
+    register.put(np.r_[0.02, 0, 0, 0, 0, 0], stamp=1.0, origin=-np.inf)
+    out = register.output(now=1.0)
+    assert out.stale
+    assert out.zero_reason == "command made from sensor data that cannot be dated (limit 0.25 s)"

@@ -89,11 +89,12 @@ def test_the_compact_reader_passes_on_anything_else() -> None:
 
 
 def _twist_values(**change: object) -> list:
-    """The compact values of a twist (stamp, seq, vector, frame), its vector's parts changed."""
+    """The compact values of a twist (stamp, seq, origin, vector, frame), its vector's parts
+    changed."""
     values = _envelope(Codec().encode_compact(SAMPLES[2]))[3]
-    vector = dict(zip(("dtype", "shape", "data"), values[2], strict=True))
+    vector = dict(zip(("dtype", "shape", "data"), values[3], strict=True))
     vector.update(change)
-    values[2] = [vector["dtype"], vector["shape"], vector["data"]]
+    values[3] = [vector["dtype"], vector["shape"], vector["data"]]
     return values
 
 
@@ -105,8 +106,8 @@ def _twist_values(**change: object) -> list:
         (_twist_values(shape=[7]), "bad array <f8"),
         (_twist_values(dtype="|O8"), "not accepted"),
         (_twist_values(dtype="no such dtype"), "bad array dtype"),
-        (_twist_values()[:3], "bad Twist"),
-        ([*_twist_values()[:3], 5], "Expected `str`"),
+        (_twist_values()[:4], "bad Twist"),
+        ([*_twist_values()[:4], 5], "Expected `str`"),
     ],
     ids=[
         "negative shape",
