@@ -30,6 +30,7 @@ from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.macros import MacroError, check_options
 from modules.sketch.primitives import KINDS, PrimitiveError
 from modules.sketch.session import SessionError, SketchSession
+from modules.sketch.session_file import load_session_state
 from modules.sketch.stereo import StereoPair
 from modules.trajectory.vcr import VcrError
 from modules.world.scene_objects import targets_from_objects
@@ -308,13 +309,7 @@ def _load(folder: Path) -> dict[str, Any]:
             f"sketch: expected a session folder with {STATE}, found none at {folder} "
             "(start one with `umbra sketch new FOLDER`)"
         )
-    try:
-        state = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise UserError(f"sketch: {path}:{exc.lineno}: not valid JSON: {exc.msg}") from None
-    if not isinstance(state, dict) or "seed" not in state or "events" not in state:
-        raise UserError(f"sketch: {path}: expected an object with `seed` and `events`")
-    return state
+    return load_session_state(path)
 
 
 def _save(folder: Path, state: dict[str, Any]) -> None:
