@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from modules.calib.visca import commands as vc
 from modules.calib.visca import protocol as vp
 
 
@@ -145,27 +146,79 @@ def test_zoom_position_rejects_other_replies(packet: str) -> None:
 # -- decoding commands (simulator side) -------------------------------------------------------
 
 
+TELE, WIDE = vc.ZoomDirection.TELE, vc.ZoomDirection.WIDE
+
+
 @pytest.mark.parametrize(
     ("packet", "expected"),
     [
-        ("88 30 01 FF", vp.AddressSetCommand(1)),
-        ("88 01 00 01 FF", vp.IfClearCommand(None)),
-        ("81 01 00 01 FF", vp.IfClearCommand(1)),
-        ("81 01 04 47 02 00 00 00 FF", vp.ZoomDirectCommand(1, 0x2000)),
-        ("83 01 04 47 00 0F 0F 0F FF", vp.ZoomDirectCommand(3, 0x0FFF)),
-        ("81 09 04 47 FF", vp.ZoomPositionInquiry(1)),
-        ("81 01 04 07 02 FF", vp.UnknownCommand(1, h("81 01 04 07 02 FF"))),
-        ("81 01 04 47 20 00 00 00 FF", vp.UnknownCommand(1, h("81 01 04 47 20 00 00 00 FF"))),
+        ("88 30 01 FF", vc.AddressSetCommand(1)),
+        ("88 01 00 01 FF", vc.IfClearCommand(None)),
+        ("81 01 00 01 FF", vc.IfClearCommand(1)),
+        ("81 01 04 47 02 00 00 00 FF", vc.ZoomDirectCommand(1, 0x2000)),
+        ("83 01 04 47 00 0F 0F 0F FF", vc.ZoomDirectCommand(3, 0x0FFF)),
+        ("81 09 04 47 FF", vc.ZoomPositionInquiry(1)),
+        ("81 01 04 07 00 FF", vc.ZoomStopCommand(1)),
+        ("81 01 04 07 02 FF", vc.ZoomMoveCommand(1, TELE, None)),
+        ("81 01 04 07 03 FF", vc.ZoomMoveCommand(1, WIDE, None)),
+        ("81 01 04 07 20 FF", vc.ZoomMoveCommand(1, TELE, 0)),
+        ("82 01 04 07 37 FF", vc.ZoomMoveCommand(2, WIDE, 7)),
+        ("81 01 04 00 02 FF", vc.PowerCommand(1, True)),
+        ("81 01 04 00 03 FF", vc.PowerCommand(1, False)),
+        ("81 09 04 00 FF", vc.PowerInquiry(1)),
+        ("81 09 00 02 FF", vc.VersionInquiry(1)),
+        ("81 21 FF", vc.CancelCommand(1, 1)),
+        ("81 22 FF", vc.CancelCommand(1, 2)),
+        ("81 23 FF", vc.UnknownCommand(1, h("81 23 FF"))),
+        ("81 01 04 07 28 FF", vc.UnknownCommand(1, h("81 01 04 07 28 FF"))),
+        ("81 01 04 07 04 FF", vc.UnknownCommand(1, h("81 01 04 07 04 FF"))),
+        ("81 01 04 00 04 FF", vc.UnknownCommand(1, h("81 01 04 00 04 FF"))),
+        ("81 01 04 47 20 00 00 00 FF", vc.UnknownCommand(1, h("81 01 04 47 20 00 00 00 FF"))),
     ],
 )
-def test_decode_command(packet: str, expected: vp.Command) -> None:
-    assert vp.decode_command(h(packet)) == expected
+def test_decode_command(packet: str, expected: vc.Command) -> None:
+    assert vc.decode_command(h(packet)) == expected
+
+
+@pytest.mark.parametrize(
+    ("encoded", "packet"),
+    [
+        (vc.encode_zoom_stop(1), "81 01 04 07 00 FF"),
+        (vc.encode_zoom_move(1, TELE), "81 01 04 07 02 FF"),
+        (vc.encode_zoom_move(1, WIDE), "81 01 04 07 03 FF"),
+        (vc.encode_zoom_move(1, TELE, 5), "81 01 04 07 25 FF"),
+        (vc.encode_zoom_move(3, WIDE, 0), "83 01 04 07 30 FF"),
+        (vc.encode_power(1, True), "81 01 04 00 02 FF"),
+        (vc.encode_power(1, False), "81 01 04 00 03 FF"),
+        (vc.encode_power_inquiry(1), "81 09 04 00 FF"),
+        (vc.encode_version_inquiry(1), "81 09 00 02 FF"),
+        (vc.encode_cancel(1, 2), "81 22 FF"),
+        (vc.encode_power_reply(1, True), "90 50 02 FF"),
+        (vc.encode_power_reply(2, False), "A0 50 03 FF"),
+        (vc.encode_version_reply(1, 0x0467, 0x0123), "90 50 00 20 04 67 01 23 02 FF"),
+    ],
+)
+def test_encode_fcb_commands_byte_for_byte(encoded: bytes, packet: str) -> None:
+    assert encoded == h(packet)
+    if packet.startswith("8"):
+        assert vc.decode_command(encoded).address == int(packet[1])
+
+
+def test_version_and_power_replies_decode() -> None:
+    version = vc.decode_version(vp.decode_reply(h("90 50 00 20 04 67 01 23 02 FF")))
+    assert version == vc.Version(vendor=0x0020, model=0x0467, rom=0x0123, sockets=2)
+    assert vc.decode_power(vp.decode_reply(h("90 50 02 FF"))) is True
+    assert vc.decode_power(vp.decode_reply(h("90 50 03 FF"))) is False
+    with pytest.raises(vp.ViscaDecodeError):
+        vc.decode_power(vp.decode_reply(h("90 50 04 FF")))
+    with pytest.raises(ValueError, match=r"0\.\.7"):
+        vc.encode_zoom_move(1, TELE, 8)
 
 
 @pytest.mark.parametrize("packet", ["90 41 FF", "80 09 04 47 FF", "01 09 FF", "81 FF"])
 def test_decode_command_rejects_non_controller_packets(packet: str) -> None:
     with pytest.raises(vp.ViscaDecodeError):
-        vp.decode_command(h(packet))
+        vc.decode_command(h(packet))
 
 
 # -- zoom scaling -----------------------------------------------------------------------------

@@ -16,6 +16,9 @@ Error                                                           ``y0 6z ee FF``
 Network change                                                  ``y0 38 FF``
 ==========================  ==================================  ===========================
 
+The rest of the FCB command set a controller sends (zoom tele/wide/stop, power, version, cancel)
+and the decoding of controller packets are in :mod:`modules.calib.visca.commands`.
+
 ``x`` is the camera address (1..7), ``y = x + 8`` (so camera 1 answers with ``90``), ``z`` the
 socket number (1 or 2 for commands, 0 for inquiries and interface commands), ``pqrs`` a 16-bit
 value sent one nibble per byte, ``ee`` the error code (:class:`ErrorCode`).
@@ -305,78 +308,6 @@ def decode_zoom_position(reply: Reply) -> int:
     if not isinstance(reply, Completion) or reply.socket != 0 or len(reply.payload) != 4:
         raise ViscaDecodeError(f"not a zoom position reply: {reply!r}")
     return from_nibbles(reply.payload)
-
-
-# --------------------------------------------------------------------------------------------
-# decoding commands (controller -> camera), used by the simulated camera
-
-
-@dataclass(frozen=True, slots=True)
-class AddressSetCommand:
-    """``88 30 0w FF``: take address ``address`` and pass ``address + 1`` on."""
-
-    address: int
-
-
-@dataclass(frozen=True, slots=True)
-class IfClearCommand:
-    """IF_Clear; ``address`` is None for the broadcast form."""
-
-    address: int | None
-
-
-@dataclass(frozen=True, slots=True)
-class ZoomDirectCommand:
-    address: int
-    raw: int
-
-
-@dataclass(frozen=True, slots=True)
-class ZoomPositionInquiry:
-    address: int
-
-
-@dataclass(frozen=True, slots=True)
-class UnknownCommand:
-    """Framed and addressed, but not one of the commands above (a camera answers syntax error)."""
-
-    address: int | None
-    packet: bytes
-
-
-Command = (
-    AddressSetCommand | IfClearCommand | ZoomDirectCommand | ZoomPositionInquiry | UnknownCommand
-)
-
-
-def decode_command(packet: bytes) -> Command:
-    """Decode one complete packet sent by a controller (address 0).
-
-    Raises ``ViscaDecodeError`` when the packet is not a controller packet at all (bad framing or
-    header); well-framed packets that are not understood come back as :class:`UnknownCommand`.
-    """
-    if len(packet) < 3 or packet[-1] != TERMINATOR or TERMINATOR in packet[:-1]:
-        raise ViscaDecodeError(f"not a VISCA packet: {hex_bytes(packet)}")
-    header, body = packet[0], packet[1:-1]
-    if header == BROADCAST_HEADER:
-        if body[0] == 0x30 and len(body) == 2 and 1 <= body[1] <= 7:
-            return AddressSetCommand(body[1])
-        if body == b"\x01\x00\x01":
-            return IfClearCommand(None)
-        return UnknownCommand(None, bytes(packet))
-    if header & 0xF0 != 0x80 or not 1 <= header & 0x0F <= 7:
-        raise ViscaDecodeError(f"bad command header {header:02X} (expected 81..87, 88)")
-    address = header & 0x0F
-    if body == b"\x01\x00\x01":
-        return IfClearCommand(address)
-    if body[:3] == b"\x01\x04\x47" and len(body) == 7:
-        try:
-            return ZoomDirectCommand(address, from_nibbles(body[3:]))
-        except ViscaDecodeError:
-            return UnknownCommand(address, bytes(packet))
-    if body == b"\x09\x04\x47":
-        return ZoomPositionInquiry(address)
-    return UnknownCommand(address, bytes(packet))
 
 
 # --------------------------------------------------------------------------------------------

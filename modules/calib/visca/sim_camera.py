@@ -2,21 +2,21 @@
 
 The simulator owns the master side of a pty (``os.openpty``); a client opens the slave side
 (:attr:`SimFcbCamera.path`, e.g. ``/dev/pts/7``) with pyserial exactly as it would open
-``/dev/ttyUSB0``. It answers:
+``/dev/ttyUSB0``. It answers the FCB command set of :mod:`modules.calib.visca.commands`: address
+set, IF_Clear (broadcast: echoed; addressed: ``y0 50 FF``, stops the lens and empties the command
+buffer), command cancel, power on/off and CAM_PowerInq, CAM_VersionInq, zoom tele/wide at the
+standard and the eight variable speeds, zoom stop, zoom direct and CAM_ZoomPosInq. What each
+command does to sockets, power and lens, and which error it gets, is
+:mod:`modules.calib.visca.sim_logic`; how fast the lens moves is
+:mod:`modules.calib.visca.zoom_motion` (zoom direct: ``full_range_s`` wide to tele, 2.4 s by
+default).
 
-* address set ``88 30 0w FF`` (takes address w, replies ``88 30 0w+1 FF``);
-* IF_Clear, broadcast (echoed) and addressed (``y0 50 FF``), which stops a running zoom;
-* zoom direct: ACK ``y0 4z FF`` at once, completion ``y0 5z FF`` when the zoom arrives. The zoom
-  position moves at a constant rate toward the target, full optical range in ``full_range_s``
-  (about 2.4 s on an FCB at top speed). A new zoom direct during a move takes the other socket
-  and the old one ends with "command cancelled" (``y0 6z 04 FF``);
-* zoom position inquiry ``y0 50 0p 0q 0r 0s FF`` with the position at that instant;
-* anything else addressed to it: syntax error ``y0 60 02 FF``.
-
-Replies leave after ``reply_delay_s`` plus their time on a 9600 baud line. Faults can be injected
-at any time (:meth:`SimFcbCamera.inject`): garbled replies, silence, or an error reply to every
-request. Run ``python -m modules.calib.visca.sim_camera`` to serve one on its own; it prints the
-pty path.
+Like the camera, the simulator executes at most one packet per video field (``v_cycle_s``, 1/60 s)
+and holds two packets waiting; a third that arrives meanwhile is answered "command buffer full"
+(``y0 60 03 FF``) at once. Replies leave after ``reply_delay_s`` plus their time on a 9600 baud
+line. Faults can be injected at any time (:meth:`SimFcbCamera.inject`): garbled replies, silence,
+or an error reply to every request. Run ``python -m modules.calib.visca.sim_camera`` to serve one
+on its own; it prints the pty path.
 """
 
 from __future__ import annotations
@@ -31,9 +31,16 @@ import sys
 import threading
 import time
 import tty
+from collections import deque
 from dataclasses import dataclass
 
+from modules.calib.visca import commands as vc
 from modules.calib.visca import protocol as vp
+from modules.calib.visca.sim_logic import FcbLogic
+from modules.calib.visca.zoom_motion import ZoomSpeeds
+
+BUFFERED_PACKETS = 2
+"""Packets a camera holds waiting for execution; one more is refused as "buffer full"."""
 
 
 class Fault(enum.Enum):
@@ -52,34 +59,18 @@ class SimCounters:
     replies: int = 0
     dropped_replies: int = 0
     garbage_in: int = 0
-
-
-@dataclass(frozen=True)
-class _Motion:
-    """Zoom travel at a constant rate [raw/s] from ``start_raw`` at time ``t0`` [s]."""
-
-    start_raw: int
-    target_raw: int
-    t0: float
-    rate: float
-
-    def position(self, now: float) -> int:
-        span = self.target_raw - self.start_raw
-        travelled = self.rate * max(0.0, now - self.t0)
-        if travelled >= abs(span):
-            return self.target_raw
-        return self.start_raw + round(travelled if span > 0 else -travelled)
-
-    def arrival(self) -> float:
-        return self.t0 + abs(self.target_raw - self.start_raw) / self.rate
+    buffer_full: int = 0
 
 
 class SimFcbCamera:
     """Simulated FCB camera on a pty. Use as a context manager or call start()/stop().
 
     ``address`` is the camera's address until an address set arrives. ``full_range_s`` [s] is the
-    travel time from raw 0 to ``max_raw`` (default the optical tele end, 0x4000); commands beyond
-    ``max_raw`` stop there (digital zoom off). ``seed`` makes the garbling reproducible.
+    zoom-direct travel time from raw 0 to ``max_raw`` (default the optical tele end, 0x4000);
+    commands beyond ``max_raw`` stop there (digital zoom off). ``speeds`` overrides the travel
+    times of every speed (default: the model of :mod:`~modules.calib.visca.zoom_motion` scaled to
+    ``full_range_s``). ``power_on_s`` [s]: how long power-on runs before its completion;
+    ``v_cycle_s`` [s]: one packet executed per cycle. ``seed`` makes the garbling reproducible.
     """
 
     def __init__(
@@ -91,6 +82,9 @@ class SimFcbCamera:
         reply_delay_s: float = 0.003,
         baudrate: int = 9600,
         seed: int = 0,
+        speeds: ZoomSpeeds | None = None,
+        power_on_s: float = 0.5,
+        v_cycle_s: float = 1.0 / 60.0,
     ) -> None:
         if full_range_s <= 0:
             raise ValueError(f"full_range_s must be > 0, got {full_range_s}")
@@ -98,14 +92,19 @@ class SimFcbCamera:
         self.max_raw = max_raw
         self.reply_delay_s = reply_delay_s
         self.byte_time_s = 10.0 / baudrate
+        self.v_cycle_s = v_cycle_s
         self.counters = SimCounters()
-        self._rate = max_raw / full_range_s
+        self.logic = FcbLogic(
+            speeds or ZoomSpeeds(direct_s=full_range_s),
+            max_raw=max_raw,
+            initial_raw=initial_raw,
+            address=address,
+            power_on_s=power_on_s,
+        )
+        self._waiting: deque[tuple[float, vc.Command]] = deque()
+        self._last_execution = -float("inf")
         self._rng = random.Random(seed)
         self._lock = threading.Lock()
-        self._address = address
-        self._motion = _Motion(initial_raw, initial_raw, 0.0, self._rate)
-        self._motion_socket: int | None = None
-        self._next_socket = 1
         self._fault = Fault.NONE
         self._error_code = vp.ErrorCode.NOT_EXECUTABLE
         self._outbox: list[tuple[float, bytes]] = []
@@ -168,16 +167,26 @@ class SimFcbCamera:
     @property
     def address(self) -> int:
         with self._lock:
-            return self._address
+            return self.logic.address
+
+    @property
+    def powered(self) -> bool:
+        with self._lock:
+            return self.logic.powered
 
     def position_raw(self) -> int:
         """True zoom position now (raw FCB units)."""
         with self._lock:
-            return self._motion.position(time.monotonic())
+            return self.logic.position(time.monotonic())
 
     def target_raw(self) -> int:
+        """Where the lens is heading (the range end during a tele/wide move)."""
         with self._lock:
-            return self._motion.target_raw
+            return self.logic.motion.target_raw
+
+    def moving(self) -> bool:
+        with self._lock:
+            return self.logic.motion.moving(time.monotonic())
 
     # -- serving -----------------------------------------------------------------------------
 
@@ -193,15 +202,19 @@ class SimFcbCamera:
                 except OSError:  # slave side gone for good
                     data = b""
                 self._receive(data)
-            self._finish_arrivals()
+            self._execute_waiting()
+            self._finish_due()
             self._flush_outbox()
 
     def _wait_s(self) -> float:
         now = time.monotonic()
         waits = [0.05]
         with self._lock:
-            if self._motion_socket is not None:
-                waits.append(self._motion.arrival() - now)
+            due = self.logic.next_due()
+            if due is not None:
+                waits.append(due - now)
+            if self._waiting:
+                waits.append(self._waiting[0][0] - now)
             if self._outbox:
                 waits.append(self._outbox[0][0] - now)
         return max(0.0, min(waits))
@@ -213,72 +226,65 @@ class SimFcbCamera:
         errors_before = self._splitter.errors
         for packet in self._splitter.feed(data):
             try:
-                command = vp.decode_command(packet)
+                command = vc.decode_command(packet)
             except vp.ViscaDecodeError:
                 self.counters.garbage_in += 1
                 continue
-            self._execute(command)
+            self._arrive(command)
         self.counters.garbage_in += self._splitter.errors - errors_before
 
-    def _execute(self, command: vp.Command) -> None:
+    def _arrive(self, command: vc.Command) -> None:
+        """Take a packet into the command buffer (IF_Clear and address set act at once)."""
         now = time.monotonic()
         with self._lock:
-            if isinstance(command, vp.AddressSetCommand):
-                self._address = command.address
-                self._send(vp.encode_address_set_reply(command.address + 1), now)
-                return
-            if command.address is not None and command.address != self._address:
+            broadcast = isinstance(command, vc.AddressSetCommand) or command.address is None
+            if not broadcast and command.address != self.logic.address:
                 return  # for another camera on the chain
-            if isinstance(command, vp.ZoomPositionInquiry):
-                self.counters.inquiries += 1
-            else:
-                self.counters.commands += 1
-            if self._fault is Fault.ERROR and command.address is not None:
-                self._send_error_fault(command, now)
+            if isinstance(command, vc.AddressSetCommand | vc.IfClearCommand):
+                if isinstance(command, vc.IfClearCommand):
+                    self._waiting.clear()
+                self._run_command(command, now)
                 return
-            if isinstance(command, vp.IfClearCommand):
-                self._stop_motion(now)
-                if command.address is None:
-                    self._send(vp.encode_if_clear_broadcast(), now)
-                else:
-                    self._send(vp.encode_completion(self._address, 0), now)
-            elif isinstance(command, vp.ZoomDirectCommand):
-                self._start_zoom(command.raw, now)
-            elif isinstance(command, vp.ZoomPositionInquiry):
-                position = self._motion.position(now)
-                self._send(vp.encode_zoom_position_reply(self._address, position), now)
-            else:
-                self._send(vp.encode_error(self._address, 0, vp.ErrorCode.SYNTAX), now)
+            if len(self._waiting) >= BUFFERED_PACKETS:
+                self.counters.buffer_full += 1
+                self._send(vp.encode_error(self.logic.address, 0, vp.ErrorCode.BUFFER_FULL), now)
+                return
+            start = self._waiting[-1][0] if self._waiting else self._last_execution
+            self._waiting.append((max(now, start + self.v_cycle_s), command))
 
-    def _send_error_fault(self, command: vp.Command, now: float) -> None:
+    def _execute_waiting(self) -> None:
+        now = time.monotonic()
+        with self._lock:
+            while self._waiting and self._waiting[0][0] <= now:
+                _, command = self._waiting.popleft()
+                self._last_execution = now
+                self._run_command(command, now)
+
+    def _run_command(self, command: vc.Command, now: float) -> None:
+        """Execute one command (lock held), through the injected fault."""
+        if isinstance(command, vc.ZoomPositionInquiry | vc.PowerInquiry | vc.VersionInquiry):
+            self.counters.inquiries += 1
+        elif not isinstance(command, vc.AddressSetCommand):
+            self.counters.commands += 1
+        addressed = command.address is not None and not isinstance(command, vc.AddressSetCommand)
+        if self._fault is Fault.ERROR and addressed:
+            self._send_error_fault(command, now)
+            return
+        for reply in self.logic.execute(command, now):
+            self._send(reply, now)
+
+    def _send_error_fault(self, command: vc.Command, now: float) -> None:
         code = self._error_code
         socket_level = code in (vp.ErrorCode.CANCELLED, vp.ErrorCode.NO_SOCKET) or (
-            code is vp.ErrorCode.NOT_EXECUTABLE and isinstance(command, vp.ZoomDirectCommand)
+            code is vp.ErrorCode.NOT_EXECUTABLE and isinstance(command, vc.SocketCommand)
         )
-        self._send(vp.encode_error(self._address, 1 if socket_level else 0, code), now)
+        self._send(vp.encode_error(self.logic.address, 1 if socket_level else 0, code), now)
 
-    def _start_zoom(self, raw: int, now: float) -> None:
-        target = min(raw, self.max_raw)
-        old_socket = self._motion_socket
-        socket = self._next_socket
-        self._next_socket = 2 if socket == 1 else 1
-        self._motion = _Motion(self._motion.position(now), target, now, self._rate)
-        self._motion_socket = socket
-        self._send(vp.encode_ack(self._address, socket), now)
-        if old_socket is not None:
-            self._send(vp.encode_error(self._address, old_socket, vp.ErrorCode.CANCELLED), now)
-
-    def _stop_motion(self, now: float) -> None:
-        here = self._motion.position(now)
-        self._motion = _Motion(here, here, now, self._rate)
-        self._motion_socket = None
-
-    def _finish_arrivals(self) -> None:
+    def _finish_due(self) -> None:
         now = time.monotonic()
         with self._lock:
-            if self._motion_socket is not None and now >= self._motion.arrival():
-                self._send(vp.encode_completion(self._address, self._motion_socket), now)
-                self._motion_socket = None
+            for reply in self.logic.due(now):
+                self._send(reply, now)
 
     # -- the wire ----------------------------------------------------------------------------
 
