@@ -8,10 +8,25 @@ convention), converted once with scipy's ``Rotation``.
 
 from __future__ import annotations
 
+import re
 from collections import deque
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+#: What a graph may name a frame, a module or a process: an identifier.
+NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+def frame_name_problem(name: str) -> str:
+    """Why ``name`` cannot name a frame in a graph (``frames: {parent->child: ...}``); empty when
+    it can."""
+    if NAME_RE.match(name):
+        return ""
+    return (
+        f"frame name {name!r} must be an identifier (letters, digits and `_`, not starting with a "
+        "digit), as a graph's `frames:` requires"
+    )
 
 
 def transform_from_xyz_rpy(xyz: list[float], rpy_rad: list[float]) -> np.ndarray:

@@ -11,6 +11,7 @@ the believed mount, and after) and, with ``--output``, writes the mount as a cal
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    if not (math.isfinite(args.max_rms_px) and args.max_rms_px > 0):
+        raise UserError(
+            f"--max-rms-px: expected a finite number of pixels > 0, found {args.max_rms_px}"
+        )
     session = load_session(args.session)
     try:
         result = solve_mount(session.snapshots, session.initial)

@@ -15,6 +15,12 @@ The 3-D view writes the same file when the operator saves a pose-tool session::
 
 Translations in metres, fixed-axis roll, pitch, yaw in degrees (``R = Rz(yaw) Ry(pitch)
 Rx(roll)``, the graph frames' convention). Errors are ``UserError("FILE:LINE: error: ...")``.
+
+The file is checked before anything is solved or written: the mount's frame names are graph frame
+names (what ``--graph`` writes passes ``umbra check``), and the clicked points, seen from the
+mount's parent frame, must pin the mount down: clicks that are all on one point, or on one line,
+leave it free to turn (a solver would report such a "mount" at 0 px) and are refused with the
+reason.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ import numpy as np
 import yaml
 
 from connectors.errors import UserError
+from connectors.frames import frame_name_problem
 from modules.calib import yaml_nodes as yn
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.calib.pose_tool import MountSnapshot
@@ -72,7 +79,46 @@ def _mount_names(node: yaml.Node) -> tuple[str, str]:
     parent, sep, child = value.partition("->")
     if not sep or not parent.strip() or not child.strip():
         raise SpotError.at(node, f"mount must be written parent->child, found {value!r}")
+    for name in (parent.strip(), child.strip()):
+        problem = frame_name_problem(name)
+        if problem:
+            raise SpotError.at(node, f"mount {value!r}: {problem}")
+    if parent.strip() == child.strip():
+        raise SpotError.at(node, f"mount {value!r} names one frame twice; expected parent->child")
     return parent.strip(), child.strip()
+
+
+#: Clicked points closer than this to their centroid are one point [m].
+ONE_POINT_M = 1e-4
+#: Points whose spread across their main line is less than this fraction of the spread along it
+#: are on one line.
+ONE_LINE_RATIO = 1e-3
+
+
+def _geometry_problem(snapshots: list[MountSnapshot], total: int) -> str:
+    """Why the clicked points cannot determine the mount; empty when they can. The points are
+    taken in the mount's parent frame (a point clicked from two parent poses counts twice)."""
+    in_parent = [
+        (np.linalg.inv(s.T_world_parent) @ np.c_[s.points_world, np.ones(len(s.points_world))].T)[
+            :3
+        ].T
+        for s in snapshots
+        if len(s.points_world)
+    ]
+    points = np.vstack(in_parent)
+    spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+    rms = spread / np.sqrt(len(points))
+    if rms[0] < ONE_POINT_M:
+        return (
+            f"all {total} clicks are on one point (seen from the mount's parent frame): the mount "
+            "is not determined; click at least 3 points that are not on one line"
+        )
+    if len(rms) < 2 or rms[1] < ONE_LINE_RATIO * rms[0]:
+        return (
+            f"the {total} clicked points lie on one line (seen from the mount's parent frame): "
+            "the mount could turn about it; click a point off that line"
+        )
+    return ""
 
 
 def parse_session(content: str, source: str = "<string>") -> PoseToolSession:
@@ -124,6 +170,9 @@ def parse_session(content: str, source: str = "<string>") -> PoseToolSession:
             raise SpotError.at(
                 top["snapshots"], f"the mount needs at least 3 clicks in all, found {total}"
             )
+        problem = _geometry_problem(snapshots, total)
+        if problem:
+            raise SpotError.at(top["snapshots"], problem)
     except SpotError as failure:
         raise UserError(f"{source}:{failure.line}: error: {failure.message}") from None
     return PoseToolSession(parent, child, initial, snapshots, names_all, lines_all)

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from connectors.errors import CheckFailed, Diagnostic, Location, UserError
-from connectors.frames import transform_from_xyz_rpy
+from connectors.frames import NAME_RE, transform_from_xyz_rpy  # one rule for every graph name
 from connectors.limits import MAX_RATE_HZ, MIN_RATE_HZ
 from connectors.safe_yaml import boolean_hint
 from connectors.user_files import read_bytes
@@ -70,7 +70,6 @@ MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
 PROCESS_KEYS = ("cpu_latency_us", "realtime_priority")
 LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config", "dispatch")
 DISPATCH_MODES = ("inline", "loop")
-NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 CONNECTION_RE = re.compile(
     r"^\s*(?P<sm>[^.\s]+)\.(?P<sp>[^\s]+)\s*(?P<arrow>->|~>)\s*(?P<dm>[^.\s]+)\.(?P<dp>[^\s]+)\s*$"
 )
