@@ -234,7 +234,10 @@ def test_failed_start_names_the_drive_and_disables_the_others(
     with pytest.raises(DriveStartError, match=r"joint 'j9' \(node 9\): no SDO answer"):
         arm.start()
     assert arm.status().state is ArmState.IDLE
-    assert all(d.state is State.SWITCH_ON_DISABLED for d in drives)  # quick-stopped by SDO
+    # quick-stopped by SDO at standstill: Quick stop active for a drive cycle, then disabled
+    wait_until(
+        lambda: all(d.state is State.SWITCH_ON_DISABLED for d in drives), 1.0, "transition 12"
+    )
     assert all(d.nmt_state == "PRE-OPERATIONAL" for d in drives)
 
 

@@ -60,8 +60,11 @@ def test_state_machine_and_mode_by_sdo(bus: tuple[SimDrive, canopen.RemoteNode, 
     for word, state in zip((0x06, 0x07, 0x0F), expected, strict=True):
         node.sdo[obj.CONTROLWORD].raw = word
         assert sdo_state(node) is state
-    node.sdo[obj.CONTROLWORD].raw = 0x02  # quick stop at standstill: option code 2 ends
-    assert sdo_state(node) is State.SWITCH_ON_DISABLED  # in switch on disabled at once
+    node.sdo[obj.CONTROLWORD].raw = 0x02  # quick stop at standstill: option code 2 shows
+    assert sdo_state(node) is State.QUICK_STOP_ACTIVE  # Quick stop active for a drive cycle,
+    wait_until(  # then ends in Switch on disabled by itself (transition 12)
+        lambda: sdo_state(node) is State.SWITCH_ON_DISABLED, 1.0, "transition 12"
+    )
     assert drive.state is State.SWITCH_ON_DISABLED
     with pytest.raises(SdoAbortedError):
         node.sdo[obj.STATUSWORD].raw = 0  # read-only

@@ -3,8 +3,13 @@
 The drive implements what a master needs to run it in profile velocity mode:
 
 - the CiA 402 power state machine driven by the controlword (0x6040), reported in the
-  statusword (0x6041), with quick stop (0x605A option codes 0, 1, 2, 5, 6) and
-  fault / fault reset;
+  statusword (0x6041), with fault / fault reset and quick stop for every option code of
+  0x605A: 0 stop at once (drive function disabled), 1 / 5 profile deceleration (0x6084),
+  2 / 6 quick stop deceleration (0x6085), 3 / 7 current limit and 4 / 8 voltage limit (the
+  simulation has no motor model: both brake at max deceleration, 0x60C6); 0..4 end in
+  Switch on disabled, 5..8 stay in Quick stop active. The drive leaves Quick stop active
+  only in a drive cycle (SYNC, `advance`) that starts at standstill, so every quick stop is
+  reported in at least one statusword (a TPDO), even from standstill;
 - modes of operation (0x6060, only 3 = profile velocity is accepted) and its display;
 - a velocity loop with acceleration limits (0x6083, 0x6084, 0x6085): actual velocity
   (0x606C) slews to target velocity (0x60FF); position actual (0x6064) integrates it;
@@ -12,6 +17,11 @@ The drive implements what a master needs to run it in profile velocity mode:
   SDO; the drive follows): synchronous RPDOs are applied on the next SYNC, synchronous
   TPDOs are sent on SYNC after the motion step; PDOs only in NMT OPERATIONAL;
 - producer heartbeat (0x1017), boot-up message, EMCY on faults;
+- its own watch on the master (drive_watchdog.py): heartbeat consumer (0x1016) and RPDO
+  deadline (0x1400 sub 5); when one fires the drive acts as 0x6007 says, on its own clock:
+  the motion up to the deadline is integrated with the old target, the reaction starts at the
+  deadline, and the drive ramps down by itself even when no SYNC comes (its watch thread
+  runs the motion), or in one step when the whole process was stopped and continues;
 - test hooks: `inject_fault` (error code in 0x603F, fault bit, EMCY) and `go_silent`
   (transmitter dead: no heartbeat, PDO, EMCY or SDO reply; it still receives).
 
@@ -34,6 +44,17 @@ from canopen.pdo import PdoMap, PdoMaps
 from canopen.sdo import SdoAbortedError
 
 from modules.arm.cia402 import objects as obj
+from modules.arm.cia402.drive_watchdog import (
+    ABORT_CONNECTION_OPTIONS,
+    ABORT_DISABLE_VOLTAGE,
+    ABORT_FAULT,
+    ABORT_QUICK_STOP,
+    ERROR_REGISTER_COMMUNICATION,
+    ConsumerEntry,
+    Expiry,
+    MasterWatch,
+    parse_consumer_entry,
+)
 from modules.arm.cia402.state_machine import (
     Command,
     State,
@@ -49,9 +70,21 @@ SDO_ABORT_DEVICE_STATE = 0x08000022
 
 ERROR_REGISTER_GENERIC = 0x01
 
-# Decelerations used by quick stop option codes: profile deceleration or quick stop one.
-_QUICK_STOP_PROFILE_DECEL = frozenset({1, 5})
+# Quick stop option code (0x605A) -> the deceleration object it brakes with (None: at once).
+_QUICK_STOP_DECELERATION: dict[int, int | None] = {
+    0: None,
+    1: obj.PROFILE_DECELERATION,
+    2: obj.QUICK_STOP_DECELERATION,
+    3: obj.MAX_DECELERATION,
+    4: obj.MAX_DECELERATION,
+    5: obj.PROFILE_DECELERATION,
+    6: obj.QUICK_STOP_DECELERATION,
+    7: obj.MAX_DECELERATION,
+    8: obj.MAX_DECELERATION,
+}
 _QUICK_STOP_TO_DISABLED = frozenset({0, 1, 2, 3, 4})
+WATCH_IDLE_S = 0.05  # the watch thread's longest sleep
+FREE_RUN_PERIOD_S = 0.01  # drive cycle of the watch thread while it stops the drive alone
 
 
 class SimDrive:
@@ -82,6 +115,12 @@ class SimDrive:
         self._last_sync: float | None = None
         self._sync_count = 0
         self._pending_rpdos: list[tuple[int, int, bytes]] = []
+        self._watch = MasterWatch()
+        self._master_losses = 0
+        self._free_run = False  # the watch fired: the drive runs its motion without SYNC
+        self._quick_stop_cycles = 0  # drive cycles ended in Quick stop active
+        self._closing = threading.Event()
+        self._watch_thread: threading.Thread | None = None
         self.node.add_read_callback(self._on_read)
         self.node.add_write_callback(self._on_write)
         for pdo_map in self.node.rpdo.map.values():
@@ -98,6 +137,9 @@ class SimDrive:
         network.connect(interface=interface, channel=channel, bitrate=bitrate)
         network.add_node(self.node)
         network.subscribe(obj.SYNC_COB_ID, self._on_sync)
+        for node_id in range(1, 128):
+            if node_id != self.node.id:
+                network.subscribe(obj.HEARTBEAT_COB_BASE + node_id, self._on_heartbeat)
         self.network = network
         with self._lock:
             for maps in (self.node.rpdo.map, self.node.tpdo.map):
@@ -106,12 +148,21 @@ class SimDrive:
             self.node.nmt.send_command(0x81)  # reset: boot-up message
             self.node.nmt.send_command(0x80)  # to PRE-OPERATIONAL, starts heartbeat
             self._state = State.SWITCH_ON_DISABLED  # power-up, transitions 0 and 1
+        self._closing.clear()
+        self._watch_thread = threading.Thread(
+            target=self._watch_loop, name=f"sim-drive-{self.node.id}-watch", daemon=True
+        )
+        self._watch_thread.start()
         return self
 
     def close(self) -> None:
         """Stop the heartbeat and leave the bus."""
         if self.network is None:
             return
+        self._closing.set()
+        if self._watch_thread is not None:
+            self._watch_thread.join(timeout=1.0)
+            self._watch_thread = None
         self.node.nmt.stop_heartbeat()
         self.network.disconnect()
         self.network = None
@@ -172,6 +223,12 @@ class SimDrive:
     def nmt_state(self) -> str:
         return self.node.nmt.state
 
+    @property
+    def master_losses(self) -> int:
+        """How many times the drive's watch on its master fired (also object 0x2000)."""
+        with self._lock:
+            return self._master_losses
+
     def statusword(self) -> int:
         with self._lock:
             return statusword_for(
@@ -188,12 +245,15 @@ class SimDrive:
         0x2310 is CiA 402's "continuous over current"; any 16-bit code is accepted.
         """
         with self._lock:
-            self._state = State.FAULT  # the fault reaction (stop at once) is immediate
-            self._velocity = 0.0
-            self._error_code = error_code & 0xFFFF
-            self._error_register = ERROR_REGISTER_GENERIC
-            if not self._silent and self.network is not None:
-                self.node.emcy.send(self._error_code, self._error_register)
+            self._fault(error_code, ERROR_REGISTER_GENERIC)
+
+    def _fault(self, error_code: int, register: int) -> None:
+        self._state = State.FAULT  # the fault reaction (stop at once) is immediate
+        self._velocity = 0.0
+        self._error_code = error_code & 0xFFFF
+        self._error_register = register
+        if not self._silent and self.network is not None:
+            self.node.emcy.send(self._error_code, self._error_register)
 
     def go_silent(self, *, heartbeat_only: bool = False) -> None:
         """Stop the heartbeat; unless `heartbeat_only`, the whole transmitter dies too
@@ -214,6 +274,13 @@ class SimDrive:
             raise ValueError(f"dt_s must be >= 0, got {dt_s}")
         with self._lock:
             v0 = self._velocity
+            if (
+                self._state is State.QUICK_STOP_ACTIVE
+                and v0 == 0.0
+                and self._quick_stop_cycles > 0
+                and self._param(obj.QUICK_STOP_OPTION_CODE) in _QUICK_STOP_TO_DISABLED
+            ):
+                self._state = State.SWITCH_ON_DISABLED  # transition 12: stood still a cycle
             target, decel_limit = self._velocity_goal()
             accel = self._param(obj.PROFILE_ACCELERATION)
             speeding_up = abs(target) > abs(v0) and (target * v0 >= 0)
@@ -225,12 +292,8 @@ class SimDrive:
                 v1 = v0 + step if target > v0 else v0 - step
             self._velocity = v1
             self._position += 0.5 * (v0 + v1) * dt_s
-            if (
-                self._state is State.QUICK_STOP_ACTIVE
-                and v1 == 0.0
-                and self._param(obj.QUICK_STOP_OPTION_CODE) in _QUICK_STOP_TO_DISABLED
-            ):
-                self._state = State.SWITCH_ON_DISABLED
+            quick_stop = self._state is State.QUICK_STOP_ACTIVE
+            self._quick_stop_cycles = self._quick_stop_cycles + 1 if quick_stop else 0
 
     def _velocity_goal(self) -> tuple[float, float]:
         """Target velocity (counts/s) and deceleration limit (counts/s^2) for the state."""
@@ -240,21 +303,18 @@ class SimDrive:
                 return float(self._target_velocity), profile_decel
             return 0.0, profile_decel
         if self._state is State.QUICK_STOP_ACTIVE:
-            option = self._param(obj.QUICK_STOP_OPTION_CODE)
-            if option == 0:
-                return 0.0, 0.0  # disable drive function: stop at once
-            if option in _QUICK_STOP_PROFILE_DECEL:
-                return 0.0, profile_decel
-            return 0.0, float(self._param(obj.QUICK_STOP_DECELERATION))
-        return 0.0, 0.0  # power stage off: the simulation holds the axis
+            decel = _QUICK_STOP_DECELERATION[self._param(obj.QUICK_STOP_OPTION_CODE)]
+            return 0.0, 0.0 if decel is None else float(self._param(decel))
+        return 0.0, 0.0  # power stage off (0: stop at once): the simulation holds the axis
 
     # -- object dictionary hooks -----------------------------------------------------
 
-    def _param(self, index: int) -> int:
-        """Current value of a plain parameter (stored by SDO/PDO or the EDS default)."""
-        od_var = self.node.object_dictionary[index]
+    def _param(self, index: int, subindex: int = 0) -> int:
+        """Current value of a parameter (stored by SDO/PDO or the EDS default)."""
+        entry = self.node.object_dictionary[index]
+        od_var = entry if isinstance(entry, ODVariable) else entry[subindex]
         assert isinstance(od_var, ODVariable)
-        return int(od_var.decode_raw(self.node.get_data(index, 0)))
+        return int(od_var.decode_raw(self.node.get_data(index, subindex)))
 
     def _on_read(self, index: int, subindex: int, od: ODVariable, **_: Any) -> int | None:
         with self._lock:
@@ -276,6 +336,8 @@ class SimDrive:
                 return self._mode
             if index == obj.TARGET_VELOCITY:
                 return self._target_velocity
+            if index == obj.COMMUNICATION_LOSS_COUNT:
+                return min(self._master_losses, 0xFFFF)
         return None
 
     def _on_write(self, index: int, subindex: int, od: ODVariable, data: bytes) -> None:
@@ -289,6 +351,12 @@ class SimDrive:
                 self._mode = mode
             elif index == obj.TARGET_VELOCITY:
                 self._target_velocity = int(od.decode_raw(data))
+            elif index == obj.QUICK_STOP_OPTION_CODE:
+                if int(od.decode_raw(data)) not in _QUICK_STOP_DECELERATION:
+                    raise SdoAbortedError(SDO_ABORT_VALUE_RANGE)  # 0..8 are implemented
+            elif index == obj.ABORT_CONNECTION_OPTION_CODE:
+                if int(od.decode_raw(data)) not in ABORT_CONNECTION_OPTIONS:
+                    raise SdoAbortedError(SDO_ABORT_VALUE_RANGE)  # 0..3 are implemented
             elif obj.is_pdo_parameter(index):
                 # Callbacks run before the value is stored: store it first, then re-read.
                 self.node.data_store.setdefault(index, {})[subindex] = bytes(data)
@@ -300,6 +368,8 @@ class SimDrive:
         old = self._state
         option = self._param(obj.QUICK_STOP_OPTION_CODE)
         self._state = next_state(old, command, option)
+        if self._state is not old:
+            self._quick_stop_cycles = 0
         if old is State.FAULT and self._state is State.SWITCH_ON_DISABLED:
             self._error_code = 0
             self._error_register = 0
@@ -307,12 +377,6 @@ class SimDrive:
                 self.node.emcy.reset()
         if self._state is State.QUICK_STOP_ACTIVE and option == 0:
             self._velocity = 0.0  # option 0: disable the drive function at once
-        if (
-            self._state is State.QUICK_STOP_ACTIVE
-            and self._velocity == 0.0
-            and option in _QUICK_STOP_TO_DISABLED
-        ):
-            self._state = State.SWITCH_ON_DISABLED  # already standing still
         if command is Command.ENABLE_OPERATION and old is not State.OPERATION_ENABLED:
             self._last_sync = None
 
@@ -339,8 +403,11 @@ class SimDrive:
 
     def _on_rpdo(self, pdo_map: PdoMap) -> None:
         with self._lock:
+            now = time.monotonic()
+            self._check_watch(now)
             if not self._operational():
                 return
+            self._watch.rpdo(now)
             values = [(v.index, v.subindex, bytes(v.get_data())) for v in pdo_map.map if v.length]
             if pdo_map.trans_type is not None and pdo_map.trans_type <= 240:
                 self._pending_rpdos.extend(values)
@@ -356,9 +423,10 @@ class SimDrive:
 
     def _on_sync(self, can_id: int, data: bytearray, timestamp: float) -> None:
         with self._lock:
+            now = time.monotonic()
+            self._check_watch(now)
             if not self._operational():
                 return
-            now = time.monotonic()
             pending, self._pending_rpdos = self._pending_rpdos, []
             self._apply_values(pending)
             dt = 0.0 if self._last_sync is None else now - self._last_sync
@@ -377,6 +445,105 @@ class SimDrive:
                     if var.length:
                         var.set_data(self.node.get_data(var.index, var.subindex)[: var.length // 8])
                 pdo_map.transmit()
+
+    def _on_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        with self._lock:
+            now = time.monotonic()
+            self._check_watch(now)  # a producer heard again after its deadline: it fired first
+            self._watch.heartbeat(can_id - obj.HEARTBEAT_COB_BASE, now)
+
+    # -- the watch on the master -----------------------------------------------------
+
+    def _consumers(self) -> list[ConsumerEntry]:
+        count = self._param(obj.CONSUMER_HEARTBEAT_TIME, 0)
+        entries = (
+            parse_consumer_entry(self._param(obj.CONSUMER_HEARTBEAT_TIME, i))
+            for i in range(1, count + 1)
+        )
+        return [e for e in entries if e is not None]
+
+    def _check_watch(self, now: float) -> None:
+        """React to every watch whose deadline is at or before ``now`` (caller holds the lock)."""
+        if not self._operational():
+            self._watch.reset_rpdo()  # deadline monitoring restarts in OPERATIONAL
+        while True:
+            expiry = self._next_expiry()
+            if expiry is None or expiry.at > now:
+                return
+            self._watch.fired(expiry, self._consumers())
+            self._lose_master(expiry)
+
+    def _next_expiry(self) -> Expiry | None:
+        rpdo_ms = 0
+        if self._operational():
+            rpdo_ms = self._param(obj.RPDO_COMM_FIRST, obj.PDO_EVENT_TIMER_SUBINDEX)
+        return self._watch.next_expiry(self._consumers(), rpdo_ms / 1000.0)
+
+    def _run_until(self, at: float) -> None:
+        """Integrate the motion from the last drive cycle to ``at`` (drive clock)."""
+        if not self._operational():
+            return
+        if self._last_sync is not None and at > self._last_sync:
+            self.advance(at - self._last_sync)
+        self._last_sync = at
+
+    def _lose_master(self, expiry: Expiry) -> None:
+        self._run_until(expiry.at)  # the old target held until the deadline, not beyond
+        self._master_losses += 1
+        action = self._param(obj.ABORT_CONNECTION_OPTION_CODE)
+        logger.warning(
+            "node %d: %s: %s (0x6007 = %d)",
+            self.node_id,
+            expiry.reason,
+            ABORT_CONNECTION_OPTIONS.get(action, "?"),
+            action,
+        )
+        register = ERROR_REGISTER_GENERIC | ERROR_REGISTER_COMMUNICATION
+        if action == ABORT_FAULT and self._state is not State.FAULT:
+            self._fault(expiry.emcy_code, register)
+        else:
+            if not self._silent and self.network is not None:
+                self.node.emcy.send(expiry.emcy_code, register)
+            if action == ABORT_DISABLE_VOLTAGE:
+                self._state = next_state(self._state, Command.DISABLE_VOLTAGE)
+            elif action == ABORT_QUICK_STOP:
+                option = self._param(obj.QUICK_STOP_OPTION_CODE)
+                self._state = next_state(self._state, Command.QUICK_STOP, option)
+                self._quick_stop_cycles = 0
+                if self._state is State.QUICK_STOP_ACTIVE and option == 0:
+                    self._velocity = 0.0
+        self._free_run = True
+
+    def _watch_loop(self) -> None:
+        """The drive's own clock: the watch's deadlines fire on time, and a drive stopping
+        (quick stop, or after losing its master) runs its stop when no SYNC drives it."""
+        wait = WATCH_IDLE_S
+        quick_stop_seen: float | None = None  # first own cycle in Quick stop active
+        while not self._closing.wait(wait):
+            with self._lock:
+                now = time.monotonic()
+                self._check_watch(now)
+                stopping = self._free_run or self._state is State.QUICK_STOP_ACTIVE
+                if self._state is not State.QUICK_STOP_ACTIVE:
+                    quick_stop_seen = None
+                elif quick_stop_seen is None:
+                    quick_stop_seen = now
+                if stopping and self._operational():
+                    if self._last_sync is None or now - self._last_sync >= 2 * FREE_RUN_PERIOD_S:
+                        self._run_until(now)  # no SYNC: the drive cycles by itself
+                elif (
+                    quick_stop_seen is not None
+                    and now - quick_stop_seen >= FREE_RUN_PERIOD_S
+                    and self._velocity == 0.0
+                ):
+                    self.advance(0.0)  # a cycle at standstill (motion here runs on `advance`)
+                self._free_run = self._free_run and (
+                    self._velocity != 0.0 or self._state is State.QUICK_STOP_ACTIVE
+                )
+                wait = FREE_RUN_PERIOD_S if stopping else WATCH_IDLE_S
+                expiry = self._next_expiry()
+                if expiry is not None:
+                    wait = min(wait, max(0.001, expiry.at - now))
 
 
 def _clamp_int32(value: int) -> int:
