@@ -230,6 +230,7 @@ class SimFcbCamera:
             except vp.ViscaDecodeError:
                 self.counters.garbage_in += 1
                 continue
+            self._execute_waiting()  # a packet due now runs before the next is buffered
             self._arrive(command)
         self.counters.garbage_in += self._splitter.errors - errors_before
 
