@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from runtime.graph.plan import GraphPlan
@@ -18,12 +19,18 @@ def default_output_dir(plan: GraphPlan) -> Path:
 
 
 def run_process(
-    plan: GraphPlan, options: SchedulerOptions, transport: LinkTransport | None = None
+    plan: GraphPlan,
+    options: SchedulerOptions,
+    transport: LinkTransport | None = None,
+    prepare: Callable[[Scheduler], None] | None = None,
 ) -> RunResult:
     """Build and run one process (every module when ``options.process`` is None); always writes
-    ``summary[-PROCESS].json`` into the output folder, whatever the outcome."""
+    ``summary[-PROCESS].json`` into the output folder, whatever the outcome. ``prepare`` is called
+    with the wired scheduler before it runs (the live server adds its sinks)."""
     options.output_dir.mkdir(parents=True, exist_ok=True)
     scheduler = Scheduler(plan, options, transport)
+    if prepare is not None:
+        prepare(scheduler)
     try:
         result = scheduler.run()
     finally:

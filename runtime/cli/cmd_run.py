@@ -7,6 +7,7 @@ import logging
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 from connectors.errors import UserError
 from runtime.cli.common import parse_module_set
@@ -105,6 +106,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "each on its key PREFIX/MODULE/PORT, for observers (`umbra topics`, viewers); links are "
         "always published",
     )
+    add_foxglove_args(parser)
     parser.add_argument("--quiet", action="store_true", help="no summary table")
     # a process started by the launcher: commands on stdin, bounded wait for its consumers
     parser.add_argument("--supervised", action="store_true", help=argparse.SUPPRESS)
@@ -112,6 +114,55 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--link-auth", metavar="FILE", help=argparse.SUPPRESS)
     # benchmarks only: links without identity checks and size bounds (their cost is measured)
     parser.add_argument("--unchecked-links", action="store_true", help=argparse.SUPPRESS)
+
+
+def add_foxglove_args(parser: argparse.ArgumentParser) -> None:
+    """``--foxglove`` and its settings (``runtime.live``)."""
+    parser.add_argument(
+        "--foxglove",
+        action="store_true",
+        help="serve the run live to Foxglove or Lichtblick (Foxglove WebSocket protocol, every "
+        "output with the recordings' schemas and frames, wall-clock time); the address printed "
+        "carries the run's token",
+    )
+    parser.add_argument(
+        "--foxglove-port",
+        type=int,
+        default=8765,
+        metavar="PORT",
+        help="with --foxglove: port to serve on (default 8765, 0: any free one)",
+    )
+    parser.add_argument(
+        "--foxglove-host",
+        default="127.0.0.1",
+        metavar="ADDR",
+        help="with --foxglove: address to serve on (default loopback; beyond it needs --insecure)",
+    )
+    parser.add_argument(
+        "--foxglove-origin",
+        action="append",
+        default=[],
+        metavar="URL",
+        help="with --foxglove: a viewer page allowed to connect from a browser, e.g. "
+        "http://127.0.0.1:8080 for a Lichtblick you serve (https://app.foxglove.dev always is)",
+    )
+
+
+def start_live(plan: GraphPlan, args: argparse.Namespace, clock: Any) -> Any:
+    """The live server of ``--foxglove`` (None without it); prints the address to open."""
+    if not getattr(args, "foxglove", False):
+        return None
+    from runtime.live.session import LiveOptions, LiveRun
+
+    options = LiveOptions(
+        host=args.foxglove_host,
+        port=args.foxglove_port,
+        origins=list(args.foxglove_origin),
+        insecure=bool(getattr(args, "insecure", False)),
+    )
+    live = LiveRun(plan, options, clock)
+    print(f"foxglove: open {live.url} (Foxglove WebSocket)", file=sys.stderr, flush=True)
+    return live
 
 
 def enable_recording(plan: GraphPlan, args: argparse.Namespace) -> None:
@@ -156,7 +207,19 @@ def main(args: argparse.Namespace) -> int:
             handle_signals=True,
             cpu_latency_us=latency_limit(plan.spec.cpu_latency_us, None, latency),
         )
-        result = run_process(plan, options)
+        live: Any = None
+
+        def serve_live(scheduler: Any) -> None:
+            nonlocal live
+            live = start_live(plan, args, scheduler.clock)
+            if live is not None:
+                live.serve(scheduler)
+
+        try:
+            result = run_process(plan, options, prepare=serve_live)
+        finally:
+            if live is not None:
+                live.close()
         if not args.quiet:
             print(result.table(), file=sys.stderr)
             print(f"summary written to {out}", file=sys.stderr)
@@ -169,5 +232,15 @@ def main(args: argparse.Namespace) -> int:
                 )
         return result.exit_code
     from runtime import launcher
+    from runtime.clock import RealClock
 
-    return launcher.main(plan, args, clock=clock, duration=duration, out=out)
+    if getattr(args, "foxglove", False):
+        args.publish_all = True  # every process's outputs, for the live server to observe
+    live = start_live(plan, args, RealClock())
+    if live is not None:
+        live.observe()
+    try:
+        return launcher.main(plan, args, clock=clock, duration=duration, out=out)
+    finally:
+        if live is not None:
+            live.close()

@@ -1,0 +1,130 @@
+"""Where the live server's samples come from.
+
+- :func:`serve_local`: the outputs of the modules of this process (every output, those that feed
+  nothing too), each with one more port sink, as the recorder taps them;
+- :class:`ObservedFeed`: the outputs of the run's other processes, by subscribing on zenoh to
+  ``PREFIX/*/*`` as the run's observer (``runtime.links.observe``); the processes publish every
+  output for observers when run with ``--publish-all`` (which ``--foxglove`` turns on). A sample's
+  log time is its arrival on this host's monotonic clock (the clock real-time runs stamp with).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+from runtime.live.server import LiveServer
+from runtime.recording.tap import topic_of
+from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT, META_PROCESS
+
+if TYPE_CHECKING:
+    from runtime.graph.plan import GraphPlan
+    from runtime.links.observe import Observation, Observed
+    from runtime.scheduler import Scheduler
+
+#: Seconds to keep trying to join the run as an observer (its processes start meanwhile).
+JOIN_PATIENCE = 20.0
+
+
+def declare_all(live: LiveServer, plan: GraphPlan) -> dict[tuple[str, str], str]:
+    """A live channel for every output of every module of ``plan``; ``(module, port)`` →
+    topic."""
+    topics = {}
+    for module, mplan in plan.modules.items():
+        for port, info in mplan.outputs.items():
+            topic = topic_of(module, port)
+            meta = {
+                META_PORT: f"{module}.{port}",
+                META_PROCESS: mplan.process,
+                META_FRAME: info.frame or "",
+                META_JOINTS: ",".join(info.joints or ()),
+            }
+            live.declare(topic, info.msg_type, meta)
+            topics[(module, port)] = topic
+    return topics
+
+
+def serve_local(live: LiveServer, scheduler: Scheduler) -> list[str]:
+    """One more sink on every output of this process's modules; returns the topics served."""
+    topics = declare_all(live, scheduler.plan)
+    served = []
+    for module, instance in scheduler.modules.items():
+        for port, out in instance.outputs.items():
+            topic = topics.get((module, port))
+            if topic is not None:
+                out.sinks.append(live.sink(topic))
+                served.append(topic)
+    return served
+
+
+class ObservedFeed:
+    """The run's other processes' outputs, seen as an observer (see the module docstring)."""
+
+    def __init__(
+        self,
+        live: LiveServer,
+        plan: GraphPlan,
+        skip: set[str] | None = None,
+        log: logging.Logger | None = None,
+    ) -> None:
+        self._live = live
+        self._plan = plan
+        self._topics = declare_all(live, plan)
+        self._skip = set(skip or ())  #: modules whose outputs are served locally
+        self._log = log or logging.getLogger("umbra.foxglove")
+        self._prefix = plan.key_prefix
+        self._observation: Observation | None = None
+        self._stop = threading.Event()
+        self.samples = 0
+        self.error = ""
+        self._thread = threading.Thread(target=self._join, name="umbra-fox-observe", daemon=True)
+        self._thread.start()
+
+    def _join(self) -> None:
+        from connectors.errors import UserError
+        from runtime.links.observe import Observation
+
+        deadline = time.monotonic() + JOIN_PATIENCE
+        while not self._stop.is_set():
+            try:
+                observation = Observation.open(self._prefix)
+            except UserError as exc:
+                if time.monotonic() > deadline:
+                    self.error = str(exc)
+                    self._log.warning("foxglove: cannot observe the run: %s", exc)
+                    return
+                self._stop.wait(0.25)
+                continue
+            if self._stop.is_set():
+                observation.close()
+                return
+            self._observation = observation
+            observation.subscribe(self._on_sample, f"{self._prefix}/*/*")
+            return
+
+    def _on_sample(self, seen: Observed) -> None:
+        if seen.kind != "sample" or seen.message is None:
+            return
+        module, _, port = seen.key[len(self._prefix) + 1 :].partition("/")
+        topic = self._topics.get((module, port))
+        if topic is None or module in self._skip:
+            return
+        self.samples += 1
+        self._live.offer(topic, seen.message, seen.arrival)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        if self._observation is not None:
+            self._observation.close()
+
+
+def run_parameters(plan: GraphPlan) -> dict[str, Any]:
+    """``MODULE.PARAM`` → value of every module parameter (what a viewer may read)."""
+    found: dict[str, Any] = {}
+    for name, mplan in plan.modules.items():
+        for key, value in mplan.params.model_dump(mode="json").items():
+            found[f"{name}.{key}"] = value
+    return found

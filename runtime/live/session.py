@@ -1,0 +1,112 @@
+"""``umbra run GRAPH --foxglove``: the live server, its gate and its feeds for one run."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from connectors.errors import UserError
+from modules.webdoor.secret import is_loopback, resolve_token
+from runtime.live.feed import ObservedFeed, run_parameters, serve_local
+from runtime.live.gate import DEFAULT_ORIGINS, Gate
+from runtime.live.server import LiveServer
+from runtime.recording.encoders import wall_offset
+
+if TYPE_CHECKING:
+    from runtime.graph.plan import GraphPlan
+    from runtime.scheduler import Scheduler
+
+#: Foxglove's conventional port for its WebSocket protocol.
+DEFAULT_PORT = 8765
+
+
+@dataclass
+class LiveOptions:
+    """Where and to whom the run is served live."""
+
+    host: str = "127.0.0.1"
+    port: int = DEFAULT_PORT
+    origins: list[str] = field(default_factory=list)  #: viewer pages allowed beyond the default
+    token_file: str = ""  #: first line: the access token (else the pages' file, else random)
+    images: str = "jpeg"  #: how images are served: jpeg, png or raw
+    insecure: bool = False  #: allow a host beyond loopback (plain ws://, no TLS)
+
+
+def page_token_file(plan: GraphPlan) -> str:
+    """The ``token_file`` of the graph's operator pages (the console's, the sketch page's), so the
+    live server takes the same secret as the pages; empty when they make a random one."""
+    for mplan in plan.modules.values():
+        value = getattr(mplan.params, "token_file", "")
+        if isinstance(value, str) and value:
+            return value
+    return ""
+
+
+class LiveRun:
+    """The live server of one run: :meth:`serve` this process's outputs, :meth:`observe` the
+    others'; :attr:`url` is what a viewer opens."""
+
+    def __init__(
+        self, plan: GraphPlan, options: LiveOptions, clock: Any, log: logging.Logger | None = None
+    ) -> None:
+        if not is_loopback(options.host) and not options.insecure:
+            raise UserError(
+                f"--foxglove-host: expected a loopback address (the live server speaks plain "
+                f"ws://, without TLS), found {options.host}; add --insecure to serve beyond it"
+            )
+        self.plan = plan
+        self.log = log or logging.getLogger("umbra.foxglove")
+        token = resolve_token(options.token_file or page_token_file(plan), "--foxglove")
+        self.server = LiveServer(
+            name=f"umbra {plan.spec.name}",
+            clock_offset=wall_offset(clock.now()),
+            parameters=run_parameters(plan),
+            images=options.images,
+            log=self.log,
+        )
+        frames = [(f.parent, f.child, f.T_parent_child) for f in plan.spec.frames]
+        self.server.set_static_frames(frames, clock)
+        try:
+            self.gate = Gate(
+                host=options.host,
+                port=options.port,
+                inner_port=self.server.port,
+                token=token,
+                origins=[*DEFAULT_ORIGINS, *options.origins],
+                log=self.log,
+            )
+        except OSError as exc:
+            self.server.close()
+            raise UserError(
+                f"--foxglove-port: cannot listen on {options.host}:{options.port}: "
+                f"{exc.strerror or exc} (give another port, or 0 for any free one)"
+            ) from None
+        self._feed: ObservedFeed | None = None
+        self.local: list[str] = []
+
+    @property
+    def url(self) -> str:
+        return self.gate.url
+
+    def serve(self, scheduler: Scheduler) -> None:
+        """Serve every output of the modules of ``scheduler`` (this process)."""
+        self.local = serve_local(self.server, scheduler)
+
+    def observe(self, skip: set[str] | None = None) -> None:
+        """Serve the other processes' outputs, observed on zenoh (``--publish-all``)."""
+        self._feed = ObservedFeed(self.server, self.plan, skip, self.log)
+
+    def close(self) -> None:
+        if self._feed is not None:
+            self._feed.close()
+        self.gate.close()
+        self.server.close()
+
+    def summary(self) -> dict[str, Any]:
+        found = self.server.summary()
+        found["viewers_refused"] = self.gate.refused
+        found["viewers"] = self.gate.passed
+        if self._feed is not None:
+            found["observed"] = self._feed.samples
+        return found
