@@ -18,6 +18,8 @@ MAX_TOOL_ANGULAR_RAD_S = math.pi
 MAX_COMMAND_AGE_S = 1.0
 #: Oldest sensor data a guard may let a command be made from [s] (``max_origin_age``).
 MAX_ORIGIN_AGE_S = 2.0
+#: Oldest snapshot a planned path may be played from [s] (``max_path_age``): an hour.
+MAX_PATH_AGE_S = 3600.0
 #: Highest module rate the scheduler runs [Hz].
 MAX_RATE_HZ = 10_000.0
 #: Lowest module rate [Hz]: one tick every 1000 s; a graph that ticks less is a mistake.

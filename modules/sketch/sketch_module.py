@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 
 from connectors import Input, Module, Output, UserError, param
@@ -224,9 +225,9 @@ class Sketch(Module):
         snap = StereoSnapshot.of_pair(
             now, sid, (ca, ia.pixels, Ta), (cb, ib.pixels, Tb), frame=self.params.world_frame
         )
-        self.snapshots[sid] = snap
-        self.snapshot.send(snap)
-        return snap
+        sent = self.snapshot.send(snap)  # dated by the oldest image it holds
+        self.snapshots[sid] = sent
+        return sent
 
     def _place(self, cmd: Command, now: float) -> str:
         if not self.snapshots:
@@ -291,6 +292,9 @@ class Sketch(Module):
             path_id=f"path{len(self.paths) + 1}",
             stamp=now,
         )
+        snapshot = self.snapshots.get(prim.snapshot_id) if prim is not None else None
+        if snapshot is not None:  # as old as the images the primitive was placed in
+            path = msgspec.structs.replace(path, origin=snapshot.origin)
         self.paths[path.path_id] = path
         self.plan_preview.send(path)
         if not path.ok:

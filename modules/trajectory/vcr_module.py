@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, from_param, param
+from connectors.limits import MAX_PATH_AGE_S
 from connectors.messages import JointState, Status, Text, Twist
 from connectors.sketch_messages import ToolPath, VcrCommand, VcrState
 from modules.arm.arm_params import ArmParams
@@ -46,12 +47,29 @@ class VcrPlayer(Module):
         max_start_error: float = param(
             0.05, "play refused when a joint is off the path by more than", unit="rad", gt=0, le=0.5
         )
+        max_path_age: float = param(
+            300.0,
+            "paths planned from snapshots older than this are refused (the scene may have moved)",
+            unit="s",
+            gt=0,
+            le=MAX_PATH_AGE_S,
+        )
 
-    path = Input(ToolPath, required=False, doc="the checked path to play (from the planner)")
+    path = Input(
+        ToolPath,
+        required=False,
+        max_origin_age=from_param("max_path_age"),
+        doc="the checked path to play (from the planner)",
+    )
     command = Input(VcrCommand, required=False, doc="VCR commands from the console")
     joint_state = Input(JointState, feedback=True, doc="measured joints")
     guard = Input(Status, required=False, feedback=True, doc="REG_VEL status: zero = guard stop")
-    twist = Output(Twist, frame=from_param("tool_frame"), doc="tool twist command (to REG_VEL)")
+    twist = Output(
+        Twist,
+        frame=from_param("tool_frame"),
+        origin_from=("joint_state",),  # the path is judged on loading and at play (max_path_age)
+        doc="tool twist command (to REG_VEL)",
+    )
     gripper = Output(Text, events=True, doc="gripper events: open / close (to REG_VEL)")
     state = Output(VcrState, doc="mode, path parameter, speed, halt reason")
 
@@ -71,7 +89,7 @@ class VcrPlayer(Module):
         self._last = now
         path = self.path.get(now)
         if path is not None and self.path.fresh:
-            self._load(path)
+            self._load(path, now)
         state = self.joint_state.get(now)
         command = self.command.get(now)
         if command is not None:
@@ -93,7 +111,24 @@ class VcrPlayer(Module):
         out = self.player.step(dt, np.asarray(state.position, dtype=float))
         self._send(out)
 
-    def _load(self, path: ToolPath) -> None:
+    def _path_too_old(self, path: ToolPath, now: float) -> str:
+        """Why ``path`` is too old to play at ``now`` (its data's origin), or ""."""
+        age = now - path.origin
+        if age <= self.params.max_path_age:
+            return ""
+        seen = f"{age:.0f} s ago" if np.isfinite(age) else "at a time that cannot be dated"
+        return (
+            f"path {path.path_id} was planned from images taken {seen} (limit "
+            f"{self.params.max_path_age:g} s): take a new snapshot and plan again"
+        )
+
+    def _load(self, path: ToolPath, now: float) -> None:
+        old = self._path_too_old(path, now)
+        if old:
+            self._refused += 1
+            self._problem = old
+            self.log.warning("VCR_PLAYER %s: %s", self.name, old)
+            return
         if self.player is not None and self.player.vcr.state.mode in _MOVING:
             self._refused += 1
             self._problem = (
@@ -131,6 +166,11 @@ class VcrPlayer(Module):
             return
         if self.player is None:
             self._problem = f"command {command.action!r} but no path is loaded"
+            return
+        old = self._path_too_old(self.player.path, now)
+        if old and command.action in ("play", "back", "resume", "seek"):
+            self._refused += 1
+            self._problem = old
             return
         if command.path_id and command.path_id != self.player.path.path_id:
             self._problem = (

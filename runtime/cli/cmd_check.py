@@ -7,6 +7,7 @@ import sys
 
 from connectors.errors import CheckFailed
 from runtime.graph.check import load_graph
+from runtime.graph.origin_age import bounded_inputs
 from runtime.graph.spec import GraphSpec
 from runtime.registry import Registry
 
@@ -36,6 +37,11 @@ def main(args: argparse.Namespace) -> int:
             f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
             f"{len(plan.connections)} connections, processes: {', '.join(processes)}"
         )
+        for item in bounded_inputs(plan.modules, plan.connections):
+            print(
+                f"  origin age at `{item.connection.dst}`: at least {item.worst.age * 1e3:.0f} ms "
+                f"of {item.bound * 1e3:.0f} ms allowed ({item.worst.text()})"
+            )
         for link in plan.links:
             print(
                 f"  link {link.connection} ({link.msg_type.__name__}, {link.policy}): "

@@ -1,8 +1,9 @@
 """Semantic checks of a graph: every problem at the YAML node at fault, all reported at once.
 
 Beyond types, this holds contracts that other frameworks leave to run time: frames on
-frame-bearing types, joint names on joint vectors, the largest sample age an input accepts, and
-safety guards on the command path to a joint driver.
+frame-bearing types, joint names on joint vectors, the largest sample age an input accepts, safety
+guards on the command path to a joint driver, and the oldest sensor data a guard accepts
+(``runtime.graph.origin_age``).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from connectors.params import ParamProblem
 from connectors.ports import Input
 from runtime.graph.names import key_prefix_problem
 from runtime.graph.order import find_cycle, topological_order
+from runtime.graph.origin_age import check_origin_ages
 from runtime.graph.parse import ShapeProblems, parse_graph_file, parse_graph_text
 from runtime.graph.plan import GraphPlan, LinkPlan, ModulePlan, PortInfo
 from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
@@ -53,6 +55,8 @@ class _Checker:
         self.check_scheduling()
         order = self.check_loops()
         self.check_guards()
+        if not self.problems:  # ages are followed along connections already found sound
+            check_origin_ages(self.modules, self.connections, self.error)
         self.check_zenoh_config()
         outputs = {
             n: set(m.outputs) if (m := self.modules.get(n)) else None for n in self.spec.modules
