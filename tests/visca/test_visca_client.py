@@ -204,3 +204,26 @@ def test_a_port_that_cannot_be_opened_is_a_user_error(port: str) -> None:
 def test_bad_settings_are_user_errors(overrides: dict, words: str) -> None:
     with pytest.raises(UserError, match=words.replace(".", r"\.")):
         ViscaSettings(port="/dev/ttyUSB0", **overrides)
+
+
+def test_hold_and_stop_drive_a_continuous_zoom_and_a_lost_stop_is_sent_again(
+    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+) -> None:
+    from modules.calib.visca.commands import ZoomDirection
+
+    client = client_on(sim)
+    assert client.wait_ready(3.0)
+    client.zoom_hold(ZoomDirection.TELE, 0)  # slowest: 8 s for the range of this camera
+    client.zoom_hold(ZoomDirection.TELE, 0)  # held: the same request again is no new command
+    moving = wait_for(client.latest, lambda r: r.moving and r.raw > 0, 2.0)
+    assert moving.moving and sim.target_raw() == 0x4000
+    sim.inject(Fault.SILENT)  # the stop is lost on the wire...
+    client.zoom_stop()
+    wait_for(client.latest, lambda r: r.link is LinkStatus.NO_REPLY, 2.0)
+    sim.heal()  # ...and sent again until the camera takes it
+    wait_for(lambda: sim, lambda camera: not camera.moving(), 3.0)
+    assert not sim.moving() and 0 < sim.position_raw() < 0x4000 // 2
+    assert client.counters.zoom_moves >= 3  # tele once, the stop at least twice
+    client.zoom_hold(ZoomDirection.WIDE)  # standard speed toward wide
+    wait_for(lambda: sim.target_raw(), lambda target: target == 0, 2.0)
+    assert sim.target_raw() == 0 and sim.moving()

@@ -124,3 +124,51 @@ def test_a_port_that_cannot_be_opened_stops_start_with_a_user_error() -> None:
 def test_bad_parameters_are_user_errors(params: dict) -> None:
     with pytest.raises(UserError, match="bad parameters for SONY"):
         ModuleHarness(Sony, params)
+
+
+def test_hold_tele_zooms_while_held_and_stops_when_released() -> None:
+    with ModuleHarness(Sony, {"port": "sim", **FAST}) as h:
+        step_until(h, lambda z: z.raw >= 0, 3.0)
+        held: list[int] = []
+        for _ in range(15):  # the rocker held (fastest) for ~0.3 s: a sample every step
+            h.push("zoom_hold", Scalar(value=1.0))
+            h.step(0.02)
+            time.sleep(0.02)
+        h.push("zoom_hold", Scalar(value=0.0))  # released
+        stopped = step_until(h, lambda z: z.raw > 0 and not z.moving, 3.0)
+        assert stopped is not None and 0 < stopped.raw < 0x4000, stopped
+        held.append(stopped.raw)
+        time.sleep(0.3)
+        after = step_until(h, lambda z: False, 0.2)
+        assert after is not None and after.raw == held[0]  # it stays where it stopped
+        summary = h.module.summary()
+        assert summary["zoom_moves"] == 2 and summary["deadman_stops"] == 0  # tele once, stop
+
+
+def test_hold_wide_stops_by_itself_when_its_samples_stop_coming() -> None:
+    params = {"port": "sim", **FAST, "hold_timeout_s": 0.2}
+    with ModuleHarness(Sony, params) as h:
+        h.push("zoom_command", Scalar(value=1.0))
+        step_until(h, lambda z: z.raw == 0x4000 and not z.moving, 4.0)
+        h.push("zoom_hold", Scalar(value=-0.5))  # one sample, then the operator's link dies
+        h.step(0.01)
+        for _ in range(30):  # 0.3 s of graph time without a hold sample: dead-man stop
+            h.step(0.01)
+            time.sleep(0.01)
+        assert h.module.summary()["deadman_stops"] == 1
+        stopped = step_until(h, lambda z: not z.moving and z.raw < 0x4000, 3.0)
+        assert stopped is not None and 0 < stopped.raw < 0x4000
+        time.sleep(0.3)
+        assert step_until(h, lambda z: False, 0.1).raw == stopped.raw
+
+
+@pytest.mark.parametrize(
+    ("value", "move"),
+    [(1.0, ("tele", 7)), (0.125, ("tele", 0)), (-0.5, ("wide", 3)), (-7.0, ("wide", 7))],
+)
+def test_hold_values_map_to_direction_and_speed(value: float, move: tuple[str, int]) -> None:
+    from modules.calib.visca.sony import hold_move
+
+    direction, speed = hold_move(value)  # type: ignore[misc]
+    assert (direction.value, speed) == move
+    assert hold_move(0.0) is None

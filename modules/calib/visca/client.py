@@ -2,9 +2,11 @@
 
 All serial traffic happens in one device thread, the only thread here: it sets the address and
 clears the interface at start (address set broadcast, then IF_Clear), sends zoom direct commands
-and tracks their ACK and completion, and polls the zoom position at ``poll_period_s``. Callers
-never block: :meth:`ViscaZoomClient.zoom_to` stores a target (a register: the latest wins) and
-:meth:`ViscaZoomClient.latest` returns the latest :class:`ZoomReading`.
+and tracks their ACK and completion, sends continuous zoom tele/wide/stop commands, and polls the
+zoom position at ``poll_period_s``. Callers never block: :meth:`ViscaZoomClient.zoom_to` stores a
+target and :meth:`ViscaZoomClient.zoom_hold` / :meth:`ViscaZoomClient.zoom_stop` a continuous
+zoom (one register: the latest request wins), and :meth:`ViscaZoomClient.latest` returns the
+latest :class:`ZoomReading`.
 
 A misbehaving camera never raises. Every request waits ``reply_timeout_s`` for its answer and is
 sent again up to ``retries`` times; what went wrong is kept in the reading's ``status``:
@@ -24,7 +26,6 @@ camera that lost power forgets its address). Only :meth:`ViscaZoomClient.start` 
 
 from __future__ import annotations
 
-import enum
 import math
 import threading
 import time
@@ -34,108 +35,25 @@ from dataclasses import dataclass, field
 import serial
 
 from connectors.errors import UserError
+from modules.calib.visca import commands as vc
 from modules.calib.visca import protocol as vp
-
-
-class LinkStatus(enum.Enum):
-    """Health of the link to the camera; the value is the prefix of the status text."""
-
-    OK = "ok"
-    STARTING = "starting"
-    NO_REPLY = "no_reply"
-    GARBLED = "garbled"
-    CAMERA_ERROR = "camera_error"
-    PORT_ERROR = "port_error"
-
-
-@dataclass(frozen=True)
-class ViscaSettings:
-    """How to reach the camera and how patient to be. Times in seconds."""
-
-    port: str
-    address: int = 1
-    baudrate: int = 9600
-    poll_period_s: float = 0.1
-    reply_timeout_s: float = 0.3
-    retries: int = 2
-    completion_timeout_s: float = 6.0
-    """Longest a zoom may take from ACK to completion (full travel is ~2.4 s on an FCB)."""
-    retry_backoff_s: float = 0.5
-    """Wait before repeating a failed initialisation or a refused zoom command."""
-    reinit_after_failures: int = 3
-    arrival_tolerance_raw: int = 16
-    """A polled position this close to the commanded one counts as arrived (lost completion)."""
-    read_slice_s: float = 0.02
-
-    def __post_init__(self) -> None:
-        problems = []
-        if not 1 <= self.address <= 7:
-            problems.append(f"address must be 1..7, got {self.address}")
-        if self.retries < 0:
-            problems.append(f"retries must be >= 0, got {self.retries}")
-        for name in ("poll_period_s", "reply_timeout_s", "completion_timeout_s", "read_slice_s"):
-            if not getattr(self, name) > 0:
-                problems.append(f"{name} must be > 0, got {getattr(self, name)}")
-        if problems:
-            raise UserError("VISCA settings: " + "; ".join(problems))
-
-
-@dataclass(frozen=True)
-class ZoomReading:
-    """Latest knowledge of the camera's zoom.
-
-    ``zoom`` normalized 0 (wide) .. 1 (optical tele), NaN until the first position reply; ``raw``
-    the FCB's zoom position (-1 until known); ``moving`` while a zoom command runs or the polled
-    position changes; ``target`` the last requested normalized zoom (None if none);
-    ``position_time`` ``time.monotonic()`` [s] of the last position reply (NaN if none).
-    """
-
-    zoom: float
-    raw: int
-    moving: bool
-    target: float | None
-    status: str
-    link: LinkStatus
-    ready: bool
-    position_time: float
-
-    @property
-    def ok(self) -> bool:
-        return self.link is LinkStatus.OK
-
-
-@dataclass
-class ViscaCounters:
-    """What happened on the wire since start."""
-
-    packets_sent: int = 0
-    replies: int = 0
-    timeouts: int = 0
-    retries: int = 0
-    garbled: int = 0
-    """Runs of bytes thrown away by the splitter plus framed packets that did not decode."""
-    camera_errors: int = 0
-    zoom_commands: int = 0
-    zoom_completions: int = 0
-    polls: int = 0
-    initialisations: int = 0
-    foreign_replies: int = 0
-
-
-@dataclass
-class _Problem:
-    link: LinkStatus
-    detail: str
-
-
-# Precedence of problems in the status text: the link first, then the camera's answers.
-_PRECEDENCE = (
-    LinkStatus.PORT_ERROR,
-    LinkStatus.NO_REPLY,
-    LinkStatus.GARBLED,
-    LinkStatus.CAMERA_ERROR,
-    LinkStatus.STARTING,
+from modules.calib.visca.client_types import (
+    LinkStatus,
+    Problem,
+    ViscaCounters,
+    ViscaSettings,
+    ZoomReading,
+    is_empty_completion,
+    is_position_reply,
+    status_text,
 )
+
+__all__ = ["LinkStatus", "ViscaCounters", "ViscaSettings", "ViscaZoomClient", "ZoomReading"]
+
+
+Move = tuple[vc.ZoomDirection | None, int | None]
+"""A continuous zoom: (direction, variable speed 0..7 or None for standard); (None, None) stops."""
+STOP: Move = (None, None)
 
 
 @dataclass
@@ -151,7 +69,9 @@ class _State:
     inflight_raw: int | None = None
     inflight_since: float = 0.0
     commanded_raw: int | None = None
-    problems: dict[str, _Problem] = field(default_factory=dict)
+    move_pending: Move | None = None
+    move_active: Move | None = None
+    problems: dict[str, Problem] = field(default_factory=dict)
     ready: bool = False
 
 
@@ -171,7 +91,7 @@ class ViscaZoomClient:
         self.settings = settings
         self.counters = ViscaCounters()
         self._lock = threading.Lock()
-        self._state = _State(problems={"init": _Problem(LinkStatus.STARTING, "not started")})
+        self._state = _State(problems={"init": Problem(LinkStatus.STARTING, "not started")})
         self._splitter = vp.PacketSplitter()
         self._serial: serial.Serial | None = None
         self._thread: threading.Thread | None = None
@@ -225,13 +145,35 @@ class ViscaZoomClient:
         with self._lock:
             self._state.target_raw = raw
             self._state.target_zoom = vp.zoom_raw_to_normalized(raw)
+            self._state.move_pending = None  # the latest request wins
+        self._wake.set()
+
+    def zoom_hold(self, direction: vc.ZoomDirection, speed: int | None = None) -> None:
+        """Zoom toward ``direction`` at variable speed ``speed`` (0..7; None: standard) until
+        :meth:`zoom_stop` or another request (sent once, not again while it holds)."""
+        if speed is not None and not 0 <= speed <= vc.MAX_ZOOM_SPEED:
+            raise ValueError(f"zoom speed must be 0..{vc.MAX_ZOOM_SPEED} or None, got {speed}")
+        self._request_move((direction, speed))
+
+    def zoom_stop(self) -> None:
+        """Stop a held zoom (CAM_Zoom stop); retried until the camera takes it."""
+        self._request_move(STOP)
+
+    def _request_move(self, move: Move) -> None:
+        with self._lock:
+            s = self._state
+            if s.move_pending is None and s.move_active == move and s.target_raw is None:
+                return
+            s.move_pending = move
+            s.target_raw = s.commanded_raw = None  # a later zoom_to is sent even if unchanged
+            s.target_zoom = None
         self._wake.set()
 
     def latest(self) -> ZoomReading:
         """The latest zoom reading and link status."""
         with self._lock:
             s = self._state
-            link, status = _status_text(s.problems)
+            link, status = status_text(s.problems)
             moving = s.inflight_socket is not None or s.position_changed
             return ZoomReading(
                 zoom=vp.zoom_raw_to_normalized(s.raw) if s.raw >= 0 else math.nan,
@@ -273,6 +215,7 @@ class ViscaZoomClient:
                         self._idle(time.monotonic() + self.settings.retry_backoff_s)
                         continue
                     next_poll = 0.0
+                self._send_move_if_needed()
                 self._send_zoom_if_needed()
                 if time.monotonic() >= next_poll:
                     next_poll = time.monotonic() + self.settings.poll_period_s
@@ -312,7 +255,7 @@ class ViscaZoomClient:
             self._request(
                 vp.encode_if_clear(address),
                 "IF_Clear",
-                lambda r: _is_empty_completion(r, address),
+                lambda r: is_empty_completion(r, address),
                 error_filter=lambda e: e.address == address and e.socket == 0,
             )
         except _RequestFailedError as failure:
@@ -356,10 +299,49 @@ class ViscaZoomClient:
             return
         assert isinstance(ack, vp.Ack)
         with self._lock:
+            self._state.move_active = None
             self._state.inflight_socket = ack.socket
             self._state.inflight_raw = target
             self._state.inflight_since = time.monotonic()
             self._state.commanded_raw = target
+        self._clear_problem("zoom")
+
+    def _send_move_if_needed(self) -> None:
+        """Send the pending tele/wide/stop; a stop that fails is tried again (dead-man)."""
+        with self._lock:
+            move = self._state.move_pending
+            self._state.move_pending = None
+            if move is not None:  # taken: the same request again while it is sent is no news
+                self._state.move_active = move
+            old_socket = self._state.inflight_socket
+        if move is None:
+            return
+        address = self.settings.address
+        direction, speed = move
+        if direction is None:
+            packet, what = vc.encode_zoom_stop(address), "zoom stop"
+        else:
+            packet = vc.encode_zoom_move(address, direction, speed)
+            what = f"zoom {direction.value} at speed {'standard' if speed is None else speed}"
+
+        def ours(error: vp.ErrorReply) -> bool:
+            superseded = error.code in (vp.ErrorCode.CANCELLED, vp.ErrorCode.NO_SOCKET)
+            return error.address == address and not (superseded and error.socket == old_socket)
+
+        self.counters.zoom_moves += 1
+        try:
+            self._request(
+                packet, what, lambda r: isinstance(r, vp.Ack) and r.address == address, ours
+            )
+        except _RequestFailedError as failure:
+            self._set_problem("zoom", failure.link, failure.detail)
+            with self._lock:
+                if self._state.move_active == move:
+                    self._state.move_active = None
+                latest = self._state.move_pending is None and self._state.target_raw is None
+                if move == STOP and latest:
+                    self._state.move_pending = STOP
+            return
         self._clear_problem("zoom")
 
     def _check_completion_timeout(self) -> None:
@@ -387,7 +369,7 @@ class ViscaZoomClient:
             self._request(
                 vp.encode_zoom_position_inquiry(address),
                 "zoom position inquiry",
-                lambda r: _is_position_reply(r, address),
+                lambda r: is_position_reply(r, address),
                 error_filter=lambda e: e.address == address and e.socket == 0,
             )
         except _RequestFailedError as failure:
@@ -512,7 +494,7 @@ class ViscaZoomClient:
         now = time.monotonic()
         with self._lock:
             s = self._state
-            if _is_position_reply(reply, address):
+            if is_position_reply(reply, address):
                 raw = vp.decode_zoom_position(reply)
                 s.position_changed = s.raw >= 0 and raw != s.raw
                 s.raw = raw
@@ -553,35 +535,8 @@ class ViscaZoomClient:
 
     def _set_problem(self, key: str, link: LinkStatus, detail: str) -> None:
         with self._lock:
-            self._state.problems[key] = _Problem(link, detail)
+            self._state.problems[key] = Problem(link, detail)
 
     def _clear_problem(self, key: str) -> None:
         with self._lock:
             self._state.problems.pop(key, None)
-
-
-def _status_text(problems: dict[str, _Problem]) -> tuple[LinkStatus, str]:
-    for link in _PRECEDENCE:
-        for problem in problems.values():
-            if problem.link is link:
-                return link, f"{link.value}: {problem.detail}"
-    return LinkStatus.OK, LinkStatus.OK.value
-
-
-def _is_position_reply(reply: vp.Reply, address: int) -> bool:
-    return (
-        isinstance(reply, vp.Completion)
-        and reply.address == address
-        and reply.socket == 0
-        and len(reply.payload) == 4
-        and all(b <= 0x0F for b in reply.payload)
-    )
-
-
-def _is_empty_completion(reply: vp.Reply, address: int) -> bool:
-    return (
-        isinstance(reply, vp.Completion)
-        and reply.address == address
-        and reply.socket == 0
-        and not reply.payload
-    )
