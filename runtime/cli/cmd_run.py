@@ -220,6 +220,7 @@ def main(args: argparse.Namespace) -> int:
         finally:
             if live is not None:
                 live.close()
+                print(f"foxglove: {live.summary()}", file=sys.stderr)
         if not args.quiet:
             print(result.table(), file=sys.stderr)
             print(f"summary written to {out}", file=sys.stderr)
@@ -244,3 +245,4 @@ def main(args: argparse.Namespace) -> int:
     finally:
         if live is not None:
             live.close()
+            print(f"foxglove: {live.summary()}", file=sys.stderr)

@@ -3,7 +3,9 @@
 ``LiveServer.offer(topic, sample, now)`` is what a tick pays: a dictionary look-up, one
 ``has_sinks()`` per channel (no client subscribed: nothing else happens) and a non-blocking put on
 a bounded queue; a full queue drops the sample and counts it. Encoding (JPEG, protobuf, JSON) and
-the hand-over to the SDK happen on the server's own thread at a lower CPU priority. The SDK keeps a
+the hand-over to the SDK happen on the server's own threads at a lower CPU priority: one lane for
+images (a few frames deep: a late frame is worth less than the next one) and one for everything
+else, so joint states never wait behind a JPEG encoding. The SDK keeps a
 bounded backlog per client and drops for a client that does not read, so a slow or stalled viewer
 costs the run nothing but that thread's work.
 
@@ -43,6 +45,8 @@ from runtime.recording.writer import TF_STATIC
 
 #: Nice value of the server's encoding thread (Linux): below the run's loop.
 ENCODER_NICE = 10
+#: Images waiting to be encoded at most (more: the newest is dropped and counted).
+IMAGE_QUEUE = 4
 #: Seconds between two sends of the static frames (a viewer that joins gets them this soon).
 STATIC_PERIOD = 1.0
 _STOP = object()
@@ -56,6 +60,7 @@ class LiveChannel:
     msg_type: type[Message]
     encodings: list[ChannelEncoding]
     channels: list[Any]
+    bulk: bool = False  #: images: served on their own lane
     sent: int = 0
     dropped: int = 0
     failed: int = 0
@@ -132,7 +137,10 @@ class LiveServer:
         self._log = log or logging.getLogger("umbra.foxglove")
         self._context = foxglove.Context()
         self._channels: dict[str, LiveChannel] = {}
-        self._queue: queue.Queue[Any] = queue.Queue(maxsize=max_items)
+        self._lanes = {
+            False: queue.Queue(maxsize=max_items),  # small messages
+            True: queue.Queue(maxsize=IMAGE_QUEUE),  # images
+        }
         self.stats = LiveStats()
         self._static: tuple[list[tuple[str, str, Any]], Any, Any] | None = None
         self._server = foxglove.start_server(
@@ -143,8 +151,14 @@ class LiveServer:
             capabilities=[Capability.Parameters],
             server_listener=_ReadOnlyParameters(dict(parameters or {}), self._log),
         )
-        self._thread = threading.Thread(target=self._run, name="umbra-foxglove", daemon=True)
-        self._thread.start()
+        self._threads = [
+            threading.Thread(
+                target=self._run, args=(lane, not bulk), name="umbra-foxglove", daemon=True
+            )
+            for bulk, lane in self._lanes.items()
+        ]
+        for thread in self._threads:
+            thread.start()
 
     @property
     def port(self) -> int:
@@ -172,7 +186,9 @@ class LiveServer:
             )
             for enc in encodings
         ]
-        found = self._channels[topic] = LiveChannel(topic, msg_type, encodings, channels)
+        found = self._channels[topic] = LiveChannel(
+            topic, msg_type, encodings, channels, bulk=issubclass(msg_type, Image)
+        )
         return found
 
     def set_static_frames(self, frames: list[tuple[str, str, Any]], clock: Any) -> None:
@@ -214,7 +230,7 @@ class LiveServer:
             return
         self.stats.offered += 1
         try:
-            self._queue.put_nowait((live, sample, now))
+            self._lanes[live.bulk].put_nowait((live, sample, now))
         except queue.Full:
             live.dropped += 1
             self.stats.dropped += 1
@@ -246,13 +262,13 @@ class LiveServer:
         live.sent += 1
         self.stats.sent += 1
 
-    def _run(self) -> None:
+    def _run(self, lane: queue.Queue[Any], statics: bool) -> None:
         with contextlib.suppress(AttributeError, OSError):
             os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), ENCODER_NICE)
         next_static = time.monotonic()
         while True:
             try:
-                item = self._queue.get(timeout=STATIC_PERIOD)
+                item = lane.get(timeout=STATIC_PERIOD)
             except queue.Empty:
                 item = None
             if item is _STOP:
@@ -260,7 +276,7 @@ class LiveServer:
             try:
                 if item is not None:
                     self._send(*item)
-                if time.monotonic() >= next_static:
+                if statics and time.monotonic() >= next_static:
                     next_static = time.monotonic() + STATIC_PERIOD
                     self._send_static()
             except Exception as exc:  # a viewer must never end the run: say it, go on
@@ -268,9 +284,11 @@ class LiveServer:
 
     def close(self) -> None:
         """Stop serving: the thread ends, the SDK server stops."""
-        with contextlib.suppress(queue.Full):
-            self._queue.put(_STOP, timeout=1.0)
-        self._thread.join(timeout=2.0)
+        for lane in self._lanes.values():
+            with contextlib.suppress(queue.Full):
+                lane.put(_STOP, timeout=1.0)
+        for thread in self._threads:
+            thread.join(timeout=2.0)
         self._server.stop()
 
     def summary(self) -> dict[str, Any]:

@@ -1,0 +1,92 @@
+"""A graph run with ``--foxglove`` in a child process, and the independent npm client."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+NODE_DIR = Path(__file__).resolve().parent / "node"
+REPO = Path(__file__).resolve().parents[2]
+_URL = re.compile(r"foxglove: open (ws://\S+)")
+
+needs_node = pytest.mark.skipif(
+    shutil.which("node") is None or shutil.which("npm") is None,
+    reason="needs node and npm (the independent @foxglove/ws-protocol client)",
+)
+
+
+def install_client(folder: Path) -> Path:
+    """``tests/live/node`` installed by npm into ``folder`` (no global install); its client."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in ("package.json", "client.js"):
+        shutil.copy(NODE_DIR / name, folder / name)
+    done = subprocess.run(
+        ["npm", "install", "--no-audit", "--no-fund", "--loglevel=error"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    if done.returncode != 0:
+        pytest.skip(f"npm install of the ws-protocol client failed: {done.stderr[-400:]}")
+    return folder / "client.js"
+
+
+def run_client(client: Path, url: str, seconds: float, subprotocol: str = "") -> dict:
+    """The npm client's report after ``seconds`` subscribed to every channel of ``url``."""
+    args = ["node", str(client), url, str(seconds), *([subprotocol] if subprotocol else [])]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=seconds + 60)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+class LiveRun:
+    """``umbra run GRAPH --foxglove --foxglove-port 0 ...`` in a child process."""
+
+    def __init__(self, graph: str, out: Path, *extra: str) -> None:
+        self.log_path = out.parent / f"{out.name}.log"
+        self._log = open(self.log_path, "w")  # noqa: SIM115 — closed by stop()
+        cmd = [sys.executable, "-m", "runtime.cli.main", "run", graph, "--foxglove"]
+        cmd += ["--foxglove-port", "0", "--out", str(out), "--quiet", *extra]
+        self.proc = subprocess.Popen(
+            cmd, cwd=REPO, stdout=self._log, stderr=subprocess.STDOUT, env=dict(os.environ)
+        )
+        self.url = self._wait_url()
+
+    def _wait_url(self, timeout: float = 60.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            found = _URL.search(self.log_path.read_text(errors="replace"))
+            if found:
+                return found.group(1)
+            if self.proc.poll() is not None:
+                break
+            time.sleep(0.1)
+        raise AssertionError(f"no foxglove address printed:\n{self.text()[-3000:]}")
+
+    def text(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def wait(self, timeout: float = 120.0) -> int:
+        try:
+            return self.proc.wait(timeout)
+        finally:
+            self._log.close()
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._log.close()

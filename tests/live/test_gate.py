@@ -1,0 +1,101 @@
+"""The live server's door, with real sockets: the token, Host and Origin are checked before a
+byte reaches Foxglove's SDK; a client gets nothing it could command the run with."""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import socket
+from collections.abc import Iterator
+
+import pytest
+import websockets.sync.client as ws_client
+
+from connectors.messages import Scalar
+from runtime.live.gate import Gate
+from runtime.live.server import LiveServer
+
+TOKEN = "t0ken-of-this-run-0123456789"
+VIEWER = "http://127.0.0.1:8080"
+
+
+@pytest.fixture
+def gate() -> Iterator[Gate]:
+    server = LiveServer(name="test", clock_offset=0.0, parameters={"servo.gain": 0.5})
+    server.declare("/servo/error", Scalar)
+    door = Gate(host="127.0.0.1", port=0, inner_port=server.port, token=TOKEN, origins=[VIEWER])
+    yield door
+    door.close()
+    server.close()
+
+
+def _upgrade(port: int, target: str, host: str, origin: str | None, protocol: str) -> bytes:
+    """What comes back to a raw WebSocket upgrade request (status line and headers)."""
+    key = base64.b64encode(os.urandom(16)).decode()
+    head = (
+        f"GET {target} HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+        f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
+        f"Sec-WebSocket-Protocol: {protocol}\r\n"
+        + (f"Origin: {origin}\r\n" if origin else "")
+        + "\r\n"
+    )
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:
+        sock.sendall(head.encode())
+        got = b""
+        while b"\r\n\r\n" not in got:
+            chunk = sock.recv(4096)
+            if not chunk:
+                break
+            got += chunk
+    return got
+
+
+def test_only_the_address_with_the_token_from_this_host_and_an_allowed_page_gets_in(
+    gate: Gate,
+) -> None:
+    port, good = gate.port, f"/?token={TOKEN}"
+    here = f"127.0.0.1:{port}"
+    v1 = "foxglove.websocket.v1"
+    assert b" 101 " in _upgrade(port, good, here, None, v1).split(b"\r\n")[0]
+    assert b" 101 " in _upgrade(port, good, f"localhost:{port}", VIEWER, v1)[:20]
+    refused = [
+        (_upgrade(port, "/", here, None, v1), b"403"),  # no token
+        (_upgrade(port, "/?token=guess", here, None, v1), b"403"),  # a wrong one
+        (_upgrade(port, good, f"evil.example:{port}", None, v1), b"421"),  # DNS rebinding
+        (_upgrade(port, good, here, "http://evil.example", v1), b"403"),  # another site's page
+        (_upgrade(port, good, here, "null", v1), b"403"),
+    ]
+    for answer, status in refused:
+        assert answer.split(b"\r\n")[0].split(b" ")[1] == status, answer[:200]
+    assert gate.refused == len(refused) and gate.passed == 2
+
+
+def test_a_client_asking_for_either_name_of_the_protocol_gets_the_one_it_asked_for(
+    gate: Gate,
+) -> None:
+    for protocol in ("foxglove.websocket.v1", "foxglove.sdk.v1"):
+        answer = _upgrade(gate.port, f"/?token={TOKEN}", f"127.0.0.1:{gate.port}", None, protocol)
+        headers = answer.decode("latin-1").lower()
+        assert f"sec-websocket-protocol: {protocol}" in headers, headers
+
+
+def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: Gate) -> None:
+    with ws_client.connect(
+        gate.url, subprotocols=["foxglove.websocket.v1"], open_timeout=5
+    ) as conn:
+        info = json.loads(conn.recv(timeout=5))
+        assert info["op"] == "serverInfo"
+        assert set(info["capabilities"]) <= {"parameters", "parametersSubscribe", "time"}
+        advertise = json.loads(conn.recv(timeout=5))
+        assert advertise["op"] == "advertise"
+        assert [c["topic"] for c in advertise["channels"]] == ["/servo/error"]
+        set_request = {"op": "setParameters", "parameters": [{"name": "servo.gain", "value": 9}]}
+        conn.send(json.dumps({**set_request, "id": "x"}))
+        conn.send(json.dumps({"op": "getParameters", "parameterNames": [], "id": "y"}))
+        values = {}
+        while "y" not in values:
+            msg = json.loads(conn.recv(timeout=5))
+            if msg.get("op") == "parameterValues":
+                values[msg.get("id")] = {p["name"]: p["value"] for p in msg["parameters"]}
+        assert values["y"] == {"servo.gain": 0.5}  # unchanged
