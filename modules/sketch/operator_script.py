@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from pydantic import field_validator
 
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import Status, Text
@@ -13,11 +16,59 @@ from connectors.sketch_messages import (
     StereoSnapshot,
     VcrState,
 )
-from modules.sketch.command_text import VERBS
+from modules.sketch.command_text import VERBS, parse
+from modules.sketch.primitives import KINDS
 from modules.sketch.stereo import StereoPair
+from modules.trajectory.vcr import MODES
 from modules.world.scene_objects import targets_from_objects
 
 _OWN = ("wait", "settle", "wait_vcr")
+#: Longest ``wait S`` step [s].
+MAX_WAIT_S = 3600.0
+
+
+def script_step_problem(step: str) -> str:
+    """Why ``step`` is not a step the scripted operator can play; empty when it is. Sketch
+    commands are parsed as the Sketch module parses them, with ``@feature`` standing for a point
+    and ``@last`` for a primitive's id (their values are known only while the run goes)."""
+    words = step.split()
+    expected = f"expected one of {', '.join(VERBS + _OWN)}"
+    if not words or words[0] not in VERBS + _OWN:
+        return f"not a command; {expected}"
+    verb, rest = words[0], words[1:]
+    if verb == "wait":
+        try:
+            seconds = float(rest[0]) if len(rest) == 1 else math.nan
+        except ValueError:
+            seconds = math.nan
+        if not 0.0 <= seconds <= MAX_WAIT_S:
+            return f"expected `wait S` with 0 <= S <= {MAX_WAIT_S:g} seconds"
+        return ""
+    if verb == "settle":
+        return "" if not rest else "expected `settle` alone"
+    if verb == "wait_vcr":
+        if len(rest) != 1 or rest[0] not in MODES:
+            return f"expected `wait_vcr MODE` with MODE one of {', '.join(MODES)}"
+        return ""
+    if verb == "place" and len(rest) == 2 and rest[1].startswith("@"):
+        return (
+            ""
+            if rest[0] in KINDS
+            else f"expected `place KIND @feature`, KIND one of {', '.join(KINDS)}"
+        )
+    stand_in = []
+    for w in words:
+        if w == "@last":
+            stand_in.append("p1")
+        elif w.startswith("@"):
+            stand_in.append("0 0 0")
+        else:
+            stand_in.append(w)
+    try:
+        parse(" ".join(stand_in))
+    except UserError as exc:
+        return str(exc).replace(f"sketch command {' '.join(stand_in)!r}: ", "")
+    return ""
 
 
 class SketchOperatorSim(Module):
@@ -47,6 +98,15 @@ class SketchOperatorSim(Module):
             1.0, "wait_vcr: after the player halts, press play again after", unit="s", gt=0
         )
 
+        @field_validator("script")
+        @classmethod
+        def _steps(cls, script: list[str]) -> list[str]:
+            for i, step in enumerate(script):
+                problem = script_step_problem(step)
+                if problem:
+                    raise ValueError(f"script step {i + 1} {step!r}: {problem}")
+            return script
+
     objects = Input(SceneObjects, feedback=True, doc="the scene's truth (SketchWorld)")
     snapshot = Input(StereoSnapshot, required=False, doc="snapshots taken (Sketch)")
     primitive = Input(SketchPrimitive, required=False, doc="primitives placed (Sketch)")
@@ -57,13 +117,6 @@ class SketchOperatorSim(Module):
     command = Output(Text, events=True, doc="commands for Sketch")
 
     def start(self) -> None:
-        for i, step in enumerate(self.params.script):
-            verb = step.split()[0] if step.split() else ""
-            if verb not in VERBS + _OWN:
-                raise UserError(
-                    f"SketchOperatorSim `{self.name}`: script step {i + 1} {step!r}: expected "
-                    f"one of {', '.join(VERBS + _OWN)}"
-                )
         self._index = 0
         self._waiting_reply = False
         self._until: float | None = None
