@@ -22,6 +22,7 @@ from pydantic import field_validator
 from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import Scalar, ZoomState
 from modules.calib.visca.client import ViscaSettings, ViscaZoomClient, ZoomReading
+from modules.calib.visca.commands import MAX_ZOOM_SPEED, ZoomDirection
 from modules.calib.visca.sim_camera import Fault, SimFcbCamera
 
 #: A serial device the module may open: an absolute device path (``/dev/ttyUSB0``,
@@ -44,6 +45,9 @@ def serial_port_problem(port: str) -> str:
 class Sony(Module):
     """Sony FCB zoom camera over VISCA (serial, or `sim` on a pty): zoom commands, position polls.
 
+    ``zoom_command`` sets a position; ``zoom_hold`` drives the zoom like a rocker held down
+    (tele or wide at a speed until released: a hold value of 0, or no hold sample for
+    ``hold_timeout_s``, stops it); the latest of the two wins.
     ``zoom.status`` is "ok" or "<problem>: <detail>" with problem one of starting, no_reply,
     garbled, camera_error, port_error; ``zoom.zoom`` is NaN and ``zoom.raw`` -1 until the camera
     has reported a position. Device trouble never stops the run; a port that cannot be opened at
@@ -87,12 +91,22 @@ class Sony(Module):
         sim_fault: Literal["none", "garble", "silent", "error"] = param(
             "none", "simulated camera: misbehave from the start (for tests and demos)"
         )
+        hold_timeout_s: float = param(
+            0.3, "zoom_hold dead-man: stop when no hold sample came for this long", unit="s", gt=0
+        )
 
     zoom_command = Input(
         Scalar,
         trigger=True,
         required=False,
         doc="requested zoom, normalized 0 (wide)..1 (tele); clamped",
+    )
+    zoom_hold = Input(
+        Scalar,
+        trigger=True,
+        required=False,
+        doc="zoom rocker held: >0 tele, <0 wide, |v| the speed (1 fastest), 0 stop; send it "
+        "repeatedly while held: no sample for hold_timeout_s stops the zoom (dead-man)",
     )
     zoom = Output(ZoomState, doc="camera zoom at each position poll, with link status")
 
@@ -102,6 +116,8 @@ class Sony(Module):
         self._last_key: tuple[Any, ...] | None = None
         self._published = 0
         self._ignored_commands = 0
+        self._holding_since: float | None = None  # graph time of the last hold sample
+        self._deadman_stops = 0
         port = p.port
         if port == "sim":
             self._sim = SimFcbCamera(full_range_s=p.sim_full_range_s, seed=0)
@@ -136,6 +152,8 @@ class Sony(Module):
                     self._client.zoom_to(command.value)
                 else:
                     self._ignored_commands += 1
+                self._holding_since = None
+        self._obey_hold(now)
         reading = self._client.latest()
         key = (reading.position_time, reading.raw, reading.moving, reading.status)
         if key == self._last_key:
@@ -143,6 +161,28 @@ class Sony(Module):
         self._last_key = key
         self._published += 1
         self.zoom.send(self._zoom_state(reading))
+
+    def _obey_hold(self, now: float) -> None:
+        """Start, change or stop a held zoom; stop it when its samples stop coming (dead-man)."""
+        if self.zoom_hold.fresh:
+            sample = self.zoom_hold.get(now)
+            if sample is not None and math.isfinite(sample.value):
+                move = hold_move(sample.value)
+                if move is None:
+                    self._client.zoom_stop()
+                    self._holding_since = None
+                else:
+                    self._client.zoom_hold(*move)
+                    self._holding_since = now
+                return
+            if sample is not None:
+                self._ignored_commands += 1
+        if self._holding_since is not None and now - self._holding_since > (
+            self.params.hold_timeout_s
+        ):
+            self._client.zoom_stop()
+            self._holding_since = None
+            self._deadman_stops += 1
 
     def _zoom_state(self, reading: ZoomReading) -> ZoomState:
         # On the real clock (time.monotonic) the sample is stamped when the position arrived.
@@ -185,4 +225,16 @@ class Sony(Module):
             "garbled": c.garbled,
             "camera_errors": c.camera_errors,
             "ignored_commands": self._ignored_commands,
+            "zoom_moves": c.zoom_moves,
+            "deadman_stops": self._deadman_stops,
         }
+
+
+def hold_move(value: float) -> tuple[ZoomDirection, int] | None:
+    """The continuous zoom a ``zoom_hold`` value asks for: direction and variable speed 0..7
+    (|value| in (0, 1], 1 fastest, clamped), or None for 0 (stop)."""
+    if value == 0:
+        return None
+    steps = MAX_ZOOM_SPEED + 1
+    speed = min(MAX_ZOOM_SPEED, max(0, math.ceil(min(abs(value), 1.0) * steps) - 1))
+    return (ZoomDirection.TELE if value > 0 else ZoomDirection.WIDE), speed
