@@ -9,6 +9,8 @@
   half-open request (slowloris) is closed. uvicorn's ``timeout_keep_alive`` closes a connection
   idle between requests, ``h11_max_incomplete_event_size`` bounds the head, ``ws_max_size`` a
   websocket message; :func:`uvicorn_options` sets them from the same limits.
+- A websocket the server closed (an abuser over its budget) reads nothing more: the connection is
+  dropped at its next byte, where uvicorn would parse what a flooder keeps sending for 10 s.
 
 :func:`protocols` makes the two protocol classes of one server, bound to its
 :class:`Connections` table.
@@ -97,6 +99,12 @@ def protocols(table: Connections) -> tuple[type, type]:
             super().handle_websocket_upgrade(event)
 
     class DoorWebSocket(WebSocketsSansIOProtocol):
+        def data_received(self, data: bytes) -> None:
+            if self.close_sent:  # the server closed it (an abuser, or stopping): read no more
+                self.transport.abort()  # (uvicorn would parse what comes for 10 s more)
+                return
+            super().data_received(data)
+
         def connection_lost(self, exc: Exception | None) -> None:
             table.release(self.transport)
             super().connection_lost(exc)

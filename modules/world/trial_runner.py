@@ -220,6 +220,16 @@ def run_split(
             stderr=subprocess.DEVNULL,
             env=env,
         )
+        others = [  # the operator's page (``ui``) and any other process but the two
+            subprocess.Popen(
+                [*base, "--process", name, "--connect", endpoint],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                env=env,
+            )
+            for name in graph.plan.populated_processes
+            if name not in ("smart", "umbra")
+        ]
         umbra = subprocess.Popen(
             [*base, "--process", "umbra", "--connect", endpoint],
             stdout=subprocess.DEVNULL,
@@ -239,6 +249,8 @@ def run_split(
             umbra.send_signal(signal.SIGKILL)
         umbra.wait(timeout=30)
         smart.wait(timeout=timeout_s + 60)
+        for other in others:
+            other.wait(timeout=30)
     summaries: dict[str, dict[str, Any]] = {}
     for path in out_dir.glob("summary*.json"):
         data = json.loads(path.read_text())
