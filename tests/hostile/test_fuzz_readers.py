@@ -10,6 +10,7 @@ quick and stable; the hostile corpus (test_corpus.py) holds the hand-made cases.
 
 from __future__ import annotations
 
+import json
 import re
 import tempfile
 from datetime import timedelta
@@ -307,3 +308,97 @@ def test_zenoh_configuration_reader(data: bytes) -> None:
         else:
             assert cfg.get_json("scouting/multicast/enabled") == "false"
             assert cfg.get_json("listen/endpoints") == '["tcp/127.0.0.1:0"]'
+
+
+def _recording_ok() -> bytes:
+    """A small finished recording written by the recorder: Scalars, a JPEG camera image, a pose."""
+    import numpy as np
+
+    from connectors.messages import Image, Pose, Scalar
+    from runtime.recording.writer import RecordingFile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "ok.mcap"
+        rec = RecordingFile(path, blocking=True, chunk_size=512)
+        rec.declare("/camera/image", Image, {"umbra.role": "primary"}, images="jpeg")
+        pixels = np.random.default_rng(1).integers(0, 255, (12, 16, 3), dtype=np.uint8)
+        for i in range(6):
+            t = i * 0.1
+            rec.offer("/src/value", Scalar(value=float(i), stamp=t, seq=i + 1), t)
+            rec.offer("/camera/image", Image(pixels=pixels, frame="camera", stamp=t, seq=i + 1), t)
+            rec.offer("/kin/pose", Pose(matrix=np.eye(4), parent="base", child="tool", stamp=t), t)
+        rec.close()
+        return path.read_bytes()
+
+
+RECORDING_OK = _recording_ok()
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def _read_recording_every_way(path: Path) -> None:
+    """Every reader of recordings: read through, indexed, decoded samples and record-info."""
+    from runtime.recording.info import recording_info
+    from runtime.recording.reader import indexed_scan, read_messages, read_records
+    from runtime.recording.samples import iter_samples
+
+    sum(1 for _ in read_records(path))
+    scan = indexed_scan(path)
+    sum(1 for _ in read_messages(path, None, scan))
+    sum(1 for _ in iter_samples(path, None, scan))
+    recording_info(path)
+
+
+@FUZZ
+@given(
+    st.one_of(mutated(RECORDING_OK), st.binary(max_size=300).map(lambda b: b"\x89MCAP0\r\n" + b))
+)
+def test_recording_readers(data: bytes) -> None:
+    """A mutated recording: read, or a located UserError (samples that do not decode are a
+    ValueError the replay turns into one, naming the file)."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "rec.mcap"
+        path.write_bytes(data)
+        try:
+            _read_recording_every_way(path)
+        except UserError as exc:
+            assert located(str(exc), str(path)), str(exc)
+        except ValueError as exc:  # decode_primary: a sample's bytes are not its type
+            assert "Traceback" not in str(exc)
+
+
+def test_the_valid_recording_reads_every_way() -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "rec.mcap"
+        path.write_bytes(RECORDING_OK)
+        _read_recording_every_way(path)
+
+
+_PLACE = {"cmd": "place", "kind": "line", "a": ["1,2", "3,4"], "b": ["5,6", "7,8"]}
+SKETCH_SESSION_OK = json.dumps(
+    {
+        "seed": 3,
+        "events": [
+            {"cmd": "aim", "xyz": [0.5, 0.0, 0.3], "at": None, "zoom": 0.2},
+            {"cmd": "snapshot"},
+            {**_PLACE, "truth": None, "noise": 0.5, "seed": 1},
+            {"cmd": "plan", "macro": "grab_pipe", "primitive": "line1", "options": {"d": 0.1}},
+            {"cmd": "play", "path": "path1", "script": [[0.0, "play", None]], "timeout": 60.0},
+        ],
+    },
+    indent=1,
+).encode()
+JSON_TOKENS = ["{", "}", "[", "]", ":", ",", '"seed"', '"events"', '"cmd"', '"aim"', '"play"']
+JSON_TOKENS += ['"script"', "3", "-1", "1e999", "NaN", "null", "true", '"\\u0000"', '"é"', "\n"]
+
+
+@FUZZ
+@given(
+    st.one_of(
+        mutated(SKETCH_SESSION_OK),
+        st.lists(st.sampled_from(JSON_TOKENS), max_size=60).map(lambda t: "".join(t).encode()),
+    )
+)
+def test_sketch_session_reader(data: bytes) -> None:
+    from modules.sketch.session_file import parse_session_state
+
+    assert_user_error(lambda: parse_session_state(data, "session.json"), "session.json")
