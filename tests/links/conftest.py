@@ -18,7 +18,7 @@ PROBES = {
     "LinkWatch": "tests.links.probes:LinkWatch",
     "ProbeGuard": "tests.links.probes:ProbeGuard",
     "Boom": "tests.links.probes:Boom",
-    "TwistSource": "tests.links.probes:TwistSource",
+    "ProbeTwist": "tests.links.probes:ProbeTwist",
     "ArmWatch": "tests.links.probes:ArmWatch",
 }
 
@@ -63,7 +63,7 @@ frames:
   flange->tool: {{xyz: [0, 0, 0.14]}}
   tool->camera: {{xyz: [0, 0, -0.12]}}
 modules:
-  source: {{type: TwistSource, process: umbra, rate: 50}}
+  source: {{type: ProbeTwist, process: umbra, rate: 50}}
   register: {{type: REG_VEL, process: smart, rate: 100,
              params: {{timeout: 0.1, max_linear: 0.05, max_angular: 0.3}}}}
   rotate: {{type: ROTATE_KIN, process: smart}}

@@ -115,10 +115,10 @@ class Boom(Module):
             raise RuntimeError(f"boom at {sample.value:g}")
 
 
-class TwistSource(Module):
+class ProbeTwist(Module):
     """The genuine command of the attack tests: a constant twist ``vx`` [m/s] in ``camera``."""
 
-    TYPE = "TwistSource"
+    TYPE = "ProbeTwist"
 
     class Params(Parameters):
         vx: float = param(0.0, "speed along the camera's x axis", unit="m/s")
