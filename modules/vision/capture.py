@@ -1,9 +1,13 @@
-"""Frames from OpenCV capture (device index, video file, stream URL), read in a thread.
+"""Frames from OpenCV capture (device, video file, image sequence, still image, stream URL),
+read in a thread.
 
 The reader thread is the only place that blocks on the device; the owner takes frames without
 waiting. A device or a stream keeps only its latest frame (old frames are dropped, as a frame
-grabber does); a video file keeps every frame, in order, in a short queue, so that playback
-delivers each frame once. At the end of a file the reader loops, or stops and says so.
+grabber does); a video file or an image sequence keeps every frame, in order, in a short queue,
+so that playback delivers each frame once. At the end of a file the reader loops, or stops and
+says so; a file that cannot be read again from its start ends there. A still image is decoded
+once and needs no thread (:attr:`CaptureReader.still`). What a source names and why it cannot
+be opened is :mod:`modules.vision.capture_source`.
 """
 
 from __future__ import annotations
@@ -11,42 +15,19 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Literal
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-SourceKind = Literal["device", "file", "url"]
+from modules.vision.capture_source import (
+    CaptureError,
+    CaptureSource,
+    probe_stream,
+    source_problem,
+)
 
-
-class CaptureError(ValueError):
-    """A capture source could not be opened or read."""
-
-
-@dataclass(frozen=True)
-class CaptureSource:
-    """Where frames come from: ``kind`` and ``target`` (device index, file path or URL)."""
-
-    kind: SourceKind
-    target: int | str
-
-    @classmethod
-    def parse(cls, text: str) -> CaptureSource:
-        """A device index (``"0"``), a URL (``"rtsp://..."``), or else a file path."""
-        stripped = text.strip()
-        if stripped.isdigit():
-            return cls("device", int(stripped))
-        if "://" in stripped:
-            return cls("url", stripped)
-        return cls("file", stripped)
-
-    def describe(self) -> str:
-        return {"device": "camera device", "file": "video file", "url": "stream"}[
-            self.kind
-        ] + f" {self.target}"
+__all__ = ["CaptureError", "CaptureReader", "CaptureSource"]
 
 
 def _as_bgr(frame: NDArray[np.uint8], size_wh: tuple[int, int] | None) -> NDArray[np.uint8]:
@@ -88,28 +69,50 @@ class CaptureReader:
         self._latest: tuple[int, NDArray[np.uint8]] | None = None
         self._queue: queue.Queue[NDArray[np.uint8]] = queue.Queue(maxsize=max(file_queue, 1))
         self._thread: threading.Thread | None = None
-        self._capture = self._open(open_timeout_s, fps)
+        self.loop_failed = False
+        self.still: NDArray[np.uint8] | None = None
+        """The frame of a still image (sent again at every step); None for other sources."""
+        problem = source_problem(source)
+        if problem:
+            raise CaptureError(problem)
+        if source.kind == "image":
+            image = cv2.imread(str(source.target), cv2.IMREAD_COLOR)
+            if image is None:
+                raise CaptureError(
+                    f"{source.describe()}: cannot decode (not an image OpenCV reads)"
+                )
+            self.still = _as_bgr(image, size_wh)
+            self._first: NDArray[np.uint8] | None = None
+            self.ended.set()
+            return
+        if source.kind == "url":
+            unreachable = probe_stream(str(source.target), open_timeout_s)
+            if unreachable:
+                raise CaptureError(unreachable)
+        self._open_timeout_s = open_timeout_s
+        self._capture = self._open(fps)
         ok, first = self._capture.read()
         if not ok or first is None:
             self._capture.release()
-            raise CaptureError(f"{source.describe()} opened but delivered no frame")
-        self._first: NDArray[np.uint8] | None = _as_bgr(first, size_wh)
+            raise CaptureError(f"{source.describe()} opened but delivered no frame (cannot decode)")
+        self._first = _as_bgr(first, size_wh)
 
-    def _open(self, open_timeout_s: float, fps: float) -> cv2.VideoCapture:
+    def _video_capture(self) -> cv2.VideoCapture:
         source = self.source
-        if source.kind == "file" and not Path(str(source.target)).is_file():
-            raise CaptureError(f"video file {source.target} not found")
         if source.kind == "url":
-            capture = cv2.VideoCapture(
-                str(source.target),
-                cv2.CAP_ANY,
-                [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, int(1000 * open_timeout_s)],
-            )
-        else:
-            capture = cv2.VideoCapture(source.target)
+            timeout = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, int(1000 * self._open_timeout_s)]
+            return cv2.VideoCapture(str(source.target), cv2.CAP_ANY, timeout)
+        return cv2.VideoCapture(source.target)  # a `%` pattern: OpenCV's image-sequence reader
+
+    def _open(self, fps: float) -> cv2.VideoCapture:
+        source = self.source
+        capture = self._video_capture()
         if not capture.isOpened():
             capture.release()
-            reason = "no such device or it is busy" if source.kind == "device" else "cannot decode"
+            if source.kind == "device":
+                reason = "no such camera, or it is busy or not readable (permissions)"
+            else:
+                reason = "cannot decode: OpenCV has no reader for it"
             raise CaptureError(f"cannot open {source.describe()} ({reason})")
         if source.kind == "device":
             if self.size_wh is not None:
@@ -121,10 +124,17 @@ class CaptureReader:
 
     @property
     def is_file(self) -> bool:
-        return self.source.kind == "file"
+        """Frames play once each, in order (a video file or an image sequence)."""
+        return self.source.plays_in_order
+
+    @property
+    def is_still(self) -> bool:
+        return self.still is not None
 
     def start(self) -> None:
-        """Start the reader thread."""
+        """Start the reader thread (a still image needs none)."""
+        if self.is_still:
+            return
         self._thread = threading.Thread(
             target=self._run, name=f"capture-{self.source.target}", daemon=True
         )
@@ -166,11 +176,16 @@ class CaptureReader:
             self._stop.wait(0.01)
 
     def _rewind(self) -> bool:
-        if self._capture.set(cv2.CAP_PROP_POS_FRAMES, 0):
-            return True
-        self._capture.release()
-        self._capture = cv2.VideoCapture(str(self.source.target))
-        return self._capture.isOpened()
+        """Back to the first frame, which is read and handed over here: a file that cannot be
+        read again from its start (False) ends instead of spinning."""
+        if not self._capture.set(cv2.CAP_PROP_POS_FRAMES, 0):
+            self._capture.release()
+            self._capture = self._video_capture()
+        ok, frame = self._capture.read() if self._capture.isOpened() else (False, None)
+        if not ok or frame is None:
+            self.loop_failed = True
+            return False
+        return self._publish(_as_bgr(frame, self.size_wh))
 
     def latest(self) -> tuple[int, NDArray[np.uint8]] | None:
         """(frame number, frame) of the newest frame of a device or stream; None before one."""
@@ -198,5 +213,7 @@ class CaptureReader:
             if self._thread.is_alive():
                 return  # stuck in a driver call: releasing under it could crash; it is a daemon
             self._thread = None
-        with contextlib.suppress(cv2.error):
-            self._capture.release()
+        capture = getattr(self, "_capture", None)
+        if capture is not None:
+            with contextlib.suppress(cv2.error):
+                capture.release()

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
 import msgspec
 import numpy as np
-from pydantic import AfterValidator, model_validator
+from pydantic import model_validator
 
 from connectors import (
     Input,
@@ -22,6 +21,7 @@ from connectors import (
 from connectors.limits import MAX_IMAGE_SIDE_PX
 from connectors.messages import CameraModel, Contour, Image, Pose
 from modules.vision.capture import CaptureError, CaptureReader, CaptureSource
+from modules.vision.capture_source import CameraSource
 from modules.vision.contour_message import contour_message
 from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting
@@ -29,36 +29,20 @@ from modules.vision.scene import Scene, camera_looking_down, pose
 from modules.vision.sim_camera import CameraSpec, SceneFault, SimulatedCamera
 
 
-def _source_exists(text: str) -> str:
-    """A file source must name a file (as OpenCV opens it: relative to the working folder);
-    ``%`` patterns of image sequences, devices, URLs and ``sim`` are taken as they are."""
-    source = CaptureSource.parse(text) if text.strip() != "sim" else None
-    if source is not None and source.kind == "file" and "%" not in str(source.target):
-        path = Path(str(source.target))
-        if not path.is_file():
-            found = "a folder" if path.is_dir() else "no such file"
-            raise ValueError(
-                f"expected `sim`, a device index, a stream URL or a video file, found {text!r}"
-                f" ({found}, from {Path.cwd()})"
-            )
-    return text
-
-
-#: Where the frames come from, checked before anything starts.
-CameraSource = Annotated[str, AfterValidator(_source_exists)]
-
-
 class DigiCam(Module):
     """Frames from a camera device, a video file, a stream URL, or the simulated wrist camera.
 
-    ``source``: ``sim``, a device index (``0``), a video file path, or a stream URL (``rtsp://``,
-    ``http://``). A device or stream is read in its own thread and each step sends the newest
-    frame once; a video file plays one frame per step, in order (set the module's rate to the
-    file's frame rate for real-time playback; on the sim clock the step waits for the decoder,
-    which costs no simulated time), and at its end loops, holds its last frame, or stops the run
-    (``at_end``). A source that cannot be opened is an error at start. A source that stops
-    delivering for ``stale_after`` seconds is reported once, and its last frame is sent again
-    marked ``stale``; the run goes on and recovers when frames come back.
+    ``source``: ``sim``, a device index (``0``, quoted or not) or device path (``/dev/video0``), a
+    video file, an image sequence (``imgs/img_%04d.png``), a single image (``.png``, ``.jpg``...),
+    or a stream URL (``rtsp://``, ``http://``). A device or stream is read in its own thread and
+    each step sends the newest frame once; a video file or image sequence plays one frame per
+    step, in order (set the module's rate to the file's frame rate for real-time playback; on the
+    sim clock the step waits for the decoder, which costs no simulated time, but never again
+    after a wait in vain), and at its end loops, holds its last frame, or stops the run
+    (``at_end``); a single image is sent again at every step. A source that cannot be opened is
+    an error at start that names the cause (not found, refused, timed out, cannot decode). A
+    source that stops delivering for ``stale_after`` seconds is reported once, and its last
+    frame is sent again marked ``stale``; the run goes on and recovers when frames come back.
 
     ``sim`` renders the scene (table, tray, tool, colored patch) through the camera model of the
     ``camera_model`` input (else the intrinsics parameters) from the camera pose of the
@@ -191,10 +175,11 @@ class DigiCam(Module):
         self._first_step_at: float | None = None
         self._fault_started_at: float | None = None
         self._frozen: np.ndarray | None = None
+        self._decoder_stalled = False
         size = (p.width, p.height) if p.width and p.height else None
         if (p.width == 0) != (p.height == 0):
             raise UserError(f"{self.name}: give both width and height, or neither (0)")
-        if p.source.strip() == "sim":
+        if str(p.source).strip() == "sim":
             self._check_sim_params()
             self._sim = SimulatedCamera()
             self._fault = SceneFault(
@@ -268,18 +253,28 @@ class DigiCam(Module):
     def _step_capture(self, now: float) -> None:
         reader = self._reader
         assert reader is not None
+        if reader.still is not None:
+            self._send(reader.still, now)  # a still image: the same frame at the module's rate
+            return
         if reader.is_file:
-            wait = 1.0 if self.context.clock == "sim" and not reader.ended.is_set() else 0.0
+            # On the sim clock a step waits for the decoder (no simulated time passes), but a
+            # decoder that kept it waiting in vain is not waited for again until it delivers.
+            waits = self.context.clock == "sim" and not reader.ended.is_set()
+            wait = 1.0 if waits and not self._decoder_stalled else 0.0
             frame = reader.next_frame(timeout_s=wait)
+            self._decoder_stalled = frame is None and wait > 0
             if frame is not None:
                 self._send(frame, now)
                 return
             if reader.drained() and not self._ended_reported:
                 self._ended_reported = True
+                what = reader.source.describe()
                 if self.params.at_end == "stop":
-                    self.context.request_stop(f"{self.name}: video file ended", 0)
+                    self.context.request_stop(f"{self.name}: {what} ended", 0)
                     return
-                self.log.info("%s: video file ended; holding its last frame", self.name)
+                if reader.loop_failed:
+                    self.log.warning("%s: %s cannot be read again from its start", self.name, what)
+                self.log.info("%s: %s ended; holding its last frame", self.name, what)
         else:
             latest = reader.latest()
             if latest is not None and latest[0] != self._last_number:
