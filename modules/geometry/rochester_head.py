@@ -18,11 +18,13 @@ axis towards FLANGE -Y (up); positive ``theta`` turns it towards FLANGE +X (righ
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from modules.geometry.aim_solver import AimSolveError, aim_pixel
 from modules.geometry.transforms import compose, rot_x, rot_y, translation
 
 FloatArray = NDArray[np.float64]
@@ -127,3 +129,33 @@ def aim_camera_at_point(
     phi = float(np.arctan2(-y, z)) - b
     theta = float(np.arctan2(x, z * np.cos(phi) - y * np.sin(phi)))
     return phi, theta
+
+
+def aim_camera_model_at_point(
+    point_flange: ArrayLike,
+    side: str,
+    project_campos: Callable[[FloatArray], FloatArray],
+    pixel: ArrayLike,
+    head: HeadGeometry = ROCHESTER_HEAD,
+) -> tuple[float, float]:
+    """Altitude and azimuth (radians) that show ``point_flange`` at ``pixel`` in a real camera.
+
+    The section-10 solution puts the point on CamPos's Z axis; a calibrated camera sits in CamPos
+    with its own rotation and offset (``project_campos``: pixels of a point given in CamPos, the
+    whole camera model, distortion included). Starting from section 10, Newton's method on the
+    projected pixel error (:func:`modules.geometry.aim_solver.aim_pixel`) corrects both angles.
+
+    Raises:
+        AimError: the point is too close to the altitude axis, or cannot be brought to ``pixel``.
+    """
+    phi, theta = aim_camera_at_point(point_flange, side, head)
+    try:
+        return aim_pixel(
+            lambda a, b: T_flange_campos(a, b, side, head),
+            project_campos,
+            point_flange,
+            (phi, theta),
+            pixel,
+        )
+    except AimSolveError as exc:
+        raise AimError(str(exc)) from None

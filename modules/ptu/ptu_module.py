@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import Pose
+from connectors.messages import CameraModel, Pose
 from connectors.sketch_messages import PtuCommand, PtuState
+from modules.calib.camera_message import pinhole_from_message
 from modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
 from modules.ptu.sim_ptu import SimPtu
 
@@ -14,8 +15,12 @@ from modules.ptu.sim_ptu import SimPtu
 class Ptu(Module):
     """Simulated pan-tilt unit (rate- and acceleration-limited slewing).
 
-    Commands: angles (pan, tilt) or a 3-D point in ``world_frame`` that the camera mount's optic
-    axis is aimed at (the Rochester guide's aiming solution). Commands out of travel are refused
+    Commands: angles (pan, tilt) or a 3-D point in ``world_frame`` to aim at. Without a camera
+    model the mount's nominal axis is aimed at the point (the Rochester guide's solution); with
+    the ``camera`` input (the model at the current zoom, e.g. from CamCalib, its
+    ``T_mount_camera`` relative to this unit's head) the point is brought to the principal point
+    through the whole model, and re-aimed whenever a new model arrives (the zoom changed), so a
+    watched point stays centred as the operator zooms in. Commands out of travel are refused
     and reported in ``state.status``. Publishes the angles and the camera mount's pose
     ``T_<world_frame>_<mount_name>`` every tick (give it a ``rate``). The unit's base is the
     static frame ``world_frame->ptu_frame`` (Z forward, Y down, X right, as the guide's FLANGE).
@@ -33,8 +38,11 @@ class Ptu(Module):
         max_accel: float = param(4.0, "acceleration limit per axis", unit="rad/s^2", gt=0)
 
     command = Input(PtuCommand, required=False, doc="angles or a point to aim at")
-    state = Output(PtuState, doc="pan, tilt and their rates")
-    mount_pose = Output(Pose, doc="T_world_mount: the camera mount's pose")
+    camera = Input(
+        CameraModel, required=False, doc="model of the carried camera at its zoom (aims with it)"
+    )
+    state = Output(PtuState, measured=True, doc="pan, tilt and their rates")
+    mount_pose = Output(Pose, measured=True, doc="T_world_mount: the camera mount's pose")
 
     def start(self) -> None:
         p = self.params
@@ -50,13 +58,16 @@ class Ptu(Module):
             self.geometry, np.radians(p.initial_pan_deg), np.radians(p.initial_tilt_deg)
         )
         self._status = "ok"
+        self._point: np.ndarray | None = None  # the point being watched (point mode)
         self._last: float | None = None
         self._refused = 0
 
     def step(self, now: float) -> None:
         command = self.command.get(now)
         if command is not None and self.command.fresh:
-            self._obey(command)
+            self._obey(command, now)
+        elif self._point is not None and self.camera.fresh:
+            self._aim(self._point, now)
         dt = 0.0 if self._last is None else now - self._last
         self._last = now
         if dt > 0:
@@ -80,24 +91,39 @@ class Ptu(Module):
             )
         )
 
-    def _obey(self, command: PtuCommand) -> None:
-        try:
-            if command.mode == "angles":
+    def _obey(self, command: PtuCommand, now: float) -> None:
+        if command.mode == "angles":
+            self._point = None
+            try:
                 self.unit.command(command.pan, command.tilt)
-            elif command.mode == "point":
-                if command.frame != self.params.world_frame:
-                    raise PtuLimitError(
-                        f"aim point in frame `{command.frame}`, expected "
-                        f"`{self.params.world_frame}`"
-                    )
-                self.unit.command(*aim_in_base(self.geometry, self.T_base_ptu, command.point))
-            else:
-                raise PtuLimitError(f"unknown PTU mode {command.mode!r}; expected angles or point")
-            self._status = "ok"
+                self._status = "ok"
+            except PtuLimitError as exc:
+                self._refuse(str(exc))
+        elif command.mode != "point":
+            self._refuse(f"unknown PTU mode {command.mode!r}; expected angles or point")
+        elif command.frame != self.params.world_frame:
+            self._refuse(
+                f"aim point in frame `{command.frame}`, expected `{self.params.world_frame}`"
+            )
+        else:
+            self._aim(np.asarray(command.point, dtype=float), now)
+
+    def _aim(self, point: np.ndarray, now: float) -> None:
+        model = self.camera.get(now)
+        camera = None if model is None else pinhole_from_message(model)
+        try:
+            self.unit.command(*aim_in_base(self.geometry, self.T_base_ptu, point, camera))
         except PtuLimitError as exc:
-            self._refused += 1
-            self._status = f"refused: {exc}"
-            self.log.warning("PTU %s: %s", self.name, exc)
+            self._point = None
+            self._refuse(str(exc))
+            return
+        self._point = point
+        self._status = "ok"
+
+    def _refuse(self, reason: str) -> None:
+        self._refused += 1
+        self._status = f"refused: {reason}"
+        self.log.warning("PTU %s: %s", self.name, reason)
 
     def summary(self) -> dict[str, object]:
         pan, tilt = np.degrees(self.unit.angles)

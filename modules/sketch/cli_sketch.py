@@ -7,7 +7,7 @@ calls act on one session. Snapshots are written as PNG images with a JSON of bot
     umbra sketch new S --seed 3                    a randomized scene, cameras wide
     umbra sketch aim S --at pipe_center --zoom 0.3   (or: aim S X Y Z)
     umbra sketch snapshot S                        -> S/snap1_a.png, S/snap1_b.png, S/snap1.json
-    umbra sketch place S line --a 527,168 110,235 --b 547,169 103,232
+    umbra sketch place S line --a 525,109 107,175 --b 544,109 101,171
     umbra sketch place S line --truth pipe --noise 0.5   (simulated clicks on the true pipe)
     umbra sketch macros S line1
     umbra sketch plan S grab_pipe line1           (a triad: plan S make_box triad1)

@@ -11,15 +11,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from connectors.messages import CameraModel
 from modules.calib.camcalib import REPORT_FILE
-from modules.calib.camera_message import camera_message
+from modules.calib.camera_message import camera_message, pinhole_from_message
 from modules.calib.zoom_io import load_zoom_table
 from modules.calib.zoom_table import ZoomTable
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.ptu.ptu_model import PtuGeometry
+from modules.ptu.ptu_model import PtuGeometry, aim_in_base
 
 FloatArray = NDArray[np.float64]
 
@@ -57,6 +57,13 @@ class RigCamera:
             mount=f"{self.name}_mount",
             frame=self.name,
         )
+
+    def aim(self, point_base: ArrayLike, zoom: float) -> tuple[float, float]:
+        """``(pan, tilt)`` (rad) that show ``point_base`` (m, base) at the principal point of the
+        camera at ``zoom``, through its whole model (its pose in the mount at that zoom,
+        intrinsics, distortion); raises PtuLimitError (a ValueError) out of travel."""
+        camera = pinhole_from_message(self.model(zoom))
+        return aim_in_base(self.geometry, self.T_base_ptu, point_base, camera)
 
     def T_base_camera(self, pan: float, tilt: float, model: CameraModel) -> FloatArray:
         """The camera's pose in base at the PTU angles (rad) for ``model``."""

@@ -25,7 +25,6 @@ from modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
 from modules.arm.sim_joints import SimJoints, SimJointSettings
 from modules.arm.velocity_register import RegisterSettings, VelocityRegister
 from modules.geometry.transforms import translation
-from modules.ptu.ptu_model import aim_in_base
 from modules.ptu.sim_ptu import SimPtu
 from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.macros import MacroError, macro_keys, menu_for
@@ -129,8 +128,9 @@ class SketchSession:
             raise SessionError(f"aim: expected a finite 3-D point (m, base), got {point!r}")
         if zoom is not None and not (np.isfinite(zoom) and 0.0 <= zoom <= 1.0):
             raise SessionError(f"aim: expected a zoom within 0 .. 1, got {zoom}")
-        try:
-            angles = [aim_in_base(c.geometry, c.T_base_ptu, p) for c in self.cameras]
+        zooms = self.zooms if zoom is None else [float(zoom)] * 2
+        try:  # each camera through its whole model at the zoom it will have
+            angles = [c.aim(p, z) for c, z in zip(self.cameras, zooms, strict=True)]
         except ValueError as exc:
             raise SessionError(f"aim at {np.round(p, 3).tolist()} m: {exc}") from None
         for unit, (pan, tilt) in zip(self.ptus, angles, strict=True):
@@ -290,9 +290,9 @@ class SketchSession:
         player = self.load(path_id)
         goal = self._watch.get(path_id)
         if watch and goal is not None:
-            for cam, unit in zip(self.cameras, self.ptus, strict=True):
+            for cam, unit, z in zip(self.cameras, self.ptus, self.zooms, strict=True):
                 with contextlib.suppress(ValueError):  # out of the units' travel: keep the view
-                    unit.command(*aim_in_base(cam.geometry, cam.T_base_ptu, goal))
+                    unit.command(*cam.aim(goal, z))
         pending = sorted(steps, key=lambda e: e[0])
         log = PlayLog()
         start = self.time

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.ptu.ptu_model import aim_in_base
 from modules.sketch.macros import MENU, MacroError, check_options
 from modules.sketch.session import Q_READY, Q_STOW, SessionError, SketchSession
 from modules.sketch.stereo import StereoPair
@@ -70,14 +69,14 @@ def test_canned_motions_stow_and_ready():
     assert np.max(np.abs(s.arm.q_true - Q_STOW)) < 0.01
     path = _play(s, "ready")
     assert np.max(np.abs(s.arm.q_true - Q_READY)) < 0.01
-    # the cameras were slewed to watch the tool's goal as the motion started: it is seen near
-    # the middle of both images
+    # the cameras were slewed to watch the tool's goal as the motion started: it is seen at
+    # the principal point of both images (the whole camera model at the current zoom)
     goal = path.T_base_tool[-1][:3, 3]
     for i, (cam, unit) in enumerate(zip(s.cameras, s.ptus, strict=True)):
-        assert np.allclose(unit.angles, aim_in_base(cam.geometry, cam.T_base_ptu, goal))
+        assert np.allclose(unit.angles, cam.aim(goal, s.zooms[i]))
         model, T = s.camera_state(i)
-        uv = StereoPair(model.K, T, model.K, T).project("a", goal)
-        assert np.linalg.norm(uv - [320, 240]) < 60, uv
+        uv = StereoPair(model.K, T, model.K, T, model.dist, model.dist).project("a", goal)
+        assert np.linalg.norm(uv - [model.u0, model.v0]) < 2.0, uv
 
 
 def test_point_macros_move_to_and_aim_along_the_ray():
