@@ -29,6 +29,9 @@ COMMANDS = (
     "cmd_record_info",
     "cmd_replay",
     "cmd_keys",
+    "cmd_topics",
+    "cmd_echo",
+    "cmd_hz",
 )
 COMMAND_GROUP = "umbra.commands"
 

@@ -39,6 +39,8 @@ from runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
 
 #: Seconds to wait for the sessions of a run's processes when joining it.
 JOIN_TIMEOUT = 3.0
+#: Beside an observer's zenoh configuration ``observer-NAME.json5``: its prefix and keys.
+KEYS_SUFFIX = ".keys.json"
 
 
 @dataclass
@@ -127,13 +129,37 @@ def _local_config(run: Run) -> zenoh.Config:
     return cfg
 
 
+def observer_keys(zenoh_config: str) -> tuple[str, list[str]] | None:
+    """The prefix and keys of an observer configuration written by ``umbra keys``: the file
+    ``KEYS_SUFFIX`` beside it (None when there is none)."""
+    path = Path(zenoh_config).with_suffix(KEYS_SUFFIX)
+    try:
+        data = json.loads(path.read_text())
+        return str(data["prefix"]), [str(k) for k in data["keys"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
 class Observation:
     """A read-only session on a graph's keys (see the module docstring)."""
 
-    def __init__(self, session: zenoh.Session, prefix: str, run: Run | None = None) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        prefix: str,
+        run: Run | None = None,
+        keys: list[str] | None = None,
+    ) -> None:
         self.session = session
         self.prefix = prefix
         self.run = run
+        #: the output keys this observer may read, when known (zenoh's access rules refuse a
+        #: subscription to a key expression wider than the keys an observer is allowed)
+        self.keys = keys
+        if keys is None and run is not None:
+            self.keys = sorted(
+                o.key for p in run.processes for o in p.outputs if o.link or p.publish_all
+            )
         self._subs: list[Any] = []
         self._local = threading.local()
 
@@ -152,11 +178,17 @@ class Observation:
         with ``zenoh_config`` and ``connect``, a run elsewhere (``prefix``, else
         ``umbra/<graph>``). UserError when there is none or it cannot be joined."""
         if zenoh_config or connect:
+            readable = observer_keys(zenoh_config) if zenoh_config else None
+            if readable is not None:
+                prefix = prefix or readable[0]
             if not (prefix or graph):
                 raise UserError("error: with --connect, name the graph (--graph) or --prefix")
             cfg = build_config(Endpoints(connect=list(connect or [])), zenoh_config)
             session = open_session(cfg)
-            return cls(session, prefix or f"umbra/{graph}")
+            keys = readable[1] if readable is not None else None
+            observation = cls(session, prefix or f"umbra/{graph}", keys=keys)
+            observation._wait_joined(1)
+            return observation
         run = choose_run(graph, folder, run_id)
         session = open_session(_local_config(run))
         observation = cls(session, run.prefix, run)
@@ -211,14 +243,14 @@ class Observation:
         return Observed(key, "sample", msg, type(msg).__name__, len(data), source, now)
 
     def subscribe(self, on_sample: Callable[[Observed], None], key_expr: str | None = None) -> None:
-        """Call ``on_sample`` for every sample and end of stream under ``key_expr`` (default
-        every output of the graph, ``P/*/*``)."""
+        """Call ``on_sample`` for every sample and end of stream under ``key_expr`` (default:
+        each key this observer may read, else ``P/*/*``)."""
         observed = self.observed
-        self._subs.append(
-            self.session.declare_subscriber(
-                key_expr or f"{self.prefix}/*/*", lambda s: on_sample(observed(s))
+        exprs = [key_expr] if key_expr else self.keys or [f"{self.prefix}/*/*"]
+        for expr in exprs:
+            self._subs.append(
+                self.session.declare_subscriber(expr, lambda s: on_sample(observed(s)))
             )
-        )
 
     def producers(self, timeout: float = 1.0) -> dict[str, str]:
         """Zenoh session id of each process of the graph whose liveliness token is up."""

@@ -1,0 +1,67 @@
+"""``umbra echo KEY``: print the samples of one output of a running graph, decoded."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import queue
+import sys
+
+from connectors.errors import UserError
+from runtime.cli.observing import add_observer_args, full_key, message_fields, open_observation
+from runtime.links.observe import Observed
+
+NAME = "echo"
+HELP = "print the samples of an output of a running graph (KEY or MODULE/PORT), decoded"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("key", metavar="KEY", help="PREFIX/MODULE/PORT or MODULE/PORT")
+    add_observer_args(parser)
+    parser.add_argument("--once", action="store_true", help="print one sample and exit")
+    parser.add_argument("--json", action="store_true", help="one JSON object per sample")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        metavar="S",
+        help="exit 1 when no sample came for S seconds (default: wait)",
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    if args.timeout is not None and not (args.timeout > 0 and math.isfinite(args.timeout)):
+        raise UserError(f"--timeout must be a positive number of seconds, found {args.timeout}")
+    observation = open_observation(args)
+    try:
+        key = full_key(observation, args.key)
+        samples: queue.Queue[Observed] = queue.Queue()
+        observation.subscribe(samples.put, key)
+        while True:
+            try:
+                o = samples.get(timeout=args.timeout)
+            except queue.Empty:
+                print(f"umbra echo: no sample on {key} for {args.timeout:g} s", file=sys.stderr)
+                return 1
+            if o.kind == "end":
+                print(f"umbra echo: {key}: the producer ended the stream", file=sys.stderr)
+                return 0
+            if o.kind == "undecodable":
+                print(f"umbra echo: {key}: undecodable sample: {o.error}", file=sys.stderr)
+                continue
+            _print(o, args.json)
+            if args.once:
+                return 0
+    finally:
+        observation.close()
+
+
+def _print(o: Observed, as_json: bool) -> None:
+    fields = message_fields(o.message) if o.message is not None else {}
+    if as_json:
+        print(json.dumps({"key": o.key, "type": o.type_name, **fields}), flush=True)
+        return
+    print(f"--- {o.key} ({o.type_name}, {o.size} bytes)")
+    for name, value in fields.items():
+        print(f"{name}: {json.dumps(value)}")
+    sys.stdout.flush()

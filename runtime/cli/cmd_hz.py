@@ -1,0 +1,81 @@
+"""``umbra hz KEY``: the rate of one output of a running graph, as ``ros2 topic hz`` gives it."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import threading
+import time
+from collections import deque
+
+import numpy as np
+
+from connectors.errors import UserError
+from runtime.cli.observing import add_observer_args, full_key, open_observation
+from runtime.links.observe import Observed
+
+NAME = "hz"
+HELP = "print the rate of an output of a running graph (KEY or MODULE/PORT) every second"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("key", metavar="KEY", help="PREFIX/MODULE/PORT or MODULE/PORT")
+    add_observer_args(parser)
+    parser.add_argument(
+        "--window", type=int, default=1000, metavar="N", help="samples averaged (default 1000)"
+    )
+    parser.add_argument(
+        "--duration", type=float, metavar="S", help="stop after S seconds (default: run on)"
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    if args.window < 2:
+        raise UserError(f"--window must be at least 2 samples, found {args.window}")
+    if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
+        raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
+    observation = open_observation(args)
+    arrivals: deque[float] = deque(maxlen=args.window)
+    lock = threading.Lock()
+    ended = threading.Event()
+
+    fresh = [0]  # samples since the last line
+
+    def on_sample(o: Observed) -> None:
+        if o.kind == "end":
+            ended.set()
+        elif o.kind == "sample":
+            with lock:
+                arrivals.append(o.arrival)
+                fresh[0] += 1
+
+    try:
+        key = full_key(observation, args.key)
+        observation.subscribe(on_sample, key)
+        start = time.monotonic()
+        while args.duration is None or time.monotonic() - start < args.duration:
+            time.sleep(1.0 if args.duration is None else min(1.0, args.duration))
+            with lock:
+                times, new = np.array(arrivals), fresh[0]
+                fresh[0] = 0
+            print(_line(key, times) if new else f"{key}: no new samples", flush=True)
+            if ended.is_set():
+                print(f"umbra hz: {key}: the producer ended the stream", file=sys.stderr)
+                return 0
+    finally:
+        observation.close()
+    return 0
+
+
+def _line(key: str, times: np.ndarray) -> str:
+    """``average rate: R Hz`` with the periods' min, max and standard deviation [s]."""
+    if len(times) < 2:
+        return f"{key}: one sample so far"
+    periods = np.diff(times)
+    rate = 1.0 / periods.mean()
+    return (
+        f"{key}: average rate: {rate:.3f} Hz\n"
+        f"\tmin: {periods.min():.4f} s max: {periods.max():.4f} s "
+        f"std dev: {periods.std():.5f} s window: {len(times)}"
+    )

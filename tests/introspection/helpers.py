@@ -1,0 +1,47 @@
+"""Waiting for a run's processes to be observable, and running observer commands."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from runtime.links.observe import Run, local_runs
+from tests.links.conftest import REPO, Running
+
+COUNTER = str(REPO / "graphs" / "counter_split.yaml")
+
+
+def user_folder(env: dict[str, str]) -> Path:
+    """The private folder of the user the test's processes run as (run files, secrets)."""
+    return Path(env["XDG_RUNTIME_DIR"]) / "umbra"
+
+
+def running(run: Running, env: dict[str, str], processes: int = 2, timeout: float = 90) -> Run:
+    """The run once its ``processes`` run files are written and every process runs."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        runs = [r for r in local_runs(user_folder(env)) if len(r.processes) == processes]
+        ready = sum("links ready, running" in line for line in run.stderr)
+        if runs and ready >= processes:
+            return runs[0]
+        assert run.popen.poll() is None, "\n".join(run.stderr[-30:])
+        time.sleep(0.1)
+    raise AssertionError("the run did not come up:\n" + "\n".join(run.stderr[-30:]))
+
+
+def umbra_cli(env: dict[str, str], *args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "runtime.cli.main", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        stdin=subprocess.DEVNULL,
+    )
+
+
+def json_lines(text: str) -> list[dict]:
+    return [json.loads(line) for line in text.splitlines() if line.startswith("{")]

@@ -1,0 +1,82 @@
+"""``umbra topics``, ``echo`` and ``hz`` against a real running graph (counter_split: a 100 Hz
+counter in process `umbra`, doubled in process `smart`). Rates are checked within wide bounds
+(50..150 Hz for 100 Hz): the machine may be loaded, the figure must still be the right one."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+
+from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli
+from tests.links.conftest import Running
+
+PREFIX = "umbra/counter_split"
+
+
+def test_topics_echo_and_hz_on_a_run_publishing_every_output(
+    umbra: Callable[..., Running], plugin_env: dict[str, str]
+) -> None:
+    run = umbra(
+        "run", COUNTER, "--publish-all", "--duration", "40", "--quiet",
+        "--set", "counter.stop_after=100000",
+    )  # fmt: skip
+    running(run, plugin_env)
+    topics = umbra_cli(plugin_env, "topics", "--json", "--window", "2")
+    assert topics.returncode == 0, topics.stderr
+    rows = {r["key"]: r for r in json_lines(topics.stdout)}
+    assert set(rows) == {f"{PREFIX}/counter/count", f"{PREFIX}/double/output"}
+    count, double = rows[f"{PREFIX}/counter/count"], rows[f"{PREFIX}/double/output"]
+    assert (count["type"], count["producer"]) == ("Scalar", "umbra")
+    assert (double["type"], double["producer"]) == ("Scalar", "smart")  # not a link: published
+    for row in (count, double):
+        assert 50 < row["rate_hz"] < 150 and row["samples"] > 50, row
+        assert 0 <= row["age_s"] < 0.5 and row["drops"] == 0 and row["note"] == "", row
+
+    echo = umbra_cli(plugin_env, "echo", "double/output", "--once", "--json")
+    assert echo.returncode == 0, echo.stderr
+    (sample,) = json_lines(echo.stdout)
+    assert sample["key"] == f"{PREFIX}/double/output" and sample["type"] == "Scalar"
+    assert sample["seq"] > 0 and sample["value"] % 2 == 0 and sample["stamp"] > 0
+    assert set(sample) == {"key", "type", "stamp", "seq", "origin", "value"}
+    text = umbra_cli(plugin_env, "echo", f"{PREFIX}/counter/count", "--once")
+    assert text.returncode == 0 and text.stdout.startswith(f"--- {PREFIX}/counter/count (Scalar")
+    value = float(re.search(r"^value: (\S+)$", text.stdout, re.M).group(1))  # type: ignore[union-attr]
+    seq = int(re.search(r"^seq: (\d+)$", text.stdout, re.M).group(1))  # type: ignore[union-attr]
+    assert value == seq - 1  # the counter counts from 0
+
+    hz = umbra_cli(plugin_env, "hz", "counter/count", "--duration", "2")
+    assert hz.returncode == 0, hz.stderr
+    rates = [float(r) for r in re.findall(r"average rate: ([\d.]+) Hz", hz.stdout)]
+    assert len(rates) == 2 and all(50 < r < 150 for r in rates), hz.stdout
+
+    wrong = umbra_cli(plugin_env, "echo", "counter/nope", "--once")
+    assert wrong.returncode == 2 and "Traceback" not in wrong.stderr
+    assert (
+        "expected a key graph `counter_split` may read, found `umbra/counter_split/counter/nope`"
+        in wrong.stderr
+    )
+    run.popen.terminate()
+    run.finish()
+    gone = umbra_cli(plugin_env, "topics")
+    assert gone.returncode == 2 and "no graph runs on this host" in gone.stderr
+    assert "Traceback" not in gone.stderr
+
+
+def test_outputs_that_cross_no_process_are_listed_as_not_published(
+    umbra: Callable[..., Running], plugin_env: dict[str, str]
+) -> None:
+    run = umbra(
+        "run", COUNTER, "--duration", "40", "--quiet", "--set", "counter.stop_after=100000"
+    )  # fmt: skip
+    running(run, plugin_env)
+    topics = umbra_cli(plugin_env, "topics", "--json", "--window", "1")
+    rows = {r["key"]: r for r in json_lines(topics.stdout)}
+    assert rows[f"{PREFIX}/counter/count"]["samples"] > 0  # a link: always published
+    double = rows[f"{PREFIX}/double/output"]
+    assert double["samples"] == 0 and double["note"] == "not published (run with --publish-all)"
+    echo = umbra_cli(plugin_env, "echo", "double/output", "--once")
+    assert echo.returncode == 2 and "Traceback" not in echo.stderr
+    assert "feeds no other process, so it is not published" in echo.stderr
+    table = umbra_cli(plugin_env, "topics", "--window", "1")
+    assert table.returncode == 0
+    assert re.search(rf"^{PREFIX}/counter/count +Scalar +umbra +\d+\.\d +\d", table.stdout, re.M)
