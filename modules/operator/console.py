@@ -533,6 +533,7 @@ class OperatorConsole(Module):
                 malformed=st.malformed,
                 replayed=st.replayed,
                 closed_abusers=st.closed_abusers,
+                oversize=st.oversize,
                 lane_full=st.lane_full,
                 refused_requests=(
                     self._server.refused_requests if self._server else self._refused_requests

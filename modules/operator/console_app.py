@@ -84,6 +84,7 @@ class WebStats:
     malformed: int = 0
     replayed: int = 0
     closed_abusers: int = 0  #: sockets closed over their message budget
+    oversize: int = 0  #: sockets the protocol closed for a message past its size (1009)
     lane_full: int = 0  #: messages refused because their session's lane was full
     viewers: int = 0
     viewers_max: int = 0
@@ -196,6 +197,7 @@ class ConsoleApp:
             while True:
                 message = await ws.receive()
                 if message["type"] == "websocket.disconnect":
+                    self.stats.oversize += message.get("code") == 1009
                     break
                 why = budget.spend(time.monotonic())
                 if not why:

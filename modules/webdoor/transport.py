@@ -10,7 +10,8 @@
   idle between requests, ``h11_max_incomplete_event_size`` bounds the head, ``ws_max_size`` a
   websocket message; :func:`uvicorn_options` sets them from the same limits.
 - A websocket the server closed (an abuser over its budget) reads nothing more: the connection is
-  dropped at its next byte, where uvicorn would parse what a flooder keeps sending for 10 s.
+  closed at its next byte (stops reading, still sends the close frame), where uvicorn would parse
+  what a flooder keeps sending for 10 s more.
 
 :func:`protocols` makes the two protocol classes of one server, bound to its
 :class:`Connections` table.
@@ -101,7 +102,7 @@ def protocols(table: Connections) -> tuple[type, type]:
     class DoorWebSocket(WebSocketsSansIOProtocol):
         def data_received(self, data: bytes) -> None:
             if self.close_sent:  # the server closed it (an abuser, or stopping): read no more
-                self.transport.abort()  # (uvicorn would parse what comes for 10 s more)
+                self.transport.close()  # stops reading, sends what is buffered (the close frame)
                 return
             super().data_received(data)
 
