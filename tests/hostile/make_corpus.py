@@ -1187,12 +1187,211 @@ def calibration() -> None:
     )
 
 
+def issue29() -> None:
+    """Issue #29's files and inputs: hand-edited sketch sessions, pose-tool sessions and options,
+    damaged recordings (no bombs: the tests write those), and parameters check must refuse."""
+    import sys
+
+    sys.path.insert(0, str(HERE.parents[2]))
+    import numpy as np
+
+    from modules.calib.camera_model import Intrinsics, PinholeCamera
+    from modules.calib.pose_tool_file import session_text
+    from tests.hostile.bombs import MAGIC, chunk_payload, crc, mcap_bytes
+
+    ok_event = '{"cmd": "aim", "xyz": [0.5, 0, 0.3], "at": null, "zoom": 0.2}'
+    sessions = {
+        "latin1": (
+            b'{"seed": 3,\n "events": [{"cmd": "aim", "at": "caf\xe9"}]}',
+            2,
+            "not UTF-8 text",
+        ),
+        "deep": (
+            b'{"seed": 3, "events": ' + b"[" * 50_000 + b"]" * 50_000 + b"}",
+            None,
+            "Expected `object`, got `array`",
+        ),
+        "seed_type": (
+            b'{"seed": "3", "events": []}',
+            None,
+            "Expected `int`, got `str` - at `\\$.seed`",
+        ),
+        "events_shape": (
+            b'{"seed": 3, "events": {"0": {"cmd": "snapshot"}}}',
+            None,
+            "Expected `array`, got `object` - at `\\$.events`",
+        ),
+        "unknown_command": (
+            b'{"seed": 3, "events": [{"cmd": "launch"}]}',
+            None,
+            "unknown value 'launch' \\(expected one of aim, ",
+        ),
+        "missing_keys": (
+            b'{"seed": 3, "events": [{"cmd": "aim", "xyz": [1, 2, 3]}]}',
+            None,
+            "Object missing required field `at`",
+        ),
+        "missing_events": (b'{"seed": 3}', None, "Object missing required field `events`"),
+        "unknown_key": (
+            f'{{"seed": 3, "events": [{ok_event[:-1]}, "x": 1}}]}}'.encode(),
+            None,
+            "Object contains unknown field `x`",
+        ),
+        "nan": (
+            b'{"seed": 3,\n"events": [{"cmd": "aim", "xyz": [NaN, 0, 0], "at": null, "zoom": null}]}',
+            2,
+            "JSON is malformed",
+        ),
+        "script_step": (
+            b'{"seed": 3, "events": [{"cmd": "play", "path": "p", "script": [[0, "play"]], "timeout": 9}]}',
+            None,
+            "Expected `array` of length 3",
+        ),
+    }
+    for name, (content, line, error) in sessions.items():
+        write(f"sketch/{name}/session.json", content)
+        where = r"(:\d+)?" if line is None else f":{line}"
+        case(
+            f"sketch-{name}",
+            ["sketch", "macros", f"sketch/{name}"],
+            2,
+            rf"^sketch/{name}/session\.json{where}: error: {error}",
+        )
+
+    camera = PinholeCamera(Intrinsics(800.0, 800.0, 0.0, 320.0, 240.0))
+    square = {
+        "a": np.array([0.0, 0.0, 0.5]),
+        "b": np.array([0.1, 0.0, 0.5]),
+        "c": np.array([0.0, 0.1, 0.5]),
+        "d": np.array([0.1, 0.1, 0.6]),
+    }
+    clicks = {k: (320.0 + 800 * p[0] / p[2], 240.0 + 800 * p[1] / p[2]) for k, p in square.items()}
+    ok = session_text("ptu_head", "camera", camera, square, [(np.eye(4), np.eye(4), clicks)])
+    write("posetool/ok.yaml", ok)
+    for value in ("nan", "inf", "-1", "0"):
+        case(
+            f"posetool-max_rms_{value.replace('-', 'minus')}",
+            ["pose-tool", "posetool/ok.yaml", f"--max-rms-px={value}", "-o", "{tmp}/mount.yaml"],
+            2,
+            "--max-rms-px: expected a finite number of pixels > 0",
+        )
+    one = session_text(
+        "ptu_head",
+        "camera",
+        camera,
+        {"a": square["a"]},
+        [(np.eye(4), np.eye(4), {"a": clicks["a"]})] * 6,
+    )
+    write("posetool/one_point.yaml", one)
+    case(
+        "posetool-one_point",
+        ["pose-tool", "posetool/one_point.yaml"],
+        2,
+        r"^posetool/one_point\.yaml:\d+: error: all 6 clicks are on one point",
+    )
+    line = {f"p{i}": np.array([0.05 * i, 0.0, 0.5]) for i in range(4)}
+    write(
+        "posetool/collinear.yaml",
+        session_text(
+            "ptu_head",
+            "camera",
+            camera,
+            line,
+            [
+                (
+                    np.eye(4),
+                    np.eye(4),
+                    {k: (320.0 + 800 * p[0] / 0.5, 240.0) for k, p in line.items()},
+                )
+            ],
+        ),
+    )
+    case(
+        "posetool-collinear",
+        ["pose-tool", "posetool/collinear.yaml"],
+        2,
+        r"^posetool/collinear\.yaml:\d+: error: the 4 clicked points lie on one line",
+    )
+    for name, mount in {
+        "mount_space": "ptu head->camera",
+        "mount_yaml": "'&a x->camera'",
+        "mount_twice": "camera->camera",
+        "mount_chain": "a->b->c",
+    }.items():
+        write(f"posetool/{name}.yaml", ok.replace("mount: ptu_head->camera", f"mount: {mount}"))
+        case(
+            f"posetool-{name}",
+            ["pose-tool", f"posetool/{name}.yaml", "-o", "{tmp}/mount.yaml"],
+            2,
+            rf"^posetool/{name}\.yaml:2: error: mount ",
+        )
+
+    payload = chunk_payload(3)
+    good = mcap_bytes("", payload, len(payload), crc=crc(payload))
+    head_end = len(MAGIC) + 9 + int.from_bytes(good[len(MAGIC) + 1 : len(MAGIC) + 9], "little")
+    recordings = {
+        "long_record": (
+            good[:head_end] + b"\x03" + (2**40).to_bytes(8, "little") + bytes(64),
+            "corrupted: the record at byte \\d+ of \\d+ claims 1099511627776 bytes, more than the \\d+ a recording's record may hold",
+        ),
+        "past_the_end": (
+            good[:head_end] + b"\x03" + (10_000).to_bytes(8, "little") + bytes(64),
+            "truncated: the file ends inside a record",
+        ),
+        "stored_lying": (
+            mcap_bytes("", bytes(20_000), 5000),
+            "a chunk \\(stored\\) declares 5000 bytes uncompressed but holds more than that",
+        ),
+        "chunk_too_big": (
+            mcap_bytes("zstd", b"\x28\xb5\x2f\xfd", 2**40),
+            "a chunk declares 1099511627776 bytes uncompressed, more than the",
+        ),
+        "unknown_compression": (
+            mcap_bytes("bz2", payload, len(payload)),
+            "unknown chunk compression 'bz2'",
+        ),
+        "bad_crc": (
+            mcap_bytes("", payload, len(payload), crc=crc(payload) ^ 1),
+            "fails its checksum",
+        ),
+    }
+    for name, (content, error) in recordings.items():
+        write(f"record/{name}.mcap", content)
+        case(
+            f"record-{name}",
+            ["record-info", f"record/{name}.mcap"],
+            2,
+            rf"^record/{name}\.mcap: error: .*{error}",
+        )
+
+    raw_graph(
+        "sony_port_yaml",
+        "graph: g\nmodules:\n  sony: {type: SONY, rate: 20, params: {port: '&a x'}}\n",
+        3,
+        "port '&a x' is not a serial device",
+    )
+    raw_graph(
+        "sony_port_relative",
+        "graph: g\nmodules:\n  sony: {type: SONY, rate: 20, params: {port: ttyUSB0}}\n",
+        3,
+        "is not a serial device",
+    )
+    script = "graph: g\nmodules:\n  op:\n    type: SketchOperatorSim\n    params:\n      script:\n        - snapshot\n        - {step}\n"
+    for name, step, error in [
+        ("script_not_a_command", "rm -rf /", "script step 2 'rm -rf /': not a command"),
+        ("script_wait_word", "wait soon", "expected `wait S`"),
+        ("script_vcr", "vcr fly", "expected vcr ACTION"),
+    ]:
+        raw_graph(name, script.format(step=repr(step)), None, error)
+
+
 def main() -> None:
     graphs()
     sets()
     dh_files()
     images()
     calibration()
+    issue29()
     ids = [c["id"] for c in CASES]
     assert len(ids) == len(set(ids)), "duplicate case ids"
     lines = [

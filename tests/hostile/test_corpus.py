@@ -44,6 +44,7 @@ def test_the_corpus_has_at_least_100_cases_of_every_kind() -> None:
     assert {"graph", "set", "run", "dh", "image", "zoom", "csv", "cameras", "pose", "fit"} <= set(
         KINDS
     )
+    assert {"sketch", "posetool", "record"} <= set(KINDS)  # issue #29's files and options
 
 
 def _run_case(case: dict, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> str:
@@ -93,6 +94,9 @@ SUBPROCESS_CASES = [
     pytest.param("image-bomb_png", marks=pytest.mark.slow),
     pytest.param("zoom-xml-billion_laughs", marks=pytest.mark.slow),
     pytest.param("pose-collinear", marks=pytest.mark.slow),
+    pytest.param("sketch-latin1"),
+    pytest.param("record-long_record"),
+    pytest.param("posetool-max_rms_nan", marks=pytest.mark.slow),
 ]
 
 
