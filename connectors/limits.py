@@ -34,6 +34,12 @@ MAX_IMAGE_PIXELS = MAX_IMAGE_SIDE_PX * MAX_IMAGE_SIDE_PX
 #: largest side at 4 bytes a pixel, with room for its envelope. A longer record or a chunk that
 #: declares (or inflates to) more is refused before it is read or inflated.
 MAX_RECORDING_RECORD_BYTES = 4 * MAX_IMAGE_PIXELS + (1 << 20)
+#: Largest text file a module reads (DH tables, calibration files, CSV) [bytes].
+MAX_TEXT_FILE_BYTES = 4_000_000
+#: Largest sketch session file (``session.json``) read [bytes].
+MAX_SKETCH_SESSION_BYTES = 1_000_000
+#: Most commands a sketch session replays (every call replays them all).
+MAX_SKETCH_SESSION_EVENTS = 1000
 
 # -- the operator's web pages (modules/webdoor): what one client may make the page server hold --
 #: Largest request head (request line and headers) a page server reads [bytes].

@@ -18,9 +18,7 @@ import stat
 from pathlib import Path, PurePosixPath
 
 from connectors.errors import UserError
-
-#: Default size bound of a text file a module reads (DH tables, calibration files, CSV) [bytes].
-MAX_TEXT_BYTES = 4_000_000
+from connectors.limits import MAX_TEXT_FILE_BYTES as MAX_TEXT_BYTES
 
 _BOMS = (
     (codecs.BOM_UTF32_LE, "utf-32"),

@@ -19,14 +19,12 @@ from typing import Annotated, Any, Literal
 import msgspec
 
 from connectors.errors import UserError
+from connectors.limits import MAX_SKETCH_SESSION_BYTES as MAX_SESSION_BYTES
+from connectors.limits import MAX_SKETCH_SESSION_EVENTS as MAX_SESSION_EVENTS
 from connectors.user_files import decode_text, read_bytes
 from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.primitives import KINDS
 
-#: Largest session file read [bytes].
-MAX_SESSION_BYTES = 1_000_000
-#: Most commands a session replays (each call replays them all).
-MAX_SESSION_EVENTS = 1000
 #: Largest coordinate or option value kept in a session (a bound, not physics: finite numbers).
 _BIG = 1e9
 
