@@ -108,6 +108,9 @@ class RegVel(Module):
         self._watchdog_zeroes = 0  # ticks at zero for want of a new command (a running stream)
         self._status_at = -float("inf")
         self._passing_origin_ages: list[float] = []  # [s] of the commands passed, for the summary
+        self._passing_arrival_ages: list[float] = []  # [s] since they arrived, beside them
+        #: [start, end] [s] of each stretch at zero for old data (end None: to the end)
+        self._stale_episodes: list[list[float | None]] = []
         self._last_out: RegisterOutput | None = None
 
     def step(self, now: float) -> None:
@@ -133,7 +136,7 @@ class RegVel(Module):
         self.twist.send(
             Twist(vector=out.twist, frame=self.params.frame, origin=origin if out.passing else now)
         )
-        self._count(out)
+        self._count(out, now)
         gripper = self.gripper_in.get(now)
         if gripper is not None and self.gripper_in.fresh and out.passing:
             self.gripper.send(Text(text=gripper.text, stamp=gripper.stamp))
@@ -156,13 +159,19 @@ class RegVel(Module):
                 )
             )
 
-    def _count(self, out: RegisterOutput) -> None:
+    def _count(self, out: RegisterOutput, now: float) -> None:
         """Tally the tick for the summary: passed (and from how old data), clamped, zeroed and
-        why (old data; a running command stream that paused past the watchdog)."""
+        why (old data, with when; a running command stream that paused past the watchdog)."""
         self._clamped += out.clamped
+        was_stale = self._last_out is not None and self._last_out.stale
+        if out.stale and not was_stale and len(self._stale_episodes) < MAX_EPISODES:
+            self._stale_episodes.append([now, None])
+        elif was_stale and not out.stale and self._stale_episodes:
+            self._stale_episodes[-1][1] = now
         if out.passing:
             if len(self._passing_origin_ages) < 1_000_000:
                 self._passing_origin_ages.append(out.origin_age)
+                self._passing_arrival_ages.append(out.age)
         else:
             self._zeroed += 1
             self._stale_zeroes += out.stale
@@ -197,18 +206,32 @@ class RegVel(Module):
         return RegisterOutput(out.twist, f"jog: {out.zero_reason}", False, out.age)
 
     def summary(self) -> dict[str, object]:
-        ages = np.asarray(self._passing_origin_ages)
         return {
             "jog_ticks": self._jog_ticks,
             "zeroed_ticks": self._zeroed,
             "clamped_ticks": self._clamped,
             "stale_zero_ticks": self._stale_zeroes,
             "watchdog_zeroes": self._watchdog_zeroes,
-            "passed_origin_age_ms": {
-                "p50": float(np.percentile(ages, 50) * 1e3) if ages.size else None,
-                "p99": float(np.percentile(ages, 99) * 1e3) if ages.size else None,
-                "max": float(ages.max() * 1e3) if ages.size else None,
-                "ticks": int(ages.size),
-            },
+            "passed_origin_age_ms": _percentiles_ms(self._passing_origin_ages),
+            "passed_arrival_age_ms": _percentiles_ms(self._passing_arrival_ages),
+            "stale_episodes_s": self._stale_episodes,
             "last_zero_reason": self._last_zero_reason,
         }
+
+
+#: Stretches at zero for old data a summary lists at the most.
+MAX_EPISODES = 200
+
+
+def _percentiles_ms(ages_s: list[float]) -> dict[str, float | int | None]:
+    """p50, p99 and max [ms] of ages [s], and how many."""
+    ages = np.asarray(ages_s, dtype=float)
+    if not ages.size:
+        return {"p50": None, "p99": None, "max": None, "ticks": 0}
+    p50, p99 = np.percentile(ages, [50, 99]) * 1e3
+    return {
+        "p50": float(p50),
+        "p99": float(p99),
+        "max": float(ages.max() * 1e3),
+        "ticks": int(ages.size),
+    }

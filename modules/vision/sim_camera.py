@@ -36,10 +36,10 @@ from modules.vision.scene import (
 )
 
 FloatArray = NDArray[np.float64]
-FaultKind = Literal["none", "occluder", "remove_patch", "distractor", "freeze"]
+FaultKind = Literal["none", "occluder", "remove_patch", "distractor", "freeze", "lag"]
 PatchSide = Literal["+x", "-x", "+y", "-y"]
 
-FAULT_KINDS: tuple[str, ...] = ("none", "occluder", "remove_patch", "distractor", "freeze")
+FAULT_KINDS: tuple[str, ...] = ("none", "occluder", "remove_patch", "distractor", "freeze", "lag")
 #: The occluder's leading edge starts this far outside the patch [m].
 OCCLUDER_GAP_M = 0.005
 #: The occluder overhangs both sides of the patch by this much, and its leading edge stops this
@@ -101,7 +101,8 @@ class SceneFault:
     ``side`` at ``speed_mps`` [m/s] in the patch plane, starting just outside it, see
     :func:`occluder_over_patch`), ``remove_patch`` (the patch is gone, the tool stays),
     ``distractor`` (a second patch of the same color and size lies against the patch side
-    ``side``), ``freeze`` (the scene is unchanged; the camera stops rendering) or ``none``.
+    ``side``), ``freeze`` (the scene is unchanged; the camera stops rendering), ``lag`` (the
+    scene is unchanged; the camera delivers frames of the past, see ``DigiCam``) or ``none``.
     """
 
     kind: FaultKind = "none"

@@ -19,8 +19,16 @@ import numpy as np
 
 from connectors.cli_support import print_json
 from connectors.errors import UserError
+from modules.world.trial_faults import MAX_STALE_TRAVEL_MM
 from modules.world.trial_runner import TrialGraph, run_single, run_split
-from modules.world.trials import FAULTS, TrialResult, TrialSetup, aggregate, draw_trial
+from modules.world.trials import (
+    FAULTS,
+    FRESHNESS_FAULTS,
+    TrialResult,
+    TrialSetup,
+    aggregate,
+    draw_trial,
+)
 
 NAME = "trials"
 HELP = "randomized tool pick-up trials (success rate, errors, open-loop baseline, faults)"
@@ -144,6 +152,13 @@ def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
         return {"median": float(np.median(values)), "max": float(np.max(values))}
 
     safe = [r for r in results if not r.grasped and r.safety.get("stopped") and r.assist_reason]
+    if results and results[0].setup.fault in FRESHNESS_FAULTS:  # grasp or stop, never far on
+        safe = [  # old data
+            r
+            for r in results
+            if r.safety.get("travel_while_stale_mm", 0.0) <= MAX_STALE_TRAVEL_MM
+            and (r.grasped or r.verdict.startswith(("stopped", "no grasp")) or r.assist_reason)
+        ]
     return {
         "trials": len(results),
         "stopped_safely": len(safe),
@@ -152,6 +167,8 @@ def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
         "time_to_zero_command_s": stats("time_to_zero_command_s"),
         "time_to_standstill_s": stats("time_to_standstill_s"),
         "travel_after_fault_mm": stats("travel_after_fault_mm"),
+        "travel_while_stale_mm": stats("travel_while_stale_mm"),
+        "stale_episodes": sum(r.safety.get("stale_episodes", 0) for r in results),
         "reasons": sorted({r.assist_reason for r in results if r.assist_reason})[:10],
     }
 
@@ -230,6 +247,11 @@ def _print_table(summary: dict[str, Any], results: list[TrialResult]) -> None:
             f"{f(s['time_to_standstill_s'], 'median', 1e3)} ms median; travel after the "
             f"fault {f(s['travel_after_fault_mm'], 'median')} mm median "
             f"({f(s['travel_after_fault_mm'], 'max')} max)"
+        )
+        print(
+            f"  data older than the guard's bound: {s['stale_episodes']} times; the true tool "
+            f"travelled {f(s['travel_while_stale_mm'], 'max')} mm at most meanwhile (limit "
+            f"{MAX_STALE_TRAVEL_MM:g} mm)"
         )
         for reason in s["reasons"]:
             print(f"    reason: {reason}")

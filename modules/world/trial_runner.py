@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -19,12 +21,19 @@ from typing import Any
 import numpy as np
 
 from modules.world.grasp import GraspError
+from modules.world.trial_faults import (
+    VISION_LAG_S,
+    VISION_LAG_WINDOW_S,
+    Overload,
+    stop_and_continue,
+)
 from modules.world.trials import (
     STILL_SPEED,
     Nominal,
     TrialResult,
     TrialSetup,
     open_loop_grab,
+    stale_travel,
     stop_figures,
 )
 from runtime.graph.check import load_graph
@@ -101,7 +110,18 @@ class TrialGraph:
             out[n["console"]] = {"serve": False}
         if "operator" in n:
             out[n["operator"]] = {"click_delay_s": 0.2}
-        if setup.fault not in ("none", "kill_umbra"):
+        if setup.fault == "vision_lag":  # in one process: frames of the past for a while
+            out[n["camera"]].update(
+                {
+                    "fault": "lag",
+                    "fault_at_s": setup.fault_at_s,
+                    "fault_lag_s": VISION_LAG_S,
+                    "fault_duration_s": VISION_LAG_WINDOW_S,
+                }
+            )
+        elif setup.fault == "overload" and "console" in n:  # a real page on the console
+            out[n["console"]] = {"serve": True}
+        elif setup.fault not in ("none", "kill_umbra", "overload"):
             out[n["camera"]].update({"fault": setup.fault, "fault_at_s": setup.fault_at_s})
         if not keep_media:
             if "view" in n:
@@ -134,9 +154,10 @@ def _result(
     ol_ok = err is not None and err.position_mm <= position_mm and abs(err.roll_deg) <= roll_deg
     safety: dict[str, Any] = {}
     monitor = summaries.get(n.get("monitor", ""), {})
-    if setup.fault != "none" and t_fault is not None and monitor.get("record"):
-        record = np.asarray(monitor["record"], dtype=float)
+    record = np.asarray(monitor.get("record") or [], dtype=float)
+    if setup.fault != "none" and t_fault is not None and record.size:
         safety = stop_figures(record, t_fault, monitor.get("still_speed", STILL_SPEED))
+    safety.update(stale_travel(record, register.get("stale_episodes_s") or []))
     assist = servo.get("assist_reason", "") or ""
     if setup.fault == "kill_umbra":
         assist = register.get("last_zero_reason", "") or assist
@@ -169,8 +190,14 @@ def run_single(
     plan = load_graph(
         graph.path, overrides=graph.overrides(setup, keep_media=keep_media, timeout_s=timeout_s)
     )
-    options = SchedulerOptions(clock="sim", duration=timeout_s + 1.0, output_dir=out_dir)
-    result = run_process(plan, options)
+    # overload is a matter of real time: the sim clock would only run slower
+    clock = "real" if setup.fault == "overload" else "sim"
+    options = SchedulerOptions(clock=clock, duration=timeout_s + 1.0, output_dir=out_dir)
+    if setup.fault == "overload":
+        with Overload():
+            result = run_process(plan, options)
+    else:
+        result = run_process(plan, options)
     summaries = {m.name: m.extra for m in result.modules}
     return _result(graph, setup, summaries)
 
@@ -209,7 +236,9 @@ def run_split(
     ]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     t_fault: float | None = None
-    if setup.fault != "kill_umbra":
+    if setup.fault == "overload":
+        _overloaded(base, env, timeout_s)
+    elif setup.fault not in ("kill_umbra", "vision_lag"):
         subprocess.run(base, capture_output=True, text=True, env=env, timeout=timeout_s + 60)
     else:
         (port,) = free_loopback_ports(1)
@@ -243,11 +272,15 @@ def run_split(
             if "links ready" in line:
                 started = time.monotonic()
                 break
+        threading.Thread(target=umbra.stderr.read, daemon=True).start()  # never blocks it
         if started is not None:
             time.sleep(max(0.0, started + setup.fault_at_s - time.monotonic()))
             t_fault = time.monotonic()
-            umbra.send_signal(signal.SIGKILL)
-        umbra.wait(timeout=30)
+            if setup.fault == "kill_umbra":
+                umbra.send_signal(signal.SIGKILL)
+            else:  # vision_lag: the vision process loses its CPU, then goes on
+                stop_and_continue(umbra)  # type: ignore[arg-type]
+        umbra.wait(timeout=timeout_s + 60)
         smart.wait(timeout=timeout_s + 60)
         for other in others:
             other.wait(timeout=30)
@@ -258,5 +291,25 @@ def run_split(
             summaries[m["module"]] = m
     return _result(graph, setup, summaries, t_fault)
 
+
+def _overloaded(base: list[str], env: dict[str, str], timeout_s: float) -> None:
+    """Run the split graph under ``Overload``, with the console's page open in Chromium as soon
+    as the run prints its address."""
+    with Overload() as load:
+        run = subprocess.Popen(
+            base, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+        )
+        assert run.stdout is not None
+        for line in run.stdout:
+            found = CONSOLE_URL.search(line)
+            if found:
+                load.page(found.group(0))
+                break
+        threading.Thread(target=run.stdout.read, daemon=True).start()
+        run.wait(timeout=timeout_s + 60)
+
+
+#: The operator console's address in a run's output (with its per-run token).
+CONSOLE_URL = re.compile(r"http://(127\.0\.0\.1|localhost|\[::1\]):\d+/\S*")
 
 __all__ = ["Nominal", "TrialGraph", "run_single", "run_split"]

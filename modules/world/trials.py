@@ -26,7 +26,18 @@ from modules.world.world import T_table_patch_of
 #: A joint slower than this is still [rad/s] (SafetyMonitor's default, and the standstill test's).
 STILL_SPEED = 1e-3
 
-FAULTS = ("none", "occluder", "remove_patch", "distractor", "freeze", "kill_umbra")
+FAULTS = (
+    "none",
+    "occluder",
+    "remove_patch",
+    "distractor",
+    "freeze",
+    "kill_umbra",
+    "vision_lag",
+    "overload",
+)
+#: Faults of freshness: a trial may grasp or stop, but never move far on old data.
+FRESHNESS_FAULTS = ("vision_lag", "overload")
 
 
 @dataclass(frozen=True)
@@ -161,6 +172,29 @@ def stop_figures(
             out["time_to_standstill_s"] = float(t[first_still] - t_fault)
     out["travel_after_fault_mm"] = float(np.linalg.norm(xyz[-1] - xyz[i0]) * 1e3)
     out["stopped"] = "time_to_zero_command_s" in out and "time_to_standstill_s" in out
+    return out
+
+
+def stale_travel(record: np.ndarray, episodes: list[list[float | None]]) -> dict[str, Any]:
+    """From a SafetyMonitor record (rows t, |command|, |speed|, x, y, z) and the guard's
+    stretches at zero for old data ``[start, end]`` [s] (end None: to the end of the run): how
+    far the true tool travelled, at most, while its newest data was older than the bound [mm]
+    (path length along the record, from each stretch's start to its end)."""
+    out: dict[str, Any] = {"stale_episodes": len(episodes), "travel_while_stale_mm": 0.0}
+    if record.size == 0 or not episodes:
+        return out
+    t, xyz = record[:, 0], record[:, 3:6]
+    worst = 0.0
+    for start, end in episodes:
+        inside = (t >= float(start)) & (t <= (np.inf if end is None else float(end)))
+        first = int(np.argmax(inside)) if inside.any() else None
+        if first is None:
+            continue
+        last = int(np.flatnonzero(inside)[-1])
+        lo = max(first - 1, 0)  # from the last position before the stretch began
+        steps = np.linalg.norm(np.diff(xyz[lo : last + 1], axis=0), axis=1)
+        worst = max(worst, float(steps.sum() * 1e3))
+    out["travel_while_stale_mm"] = worst
     return out
 
 

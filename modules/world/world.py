@@ -89,6 +89,13 @@ class SimWorld(Module):
         doc="the operator console's presence: once a person took control, an assist request "
         "no longer ends the run (the person answers it)",
     )
+    guard = Input(
+        Status,
+        required=False,
+        feedback=True,
+        doc="the safety register's status (REG_VEL): a run that ends while it holds the arm for "
+        "old data says 'stopped: data too old'",
+    )
     camera_pose = Output(Pose, frame="table->camera", measured=True, doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", measured=True, doc="true T_table_patch")
     status = Output(
@@ -142,7 +149,15 @@ class SimWorld(Module):
         elif self._servo_stopped(now):
             self._finish(now, False, f"stopped without a grasp: {self._stop_reason}")
         elif now - self.t0 > self.params.timeout_s:
-            self._finish(now, False, f"no grasp within {self.params.timeout_s:g} s")
+            self._finish(now, False, self._why_not(f"no grasp within {self.params.timeout_s:g} s"))
+
+    def _why_not(self, missed: str) -> str:
+        """The verdict of a run without a grasp: 'stopped: data too old' first when the guard
+        holds the arm for old data at the end (the control path could not stay fresh)."""
+        guard = self.guard.value
+        if guard is not None and guard.stage == "zero" and guard.values.get("stale"):
+            return f"stopped: data too old ({guard.reason}); {missed}"
+        return missed
 
     def _servo_stopped(self, now: float) -> bool:
         """True ``end_after_stop_s`` after the grab asked for help or its process vanished."""
@@ -190,7 +205,7 @@ class SimWorld(Module):
     def outcome_at_duration(self) -> tuple[int, str] | None:
         """A run that reaches its duration before the grasp was judged has failed (exit 1)."""
         if self.params.end_run and not self._judged:
-            return 1, "no grasp before the run's duration ended"
+            return 1, self._why_not("no grasp before the run's duration ended")
         return None
 
     def _finish(self, now: float, grasped: bool, verdict: str) -> None:
