@@ -23,6 +23,7 @@ from modules.calib.camera_file import load_cameras
 from modules.calib.camera_model import PinholeCamera
 from modules.calib.correspondences import load_correspondences
 from modules.calib.errors import CalibrationError
+from modules.calib.model_choice import calibrate_choosing_distortion
 from modules.calib.npnp import View, solve_npnp
 from modules.calib.refine import calibrate
 from modules.calib.rotations import xyz_from_rotation
@@ -76,9 +77,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     fit.add_argument("--camera", default="cam", help="camera name in the file (default cam)")
     fit.add_argument(
         "--distortion",
-        choices=sorted(DISTORTION_CHOICES),
-        default="k1k2p1p2",
-        help="distortion terms to fit (default k1k2p1p2, the report's model)",
+        choices=["auto", *sorted(DISTORTION_CHOICES)],
+        default="auto",
+        help="distortion terms to fit; default auto: the model the data hold (lowest BIC among "
+        "none, k1k2 and k1k2p1p2, the report's)",
     )
     fit.add_argument("--fix-skew", action="store_true", help="hold skew (fxy) at zero")
     fit.add_argument("--linear", action="store_true", help="DLT only, no refinement")
@@ -176,13 +178,23 @@ def _fit(args: argparse.Namespace) -> int:
     if args.output:
         check_writable(Path(args.output), "--output")
     data = load_correspondences(args.correspondences)
-    result = calibrate(
-        data.points,
-        data.pixels,
-        distortion_terms=DISTORTION_CHOICES[args.distortion],
-        fix_skew=args.fix_skew,
-        refine=not args.linear,
-    )
+    choice = None
+    if args.distortion == "auto" and not args.linear:
+        result, choice = calibrate_choosing_distortion(data.points, data.pixels, args.fix_skew)
+        model = choice.chosen
+    else:
+        model = "k1k2p1p2" if args.distortion == "auto" else args.distortion
+        result = calibrate(
+            data.points,
+            data.pixels,
+            distortion_terms=DISTORTION_CHOICES[model],
+            fix_skew=args.fix_skew,
+            refine=not args.linear,
+        )
+    chosen = {
+        "distortion_model": "none (DLT)" if args.linear else model,
+        "why": choice.reason if choice else "given by --distortion",
+    }
     sample = _camera_sample(result.camera, args.zoom)
     P = result.camera.camera_matrix()
     if args.output:
@@ -197,13 +209,21 @@ def _fit(args: argparse.Namespace) -> int:
                 "camera_matrix": P.tolist(),
                 "linear_rms_px": result.linear_rms_px,
                 "points": len(data.points),
+                **chosen,
+                "information_criterion": choice.bic if choice else {},
+                "standard_errors": result.standard_errors,
             }
         )
         return 0
-    kind = "DLT only" if args.linear else f"refined, distortion {args.distortion}"
+    kind = "DLT only" if args.linear else f"refined, distortion {model}"
     print(f"fit of {len(data.points)} pairs from {args.correspondences} ({kind})")
+    if choice:
+        print(f"  {choice.reason}")
     print(f"  reprojection RMS {result.rms_px:.4f} px (linear DLT {result.linear_rms_px:.4f} px)")
     print("\n".join(_describe_sample(sample)))
+    if result.standard_errors:
+        print("  standard errors (1 sigma; px, unitless, rad about the fitted R, m):")
+        print("    " + "  ".join(f"{k} {v:.4g}" for k, v in result.standard_errors.items()))
     print("  camera matrix K [R | d]:")
     for row in P:
         print("    [" + "  ".join(f"{v:14.6g}" for v in row) + "]")

@@ -8,13 +8,13 @@ rotation vector about the current estimate (``R = exp([w]_x) R0``), so it stays 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
+from modules.calib.camera_model import DISTORTION_NAMES, Intrinsics, PinholeCamera
 from modules.calib.decompose import decompose_camera_matrix
 from modules.calib.dlt import check_correspondences, dlt_camera_matrix, rms
 from modules.calib.errors import DegenerateGeometryError
@@ -25,13 +25,42 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class CalibrationResult:
-    """A fitted camera, its reprojection residuals (pixels, ``(n, 2)``) and their RMS (pixels)."""
+    """A fitted camera, its reprojection residuals (pixels, ``(n, 2)``) and their RMS (pixels).
+
+    ``standard_errors`` maps each fitted parameter to its one-sigma error from the Gauss-Newton
+    covariance ``s^2 (J^T J)^-1`` at the minimum, ``s^2`` the residual variance per pixel
+    coordinate (``SSR / (2n - p)``): ``fx fy [skew] u0 v0`` px, distortion terms unitless,
+    ``rx ry rz`` rad (a rotation about the fitted ``R``, reference frame), ``dx dy dz`` m. Empty
+    for the linear (DLT only) camera.
+    """
 
     camera: PinholeCamera
     residuals: FloatArray
     rms_px: float
     linear_rms_px: float
     evaluations: int
+    standard_errors: dict[str, float] = field(default_factory=dict)
+    #: sum of squared residuals (px^2) and number of fitted parameters, for model selection
+    ssr_px2: float = float("nan")
+    parameter_count: int = 0
+
+
+def parameter_names(distortion_terms: int, fix_skew: bool) -> tuple[str, ...]:
+    """Names of the refined parameters, in the order of the packed vector."""
+    head = ("fx", "fy") + (() if fix_skew else ("skew",)) + ("u0", "v0")
+    return head + DISTORTION_NAMES[:distortion_terms] + ("rx", "ry", "rz", "dx", "dy", "dz")
+
+
+def _standard_errors(jac: FloatArray, r: FloatArray, names: tuple[str, ...]) -> dict[str, float]:
+    dof = r.size - len(names)
+    if dof <= 0:
+        return {name: float("nan") for name in names}
+    variance = float(r @ r) / dof
+    try:
+        covariance = variance * np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return {name: float("inf") for name in names}
+    return dict(zip(names, np.sqrt(np.abs(np.diag(covariance))).tolist(), strict=True))
 
 
 def _unpack(
@@ -97,12 +126,16 @@ def refine_camera(
         raise DegenerateGeometryError("refinement diverged to a non-positive focal length")
     r = solution.fun.reshape(-1, 2)
     start_r = residuals(start).reshape(-1, 2)
+    names = parameter_names(distortion_terms, fix_skew)
     return CalibrationResult(
         camera=fitted,
         residuals=r,
         rms_px=rms(np.linalg.norm(r, axis=1)),
         linear_rms_px=rms(np.linalg.norm(start_r, axis=1)),
         evaluations=int(solution.nfev),
+        standard_errors=_standard_errors(np.asarray(solution.jac), solution.fun, names),
+        ssr_px2=float(solution.fun @ solution.fun),
+        parameter_count=len(names),
     )
 
 
