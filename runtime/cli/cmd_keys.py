@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
 from connectors.errors import UserError
 from runtime.graph.check import load_graph
+from runtime.graph.plan import GraphPlan
+from runtime.links.acl import output_keys
 
 NAME = "keys"
 HELP = "make a CA, a certificate per process and the graph's zenoh access rules (mutual TLS)"
@@ -28,6 +31,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "(repeatable; localhost and 127.0.0.1 are always there)",
     )
     parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
+    parser.add_argument(
+        "--observer",
+        action="append",
+        default=[],
+        metavar="NAME[=MODULE/PORT,...]",
+        help="also a read-only observer certificate (observer@NAME.json5): it may subscribe to "
+        "the outputs named (default: every output of the graph) and their liveliness, nothing "
+        "else (repeatable; for `umbra topics/echo/hz --zenoh-config`, viewers)",
+    )
 
 
 def _hosts(items: list[str], processes: list[str]) -> dict[str, list[str]]:
@@ -41,6 +53,32 @@ def _hosts(items: list[str], processes: list[str]) -> dict[str, list[str]]:
             )
         hosts.setdefault(process, []).append(address)
     return hosts
+
+
+def _observers(items: list[str], plan: GraphPlan) -> dict[str, list[str]]:
+    """``--observer NAME[=MODULE/PORT,...]`` as name -> the full keys it may read."""
+    every = output_keys(plan)
+    found: dict[str, list[str]] = {}
+    for item in items:
+        name, sep, outputs = item.partition("=")
+        if not re.fullmatch(r"[A-Za-z0-9_.\-]+", name) or name in found:
+            raise UserError(
+                f"--observer: expected NAME[=MODULE/PORT,...] with a new NAME of letters, "
+                f"digits, '_', '.', '-', found {item!r}"
+            )
+        keys = [
+            k if k.startswith(plan.key_prefix + "/") else f"{plan.key_prefix}/{k.strip('/')}"
+            for k in outputs.split(",")
+            if k.strip()
+        ]
+        unknown = [k for k in keys if k not in every]
+        if unknown or (sep and not keys):
+            raise UserError(
+                f"--observer {item}: expected outputs of graph `{plan.spec.name}` (MODULE/PORT), "
+                f"found {', '.join(unknown) or 'none'}; its outputs: {', '.join(every)}"
+            )
+        found[name] = keys or every
+    return found
 
 
 def main(args: argparse.Namespace) -> int:
@@ -61,7 +99,8 @@ def main(args: argparse.Namespace) -> int:
     if out.is_dir() and any(out.iterdir()):
         raise UserError(f"--out: {out} is not empty; give a new folder (keys are never mixed)")
     hosts = _hosts(args.host, processes)
-    written = write_keys(plan, out, args.days, hosts)
+    observers = _observers(args.observer, plan)
+    written = write_keys(plan, out, args.days, hosts, observers)
     print(f"wrote {len(written)} files to {out}:", file=sys.stderr)
     for path in written:
         print(f"  {path}", file=sys.stderr)
@@ -81,4 +120,10 @@ def main(args: argparse.Namespace) -> int:
         f"or on one host: umbra run {args.graph} --zenoh-config {out}/",
         file=sys.stderr,
     )
+    for name in observers:
+        print(
+            f"observer `{name}`: umbra topics --zenoh-config {out}/observer@{name}.json5 "
+            f"--connect tls/{address}:7447 (copy observer@{name}.* and ca.pem only)",
+            file=sys.stderr,
+        )
     return 0

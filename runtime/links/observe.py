@@ -39,7 +39,7 @@ from runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
 
 #: Seconds to wait for the sessions of a run's processes when joining it.
 JOIN_TIMEOUT = 3.0
-#: Beside an observer's zenoh configuration ``observer-NAME.json5``: its prefix and keys.
+#: Beside an observer's zenoh configuration ``observer@NAME.json5``: its prefix and keys.
 KEYS_SUFFIX = ".keys.json"
 
 
@@ -118,7 +118,7 @@ def _local_config(run: Run) -> zenoh.Config:
         raise UserError(
             f"error: graph `{run.graph}` runs with a zenoh configuration of its own (TLS "
             f"certificates): observe it with an observer certificate, `umbra keys GRAPH --out "
-            f"DIR --observer NAME`, then --zenoh-config DIR/observer-NAME.json5 --connect "
+            f"DIR --observer NAME`, then --zenoh-config DIR/observer@NAME.json5 --connect "
             f"{endpoints[0] if endpoints else 'ENDPOINT'}"
         )
     cfg = build_config(Endpoints(connect=endpoints))

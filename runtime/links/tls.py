@@ -31,7 +31,13 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 from runtime.graph.plan import GraphPlan
-from runtime.links.acl import by_certificate, common_name, zenoh_acl
+from runtime.links.acl import (
+    Observer,
+    by_certificate,
+    common_name,
+    observer_certificate_name,
+    zenoh_acl,
+)
 
 CA_FILE = "ca.pem"
 #: Zenoh TLS settings that name files (resolved relative to the configuration's folder).
@@ -78,12 +84,24 @@ def _write(path: Path, data: bytes, mode: int) -> None:
     os.chmod(path, mode)
 
 
+def observer_file(name: str) -> str:
+    """Stem of the files of observer ``name`` (``@`` is in no process name: no clash)."""
+    return f"observer@{name}"
+
+
 def write_keys(
-    plan: GraphPlan, out: Path, days: int = 365, hosts: dict[str, list[str]] | None = None
+    plan: GraphPlan,
+    out: Path,
+    days: int = 365,
+    hosts: dict[str, list[str]] | None = None,
+    observers: dict[str, list[str]] | None = None,
 ) -> list[Path]:
     """Write the CA certificate, a key and certificate per process and ``PROCESS.json5`` per
-    process of ``plan`` into ``out``; the files written."""
+    process of ``plan`` into ``out``, and for each of ``observers`` (name -> the keys it may
+    read) a key, a certificate, ``observer@NAME.json5`` and ``observer@NAME.keys.json`` (the
+    prefix and keys, for ``umbra topics``); the files written."""
     hosts = hosts or {}
+    observers = observers or {}
     out.mkdir(parents=True, exist_ok=True)
     os.chmod(out, 0o700)  # it holds private keys
     graph = plan.spec.name
@@ -118,12 +136,20 @@ def write_keys(
     )
     written = [out / CA_FILE]
     _write(out / CA_FILE, ca.public_bytes(serialization.Encoding.PEM), 0o644)
-    acl = zenoh_acl(plan, by_certificate(graph))
-    for process in plan.populated_processes:
+    readers = [
+        Observer(name, {"cert_common_names": [observer_certificate_name(graph, name)]}, tuple(k))
+        for name, k in observers.items()
+    ]
+    acl = zenoh_acl(plan, by_certificate(graph), readers)
+    names: list[tuple[str, str, list[str], Observer | None]] = [
+        (p, common_name(graph, p), hosts.get(p, []), None) for p in plan.populated_processes
+    ]
+    names += [(observer_file(o.name), o.subject["cert_common_names"][0], [], o) for o in readers]
+    for process, cn, alt, observer in names:
         key = ec.generate_private_key(ec.SECP256R1())
         cert = (
             x509.CertificateBuilder()
-            .subject_name(_name(common_name(graph, process)))
+            .subject_name(_name(cn))
             .issuer_name(ca_name)
             .public_key(key.public_key())
             .serial_number(x509.random_serial_number())
@@ -136,9 +162,7 @@ def write_keys(
                 ),
                 critical=False,
             )
-            .add_extension(
-                x509.SubjectAlternativeName(_alt_names(hosts.get(process, []))), critical=False
-            )
+            .add_extension(x509.SubjectAlternativeName(_alt_names(alt)), critical=False)
             .sign(ca_key, hashes.SHA256())
         )
         key_file, cert_file = out / f"{process}.key", out / f"{process}.pem"
@@ -162,10 +186,23 @@ def write_keys(
         }
         header = (
             f"// zenoh configuration of process `{process}` of graph `{graph}`, written by "
-            f"`umbra keys`:\n// mutual TLS with certificate CN={common_name(graph, process)} "
+            f"`umbra keys`:\n// mutual TLS with certificate CN={cn} "
             f"and the graph's access rules.\n// Use: umbra run GRAPH --process {process} "
             f"--zenoh-config {out.name}/ --listen tls/HOST:PORT (or --connect)\n"
         )
+        if observer is not None:
+            del config["access_control"]  # the processes' rules hold it to its keys
+            header = (
+                f"// zenoh configuration of observer `{observer.name}` of graph `{graph}`, "
+                f"written by `umbra keys`:\n// mutual TLS with certificate CN={cn}; the "
+                f"graph's processes let it read {len(observer.keys)} keys and nothing else.\n"
+                f"// Use: umbra topics --zenoh-config {out.name}/{process}.json5 "
+                f"--connect tls/HOST:PORT\n"
+            )
+            keys_file = out / f"{process}.keys.json"
+            keys = {"prefix": plan.key_prefix, "keys": list(observer.keys)}
+            _write(keys_file, (json.dumps(keys, indent=2) + "\n").encode(), 0o644)
+            written.append(keys_file)
         config_file = out / f"{process}.json5"
         _write(config_file, (header + json.dumps(config, indent=2) + "\n").encode(), 0o600)
         written += [key_file, cert_file, config_file]

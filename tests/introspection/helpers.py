@@ -19,23 +19,32 @@ def user_folder(env: dict[str, str]) -> Path:
     return Path(env["XDG_RUNTIME_DIR"]) / "umbra"
 
 
-def running(run: Running, env: dict[str, str], processes: int = 2, timeout: float = 90) -> Run:
-    """The run once its ``processes`` run files are written and every process runs."""
+def running(
+    run: Running | list[Running], env: dict[str, str], processes: int = 2, timeout: float = 90
+) -> Run:
+    """The run once its ``processes`` run files are written and every process runs (``run``:
+    the launcher, or each process started by hand)."""
+    commands = run if isinstance(run, list) else [run]
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         runs = [r for r in local_runs(user_folder(env)) if len(r.processes) == processes]
-        ready = sum("links ready, running" in line for line in run.stderr)
-        if runs and ready >= processes:
+        lines = [line for c in commands for line in c.stderr]
+        if runs and sum("links ready, running" in line for line in lines) >= processes:
             return runs[0]
-        assert run.popen.poll() is None, "\n".join(run.stderr[-30:])
+        for c in commands:
+            assert c.popen.poll() is None, "\n".join(c.stderr[-30:])
         time.sleep(0.1)
-    raise AssertionError("the run did not come up:\n" + "\n".join(run.stderr[-30:]))
+    raise AssertionError("the run did not come up:\n" + "\n".join(commands[0].stderr[-30:]))
 
 
-def umbra_cli(env: dict[str, str], *args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+def umbra_cli(
+    env: dict[str, str], *args: str, timeout: float = 60, cwd: Path | None = None
+) -> subprocess.CompletedProcess:
+    """``umbra ARGS...`` run to its end."""
     return subprocess.run(
         [sys.executable, "-m", "runtime.cli.main", *args],
         env=env,
+        cwd=cwd,
         capture_output=True,
         text=True,
         timeout=timeout,
