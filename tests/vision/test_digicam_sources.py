@@ -4,6 +4,7 @@ exits 2; no source makes a run outlast ``--duration`` (sim clock included)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import socket
 import subprocess
@@ -111,6 +112,30 @@ def test_a_refused_stream_names_the_refusal() -> None:
     with pytest.raises(UserError, match=f"stream {url}: connection refused") as caught:
         ModuleHarness(DigiCam, {"source": url, "open_timeout": 1.0}).start()
     assert "cannot decode" not in str(caught.value)
+
+
+def test_a_stream_whose_host_never_answers_times_out() -> None:
+    """A loopback listener whose accept queue is full drops new connection requests: the probe
+    waits ``open_timeout`` and says it timed out."""
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen(0)
+        port = server.getsockname()[1]
+        queued = [socket.socket() for _ in range(4)]
+        for client in queued:
+            client.setblocking(False)
+            with contextlib.suppress(BlockingIOError):
+                client.connect(("127.0.0.1", port))
+        time.sleep(0.2)
+        url = f"rtsp://127.0.0.1:{port}/cam"
+        started = time.monotonic()
+        with pytest.raises(
+            UserError, match=f"stream {url}: connection to .* timed out after 0.5 s"
+        ):
+            ModuleHarness(DigiCam, {"source": url, "open_timeout": 0.5}).start()
+        assert 0.45 < time.monotonic() - started < 5.0
+        for client in queued:
+            client.close()
 
 
 def test_a_stream_that_accepts_but_sends_no_video_cannot_be_decoded() -> None:
