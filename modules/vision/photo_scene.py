@@ -179,15 +179,17 @@ def patch_coverage(corners: FloatArray, shape: tuple[int, int]) -> tuple[NDArray
 
 
 def _distinct(background: NDArray, corners: FloatArray, rgb, ring_px: float = 40.0) -> bool:
-    """True when under 1 % of the background near the patch has the patch's chromaticity
-    (within 0.05): a patch a colour tracker can be asked to tell from its surroundings."""
+    """True when under 1 % of the background within ``ring_px`` of the patch lies within 25
+    gray levels of the patch's colour ray through black (chromaticity offset times R + G + B,
+    the colour model's own measure): a patch a colour tracker can be asked to tell from its
+    surroundings. (A dark, weakly coloured background is close to every colour ray.)"""
     low = np.maximum(np.floor(corners.min(axis=0) - ring_px).astype(int), 0)
     high = np.ceil(corners.max(axis=0) + ring_px).astype(int)
     region = background[low[1] : high[1], low[0] : high[0]].reshape(-1, 3)
     total = np.maximum(region.sum(axis=1), 1.0)
     rg = np.column_stack([region[:, 2], region[:, 1]]) / total[:, None]
     target = np.array([rgb[0], rgb[1]], dtype=np.float64) / float(sum(rgb))
-    close = np.hypot(*(rg - target).T) < 0.05
+    close = np.hypot(*(rg - target).T) * total < 25.0
     return float(close.mean()) < 0.01
 
 
