@@ -3,6 +3,7 @@ chunks holding the wanted channels are read, each checked against its CRC."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -60,7 +61,12 @@ def test_only_the_chunks_holding_the_wanted_channels_are_read(tmp_path: Path) ->
     scan = indexed_scan(path)
     assert scan is not None  # the summary is intact: the damage is found when the chunk is read
     values = [m.data for _c, _s, m in read_messages(path, ["/a/x"], scan)]
-    assert len(values) == 100 and values[7] == b'{"stamp":0.07,"seq":8,"value":7.0,"_arrays":{}}'
+    assert len(values) == 100
+    assert {k: json.loads(values[7])[k] for k in ("stamp", "seq", "value")} == {
+        "stamp": 0.07,
+        "seq": 8,
+        "value": 7.0,
+    }
     # /a/x never touches the damaged chunk
     with pytest.raises(UserError) as err:
         sum(1 for _ in read_messages(path, ["/b/y"], scan))
