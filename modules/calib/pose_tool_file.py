@@ -183,6 +183,14 @@ def load_session(path: str | Path) -> PoseToolSession:
     return parse_session(yn.read_text(path, "pose-tool session file"), str(path))
 
 
+def _check_names(parent: str, child: str) -> None:
+    """ValueError when ``parent->child`` is no frame entry a graph accepts."""
+    for name in (parent, child):
+        problem = frame_name_problem(name)
+        if problem:
+            raise ValueError(problem)
+
+
 def _flow_pose(T: np.ndarray) -> str:
     xyz, rpy = xyz_rpy_deg_from_transform(T)
     return (
@@ -202,7 +210,9 @@ def session_text(
     snapshots: list[tuple[np.ndarray, np.ndarray, dict[str, tuple[float, float]]]],
     initial: np.ndarray | None = None,
 ) -> str:
-    """A session file's text; ``snapshots`` are ``(T_world_parent, T_child_camera, clicks)``."""
+    """A session file's text; ``snapshots`` are ``(T_world_parent, T_child_camera, clicks)``.
+    ValueError for a mount name a graph would refuse (nothing is written with it)."""
+    _check_names(parent, child)
     f = camera.intrinsics
     k1, k2, p1, p2, k3 = (float(v) for v in camera.distortion)
     lines = [
@@ -228,7 +238,9 @@ def session_text(
 
 
 def frames_text(parent: str, child: str, T_parent_child: np.ndarray, comment: str) -> str:
-    """A calibration file with the mount as a graph ``frames:`` entry."""
+    """A calibration file with the mount as a graph ``frames:`` entry (ValueError for a mount
+    name a graph would refuse)."""
+    _check_names(parent, child)
     return f"# {comment}\nframes:\n  {parent}->{child}: {_flow_pose(T_parent_child)}\n"
 
 
@@ -236,7 +248,9 @@ def update_graph_frame(
     graph_text: str, parent: str, child: str, T_parent_child: np.ndarray, source: str
 ) -> str:
     """The graph file's text with the ``parent->child`` frame replaced (or added under
-    ``frames:``), everything else (comments, order) untouched."""
+    ``frames:``), everything else (comments, order) untouched; ValueError for a mount name a
+    graph would refuse."""
+    _check_names(parent, child)
     entry = _flow_pose(T_parent_child)
     key = f"{parent}->{child}:"
     lines = graph_text.splitlines(keepends=True)

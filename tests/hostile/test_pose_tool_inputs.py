@@ -155,3 +155,17 @@ def test_what_graph_writes_passes_check(tmp_path: Path, capsys) -> None:
     assert code == 0, err
     assert "ptu_head->camera: {xyz: [" in graph.read_text()
     assert main(["check", str(graph)]) == 0, capsys.readouterr()
+
+
+@pytest.mark.parametrize("writer", ["session_text", "frames_text", "update_graph_frame"])
+def test_no_writer_writes_a_name_a_graph_refuses(writer: str) -> None:
+    """The 3-D view's pose tool writes through the same functions: a bad name is refused there."""
+    from modules.calib import pose_tool_file as f
+
+    calls = {
+        "session_text": lambda: f.session_text("&a x", "camera", CAMERA, {}, []),
+        "frames_text": lambda: f.frames_text("ptu_head", "cam era", np.eye(4), "c"),
+        "update_graph_frame": lambda: f.update_graph_frame(GRAPH, "a->b", "c", np.eye(4), "g"),
+    }
+    with pytest.raises(ValueError, match="must be an identifier"):
+        calls[writer]()
