@@ -22,10 +22,12 @@ from modules.operator.actions import (
     check_snake_healthy,
     point_seed,
 )
+from modules.operator.console_view import ConsoleView
 from modules.operator.control import ControlArbiter
-from modules.operator.cpu import process_cpu_s, thread_cpu_s
+from modules.operator.cpu import process_cpu_s
 from modules.operator.jog import DeadMan, JogLimits, jog_twist
 from modules.operator.mailbox import Lanes
+from modules.operator.web_figures import cpu_figures, web_figures
 from modules.vision.sanity import SanityLimits
 from modules.webdoor.secret import resolve_token
 
@@ -36,7 +38,7 @@ if TYPE_CHECKING:  # the web side is imported only when the console serves (not 
 _ACTIVE = ("acquire", "approach", "final_grab")
 
 
-class OperatorConsole(Module):
+class OperatorConsole(ConsoleView, Module):
     """The operator's console: a web page (127.0.0.1 by default) with the live camera image, the
     snake drawn over it in the browser, the grab's stage and errors, link and arm health, and
     the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
@@ -404,29 +406,6 @@ class OperatorConsole(Module):
                 )
             )
 
-    def _links(self) -> tuple[tuple[str, Any], ...]:
-        return (
-            ("image", self.image),
-            ("contour", self.contour),
-            ("servo", self.servo),
-            ("joints", self.joints),
-        )
-
-    def _track_links(self, now: float) -> None:
-        """The oldest each input's latest sample got since the last page update [s]: now, or
-        when the next one replaced it. About its period while it flows, growing when it stops
-        (the age at a step alone is often 0: a sample comes with the tick that runs the console,
-        and a busy process runs it only then)."""
-        ages, seen = self._link_age, self._link_seen
-        for name, reg in self._links():
-            age = reg.age(now)
-            before = seen.get(name)
-            if before is not None and math.isfinite(before) and reg.received_at > before:
-                age = max(age, reg.received_at - before)  # the one before, when replaced
-            seen[name] = reg.received_at
-            if age > ages.get(name, -math.inf):
-                ages[name] = age
-
     def _track_servo(self, now: float) -> None:
         status = self.servo.get(now)
         if status is None or not self.servo.fresh:
@@ -448,63 +427,9 @@ class OperatorConsole(Module):
             self._assist = None
         self._last_servo_stage = status.stage
 
-    def _state(self, now: float) -> dict[str, Any]:
-        servo = self.servo.get(now)
-        guard = self.guard.get(now)
-        world = self.world.get(now)
-        held = self.deadman.held
-        return {
-            "t": round(now - (self._t0 or now), 3),
-            "overlay": view_state.overlay(self.contour.get(now), self._limits),
-            "servo": view_state.servo_view(servo),
-            "banner": view_state.zero_banner(servo, guard),
-            "guard": None if guard is None else {"stage": guard.stage, "reason": guard.reason},
-            "world": None if world is None else {"stage": world.stage, "message": world.message},
-            "errors": [
-                [
-                    e[0],
-                    *[
-                        round(x * s, 3) if math.isfinite(x) else None
-                        for x, s in zip(
-                            e[1:], (1000.0, 1000.0, 1000.0, 180.0 / math.pi), strict=True
-                        )
-                    ],
-                ]
-                for e in list(self._errors)[-150:]
-            ],
-            "links": [
-                view_state.link_view(name, self._link_age.pop(name, math.inf), reg.link_alive)
-                for name, reg in self._links()
-            ],
-            "smart_alive": None  # nothing from the servo side yet (or none in this graph)
-            if self.joints.value is None and self.guard.value is None
-            else self.joints.link_alive and self.guard.link_alive,
-            "joints": view_state.joints_view(self.joints.get(now), *self._q_limits),
-            "control": self.arbiter.holder_name(),
-            "control_session": self.arbiter.holder or "",
-            "viewers": [name for name in self.arbiter.sessions.values()],
-            "refused": self.counts["refused"],
-            "jog": None
-            if held is None
-            else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
-            "assist": self._assist,
-            "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._zoom.items()],
-            "notices": list(self._notices),
-            "links_extra": dict(self._server.links) if self._server is not None else {},
-        }
-
     # -- summary ------------------------------------------------------------------------------
     def _cpu_figures(self) -> dict[str, float]:
-        if self._app is None:
-            return {}
-        st = self._app.stats
-        web = thread_cpu_s(st.web_tid) if st.web_tid else 0.0
-        enc = thread_cpu_s(st.encoder_tid) if st.encoder_tid else 0.0
-        return {
-            "web_cpu_s": round(web, 3),
-            "encoder_cpu_s": round(enc, 3),
-            "process_cpu_s": round(process_cpu_s() - self._cpu0, 3),
-        }
+        return {} if self._app is None else cpu_figures(self._app.stats, self._cpu0)
 
     def summary(self) -> dict[str, object]:
         out: dict[str, object] = {
@@ -523,31 +448,9 @@ class OperatorConsole(Module):
             "assists": self.counts["assists"],
         }
         if self._app is not None:
-            st = self._app.stats
-            lat = np.asarray(st.latency_ms)
-            out.update(
-                frames_encoded=st.frames_encoded,
-                frames_sent=st.frames_sent,
-                frames_painted=len(lat),
-                viewers_max=st.viewers_max,
-                malformed=st.malformed,
-                replayed=st.replayed,
-                closed_abusers=st.closed_abusers,
-                oversize=st.oversize,
-                lane_full=st.lane_full,
-                refused_requests=(
-                    self._server.refused_requests if self._server else self._refused_requests
-                ),
+            out.update(web_figures(self._app.stats, self.seed_sent_wall))
+            out["refused_requests"] = (
+                self._server.refused_requests if self._server else self._refused_requests
             )
-            if len(lat):
-                out["latency_p50_ms"] = round(float(np.percentile(lat, 50)), 2)
-                out["latency_p95_ms"] = round(float(np.percentile(lat, 95)), 2)
-            if self.seed_sent_wall:
-                waits = np.array([(sent - got) * 1e3 for got, sent in self.seed_sent_wall])
-                out["seed_latency_p50_ms"] = round(float(np.percentile(waits, 50)), 2)
-                out["seed_latency_p95_ms"] = round(float(np.percentile(waits, 95)), 2)
-            if len(st.painted_wall) > 1:
-                span = st.painted_wall[-1] - st.painted_wall[0]
-                out["fps_shown"] = round((len(st.painted_wall) - 1) / span, 2) if span > 0 else 0.0
             out.update(getattr(self, "_cpu_end", {}))
         return out

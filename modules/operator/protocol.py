@@ -13,7 +13,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-MAX_MESSAGE_BYTES = 4096
+from connectors.limits import MAX_PAGE_MESSAGE_BYTES
+
+MAX_MESSAGE_BYTES = MAX_PAGE_MESSAGE_BYTES  #: (the websocket protocol refuses larger ones first)
 ACTIONS = ("start", "pause", "resume", "abort")
 JOG_FRAMES = ("tool", "camera")
 

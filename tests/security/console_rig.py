@@ -95,9 +95,10 @@ def console_rig() -> Iterator[Rig]:
 
 
 @contextmanager
-def flood(kind: str, url: str, seconds: float) -> Iterator[subprocess.Popen]:
+def flood(kind: str, url: str, seconds: float, wait: bool = True) -> Iterator[subprocess.Popen]:
     """``tests/security/flood.py`` as its own process for ``seconds`` (from when it says it
-    floods; then 0.5 s more for its first connections)."""
+    floods; then 0.5 s more for its first connections); at the end, waits for it to finish
+    (``wait``) or stops it."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "tests.security.flood", kind, url, str(seconds)],
         cwd=REPO,
@@ -109,6 +110,8 @@ def flood(kind: str, url: str, seconds: float) -> Iterator[subprocess.Popen]:
         time.sleep(0.5)
         yield proc
     finally:
+        if not wait:
+            proc.terminate()
         try:
             proc.wait(seconds + 20)
         except subprocess.TimeoutExpired:

@@ -18,6 +18,7 @@ how often the server closed or refused.
 from __future__ import annotations
 
 import json
+import logging
 import socket
 import sys
 import threading
@@ -140,6 +141,7 @@ THREADS = {"junk": 8, "big": 4, "connections": 2, "burn": 2}
 
 
 def main(argv: list[str]) -> int:
+    logging.getLogger("websockets").setLevel(logging.CRITICAL)  # a flooder expects closed sockets
     kind, url, seconds = argv[0], argv[1], float(argv[2])
     counts: dict[str, int] = {"sent": 0, "opened": 0, "closed": 0, "refused": 0}
     lock = threading.Lock()
