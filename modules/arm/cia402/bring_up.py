@@ -26,6 +26,7 @@ from canopen.pdo import PdoMap
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
 from modules.arm.cia402 import objects as obj
+from modules.arm.cia402.drive_watchdog import consumer_entry
 from modules.arm.cia402.state_machine import (
     Command,
     State,
@@ -224,6 +225,33 @@ def check_mode_display(node: canopen.RemoteNode, label: str) -> None:
         raise DriveStartError(
             f"{label}: drive reports mode of operation {mode}, expected "
             f"{obj.PROFILE_VELOCITY_MODE} (profile velocity)"
+        )
+
+
+def configure_master_watch(
+    node: canopen.RemoteNode, label: str, master_id: int, timeout_s: float, abort_option: int
+) -> None:
+    """The drive's watchdog on the master: heartbeat consumer entry 1 (0x1016) on the
+    master's heartbeat, and its reaction (0x6007) when that stops."""
+    od = node.object_dictionary
+    if obj.CONSUMER_HEARTBEAT_TIME not in od:
+        raise DriveStartError(
+            f"{label}: its object dictionary has no heartbeat consumer (0x1016), so it cannot "
+            f"stop by itself when the master freezes; give the drive's EDS, or set "
+            f"drive_heartbeat_timeout: null to run without the drive's watchdog"
+        )
+    entry = consumer_entry(master_id, timeout_s)
+    sdo_step(
+        label,
+        f"write heartbeat consumer 0x1016 sub 1 = 0x{entry:08X} "
+        f"(node {master_id}, {round(timeout_s * 1000)} ms)",
+        lambda: setattr(node.sdo[obj.CONSUMER_HEARTBEAT_TIME][1], "raw", entry),
+    )
+    if obj.ABORT_CONNECTION_OPTION_CODE in od:
+        sdo_step(
+            label,
+            f"write abort connection option code 0x6007 = {abort_option}",
+            lambda: setattr(node.sdo[obj.ABORT_CONNECTION_OPTION_CODE], "raw", abort_option),
         )
 
 

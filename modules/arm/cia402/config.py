@@ -14,6 +14,8 @@ from pathlib import Path
 import can
 
 from connectors.errors import UserError
+from connectors.limits import MAX_COMMAND_AGE_S
+from modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, ABORT_NO_ACTION
 from modules.arm.cia402.objects import EDS_PATH
 
 # Bit rates of the CiA 301 / CiA 102 table (bit/s).
@@ -119,6 +121,13 @@ class Cia402ArmConfig:
         stop_timeout_s: time stop() waits for the drives to stand still.
         acceleration_rad_s2: if given, written as profile acceleration and deceleration.
         quick_stop_deceleration_rad_s2: if given, written as quick stop deceleration.
+        master_node_id: node id of the master's own heartbeat (0x700 + id), 1..127, no drive's.
+        master_heartbeat_period_s: the master sends its heartbeat this often (from its
+            monitor thread: a frozen master process sends none).
+        drive_heartbeat_timeout_s: the drives' watchdog: written to each drive's heartbeat
+            consumer (0x1016 sub 1); a drive that hears no master heartbeat for this long stops
+            by itself as ``abort_connection_option`` says (None: not configured).
+        abort_connection_option: written to 0x6007: 1 fault, 2 disable voltage, 3 quick stop.
     """
 
     bus: BusSpec
@@ -136,6 +145,10 @@ class Cia402ArmConfig:
     stop_timeout_s: float = 0.5
     acceleration_rad_s2: float | None = None
     quick_stop_deceleration_rad_s2: float | None = None
+    master_node_id: int = 127
+    master_heartbeat_period_s: float = 0.02
+    drive_heartbeat_timeout_s: float | None = 0.2
+    abort_connection_option: int = 3
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "joints", tuple(self.joints))
@@ -158,6 +171,7 @@ class Cia402ArmConfig:
             "sdo_timeout_s",
             "enable_timeout_s",
             "stop_timeout_s",
+            "master_heartbeat_period_s",
         ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -179,6 +193,7 @@ class Cia402ArmConfig:
                 f"feedback_timeout_s ({self.feedback_timeout_s}) must exceed "
                 f"sync_period_s ({self.sync_period_s})"
             )
+        self._check_master_watch(ids)
         if self.command_timeout_s is not None and not self.command_timeout_s > 0:
             raise Cia402ConfigError(
                 f"command_timeout_s must be positive or None, got {self.command_timeout_s}"
@@ -189,3 +204,37 @@ class Cia402ArmConfig:
                 raise Cia402ConfigError(f"{name} must be positive or None, got {value!r}")
         if not self.eds.is_file():
             raise Cia402ConfigError(f"{self.eds}: error: object dictionary (EDS) file not found")
+
+    def _check_master_watch(self, drive_ids: list[int]) -> None:
+        master = self.master_node_id
+        if isinstance(master, bool) or not isinstance(master, int) or not 1 <= master <= 127:
+            raise Cia402ConfigError(f"master_node_id must be an integer 1..127, got {master!r}")
+        if master in drive_ids:
+            raise Cia402ConfigError(
+                f"master_node_id {master} is also a drive's node id; pick a free one (e.g. 127)"
+            )
+        if round(self.master_heartbeat_period_s * 1000) < 1:
+            raise Cia402ConfigError(
+                f"master_heartbeat_period_s must be at least 0.001 s, "
+                f"got {self.master_heartbeat_period_s}"
+            )
+        timeout = self.drive_heartbeat_timeout_s
+        if timeout is not None:
+            if not (isinstance(timeout, (int, float)) and math.isfinite(timeout)):
+                raise Cia402ConfigError(
+                    f"drive_heartbeat_timeout_s must be a number of seconds or None, "
+                    f"got {timeout!r}"
+                )
+            if not 2 * self.master_heartbeat_period_s <= timeout <= MAX_COMMAND_AGE_S:
+                raise Cia402ConfigError(
+                    f"drive_heartbeat_timeout_s must be 2 x master_heartbeat_period_s "
+                    f"({2 * self.master_heartbeat_period_s:g} s) .. {MAX_COMMAND_AGE_S:g} s, "
+                    f"got {timeout}"
+                )
+        options = {k: v for k, v in ABORT_CONNECTION_OPTIONS.items() if k != ABORT_NO_ACTION}
+        if self.abort_connection_option not in options:
+            raise Cia402ConfigError(
+                f"abort_connection_option must be one of "
+                f"{', '.join(f'{k} ({v})' for k, v in options.items())}, "
+                f"got {self.abort_connection_option!r}"
+            )

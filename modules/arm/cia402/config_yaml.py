@@ -11,6 +11,12 @@ Format (times in seconds, rates in rad/s; only `bus` and `joints` are required):
     heartbeat_timeout: 0.2   # a drive whose heartbeat is older is lost
     feedback_timeout: 0.2    # a drive whose TPDO is older is lost
     command_timeout: 0.5     # targets drop to zero without a command for this long (null: never)
+    master_node_id: 127      # the master's own heartbeat (0x700 + id)
+    master_heartbeat_period: 0.02   # the master's heartbeat, sent by its monitor thread
+    drive_heartbeat_timeout: 0.2    # drives' watchdog on that heartbeat (0x1016; null: none);
+                             # 2 x the period .. 1 s
+    abort_connection_option: 3      # what a drive does then (0x6007): 1 fault, 2 disable
+                             # voltage, 3 quick stop
     acceleration: null       # rad/s^2: profile acceleration / deceleration written to the drives
     quick_stop_deceleration: null   # rad/s^2
     joints:                  # by the arm's joint names (any order)
@@ -56,6 +62,10 @@ _TOP_KEYS = {
     "command_timeout",
     "acceleration",
     "quick_stop_deceleration",
+    "master_node_id",
+    "master_heartbeat_period",
+    "drive_heartbeat_timeout",
+    "abort_connection_option",
     "joints",
 }
 _BUS_KEYS = {"interface", "channel", "bitrate"}
@@ -65,6 +75,7 @@ _TIMES = {
     "heartbeat_period": "heartbeat_period_s",
     "heartbeat_timeout": "heartbeat_timeout_s",
     "feedback_timeout": "feedback_timeout_s",
+    "master_heartbeat_period": "master_heartbeat_period_s",
 }
 
 
@@ -184,6 +195,14 @@ def settings_from_yaml_text(text: str, source: str, base_dir: Path) -> CanopenSe
         )
     else:
         settings["command_timeout_s"] = None
+    if "drive_heartbeat_timeout" in data:
+        value = data["drive_heartbeat_timeout"]
+        settings["drive_heartbeat_timeout_s"] = (
+            None if value is None else _number(where, ("drive_heartbeat_timeout",), value)
+        )
+    for key in ("master_node_id", "abort_connection_option"):
+        if key in data:
+            settings[key] = _integer(where, (key,), data[key])
     for key in ("acceleration", "quick_stop_deceleration"):
         if data.get(key) is not None:
             settings[f"{key}_rad_s2"] = _number(where, (key,), data[key])

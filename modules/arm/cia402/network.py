@@ -2,11 +2,14 @@
 
 `Cia402Arm` owns one canopen `Network` on one python-can bus:
 
-- `start()` (blocking, SDO): opens the bus, and for each drive: NMT PRE-OPERATIONAL,
-  identity check, producer heartbeat (0x1017), PDO mapping (written, or read and
-  checked), mode 3 (profile velocity), NMT OPERATIONAL, power state machine to
-  Operation enabled. Then SYNC starts at `sync_period_s` (python-can's periodic send:
-  the kernel's broadcast manager on socketcan) and a monitor thread starts.
+- `start()` (blocking, SDO): opens the bus, starts the master's own heartbeat, and for
+  each drive: NMT PRE-OPERATIONAL, identity check, producer heartbeat (0x1017), the
+  drive's watchdog on the master (heartbeat consumer 0x1016 on the master's heartbeat,
+  reaction 0x6007), PDO mapping (written, or read and checked), mode 3 (profile
+  velocity), NMT OPERATIONAL, power state machine to Operation enabled. Then SYNC starts
+  at `sync_period_s` (python-can's periodic send: the kernel's broadcast manager on
+  socketcan, which goes on while the process is stopped: the drives' heartbeat consumer
+  is what stops them then).
 - `set_velocities(rad/s)` (never blocks on SDO): converts to counts/s and sends one RPDO
   per drive (controlword "enable operation" + target velocity); drives apply it on SYNC.
 - `read()`: latest feedback, filled by TPDO callbacks on the bus thread (registers).
@@ -152,6 +155,7 @@ class Cia402Arm:
             self._error_frames = 0
         self._drives = []
         network = self._open_bus()
+        self._start_monitor()  # the master's heartbeat from now on
         try:
             self._drives = [self._add_drive(network, joint) for joint in self.config.joints]
             for drive in self._drives:
@@ -276,6 +280,14 @@ class Cia402Arm:
         bring_up.check_identity(node, label)
         heartbeat_ms = round(cfg.heartbeat_period_s * 1000)
         bring_up.write_parameter(node, label, obj.PRODUCER_HEARTBEAT_TIME, heartbeat_ms)
+        if cfg.drive_heartbeat_timeout_s is not None:
+            bring_up.configure_master_watch(
+                node,
+                label,
+                cfg.master_node_id,
+                cfg.drive_heartbeat_timeout_s,
+                cfg.abort_connection_option,
+            )
         self._wait_for(
             lambda: drive.heartbeat_time is not None,
             cfg.heartbeat_timeout_s,
@@ -360,11 +372,33 @@ class Cia402Arm:
         with self._lock:
             self._last_command = time.monotonic()
             self._state = ArmState.RUNNING
+
+    def _start_monitor(self) -> None:
         self._monitor_stop.clear()
+        self._last_heartbeat_sent: float | None = None
         self._monitor = threading.Thread(
             target=self._monitor_loop, name="cia402-monitor", daemon=True
         )
         self._monitor.start()
+
+    def _send_heartbeat_locked(self, now: float) -> None:
+        """The master's heartbeat (NMT state OPERATIONAL) when its period is due. Sent from
+        this thread, never by a kernel or library timer, so it stops when the process does."""
+        last = self._last_heartbeat_sent
+        if last is not None and now - last < self.config.master_heartbeat_period_s:
+            return
+        network = self._network
+        if network is None:
+            return
+        self._last_heartbeat_sent = now
+        cob_id = obj.HEARTBEAT_COB_BASE + self.config.master_node_id
+        try:
+            network.send_message(cob_id, bytes([NMT_OPERATIONAL]))
+        except (can.CanError, OSError, RuntimeError) as exc:
+            if self._state in (ArmState.RUNNING, ArmState.TRIPPED):
+                self._trip_locked(
+                    DriveTrip(TripCause.BUS_ERROR, f"sending the heartbeat failed: {exc}")
+                )
 
     def _wait_standstill(self) -> None:
         deadline = time.monotonic() + self.config.stop_timeout_s
@@ -551,6 +585,7 @@ class Cia402Arm:
         while not self._monitor_stop.wait(cfg.monitor_period_s):
             now = time.monotonic()
             with self._lock:
+                self._send_heartbeat_locked(now)
                 if self._state not in (ArmState.RUNNING, ArmState.TRIPPED):
                     continue
                 self._check_bus_locked()

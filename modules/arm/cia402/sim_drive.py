@@ -195,6 +195,13 @@ class SimDrive:
             return self._position
 
     @property
+    def position_time(self) -> float | None:
+        """Drive clock (time.monotonic, s) up to which `position_counts` is integrated: the last
+        drive cycle in NMT OPERATIONAL (None before the first); the drive moves on between."""
+        with self._lock:
+            return self._last_sync
+
+    @property
     def velocity_counts_s(self) -> float:
         with self._lock:
             return self._velocity
@@ -287,11 +294,14 @@ class SimDrive:
             limit = accel if speeding_up else decel_limit
             step = limit * dt_s
             if limit <= 0 or abs(target - v0) <= step:
+                # the ramp ends within the step: exact travel, however long the step
+                ramp_s = 0.0 if limit <= 0 else abs(target - v0) / limit
                 v1 = float(target)
+                self._position += 0.5 * (v0 + v1) * ramp_s + v1 * (dt_s - ramp_s)
             else:
                 v1 = v0 + step if target > v0 else v0 - step
+                self._position += 0.5 * (v0 + v1) * dt_s
             self._velocity = v1
-            self._position += 0.5 * (v0 + v1) * dt_s
             quick_stop = self._state is State.QUICK_STOP_ACTIVE
             self._quick_stop_cycles = self._quick_stop_cycles + 1 if quick_stop else 0
 
