@@ -19,6 +19,7 @@ from fastapi import Request
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from connectors import Input, Module, Output, Parameters, param
+from connectors.limits import MAX_PAGE_CONNECTIONS
 from connectors.messages import Status, Text
 from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.operator.control import Decision
@@ -26,6 +27,7 @@ from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
 from modules.sketch.command_text import parse
 from modules.sketch_page.page_state import page_state
+from modules.webdoor.gate import Refusals
 from modules.webdoor.secret import resolve_token
 from modules.webdoor.viewer import VIEWER_SCOPE
 
@@ -125,6 +127,7 @@ class SketchPage(Module):
         #: written by the web thread, read by ``step``
         self._seen: dict[str, tuple[float, str]] = {}
         self._seen_lock = threading.Lock()
+        self._malformed_log = Refusals()  #: logs malformed requests at most once a second
         self._sessions: dict[str, str] = {}  #: viewer key -> session in the control table
         self._numbers = itertools.count(1)
         self._driver: str | None = None  #: viewer whose VCR command set the path moving
@@ -308,6 +311,8 @@ class SketchPage(Module):
         if viewer:
             host = request.client.host if request.client else "?"
             with self._seen_lock:
+                if viewer not in self._seen and len(self._seen) >= MAX_PAGE_CONNECTIONS:
+                    return ""  # as many browsers as the server has connections: no more
                 self._seen[viewer] = (time.monotonic(), host)
         return viewer
 
@@ -348,7 +353,7 @@ class SketchPage(Module):
 
     def _malformed(self, message: str) -> JSONResponse:
         self._refused += 1
-        self.log.warning("SketchPage %s: refused a malformed request: %s", self.name, message)
+        self._malformed_log.add("malformed", f"a malformed request to {self.name}: {message}")
         return JSONResponse({"ok": False, "error": message}, status_code=400)
 
     async def _post_command(self, request: Request) -> JSONResponse:
