@@ -28,7 +28,7 @@ def test_json_output_matches_the_kinematics(capsys):
 def test_degrees_and_text_output(capsys):
     assert main(["arm", "--q-deg", "0,0,0,0,0,0"]) == 0
     text = capsys.readouterr().out
-    assert "position 0.45210 -0.15005 1.10360 m" in text
+    assert "position 0.45210 -0.15005 1.10363 m" in text  # shoulder 0.67183 m + 0.4318 m
     assert "near a singularity" in text  # q5 = 0
     assert "   vx " in text and "   wz " in text
 
