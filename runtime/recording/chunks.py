@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import io
 import zlib
+from collections.abc import Iterator
 from typing import Any
 
 import lz4.frame
@@ -40,7 +41,7 @@ def check_chunk_size(uncompressed_size: int, limit: int = MAX_RECORDING_RECORD_B
         )
 
 
-def inflate(chunk: Chunk, limit: int = MAX_RECORDING_RECORD_BYTES) -> bytes:
+def inflate(chunk: Chunk, limit: int = MAX_RECORDING_RECORD_BYTES) -> bytes | bytearray:
     """The uncompressed bytes of ``chunk``, exactly its declared ``uncompressed_size`` of them;
     ValueError (never more than ``limit`` bytes allocated) when it declares or holds another
     size."""
@@ -51,11 +52,11 @@ def inflate(chunk: Chunk, limit: int = MAX_RECORDING_RECORD_BYTES) -> bytes:
             f"unknown chunk compression {chunk.compression!r} (expected one of lz4, zstd or none)"
         )
     if chunk.compression == "zstd":
-        data = _zstd(chunk.data, declared)
+        data: bytes | bytearray = _zstd(chunk.data, declared)
     elif chunk.compression == "lz4":
         data = _lz4(chunk.data, declared)
     else:
-        data = bytes(chunk.data[: declared + 1])
+        data = chunk.data
     if len(data) != declared:
         more = "more" if len(data) > declared else f"{len(data)} bytes,"
         raise ValueError(
@@ -65,21 +66,26 @@ def inflate(chunk: Chunk, limit: int = MAX_RECORDING_RECORD_BYTES) -> bytes:
     return data
 
 
-def _zstd(data: bytes, declared: int) -> bytes:
-    """At most ``declared + 1`` bytes of the zstd frame ``data`` (window bounded too)."""
+def _zstd(data: bytes, declared: int) -> bytearray:
+    """At most ``declared + 1`` bytes of the zstd frame ``data`` (window bounded too), inflated
+    into one buffer (no copy of the whole)."""
     window = 1 << max(20, min(27, declared.bit_length()))  # a writer's window fits its chunk
     dctx = zstandard.ZstdDecompressor(max_window_size=window)
-    out = bytearray()
+    out = bytearray(declared + 1)
+    size = 0
     with dctx.stream_reader(io.BytesIO(data), read_across_frames=False) as reader:
-        while len(out) <= declared:
-            part = reader.read(min(_STEP, declared + 1 - len(out)))
-            if not part:
+        view = memoryview(out)
+        while size <= declared:
+            got = reader.readinto(view[size : size + _STEP])
+            if not got:
                 break
-            out += part
-    return bytes(out)
+            size += got
+        view.release()
+    del out[size:]
+    return out
 
 
-def _lz4(data: bytes, declared: int) -> bytes:
+def _lz4(data: bytes, declared: int) -> bytearray:
     """At most ``declared + 1`` bytes of the LZ4 frame ``data``."""
     dctx = lz4.frame.LZ4FrameDecompressor()
     out = bytearray(dctx.decompress(data, max_length=min(_STEP, declared + 1)))
@@ -88,21 +94,44 @@ def _lz4(data: bytes, declared: int) -> bytes:
         if not part:
             break
         out += part
-    return bytes(out)
+    return out
 
 
-def chunk_records(chunk: Chunk, validate_crc: bool = True) -> list[McapRecord]:
-    """The schemas, channels and messages of ``chunk`` (bounded inflation, CRC checked);
-    ValueError or CRCValidationError on damage."""
+class _Reader:
+    """``read(n)`` over a buffer, a slice at a time (``io.BytesIO`` copies a bytearray whole)."""
+
+    def __init__(self, data: bytes | bytearray) -> None:
+        self._view = memoryview(data)
+        self._pos = 0
+
+    def read(self, n: int) -> bytes:
+        out = bytes(self._view[self._pos : self._pos + n])
+        self._pos += len(out)
+        return out
+
+
+#: Records a chunk may hold (the MCAP spec); opcodes from 0x80 are private records, skipped.
+_IN_CHUNK = {Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel}
+_PRIVATE = 0x80
+
+
+def chunk_records(chunk: Chunk, validate_crc: bool = True) -> Iterator[McapRecord]:
+    """The schemas, channels and messages of ``chunk`` in order (bounded inflation, CRC checked
+    before the first is given); ValueError or CRCValidationError on damage."""
     data = inflate(chunk)
     if validate_crc and chunk.uncompressed_crc != 0:
         crc = zlib.crc32(data)
         if crc != chunk.uncompressed_crc:
             raise CRCValidationError(expected=chunk.uncompressed_crc, actual=crc, record=chunk)
-    stream = ReadDataStream(io.BytesIO(data))
-    records: list[McapRecord] = []
+    return _records(data)
+
+
+def _records(data: bytes | bytearray) -> Iterator[McapRecord]:
+    stream = ReadDataStream(_Reader(data))  # type: ignore[arg-type]
     while stream.count < len(data):
         start = stream.count
+        if len(data) - start < 9:
+            raise ValueError(f"a chunk ends inside a record header (byte {start})")
         opcode = stream.read1()
         length = stream.read8()
         if length > len(data) - stream.count:
@@ -110,17 +139,19 @@ def chunk_records(chunk: Chunk, validate_crc: bool = True) -> list[McapRecord]:
                 f"a record at byte {start} of a chunk claims {length} bytes; "
                 f"the chunk holds {len(data) - stream.count} more"
             )
+        if opcode != Opcode.MESSAGE and opcode not in _IN_CHUNK and opcode < _PRIVATE:
+            raise ValueError(
+                f"a record with opcode 0x{opcode:02x} at byte {start} of a chunk, which holds only "
+                "schemas, channels and messages"
+            )
         body = stream.count
         record: Any = None
-        if opcode == Opcode.CHANNEL:
-            record = Channel.read(stream)
-        elif opcode == Opcode.MESSAGE:
+        if opcode == Opcode.MESSAGE:
             record = Message.read(stream, length)
-        elif opcode == Opcode.SCHEMA:
-            record = Schema.read(stream)
+        elif opcode in _IN_CHUNK:
+            record = _IN_CHUNK[opcode].read(stream)
         if stream.count - body > length:
             raise ValueError(f"a record at byte {start} of a chunk runs past its own length")
         stream.read(length - (stream.count - body))
         if record is not None:
-            records.append(record)
-    return records
+            yield record

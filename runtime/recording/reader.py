@@ -217,7 +217,7 @@ def _unchunked(
             continue
         start = counting.last_start
         try:
-            inner = chunk_records(record)
+            yield from chunk_records(record)  # damage found while reading it stops here too
         except CRCValidationError as exc:
             raise _fail(
                 path, f"corrupted: the chunk near byte {start} fails its checksum ({exc})"
@@ -226,7 +226,6 @@ def _unchunked(
             raise _fail(
                 path, f"corrupted: cannot read the chunk near byte {start} of {scan.size}: {exc}"
             ) from None
-        yield from inner
 
 
 def scan_recording(path: str | Path) -> tuple[RecordingScan, list[tuple[str, int]]]:
@@ -308,14 +307,13 @@ def _chunk_messages(
         if index.chunk_length > scan.size - index.chunk_start_offset:
             raise ValueError(f"its index claims {index.chunk_length} bytes, past the file's end")
         chunk = Chunk.read(ReadDataStream(_Counting(f, scan.size)))  # type: ignore[arg-type]
-        records = chunk_records(chunk, validate_crc=True)
+        for record in chunk_records(chunk, validate_crc=True):
+            if isinstance(record, Message) and (wanted is None or record.channel_id in wanted):
+                yield record
     except CRCValidationError as exc:
         raise _fail(path, f"corrupted: {where} fails its checksum ({exc})") from None
     except Exception as exc:  # lz4, struct and mcap raise their own types on damage
         raise _fail(path, f"corrupted: cannot read {where}: {type(exc).__name__}: {exc}") from None
-    for record in records:
-        if isinstance(record, Message) and (wanted is None or record.channel_id in wanted):
-            yield record
 
 
 def read_messages(

@@ -188,3 +188,24 @@ def test_a_record_running_past_the_end_is_truncated(tmp_path: Path) -> None:
     path.write_bytes(bad)
     with pytest.raises(UserError, match=r"error: truncated: the file ends inside a record"):
         list(read_records(path))
+
+
+def test_a_chunk_of_zeros_is_refused_at_its_first_record(tmp_path: Path) -> None:
+    """A chunk whose header is honest but whose bytes are no records (zeros: opcode 0, length 0,
+    which a reader skipping unknown records would walk 9 bytes at a time) is refused at once."""
+    path = tmp_path / "zeros.mcap"
+    path.write_bytes(mcap_bytes("zstd", zstd_rle_frame(1 << 20), 1 << 20))
+    with pytest.raises(UserError) as err:
+        list(read_records(path))
+    assert "a record with opcode 0x00 at byte 0 of a chunk, which holds only schemas" in str(
+        err.value
+    )
+
+
+def test_private_records_in_a_chunk_are_skipped(tmp_path: Path) -> None:
+    payload = chunk_payload(2)
+    private = bytes([0x80]) + (5).to_bytes(8, "little") + b"hello"
+    data = private + payload
+    path = tmp_path / "private.mcap"
+    path.write_bytes(mcap_bytes("", data, len(data), crc=crc(data)))
+    assert [m.sequence for _c, _s, m in read_records(path)] == [1, 2]
