@@ -17,11 +17,9 @@ The drive implements what a master needs to run it in profile velocity mode:
   SDO; the drive follows): synchronous RPDOs are applied on the next SYNC, synchronous
   TPDOs are sent on SYNC after the motion step; PDOs only in NMT OPERATIONAL;
 - producer heartbeat (0x1017), boot-up message, EMCY on faults;
-- its own watch on the master (drive_watchdog.py): heartbeat consumer (0x1016) and RPDO
-  deadline (0x1400 sub 5); when one fires the drive acts as 0x6007 says, on its own clock:
-  the motion up to the deadline is integrated with the old target, the reaction starts at the
-  deadline, and the drive ramps down by itself even when no SYNC comes (its watch thread
-  runs the motion), or in one step when the whole process was stopped and continues;
+- its own watch on the master (drive_watchdog.py, sim_drive_watch.py): heartbeat consumer
+  (0x1016) and RPDO deadline (0x1400 sub 5); when one fires the drive acts as 0x6007 says,
+  on its own clock, even when no SYNC comes or the whole process was stopped;
 - test hooks: `inject_fault` (error code in 0x603F, fault bit, EMCY) and `go_silent`
   (transmitter dead: no heartbeat, PDO, EMCY or SDO reply; it still receives).
 
@@ -44,17 +42,13 @@ from canopen.pdo import PdoMap, PdoMaps
 from canopen.sdo import SdoAbortedError
 
 from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.drive_watchdog import (
-    ABORT_CONNECTION_OPTIONS,
-    ABORT_DISABLE_VOLTAGE,
-    ABORT_FAULT,
-    ABORT_QUICK_STOP,
-    ERROR_REGISTER_COMMUNICATION,
-    ConsumerEntry,
-    Expiry,
-    MasterWatch,
-    parse_consumer_entry,
+from modules.arm.cia402.drive_motion import (
+    QUICK_STOP_DECELERATION,
+    QUICK_STOP_TO_DISABLED,
+    ramp,
 )
+from modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, MasterWatch
+from modules.arm.cia402.sim_drive_watch import ERROR_REGISTER_GENERIC, MasterWatchMixin
 from modules.arm.cia402.state_machine import (
     Command,
     State,
@@ -68,26 +62,8 @@ logger = logging.getLogger(__name__)
 SDO_ABORT_VALUE_RANGE = 0x06090030
 SDO_ABORT_DEVICE_STATE = 0x08000022
 
-ERROR_REGISTER_GENERIC = 0x01
 
-# Quick stop option code (0x605A) -> the deceleration object it brakes with (None: at once).
-_QUICK_STOP_DECELERATION: dict[int, int | None] = {
-    0: None,
-    1: obj.PROFILE_DECELERATION,
-    2: obj.QUICK_STOP_DECELERATION,
-    3: obj.MAX_DECELERATION,
-    4: obj.MAX_DECELERATION,
-    5: obj.PROFILE_DECELERATION,
-    6: obj.QUICK_STOP_DECELERATION,
-    7: obj.MAX_DECELERATION,
-    8: obj.MAX_DECELERATION,
-}
-_QUICK_STOP_TO_DISABLED = frozenset({0, 1, 2, 3, 4})
-WATCH_IDLE_S = 0.05  # the watch thread's longest sleep
-FREE_RUN_PERIOD_S = 0.01  # drive cycle of the watch thread while it stops the drive alone
-
-
-class SimDrive:
+class SimDrive(MasterWatchMixin):
     """One simulated CiA 402 drive (node `node_id`) for tests and hardware-free runs.
 
     Use as a context manager or call `connect` / `close`. Thread-safe: the bus thread
@@ -285,22 +261,15 @@ class SimDrive:
                 self._state is State.QUICK_STOP_ACTIVE
                 and v0 == 0.0
                 and self._quick_stop_cycles > 0
-                and self._param(obj.QUICK_STOP_OPTION_CODE) in _QUICK_STOP_TO_DISABLED
+                and self._param(obj.QUICK_STOP_OPTION_CODE) in QUICK_STOP_TO_DISABLED
             ):
                 self._state = State.SWITCH_ON_DISABLED  # transition 12: stood still a cycle
             target, decel_limit = self._velocity_goal()
             accel = self._param(obj.PROFILE_ACCELERATION)
             speeding_up = abs(target) > abs(v0) and (target * v0 >= 0)
             limit = accel if speeding_up else decel_limit
-            step = limit * dt_s
-            if limit <= 0 or abs(target - v0) <= step:
-                # the ramp ends within the step: exact travel, however long the step
-                ramp_s = 0.0 if limit <= 0 else abs(target - v0) / limit
-                v1 = float(target)
-                self._position += 0.5 * (v0 + v1) * ramp_s + v1 * (dt_s - ramp_s)
-            else:
-                v1 = v0 + step if target > v0 else v0 - step
-                self._position += 0.5 * (v0 + v1) * dt_s
+            v1, travel = ramp(v0, target, limit, dt_s)
+            self._position += travel
             self._velocity = v1
             quick_stop = self._state is State.QUICK_STOP_ACTIVE
             self._quick_stop_cycles = self._quick_stop_cycles + 1 if quick_stop else 0
@@ -313,7 +282,7 @@ class SimDrive:
                 return float(self._target_velocity), profile_decel
             return 0.0, profile_decel
         if self._state is State.QUICK_STOP_ACTIVE:
-            decel = _QUICK_STOP_DECELERATION[self._param(obj.QUICK_STOP_OPTION_CODE)]
+            decel = QUICK_STOP_DECELERATION[self._param(obj.QUICK_STOP_OPTION_CODE)]
             return 0.0, 0.0 if decel is None else float(self._param(decel))
         return 0.0, 0.0  # power stage off (0: stop at once): the simulation holds the axis
 
@@ -362,7 +331,7 @@ class SimDrive:
             elif index == obj.TARGET_VELOCITY:
                 self._target_velocity = int(od.decode_raw(data))
             elif index == obj.QUICK_STOP_OPTION_CODE:
-                if int(od.decode_raw(data)) not in _QUICK_STOP_DECELERATION:
+                if int(od.decode_raw(data)) not in QUICK_STOP_DECELERATION:
                     raise SdoAbortedError(SDO_ABORT_VALUE_RANGE)  # 0..8 are implemented
             elif index == obj.ABORT_CONNECTION_OPTION_CODE:
                 if int(od.decode_raw(data)) not in ABORT_CONNECTION_OPTIONS:
@@ -455,105 +424,6 @@ class SimDrive:
                     if var.length:
                         var.set_data(self.node.get_data(var.index, var.subindex)[: var.length // 8])
                 pdo_map.transmit()
-
-    def _on_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        with self._lock:
-            now = time.monotonic()
-            self._check_watch(now)  # a producer heard again after its deadline: it fired first
-            self._watch.heartbeat(can_id - obj.HEARTBEAT_COB_BASE, now)
-
-    # -- the watch on the master -----------------------------------------------------
-
-    def _consumers(self) -> list[ConsumerEntry]:
-        count = self._param(obj.CONSUMER_HEARTBEAT_TIME, 0)
-        entries = (
-            parse_consumer_entry(self._param(obj.CONSUMER_HEARTBEAT_TIME, i))
-            for i in range(1, count + 1)
-        )
-        return [e for e in entries if e is not None]
-
-    def _check_watch(self, now: float) -> None:
-        """React to every watch whose deadline is at or before ``now`` (caller holds the lock)."""
-        if not self._operational():
-            self._watch.reset_rpdo()  # deadline monitoring restarts in OPERATIONAL
-        while True:
-            expiry = self._next_expiry()
-            if expiry is None or expiry.at > now:
-                return
-            self._watch.fired(expiry, self._consumers())
-            self._lose_master(expiry)
-
-    def _next_expiry(self) -> Expiry | None:
-        rpdo_ms = 0
-        if self._operational():
-            rpdo_ms = self._param(obj.RPDO_COMM_FIRST, obj.PDO_EVENT_TIMER_SUBINDEX)
-        return self._watch.next_expiry(self._consumers(), rpdo_ms / 1000.0)
-
-    def _run_until(self, at: float) -> None:
-        """Integrate the motion from the last drive cycle to ``at`` (drive clock)."""
-        if not self._operational():
-            return
-        if self._last_sync is not None and at > self._last_sync:
-            self.advance(at - self._last_sync)
-        self._last_sync = at
-
-    def _lose_master(self, expiry: Expiry) -> None:
-        self._run_until(expiry.at)  # the old target held until the deadline, not beyond
-        self._master_losses += 1
-        action = self._param(obj.ABORT_CONNECTION_OPTION_CODE)
-        logger.warning(
-            "node %d: %s: %s (0x6007 = %d)",
-            self.node_id,
-            expiry.reason,
-            ABORT_CONNECTION_OPTIONS.get(action, "?"),
-            action,
-        )
-        register = ERROR_REGISTER_GENERIC | ERROR_REGISTER_COMMUNICATION
-        if action == ABORT_FAULT and self._state is not State.FAULT:
-            self._fault(expiry.emcy_code, register)
-        else:
-            if not self._silent and self.network is not None:
-                self.node.emcy.send(expiry.emcy_code, register)
-            if action == ABORT_DISABLE_VOLTAGE:
-                self._state = next_state(self._state, Command.DISABLE_VOLTAGE)
-            elif action == ABORT_QUICK_STOP:
-                option = self._param(obj.QUICK_STOP_OPTION_CODE)
-                self._state = next_state(self._state, Command.QUICK_STOP, option)
-                self._quick_stop_cycles = 0
-                if self._state is State.QUICK_STOP_ACTIVE and option == 0:
-                    self._velocity = 0.0
-        self._free_run = True
-
-    def _watch_loop(self) -> None:
-        """The drive's own clock: the watch's deadlines fire on time, and a drive stopping
-        (quick stop, or after losing its master) runs its stop when no SYNC drives it."""
-        wait = WATCH_IDLE_S
-        quick_stop_seen: float | None = None  # first own cycle in Quick stop active
-        while not self._closing.wait(wait):
-            with self._lock:
-                now = time.monotonic()
-                self._check_watch(now)
-                stopping = self._free_run or self._state is State.QUICK_STOP_ACTIVE
-                if self._state is not State.QUICK_STOP_ACTIVE:
-                    quick_stop_seen = None
-                elif quick_stop_seen is None:
-                    quick_stop_seen = now
-                if stopping and self._operational():
-                    if self._last_sync is None or now - self._last_sync >= 2 * FREE_RUN_PERIOD_S:
-                        self._run_until(now)  # no SYNC: the drive cycles by itself
-                elif (
-                    quick_stop_seen is not None
-                    and now - quick_stop_seen >= FREE_RUN_PERIOD_S
-                    and self._velocity == 0.0
-                ):
-                    self.advance(0.0)  # a cycle at standstill (motion here runs on `advance`)
-                self._free_run = self._free_run and (
-                    self._velocity != 0.0 or self._state is State.QUICK_STOP_ACTIVE
-                )
-                wait = FREE_RUN_PERIOD_S if stopping else WATCH_IDLE_S
-                expiry = self._next_expiry()
-                if expiry is not None:
-                    wait = min(wait, max(0.001, expiry.at - now))
 
 
 def _clamp_int32(value: int) -> int:
