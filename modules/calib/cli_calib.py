@@ -106,7 +106,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=float,
         nargs=3,
         metavar=("X", "Y", "Z"),
-        help="initial translation (m); default from single-view PnP",
+        help="a start's translation (m), tried with PnP on every view and the linear pose",
     )
     pose.add_argument(
         "--initial-rpy-deg",
@@ -114,6 +114,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         nargs=3,
         metavar=("R", "P", "Y"),
         help="initial roll pitch yaw (deg, fixed axes)",
+    )
+    pose.add_argument(
+        "--pixel-sigma",
+        type=float,
+        default=1.0,
+        metavar="PX",
+        help="click noise per pixel coordinate (default 1): larger residuals are reported",
     )
     pose.add_argument("--json", action="store_true", help="print one JSON object")
 
@@ -269,6 +276,8 @@ def _zoom(args: argparse.Namespace) -> int:
 
 
 def _pose(args: argparse.Namespace) -> int:
+    if not (np.isfinite(args.pixel_sigma) and args.pixel_sigma > 0):
+        raise UserError(f"--pixel-sigma: expected a click noise > 0 px, got {args.pixel_sigma}")
     cameras = load_cameras(args.cameras)
     data = load_correspondences(args.correspondences, with_camera=True)
     for name, line in zip(data.cameras, data.lines, strict=True):
@@ -290,7 +299,7 @@ def _pose(args: argparse.Namespace) -> int:
         initial = transform_from_xyz_rpy_deg(
             args.initial_xyz or [0.0, 0.0, 0.0], args.initial_rpy_deg or [0.0, 0.0, 0.0]
         )
-    result = solve_npnp(views, initial)
+    result = solve_npnp(views, initial, pixel_sigma=args.pixel_sigma)
     rpy_deg = np.degrees(xyz_from_rotation(result.R))
     per_camera = {
         name: float(np.sqrt(np.mean(np.sum(r**2, axis=1))))
@@ -306,6 +315,8 @@ def _pose(args: argparse.Namespace) -> int:
                 "iterations": result.iterations,
                 "points": len(data.points),
                 "cameras": per_camera,
+                "start": result.start,
+                "warnings": list(result.warnings),
             }
         )
         return 0
@@ -319,6 +330,9 @@ def _pose(args: argparse.Namespace) -> int:
         f"  reprojection RMS {result.rms_px:.4f} px: "
         + ", ".join(f"{name} {rms:.3f}" for name, rms in per_camera.items())
     )
+    print(f"  from {result.start} (the lowest of every start's minimum)")
+    for warning in result.warnings:
+        print(f"  warning: {warning}")
     return 0
 
 

@@ -17,10 +17,20 @@ Initial guess, if none is given: ``cv2.solvePnP`` (SQPnP) on the view with the m
 (at least four), moved into the output frame; otherwise a linear generalized-camera solution
 (``[w]_x (R x + d - o) = 0`` for each ray ``o + s w``, at least six points on rays from more
 than one centre), projected onto the rotations.
+
+Several starts, one answer: Gauss-Newton finds the minimum nearest its start, and a pose problem
+has others (a PnP case a few degrees from the truth and one 100 degrees away can both be
+minima). :func:`solve_npnp` runs from the given start and from global ones (SQPnP, EPnP and
+OpenCV's iterative PnP on every view with four points or more, the linear generalized-camera
+solution) and keeps the lowest cost. ``PoseResult.warnings`` says when the given start led
+elsewhere (a bad start), when another minimum fits the clicks about as well (geometry that does
+not decide), and, given the click noise ``pixel_sigma``, when even the best residual is more than
+the noise explains (a chi-square test at 99.9 %).
 """
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -30,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from modules.calib.camera_model import PinholeCamera
 from modules.calib.errors import DegenerateGeometryError, NotConvergedError
+from modules.calib.npnp_warnings import GIVEN, pose_warnings
 from modules.calib.rotations import nearest_rotation, rotation_from_vector, skew, transform
 
 FloatArray = NDArray[np.float64]
@@ -62,6 +73,9 @@ class PoseResult:
     rms_px: float
     residuals: list[FloatArray]
     iterations: int
+    #: which start the solution came from, and what went wrong on the way (empty: nothing)
+    start: str = ""
+    warnings: tuple[str, ...] = ()
 
     @property
     def T(self) -> FloatArray:
@@ -168,7 +182,9 @@ def _initial_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
     return _linear_generalized_pose(prepared)
 
 
-def _single_view_pose(p: _Prepared) -> tuple[FloatArray, FloatArray]:
+def _single_view_pose(
+    p: _Prepared, flag: int = cv2.SOLVEPNP_SQPNP
+) -> tuple[FloatArray, FloatArray]:
     normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
     try:
         ok, rvec, tvec = cv2.solvePnP(
@@ -176,7 +192,7 @@ def _single_view_pose(p: _Prepared) -> tuple[FloatArray, FloatArray]:
             normalized.astype(np.float64),
             np.eye(3),
             None,
-            flags=cv2.SOLVEPNP_SQPNP,
+            flags=flag,
         )
     except cv2.error as error:  # SQPnP asserts on degenerate input
         message = str(error).strip().splitlines()[-1].rpartition("error: ")[2]
@@ -227,32 +243,14 @@ def _linear_generalized_pose(prepared: list[_Prepared]) -> tuple[FloatArray, Flo
     return R, d
 
 
-def solve_npnp(
-    views: Sequence[View],
-    initial: ArrayLike | tuple[ArrayLike, ArrayLike] | None = None,
-    max_iterations: int = 100,
-    step_tolerance: float = 1e-12,
-) -> PoseResult:
-    """Solve the non-perspective n-point problem by Gauss-Newton.
-
-    Args:
-        views: one or more :class:`View`; at least three pairs in all.
-        initial: starting pose, a 4x4 transform or ``(R, d)``; default :func:`initial_pose`.
-        max_iterations: Gauss-Newton iterations before giving up.
-        step_tolerance: stop when the update is smaller than this (radians and metres).
-
-    Raises:
-        DegenerateGeometryError: too few pairs or a configuration that does not fix the pose.
-        NotConvergedError: no convergence, or points end up behind a camera.
-    """
-    prepared = _prepare(views)
-    if initial is None:
-        R, d = _initial_pose(prepared)
-    elif isinstance(initial, tuple):
-        R, d = np.asarray(initial[0], dtype=float), np.asarray(initial[1], dtype=float)
-    else:
-        T0 = np.asarray(initial, dtype=float)
-        R, d = T0[:3, :3], T0[:3, 3]
+def _gauss_newton(
+    prepared: list[_Prepared],
+    R: FloatArray,
+    d: FloatArray,
+    max_iterations: int,
+    step_tolerance: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """Gauss-Newton from ``(R, d)``: the minimum's ``R, d``, residuals and iteration count."""
     R = nearest_rotation(R)
     r, J, _ = _residuals_and_jacobian(prepared, R, d)
     cost = float(r @ r)
@@ -287,9 +285,89 @@ def solve_npnp(
         raise NotConvergedError(f"nPnP did not converge in {max_iterations} iterations")
     _, _, min_depth = _residuals_and_jacobian(prepared, R, d, with_jacobian=False)
     if not min_depth > 0:
-        raise NotConvergedError(
-            "nPnP converged to a pose with points behind a camera: give a better initial pose"
+        raise NotConvergedError("nPnP converged to a pose with points behind a camera")
+    return R, d, r, iterations
+
+
+def solve_npnp(
+    views: Sequence[View],
+    initial: ArrayLike | tuple[ArrayLike, ArrayLike] | None = None,
+    max_iterations: int = 100,
+    step_tolerance: float = 1e-12,
+    pixel_sigma: float | None = None,
+) -> PoseResult:
+    """Solve the non-perspective n-point problem: Gauss-Newton from several starts.
+
+    Args:
+        views: one or more :class:`View`; at least three pairs in all.
+        initial: a starting pose, a 4x4 transform or ``(R, d)``, tried with the global starts.
+        max_iterations: Gauss-Newton iterations before giving up, per start.
+        step_tolerance: stop when the update is smaller than this (radians and metres).
+        pixel_sigma: the clicks' noise (px per coordinate), for the residual check.
+
+    Raises:
+        DegenerateGeometryError: too few pairs or a configuration that does not fix the pose
+            (the Jacobian at the best minimum, not at a start, is rank-deficient).
+        NotConvergedError: no start converged to a pose with the points in front of the cameras.
+    """
+    prepared = _prepare(views)
+    _check_spread(prepared)
+    starts = _starts(prepared, initial)
+    found: list[tuple[str, FloatArray, FloatArray, FloatArray, int]] = []
+    failed: dict[str, str] = {}
+    for name, R0, d0 in starts:
+        try:
+            found.append((name, *_gauss_newton(prepared, R0, d0, max_iterations, step_tolerance)))
+        except (DegenerateGeometryError, NotConvergedError) as error:
+            failed[name] = str(error)
+    if not found:
+        reasons = "; ".join(f"{name}: {why}" for name, why in failed.items())
+        if all("determine" in why for why in failed.values()):
+            raise DegenerateGeometryError(reasons)
+        raise NotConvergedError(f"no start reached a pose with every point in front ({reasons})")
+    found.sort(key=lambda f: float(f[3] @ f[3]))
+    name, R, d, r, iterations = found[0]
+    _, J, _ = _residuals_and_jacobian(prepared, R, d)
+    singular = np.linalg.svd(J, compute_uv=False)
+    if singular[-1] <= 1e-9 * singular[0]:
+        raise DegenerateGeometryError(
+            "the observations do not determine all six pose parameters at the best pose found "
+            "(need >= 3 points not on one line, seen with enough parallax)"
         )
+    warnings = pose_warnings(found, failed, initial is not None, pixel_sigma)
     blocks = np.split(r.reshape(-1, 2), np.cumsum([len(p.points) for p in prepared])[:-1])
     rms_px = float(np.sqrt(np.mean(np.sum(r.reshape(-1, 2) ** 2, axis=1))))
-    return PoseResult(R, d, rms_px, blocks, iterations)
+    return PoseResult(R, d, rms_px, blocks, iterations, name, warnings)
+
+
+def _starts(
+    prepared: list[_Prepared], initial: ArrayLike | tuple[ArrayLike, ArrayLike] | None
+) -> list[tuple[str, FloatArray, FloatArray]]:
+    starts: list[tuple[str, FloatArray, FloatArray]] = []
+    if initial is not None:
+        if isinstance(initial, tuple):
+            R, d = np.asarray(initial[0], dtype=float), np.asarray(initial[1], dtype=float)
+        else:
+            T0 = np.asarray(initial, dtype=float)
+            R, d = T0[:3, :3], T0[:3, 3]
+        starts.append((GIVEN, R, d))
+    methods = (("SQPnP", cv2.SOLVEPNP_SQPNP), ("EPnP", cv2.SOLVEPNP_EPNP))
+    methods += (("iterative PnP", cv2.SOLVEPNP_ITERATIVE),)
+    for i, p in enumerate(prepared):
+        if len(p.points) < 4:
+            continue
+        for label, flag in methods:
+            with contextlib.suppress(DegenerateGeometryError, cv2.error):
+                starts.append((f"{label} on view {i}", *_single_view_pose(p, flag)))
+    if len(prepared) > 1 or not starts:
+        with contextlib.suppress(DegenerateGeometryError, np.linalg.LinAlgError):
+            starts.append(
+                ("the linear generalized-camera pose", *_linear_generalized_pose(prepared))
+            )
+    if not starts:
+        raise DegenerateGeometryError(
+            "cannot find an initial pose: no view has 4 points and the rays do not determine a "
+            "linear solution (need >= 6 non-coplanar points from more than one camera centre); "
+            "give an initial pose"
+        )
+    return starts

@@ -101,6 +101,9 @@ class MountResult:
     rms_px: float
     iterations: int
     initial_residuals: list[FloatArray] | None = None
+    #: the start the solution came from, and what the caller must know (see ``solve_npnp``)
+    start: str = ""
+    warnings: tuple[str, ...] = ()
 
     @property
     def max_px(self) -> float:
@@ -121,15 +124,18 @@ def mount_views(snapshots: Sequence[MountSnapshot]) -> list[View]:
 
 
 def solve_mount(
-    snapshots: Sequence[MountSnapshot], initial_T_parent_child: ArrayLike | None = None
+    snapshots: Sequence[MountSnapshot],
+    initial_T_parent_child: ArrayLike | None = None,
+    pixel_sigma: float | None = None,
 ) -> MountResult:
     """Solve the mount from clicked pairs over one or several snapshots.
 
     Args:
         snapshots: at least three point/pixel pairs in all.
-        initial_T_parent_child: the believed (nominal) mount, the iteration's start; default
-            the solver's own start (single-view PnP on the snapshot with most points, or the
-            linear generalized-camera solution).
+        initial_T_parent_child: the believed (nominal) mount, one of the starts (the solver
+            also starts from PnP on every snapshot and the linear generalized-camera pose, and
+            keeps the lowest cost; ``warnings`` says when the given start led elsewhere).
+        pixel_sigma: the clicks' noise (px per coordinate): residuals beyond it are reported.
 
     Raises:
         DegenerateGeometryError, NotConvergedError (both ``CalibrationError``).
@@ -141,12 +147,20 @@ def solve_mount(
         T0 = _as_transform(initial_T_parent_child, "initial mount")
         initial = invert_transform(T0)
         initial_residuals = [s.reprojection(T0) for s in snapshots]
-    result = solve_npnp(views, initial)
+    result = solve_npnp(views, initial, pixel_sigma=pixel_sigma)
     T_parent_child = invert_transform(result.T)
     residuals = [s.reprojection(T_parent_child) for s in snapshots]
     all_r = np.vstack([r for r in residuals if len(r)])
     rms = float(np.sqrt(np.mean(np.sum(all_r**2, axis=1))))
-    return MountResult(T_parent_child, residuals, rms, result.iterations, initial_residuals)
+    return MountResult(
+        T_parent_child,
+        residuals,
+        rms,
+        result.iterations,
+        initial_residuals,
+        result.start,
+        result.warnings,
+    )
 
 
 def pose_error(T_estimate: ArrayLike, T_truth: ArrayLike) -> tuple[float, float]:

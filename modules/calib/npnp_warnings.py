@@ -1,0 +1,75 @@
+"""What an nPnP solution must say: a bad given start, a rival minimum, residuals above noise.
+
+``found`` holds the converged starts of :func:`modules.calib.npnp.solve_npnp`, best first, as
+``(start name, R, d, residuals (px, flat), iterations)``; ``failed`` the starts that did not
+converge, with the reason.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2
+
+from modules.calib.rotations import vector_from_rotation
+
+FloatArray = NDArray[np.float64]
+
+#: the name of the caller's own start
+GIVEN = "the given initial pose"
+
+
+def _angle_deg(R_a: FloatArray, R_b: FloatArray) -> float:
+    return float(np.degrees(np.linalg.norm(vector_from_rotation(R_a.T @ R_b))))
+
+
+def pose_warnings(
+    found: list[tuple[str, FloatArray, FloatArray, FloatArray, int]],
+    failed: dict[str, str],
+    given: bool,
+    pixel_sigma: float | None,
+) -> tuple[str, ...]:
+    """Messages for the caller (empty: nothing to say), each naming what went wrong."""
+    out = []
+    name, R, _, r, _ = found[0]
+    best_cost = float(r @ r)
+    dof = max(r.size - 6, 1)
+    rms = float(np.sqrt(best_cost / (r.size / 2)))
+    if given and name != GIVEN:
+        if GIVEN in failed:
+            out.append(
+                f"bad start: from the given initial pose the solver failed ({failed[GIVEN]}); "
+                f"the pose comes from {name} (RMS {rms:.2f} px)"
+            )
+        else:
+            mine = next(f for f in found if f[0] == GIVEN)
+            mine_rms = float(np.sqrt(float(mine[3] @ mine[3]) / (r.size / 2)))
+            if mine_rms > rms * (1 + 1e-6) + 1e-9:
+                out.append(
+                    f"bad start: the given initial pose led to a worse minimum (RMS "
+                    f"{mine_rms:.2f} px, {_angle_deg(mine[1], R):.1f} deg from the best); the "
+                    f"pose comes from {name} (RMS {rms:.2f} px)"
+                )
+    # another minimum, clearly elsewhere, that fits within what the noise allows
+    noise_var = best_cost / dof if pixel_sigma is None else pixel_sigma**2
+    for other in found[1:]:
+        angle = _angle_deg(other[1], R)
+        extra = (float(other[3] @ other[3]) - best_cost) / noise_var
+        if angle > 2.0 and extra < chi2.ppf(0.95, 6):
+            other_rms = float(np.sqrt(float(other[3] @ other[3]) / (r.size / 2)))
+            out.append(
+                f"degenerate geometry: another pose {angle:.1f} deg away ({other[0]}) fits the "
+                f"clicks about as well (RMS {other_rms:.2f} vs {rms:.2f} px); add points or "
+                "snapshots that tell them apart"
+            )
+            break
+    if pixel_sigma is not None and pixel_sigma > 0:
+        limit = chi2.ppf(0.999, dof)
+        if best_cost / pixel_sigma**2 > limit:
+            expected = pixel_sigma * np.sqrt(2.0 * limit / r.size)
+            out.append(
+                f"residuals above the click noise: RMS {rms:.2f} px where clicks of "
+                f"{pixel_sigma:g} px explain at most {expected:.2f} px (99.9 %): a wrong click or "
+                "camera model, or no start reached the true minimum"
+            )
+    return tuple(out)
