@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -90,6 +91,9 @@ def choose_run(graph: str | None, folder: Path | None = None, run_id: str | None
         runs = [r for r in runs if graph in (r.graph, r.prefix)]
     if run_id is not None:
         runs = [r for r in runs if r.run_id == run_id]
+    mine = [r for r in runs if r.run_id == f"launcher-{os.getpid()}"]
+    if mine:  # called in a launcher (a viewer it serves): its own run
+        runs = mine
     if len(runs) == 1:
         return runs[0]
     if not runs:
@@ -244,9 +248,14 @@ class Observation:
 
     def subscribe(self, on_sample: Callable[[Observed], None], key_expr: str | None = None) -> None:
         """Call ``on_sample`` for every sample and end of stream under ``key_expr`` (default:
-        each key this observer may read, else ``P/*/*``)."""
+        each key this observer may read, else ``P/*/*``). A wildcard expression becomes one
+        subscription per readable key it holds (zenoh's rules refuse a subscription wider than
+        the keys an observer may read)."""
         observed = self.observed
         exprs = [key_expr] if key_expr else self.keys or [f"{self.prefix}/*/*"]
+        if key_expr and self.keys is not None and ("*" in key_expr or "$" in key_expr):
+            wide = zenoh.KeyExpr(key_expr)  # one subscriber per readable key it holds
+            exprs = [k for k in self.keys if wide.includes(zenoh.KeyExpr(k))]
         for expr in exprs:
             self._subs.append(
                 self.session.declare_subscriber(expr, lambda s: on_sample(observed(s)))

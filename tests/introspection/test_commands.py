@@ -5,9 +5,11 @@ counter in process `umbra`, doubled in process `smart`). Rates are checked withi
 from __future__ import annotations
 
 import re
+import time
 from collections.abc import Callable
 
-from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli
+from runtime.links.observe import Observation
+from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli, user_folder
 from tests.links.conftest import Running
 
 PREFIX = "umbra/counter_split"
@@ -31,6 +33,18 @@ def test_topics_echo_and_hz_on_a_run_publishing_every_output(
     for row in (count, double):
         assert 50 < row["rate_hz"] < 150 and row["samples"] > 50, row
         assert 0 <= row["age_s"] < 0.5 and row["drops"] == 0 and row["note"] == "", row
+
+    # the API: a wildcard becomes one subscription per readable key (the rules refuse wider)
+    observer = Observation.open(folder=user_folder(plugin_env))
+    seen: set[str] = set()
+    try:
+        observer.subscribe(lambda o: seen.add(o.key), f"{PREFIX}/*/*")
+        deadline = time.monotonic() + 10
+        while len(seen) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        observer.close()
+    assert seen == set(rows)
 
     echo = umbra_cli(plugin_env, "echo", "double/output", "--once", "--json")
     assert echo.returncode == 0, echo.stderr
