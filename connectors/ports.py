@@ -206,6 +206,7 @@ class Register(Generic[M]):
         "_max_age",
         "_track",
         "_value",
+        "clock_error",
         "events",
         "fresh",
         "link_alive",
@@ -229,6 +230,9 @@ class Register(Generic[M]):
         self.events = False
         #: False when the producer is in another process that is known to be gone.
         self.link_alive = True
+        #: bound [s] on the error of the samples' stamps and origins on this process's clock (0:
+        #: the same process; a link's: its measured offset's, inf until it is measured)
+        self.clock_error = 0.0
         self._max_age = max_age
         self._track = track
 

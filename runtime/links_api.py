@@ -43,6 +43,11 @@ class LinkTransport(Protocol):
         ended."""
         ...
 
+    def clock_error(self, link: LinkPlan) -> float:
+        """The bound [s] on the error of ``link``'s stamps and origins once on this process's
+        clock (``runtime.links.clock_sync``); infinite until the producer's clock is measured."""
+        ...
+
     def stats(self) -> dict[str, object]:
         """Counters for the run summary (samples, decode errors...)."""
         ...

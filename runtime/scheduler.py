@@ -126,6 +126,7 @@ class Scheduler:
         self._wake = threading.Event() if transport is not None else None
         self._link_regs: list[tuple[Register[Any], Any]] = []
         self._link_state = -1  # the transport's state_version the link registers reflect
+        self._clocks_read_at = -math.inf  # when the registers' clock_error was last set
         self._tick_lock = threading.Lock()  # one tick at a time, whichever thread runs it
         self._inline = (
             transport is not None and options.dispatch == "inline" and (options.clock == "real")
@@ -469,17 +470,22 @@ class Scheduler:
                 reg.write(sample, when)
             pending.clear()
         transport = self.transport
-        if transport is not None and transport.state_version != self._link_state:
-            self._update_link_states(transport)  # None (cannot say) is never equal: every tick
+        if transport is not None and (
+            transport.state_version != self._link_state or now >= self._clocks_read_at + 1.0
+        ):
+            self._update_link_states(transport, now)  # None (cannot say) is never equal
 
-    def _update_link_states(self, transport: LinkTransport) -> None:
-        """``link_alive`` of each register fed by a link; called when the transport says a
-        producer's liveliness or an end of stream changed (every tick when it cannot say)."""
+    def _update_link_states(self, transport: LinkTransport, now: float) -> None:
+        """``link_alive`` and ``clock_error`` of each register fed by a link; called when the
+        transport says a producer's liveliness or an end of stream changed (every tick when it
+        cannot say), and every second for the clocks' error bounds."""
         version = transport.state_version
         self._link_state = -1 if version is None else version
-        alive = transport.producer_alive
+        self._clocks_read_at = now
+        alive, error = transport.producer_alive, transport.clock_error
         for reg, link in self._link_regs:
             reg.link_alive = alive(link)
+            reg.clock_error = error(link)
 
     def _drain(self, now: float) -> None:
         """Several samples since the last tick: on an events link one per register, in order

@@ -241,31 +241,24 @@ def run_split(
     elif setup.fault not in ("kill_umbra", "vision_lag"):
         subprocess.run(base, capture_output=True, text=True, env=env, timeout=timeout_s + 60)
     else:
-        (port,) = free_loopback_ports(1)
-        endpoint = f"tcp/127.0.0.1:{port}"
-        smart = subprocess.Popen(
-            [*base, "--process", "smart", "--listen", endpoint],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            env=env,
-        )
-        others = [  # the operator's page (``ui``) and any other process but the two
-            subprocess.Popen(
-                [*base, "--process", name, "--connect", endpoint],
+        names = [n for n in graph.plan.populated_processes if n != "umbra"] + ["umbra"]
+        ports = free_loopback_ports(len(names))
+        endpoints: list[str] = []
+        procs: dict[str, subprocess.Popen[str]] = {}
+        for name, port in zip(names, ports, strict=True):  # a full mesh, smart first, as on
+            args = [*base, "--process", name, "--listen", f"tcp/127.0.0.1:{port}"]  # hosts
+            for endpoint in endpoints:  # that each listen and join the ones already up
+                args += ["--connect", endpoint]
+            endpoints.append(f"tcp/127.0.0.1:{port}")
+            procs[name] = subprocess.Popen(
+                args,
                 stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
+                stderr=subprocess.PIPE if name == "umbra" else subprocess.DEVNULL,
+                text=True,
                 env=env,
             )
-            for name in graph.plan.populated_processes
-            if name not in ("smart", "umbra")
-        ]
-        umbra = subprocess.Popen(
-            [*base, "--process", "umbra", "--connect", endpoint],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            text=True,
-            env=env,
-        )
+        umbra, smart = procs["umbra"], procs["smart"]
+        others = [p for n, p in procs.items() if n not in ("smart", "umbra")]
         started = None
         assert umbra.stderr is not None
         for line in umbra.stderr:
@@ -280,10 +273,15 @@ def run_split(
                 umbra.send_signal(signal.SIGKILL)
             else:  # vision_lag: the vision process loses its CPU, then goes on
                 stop_and_continue(umbra)  # type: ignore[arg-type]
-        umbra.wait(timeout=timeout_s + 60)
         smart.wait(timeout=timeout_s + 60)
-        for other in others:
-            other.wait(timeout=30)
+        for rest in [umbra, *others]:  # the judge has spoken: the others stop now
+            if rest.poll() is None:
+                rest.send_signal(signal.SIGINT)
+            try:
+                rest.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                rest.kill()
+                rest.wait()
     summaries: dict[str, dict[str, Any]] = {}
     for path in out_dir.glob("summary*.json"):
         data = json.loads(path.read_text())

@@ -737,6 +737,11 @@ class ZenohTransport:
         """Whether the process producing ``link`` is up and has not ended the stream."""
         return self._producer_of.get(link.key) in self._alive and link.key not in self._ended
 
+    def clock_error(self, link: LinkPlan) -> float:
+        """The error bound [s] of ``link``'s stamps on this process's clock (inf: unmeasured)."""
+        offset = self.clocks.offsets.get(self._producer_of.get(link.key, ""))
+        return float("inf") if offset is None else offset.error
+
     def link_age(self, link: LinkPlan, now: float | None = None) -> float:
         """Seconds since the latest sample of ``link`` arrived (monotonic; inf when none)."""
         entry = self._subs.get(link.key)

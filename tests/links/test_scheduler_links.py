@@ -25,19 +25,30 @@ class Frames(Module):
     image = Output(Image, doc="frames")
 
 
+class Events(Module):
+    """An ordered, lossless stream (operator actions are) and a state stream beside it."""
+
+    out = Output(Scalar, events=True, doc="events")
+    level = Output(Scalar, doc="a state")
+
+
 class Tally(Module):
     """Remembers every value it was stepped with."""
 
     value = Input(Scalar, trigger=True, required=False, doc="values")
+    level = Input(Scalar, trigger=True, required=False, doc="a state")
     image = Input(Image, trigger=True, required=False, doc="frames")
 
     def start(self) -> None:
         self.values: list[float] = []
+        self.levels: list[float] = []
         self.frames: list[int] = []
 
     def step(self, now: float) -> None:
         if self.value.fresh:
             self.values.append(self.value.value.value)
+        if self.level.fresh:
+            self.levels.append(self.level.value.value)
         if self.image.fresh:
             self.frames.append(self.image.value.seq)
 
@@ -79,11 +90,12 @@ graph: inbound
 clock: real
 processes: {a: {}, b: {}}
 modules:
-  counter: {type: Counter, process: a, rate: 10}
+  events: {type: Events, process: a, rate: 10}
   frames: {type: Frames, process: a, rate: 10}
   tally: {type: Tally, process: b}
 connections:
-  - counter.count -> tally.value
+  - events.out -> tally.value
+  - events.level -> tally.level
   - frames.image -> tally.image
 """
 
@@ -116,6 +128,9 @@ class FakeTransport:
     def producer_alive(self, link: LinkPlan) -> bool:
         return True
 
+    def clock_error(self, link: LinkPlan) -> float:
+        return 0.0
+
     def stats(self) -> dict[str, object]:
         return {}
 
@@ -125,7 +140,7 @@ class FakeTransport:
 
 def _registry() -> Registry:
     registry = Registry()
-    for cls in (Frames, Tally, ProbeGuard, Halting, Overlap):
+    for cls in (Frames, Events, Tally, ProbeGuard, Halting, Overlap):
         registry.add(cls)
     return registry
 
@@ -134,7 +149,9 @@ def _plan(text: str) -> GraphPlan:
     return check_spec(parse_graph_text(text, "test.yaml"), _registry())
 
 
-def test_reliable_samples_each_get_a_step_and_video_keeps_the_latest(tmp_path: Path) -> None:
+def test_events_each_get_a_step_and_state_keeps_the_latest(tmp_path: Path) -> None:
+    """After a stall of the consumer: every event, in order; of a state stream (a level, video)
+    only the newest, the ones it replaced counted as superseded (no backlog of the past)."""
     transport = FakeTransport()
     sched = Scheduler(
         _plan(GRAPH),
@@ -145,6 +162,7 @@ def test_reliable_samples_each_get_a_step_and_video_keeps_the_latest(tmp_path: P
     # everything arrives at once, before the first tick: as after a stall of the consumer
     for i in range(1, 6):
         transport.deliver["value"](Scalar(value=float(i), seq=i))
+        transport.deliver["level"](Scalar(value=10.0 * i, seq=i))
         transport.deliver["image"](Image(pixels=np.zeros((2, 2, 3), np.uint8), seq=i))
 
     def stop_when_done() -> None:
@@ -157,8 +175,13 @@ def test_reliable_samples_each_get_a_step_and_video_keeps_the_latest(tmp_path: P
     result = sched.run()
     assert result.reason == "test done"
     assert result.wall_time < 4.0
-    assert tally.values == [1.0, 2.0, 3.0, 4.0, 5.0]  # commands: every one, in order
-    assert tally.frames == [5]  # video: the latest frame wins
+    assert tally.values == [1.0, 2.0, 3.0, 4.0, 5.0]  # events: every one, in order
+    assert tally.levels == [50.0]  # state: the latest wins
+    assert tally.frames == [5]  # video too
+    superseded = result.extra["links"]["superseded"]
+    assert superseded["events.level -> tally.level"] == 4
+    assert superseded["frames.image -> tally.image"] == 4
+    assert superseded["events.out -> tally.value"] == 0
 
 
 GUARD_GRAPH = """
@@ -205,10 +228,10 @@ graph: dispatch
 clock: real
 processes: {a: {}, b: {}}
 modules:
-  counter: {type: Counter, process: a, rate: 10}
+  events: {type: Events, process: a, rate: 10}   # an events stream: every sample counts
   watch: {type: Overlap, process: b, rate: 200}
 connections:
-  - counter.count -> watch.value
+  - events.out -> watch.value
 """
 
 
