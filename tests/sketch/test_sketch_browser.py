@@ -41,8 +41,15 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+#: the run's access token (every route of the page needs it, loopback too): from a token file
+TOKEN = "token-of-the-sketch-browser-test"
+
+
 def _state(base: str) -> dict:
-    with urllib.request.urlopen(f"{base}/sketch/state", timeout=5) as r:
+    request = urllib.request.Request(
+        f"{base}/sketch/state", headers={"Cookie": f"umbra_token={TOKEN}"}
+    )
+    with urllib.request.urlopen(request, timeout=5) as r:
         return json.loads(r.read())
 
 
@@ -67,6 +74,8 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
     block, the run's summaries."""
     port = _free_port()
     base = f"http://127.0.0.1:{port}"
+    token_file = tmp_path / "token"
+    token_file.write_text(TOKEN + "\n")
     run = subprocess.Popen(
         [
             sys.executable,
@@ -78,6 +87,8 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
             str(tmp_path),
             "--set",
             f"page.port={port}",
+            "--set",
+            f"page.token_file={token_file}",
             "--set",
             "world.randomize=false",
         ],
@@ -237,7 +248,7 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
     with _graph(tmp_path) as (base, summaries), sync_playwright() as p:
         browser = launch(p)
         page = browser.new_page(viewport={"width": 1400, "height": 1000})
-        page.goto(f"{base}/sketch")
+        page.goto(f"{base}/sketch?token={TOKEN}")
         op = Operator(page)
         name = op.take_control()
         op.snapshot()
@@ -256,7 +267,7 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         page.screenshot(path=str(tmp_path / "sketch_page.png"))  # the README's picture
         # a second page, without control, sees who holds it and cannot play the macro
         watcher = browser.new_page(viewport={"width": 1400, "height": 1000})
-        watcher.goto(f"{base}/sketch")
+        watcher.goto(f"{base}/sketch?token={TOKEN}")
         watcher.wait_for_function(
             f"document.getElementById('holder').textContent === {name!r} && "
             "window.sketch.state && window.sketch.state.path",
@@ -305,7 +316,7 @@ def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):
     with _graph(tmp_path) as (base, summaries), sync_playwright() as p:
         browser = launch(p)
         page = browser.new_page(viewport={"width": 1400, "height": 1000})
-        page.goto(f"{base}/sketch")
+        page.goto(f"{base}/sketch?token={TOKEN}")
         op = Operator(page)
         op.take_control()
         # the cameras watch the pipe, zoomed in: the door is out of view. Zoom out, find the
