@@ -3,10 +3,10 @@
 Links publish only the outputs that cross processes. With this option, a process also publishes
 each other output of its modules on its key ``P/<module>/<port>`` (``docs/wire-format.md``), in
 the same envelope and encoding, so an observer (``umbra topics``, a Foxglove bridge) sees every
-output of the run. Observers never slow the graph: these publishers drop what zenoh cannot send
-at once (congestion control DROP, low priority), and a sample is encoded only while some
-subscriber matches its key (zenoh's matching status, followed by a listener), so an output
-nobody watches costs one attribute read per sample.
+output of the run. A slow observer never holds a process back: these publishers drop what zenoh
+cannot send at once (congestion control DROP, low priority). A sample is encoded only while some
+subscriber matches its key (zenoh's matching status, followed by a listener): an output nobody
+watches costs one attribute read per sample, a watched one its encoding on the producer's thread.
 """
 
 from __future__ import annotations
