@@ -21,7 +21,7 @@ pytestmark = pytest.mark.timeout(60)
 
 @pytest.fixture
 def camera() -> Iterator[SimFcbCamera]:
-    with SimFcbCamera(speeds=ZoomSpeeds(direct_s=0.8), power_on_s=0.3) as sim:
+    with SimFcbCamera(speeds=ZoomSpeeds(direct_s=2.0), power_on_s=0.3) as sim:
         yield sim
 
 
@@ -32,7 +32,7 @@ def ptz(camera: SimFcbCamera) -> Iterator[object]:
     driver.close()
 
 
-def replies(ptz: object, count: int, timeout_s: float = 2.0) -> list[str]:
+def replies(ptz: object, count: int, timeout_s: float = 5.0) -> list[str]:
     """The next ``count`` reply packets, read with pyvisca's own reader (hex text)."""
     text, deadline = "", time.monotonic() + timeout_s
     while text.count("ff") < count and time.monotonic() < deadline:
@@ -52,28 +52,30 @@ def test_address_set_and_if_clear(ptz: object) -> None:
 
 def test_zoom_direct_and_position_inquiry(camera: SimFcbCamera, ptz: object) -> None:
     ptz.set_zoom(0x2000)
-    assert replies(ptz, 2) == ["9041ff", "9051ff"]  # ACK, completion on arrival (0.4 s)
+    assert replies(ptz, 2) == ["9041ff", "9051ff"]  # ACK, completion on arrival (1 s)
     assert camera.position_raw() == 0x2000
     assert ptz.get_zoom() == 0x2000
 
 
 def test_zoom_in_out_stop_at_variable_speeds(camera: SimFcbCamera, ptz: object) -> None:
-    ptz.zoom_in(7)  # 81 01 04 07 27 FF: full range in 0.8 s
+    """Fastest (2 s for the range) then slowest (16 s) for about 0.3 s each: the slow one moves
+    about 8 times less (bounds wide enough for a loaded machine's timing)."""
+    ptz.zoom_in(7)  # 81 01 04 07 27 FF
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
-    time.sleep(0.2)
+    time.sleep(0.3)
     ptz.zoom_stop()
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
-    after_fast = ptz.get_zoom()
-    assert 0x4000 * 0.15 / 0.8 < after_fast < 0x4000 * 0.45 / 0.8
-    assert ptz.get_zoom() == after_fast  # stopped
-    ptz.zoom_out(0)  # 81 01 04 07 30 FF: eight times slower (6.4 s full range)
+    fast = ptz.get_zoom()
+    assert 0x4000 * 0.2 / 2.0 < fast < 0x4000 * 0.9 / 2.0
+    assert ptz.get_zoom() == fast  # stopped
+    ptz.zoom_out(0)  # 81 01 04 07 30 FF
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
-    time.sleep(0.2)
+    time.sleep(0.3)
     ptz.zoom_stop()
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
-    after_slow = ptz.get_zoom()
-    travelled = after_fast - after_slow
-    assert 0x4000 * 0.15 / 6.4 < travelled < 0x4000 * 0.45 / 6.4
+    slow = fast - ptz.get_zoom()
+    assert 0x4000 * 0.2 / 16.0 < slow < 0x4000 * 0.9 / 16.0
+    assert fast / slow > 2.5  # 8 x in the model
 
 
 def test_standard_speed_tele_and_wide_with_raw_packets(camera: SimFcbCamera, ptz: object) -> None:
