@@ -147,3 +147,15 @@ def test_required_parameters_are_described_and_named_when_missing() -> None:
     assert "unknown parameter `nope` (parameters: gain, bias)" in message
     assert "parameter `bias`: expected a number, found a boolean" in message
     assert "pydantic" not in message and "validation error" not in message
+
+
+def test_umbra_modules_prints_whole_first_sentences() -> None:
+    from runtime.cli.cmd_modules import first_sentence
+
+    assert first_sentence("Moves a pose: ``T = T_a . T_b``.\n\nMore.") == (
+        "Moves a pose: ``T = T_a . T_b``."
+    )
+    assert first_sentence("A web page (127.0.0.1 by\ndefault) with video. Then more.") == (
+        "A web page (127.0.0.1 by default) with video."
+    )
+    assert first_sentence("Speed 0.5 m/s, e.g. slow") == "Speed 0.5 m/s, e.g. slow"
