@@ -140,12 +140,14 @@ class Gate:
         """The token of the address for a cookie, and a redirect to the address without it."""
         rest = urlencode([(k, v) for k, v in query.items() if k != TOKEN_QUERY])
         path = (scope.get("raw_path") or scope.get("path", "/").encode()).decode("latin-1")
+        path = "/" + path.lstrip("/\\")  # this server's path: never //another.host/
         headers = [
             (b"location", (path + (f"?{rest}" if rest else "")).encode("latin-1")),
-            (b"set-cookie", f"{TOKEN_COOKIE}={self.token}; {_COOKIE}".encode()),
             (b"cache-control", b"no-store"),
             (b"referrer-policy", b"no-referrer"),
         ]
+        if token_matches(self.token, query.get(TOKEN_QUERY)):  # (else it came with the cookie)
+            headers.append((b"set-cookie", f"{TOKEN_COOKIE}={self.token}; {_COOKIE}".encode()))
         if not viewer_key(_cookie(scope, VIEWER_COOKIE)):
             headers.append(
                 (b"set-cookie", f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE}".encode())

@@ -82,11 +82,16 @@ def test_a_rebinding_request_with_a_foreign_host_gets_nothing() -> None:
         assert _handshake(port, f"localhost:{port}", f"/ws?token={token}").startswith(
             b"HTTP/1.1 101"
         )
+        # the token's redirect stays on this server, whatever the path says
+        swap = httpx.get(
+            f"{root}//evil.example/x?token={token}&a=1", headers={"Host": f"localhost:{port}"}
+        )
+        assert swap.status_code == 303 and swap.headers["location"] == "/evil.example/x?a=1"
         # the names it was started for
         for host in (f"127.0.0.1:{port}", f"localhost:{port}", f"[::1]:{port}"):
             reply = httpx.get(f"{root}/", headers={"Host": host}, cookies={"umbra_token": token})
             assert reply.status_code == 200, host
-        assert h.module._server.gate.refusals.counts["host"] == 6
+        assert h.module._server.gate.refusals.counts["host"] == 6  # (3 requests, 3 sockets)
         assert h.module.summary()["refused_requests"] == 6
 
 
