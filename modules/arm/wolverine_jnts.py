@@ -56,6 +56,17 @@ class WolverineJnts(Module):
         gripper_initial: float = param(1.0, "sim: initial gripper opening 0..1", ge=0, le=1)
         canopen_config: str = param("", "canopen: YAML file of the bus and the drives")
 
+        def rate_problem(self, rate_hz: float | None) -> str:
+            """The sim drive's watchdog must not cut a rate between two regular commands."""
+            least = 2.0 / self.drive_watchdog
+            if self.backend == "sim" and rate_hz is not None and rate_hz < least:
+                return (
+                    f"rate {rate_hz:g} Hz is too slow for drive_watchdog "
+                    f"{self.drive_watchdog:g} s: the joints must be commanded at least twice "
+                    f"per watchdog time ({least:g} Hz)"
+                )
+            return ""
+
         @model_validator(mode="after")
         def _one_value_per_joint(self) -> WolverineJnts.Params:
             n = self.table.n

@@ -134,3 +134,12 @@ def test_regular_commands_are_obeyed_as_before():
     assert backend.counters() == {"drive_watchdog_stops": 0}
     with pytest.raises(ValueError, match="watchdog must be positive"):
         SimJointSettings(watchdog=0.0)
+
+
+def test_a_rate_too_slow_for_the_drive_watchdog_is_a_graph_error():
+    from modules.arm.wolverine_jnts import WolverineJnts
+
+    params = WolverineJnts.Params(drive_watchdog=0.1)
+    assert params.rate_problem(100.0) == ""
+    assert "at least twice per watchdog time (20 Hz)" in params.rate_problem(10.0)
+    assert WolverineJnts.Params(drive_watchdog=0.5).rate_problem(10.0) == ""

@@ -158,6 +158,7 @@ def test_wolverine_jnts_runs_simulated_drives_over_canopen(tmp_path: Path) -> No
         assert status.stage == "zero" and "joint 'j5' (node 5)" in status.message
         assert "0x2310" in status.message
     assert not backend.sim_drives  # stop closed the simulated drives
+    assert backend.counters() == {"drive_master_losses": 0}  # the master never went silent
 
 
 def test_shipped_puma560_settings_fit_the_builtin_arm() -> None:

@@ -80,6 +80,7 @@ class Cia402Backend(JointsBackend):
         self.arm = Cia402Arm(settings.arm)
         self._initial_q = None if initial_q is None else np.asarray(initial_q, dtype=float)
         self._sim_drives: list[SimDrive] = []
+        self._closed_losses = 0  # master losses of simulated drives already closed
 
     @classmethod
     def from_module(cls, table: DHTable, params: Any, context: Any) -> Cia402Backend:
@@ -156,7 +157,15 @@ class Cia402Backend(JointsBackend):
                 bitrate=config.bus.bitrate,
             )
 
+    def counters(self) -> dict[str, int]:
+        """Simulated drives: how often their own watchdog found the master silent."""
+        if not self.settings.simulate:
+            return {}
+        losses = sum(d.master_losses for d in self._sim_drives)
+        return {"drive_master_losses": self._closed_losses + losses}
+
     def _close_sim_drives(self) -> None:
         drives, self._sim_drives = self._sim_drives, []
         for drive in drives:
+            self._closed_losses += drive.master_losses
             drive.close()
