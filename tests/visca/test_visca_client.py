@@ -227,3 +227,18 @@ def test_hold_and_stop_drive_a_continuous_zoom_and_a_lost_stop_is_sent_again(
     client.zoom_hold(ZoomDirection.WIDE)  # standard speed toward wide
     wait_for(lambda: sim.target_raw(), lambda target: target == 0, 2.0)
     assert sim.target_raw() == 0 and sim.moving()
+
+
+def test_start_powers_a_camera_in_standby_on_and_reads_its_version(
+    client_on: MakeClient,
+) -> None:
+    from modules.calib.visca.commands import SONY_VENDOR_ID, Version
+
+    with SimFcbCamera(full_range_s=1.0, power_on_s=0.4) as camera:
+        camera.logic.powered = False  # found in standby, as after a power cut
+        client = client_on(camera, completion_timeout_s=2.0)
+        assert client.wait_ready(4.0)
+        assert camera.powered and client.counters.power_ons == 1
+        assert client.version == Version(vendor=SONY_VENDOR_ID, model=0x0000, rom=0x0100, sockets=2)
+        client.zoom_to(0.25)
+        assert client.counters.camera_errors == 0

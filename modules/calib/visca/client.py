@@ -1,7 +1,8 @@
 """Client for a Sony FCB zoom camera over VISCA on a serial port (pyserial, 9600 8N1 by default).
 
 All serial traffic happens in one device thread, the only thread here: it sets the address and
-clears the interface at start (address set broadcast, then IF_Clear), sends zoom direct commands
+clears the interface at start (address set broadcast, then IF_Clear; then, as controllers do,
+CAM_PowerInq, power on from standby, and CAM_VersionInq), sends zoom direct commands
 and tracks their ACK and completion, sends continuous zoom tele/wide/stop commands, and polls the
 zoom position at ``poll_period_s``. Callers never block: :meth:`ViscaZoomClient.zoom_to` stores a
 target and :meth:`ViscaZoomClient.zoom_hold` / :meth:`ViscaZoomClient.zoom_stop` a continuous
@@ -45,6 +46,7 @@ from modules.calib.visca.client_types import (
     ZoomReading,
     is_empty_completion,
     is_position_reply,
+    is_power_reply,
     status_text,
 )
 
@@ -100,6 +102,8 @@ class ViscaZoomClient:
         self._ready_event = threading.Event()
         self._consecutive_failures = 0
         self._zoom_retry_at = 0.0
+        self.version: vc.Version | None = None
+        """What CAM_VersionInq reported at the last initialisation (None: not known)."""
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -258,6 +262,7 @@ class ViscaZoomClient:
                 lambda r: is_empty_completion(r, address),
                 error_filter=lambda e: e.address == address and e.socket == 0,
             )
+            self._power_up_and_identify(address)
         except _RequestFailedError as failure:
             self._set_problem("init", failure.link, failure.detail)
             return False
@@ -269,6 +274,66 @@ class ViscaZoomClient:
         self._clear_problem("init")
         self._ready_event.set()
         return True
+
+    def _power_up_and_identify(self, address: int) -> None:
+        """As controllers do at start: CAM_PowerInq, power on from standby (waiting for its
+        completion), then CAM_VersionInq (kept in :attr:`version`; a camera without it is
+        fine)."""
+
+        def at_zero(error: vp.ErrorReply) -> bool:
+            return error.address == address and error.socket == 0
+
+        reply = self._request(
+            vc.encode_power_inquiry(address),
+            "power inquiry",
+            lambda r: is_power_reply(r, address),
+            error_filter=at_zero,
+        )
+        if not vc.decode_power(reply):
+            ack = self._request(
+                vc.encode_power(address, True),
+                "power on",
+                lambda r: isinstance(r, vp.Ack) and r.address == address,
+                error_filter=lambda e: e.address == address,
+            )
+            assert isinstance(ack, vp.Ack)
+            self.counters.power_ons += 1
+            self._await_completion(address, ack.socket, "power on")
+        try:
+            version = self._request(
+                vc.encode_version_inquiry(address),
+                "version inquiry",
+                lambda r: (
+                    isinstance(r, vp.Completion)
+                    and r.address == address
+                    and r.socket == 0
+                    and len(r.payload) == 7
+                ),
+                error_filter=at_zero,
+            )
+        except _RequestFailedError as failure:
+            if failure.link is not LinkStatus.CAMERA_ERROR:
+                raise
+            return
+        self.version = vc.decode_version(version)
+
+    def _await_completion(self, address: int, socket: int, what: str) -> None:
+        """Read replies until the completion of ``what`` in ``socket`` (or its error)."""
+        deadline = time.monotonic() + self.settings.completion_timeout_s
+        while time.monotonic() < deadline and not self._stop.is_set():
+            for reply in self._read_replies():
+                if isinstance(reply, vp.Completion | vp.ErrorReply) and (
+                    reply.address == address and reply.socket == socket
+                ):
+                    if isinstance(reply, vp.ErrorReply):
+                        raise _RequestFailedError(
+                            LinkStatus.CAMERA_ERROR, f"{what} ended with {reply.description}"
+                        )
+                    return
+        raise _RequestFailedError(
+            LinkStatus.NO_REPLY,
+            f"no completion for {what} within {self.settings.completion_timeout_s:.1f} s",
+        )
 
     def _send_zoom_if_needed(self) -> None:
         self._check_completion_timeout()

@@ -92,6 +92,8 @@ class ViscaCounters:
     zoom_moves: int = 0
     """Tele/wide/stop commands sent (continuous zoom)."""
     zoom_completions: int = 0
+    power_ons: int = 0
+    """Times the camera was found in standby at start and powered on."""
     polls: int = 0
     initialisations: int = 0
     foreign_replies: int = 0
@@ -137,4 +139,14 @@ def is_empty_completion(reply: vp.Reply, address: int) -> bool:
         and reply.address == address
         and reply.socket == 0
         and not reply.payload
+    )
+
+
+def is_power_reply(reply: vp.Reply, address: int) -> bool:
+    """A CAM_PowerInq reply ``y0 50 02/03 FF`` from camera ``address``."""
+    return (
+        isinstance(reply, vp.Completion)
+        and reply.address == address
+        and reply.socket == 0
+        and reply.payload in (b"\x02", b"\x03")
     )
