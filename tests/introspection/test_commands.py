@@ -4,9 +4,11 @@ counter in process `umbra`, doubled in process `smart`). Rates are checked withi
 
 from __future__ import annotations
 
+import json
 import re
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 from runtime.links.observe import Observation
 from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli, user_folder
@@ -19,7 +21,7 @@ def test_topics_echo_and_hz_on_a_run_publishing_every_output(
     umbra: Callable[..., Running], plugin_env: dict[str, str]
 ) -> None:
     run = umbra(
-        "run", COUNTER, "--publish-all", "--duration", "40", "--quiet",
+        "run", COUNTER, "--publish-all", "--duration", "300", "--quiet",
         "--set", "counter.stop_after=100000",
     )  # fmt: skip
     running(run, plugin_env)
@@ -76,11 +78,11 @@ def test_topics_echo_and_hz_on_a_run_publishing_every_output(
     assert "Traceback" not in gone.stderr
 
 
-def test_outputs_that_cross_no_process_are_listed_as_not_published(
-    umbra: Callable[..., Running], plugin_env: dict[str, str]
+def test_outputs_that_cross_no_process_are_listed_as_not_published_and_a_refused_observer_is_told(
+    umbra: Callable[..., Running], plugin_env: dict[str, str], tmp_path: Path
 ) -> None:
     run = umbra(
-        "run", COUNTER, "--duration", "40", "--quiet", "--set", "counter.stop_after=100000"
+        "run", COUNTER, "--duration", "300", "--quiet", "--set", "counter.stop_after=100000"
     )  # fmt: skip
     running(run, plugin_env)
     topics = umbra_cli(plugin_env, "topics", "--json", "--window", "1")
@@ -94,3 +96,15 @@ def test_outputs_that_cross_no_process_are_listed_as_not_published(
     table = umbra_cli(plugin_env, "topics", "--window", "1")
     assert table.returncode == 0
     assert re.search(rf"^{PREFIX}/counter/count +Scalar +umbra +\d+\.\d +\d", table.stdout, re.M)
+
+    # the same run files with a wrong observer password: the processes refuse the session
+    wrong = tmp_path / "wrong"
+    (wrong / "umbra" / "runs").mkdir(parents=True)
+    wrong.chmod(0o700)
+    for path in (user_folder(plugin_env) / "runs").glob("*.json"):
+        entry = json.loads(path.read_text())
+        entry["observer"]["password"] = "0" * 48
+        (wrong / "umbra" / "runs" / path.name).write_text(json.dumps(entry))
+    refused = umbra_cli(dict(plugin_env, XDG_RUNTIME_DIR=str(wrong)), "topics")
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert "cannot join graph `counter_split`: none of its 2 processes accepted" in refused.stderr

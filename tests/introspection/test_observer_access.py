@@ -37,7 +37,7 @@ def test_an_observer_reads_but_its_commands_never_arrive_and_strangers_read_noth
     umbra: Callable[..., Running], plugin_env: dict[str, str], tmp_path: Path
 ) -> None:
     (tmp_path / "g.yaml").write_text(guarded_arm_graph("observed"))
-    run = umbra("run", "g.yaml", "--duration", "60", "--out", "out", "--quiet")
+    run = umbra("run", "g.yaml", "--duration", "300", "--out", "out", "--quiet")
     graph = running(run, plugin_env)
     endpoints = sorted(observer_endpoint(e) for p in graph.processes for e in p.listen)
     seen: list[Observed] = []

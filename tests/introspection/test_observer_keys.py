@@ -31,7 +31,7 @@ def test_an_observer_certificate_reads_its_keys_and_nothing_else(
     assert bad.returncode == 2 and "expected outputs of graph `counter_split`" in bad.stderr
     # as across hosts: each process started by hand with its certificate and TLS endpoints
     p1, p2 = free_loopback_ports(2)
-    common = ("--zenoh-config", "keys/", "--out", "out", "--duration", "60", "--publish-all")
+    common = ("--zenoh-config", "keys/", "--out", "out", "--duration", "300", "--publish-all")
     common += ("--quiet", "--set", "counter.stop_after=100000")
     run = umbra("run", COUNTER, "--process", "umbra", "--listen", f"tls/127.0.0.1:{p1}", *common)
     smart = umbra(
