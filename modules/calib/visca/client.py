@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import serial
@@ -38,24 +37,21 @@ import serial
 from connectors.errors import UserError
 from modules.calib.visca import commands as vc
 from modules.calib.visca import protocol as vp
+from modules.calib.visca.client_moves import Move, MoveSteps
+from modules.calib.visca.client_startup import StartupSteps
 from modules.calib.visca.client_types import (
     LinkStatus,
     Problem,
+    RequestFailedError,
     ViscaCounters,
     ViscaSettings,
     ZoomReading,
-    is_empty_completion,
     is_position_reply,
-    is_power_reply,
     status_text,
 )
+from modules.calib.visca.client_wire import WireRequests
 
 __all__ = ["LinkStatus", "ViscaCounters", "ViscaSettings", "ViscaZoomClient", "ZoomReading"]
-
-
-Move = tuple[vc.ZoomDirection | None, int | None]
-"""A continuous zoom: (direction, variable speed 0..7 or None for standard); (None, None) stops."""
-STOP: Move = (None, None)
 
 
 @dataclass
@@ -77,16 +73,7 @@ class _State:
     ready: bool = False
 
 
-class _RequestFailedError(Exception):
-    """A request got no good answer after all its tries (internal to the device thread)."""
-
-    def __init__(self, link: LinkStatus, detail: str) -> None:
-        super().__init__(detail)
-        self.link = link
-        self.detail = detail
-
-
-class ViscaZoomClient:
+class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
     """Drive and watch the zoom of one FCB camera on a serial port (see the module docstring)."""
 
     def __init__(self, settings: ViscaSettings) -> None:
@@ -150,27 +137,6 @@ class ViscaZoomClient:
             self._state.target_raw = raw
             self._state.target_zoom = vp.zoom_raw_to_normalized(raw)
             self._state.move_pending = None  # the latest request wins
-        self._wake.set()
-
-    def zoom_hold(self, direction: vc.ZoomDirection, speed: int | None = None) -> None:
-        """Zoom toward ``direction`` at variable speed ``speed`` (0..7; None: standard) until
-        :meth:`zoom_stop` or another request (sent once, not again while it holds)."""
-        if speed is not None and not 0 <= speed <= vc.MAX_ZOOM_SPEED:
-            raise ValueError(f"zoom speed must be 0..{vc.MAX_ZOOM_SPEED} or None, got {speed}")
-        self._request_move((direction, speed))
-
-    def zoom_stop(self) -> None:
-        """Stop a held zoom (CAM_Zoom stop); retried until the camera takes it."""
-        self._request_move(STOP)
-
-    def _request_move(self, move: Move) -> None:
-        with self._lock:
-            s = self._state
-            if s.move_pending is None and s.move_active == move and s.target_raw is None:
-                return
-            s.move_pending = move
-            s.target_raw = s.commanded_raw = None  # a later zoom_to is sent even if unchanged
-            s.target_zoom = None
         self._wake.set()
 
     def latest(self) -> ZoomReading:
@@ -241,100 +207,6 @@ class ViscaZoomClient:
         with self._lock:
             return self._state.ready
 
-    def _initialise(self) -> bool:
-        address = self.settings.address
-        try:
-            reply = self._request(
-                vp.encode_address_set(),
-                "address set",
-                lambda r: isinstance(r, vp.AddressSetReply),
-            )
-            assert isinstance(reply, vp.AddressSetReply)
-            if reply.camera_count < address:
-                raise _RequestFailedError(
-                    LinkStatus.CAMERA_ERROR,
-                    f"address set found {reply.camera_count} camera(s) on {self.settings.port}, "
-                    f"but the configured address is {address}",
-                )
-            self._request(
-                vp.encode_if_clear(address),
-                "IF_Clear",
-                lambda r: is_empty_completion(r, address),
-                error_filter=lambda e: e.address == address and e.socket == 0,
-            )
-            self._power_up_and_identify(address)
-        except _RequestFailedError as failure:
-            self._set_problem("init", failure.link, failure.detail)
-            return False
-        self.counters.initialisations += 1
-        with self._lock:
-            self._state.ready = True
-            self._state.inflight_socket = None
-            self._state.commanded_raw = None
-        self._clear_problem("init")
-        self._ready_event.set()
-        return True
-
-    def _power_up_and_identify(self, address: int) -> None:
-        """As controllers do at start: CAM_PowerInq, power on from standby (waiting for its
-        completion), then CAM_VersionInq (kept in :attr:`version`; a camera without it is
-        fine)."""
-
-        def at_zero(error: vp.ErrorReply) -> bool:
-            return error.address == address and error.socket == 0
-
-        reply = self._request(
-            vc.encode_power_inquiry(address),
-            "power inquiry",
-            lambda r: is_power_reply(r, address),
-            error_filter=at_zero,
-        )
-        if not vc.decode_power(reply):
-            ack = self._request(
-                vc.encode_power(address, True),
-                "power on",
-                lambda r: isinstance(r, vp.Ack) and r.address == address,
-                error_filter=lambda e: e.address == address,
-            )
-            assert isinstance(ack, vp.Ack)
-            self.counters.power_ons += 1
-            self._await_completion(address, ack.socket, "power on")
-        try:
-            version = self._request(
-                vc.encode_version_inquiry(address),
-                "version inquiry",
-                lambda r: (
-                    isinstance(r, vp.Completion)
-                    and r.address == address
-                    and r.socket == 0
-                    and len(r.payload) == 7
-                ),
-                error_filter=at_zero,
-            )
-        except _RequestFailedError as failure:
-            if failure.link is not LinkStatus.CAMERA_ERROR:
-                raise
-            return
-        self.version = vc.decode_version(version)
-
-    def _await_completion(self, address: int, socket: int, what: str) -> None:
-        """Read replies until the completion of ``what`` in ``socket`` (or its error)."""
-        deadline = time.monotonic() + self.settings.completion_timeout_s
-        while time.monotonic() < deadline and not self._stop.is_set():
-            for reply in self._read_replies():
-                if isinstance(reply, vp.Completion | vp.ErrorReply) and (
-                    reply.address == address and reply.socket == socket
-                ):
-                    if isinstance(reply, vp.ErrorReply):
-                        raise _RequestFailedError(
-                            LinkStatus.CAMERA_ERROR, f"{what} ended with {reply.description}"
-                        )
-                    return
-        raise _RequestFailedError(
-            LinkStatus.NO_REPLY,
-            f"no completion for {what} within {self.settings.completion_timeout_s:.1f} s",
-        )
-
     def _send_zoom_if_needed(self) -> None:
         self._check_completion_timeout()
         with self._lock:
@@ -358,7 +230,7 @@ class ViscaZoomClient:
                 lambda r: isinstance(r, vp.Ack) and r.address == address,
                 error_filter=ours,
             )
-        except _RequestFailedError as failure:
+        except RequestFailedError as failure:
             self._zoom_retry_at = time.monotonic() + self.settings.retry_backoff_s
             self._set_problem("zoom", failure.link, failure.detail)
             return
@@ -369,44 +241,6 @@ class ViscaZoomClient:
             self._state.inflight_raw = target
             self._state.inflight_since = time.monotonic()
             self._state.commanded_raw = target
-        self._clear_problem("zoom")
-
-    def _send_move_if_needed(self) -> None:
-        """Send the pending tele/wide/stop; a stop that fails is tried again (dead-man)."""
-        with self._lock:
-            move = self._state.move_pending
-            self._state.move_pending = None
-            if move is not None:  # taken: the same request again while it is sent is no news
-                self._state.move_active = move
-            old_socket = self._state.inflight_socket
-        if move is None:
-            return
-        address = self.settings.address
-        direction, speed = move
-        if direction is None:
-            packet, what = vc.encode_zoom_stop(address), "zoom stop"
-        else:
-            packet = vc.encode_zoom_move(address, direction, speed)
-            what = f"zoom {direction.value} at speed {'standard' if speed is None else speed}"
-
-        def ours(error: vp.ErrorReply) -> bool:
-            superseded = error.code in (vp.ErrorCode.CANCELLED, vp.ErrorCode.NO_SOCKET)
-            return error.address == address and not (superseded and error.socket == old_socket)
-
-        self.counters.zoom_moves += 1
-        try:
-            self._request(
-                packet, what, lambda r: isinstance(r, vp.Ack) and r.address == address, ours
-            )
-        except _RequestFailedError as failure:
-            self._set_problem("zoom", failure.link, failure.detail)
-            with self._lock:
-                if self._state.move_active == move:
-                    self._state.move_active = None
-                latest = self._state.move_pending is None and self._state.target_raw is None
-                if move == STOP and latest:
-                    self._state.move_pending = STOP
-            return
         self._clear_problem("zoom")
 
     def _check_completion_timeout(self) -> None:
@@ -437,7 +271,7 @@ class ViscaZoomClient:
                 lambda r: is_position_reply(r, address),
                 error_filter=lambda e: e.address == address and e.socket == 0,
             )
-        except _RequestFailedError as failure:
+        except RequestFailedError as failure:
             self._set_problem("poll", failure.link, failure.detail)
             return
         self._clear_problem("poll")
@@ -451,98 +285,6 @@ class ViscaZoomClient:
                 return
 
     # -- requests ----------------------------------------------------------------------------
-
-    def _request(
-        self,
-        packet: bytes,
-        what: str,
-        accept: Callable[[vp.Reply], bool],
-        error_filter: Callable[[vp.ErrorReply], bool] | None = None,
-    ) -> vp.Reply:
-        """Send ``packet`` until a reply passes ``accept``; raise ``_RequestFailedError`` if none.
-
-        ``error_filter`` says which error replies answer this request (others are stale).
-        """
-        s = self.settings
-        tries = 1 + s.retries
-        last: _RequestFailedError | None = None
-        for attempt in range(tries):
-            if attempt:
-                self.counters.retries += 1
-            garbled_before = self._garbled_total()
-            self._write(packet)
-            deadline = time.monotonic() + s.reply_timeout_s
-            answer: vp.Reply | None = None
-            while answer is None and time.monotonic() < deadline and not self._stop.is_set():
-                for reply in self._read_replies():
-                    if accept(reply):
-                        answer = reply
-                        break
-                    if isinstance(reply, vp.ErrorReply) and error_filter and error_filter(reply):
-                        answer = reply
-                        break
-            if answer is not None and not isinstance(answer, vp.ErrorReply):
-                self._consecutive_failures = 0
-                return answer
-            if isinstance(answer, vp.ErrorReply):
-                self.counters.camera_errors += 1
-                last = _RequestFailedError(
-                    LinkStatus.CAMERA_ERROR,
-                    f"camera answered {what} ({vp.hex_bytes(packet)}) with "
-                    f"{answer.description} (error {int(answer.code):02X}, socket {answer.socket})",
-                )
-                if answer.code is vp.ErrorCode.BUFFER_FULL:
-                    self._stop.wait(s.reply_timeout_s)
-            elif self._garbled_total() > garbled_before:
-                self.counters.timeouts += 1
-                last = _RequestFailedError(
-                    LinkStatus.GARBLED,
-                    f"unreadable reply to {what} ({vp.hex_bytes(packet)}) on {s.port}",
-                )
-            else:
-                self.counters.timeouts += 1
-                last = _RequestFailedError(
-                    LinkStatus.NO_REPLY,
-                    f"no reply to {what} ({vp.hex_bytes(packet)}) on {s.port} "
-                    f"within {s.reply_timeout_s:.2f} s",
-                )
-            if self._stop.is_set():
-                break
-        assert last is not None
-        last = _RequestFailedError(last.link, f"{last.detail} ({tries} tries)")
-        self._consecutive_failures += 1
-        if self._consecutive_failures >= s.reinit_after_failures:
-            self._consecutive_failures = 0
-            with self._lock:
-                self._state.ready = False
-        raise last
-
-    def _write(self, packet: bytes) -> None:
-        assert self._serial is not None
-        self._serial.write(packet)
-        self.counters.packets_sent += 1
-
-    def _read_replies(self) -> list[vp.Reply]:
-        """Read what the port has (waiting at most one read slice), decode and handle it."""
-        assert self._serial is not None
-        data = self._serial.read(max(1, self._serial.in_waiting))
-        replies: list[vp.Reply] = []
-        errors_before = self._splitter.errors
-        packets = self._splitter.feed(data)
-        self.counters.garbled += self._splitter.errors - errors_before
-        for packet in packets:
-            try:
-                reply = vp.decode_reply(packet)
-            except vp.ViscaDecodeError:
-                self.counters.garbled += 1
-                continue
-            self.counters.replies += 1
-            self._handle(reply)
-            replies.append(reply)
-        return replies
-
-    def _garbled_total(self) -> int:
-        return self.counters.garbled
 
     def _handle(self, reply: vp.Reply) -> None:
         """Update the shared state from any reply, whichever request is waiting."""

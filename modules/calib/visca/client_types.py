@@ -150,3 +150,12 @@ def is_power_reply(reply: vp.Reply, address: int) -> bool:
         and reply.socket == 0
         and reply.payload in (b"\x02", b"\x03")
     )
+
+
+class RequestFailedError(Exception):
+    """A request got no good answer after all its tries (internal to the device thread)."""
+
+    def __init__(self, link: LinkStatus, detail: str) -> None:
+        super().__init__(detail)
+        self.link = link
+        self.detail = detail

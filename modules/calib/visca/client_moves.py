@@ -1,0 +1,88 @@
+"""Continuous zoom (tele / wide at a speed, stop) for the VISCA zoom client: the caller's
+requests and the device thread's sending (a part of
+:class:`~modules.calib.visca.client.ViscaZoomClient`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from modules.calib.visca import commands as vc
+from modules.calib.visca import protocol as vp
+from modules.calib.visca.client_types import (
+    RequestFailedError,
+)
+
+if TYPE_CHECKING:
+    from modules.calib.visca.client import ViscaZoomClient
+
+    _Base = ViscaZoomClient
+else:
+    _Base = object
+
+
+Move = tuple[vc.ZoomDirection | None, int | None]
+"""A continuous zoom: (direction, variable speed 0..7 or None for standard); (None, None) stops."""
+STOP: Move = (None, None)
+
+
+class MoveSteps(_Base):
+    """zoom_hold / zoom_stop and their sending."""
+
+    def zoom_hold(self, direction: vc.ZoomDirection, speed: int | None = None) -> None:
+        """Zoom toward ``direction`` at variable speed ``speed`` (0..7; None: standard) until
+        :meth:`zoom_stop` or another request (sent once, not again while it holds)."""
+        if speed is not None and not 0 <= speed <= vc.MAX_ZOOM_SPEED:
+            raise ValueError(f"zoom speed must be 0..{vc.MAX_ZOOM_SPEED} or None, got {speed}")
+        self._request_move((direction, speed))
+
+    def zoom_stop(self) -> None:
+        """Stop a held zoom (CAM_Zoom stop); retried until the camera takes it."""
+        self._request_move(STOP)
+
+    def _request_move(self, move: Move) -> None:
+        with self._lock:
+            s = self._state
+            if s.move_pending is None and s.move_active == move and s.target_raw is None:
+                return
+            s.move_pending = move
+            s.target_raw = s.commanded_raw = None  # a later zoom_to is sent even if unchanged
+            s.target_zoom = None
+        self._wake.set()
+
+    def _send_move_if_needed(self) -> None:
+        """Send the pending tele/wide/stop; a stop that fails is tried again (dead-man)."""
+        with self._lock:
+            move = self._state.move_pending
+            self._state.move_pending = None
+            if move is not None:  # taken: the same request again while it is sent is no news
+                self._state.move_active = move
+            old_socket = self._state.inflight_socket
+        if move is None:
+            return
+        address = self.settings.address
+        direction, speed = move
+        if direction is None:
+            packet, what = vc.encode_zoom_stop(address), "zoom stop"
+        else:
+            packet = vc.encode_zoom_move(address, direction, speed)
+            what = f"zoom {direction.value} at speed {'standard' if speed is None else speed}"
+
+        def ours(error: vp.ErrorReply) -> bool:
+            superseded = error.code in (vp.ErrorCode.CANCELLED, vp.ErrorCode.NO_SOCKET)
+            return error.address == address and not (superseded and error.socket == old_socket)
+
+        self.counters.zoom_moves += 1
+        try:
+            self._request(
+                packet, what, lambda r: isinstance(r, vp.Ack) and r.address == address, ours
+            )
+        except RequestFailedError as failure:
+            self._set_problem("zoom", failure.link, failure.detail)
+            with self._lock:
+                if self._state.move_active == move:
+                    self._state.move_active = None
+                latest = self._state.move_pending is None and self._state.target_raw is None
+                if move == STOP and latest:
+                    self._state.move_pending = STOP
+            return
+        self._clear_problem("zoom")

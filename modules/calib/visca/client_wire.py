@@ -1,0 +1,117 @@
+"""Requests on the VISCA line: send, wait for the answer among unsolicited replies, retry, and
+say what went wrong (a part of :class:`~modules.calib.visca.client.ViscaZoomClient`)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from modules.calib.visca import protocol as vp
+from modules.calib.visca.client_types import (
+    LinkStatus,
+    RequestFailedError,
+)
+
+if TYPE_CHECKING:
+    from modules.calib.visca.client import ViscaZoomClient
+
+    _Base = ViscaZoomClient
+else:
+    _Base = object
+
+
+class WireRequests(_Base):
+    """Sending packets and reading replies, in the device thread."""
+
+    def _request(
+        self,
+        packet: bytes,
+        what: str,
+        accept: Callable[[vp.Reply], bool],
+        error_filter: Callable[[vp.ErrorReply], bool] | None = None,
+    ) -> vp.Reply:
+        """Send ``packet`` until a reply passes ``accept``; raise ``RequestFailedError`` if none.
+
+        ``error_filter`` says which error replies answer this request (others are stale).
+        """
+        s = self.settings
+        tries = 1 + s.retries
+        last: RequestFailedError | None = None
+        for attempt in range(tries):
+            if attempt:
+                self.counters.retries += 1
+            garbled_before = self._garbled_total()
+            self._write(packet)
+            deadline = time.monotonic() + s.reply_timeout_s
+            answer: vp.Reply | None = None
+            while answer is None and time.monotonic() < deadline and not self._stop.is_set():
+                for reply in self._read_replies():
+                    if accept(reply):
+                        answer = reply
+                        break
+                    if isinstance(reply, vp.ErrorReply) and error_filter and error_filter(reply):
+                        answer = reply
+                        break
+            if answer is not None and not isinstance(answer, vp.ErrorReply):
+                self._consecutive_failures = 0
+                return answer
+            if isinstance(answer, vp.ErrorReply):
+                self.counters.camera_errors += 1
+                last = RequestFailedError(
+                    LinkStatus.CAMERA_ERROR,
+                    f"camera answered {what} ({vp.hex_bytes(packet)}) with "
+                    f"{answer.description} (error {int(answer.code):02X}, socket {answer.socket})",
+                )
+                if answer.code is vp.ErrorCode.BUFFER_FULL:
+                    self._stop.wait(s.reply_timeout_s)
+            elif self._garbled_total() > garbled_before:
+                self.counters.timeouts += 1
+                last = RequestFailedError(
+                    LinkStatus.GARBLED,
+                    f"unreadable reply to {what} ({vp.hex_bytes(packet)}) on {s.port}",
+                )
+            else:
+                self.counters.timeouts += 1
+                last = RequestFailedError(
+                    LinkStatus.NO_REPLY,
+                    f"no reply to {what} ({vp.hex_bytes(packet)}) on {s.port} "
+                    f"within {s.reply_timeout_s:.2f} s",
+                )
+            if self._stop.is_set():
+                break
+        assert last is not None
+        last = RequestFailedError(last.link, f"{last.detail} ({tries} tries)")
+        self._consecutive_failures += 1
+        if self._consecutive_failures >= s.reinit_after_failures:
+            self._consecutive_failures = 0
+            with self._lock:
+                self._state.ready = False
+        raise last
+
+    def _write(self, packet: bytes) -> None:
+        assert self._serial is not None
+        self._serial.write(packet)
+        self.counters.packets_sent += 1
+
+    def _read_replies(self) -> list[vp.Reply]:
+        """Read what the port has (waiting at most one read slice), decode and handle it."""
+        assert self._serial is not None
+        data = self._serial.read(max(1, self._serial.in_waiting))
+        replies: list[vp.Reply] = []
+        errors_before = self._splitter.errors
+        packets = self._splitter.feed(data)
+        self.counters.garbled += self._splitter.errors - errors_before
+        for packet in packets:
+            try:
+                reply = vp.decode_reply(packet)
+            except vp.ViscaDecodeError:
+                self.counters.garbled += 1
+                continue
+            self.counters.replies += 1
+            self._handle(reply)
+            replies.append(reply)
+        return replies
+
+    def _garbled_total(self) -> int:
+        return self.counters.garbled
