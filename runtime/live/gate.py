@@ -178,6 +178,8 @@ class Gate:
             await self._refuse(writer, 502, f"the live server is not there: {exc}")
             return
         self.passed += 1
+        peer = writer.get_extra_info("peername")
+        self._log.info("foxglove: viewer connected from %s", peer[0] if peer else "?")
         asked = requested_protocols(headers)
         renamed = SDK_PROTOCOL not in asked and FIRST_PROTOCOL in asked
         inner_writer.write(with_protocol(head, SDK_PROTOCOL) if renamed else head)

@@ -5,9 +5,9 @@
 a bounded queue; a full queue drops the sample and counts it. Encoding (JPEG, protobuf, JSON) and
 the hand-over to the SDK happen on the server's own threads at a lower CPU priority: one lane for
 images (a few frames deep: a late frame is worth less than the next one) and one for everything
-else, so joint states never wait behind a JPEG encoding. The SDK keeps a
-bounded backlog per client and drops for a client that does not read, so a slow or stalled viewer
-costs the run nothing but that thread's work.
+else, so joint states never wait behind a JPEG encoding. The SDK keeps a bounded backlog per
+client (``CLIENT_BACKLOG``) and drops the oldest for a client that does not read, so a slow or
+stalled viewer costs the run nothing but those threads' work.
 
 Clients get no capability that acts on the run: no client publishing, no services. Module
 parameters are visible (``Capability.Parameters``: ``MODULE.PARAM`` names, read only); a set
@@ -45,6 +45,9 @@ from runtime.recording.writer import TF_STATIC
 
 #: Nice value of the server's encoding thread (Linux): below the run's loop.
 ENCODER_NICE = 10
+#: Messages the SDK holds for a client that does not keep up (then drops its oldest): about half
+#: a second of a pick-up's image and joint streams, so a slow viewer sees late data for no longer.
+CLIENT_BACKLOG = 64
 #: Images waiting to be encoded at most (more: the newest is dropped and counted).
 IMAGE_QUEUE = 4
 #: Seconds between two sends of the static frames (a viewer that joins gets them this soon).
@@ -149,6 +152,7 @@ class LiveServer:
             port=0,
             context=self._context,
             capabilities=[Capability.Parameters],
+            message_backlog_size=CLIENT_BACKLOG,
             server_listener=_ReadOnlyParameters(dict(parameters or {}), self._log),
         )
         self._threads = [
