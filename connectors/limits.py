@@ -40,6 +40,10 @@ MAX_TEXT_FILE_BYTES = 4_000_000
 MAX_SKETCH_SESSION_BYTES = 1_000_000
 #: Most commands a sketch session replays (every call replays them all).
 MAX_SKETCH_SESSION_EVENTS = 1000
+#: Largest image file a module reads (a photo background, a test image) [bytes].
+MAX_IMAGE_FILE_BYTES = 64_000_000
+#: Most pixels of an image file decoded (a 6000 x 4000 photo has 24 million).
+MAX_PHOTO_PIXELS = 40_000_000
 
 # -- the operator's web pages (modules/webdoor): what one client may make the page server hold --
 #: Largest request head (request line and headers) a page server reads [bytes].

@@ -3,7 +3,9 @@
 The file must be a regular file of at most ``MAX_IMAGE_BYTES``; its header is read first
 (Pillow reads only the header) and an image larger than ``MAX_IMAGE_SIDE_PX`` on a side or
 ``MAX_IMAGE_PIXELS`` in all is refused before it is decoded, so a small "decompression bomb" file
-cannot exhaust memory. Grayscale and palette images come back as 3-channel BGR like colour ones.
+cannot exhaust memory. A PNG or JPEG is also sized as its decoder (libpng, libjpeg) will read it
+(:mod:`connectors.image_header`): a frame header hidden behind JPEG fill bytes cannot pass as a
+small image. Grayscale and palette images come back as 3-channel BGR like colour ones.
 """
 
 from __future__ import annotations
@@ -17,13 +19,11 @@ import numpy as np
 from PIL import Image, UnidentifiedImageError
 
 from connectors.errors import UserError
+from connectors.image_header import image_size
+from connectors.limits import MAX_IMAGE_FILE_BYTES as MAX_IMAGE_BYTES
 from connectors.limits import MAX_IMAGE_SIDE_PX
+from connectors.limits import MAX_PHOTO_PIXELS as MAX_IMAGE_PIXELS
 from connectors.user_files import read_bytes
-
-#: Largest image file read [bytes].
-MAX_IMAGE_BYTES = 64_000_000
-#: Most pixels of an image decoded (a 6000 x 4000 photo has 24 million).
-MAX_IMAGE_PIXELS = 40_000_000
 
 
 def read_image(path: str | Path) -> np.ndarray:
@@ -40,6 +40,13 @@ def read_image(path: str | Path) -> np.ndarray:
         raise UserError(
             f"{path}: error: cannot read it as an image (expected PNG, JPEG, BMP, TIFF...)"
         ) from None
+    if data[:8] == b"\x89PNG\r\n\x1a\n" or data[:2] == b"\xff\xd8":
+        try:
+            decoded_size = image_size(data)
+        except ValueError as exc:
+            raise UserError(f"{path}: error: cannot read it as an image: {exc}") from None
+        if decoded_size != (width, height):
+            width, height = max(width, decoded_size[0]), max(height, decoded_size[1])
     if width > MAX_IMAGE_SIDE_PX or height > MAX_IMAGE_SIDE_PX or width * height > MAX_IMAGE_PIXELS:
         raise UserError(
             f"{path}: error: image is {width}x{height} px; at most {MAX_IMAGE_SIDE_PX} px a side "

@@ -12,6 +12,7 @@ from __future__ import annotations
 import struct
 import zlib
 from datetime import timedelta
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -186,3 +187,18 @@ def test_a_size_read_from_a_mutated_jpeg_is_the_size_libjpeg_decodes(data: bytes
         return  # refused: nothing is decoded
     decoded = _decoded_size(data)
     assert decoded is None or decoded == size, (size, decoded)
+
+
+def test_an_image_file_is_sized_as_its_decoder_reads_it(tmp_path: Path) -> None:
+    """``read_image`` (photo backgrounds, snake test images): the decoy hiding 18000 x 18000 is
+    refused before decoding; the same decoy hiding 160 x 120 decodes to 160 x 120."""
+    from connectors.errors import UserError
+    from modules.vision.image_file import read_image
+
+    bomb = tmp_path / "bomb.jpg"
+    bomb.write_bytes(decoy_jpeg(real=(18000, 18000)))
+    with pytest.raises(UserError, match=r"bomb\.jpg: error: image is (too large|18000x18000)"):
+        read_image(bomb)
+    small = tmp_path / "small.jpg"
+    small.write_bytes(decoy_jpeg(real=(160, 120)))
+    assert read_image(small).shape == (120, 160, 3)
