@@ -116,18 +116,20 @@ def _runs_folder_text(folder: Path | None) -> str:
     return str(runs_folder(folder))
 
 
-def _local_config(run: Run) -> zenoh.Config:
+def _local_config(run: Run, zenoh_config: str | None = None) -> zenoh.Config:
+    """The observer's configuration for a local run: its processes' endpoints, the run's
+    observer password, and ``zenoh_config`` (an observer certificate) for a run with TLS."""
     endpoints = sorted({observer_endpoint(e) for p in run.processes for e in p.listen})
-    if run.access == "config":
+    if run.access == "config" and not zenoh_config:
         raise UserError(
             f"error: graph `{run.graph}` runs with a zenoh configuration of its own (TLS "
-            f"certificates): observe it with an observer certificate, `umbra keys GRAPH --out "
-            f"DIR --observer NAME`, then --zenoh-config DIR/observer@NAME.json5 --connect "
-            f"{endpoints[0] if endpoints else 'ENDPOINT'}"
+            f"certificates): observe it with an observer certificate, made with the others by "
+            f"`umbra keys GRAPH --out DIR --observer NAME`: --zenoh-config "
+            f"DIR/observer@NAME.json5"
         )
-    cfg = build_config(Endpoints(connect=endpoints))
+    cfg = build_config(Endpoints(connect=endpoints), zenoh_config)
     observer = run.processes[0].observer
-    if run.access == "credentials" and observer:
+    if observer:  # the run's password too (the launcher's runs have one, TLS or not)
         usrpwd = {"user": observer["user"], "password": observer["password"]}
         cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
     return cfg
@@ -181,6 +183,14 @@ class Observation:
         """Join a graph: a local run of this user (``graph`` names it when several run), or,
         with ``zenoh_config`` and ``connect``, a run elsewhere (``prefix``, else
         ``umbra/<graph>``). UserError when there is none or it cannot be joined."""
+        if zenoh_config and not connect:  # a local run with TLS: its endpoints, a certificate
+            run = choose_run(graph, folder, run_id)
+            readable = observer_keys(zenoh_config)
+            session = open_session(_local_config(run, zenoh_config))
+            keys = readable[1] if readable is not None else None
+            observation = cls(session, run.prefix, run, keys=keys)
+            observation._wait_joined(len(run.processes))
+            return observation
         if zenoh_config or connect:
             readable = observer_keys(zenoh_config) if zenoh_config else None
             if readable is not None:

@@ -162,7 +162,7 @@ def _run_file(
         access=access,
         publish_all=options.publish_all,
         outputs=describe_outputs(plan, options.process),
-        observer=auth.get("observer") if auth and access == "credentials" else None,
+        observer=auth.get("observer") if auth else None,  # TLS under the launcher: both
         started=time.time(),
         run_id=f"launcher-{os.getppid()}" if supervised else "by-hand",
     )

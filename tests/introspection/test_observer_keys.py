@@ -75,3 +75,27 @@ def test_an_observer_certificate_reads_its_keys_and_nothing_else(
     finally:
         observer.close()
     assert len(got[COUNT]) > 50 and got[DOUBLE] == []
+
+
+def test_on_one_host_an_observer_certificate_joins_a_launched_tls_run(
+    umbra: Callable[..., Running], plugin_env: dict[str, str], tmp_path: Path
+) -> None:
+    """Under the launcher a TLS run also has per-run passwords: the observer shows both its
+    certificate and the run's observer password (from the run files), and finds the endpoints."""
+    made = umbra_cli(
+        plugin_env, "keys", COUNTER, "--out", "keys", "--observer", "all", cwd=tmp_path
+    )
+    assert made.returncode == 0, made.stderr
+    run = umbra(
+        "run", COUNTER, "--zenoh-config", "keys/", "--out", "out", "--duration", "300",
+        "--publish-all", "--quiet", "--set", "counter.stop_after=100000",
+    )  # fmt: skip
+    graph = running(run, plugin_env)
+    assert graph.access == "config" and graph.processes[0].observer is not None
+    topics = umbra_cli(
+        plugin_env, "topics", "--json", "--zenoh-config", "keys/observer@all.json5", cwd=tmp_path
+    )
+    assert topics.returncode == 0, topics.stderr
+    rows = {r["key"]: r for r in json_lines(topics.stdout)}
+    assert set(rows) == {COUNT, DOUBLE}
+    assert all(r["samples"] > 20 and r["drops"] >= 0 for r in rows.values()), rows
