@@ -191,3 +191,20 @@ def test_pdos_follow_the_mapping_the_master_writes(
     assert tpdo[obj.VELOCITY_ACTUAL].raw == 5_000
     assert state_from_statusword(tpdo[obj.STATUSWORD].raw) is State.OPERATION_ENABLED
     assert drive.sync_count == 2
+
+
+@pytest.mark.timeout(10)
+def test_a_long_step_integrates_a_ramp_that_ends_within_it_exactly(
+    bus: tuple[SimDrive, canopen.RemoteNode, object],
+) -> None:
+    """One step of 1 s (a process stopped and continued) over a 0.2 s quick stop ramp: the
+    travel is that of the ramp, v^2 / (2 a), not half the step at the old speed."""
+    drive, node, _ = bus
+    enable_velocity_mode(node, {obj.QUICK_STOP_DECELERATION: 50_000})
+    node.sdo[obj.TARGET_VELOCITY].raw = 10_000
+    drive.advance(0.1)  # 0.01 s ramp up at 1e6 counts/s^2, then 0.09 s at speed
+    start = drive.position_counts
+    node.sdo[obj.CONTROLWORD].raw = 0x02
+    drive.advance(1.0)
+    assert drive.velocity_counts_s == 0
+    assert drive.position_counts - start == pytest.approx(10_000**2 / (2 * 50_000), abs=1e-6)
