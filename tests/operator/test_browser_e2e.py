@@ -279,7 +279,8 @@ def test_the_jog_pad_moves_the_arm_only_while_held(tmp_path: Path) -> None:
         operator = next(m for m in summary["modules"] if m["module"] == "operator")
         assert operator["stepped_aside_at_s"] is not None  # the simulated operator stepped aside
         assert operator["clicked_at_s"] is None
-        console = next(m for m in summary["modules"] if m["module"] == "console")
+        page_side = json.loads((tmp_path / "run" / "summary-ui.json").read_text())  # own process
+        console = next(m for m in page_side["modules"] if m["module"] == "console")
         assert console["deadman_expired"] >= 1  # the hung page's jog
         smart = json.loads((tmp_path / "run" / "summary-smart.json").read_text())
         register = next(m for m in smart["modules"] if m["module"] == "register")

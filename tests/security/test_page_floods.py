@@ -41,7 +41,8 @@ def test_the_holders_abort_lands_under_every_flood() -> None:
                 with flood(kind, rig.h.module.url, 3.0) as proc:
                     figures[kind] = _aborts(rig, page)
                 report = json.loads(proc.stdout.read().strip().splitlines()[-1])
-                assert report["sent"] > (0 if kind == "burn" else 100), report  # it did flood
+                # it did flood (1 MiB messages: each costs its sender a new socket)
+                assert report["sent"] > {"burn": 0, "big": 10}.get(kind, 100), report
                 if kind in ("junk", "big"):
                     assert report["closed"] >= 1, report  # and the server closed its sockets
             print({k: [round(x * 1e3, 1) for x in v] for k, v in figures.items()})
