@@ -36,6 +36,9 @@ logger = logging.getLogger(__name__)
 ERROR_REGISTER_GENERIC = 0x01
 WATCH_IDLE_S = 0.05  # the watch thread's longest sleep
 FREE_RUN_PERIOD_S = 0.01  # drive cycle of the watch thread while it stops the drive alone
+#: Outside NMT OPERATIONAL (no SYNC cycle, an SDO master) a drive quick-stopped at standstill
+#: shows Quick stop active at least this long before transition 12 [s].
+QUICK_STOP_SHOWN_S = 0.1
 
 
 class MasterWatchMixin:
@@ -155,7 +158,7 @@ class MasterWatchMixin:
                         self._run_until(now)  # no SYNC: the drive cycles by itself
                 elif (
                     quick_stop_seen is not None
-                    and now - quick_stop_seen >= FREE_RUN_PERIOD_S
+                    and now - quick_stop_seen >= QUICK_STOP_SHOWN_S
                     and self._velocity == 0.0
                 ):
                     self.advance(0.0)  # a cycle at standstill (motion here runs on `advance`)
