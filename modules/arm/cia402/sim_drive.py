@@ -8,8 +8,9 @@ The drive implements what a master needs to run it in profile velocity mode:
   2 / 6 quick stop deceleration (0x6085), 3 / 7 current limit and 4 / 8 voltage limit (the
   simulation has no motor model: both brake at max deceleration, 0x60C6); 0..4 end in
   Switch on disabled, 5..8 stay in Quick stop active. The drive leaves Quick stop active
-  only in a drive cycle (SYNC, `advance`) that starts at standstill, so every quick stop is
-  reported in at least one statusword (a TPDO), even from standstill;
+  only in a drive cycle (SYNC, `advance`) that starts at standstill after a whole cycle in
+  it, so every quick stop is reported in at least one TPDO, even from standstill (outside
+  NMT OPERATIONAL, for SDO masters, for 0.1 s at least);
 - modes of operation (0x6060, only 3 = profile velocity is accepted) and its display;
 - a velocity loop with acceleration limits (0x6083, 0x6084, 0x6085): actual velocity
   (0x606C) slews to target velocity (0x60FF); position actual (0x6064) integrates it;
@@ -24,7 +25,8 @@ The drive implements what a master needs to run it in profile velocity mode:
   (transmitter dead: no heartbeat, PDO, EMCY or SDO reply; it still receives).
 
 Units are drive units: counts, counts/s, counts/s^2. Time is wall time measured between
-SYNCs, or the `dt_s` given to `advance`.
+SYNCs (or the drive's own cycles while it stops with no SYNC), or the `dt_s` given to
+`advance`.
 """
 
 from __future__ import annotations
