@@ -248,5 +248,5 @@ def test_wolverine_jnts_calibration_error_shows_only_in_the_true_state():
 def test_wolverine_jnts_backend_errors_are_user_errors():
     with pytest.raises(UserError, match="outside the joint limits"):
         ModuleHarness(WolverineJnts, {"initial_q_deg": [0, 0, 180, 0, 0, 0]}).start()
-    with pytest.raises(UserError, match="calibration_error_deg`? needs 6"):
+    with pytest.raises(UserError, match=r"calibration_error_deg`? needs 6"):
         ModuleHarness(WolverineJnts, {"calibration_error_deg": [1.0]}).start()
