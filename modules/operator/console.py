@@ -135,7 +135,9 @@ class OperatorConsole(ConsoleView, Module):
         self._last_state = -math.inf
         self._state_period = 1.0 / p.state_rate_hz
         self._link_age: dict[str, float] = {}  #: oldest age per input since the last page update
-        self._link_seen: dict[str, float] = {}  #: arrival time of each input's sample last seen
+        #: (stamp, origin) [s] of each input's sample last seen
+        self._link_seen: dict[str, tuple[float, float]] = {}
+        self._zero_since: float | None = None  #: when the guard's present zero began [s]
         self._last_presence: tuple[str, int, int] | None = None
         self._last_servo_stage = ""
         self._assist: dict[str, Any] | None = None

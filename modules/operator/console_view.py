@@ -8,6 +8,11 @@ from typing import Any
 
 from modules.operator import view_state
 
+#: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
+CLOCK_SYNC_BOUND_S = 0.005
+#: A zero shorter than this [s] is not shown as the arm held (it is counted, not flashed).
+BANNER_HOLD_S = 0.15
+
 
 class ConsoleView:
     """The page state of an :class:`~modules.operator.console.OperatorConsole` (a mixin: it
@@ -22,19 +27,51 @@ class ConsoleView:
         )
 
     def _track_links(self, now: float) -> None:
-        """The oldest each input's latest sample got since the last page update [s]: now, or
-        when the next one replaced it. About its period while it flows, growing when it stops
-        (the age at a step alone is often 0: a sample comes with the tick that runs the console,
-        and a busy process runs it only then)."""
+        """The oldest each input's latest sample got since the last page update [s], counted
+        from its producer's stamp (on this process's clock): now, or when the next one replaced
+        it. About its period while it flows, growing when it stops or falls behind (an age at
+        arrival would read 0 for a sample computed from the past)."""
         ages, seen = self._link_age, self._link_seen
         for name, reg in self._links():
-            age = reg.age(now)
+            sample = reg.value
+            if sample is None:
+                continue
+            age = now - sample.stamp
             before = seen.get(name)
-            if before is not None and math.isfinite(before) and reg.received_at > before:
-                age = max(age, reg.received_at - before)  # the one before, when replaced
-            seen[name] = reg.received_at
+            if before is not None and sample.stamp > before[0]:  # the one before, when replaced
+                age = max(age, reg.received_at - before[0])
+            seen[name] = (sample.stamp, sample.origin)
             if age > ages.get(name, -math.inf):
                 ages[name] = age
+
+    def _data_ages(self, now: float) -> dict[str, Any]:
+        """The end-to-end age [ms] of the data behind the command REG_VEL passes (image capture
+        to the register), whether it is held for old data, and the clocks' agreement."""
+        guard = self.guard.value
+        values = guard.values if guard is not None else {}
+        errors = [reg.clock_error for _n, reg in self._links() if reg.value is not None]
+        worst = max(errors, default=0.0)
+        return {
+            "command_origin_ms": None
+            if "origin_age" not in values or values["origin_age"] >= 1e8
+            else round(values["origin_age"] * 1e3, 1),
+            "command_stale": bool(values.get("stale")),
+            "clock_error_ms": None if not math.isfinite(worst) else round(worst * 1e3, 3),
+            "clocks_synced": math.isfinite(worst) and worst <= CLOCK_SYNC_BOUND_S,
+        }
+
+    def _held_banner(self, now: float, servo: Any, guard: Any) -> str:
+        """The red "at zero" banner, only while the arm is actually held: at once for a request,
+        old data or a lost process; for the link watchdog (a command that came late) once it
+        lasted ``BANNER_HOLD_S`` (a late command or two is counted in the summary, not flashed)."""
+        text = view_state.zero_banner(servo, guard)
+        if not text:
+            self._zero_since = None
+            return ""
+        if self._zero_since is None:
+            self._zero_since = now
+        blip = guard is not None and guard.reason.startswith("no new command")
+        return text if not blip or now - self._zero_since >= BANNER_HOLD_S else ""
 
     def _state(self, now: float) -> dict[str, Any]:
         servo = self.servo.get(now)
@@ -45,7 +82,8 @@ class ConsoleView:
             "t": round(now - (self._t0 or now), 3),
             "overlay": view_state.overlay(self.contour.get(now), self._limits),
             "servo": view_state.servo_view(servo),
-            "banner": view_state.zero_banner(servo, guard),
+            "banner": self._held_banner(now, servo, guard),
+            "data_age": self._data_ages(now),
             "guard": None if guard is None else {"stage": guard.stage, "reason": guard.reason},
             "world": None if world is None else {"stage": world.stage, "message": world.message},
             "errors": [
@@ -61,7 +99,12 @@ class ConsoleView:
                 for e in list(self._errors)[-150:]
             ],
             "links": [
-                view_state.link_view(name, self._link_age.pop(name, math.inf), reg.link_alive)
+                view_state.link_view(
+                    name,
+                    self._link_age.pop(name, math.inf),
+                    reg.link_alive,
+                    math.inf if reg.value is None else now - reg.value.origin,
+                )
                 for name, reg in self._links()
             ],
             "smart_alive": None  # nothing from the servo side yet (or none in this graph)

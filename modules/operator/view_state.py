@@ -137,10 +137,12 @@ def joints_view(
     return rows
 
 
-def link_view(name: str, age: float, alive: bool) -> dict[str, Any]:
-    """One input's age [ms] (None: nothing yet) and whether its producer is alive."""
+def link_view(name: str, age: float, alive: bool, origin_age: float = math.inf) -> dict[str, Any]:
+    """One input: its age [ms] from its producer's stamp, the age of the sensor data behind it
+    [ms] (None: nothing yet), and whether its producer is alive."""
     return {
         "name": name,
         "age_ms": None if not math.isfinite(age) else _r(age * 1e3),
+        "origin_ms": None if not math.isfinite(origin_age) else _r(origin_age * 1e3),
         "alive": alive,
     }

@@ -91,6 +91,9 @@ class Observation:
     healthy: bool
     stamp: float
     reason: str = ""
+    #: False while the safety guard holds the arm at zero (old data, a late command): the final
+    #: grab's dead reckoning counts only the advance the guard let through
+    commands_pass: bool = True
 
 
 @dataclass(frozen=True)
@@ -177,7 +180,8 @@ class ServoStages:
             assert observation is not None and observation.features is not None
             return self._approach(observation.features, gripper)
         if self.stage == FINAL_GRAB:
-            return self._final_grab(now, gripper)
+            passing = observation is None or observation.commands_pass
+            return self._final_grab(now, gripper, passing)
         message = {
             DONE: "grab complete",
             ASSIST: "operator assistance requested",
@@ -235,14 +239,16 @@ class ServoStages:
             )
         return ServoOutput(twist, APPROACH, message="approaching", gripper=gripper, error=error)
 
-    def _final_grab(self, now: float, gripper: str) -> ServoOutput:
+    def _final_grab(self, now: float, gripper: str, passing: bool = True) -> ServoOutput:
         if self._grab_start is None:
             self._grab_start = now
             self._grab_tick = (now, 0.0, 0.0)
         # Dead reckoning of the commanded advance: each command holds until the next step, so
-        # the last one is cut to what is left (no overshoot of up to one step's travel).
+        # the last one is cut to what is left (no overshoot of up to one step's travel); time
+        # the guard held the arm at zero advanced nothing.
         last_now, last_speed, advanced = self._grab_tick
-        advanced += last_speed * (now - last_now)
+        if passing:
+            advanced += last_speed * (now - last_now)
         left = max(self.settings.grab_distance + self._grab_depth, 0.0) - advanced
         if left > ADVANCE_DONE:
             interval = now - last_now if now > last_now else NOMINAL_STEP

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Literal
 
 import numpy as np
@@ -98,7 +99,18 @@ class VsServo(Module):
     contour = Input(Contour, trigger=True, doc="tracked patch from vsSnake")
     operator = Input(Text, required=False, doc="operator: start / pause / resume / abort")
     camera = Input(CameraModel, required=False, feedback=True, doc="calibrated camera (zoom)")
-    twist = Output(Twist, frame=from_param("camera_frame"), doc="camera velocity command")
+    guard = Input(
+        Status,
+        required=False,
+        feedback=True,
+        doc="the safety guard's status (REG_VEL): the final grab counts only the advance it passed",
+    )
+    twist = Output(
+        Twist,
+        frame=from_param("camera_frame"),
+        origin_from=("contour",),  # as old as the image the snake found the patch in
+        doc="camera velocity command",
+    )
     status = Output(Status, doc="stage, errors, operator-assistance requests")
     gripper = Output(Text, events=True, doc="gripper command: open / close")
 
@@ -194,7 +206,11 @@ class VsServo(Module):
                 self.log.warning(
                     "ignoring operator input %r (expected one of %s)", text, OPERATOR_COMMANDS
                 )
-        out = self.stages.step(now, self._observe(now))
+        observation = self._observe(now)
+        guard = self.guard.value
+        if observation is not None and guard is not None and guard.stage == "zero":
+            observation = dataclasses.replace(observation, commands_pass=False)
+        out = self.stages.step(now, observation)
         self.twist.send(Twist(vector=out.camera_twist, frame=self.params.camera_frame))
         if out.gripper:
             self.gripper.send(Text(text=out.gripper))
