@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Literal
 
 import msgspec
@@ -27,6 +28,9 @@ from modules.vision.features import polygon_features
 from modules.vision.lighting import Lighting
 from modules.vision.scene import Scene, camera_looking_down, pose
 from modules.vision.sim_camera import CameraSpec, SceneFault, SimulatedCamera
+
+#: ``lag`` fault: the speed [1] at which a lagging camera's frames follow the scene.
+LAG_PLAYBACK = 0.2
 
 
 class DigiCam(Module):
@@ -61,9 +65,13 @@ class DigiCam(Module):
     patch of the same color and size lies against the patch side ``fault_side``. ``freeze``: a
     frozen frame grabber: no new rendering, the last frame before the fault is sent again on
     every step with new stamps (marked ``stale`` only with ``fault_frozen_stale``; with
-    ``fault_at_s`` 0 the first frame is the one held). The ``truth`` output keeps following the
-    world during a freeze (the true outline, computed without rendering). Being driven by the
-    parameters and the clock only, a fault plays the same in one process or split over many.
+    ``fault_at_s`` 0 the first frame is the one held). ``lag``: a vision side that fell behind:
+    frames show the scene in slow motion (``LAG_PLAYBACK`` of real speed) until they are
+    ``fault_lag_s`` behind, each carrying its capture time (its origin), as frames a starved
+    process takes from a queue would. The ``truth`` output
+    keeps following the world during a freeze (the true outline, computed without rendering).
+    Being driven by the parameters and the clock only, a fault plays the same in one process or
+    split over many.
     ``summary()`` reports ``fault`` and ``fault_started_at``, the clock time [s] of the first
     frame showing the fault (None before).
     """
@@ -114,8 +122,15 @@ class DigiCam(Module):
         noise_sigma: float = param(0.0, "sensor noise (sim)", unit="gray levels", ge=0)
         blur_length_px: float = param(0.0, "motion blur length (sim)", unit="px", ge=0)
         blur_angle_deg: float = param(0.0, "motion blur direction from u (sim)", unit="deg")
-        fault: Literal["none", "occluder", "remove_patch", "distractor", "freeze"] = param(
-            "none", "scheduled fault: none, occluder, remove_patch, distractor, freeze (sim)"
+        fault: Literal["none", "occluder", "remove_patch", "distractor", "freeze", "lag"] = param(
+            "none", "scheduled fault: none, occluder, remove_patch, distractor, freeze, lag (sim)"
+        )
+        fault_lag_s: float = param(
+            2.0,
+            "lag: frames fall this far behind the scene, stamped when captured (sim)",
+            unit="s",
+            gt=0,
+            le=60,
         )
         fault_at_s: float = param(
             3.0, "fault begins this long after the camera's first step (sim)", unit="s", ge=0
@@ -155,8 +170,16 @@ class DigiCam(Module):
     )
     camera_model = Input(CameraModel, required=False, feedback=True, doc="intrinsics, for sim")
     patch_pose = Input(Pose, required=False, feedback=True, doc="T_world_patch, for sim")
-    image = Output(Image, frame=from_param("camera_frame"), doc="BGR frames")
-    truth = Output(Contour, doc="sim only: the patch outline in the image (ground truth)")
+    image = Output(
+        Image,
+        frame=from_param("camera_frame"),
+        # a capture is new data; a sim frame shows the world as its poses had it
+        origin_from=("camera_pose", "patch_pose"),
+        doc="BGR frames",
+    )
+    truth = Output(
+        Contour, measured=True, doc="sim only: the patch outline in the image (ground truth)"
+    )
 
     # -- lifecycle ------------------------------------------------------------------------------
 
@@ -175,6 +198,8 @@ class DigiCam(Module):
         self._first_step_at: float | None = None
         self._fault_started_at: float | None = None
         self._frozen: np.ndarray | None = None
+        #: (t, T_world_camera, T_world_patch) of recent steps, for the ``lag`` fault
+        self._poses: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
         self._decoder_stalled = False
         size = (p.width, p.height) if p.width and p.height else None
         if (p.width == 0) != (p.height == 0):
@@ -241,8 +266,18 @@ class DigiCam(Module):
         else:
             self._step_capture(now)
 
-    def _send(self, pixels: np.ndarray, now: float) -> None:
-        self._last = Image(pixels=pixels, frame=self.params.camera_frame, stamp=now)
+    def _send(
+        self, pixels: np.ndarray, now: float, stamp: float | None = None, origin: float = 0.0
+    ) -> None:
+        """Send a new frame captured at ``stamp`` [s] (``now`` unless told), made from sensor
+        data as old as ``origin`` [s] (0: its capture, a new origin)."""
+        captured = now if stamp is None else stamp
+        self._last = Image(
+            pixels=pixels,
+            frame=self.params.camera_frame,
+            stamp=captured,
+            origin=origin or captured,
+        )
         self.image.send(self._last)
         self._sent += 1
         self._last_new_at = now
@@ -368,6 +403,12 @@ class DigiCam(Module):
             self._fault_started_at = now
             self.log.warning("%s: injected fault %r begins at %.3f s", self.name, p.fault, now)
         T_world_patch = self._patch_pose()
+        T_world_camera = self._camera_pose(T_world_patch)
+        captured = now
+        if p.fault == "lag":
+            captured, T_world_camera, T_world_patch = self._lagged(
+                now, T_world_camera, T_world_patch, faulted
+            )
         scene = Scene(
             T_world_patch=T_world_patch,
             patch_size_m=(float(p.patch_size_m[0]), float(p.patch_size_m[1])),
@@ -375,7 +416,6 @@ class DigiCam(Module):
             patch_present=p.patch_present,
             background=p.background,
         )
-        T_world_camera = self._camera_pose(T_world_patch)
         if faulted and p.fault == "freeze" and self._frozen is not None:
             self._send_frozen(scene, T_world_camera, now)
             return
@@ -391,9 +431,41 @@ class DigiCam(Module):
         frame = self._sim.render(
             self._camera_spec(), scene, T_world_camera, lighting, self.context.rng
         )
-        self._send(frame.image, now)
+        self._send(frame.image, now, stamp=captured, origin=self._poses_origin(captured, now))
         self._frozen = frame.image
         self.truth.send(self._truth(frame.patch_polygon, frame.patch_visible_fraction, now))
+
+    def _poses_origin(self, captured: float, now: float) -> float:
+        """The origin [s] of a sim frame: the oldest of the poses it was rendered from (a world
+        whose poses come late over a congested link makes old frames), at most its capture (a
+        ``lag`` frame, rendered from poses of its capture time, is as old as that)."""
+        if captured < now:
+            return captured
+        oldest = captured
+        for reg in (self.camera_pose, self.patch_pose):
+            sample = reg.value
+            if sample is not None and sample.origin < oldest:
+                oldest = sample.origin
+        return oldest
+
+    def _lagged(
+        self, now: float, T_world_camera: np.ndarray, T_world_patch: np.ndarray, faulted: bool
+    ) -> tuple[float, np.ndarray, np.ndarray]:
+        """The capture time [s] and poses a ``lag`` frame shows at ``now``: while the fault is
+        on, the scene plays at ``LAG_PLAYBACK`` of real speed (a starved loop working through
+        queued frames) until it is ``fault_lag_s`` behind, then stays that far behind."""
+        poses, lag = self._poses, self.params.fault_lag_s
+        poses.append((now, T_world_camera, T_world_patch))
+        while len(poses) > 1 and poses[1][0] <= now - lag - 1.0:
+            poses.popleft()
+        begun = self._fault_started_at
+        if not faulted or begun is None:
+            return now, T_world_camera, T_world_patch
+        shown = max(begun + LAG_PLAYBACK * (now - begun), now - lag)
+        for entry in reversed(poses):  # the newest step captured at or before `shown`
+            if entry[0] <= shown:
+                return entry
+        return poses[0]
 
     def _send_frozen(self, scene: Scene, T_world_camera: np.ndarray, now: float) -> None:
         """A frozen grabber: the held pixels again, newly stamped; the truth follows the world."""
