@@ -35,12 +35,8 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from connectors.messages import Image, Message
-from runtime.recording.encoders import (
-    ChannelEncoding,
-    channel_encodings,
-    frame_transforms,
-    time_ns,
-)
+from runtime.recording.encoders import ChannelEncoding, channel_encodings
+from runtime.recording.foxglove_msgs import frame_transforms, time_ns
 from runtime.recording.writer import TF_STATIC
 
 #: Nice value of the server's encoding thread (Linux): below the run's loop.

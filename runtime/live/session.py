@@ -11,7 +11,7 @@ from modules.webdoor.secret import is_loopback, resolve_token
 from runtime.live.feed import ObservedFeed, run_parameters, serve_local
 from runtime.live.gate import DEFAULT_ORIGINS, Gate
 from runtime.live.server import LiveServer
-from runtime.recording.encoders import wall_offset
+from runtime.recording.foxglove_msgs import wall_offset
 
 if TYPE_CHECKING:
     from runtime.graph.plan import GraphPlan

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from connectors.messages import Image, Pose
-from runtime.recording.encoders import time_ns, wall_offset
+from runtime.recording.foxglove_msgs import time_ns, wall_offset
 from runtime.recording.settings import RecordSettings
 from runtime.recording.writer import (
     META_FRAME,

@@ -41,13 +41,8 @@ from mcap_protobuf.schema import register_schema
 
 from connectors.errors import UserError
 from connectors.messages import CameraModel, Image, Message, Pose, Poses
-from runtime.recording.encoders import (
-    ChannelEncoding,
-    channel_encodings,
-    frame_transforms,
-    time_ns,
-    view_frames,
-)
+from runtime.recording.encoders import ChannelEncoding, channel_encodings
+from runtime.recording.foxglove_msgs import frame_transforms, time_ns, view_frames
 
 #: Channel metadata keys (strings), read by record-info and replay.
 META_TYPE = "umbra.type"
