@@ -71,13 +71,11 @@ def place_primitive(
         )
     if not (np.all(np.isfinite(uv_a)) and np.all(np.isfinite(uv_b))):
         raise PrimitiveError(f"vertex pixels must be finite, got {uv_a.tolist()} {uv_b.tolist()}")
+    # the clicks in b on their epipolar lines (the derivative of that projection is the same
+    # at the click and on the line: the covariance is the clicks' either way)
     uv_b = pair.constrain_b(uv_a, uv_b).reshape(n, 2)
-    points, covariances, gaps = [], [], []
-    for i in range(n):
-        point, cov, gap = pair.triangulate_with_covariance(uv_a[i], uv_b[i], noise)
-        points.append(point)
-        covariances.append(cov)
-        gaps.append(gap)
+    points, joint, gaps = pair.triangulate_constrained(uv_a, uv_b, noise)
+    covariances = [joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(n)]
     return SketchPrimitive(
         stamp=stamp,
         primitive_id=primitive_id,
@@ -85,7 +83,7 @@ def place_primitive(
         snapshot_id=snapshot_id,
         pixels_a=uv_a,
         pixels_b=uv_b,
-        points=np.stack(points),
+        points=points,
         covariances=np.stack(covariances),
         gaps=np.asarray(gaps),
         edges=np.asarray(KINDS[kind][1], dtype=np.int64).reshape(-1, 2),
@@ -160,15 +158,13 @@ def plane_rect(primitive: SketchPrimitive) -> PlaneRect:
     return rect
 
 
-def triad_box(primitive: SketchPrimitive, box_id: str = "") -> SketchBox:
-    """The box spanned by a triad's three edges from the common vertex (axes orthogonalized by
-    the closest rotation; size = edge lengths)."""
-    _expect(primitive, "triad")
-    origin = np.asarray(primitive.points[0])
-    edges = np.asarray(primitive.points[1:4]) - origin
+def _box_frame(points: FloatArray, primitive_id: str) -> tuple[FloatArray, FloatArray]:
+    """``(T_base_box, size)`` of the box a triad's vertices ``(4, 3)`` span."""
+    origin = points[0]
+    edges = points[1:4] - origin
     size = np.linalg.norm(edges, axis=1)
     if np.any(size < 1e-3):
-        raise PrimitiveError(f"triad {primitive.primitive_id}: an edge is shorter than 1 mm")
+        raise PrimitiveError(f"triad {primitive_id}: an edge is shorter than 1 mm")
     U, _, Vt = np.linalg.svd((edges / size[:, None]).T)
     R = U @ Vt
     if np.linalg.det(R) < 0:
@@ -176,12 +172,82 @@ def triad_box(primitive: SketchPrimitive, box_id: str = "") -> SketchBox:
     T = np.eye(4)
     T[:3, :3] = R
     T[:3, 3] = origin + 0.5 * (R @ size)
+    return T, size
+
+
+def vertex_covariance(
+    primitive: SketchPrimitive, pair: StereoPair | None = None, noise: StereoNoise | None = None
+) -> FloatArray:
+    """Joint covariance ``(3N, 3N)`` (m²) of a primitive's vertices.
+
+    With the snapshot's ``pair`` and the ``noise`` it was placed with, the vertices' shared
+    calibration errors correlate them (:meth:`StereoPair.triangulate_constrained`); without,
+    only the per-vertex blocks are known and the vertices are taken as independent.
+    """
+    if pair is not None and noise is not None:
+        return pair.triangulate_constrained(primitive.pixels_a, primitive.pixels_b, noise)[1]
+    n = len(primitive.points)
+    joint = np.zeros((3 * n, 3 * n))
+    for i, block in enumerate(np.asarray(primitive.covariances, dtype=float)):
+        joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = block
+    return joint
+
+
+def propagate(
+    function, points: FloatArray, joint: FloatArray, step_m: float = 1e-6
+) -> tuple[FloatArray, FloatArray]:
+    """``(value, covariance)`` of ``function(points (N, 3)) -> (k,)`` to first order (central
+    differences of ``step_m`` on each vertex coordinate)."""
+    value = np.asarray(function(points), dtype=float)
+    J = np.zeros((value.size, points.size))
+    for i in range(points.size):
+        delta = np.zeros(points.size)
+        delta[i] = step_m
+        plus = function(points + delta.reshape(points.shape))
+        minus = function(points - delta.reshape(points.shape))
+        J[:, i] = (np.asarray(plus) - np.asarray(minus)).ravel() / (2.0 * step_m)
+    covariance = J @ joint @ J.T
+    return value, 0.5 * (covariance + covariance.T)
+
+
+def line_direction_covariance(
+    primitive: SketchPrimitive, pair: StereoPair | None = None, noise: StereoNoise | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """A line's unit direction (start to end) and its 3 x 3 covariance (rank 2: across the
+    line; radians² for small angles), from the vertices' joint covariance."""
+    axis = line_axis(primitive)
+    points = np.stack([axis.start, axis.end])
+
+    def direction(p: FloatArray) -> FloatArray:
+        return (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
+
+    return propagate(direction, points, vertex_covariance(primitive, pair, noise))
+
+
+def triad_box(
+    primitive: SketchPrimitive,
+    box_id: str = "",
+    pair: StereoPair | None = None,
+    noise: StereoNoise | None = None,
+) -> SketchBox:
+    """The box spanned by a triad's three edges from the common vertex (axes orthogonalized by
+    the closest rotation; size = edge lengths). Its ``covariance`` is the box centre's (m²),
+    propagated from the vertices' joint covariance (see :func:`vertex_covariance`: give the
+    snapshot's ``pair`` and the ``noise`` for the correlation through the calibration)."""
+    _expect(primitive, "triad")
+    points = np.asarray(primitive.points, dtype=float)
+    T, size = _box_frame(points, primitive.primitive_id)
+    _, centre_covariance = propagate(
+        lambda p: _box_frame(p, primitive.primitive_id)[0][:3, 3],
+        points,
+        vertex_covariance(primitive, pair, noise),
+    )
     return SketchBox(
         stamp=primitive.stamp,
         box_id=box_id or primitive.primitive_id,
         T_base_box=T,
         size=size,
-        covariance=np.asarray(primitive.covariances[0]),
+        covariance=centre_covariance,
         frame=primitive.frame,
     )
 

@@ -215,7 +215,8 @@ class SketchSession:
         if prim is None or prim.kind != "triad":
             kind = prim.kind if prim is not None else "nothing"
             raise MacroError(f"make_box needs a triad, got {kind}")
-        box = triad_box(prim)
+        pair = StereoPair.from_snapshot(self._snapshot(prim.snapshot_id))
+        box = triad_box(prim, pair=pair, noise=self.noise)
         self.boxes[box.box_id] = box
         return box
 

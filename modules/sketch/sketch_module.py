@@ -315,7 +315,9 @@ class Sketch(Module):
         """The triad's macro: its box is kept as scene geometry (no motion)."""
         if prim is None or prim.kind != "triad":
             raise UserError(f"make_box: expected a triad, got {prim.kind if prim else 'nothing'}")
-        box = triad_box(prim)
+        snap = self.snapshots.get(prim.snapshot_id)
+        pair = StereoPair.from_snapshot(snap) if snap is not None else None
+        box = triad_box(prim, pair=pair, noise=self.noise)
         self.box.send(box)
         size = np.round(box.size, 3).tolist()
         centre = np.round(box.T_base_box[:3, 3], 3).tolist()

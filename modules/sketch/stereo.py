@@ -9,7 +9,11 @@ lens); the geometry is done on ideal pin-hole pixels (undistorted with
 Uncertainty (:class:`StereoNoise`) is first order: the Jacobian of the triangulated point with
 respect to the four pixel coordinates and to each camera's calibration (rotation, translation,
 focal length, principal point) is taken by central differences and the covariance is
-``J diag(sigma^2) J^T`` [m²].
+``J diag(sigma^2) J^T`` [m²]. :meth:`StereoPair.triangulate_constrained` differentiates the
+whole sketch step: the operator's clicks (both images, as clicked), the move of the right-hand
+click onto the epipolar line, then triangulation, for all vertices of a primitive at once; its
+joint covariance holds the correlation the vertices share through the calibration, which a
+derived quantity (a box centre, a line direction) needs.
 """
 
 from __future__ import annotations
@@ -91,6 +95,9 @@ class StereoPair:
         self._b = _Camera(_f(K_b, (3, 3)), _f(dist_b, (5,)), _f(T_base_camera_b, (4, 4)))
         self.P_a = self._a.matrix()
         self.P_b = self._b.matrix()
+        #: the last joint covariance computed, by its clicks and noise (a box built from a
+        #: primitive just placed asks for the same one)
+        self._constrained: tuple[tuple, tuple] | None = None
 
     @classmethod
     def from_snapshot(cls, snap: StereoSnapshot) -> StereoPair:
@@ -152,6 +159,49 @@ class StereoPair:
         points = [T[:3, :3] @ (ray_cam * d) + T[:3, 3] for d in depth_range_m]
         return self.project("b", np.stack(points))
 
+    def epipolar_curve_b(
+        self,
+        pixel_a: ArrayLike,
+        size_b: tuple[int, int],
+        samples: int = 4000,
+        spacing_px: float = 4.0,
+    ) -> FloatArray:
+        """The epipolar curve of an image-a pixel in image b: the pixels image b shows (lens
+        distortion included, so a curve, not a line) of the points along camera a's ray, from
+        5 cm in front of it to 10 km, inside the ``size_b = (width, height)`` image. Points
+        where b's lens model folds over (no undistortion back to the same ray) are left out.
+        ``(m, 2)`` pixels in order along the ray, about ``spacing_px`` apart (``m`` may be 0)."""
+        ideal_a = self.ideal("a", np.asarray(pixel_a, dtype=float).reshape(2))
+        if not np.all(np.isfinite(ideal_a)):
+            return np.zeros((0, 2))
+        ray_cam = np.linalg.solve(self._a.K, np.append(ideal_a, 1.0))
+        T = self._a.T_base_camera
+        inverse_depth = np.linspace(1.0 / 0.05, 1e-4, samples)
+        points = (T[:3, :3] @ (ray_cam[:, None] / inverse_depth)).T + T[:3, 3]
+        T_b = np.linalg.inv(self._b.T_base_camera)
+        in_front = (points @ T_b[:3, :3].T + T_b[:3, 3])[:, 2] > 0
+        h = np.hstack([points, np.ones((len(points), 1))]) @ self.P_b.T
+        ideal_b = h[:, :2] / h[:, 2:3]
+        shown = self.shown("b", ideal_b)
+        with np.errstate(invalid="ignore"):
+            back = self.ideal("b", shown)
+            unfolded = np.all(np.abs(back - ideal_b) < 1e-3, axis=1)
+        width, height = size_b
+        inside = (
+            (shown[:, 0] >= 0)
+            & (shown[:, 0] <= width)
+            & (shown[:, 1] >= 0)
+            & (shown[:, 1] <= height)
+        )
+        curve = shown[in_front & unfolded & inside]
+        if len(curve) < 3:
+            return curve
+        kept = [0]
+        for i in range(1, len(curve) - 1):
+            if np.linalg.norm(curve[i] - curve[kept[-1]]) >= spacing_px:
+                kept.append(i)
+        return curve[[*kept, len(curve) - 1]]
+
     # -- triangulation ----------------------------------------------------------------------
     def triangulate(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> tuple[FloatArray, float]:
         """The 3-D point (m, base) of one matched pixel pair and the ray gap (m)."""
@@ -191,6 +241,56 @@ class StereoPair:
             J[:, i] = (plus - minus) / (2.0 * steps[i])
         covariance = (J * sigma**2) @ J.T
         return point, 0.5 * (covariance + covariance.T), gap
+
+    def triangulate_constrained(
+        self, pixels_a: ArrayLike, pixels_b: ArrayLike, noise: StereoNoise
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Vertices from clicked pixel pairs: each ``pixels_b[i]`` is moved onto the epipolar
+        line of ``pixels_a[i]`` (:meth:`constrain_b`), then triangulated.
+
+        Returns ``(points (n, 3) m, joint covariance (3n, 3n) m², gaps (n,) m)``: the covariance
+        of all vertices from the clicks' noise (both coordinates of both images) and the two
+        cameras' calibration errors, through the epipolar step.
+        """
+        uv_a = np.asarray(pixels_a, dtype=float).reshape(-1, 2)
+        uv_b = np.asarray(pixels_b, dtype=float).reshape(-1, 2)
+        key = (uv_a.tobytes(), uv_b.tobytes(), noise)
+        if self._constrained is not None and self._constrained[0] == key:
+            return tuple(np.copy(v) for v in self._constrained[1])
+        n = len(uv_a)
+        calib_sigma = [noise.rotation_rad] * 3 + [noise.translation_m] * 3
+        calib_sigma += [noise.focal_rel, noise.principal_px, noise.principal_px]
+        sigma = np.array([noise.pixel_px] * (4 * n) + calib_sigma * 2)
+        calib_steps = [1e-5] * 7 + [0.5, 0.5]
+        steps = np.array([0.5] * (4 * n) + calib_steps * 2)
+        points, gaps = self._constrained_points(uv_a, uv_b, np.zeros(sigma.size))
+        J = np.zeros((3 * n, sigma.size))
+        for i in np.flatnonzero(sigma):
+            delta = np.zeros(sigma.size)
+            delta[i] = steps[i]
+            plus, _ = self._constrained_points(uv_a, uv_b, delta)
+            minus, _ = self._constrained_points(uv_a, uv_b, -delta)
+            J[:, i] = (plus - minus).ravel() / (2.0 * steps[i])
+        covariance = (J * sigma**2) @ J.T
+        result = (points, 0.5 * (covariance + covariance.T), gaps)
+        self._constrained = (key, tuple(np.copy(v) for v in result))
+        return result
+
+    def _constrained_points(
+        self, uv_a: FloatArray, uv_b: FloatArray, delta: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        n = len(uv_a)
+        pair = self
+        if np.any(delta[4 * n :]):
+            cam_a = self._a.perturbed(delta[4 * n : 4 * n + 9])
+            cam_b = self._b.perturbed(delta[4 * n + 9 :])
+            pair = StereoPair(
+                cam_a.K, cam_a.T_base_camera, cam_b.K, cam_b.T_base_camera, cam_a.dist, cam_b.dist
+            )
+        a = uv_a + delta[: 2 * n].reshape(n, 2)
+        b = pair.constrain_b(a, uv_b + delta[2 * n : 4 * n].reshape(n, 2)).reshape(n, 2)
+        result = triangulate_pixels([pair.P_a, pair.P_b], [pair.ideal("a", a), pair.ideal("b", b)])
+        return np.asarray(result.point, dtype=float).reshape(n, 3), np.atleast_1d(result.gap)
 
     def _triangulate_perturbed(
         self, uv_a: FloatArray, uv_b: FloatArray, delta: FloatArray
