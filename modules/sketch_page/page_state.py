@@ -1,12 +1,12 @@
 """What the /sketch page shows, as plain JSON built from the graph's messages (pure).
 
 The page draws in image pixels (u right, v down) of the snapshot's images. It gets the
-fundamental matrix ``F`` (``x_b^T F x_a = 0``, ideal pixels) to keep each right-hand vertex on
-the epipolar line of its mate while it is dragged (exact for the simulated cameras, which have
-no distortion; the Sketch module re-applies the exact constraint, distortion included, when the
-primitive is placed), the camera matrices for the test tools, every primitive with its vertices
-reprojected from 3-D, its centroid (m, base: where the cameras aim) and largest sigma (mm), the
-macro menu of each kind of primitive, and the planned tool path projected into both images.
+fundamental matrix ``F`` (``x_b^T F x_a = 0``, ideal pixels; the page's fallback until the
+epipolar curve of a vertex, distortion included, comes from ``/sketch/epipolar``, computed by
+:meth:`modules.sketch.stereo.StereoPair.epipolar_curve_b`), each image's size, the camera
+matrices for the test tools, every primitive with its vertices reprojected from 3-D, its
+centroid (m, base: where the cameras aim) and largest sigma (mm), the macro menu of each kind of
+primitive, and the planned tool path projected into both images.
 """
 
 from __future__ import annotations
@@ -50,6 +50,8 @@ def page_state(
             "id": snapshot.snapshot_id,
             "width": int(snapshot.image_a.shape[1]),
             "height": int(snapshot.image_a.shape[0]),
+            "size_a": [int(snapshot.image_a.shape[1]), int(snapshot.image_a.shape[0])],
+            "size_b": [int(snapshot.image_b.shape[1]), int(snapshot.image_b.shape[0])],
             "zoom": [snapshot.zoom_a, snapshot.zoom_b],
             "F": _r(fundamental_matrix(pair.P_a, pair.P_b), 12),
             "P_a": _r(pair.P_a, 9),

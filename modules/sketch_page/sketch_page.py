@@ -15,6 +15,7 @@ from importlib import resources
 from typing import Any
 
 import cv2
+import numpy as np
 from fastapi import Request
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
@@ -26,6 +27,7 @@ from modules.operator.control import Decision
 from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
 from modules.sketch.command_text import parse
+from modules.sketch.stereo import StereoPair
 from modules.sketch_page.page_state import page_state
 from modules.webdoor.gate import Refusals
 from modules.webdoor.secret import resolve_token
@@ -115,6 +117,8 @@ class SketchPage(Module):
         self._state: Latest[dict[str, Any]] = Latest()
         self._control_view: Latest[dict[str, Any]] = Latest()
         self._images: Latest[tuple[str, bytes, bytes]] = Latest()
+        #: the snapshot's stereo pair and image b's size, for epipolar curves (web thread)
+        self._pair: Latest[tuple[str, StereoPair, tuple[int, int]]] = Latest()
         #: requests by browser: the holder's never wait behind another browser's
         self._inbox: Lanes[_Request] = Lanes(per_session=4, budget=16, holder_capacity=64)
         self._primitives: list[SketchPrimitive] = []
@@ -137,6 +141,7 @@ class SketchPage(Module):
         app.add_api_route("/sketch/sketch.js", self._script, methods=["GET"])
         app.add_api_route("/sketch/state", self._get_state, methods=["GET"])
         app.add_api_route("/sketch/image/{side}", self._image, methods=["GET"])
+        app.add_api_route("/sketch/epipolar", self._epipolar, methods=["GET"])
         app.add_api_route("/sketch/command", self._post_command, methods=["POST"])
         app.add_api_route("/sketch/control", self._post_control, methods=["POST"])
         self._server.add_link("/sketch", "Active Sketch")
@@ -156,6 +161,8 @@ class SketchPage(Module):
             a = cv2.imencode(".jpg", snap.image_a, quality)[1].tobytes()
             b = cv2.imencode(".jpg", snap.image_b, quality)[1].tobytes()
             self._images.put((snap.snapshot_id, a, b))
+            size_b = (int(snap.image_b.shape[1]), int(snap.image_b.shape[0]))
+            self._pair.put((snap.snapshot_id, StereoPair.from_snapshot(snap), size_b))
             changed = True
         prim = self.primitive.get(now)
         if prim is not None and self.primitive.fresh:
@@ -350,6 +357,22 @@ class SketchPage(Module):
             media_type="image/jpeg",
             headers={"Cache-Control": "no-store"},
         )
+
+    async def _epipolar(self, request: Request) -> JSONResponse:
+        """``?u=U&v=V`` (px, image a): the epipolar curve in image b, as the camera model gives
+        it (``StereoPair.epipolar_curve_b``), for the page to draw and to keep b's vertex on."""
+        try:
+            pixel = [float(request.query_params[k]) for k in ("u", "v")]
+        except (KeyError, ValueError):
+            return self._malformed("/sketch/epipolar: expected ?u=U&v=V, numbers in pixels")
+        if not all(math.isfinite(x) and abs(x) < 1e6 for x in pixel):
+            return self._malformed(f"/sketch/epipolar: expected finite pixels, got {pixel}")
+        _, held = self._pair.get()
+        if held is None:
+            return JSONResponse({"snapshot": None, "points": []})
+        sid, pair, size_b = held
+        points = await asyncio.to_thread(pair.epipolar_curve_b, pixel, size_b)
+        return JSONResponse({"snapshot": sid, "points": np.round(points, 2).tolist()})
 
     def _malformed(self, message: str) -> JSONResponse:
         self._refused += 1

@@ -13,9 +13,52 @@ function epiLine(p) {  // l = F [u, v, 1] in image b
   const F = sk.state.snapshot.F;
   return [0, 1, 2].map((i) => F[i][0] * p[0] + F[i][1] * p[1] + F[i][2]);
 }
-function onLine(p, a) {  // p moved onto the epipolar line of a
+function onLine(p, a) {  // p moved onto the epipolar line of a (ideal pixels: no distortion)
   const l = epiLine(a), d = (l[0] * p[0] + l[1] * p[1] + l[2]) / (l[0] * l[0] + l[1] * l[1]);
   return [p[0] - d * l[0], p[1] - d * l[1]];
+}
+// The epipolar CURVE of vertex i of image a in image b, distortion included, is the server's
+// (GET /sketch/epipolar, one home for the camera model): a polyline, asked for whenever the
+// vertex moves (one request in flight per vertex; the latest position wins).
+sk.epi = [];
+function curveOf(i) {
+  const c = sk.epi[i], a = sk.a[i];
+  return c && c.snap === sk.snap && c.at[0] === a[0] && c.at[1] === a[1] && c.points.length > 1 ? c.points : null;
+}
+function onCurve(p, i) {  // p moved onto the epipolar curve of a's vertex i (or its line)
+  const pts = curveOf(i);
+  if (!pts) return onLine(p, sk.a[i]);
+  let best = pts[0], bestD = Infinity;
+  for (let k = 0; k + 1 < pts.length; k++) {
+    const [x0, y0] = pts[k], [x1, y1] = pts[k + 1], dx = x1 - x0, dy = y1 - y0;
+    const t = Math.max(0, Math.min(1, ((p[0] - x0) * dx + (p[1] - y0) * dy) / (dx * dx + dy * dy || 1)));
+    const q = [x0 + t * dx, y0 + t * dy], d = (q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2;
+    if (d < bestD) { bestD = d; best = q; }
+  }
+  return best;
+}
+const epiBusy = {};
+async function fetchCurve(i) {
+  if (epiBusy[i]) { epiBusy[i] = "again"; return; }
+  epiBusy[i] = true;
+  try {
+    const at = sk.a[i].slice(), snap = sk.snap;
+    const r = await fetch(`/sketch/epipolar?u=${at[0]}&v=${at[1]}`);
+    const reply = await r.json();
+    if (r.ok && reply.snapshot === snap) {
+      sk.epi[i] = { snap, at, points: reply.points };
+      if (!(sk.drag && sk.drag.side === "b" && sk.drag.i === i) && sk.b[i]) sk.b[i] = onCurve(sk.b[i], i);
+      draw();
+    }
+  } finally {
+    const again = epiBusy[i] === "again";
+    epiBusy[i] = false;
+    if (again) fetchCurve(i);
+  }
+}
+function imageSize(side) {  // the snapshot's image size (px), not an assumed 640 x 480
+  const s = sk.state && sk.state.snapshot;
+  return s ? s["size_" + side] || [s.width, s.height] : [640, 480];
 }
 async function post(url, body) {  // the server's answer, or its refusal, shown on the page
   const r = await fetch(url, { method: "POST", body: JSON.stringify(body) });
@@ -79,9 +122,12 @@ function draw() {
     const verts = sk[side];
     for (const [i, j] of EDGES[sk.kind] || []) el(svg, "line", { x1: verts[i][0], y1: verts[i][1], x2: verts[j][0], y2: verts[j][1], class: "edge" });
     if (side === "b" && st.snapshot) {
-      sk.a.forEach((p) => {
-        const l = epiLine(p);
-        el(svg, "line", { x1: 0, y1: -l[2] / l[1], x2: 640, y2: -(l[2] + 640 * l[0]) / l[1], class: "epi" });
+      const w = imageSize("b")[0];
+      sk.a.forEach((p, i) => {
+        const pts = curveOf(i);
+        if (pts) { polyline(svg, pts, "epi"); return; }
+        const l = epiLine(p);  // until the curve arrives: the ideal-pixel line
+        el(svg, "line", { x1: 0, y1: -l[2] / l[1], x2: w, y2: -(l[2] + w * l[0]) / l[1], class: "epi" });
       });
     }
     verts.forEach((p, i) => {
@@ -99,12 +145,14 @@ function draw() {
 function pointer(ev) {
   if (!sk.drag) return;
   const svg = $("svg-" + sk.drag.side), r = svg.getBoundingClientRect();
-  const p = [(ev.clientX - r.left) * 640 / r.width, (ev.clientY - r.top) * 480 / r.height];
+  const [w, h] = imageSize(sk.drag.side);
+  const p = [(ev.clientX - r.left) * w / r.width, (ev.clientY - r.top) * h / r.height];
   if (sk.drag.side === "a") {
     sk.a[sk.drag.i] = p;
-    sk.b[sk.drag.i] = onLine(sk.b[sk.drag.i], p);
+    sk.b[sk.drag.i] = onCurve(sk.b[sk.drag.i], sk.drag.i);
+    fetchCurve(sk.drag.i);
   } else {
-    sk.b[sk.drag.i] = onLine(p, sk.a[sk.drag.i]);
+    sk.b[sk.drag.i] = onCurve(p, sk.drag.i);
   }
   draw();
 }
@@ -116,8 +164,11 @@ $("snapshot").onclick = () => send("snapshot");
 document.querySelectorAll(".drop").forEach((b) => b.onclick = () => {
   if (!sk.state || !sk.state.snapshot) return;
   sk.kind = b.dataset.kind;
-  sk.a = DEFAULTS[sk.kind].map((p) => p.slice());
+  const [w, h] = imageSize("a");  // the defaults are for 640 x 480: scaled to the image
+  sk.a = DEFAULTS[sk.kind].map((p) => [p[0] * w / 640, p[1] * h / 480]);
   sk.b = sk.a.map((p) => onLine(p, p));
+  sk.epi = [];
+  sk.a.forEach((_, i) => fetchCurve(i));
   draw();
 });
 $("place").onclick = () => {
@@ -144,7 +195,13 @@ async function poll() {
       sk.version = st.version; sk.state = st;
       if (st.snapshot && st.snapshot.id !== sk.snap) {
         sk.snap = st.snapshot.id;
-        for (const s of ["a", "b"]) $("img-" + s).src = `/sketch/image/${s}.jpg?v=${sk.snap}`;
+        for (const s of ["a", "b"]) {
+          $("img-" + s).src = `/sketch/image/${s}.jpg?v=${sk.snap}`;
+          const [w, h] = imageSize(s);  // drawn in the image's own pixels, stretched as the image is
+          $("svg-" + s).setAttribute("viewBox", `0 0 ${w} ${h}`);
+          $("svg-" + s).setAttribute("preserveAspectRatio", "none");
+        }
+        sk.epi = [];
         sk.a = []; sk.b = []; sk.kind = ""; sk.selected = null;
       }
       const added = st.primitives.filter((p) => !known.includes(p.id));
