@@ -34,7 +34,9 @@ def test_topics_echo_and_hz_on_a_run_publishing_every_output(
     assert (double["type"], double["producer"]) == ("Scalar", "smart")  # not a link: published
     for row in (count, double):
         assert 50 < row["rate_hz"] < 150 and row["samples"] > 50, row
-        assert 0 <= row["age_s"] < 0.5 and row["drops"] == 0 and row["note"] == "", row
+        # state streams drop under congestion rather than queue: a loaded machine loses a few
+        assert 0 <= row["age_s"] < 0.5 and row["drops"] < row["samples"] / 5, row
+        assert row["note"] == "", row
 
     # the API: a wildcard becomes one subscription per readable key (the rules refuse wider)
     observer = Observation.open(folder=user_folder(plugin_env))
