@@ -110,6 +110,8 @@ def link_lines(stats: dict[str, Any]) -> list[str]:
             f"in place), {s['shm_samples']} through zenoh shared memory, "
             f"{s['put_errors']} errors"
         )
+        if s.get("pool_declined"):
+            lines[-1] += f"; {s['pool_declined']} sent as bytes (an observer was connected)"
     for s in stats.get("subscribe", []):
         lines.append(
             f"  link {s['key']} (from `{s['producer']}`): received {s['received']}, "
