@@ -8,7 +8,9 @@ size of the largest legitimate sample plus room for the envelope and strings:
   arrays plus ``ENVELOPE_BYTES`` (a Twist is ~100 bytes on the wire; its bound is 1 KiB);
 * joint vectors: ``MAX_JOINTS`` joints;
 * ``Image``: the producer's declared frame size (its ``width``/``height`` parameters, e.g. a
-  DigiCam's) at ``IMAGE_BYTES_PER_PIXEL`` bytes per pixel, else ``DEFAULT_IMAGE_PIXELS``;
+  DigiCam's) at ``IMAGE_BYTES_PER_PIXEL`` bytes per pixel, else ``DEFAULT_IMAGE_PIXELS``; a type
+  that carries whole images (``StereoSnapshot``: both cameras' frames, for the sketch page in a
+  process of its own) as many of them, plus ``DEFAULT_MAX_BYTES`` for the rest;
 * other types: ``MAX_WIRE_BYTES`` when the message class declares one, else
   ``DEFAULT_MAX_BYTES`` (message types hold small arrays; video is an ``Image``).
 """
@@ -40,6 +42,8 @@ _FIXED_ARRAYS = {
     "CameraModel": (5 + 16) * _F8,
     "Text": 4096,  # operator commands and log lines: bounded text
 }
+#: Types that carry whole images besides small arrays: how many images.
+_IMAGES = {"StereoSnapshot": 2}
 #: Per-joint bytes of the joint types: a name and two values.
 _PER_JOINT = {"JointState": 64 + 2 * _F8, "JointRates": 64 + _F8}
 
@@ -63,6 +67,10 @@ def max_sample_bytes(msg_type: type, producer_params: Any = None) -> int:
     if name == "Image":
         pixels = _declared_pixels(producer_params) or DEFAULT_IMAGE_PIXELS
         return pixels * IMAGE_BYTES_PER_PIXEL + IMAGE_FRAMING_BYTES
+    if name in _IMAGES:
+        pixels = _declared_pixels(producer_params) or DEFAULT_IMAGE_PIXELS
+        image = pixels * IMAGE_BYTES_PER_PIXEL + IMAGE_FRAMING_BYTES
+        return _IMAGES[name] * image + DEFAULT_MAX_BYTES
     if name in _FIXED_ARRAYS:
         return _FIXED_ARRAYS[name] + ENVELOPE_BYTES
     if name in _PER_JOINT:
