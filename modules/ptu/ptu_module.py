@@ -59,6 +59,7 @@ class Ptu(Module):
         )
         self._status = "ok"
         self._point: np.ndarray | None = None  # the point being watched (point mode)
+        self._camera_seq = -1  # the camera model last aimed with
         self._last: float | None = None
         self._refused = 0
 
@@ -67,7 +68,9 @@ class Ptu(Module):
         if command is not None and self.command.fresh:
             self._obey(command, now)
         elif self._point is not None and self.camera.fresh:
-            self._aim(self._point, now)
+            model = self.camera.get(now)
+            if model is not None and model.seq != self._camera_seq:
+                self._aim(self._point, now)  # a new model (the zoom changed): re-aim
         dt = 0.0 if self._last is None else now - self._last
         self._last = now
         if dt > 0:
@@ -111,8 +114,12 @@ class Ptu(Module):
     def _aim(self, point: np.ndarray, now: float) -> None:
         model = self.camera.get(now)
         camera = None if model is None else pinhole_from_message(model)
+        if model is not None:
+            self._camera_seq = model.seq
         try:
-            self.unit.command(*aim_in_base(self.geometry, self.T_base_ptu, point, camera))
+            pan, tilt = aim_in_base(self.geometry, self.T_base_ptu, point, camera)
+            if np.max(np.abs(np.array([pan, tilt]) - self.unit.targets)) > 1e-7:
+                self.unit.command(pan, tilt)
         except PtuLimitError as exc:
             self._point = None
             self._refuse(str(exc))

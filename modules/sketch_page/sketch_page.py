@@ -15,7 +15,6 @@ from importlib import resources
 from typing import Any
 
 import cv2
-import numpy as np
 from fastapi import Request
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
@@ -372,7 +371,7 @@ class SketchPage(Module):
             return JSONResponse({"snapshot": None, "points": []})
         sid, pair, size_b = held
         points = await asyncio.to_thread(pair.epipolar_curve_b, pixel, size_b)
-        return JSONResponse({"snapshot": sid, "points": np.round(points, 2).tolist()})
+        return JSONResponse({"snapshot": sid, "points": points.tolist()})
 
     def _malformed(self, message: str) -> JSONResponse:
         self._refused += 1
