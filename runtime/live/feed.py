@@ -84,11 +84,15 @@ class ObservedFeed:
 
     def _join(self) -> None:
         from connectors.errors import UserError
-        from runtime.links.observe import Observation
+        from runtime.links.observe import Observation, choose_run
 
+        # a peer hears only the processes it connects to: wait for every process's run file
+        expected = len(self._plan.populated_processes)
         deadline = time.monotonic() + JOIN_PATIENCE
         while not self._stop.is_set():
             try:
+                if len(choose_run(self._prefix).processes) < expected:
+                    raise UserError(f"error: fewer than the run's {expected} processes are up")
                 observation = Observation.open(self._prefix)
             except UserError as exc:
                 if time.monotonic() > deadline:

@@ -91,3 +91,25 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
     tried = report["triedSet"]
     assert report["afterSet"] == [{"name": tried["name"], "value": tried["value"]}]
     assert "asked to set" in run.text() and "refused" in run.text()
+
+
+@needs_node
+def test_a_split_pickup_is_served_from_every_process_it_runs(client: Path, tmp_path: Path) -> None:
+    """Three processes (vision `umbra`, the operator's page `ui`, the servo side `smart`): the
+    live server in the `umbra` command observes each on zenoh (--publish-all) and serves them."""
+    run = LiveRun(str(GRAPH), tmp_path / "run", "--duration", "40")
+    try:
+        time.sleep(5.0)  # the processes up and linked
+        report = run_client(client, run.url, 6.0)
+    finally:
+        run.stop()
+    topics = report["topics"]
+    assert all(t["errors"] == 0 for t in topics.values())
+    seen = {t for t, v in topics.items() if v["count"] > 0}
+    # vision (umbra), the arm and its joints (smart); the page (ui) sends only on events
+    assert {"/camera/image", "/camera/truth/annotations"} <= seen
+    assert {"/joints/joint_state", "/kinematics/link_poses", "/register/twist"} <= seen
+    assert "/console/presence" in report["channels"]
+    assert topics["/joints/joint_state"]["count"] > 100  # 100 Hz from the servo side
+    joints = topics["/joints/joint_state"]["first"]["joints"]
+    assert [j["name"] for j in joints][-1] == "gripper"
