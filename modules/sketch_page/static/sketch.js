@@ -200,6 +200,8 @@ async function poll() {
           const [w, h] = imageSize(s);  // drawn in the image's own pixels, stretched as the image is
           $("svg-" + s).setAttribute("viewBox", `0 0 ${w} ${h}`);
           $("svg-" + s).setAttribute("preserveAspectRatio", "none");
+          const shown = `${Math.round(640 * h / w)}px`;  // 640 px wide, the image's own aspect
+          for (const e of [$("svg-" + s).parentElement, $("svg-" + s), $("img-" + s)]) e.style.height = shown;
         }
         sk.epi = [];
         sk.a = []; sk.b = []; sk.kind = ""; sk.selected = null;
