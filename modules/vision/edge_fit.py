@@ -32,6 +32,7 @@ grid), never the whole image. Pixels: u right, v down, pixel centres at integer 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -110,52 +111,41 @@ def fit_edges(
     total = float(count - 1)  # the trapezoid weights' sum
     shift = np.zeros(len(vertices))
     found = np.ones(len(vertices), dtype=bool)
-    # Centring passes (the step of equal area), each centred on the last estimate: on a coarse
-    # grid first over a σ times longer profile; then the half-contrast crossing on a profile
-    # centred on the edge. The colour tests are made on the first.
-    reaches = (scale, 1, 1) if scale > 1 else (1, 1)
-    for reach in reaches:
-        length = p.half_length_px * reach
-        profile = _profile(image, vertices, normals, shift, unit * length)
-        inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
-        if reach == scale:
-            contrast = inner - outer
-            found &= np.einsum("nc,nc->n", contrast, contrast) >= p.min_contrast**2
-            target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
-            found &= target[: len(inner)] & ~target[len(inner) :]
-        contrast, power = _contrast(profile, inner, outer, found)
-        # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in
-        # the samples, so summed first.
-        moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
-        integral = (p.sample_px * reach) * moment / power
-        shift = np.where(found, shift + integral - length, 0.0)
-        found &= np.abs(shift) <= p.max_shift_px * scale
-        shift = np.where(found, shift, 0.0)
+    # Centring: the step of equal area over a profile σ times longer on a coarse grid (the
+    # colour tests are made here); then, on a profile centred there, the first half-contrast
+    # crossing from the patch's side, refined by the step of equal area over a window centred
+    # on it alone.
+    length = p.half_length_px * scale
+    profile = _profile(image, vertices, normals, shift, unit * length)
+    inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
+    contrast = inner - outer
+    power = np.einsum("nc,nc->n", contrast, contrast)
+    found &= power >= p.min_contrast**2
+    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
+    found &= target[: len(inner)] & ~target[len(inner) :]
+    # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
+    # samples, so summed first.
+    moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
+    integral = (p.sample_px * scale) * moment / np.where(found, power, 1.0)
+    shift = np.where(found, integral - length, 0.0)
+    found &= np.abs(shift) <= p.max_shift_px * scale
+    shift = np.where(found, shift, 0.0)
     if p.crossing:
-        profile = _profile(image, vertices, normals, shift, unit * p.half_length_px)
-        inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
-        contrast, power = _contrast(profile, inner, outer, found)
-        fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast) / power[:, None]
-        crossing, crossed = _half_crossing(fraction, unit * p.half_length_px, p.sample_px)
-        found &= crossed
-        shift = np.where(found, shift + crossing, 0.0)
-        # Then the step of equal area over a window centred on the edge alone (exact for any
-        # symmetric blur of a straight edge, blind to the texture beyond the window).
+        # Twice: the second profile is centred on the first one's edge, so that its ends lie
+        # as far out on either side.
         offsets = unit * p.half_length_px
-        central = np.abs(offsets) <= p.window_px + 1e-9
-        trapezoid = np.where(central, 1.0, 0.0)
-        edge_ends = np.flatnonzero(central)[[0, -1]]
-        trapezoid[edge_ends] = 0.5
-        half = 0.5 * p.sample_px * float(trapezoid.sum())
         for _ in range(2):
             profile = _profile(image, vertices, normals, shift, offsets)
             inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
-            contrast, power = _contrast(profile, inner, outer, found)
-            moment = np.einsum("nkc,nc,k->n", profile - outer[:, None, :], contrast, trapezoid)
-            step = p.sample_px * moment / power - half
-            shift = np.where(found, shift + np.clip(step, -p.window_px, p.window_px), 0.0)
-        found &= np.abs(shift) <= p.max_shift_px * scale
-        shift = np.where(found, shift, 0.0)
+            contrast, power = _contrast(inner, outer, found)
+            fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
+            fraction /= power[:, None]
+            edge, crossed = _half_crossing(fraction, offsets, p.sample_px)
+            edge = _centred_step(fraction, offsets, edge, p.window_px)
+            found &= crossed
+            shift = np.where(found, shift + edge, 0.0)
+            found &= np.abs(shift) <= p.max_shift_px * scale
+            shift = np.where(found, shift, 0.0)
     found &= ~_off_the_curve(vertices + shift[:, None] * normals, normals, found, p.max_kink_px)
     shift = np.where(found, shift, 0.0)
     # A vertex without an edge of its own (a corner's diagonal profile that ends on the other
@@ -175,17 +165,19 @@ def _off_the_curve(
     so a run of two such vertices is caught too."""
     if len(fitted) < 7:
         return np.zeros(len(fitted), dtype=bool)
-    ring = [following(fitted, k) - fitted for k in (-2, -1, 1, 2)]
-    offsets = np.stack([np.einsum("nc,nc->n", r, normals) for r in ring])
-    middle = np.median(offsets, axis=0)
-    around = np.stack([following(found, k) for k in (-2, -1, 1, 2)]).sum(axis=0) >= 3
-    cos_turn = np.einsum("nc,nc->n", following(normals, -1), following(normals))
+    count = len(fitted)
+    index = (np.arange(count)[:, None] + np.array([-2, -1, 1, 2])[None, :]) % count
+    offsets = np.einsum("nkc,nc->nk", fitted[index] - fitted[:, None, :], normals)
+    # The median of four: their sum less the largest and the smallest, halved.
+    middle = 0.5 * (offsets.sum(axis=1) - offsets.max(axis=1) - offsets.min(axis=1))
+    around = found[index].sum(axis=1) >= 3
+    cos_turn = np.einsum("nc,nc->n", normals[index[:, 1]], normals[index[:, 2]])
     smooth = cos_turn > _STRAIGHT
     # On a curve of turn θ [rad] between the neighbours' normals and segment L, the neighbours
-    # sit ~1.25 θ L / 2 behind the tangent.
-    turn = np.arccos(np.clip(cos_turn, -1.0, 1.0))
-    step = np.hypot(*(following(fitted) - following(fitted, -1)).T) / 2.0
-    allowance = 0.625 * turn * step
+    # sit ~1.25 θ L / 2 behind the tangent (θ ~ sqrt(2 (1 - cos θ)) at small turns).
+    turn = np.sqrt(np.maximum(2.0 * (1.0 - cos_turn), 0.0))
+    chord = fitted[index[:, 2]] - fitted[index[:, 1]]
+    allowance = 0.3125 * turn * np.hypot(chord[:, 0], chord[:, 1])
     return found & around & smooth & (np.abs(middle) > max_kink_px + allowance)
 
 
@@ -197,20 +189,44 @@ def _profile(image, vertices, normals, shift, offsets) -> NDArray[np.float32]:
     return sample_bilinear(image, points)
 
 
-def _contrast(profile, inner, outer, found) -> tuple[NDArray, NDArray]:
-    """The colour step between the profile's ends (N x C) over the channels that are never
-    clipped along the profile (a saturated or black channel does not mix linearly: its edge
-    looks shifted towards the clipped side), and its squared length (N; 1 where none)."""
-    low = profile.min(axis=1)
-    high = profile.max(axis=1)
-    linear = (high < _CLIP_HIGH) & (low > _CLIP_LOW)
-    contrast = np.where(linear, inner - outer, 0.0)
+def _contrast(inner, outer, found) -> tuple[NDArray, NDArray]:
+    """The colour step between the profile's ends (N x C) over the channels that are not
+    clipped at either end (a saturated or black channel does not mix linearly: its edge looks
+    shifted towards the clipped side), and its squared length (N; 1 where none)."""
+    linear = (np.maximum(inner, outer) < _CLIP_HIGH) & (np.minimum(inner, outer) > _CLIP_LOW)
+    step = inner - outer
+    contrast = np.where(linear, step, 0.0)
     power = np.einsum("nc,nc->n", contrast, contrast)
     # Where every channel with contrast is clipped, the full step is the best there is.
-    weak = power < 0.25 * np.einsum("nc,nc->n", inner - outer, inner - outer)
-    contrast = np.where(weak[:, None], inner - outer, contrast)
-    power = np.einsum("nc,nc->n", contrast, contrast)
+    weak = power < 0.25 * np.einsum("nc,nc->n", step, step)
+    if np.any(weak):
+        contrast = np.where(weak[:, None], step, contrast)
+        power = np.einsum("nc,nc->n", contrast, contrast)
     return contrast, np.where(found & (power > 0.0), power, 1.0)
+
+
+def _centred_step(
+    fraction: FloatArray, offsets: FloatArray, centre: FloatArray, window_px: float
+) -> FloatArray:
+    """The step of equal area within ``centre ± window_px`` (N px) of each profile (N, K,
+    mixing fraction at evenly spaced ``offsets``, taken as linear between samples): exact for a
+    straight edge under any symmetric blur that the window holds, whatever lies beyond it."""
+    spacing = float(offsets[1] - offsets[0])
+    lo, hi = offsets[0] + window_px, offsets[-1] - window_px
+    centre = np.clip(centre, lo, hi)
+    steps = 0.5 * spacing * (fraction[:, 1:] + fraction[:, :-1])
+    cumulative = np.concatenate([np.zeros((len(fraction), 1)), np.cumsum(steps, axis=1)], axis=1)
+
+    def area_to(s: FloatArray) -> FloatArray:
+        x = (s - offsets[0]) / spacing
+        i = np.clip(np.floor(x).astype(np.intp), 0, len(offsets) - 2)
+        f = x - i
+        rows = np.arange(len(fraction))
+        t0, t1 = fraction[rows, i], fraction[rows, i + 1]
+        return cumulative[rows, i] + spacing * (f * t0 + 0.5 * f * f * (t1 - t0))
+
+    area = area_to(centre + window_px) - area_to(centre - window_px)
+    return np.clip(centre - window_px + area, centre - window_px, centre + window_px)
 
 
 def _half_crossing(
@@ -229,7 +245,7 @@ def _half_crossing(
     window = np.arange(-reach + 1, reach + 1)  # samples k - reach + 1 .. k + reach
     index = np.clip(k[:, None] + window[None, :], 0, len(offsets) - 1)
     s = offsets[index]
-    t = np.take_along_axis(fraction, index, axis=1)
+    t = fraction[np.arange(len(fraction))[:, None], index]
     s_mean = s.mean(axis=1, keepdims=True)
     t_mean = t.mean(axis=1, keepdims=True)
     slope = ((s - s_mean) * (t - t_mean)).sum(axis=1) / ((s - s_mean) ** 2).sum(axis=1)
@@ -305,54 +321,58 @@ def complete_corners(
     cross = before[:, 0] * edges[:, 1] - before[:, 1] * edges[:, 0]
     dot = before[:, 0] * edges[:, 0] + before[:, 1] * edges[:, 1]
     turn = orientation * np.arctan2(cross, dot)  # at vertex i, outward (convex) positive
-    straight = np.abs(turn) < _STRAIGHT_TURN
-    # For each b and cut length g (c = b + g): turn from edge (b-1 -> b) to edge (c -> c+1).
-    taken = np.zeros(count, dtype=bool)
-    corners: list[tuple[int, int, FloatArray]] = []
-    index = np.arange(count)
-    for g in range(1, max_cut + 1):
-        total = sum(following(turn, k) for k in range(g + 1))
-        convex = np.all([following(turn, k) > -_STRAIGHT_TURN for k in range(g + 1)], axis=0)
-        ok = (total > min_turn_rad) & convex
-        ok &= following(straight, -1) & following(straight, g + 1)  # runs into b and out of c
-        ok &= following(found, -1) & found & following(found, g) & following(found, g + 1)
-        for b in np.flatnonzero(ok):
-            c = (b + g) % count
-            span = (index[b : b + g + 1] if b + g < count else np.r_[b:count, 0 : c + 1]) % count
-            if taken[span].any():
-                continue
-            d1, d2, gap = before[b], edges[c], vertices[c] - vertices[b]
-            det = d1[0] * d2[1] - d1[1] * d2[0]
-            if abs(det) < 1e-12:
-                continue
-            s_ = (gap[0] * d2[1] - gap[1] * d2[0]) / det
-            r_ = (d1[0] * gap[1] - d1[1] * gap[0]) / det
-            reach_b, reach_c = s_ * np.hypot(*d1), r_ * np.hypot(*d2)
-            if s_ <= 0 or r_ <= 0 or max(reach_b, reach_c) > max_reach_px * g:
-                continue
-            taken[span] = True
-            corners.append((int(b), g, vertices[b] + s_ * d1))
-    if not corners:
+    # Cyclic windows by slicing arrays extended past the end: column k is vertex i + k.
+    reach = max_cut + 2
+    index = np.arange(count)[:, None] + np.arange(-1, reach)[None, :]
+    index %= count
+    turns = turn[index]  # (N, max_cut + 3): vertex i - 1 .. i + max_cut + 1
+    good = found[index]
+    straight = np.abs(turns) < _STRAIGHT_TURN
+    convex = np.cumprod(turns[:, 1:] > -_STRAIGHT_TURN, axis=1).astype(bool)
+    total = np.cumsum(turns[:, 1:], axis=1)
+    starts, cuts, tips = [], [], []
+    for g in range(1, max_cut + 1):  # the shortest stretches first
+        ok = (total[:, g] > min_turn_rad) & convex[:, g]
+        ok &= straight[:, 0] & straight[:, g + 2]  # runs into b and out of c
+        ok &= good[:, 0] & good[:, 1] & good[:, g + 1] & good[:, g + 2]
+        b = np.flatnonzero(ok)
+        if b.size == 0:
+            continue
+        c = (b + g) % count
+        # b + s d1 = c - r d2  ->  [d1, d2] [s, r] = c - b
+        d1, d2, gap = before[b], edges[c], vertices[c] - vertices[b]
+        det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+        det = np.where(np.abs(det) < 1e-12, np.nan, det)
+        s_ = (gap[:, 0] * d2[:, 1] - gap[:, 1] * d2[:, 0]) / det
+        r_ = (d1[:, 0] * gap[:, 1] - d1[:, 1] * gap[:, 0]) / det
+        limit = max_reach_px * g
+        ok = (s_ > 0) & (r_ > 0)
+        ok &= s_ * np.hypot(d1[:, 0], d1[:, 1]) <= limit
+        ok &= r_ * np.hypot(d2[:, 0], d2[:, 1]) <= limit
+        starts.extend(b[ok].tolist())
+        cuts.extend([g] * int(ok.sum()))
+        tips.extend((vertices[b[ok]] + s_[ok, None] * d1[ok]).tolist())
+    if not starts:
         return vertices
     keep = np.ones(count, dtype=bool)
-    inserted: list[tuple[int, FloatArray]] = []
-    for b, g, corner in corners:
-        for k in range(1, g):
-            keep[(b + k) % count] = False
+    taken: set[int] = set()
+    after: dict[int, list[float]] = {}
+    points = vertices.tolist()
+    for start, cut, corner in zip(starts, cuts, tips, strict=True):
+        span = [(start + k) % count for k in range(cut + 1)]
+        if taken.intersection(span):
+            continue
+        taken.update(span)
+        keep[span[1:-1]] = False
         # b and c lie on the lines through the corner: one within a pixel of it adds nothing
         # but a sliver of a segment.
-        for end in (b, (b + g) % count):
-            if np.hypot(*(vertices[end] - corner)) < 1.0:
+        for end in (span[0], span[-1]):
+            if math.hypot(points[end][0] - corner[0], points[end][1] - corner[1]) < 1.0:
                 keep[end] = False
-        inserted.append((b, corner))
-    out: list[FloatArray] = []
-    after = dict(inserted)
-    for i in range(count):
-        if keep[i]:
-            out.append(vertices[i])
-        if i in after:
-            out.append(after[i])
-    return np.array(out)
+        after[start] = corner
+    at = np.fromiter(after, dtype=np.intp)
+    placed = np.insert(vertices, at + 1, np.array(list(after.values())), axis=0)
+    return placed[np.insert(keep, at + 1, True)]
 
 
 #: A turn below this between two segments is a straight run [rad].

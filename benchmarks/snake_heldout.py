@@ -1,0 +1,128 @@
+"""Section 3 of ``bench_snake.py``: the snake on photographs it was never tuned on, 1920x1080.
+
+Frames from :mod:`modules.vision.photo_scene` (patch under perspective on scikit-image
+photographs, lens and motion blur, gain 0.55-1.45, colour casts, shot and read noise, JPEG on
+half the frames), scored separately on the tuning photographs and on the held-out ones. For
+every frame, in this run:
+
+- **ours**: the tracker acquires from a click within 15 % of the patch centre (colour learned
+  there), as the operator seeds it; IoU and area bias of its outline against the quadrilateral.
+  Then one tracking update on the same frame from the acquired contour, timed (fastest of 3):
+  the per-frame cost while tracking.
+- **HS threshold** (baseline): the whole frame in HSV, ``cv2.inRange`` on hue and saturation
+  tuned on that frame's own patch pixels (as section 2 does), largest contour; its IoU, area
+  bias and time (fastest of 3).
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+
+import numpy as np
+
+from benchmarks.common import table
+from modules.vision import photo_scene as ps
+from modules.vision.metrics import polygon_iou
+from modules.vision.polygon import signed_area
+from modules.vision.tracker import SnakeTracker
+
+SETS = {"tuning": ps.TUNING_PHOTOS, "held-out": ps.HELD_OUT_PHOTOS}
+
+
+def _score(polygon: np.ndarray, frame: ps.PhotoFrame) -> tuple[float, float]:
+    if len(polygon) < 3:
+        return 0.0, -100.0
+    iou = polygon_iou(polygon, frame.corners, frame.image.shape[:2])
+    return iou, 100.0 * (abs(signed_area(polygon)) / frame.area_px2 - 1.0)
+
+
+def _fastest(run, repeats: int = 3) -> tuple[float, object]:
+    best, out = np.inf, None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = run()
+        best = min(best, time.perf_counter() - start)
+    return best, out
+
+
+def bench_photos(photos: tuple[str, ...], count: int, seed: int, tune_bounds, threshold) -> dict:
+    """Scores and times over ``count`` frames of ``photos``; ``tune_bounds`` and ``threshold``
+    are section 2's HS threshold (bounds from a frame's patch pixels; largest contour)."""
+    rng = np.random.default_rng(seed + 1)
+    rows: dict[str, list[tuple[float, float, float]]] = {"ours": [], "HS threshold": []}
+    for index in range(count):
+        offset = rng.uniform(-0.15, 0.15, 2)
+        frame = ps.render(photos[index % len(photos)], np.random.default_rng([seed, index]))
+        tracker = SnakeTracker()
+        tracker.seed_at_point(
+            frame.image, frame.corners.mean(axis=0) + offset * np.ptp(frame.corners, 0)
+        )
+        outline = tracker.update(frame.image).vertices
+        seconds, _ = _fastest(lambda t=tracker, f=frame: copy.copy(t).update(f.image))
+        rows["ours"].append((*_score(outline, frame), 1e3 * seconds))
+        bounds = tune_bounds(_Truth(frame))
+        seconds, polygon = _fastest(lambda f=frame, b=bounds: threshold(f.image, "HS threshold", b))
+        rows["HS threshold"].append((*_score(polygon, frame), 1e3 * seconds))
+    out = {}
+    for method, values in rows.items():
+        data = np.array(values)
+        out[method] = {
+            "frames": len(data),
+            "iou_min": float(data[:, 0].min()),
+            "iou_p5": float(np.percentile(data[:, 0], 5)),
+            "area_bias_pct_p50": float(np.median(data[:, 1])),
+            "abs_area_bias_pct_p50": float(np.median(np.abs(data[:, 1]))),
+            "abs_area_bias_pct_p95": float(np.percentile(np.abs(data[:, 1]), 95)),
+            "ms_p50": float(np.median(data[:, 2])),
+        }
+    return out
+
+
+class _Truth:
+    """A photo frame seen as section 2's rendered frame (image and patch polygon)."""
+
+    def __init__(self, frame: ps.PhotoFrame) -> None:
+        self.image = frame.image
+        self.patch_polygon = frame.corners
+
+
+def bench_heldout(count: int, tune_bounds, threshold) -> dict:
+    """Both photograph sets (the same seed for both)."""
+    return {
+        name: bench_photos(photos, count, 2031, tune_bounds, threshold)
+        for name, photos in SETS.items()
+    }
+
+
+def goals(result: dict) -> dict[str, bool]:
+    ours = result["held-out"]["ours"]
+    return {
+        "held-out photos: median |area bias| <= 0.2 %": ours["abs_area_bias_pct_p50"] <= 0.2,
+        "held-out photos: IoU >= 0.99 on every frame": ours["iou_min"] >= 0.99,
+    }
+
+
+def print_heldout(result: dict) -> None:
+    print("3. Photographs (1920x1080, photo_scene): area bias %, IoU, time per frame (ms p50)")
+    rows = []
+    for name, methods in result.items():
+        for method, r in methods.items():
+            rows.append(
+                [
+                    name,
+                    method,
+                    r["frames"],
+                    f"{r['area_bias_pct_p50']:+.3f}",
+                    f"{r['abs_area_bias_pct_p50']:.3f}",
+                    f"{r['abs_area_bias_pct_p95']:.3f}",
+                    f"{r['iou_min']:.4f}",
+                    f"{r['iou_p5']:.4f}",
+                    r["ms_p50"],
+                ]
+            )
+    header = ["photos", "method", "frames", "bias p50", "|bias| p50", "|bias| p95", "IoU min"]
+    print(table(rows, [*header, "IoU p5", "ms"]))
+    ours = result["held-out"]["ours"]["ms_p50"]
+    base = result["held-out"]["HS threshold"]["ms_p50"]
+    print(f"held-out: HS threshold / ours (tracking update) = {base / ours:.2f}x")
