@@ -24,7 +24,7 @@ from tests.sketch.test_sketch_epipolar_curve import (
     distance_to,
     reference_curve,
 )
-from tests.sketch.test_sketch_page import Stepper
+from tests.sketch.test_sketch_page import Browser, Stepper
 
 WIDTH, HEIGHT = 1280, 720
 
@@ -74,8 +74,12 @@ def test_page_draws_the_distorted_epipolar_curve_at_1280x720() -> None:
             worst_line = max(worst_line, float(off.max()))
         assert worst_line > 1.0  # the straight line the page drew before was a pixel and more off
         page.screenshot(path="/tmp/g_sketch_epipolar.png")
-        # the route refuses what is not a pixel
-        root = h.module.url.partition("/sketch")[0]
-        with httpx.Client(timeout=10) as client:
-            bad = client.get(root + "/sketch/epipolar?u=nan&v=3")
-            assert bad.status_code in (400, 401, 403)
+        # the route answers with its token only, and refuses what is not a pixel, saying so
+        viewer = Browser(h.module.url)
+        good = viewer.client.get(viewer.root + "/sketch/epipolar?u=600&v=300")
+        assert good.status_code == 200 and good.json()["snapshot"] == "snap1"
+        bad = viewer.client.get(viewer.root + "/sketch/epipolar?u=nan&v=3")
+        assert bad.status_code == 400
+        assert bad.json()["error"] == "/sketch/epipolar: expected finite pixels, got [nan, 3.0]"
+        assert httpx.get(viewer.root + "/sketch/epipolar?u=1&v=2").status_code == 403
+        viewer.close()
