@@ -63,4 +63,7 @@ def test_the_video_container_is_known_before_the_run(tmp_path: Path) -> None:
 def test_a_missing_camera_file_is_a_check_error(tmp_path: Path) -> None:
     proc = check(tmp_path, source="missing_clip.avi")
     assert proc.returncode == 2
-    assert ":3:" in proc.stderr and "found 'missing_clip.avi' (no such file" in proc.stderr
+    assert (
+        ":3:" in proc.stderr
+        and "video file missing_clip.avi not found (no such file" in proc.stderr
+    )
