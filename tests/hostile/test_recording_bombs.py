@@ -209,3 +209,35 @@ def test_private_records_in_a_chunk_are_skipped(tmp_path: Path) -> None:
     path = tmp_path / "private.mcap"
     path.write_bytes(mcap_bytes("", data, len(data), crc=crc(data)))
     assert [m.sequence for _c, _s, m in read_records(path)] == [1, 2]
+
+
+def test_replay_refuses_a_decoy_jpeg_before_decoding_it(tmp_path: Path, baseline_rss: int) -> None:
+    """A recorded camera frame whose real JPEG frame header (18000 x 18000, 6.7 GB decoded)
+    hides behind a fill byte: ``umbra replay`` says so and exits 2, at a valid file's memory."""
+    from mcap.data_stream import RecordBuilder
+    from mcap.records import Message
+
+    from runtime.recording.encoders import CompressedImage
+    from tests.hostile.test_image_headers import decoy_jpeg
+
+    frame = CompressedImage(data=decoy_jpeg(real=(18000, 18000)), format="jpeg", frame_id="camera")
+    b = RecordBuilder()
+    for i in range(3):
+        Message(
+            channel_id=1,
+            sequence=i + 1,
+            log_time=i * 33_000_000,
+            publish_time=i * 33_000_000,
+            data=frame.SerializeToString(),
+        ).write(b)
+    payload = b.end()
+    path = tmp_path / "decoy.mcap"
+    path.write_bytes(
+        mcap_bytes("", payload, len(payload), True, crc(payload), channels=[CAMERA, CAMERA_TRUTH])
+    )
+    argv = ["replay", str(path), str(GRAPH), "--out", str(tmp_path / "out"), "--quiet"]
+    status, err, peak = _run_measured(argv, tmp_path)
+    assert status == 2 and "Traceback" not in err, err
+    assert f"{path}: error: message 1 on `/camera/image`" in err
+    assert "image declares 18000 x 18000 pixels (at most 8192 a side" in err
+    assert peak < baseline_rss + MEMORY_ALLOWANCE, (peak / 1e6, baseline_rss / 1e6)
