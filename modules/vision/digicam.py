@@ -79,7 +79,9 @@ class DigiCam(Module):
     TYPE = "DigiCam"
 
     class Params(Parameters):
-        source: CameraSource = param("sim", "`sim`, a device index, a video file or a stream URL")
+        source: CameraSource = param(
+            "sim", "`sim`, a device index or path, a video file, an image sequence or image, a URL"
+        )
         width: int = param(
             0, "frame width; 0: the source's (sim: 640)", unit="px", ge=0, le=MAX_IMAGE_SIDE_PX
         )
