@@ -4,14 +4,17 @@ Rows, all measured in this run on the same machine: ``graphs/tool_pickup.yaml`` 
 the real clock with its camera at 640 x 480, 30 fps (JPEG on the live connection), the joint
 states at 100 Hz, alternately without a client and with Foxglove's own npm client
 (``@foxglove/ws-protocol``, ``tests/live/node``) subscribed to the image and the joint states (as a
-viewer with an image panel and a plot), ``--rounds`` pairs, the live server on in both.
+viewer with an image panel and a plot), or a stalled client, ``--rounds`` each, the live server on
+in all.
 
 - fps: images the client decoded per second of its window; joint states likewise;
 - latency: sample stamp (the Foxglove message's own timestamp, wall clock) to the client's
   receipt (``performance.timeOrigin + performance.now()``), p50 and p95, images and joint states;
-- servo side: the run's tick lateness p50 and p99 (``summary.json``; the servo loop, vision and the
-  live server share the process: the worst case for the servo), median over rounds, and the ratio
-  with / without a client.
+- servo side: tick lateness p50 and p99, median over rounds, and the ratio to the same layout
+  without a client: in one process (``summary.json``: servo loop, vision and the live server share
+  the process, the worst case) and in the graph's three processes (``summary-smart.json``: the
+  servo side; the live server runs in the ``umbra`` command and observes on zenoh);
+- a stalled client: subscribes to every channel, then never reads (a slow or hostile viewer).
 
 Run: ``python benchmarks/bench_live.py [--quick]``; writes benchmarks/results/live.json.
 Goals: >= 25 fps, image p95 <= 60 ms on loopback; lateness with a client within noise (ratio).
@@ -44,6 +47,8 @@ VGA = [
     "--set", "camera.u0=320", "--set", "camera.v0=240",
     "--set", "servo.u0=320", "--set", "servo.v0=240",
 ]  # fmt: skip
+STREAM_KEYS = ("image_fps", "image_p50_ms", "image_p95_ms", "joints_fps", "joints_p50_ms")
+STREAM_KEYS += ("joints_p95_ms",)
 #: What the client subscribes to: a viewer with an image panel and the joints in a plot.
 WATCHED = ("/camera/image", "/joints/joint_state")
 _URL = re.compile(r"foxglove: open (ws://\S+)")
@@ -62,10 +67,32 @@ def install_client(folder: Path) -> Path:
     return folder / "client.js"
 
 
-def one_run(graph: Path, out: Path, duration: float, client: Path | None) -> dict[str, float]:
+def stall(url: str, seconds: float) -> None:
+    """A viewer that subscribes to every channel and then stops reading (a stalled or hostile
+    client): the socket fills, and whatever the server holds for it is its own loss."""
+    import websockets.sync.client as ws_client
+
+    with ws_client.connect(
+        url, subprotocols=["foxglove.websocket.v1"], max_size=None, max_queue=1
+    ) as conn:
+        deadline = time.monotonic() + 10
+        channels: list[int] = []
+        while not channels and time.monotonic() < deadline:
+            msg = conn.recv(timeout=5)
+            if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
+                channels = [c["id"] for c in json.loads(msg)["channels"]]
+        subs = [{"id": i, "channelId": c} for i, c in enumerate(channels)]
+        conn.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+        time.sleep(seconds)  # never reads again
+
+
+def one_run(
+    graph: Path, out: Path, duration: float, client: Path | None, split: bool, stalled: bool
+) -> dict[str, float]:
     """One pick-up; the servo lateness, and with a client its fps and latencies."""
     log_path = out.with_suffix(".log")
-    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--single-process"]
+    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph)]
+    cmd += [] if split else ["--single-process"]
     cmd += ["--clock", "real", "--duration", str(duration), "--out", str(out), "--quiet"]
     cmd += ["--foxglove", "--foxglove-port", "0", *VGA]
     found: dict[str, float] = {}
@@ -77,8 +104,14 @@ def one_run(graph: Path, out: Path, duration: float, client: Path | None) -> dic
             time.sleep(0.1)
             match = _URL.search(log_path.read_text(errors="replace"))
             url = match.group(1) if match else ""
+        if stalled and url:
+            lead = 6.0 if split else 1.0
+            time.sleep(lead)
+            stall(url, max(2.0, duration - 5.0 - lead))
         if client is not None and url:
-            window = max(2.0, duration - 4.0)
+            lead = 6.0 if split else 0.0  # the processes up, linked and observed
+            time.sleep(lead)
+            window = max(2.0, duration - 5.0 - lead)
             done = subprocess.run(
                 ["node", str(client), url, str(window), "", ",".join(WATCHED)],
                 capture_output=True,
@@ -89,7 +122,8 @@ def one_run(graph: Path, out: Path, duration: float, client: Path | None) -> dic
             found |= measure(report, "/camera/image", "image")
             found |= measure(report, "/joints/joint_state", "joints")
         proc.wait(timeout=duration + 120)
-    summary = json.loads((out / "summary.json").read_text())
+    # the servo side: the `smart` process of a split run, the one process otherwise
+    summary = json.loads((out / ("summary-smart.json" if split else "summary.json")).read_text())
     found["lateness_p50_ms"] = float(summary["lateness_p50_ms"])
     found["lateness_p99_ms"] = float(summary["lateness_p99_ms"])
     return found
@@ -116,70 +150,90 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="one short round (smoke test)")
     parser.add_argument("--rounds", type=int, default=3, help="pairs of runs (no client, client)")
-    parser.add_argument("--duration", type=float, default=14.0, help="seconds per run")
+    parser.add_argument("--duration", type=float, default=18.0, help="seconds per run")
     args = parser.parse_args()
-    rounds, duration = (1, 8.0) if args.quick else (args.rounds, args.duration)
+    rounds, duration = (1, 14.0) if args.quick else (args.rounds, args.duration)
     graph = ROOT / "graphs" / "tool_pickup.yaml"
-    runs: dict[str, list[dict[str, float]]] = {"off": [], "on": []}
+    modes = ("off", "on", "stalled")
+    runs: dict[str, dict[str, list[dict[str, float]]]] = {
+        layout: {m: [] for m in modes} for layout in ("single", "split")
+    }
     with tempfile.TemporaryDirectory(prefix="bench_live_") as tmpdir:
         tmp = Path(tmpdir)
         (tmp / "npm").mkdir()
         client = install_client(tmp / "npm")
-        for r in range(rounds):
-            for mode in ("off", "on"):
-                out = tmp / f"{mode}{r}"
-                found = one_run(graph, out, duration, client if mode == "on" else None)
-                runs[mode].append(found)
-                print(f"round {r + 1}/{rounds} client {mode}: {found}", file=sys.stderr)
+        for layout in ("single", "split"):
+            for r in range(rounds):
+                for mode in modes:
+                    out = tmp / f"{layout}-{mode}{r}"
+                    found = one_run(
+                        graph,
+                        out,
+                        duration,
+                        client if mode == "on" else None,
+                        split=layout == "split",
+                        stalled=mode == "stalled",
+                    )
+                    runs[layout][mode].append(found)
+                    print(f"{layout} round {r + 1}/{rounds} {mode}: {found}", file=sys.stderr)
 
-    def med(mode: str, key: str) -> float:
-        values = [x[key] for x in runs[mode] if key in x and np.isfinite(x[key])]
+    def med(layout: str, mode: str, key: str) -> float:
+        values = [x[key] for x in runs[layout][mode] if key in x and np.isfinite(x[key])]
         return statistics.median(values) if values else float("nan")
 
-    lat_off, lat_on = med("off", "lateness_p99_ms"), med("on", "lateness_p99_ms")
-    ratio = lat_on / lat_off if lat_off > 0 else float("nan")
-    p50_ratio = med("on", "lateness_p50_ms") / med("off", "lateness_p50_ms")
-    print(f"pick-up, one process, real clock, 640 x 480 at 30 fps, {rounds} x {duration:g} s pairs")
-    header = ["run", "servo lateness p50 ms", "p99 ms"]
-    rows = [
-        ["no client (baseline)", med("off", "lateness_p50_ms"), lat_off],
-        ["npm client on image and joints", med("on", "lateness_p50_ms"), lat_on],
-    ]
-    print(table(rows, header))
-    print(f"lateness with a client / without: p50 x{p50_ratio:.2f}, p99 x{ratio:.2f}")
-    header = ["stream", "rate /s", "latency p50 ms", "p95 ms", "goal"]
-    rows = [
-        [
-            "image 640x480 JPEG",
-            med("on", "image_fps"),
-            med("on", "image_p50_ms"),
-            med("on", "image_p95_ms"),
-            f">= {FPS_GOAL:g} fps, p95 <= {P95_GOAL_MS:g} ms",
-        ],
-        [
-            "joint states (100 Hz)",
-            med("on", "joints_fps"),
-            med("on", "joints_p50_ms"),
-            med("on", "joints_p95_ms"),
-            "",
-        ],
-    ]
-    print(table(rows, header))
+    ratios = {}
+    for layout, what in (("single", "one process"), ("split", "three processes: smart's")):
+        print(
+            f"\npick-up, {what} tick lateness, real clock, 640 x 480 at 30 fps, "
+            f"{rounds} x {duration:g} s per row"
+        )
+        base50, base99 = (
+            med(layout, "off", "lateness_p50_ms"),
+            med(layout, "off", "lateness_p99_ms"),
+        )
+        rows = []
+        for mode, name in (
+            ("off", "no client (baseline)"),
+            ("on", "npm client on image and joints"),
+            ("stalled", "stalled client (subscribed to all, reads nothing)"),
+        ):
+            p50, p99 = med(layout, mode, "lateness_p50_ms"), med(layout, mode, "lateness_p99_ms")
+            ratios[f"{layout}_{mode}_p99_ratio"] = p99 / base99 if base99 > 0 else float("nan")
+            rows.append(
+                [name, p50, p99, p50 / base50 if base50 > 0 else float("nan"), p99 / base99]
+            )
+        print(table(rows, ["run", "lateness p50 ms", "p99 ms", "x p50", "x p99"]))
+        header = ["stream", "rate /s", "latency p50 ms", "p95 ms", "goal"]
+        rows = [
+            [
+                "image 640x480 JPEG",
+                med(layout, "on", "image_fps"),
+                med(layout, "on", "image_p50_ms"),
+                med(layout, "on", "image_p95_ms"),
+                f">= {FPS_GOAL:g} fps, p95 <= {P95_GOAL_MS:g} ms",
+            ],
+            [
+                "joint states (100 Hz)",
+                med(layout, "on", "joints_fps"),
+                med(layout, "on", "joints_p50_ms"),
+                med(layout, "on", "joints_p95_ms"),
+                "",
+            ],
+        ]
+        print(table(rows, header))
     path = write_results(
         "live",
         {
-            "graph": "graphs/tool_pickup.yaml (640 x 480, --single-process, real clock)",
+            "graph": "graphs/tool_pickup.yaml (640 x 480), one process and split, real clock",
             "rounds": rounds,
             "duration_s": duration,
             "runs": runs,
-            "image_fps": med("on", "image_fps"),
-            "image_p50_ms": med("on", "image_p50_ms"),
-            "image_p95_ms": med("on", "image_p95_ms"),
-            "joints_rate": med("on", "joints_fps"),
-            "joints_p50_ms": med("on", "joints_p50_ms"),
-            "joints_p95_ms": med("on", "joints_p95_ms"),
-            "lateness_p99_ratio_client": ratio,
-            "lateness_p50_ratio_client": p50_ratio,
+            **{
+                f"{layout}_{key}": med(layout, "on", key)
+                for layout in ("single", "split")
+                for key in STREAM_KEYS
+            },
+            **ratios,
             "goals": {"image_fps_min": FPS_GOAL, "image_p95_ms_max": P95_GOAL_MS},
         },
         quick=args.quick,
