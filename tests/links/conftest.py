@@ -20,6 +20,7 @@ PROBES = {
     "Boom": "tests.links.probes:Boom",
     "ProbeTwist": "tests.links.probes:ProbeTwist",
     "ArmWatch": "tests.links.probes:ArmWatch",
+    "Ballast": "tests.links.probes:Ballast",
 }
 
 

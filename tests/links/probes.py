@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import JointState, Scalar, Status, Twist
+from connectors.messages import JointState, Scalar, Status, Twist, Vector
 
 #: Joint motion [rad] beyond which ArmWatch says the arm moved (far below a 0.1 mm step).
 MOVED_RAD = 1e-6
@@ -127,6 +127,24 @@ class ProbeTwist(Module):
 
     def step(self, now: float) -> None:
         self.twist.send(Twist(vector=np.array([self.params.vx, 0, 0, 0, 0, 0.0]), frame="camera"))
+
+
+class Ballast(Module):
+    """A lossless stream of ``floats`` numbers a step (bytes on the wire, under the frame pool's
+    threshold so they cross a link as they are): what fills a slow link and holds the rest of
+    its traffic behind it in the socket."""
+
+    TYPE = "Ballast"
+
+    class Params(Parameters):
+        floats: int = param(1500, "numbers a sample", ge=1, le=2000)
+
+    load = Output(Vector, events=True, doc="ballast")
+
+    def step(self, now: float) -> None:
+        self.load.send(
+            Vector(values=self.context.rng.random(self.params.floats))
+        )  # no zeros: incompressible
 
 
 class ArmWatch(Module):

@@ -1,0 +1,99 @@
+"""A congested link between two hosts: the servo's commands stay fresh, or are refused.
+
+Two network namespaces joined by a veth pair whose producer side is shaped to 200 kbit/s
+(``tc qdisc ... tbf``), as a radio or a saturated uplink would be. The producer sends a twist at
+50 Hz beside a lossless stream of about 10 Mbit/s that cannot fit. Before origins, every link
+blocked rather than dropped and REG_VEL judged commands by their arrival: they came 1.1-1.2 s
+late and passed (59-68 mm of motion in a pick-up). Now the guard passes no command made from data
+older than its bound, whatever the link does; and because state is latest-only, the twists are
+not queued behind the bulk at all: they stay fresh and the arm is driven all along.
+Needs root, iproute2 and tc (skipped with the reason otherwise).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+import subprocess
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from tests.links.conftest import Running, start_umbra, stop_all
+from tests.links.test_two_hosts import Hosts, hosts  # noqa: F401 - the fixture
+
+pytestmark = [pytest.mark.netns, pytest.mark.slow]
+
+GRAPH = """
+graph: slowlink
+clock: real
+processes: {umbra: {}, smart: {}}
+modules:
+  source: {type: ProbeTwist, process: umbra, rate: 50, params: {vx: 0.01}}
+  ballast: {type: Ballast, process: umbra, rate: 100, params: {floats: 1500}}
+  register:
+    type: REG_VEL
+    process: smart
+    rate: 100
+    params: {timeout: 0.1, max_origin_age: 0.25}
+  sink: {type: Printer, process: smart, params: {max_rate_hz: 0.1}}
+connections:
+  - source.twist -> register.command
+  - ballast.load -> sink.value
+"""
+
+
+def test_late_commands_on_a_congested_link_are_refused_by_their_age(
+    hosts: Hosts,  # noqa: F811
+    umbra: Callable[..., Running],
+    plugin_env: dict[str, str],
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "g.yaml").write_text(GRAPH)
+    endpoint = f"tcp/{hosts.address_b}:7447"
+    common = ("--insecure", "--out", "out", "--duration", "60")
+    consumer = umbra(
+        "run", "g.yaml", "--process", "smart", "--listen", endpoint, *common,
+        prefix=("ip", "netns", "exec", hosts.b),
+    )  # fmt: skip
+    own = dict(plugin_env, XDG_RUNTIME_DIR=str(tmp_path / "producer-runtime"))
+    (tmp_path / "producer-runtime").mkdir(mode=0o700)  # no run file of the consumer's to
+    producer = start_umbra(  # join by another way than the shaped link
+        own, tmp_path, "run", "g.yaml", "--process", "umbra", "--connect", endpoint, *common,
+        prefix=("ip", "netns", "exec", hosts.a),
+    )  # fmt: skip
+    consumer.wait_for("process `umbra` is up", timeout=60)
+    time.sleep(1.5)  # the clocks measured over the free link
+    shaped = subprocess.run(
+        ["ip", "netns", "exec", hosts.a, "tc", "qdisc", "add", "dev", hosts.veth_a, "root",
+         "tbf", "rate", "200kbit", "burst", "4kb", "latency", "5s"],
+        capture_output=True, text=True, timeout=10,
+    )  # fmt: skip
+    if shaped.returncode != 0:
+        pytest.skip(f"cannot shape the link with tc: {shaped.stderr.strip()}")
+    time.sleep(10.0)  # a while on the congested link
+    stats = subprocess.run(
+        ["ip", "netns", "exec", hosts.a, "tc", "-s", "qdisc", "show", "dev", hosts.veth_a],
+        capture_output=True, text=True, timeout=10,
+    ).stdout  # fmt: skip
+    try:
+        for run in (consumer, producer):
+            run.popen.send_signal(signal.SIGINT)
+        assert consumer.finish() == 130, consumer.text
+        producer.finish()
+    finally:
+        stop_all([producer])
+    summary = json.loads((tmp_path / "out" / "summary-smart.json").read_text())
+    (register,) = [m for m in summary["modules"] if m["module"] == "register"]
+    overlimits = re.search(r"overlimits (\d+)", stats)
+    assert overlimits is not None and int(overlimits.group(1)) > 0, stats  # the link was full
+    passed = register["passed_origin_age_ms"]
+    # no command made from data older than the bound was passed, however it arrived ...
+    assert passed["max"] <= 250.0, json.dumps(register)
+    # ... and the commands stayed fresh on the full link: state is latest-only (zenoh drops an
+    # old twist rather than queueing it behind the bulk), so the arm was driven all along
+    assert passed["ticks"] >= 500, json.dumps(register)
+    assert passed["p99"] <= 250.0, json.dumps(register)
