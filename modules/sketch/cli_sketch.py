@@ -92,8 +92,14 @@ def main(args: argparse.Namespace) -> int:
     else:
         state = _load(folder)
         session = SketchSession(seed=state["seed"])
-        for event in state["events"]:
-            _apply(session, folder, event, replay=True)
+        for number, event in enumerate(state["events"], start=1):
+            try:
+                _apply(session, folder, event, replay=True)
+            except UserError as exc:  # a hand-edited event the session cannot replay
+                raise UserError(
+                    f"{folder / STATE}: error: event {number} ({event['cmd']}) cannot be "
+                    f"replayed: {exc}"
+                ) from None
         event = _event(args)
         result = _apply(session, folder, event, replay=False)
         state["events"].append(event)

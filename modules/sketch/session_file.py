@@ -30,7 +30,9 @@ _BIG = 1e9
 
 Finite = Annotated[float, msgspec.Meta(ge=-_BIG, le=_BIG)]
 Name = Annotated[str, msgspec.Meta(max_length=200)]
-Pixel = Annotated[str, msgspec.Meta(max_length=100)]
+_NUMBER = r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d{1,2})?"
+#: A pixel as the command line takes it, ``U,V`` (finite numbers: no nan, no 1e999).
+Pixel = Annotated[str, msgspec.Meta(max_length=100, pattern=f"^{_NUMBER},{_NUMBER}$")]
 VcrAction = Literal.__getitem__(VCR_ACTIONS)  # type: ignore[attr-defined]
 PrimitiveKind = Literal.__getitem__(tuple(KINDS))  # type: ignore[attr-defined]
 
@@ -126,7 +128,11 @@ def load_session_state(path: Path) -> dict[str, Any]:
 
 
 def _plain(message: str) -> str:
-    """msgspec's message, an unknown choice followed by the choices there are."""
+    """msgspec's message, an unknown choice followed by the choices there are, a pattern in
+    words."""
+    pattern = re.match(r"Expected `str` matching regex '.*' - at (`[^`]*`)$", message)
+    if pattern:
+        return f"expected a pixel written U,V (finite numbers, like 320.5,240) - at {pattern[1]}"
     found = re.match(r"Invalid (?:enum )?value (.+) - at `(\$[^`]*)`$", message)
     if not found:
         return message

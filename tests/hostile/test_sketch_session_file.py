@@ -78,6 +78,9 @@ CASES = [
     ("empty", b"", r": error: Input data was truncated"),
     ("array", b"[]", r": error: Expected `object`, got `array`"),
     ("nul", b'{"seed": 3, "events": []}\x00', r":1: error: not a text file \(contains a NUL byte\)"),
+    ("pixel_nan", _event(PLACE, a=["nan,1", "3,4"]), r"expected a pixel written U,V \(finite numbers, like 320.5,240\) - at `\$.events\[0\].a\[0\]`"),
+    ("pixel_huge", _event(PLACE, b=["1,2", "1e999,4"]), r"expected a pixel written U,V .* - at `\$.events\[0\].b\[1\]`"),
+    ("pixel_three", _event(PLACE, a=["1,2,3"]), r"expected a pixel written U,V"),
 ]  # fmt: skip
 
 
@@ -126,3 +129,19 @@ def test_no_traceback_reaches_the_terminal(tmp_path: Path) -> None:
     )
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert done.stderr.startswith(f"{folder / 'session.json'}:2: error: not UTF-8 text")
+
+
+def test_an_event_the_session_cannot_replay_names_the_file_and_the_event(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Well-typed but impossible: an aim at a feature the scene does not have (the 2nd event)."""
+    folder = tmp_path / "s"
+    folder.mkdir()
+    events = [{"cmd": "snapshot"}, {"cmd": "aim", "xyz": [], "at": "moon_center", "zoom": None}]
+    data = json.dumps({"seed": 3, "events": events}).encode()
+    (folder / "session.json").write_bytes(data)
+    assert main(["sketch", "macros", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{folder / 'session.json'}: error: event 2 (aim) cannot be replayed: ")
+    assert "unknown feature 'moon_center'" in err and "Traceback" not in err
+    assert (folder / "session.json").read_bytes() == data
