@@ -7,14 +7,15 @@ from connectors.messages import Scalar
 
 
 class Counter(Module):
-    """Sends start, start+step, ... one value per period."""
+    """Sends start, start+step, ... one value per period, as events: every value reaches every
+    consumer, in order (what a link check needs; a state stream would keep only the newest)."""
 
     class Params(Parameters):
         start: int = param(0, "first value")
         step_by: int = param(1, "increment per period")
         stop_after: int = param(0, "end the run after this many values (0: never)", ge=0)
 
-    count = Output(Scalar, doc="the current count")
+    count = Output(Scalar, events=True, doc="the current count (every one delivered)")
 
     def start(self) -> None:
         self._next = self.params.start
