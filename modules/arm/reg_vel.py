@@ -85,12 +85,14 @@ class RegVel(Module):
     gripper = Output(Text, events=True, doc="gripper command, passed while the link is healthy")
     status = Output(
         Status,
-        doc="'passing' or 'zero' with the reason and the command's ages (on change, and at least "
-        "every 0.1 s)",
+        doc="'passing' or 'zero' with the reason, the command's ages and the travel it let through "
+        "(on change, and at least every 0.1 s; every 0.02 s while it passes motion)",
     )
 
     #: Longest time between two status samples [s]: a state stream, so a lost one is replaced.
     STATUS_PERIOD_S = 0.1
+    #: ... and while it passes motion, for those who dead-reckon on its travel (vsServo's grab).
+    MOVING_STATUS_PERIOD_S = 0.02
 
     def start(self) -> None:
         p = self.params
@@ -112,6 +114,10 @@ class RegVel(Module):
         #: [start, end] [s] of each stretch at zero for old data (end None: to the end)
         self._stale_episodes: list[list[float | None]] = []
         self._last_out: RegisterOutput | None = None
+        #: linear travel [m] the register let through, in ``frame`` (the odometer of what it
+        #: passed: each tick's twist held until the next tick)
+        self._travel = np.zeros(3)
+        self._passed_at: tuple[float, np.ndarray] | None = None
 
     def step(self, now: float) -> None:
         command = self.command.get(now)
@@ -137,11 +143,14 @@ class RegVel(Module):
             Twist(vector=out.twist, frame=self.params.frame, origin=origin if out.passing else now)
         )
         self._count(out, now)
+        self._odometer(now, out.twist)
         gripper = self.gripper_in.get(now)
         if gripper is not None and self.gripper_in.fresh and out.passing:
             self.gripper.send(Text(text=gripper.text, stamp=gripper.stamp))
         reason_key = out.zero_reason or ("passing jog" if jogging is not None else "")
-        if reason_key != self._last_reason or now - self._status_at >= self.STATUS_PERIOD_S:
+        moving = bool(np.any(out.twist[:3]))
+        period = self.MOVING_STATUS_PERIOD_S if moving else self.STATUS_PERIOD_S
+        if reason_key != self._last_reason or now - self._status_at >= period - 1e-9:
             if reason_key != self._last_reason and out.zero_reason:
                 self._last_zero_reason = out.zero_reason
             self._last_reason = reason_key
@@ -155,9 +164,19 @@ class RegVel(Module):
                         "age": float(min(out.age, 1e9)),
                         "origin_age": float(min(out.origin_age, 1e9)),
                         "stale": float(out.stale),
+                        "travel_x": float(self._travel[0]),
+                        "travel_y": float(self._travel[1]),
+                        "travel_z": float(self._travel[2]),
                     },
                 )
             )
+
+    def _odometer(self, now: float, twist: np.ndarray) -> None:
+        """Add the travel [m] of the twist passed last tick, held until ``now`` [s]."""
+        if self._passed_at is not None:
+            then, linear = self._passed_at
+            self._travel += linear * max(now - then, 0.0)
+        self._passed_at = (now, np.array(twist[:3], dtype=float))
 
     def _count(self, out: RegisterOutput, now: float) -> None:
         """Tally the tick for the summary: passed (and from how old data), clamped, zeroed and

@@ -94,6 +94,9 @@ class Observation:
     #: False while the safety guard holds the arm at zero (old data, a late command): the final
     #: grab's dead reckoning counts only the advance the guard let through
     commands_pass: bool = True
+    #: the guard's odometer along the optical axis [m] (what it let through), when it reports
+    #: one: the final grab measures its advance on it instead of its own commands
+    guard_travel_z: float | None = None
 
 
 @dataclass(frozen=True)
@@ -137,6 +140,7 @@ class ServoStages:
         self._settled_depth_sum = 0.0  # sum of the depth errors of the settled frames [m]
         self._grab_depth = 0.0  # depth still to go when the final grab starts [m]
         self._grab_start: float | None = None
+        self._grab_travel_base: float | None = None  #: the guard's odometer at the grab's start
         self._grab_tick = (0.0, 0.0, 0.0)  # last step's time [s], speed [m/s], advance so far [m]
         self._close_start: float | None = None
         self._pending_gripper = "open"
@@ -181,7 +185,8 @@ class ServoStages:
             return self._approach(observation.features, gripper)
         if self.stage == FINAL_GRAB:
             passing = observation is None or observation.commands_pass
-            return self._final_grab(now, gripper, passing)
+            travel = None if observation is None else observation.guard_travel_z
+            return self._final_grab(now, gripper, passing, travel)
         message = {
             DONE: "grab complete",
             ASSIST: "operator assistance requested",
@@ -239,15 +244,21 @@ class ServoStages:
             )
         return ServoOutput(twist, APPROACH, message="approaching", gripper=gripper, error=error)
 
-    def _final_grab(self, now: float, gripper: str, passing: bool = True) -> ServoOutput:
+    def _final_grab(
+        self, now: float, gripper: str, passing: bool = True, travel_z: float | None = None
+    ) -> ServoOutput:
         if self._grab_start is None:
             self._grab_start = now
             self._grab_tick = (now, 0.0, 0.0)
-        # Dead reckoning of the commanded advance: each command holds until the next step, so
-        # the last one is cut to what is left (no overshoot of up to one step's travel); time
-        # the guard held the arm at zero advanced nothing.
+            self._grab_travel_base = travel_z
+        # Dead reckoning of the advance: on the guard's odometer when it reports one (what it
+        # let through); else of the commands, each held until the next step, time the guard
+        # held the arm at zero advancing nothing. The last command is cut to what is left.
         last_now, last_speed, advanced = self._grab_tick
-        if passing:
+        base = self._grab_travel_base
+        if travel_z is not None and base is not None:
+            advanced = travel_z - base
+        elif passing:
             advanced += last_speed * (now - last_now)
         left = max(self.settings.grab_distance + self._grab_depth, 0.0) - advanced
         if left > ADVANCE_DONE:

@@ -208,8 +208,12 @@ class VsServo(Module):
                 )
         observation = self._observe(now)
         guard = self.guard.value
-        if observation is not None and guard is not None and guard.stage == "zero":
-            observation = dataclasses.replace(observation, commands_pass=False)
+        if observation is not None and guard is not None:
+            observation = dataclasses.replace(
+                observation,
+                commands_pass=guard.stage != "zero",
+                guard_travel_z=guard.values.get("travel_z"),
+            )
         out = self.stages.step(now, observation)
         self.twist.send(Twist(vector=out.camera_twist, frame=self.params.camera_frame))
         if out.gripper:

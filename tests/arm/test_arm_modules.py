@@ -250,3 +250,17 @@ def test_wolverine_jnts_backend_errors_are_user_errors():
         ModuleHarness(WolverineJnts, {"initial_q_deg": [0, 0, 180, 0, 0, 0]}).start()
     with pytest.raises(UserError, match=r"calibration_error_deg`? needs 6"):
         ModuleHarness(WolverineJnts, {"calibration_error_deg": [1.0]}).start()
+
+
+def test_reg_vel_reports_the_travel_it_let_through() -> None:
+    """REG_VEL's odometer: the linear travel [m] of the twists it passed, in its frame (what a
+    dead-reckoning grab measures its advance on), nothing while it holds the arm."""
+    with ModuleHarness(RegVel, {"timeout": 0.1, "max_origin_age": 0.25}) as h:
+        for _ in range(50):  # 0.5 s at 10 mm/s along z
+            h.push("command", Twist(vector=np.array([0, 0, 0.01, 0, 0, 0.0]), frame="camera"))
+            h.step(0.01)
+        for _ in range(30):  # no new command: held at zero by the watchdog after 0.1 s
+            h.step(0.01)
+        values = h.output("status").values
+        assert values["travel_z"] == pytest.approx(0.005 + 0.001, abs=2e-4)  # + the 0.1 s hold
+        assert values["travel_x"] == 0.0 and values["travel_y"] == 0.0

@@ -183,3 +183,23 @@ def test_the_final_grab_counts_no_advance_while_the_guard_holds_the_arm():
             break
     assert out.stage == DONE
     assert moved == pytest.approx(0.05, abs=1e-3)  # the whole advance, however interrupted
+
+
+def test_the_final_grab_measures_its_advance_on_the_guards_odometer():
+    """With the guard's odometer (what REG_VEL let through), the grab advances the whole distance
+    whatever the guard held back, and whenever its reports come."""
+    machine = ServoStages(GOAL, settings=SETTINGS)
+    T = camera_above(0.0, 0.0, 0.2, 0.0)
+    rng = np.random.default_rng(3)
+    now, travel, twist_z = 0.0, 0.0, 0.0
+    for _ in range(2000):
+        if machine.stage == FINAL_GRAB and rng.random() > 0.4:  # the guard passes 60 % of ticks
+            travel += twist_z * DT
+        observation = dataclasses.replace(healthy(T, now), guard_travel_z=travel)
+        out = machine.step(now, observation)
+        twist_z = out.camera_twist[2]
+        now += DT
+        if out.stage == DONE:
+            break
+    assert out.stage == DONE
+    assert travel == pytest.approx(0.05, abs=0.025 * DT + 1e-9)  # within one tick's advance
