@@ -25,9 +25,7 @@ sample's ``seq``.
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import os
 import queue
 import threading
 import time
@@ -43,6 +41,7 @@ from connectors.errors import UserError
 from connectors.messages import CameraModel, Image, Message, Pose, Poses
 from runtime.recording.encoders import ChannelEncoding, channel_encodings
 from runtime.recording.foxglove_msgs import frame_transforms, time_ns, view_frames
+from runtime.rt_priority import background
 
 #: Channel metadata keys (strings), read by record-info and replay.
 META_TYPE = "umbra.type"
@@ -285,9 +284,7 @@ class RecordingFile:
             self._static(item[1], item[2])
 
     def _run(self) -> None:
-        # a Linux thread is a task: let the loop's thread have the CPU first
-        with contextlib.suppress(AttributeError, OSError):
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WRITER_NICE)
+        background(WRITER_NICE)  # under starvation the recorder gives way, never the loop
         last_flush = time.monotonic()
         dirty = False
         while True:
