@@ -135,6 +135,7 @@ class SketchPage(Module):
         self._numbers = itertools.count(1)
         self._driver: str | None = None  #: viewer whose VCR command set the path moving
         self._lost = 0
+        self._now = 0.0  #: the current step's time [s]
         app = self._server.app
         app.add_api_route("/sketch", self._page, methods=["GET"])
         app.add_api_route("/sketch/sketch.js", self._script, methods=["GET"])
@@ -152,7 +153,19 @@ class SketchPage(Module):
         root, _, query = self._server.url.partition("?")
         return root.rstrip("/") + "/sketch" + (f"?{query}" if query else "")
 
+    def _command_origin(self) -> float:
+        """The origin [s] of a command from the page: the snapshot the operator acts on, else
+        the step's time (an intent, no sensor data). Not the oldest of every input the step
+        read: in a process of its own the page may hold a sample that came before its clock
+        was matched to its producer's, undatable for good, which would make every command,
+        and the path planned from it, undatable too (the player refuses such a path)."""
+        snap = self.snapshot.value
+        if snap is not None and math.isfinite(snap.origin) and snap.origin > 0:
+            return snap.origin
+        return self._now
+
     def step(self, now: float) -> None:
+        self._now = now
         changed = False
         snap = self.snapshot.get(now)
         if snap is not None and self.snapshot.fresh:
@@ -267,7 +280,7 @@ class SketchPage(Module):
             return self._refuse(name, decision.message)
         if cmd.verb == "vcr" and cmd.action != "speed":
             self._driver = request.viewer if cmd.action in _MOVING else None
-        self.command.send(Text(text=request.text))
+        self.command.send(Text(text=request.text, origin=self._command_origin()))
         self._sent += 1
         return Decision(True, f"sent {what}")
 
@@ -302,7 +315,7 @@ class SketchPage(Module):
                 silent,
                 vcr.mode,
             )
-            self.command.send(Text(text="vcr pause"))
+            self.command.send(Text(text="vcr pause", origin=self._command_origin()))
 
     def stop(self) -> None:
         for session in self._sessions.values():
