@@ -166,10 +166,11 @@ def check_origin_ages(
     try:
         found = bounded_inputs(modules, connections)
     except OriginLoop as loop:
-        first = modules[loop.loop[0]]
+        flow = loop.loop[::-1]  # followed upstream; said the way the data flows
+        first = modules[flow[0]]
         error(
             first.spec.loc,
-            f"origins flow around the loop {' -> '.join(loop.loop)} with no measured output on "
+            f"origins flow around the loop {' -> '.join(flow)} with no measured output on "
             "it: every sample would keep the loop's first origin and look older and older",
             "declare the sensor's output `measured=True` (a camera, joint encoders, the plant)",
         )

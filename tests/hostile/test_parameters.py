@@ -193,8 +193,11 @@ def test_every_module_rate_is_bounded(rate: float, ok: bool) -> None:
     text = ARM_GRAPH.replace(
         "vision: {type: TwistSource, rate: 100", f"vision: {{type: TwistSource, rate: {rate!r}"
     )
-    if ok:
+    if ok and rate >= 4:
         check_text(text, "g.yaml")
+    elif ok:  # a legal rate, but a command source that slow makes commands older than REG_VEL's
+        (problem,) = _problems(text)  # bound: that is what check says, not the rate's limits
+        assert "accepts commands made from sensor data up to 0.25 s old" in problem
     else:
         (problem,) = _problems(text)
         assert problem.startswith("g.yaml:5:37: error: rate of module `vision` must be from 0.001")
@@ -221,8 +224,11 @@ connections:
 
 
 def test_a_loop_with_a_guard_on_it_is_guarded() -> None:
-    plan = check_text(GUARDED_LOOP, "g.yaml")
-    assert [m for m in plan.order if m in ("reg", "rot", "back")] == ["reg", "rot", "back"]
+    """The guard rule accepts the loop; what is left is that a command fed back into its own
+    guard is dated by itself, so its origin could never advance: check says so."""
+    (problem,) = _problems(GUARDED_LOOP)
+    assert "origins flow around the loop back -> reg -> rot -> back" in problem
+    assert "must be fed through a safety guard" not in problem
 
 
 def test_a_loop_without_a_guard_is_unguarded() -> None:
