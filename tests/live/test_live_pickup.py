@@ -65,7 +65,8 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
     image = topics["/camera/image"]["first"]
     assert image["format"] == "jpeg" and image["frame_id"] == "camera"
     annotation = topics["/snake/contour/annotations"]["first"]
-    assert annotation["points"] and annotation["texts"]
+    assert annotation["texts"][0]["text"]  # the snake's status on its image (an outline once
+    # it tracks: before the operator's click the first one may have none)
     joints = topics["/joints/joint_state"]["first"]["joints"]
     assert [j["name"] for j in joints] == ["j1", "j2", "j3", "j4", "j5", "j6", "gripper"]
     links = topics["/kinematics/link_poses"]["first"]["transforms"]
