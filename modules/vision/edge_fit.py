@@ -1,33 +1,41 @@
 """Sub-pixel edges: each converged snake vertex is moved onto the colour edge along its normal.
 
 The snake comes to rest where its pixel window is half target by the colour gate, which sits a
-few tenths of a pixel inside a sharp edge (the gate counts a mixed pixel as target only when it
-is mostly patch). At convergence every vertex is within a pixel or so of the edge, so the edge
+pixel or more inside a blurred edge (the gate counts a mixed pixel as target only when it is
+mostly patch). At convergence every vertex is within a few pixels of the edge, so the edge
 itself can be measured there: the image is sampled (bilinearly) along the vertex's outward
-normal over ``[-L, L]`` pixels, the samples are reduced to the mixing fraction
+normal over ``[-L, L]`` pixels and the samples are reduced to the mixing fraction
 
     t(s) = (p(s) - c_out) . (c_in - c_out) / |c_in - c_out|²
 
 between the colour at the inner end ``c_in`` and at the outer end ``c_out`` (1 inside, 0
-outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly), and the edge is
-where a step with the same integral would be:
+outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly). Channels that
+are clipped at either end (a saturated patch at a high lighting gain, a black background) do
+not mix linearly and are left out of the contrast: a clipped channel's edge looks moved towards
+the clipped side.
 
-    e = ∫_{-L}^{L} t(s) ds - L,
+1. *Centring*: the step of equal area ``e = ∫ t ds - L`` over the whole profile (on a coarse
+   grid σ > 1, over a σ times longer profile). It is exact for a clean edge, but the whole
+   profile's texture and an off-centre profile move it.
+2. *Crossing*: on a profile centred there, the first point from the patch's side where t falls
+   through one half (a straight line through the samples within a pixel of it): for an edge
+   smeared by any symmetric kernel (lens, motion, the pixels' area, bilinear sampling) the
+   half-contrast point is the edge, and texture beyond the edge cannot pull it out (the patch's
+   side is even, the background's may not be).
+3. *Refinement*: the step of equal area over a window of ``±window_px`` centred on the
+   crossing alone (exact for a straight edge under symmetric blur held by the window, blind to
+   what lies beyond it). Where the result lay more than ``recentre_px`` off its profile's
+   centre, 2 and 3 are repeated on a profile centred on it, so that its ends lie as far out on
+   either side of the edge (blur reaching one end more than the other biases c_in or c_out).
 
-which holds while the blurred edge lies wholly within the profile (a converged snake rests
-within a pixel of the edge: blur up to ~1 px sigma with L = 4). A snake working on a coarser grid
-(σ > 1, further from the edge) is measured twice: first over a profile σ times longer, then over
-``[-L, L]`` centred on that first estimate.
+A fitted point further than ``max_kink_px`` off the curve through its neighbours' (a speck of
+texture, another edge in the profile) is dropped. Where there is no edge to measure (the ends
+differ by less than ``min_contrast`` gray levels, the inner end is not the target colour or the
+outer end is, no crossing), the vertex moves as the vertices on either side that found one,
+interpolated across a gap of up to ``max_gap`` vertices, else it stays where the snake put it.
 
-A step at ``e`` smeared by any symmetric kernel (the lens, motion blur, the pixels' own area,
-the bilinear interpolation) keeps that integral, so ``e`` carries no bias from the blur; sensor
-noise averages over the ~4 L samples. Where there is no edge to measure (the ends differ by
-less than ``min_contrast`` gray levels, the inner end is not the target colour or the outer end
-is), the vertex moves as its two neighbours do when both found an edge, else it stays where
-the snake put it.
-
-Only ``N x (2 L / step + 1) x 4`` pixels are read for N vertices (twice that on a coarse
-grid), never the whole image. Pixels: u right, v down, pixel centres at integer coordinates.
+Only ``N x (2 L / step + 1) x 4`` pixels are read per pass for N vertices (three passes at
+most), never the whole image. Pixels: u right, v down, pixel centres at integer coordinates.
 """
 
 from __future__ import annotations
@@ -51,7 +59,13 @@ class EdgeFitParams:
     """``half_length_px``: the profile spans ``[-L, L]`` about the vertex [px];
     ``sample_px``: spacing of the profile samples [px]; ``end_px``: the colour of each end is
     the mean over this length [px]; ``min_contrast``: smallest colour difference between the
-    ends that counts as an edge [gray levels]; ``max_shift_px``: largest move of a vertex [px]."""
+    ends that counts as an edge [gray levels]; ``max_shift_px``: largest move of a vertex [px];
+    ``crossing``: measure at the half-contrast crossing (else the step of equal area over the
+    whole profile, as on the coarse grid); ``max_kink_px``: a fitted edge point further than
+    this off the curve through its neighbours' is texture [px]; ``max_gap``: longest run of
+    vertices without an edge that is interpolated from either side [vertices]; ``window_px``:
+    half-width of the equal-area window about the crossing [px]; ``recentre_px``: a crossing
+    further than this from its profile's centre is measured again on a centred profile [px]."""
 
     half_length_px: float = 4.0
     sample_px: float = 0.5
@@ -62,6 +76,7 @@ class EdgeFitParams:
     max_kink_px: float = 1.5
     max_gap: int = 4
     window_px: float = 2.5
+    recentre_px: float = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,21 +146,25 @@ def fit_edges(
     found &= np.abs(shift) <= p.max_shift_px * scale
     shift = np.where(found, shift, 0.0)
     if p.crossing:
-        # Twice: the second profile is centred on the first one's edge, so that its ends lie
-        # as far out on either side.
+        # The second profile is centred on the first one's edge, so that its ends lie as far out
+        # on either side; only where that edge lay more than ``recentre_px`` off the centre.
         offsets = unit * p.half_length_px
+        at = np.arange(len(vertices))
         for _ in range(2):
-            profile = _profile(image, vertices, normals, shift, offsets)
+            profile = _profile(image, vertices[at], normals[at], shift[at], offsets)
             inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
-            contrast, power = _contrast(inner, outer, found)
+            contrast, power = _contrast(inner, outer, found[at])
             fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
             fraction /= power[:, None]
             edge, crossed = _half_crossing(fraction, offsets, p.sample_px)
             edge = _centred_step(fraction, offsets, edge, p.window_px)
-            found &= crossed
-            shift = np.where(found, shift + edge, 0.0)
+            found[at] &= crossed
+            shift[at] = np.where(found[at], shift[at] + edge, 0.0)
             found &= np.abs(shift) <= p.max_shift_px * scale
             shift = np.where(found, shift, 0.0)
+            at = at[found[at] & (np.abs(edge) > p.recentre_px)]
+            if at.size == 0:
+                break
     found &= ~_off_the_curve(vertices + shift[:, None] * normals, normals, found, p.max_kink_px)
     shift = np.where(found, shift, 0.0)
     # A vertex without an edge of its own (a corner's diagonal profile that ends on the other
