@@ -146,7 +146,8 @@ def run_one(
     delays = [_abort_to_zero(out / "twist.mcap", t) for t in t_aborts]
     ms = [d * 1e3 for d, moving in delays if moving and d == d]
     result["aborts"] = len(t_aborts)
-    result["aborts_while_moving"] = len(ms)
+    result["aborts_while_moving"] = sum(moving for _d, moving in delays)
+    result["aborts_stopped"] = len(ms)  #: of those, the arm at zero for good within 1 s
     result["abort_to_zero_ms"] = [round(x, 1) for x in ms]
     result["abort_to_zero_p50_ms"] = round(float(np.median(ms)), 1) if ms else None
     result["abort_to_zero_max_ms"] = round(max(ms), 1) if ms else None
