@@ -140,7 +140,9 @@ class VsSnake(Module):
 
     image = Input(Image, trigger=True, doc="camera frames (BGR)")
     seed = Input(Vector, required=False, doc="operator re-seed: [u, v] or [u0, v0, u1, v1] px")
-    contour = Output(Contour, doc="tracked contour, features and sanity status")
+    contour = Output(
+        Contour, origin_from=("image",), doc="tracked contour, features and sanity status"
+    )
 
     def start(self) -> None:
         p = self.params

@@ -108,7 +108,9 @@ class Sony(Module):
         doc="zoom rocker held: >0 tele, <0 wide, |v| the speed (1 fastest), 0 stop; send it "
         "repeatedly while held: no sample for hold_timeout_s stops the zoom (dead-man)",
     )
-    zoom = Output(ZoomState, doc="camera zoom at each position poll, with link status")
+    zoom = Output(
+        ZoomState, measured=True, doc="camera zoom at each position poll, with link status"
+    )
 
     def start(self) -> None:
         p = self.params
