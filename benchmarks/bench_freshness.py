@@ -54,7 +54,8 @@ STAMP_COST_RATIO = 1.03
 def run_pickup(split: bool, factor: int, page: bool, duration: float) -> dict[str, Any]:
     """One pick-up run; REG_VEL's and World's figures from its summaries."""
     out = Path(tempfile.mkdtemp(prefix="bench-freshness-"))
-    cmd = ["umbra", "run", str(GRAPH), "--duration", str(duration), "--out", str(out), "--quiet"]
+    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(GRAPH), "--duration", str(duration)]
+    cmd += ["--out", str(out), "--quiet"]
     if not split:
         cmd += ["--single-process", "--clock", "real"]
     if not page:

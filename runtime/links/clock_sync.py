@@ -15,8 +15,10 @@ take the error; an origin is moved by the error as well, towards the past, so tr
 make data look older than it is, never younger. On one host every process reads the same
 ``CLOCK_MONOTONIC`` and the measured offset is within its error bound (a few microseconds over
 loopback): samples are then taken as they are. Between hosts, or between time namespaces, the
-offset is real and applied. Until the first exchange with a producer completes its samples cannot
-be dated: their origin is ``-inf``, which every guard treats as old.
+offset is real and applied. Until the first exchange with a producer completes, its samples are
+held, in order (at most ``HOLD_UNDATED_S`` and ``MAX_UNDATED`` of them), and delivered once its
+clock is measured; a sample still undated then goes on with origin ``-inf``, which every guard
+treats as old (a status sent once at start would otherwise stay undatable for good).
 
 A reply counts only from the zenoh session the producer's proven liveliness token names
 (``runtime.links.identity``), so nobody but the producer can move its clock.
@@ -31,6 +33,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import msgspec
 import zenoh
@@ -43,6 +46,9 @@ PERIOD_S = 1.0
 WINDOW = 8
 #: Longest a clock query may take [s]; a slower answer is no use for a bound.
 QUERY_TIMEOUT_S = 0.5
+#: Longest a sample waits for its producer's clock to be measured [s], and how many wait.
+HOLD_UNDATED_S = 1.0
+MAX_UNDATED = 256
 
 
 def clock_key(prefix: str, process: str) -> str:
@@ -106,6 +112,13 @@ class ClockSync:
         }
         self._exchanges: dict[str, int] = dict.fromkeys(self._producers, 0)
         self.refused_replies = 0
+        #: samples waiting for their producer's clock: (arrival, deliver, sample), in order
+        self._undated: dict[str, deque[tuple[float, Callable[[Any], None], Any]]] = {
+            p: deque() for p in self._producers
+        }
+        self._undated_locks = {p: threading.Lock() for p in self._producers}
+        self.held_undated = 0
+        self.released_undatable = 0
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._queryable = session.declare_queryable(clock_key(prefix, process), self._answer)
@@ -134,6 +147,7 @@ class ClockSync:
                 if self._stop.is_set():
                     return
                 self.exchange(producer)
+                self._release(producer)
             # quickly again while a producer has no offset yet, then every PERIOD_S
             self._wake.wait(0.05 if pending else PERIOD_S)
             self._wake.clear()
@@ -174,6 +188,45 @@ class ClockSync:
         found = Offset(offset, best_rtt / 2.0, best_rtt, self._exchanges[producer])
         self.offsets[producer] = self._latest[producer] = found
 
+    def date(self, producer: str, sample: Any, deliver: Callable[[Any], None]) -> None:
+        """Deliver ``sample`` of ``producer`` with its stamp and origin on our clock: at once
+        when the producer's clock is measured (after any held before it), else held until it
+        is (``HOLD_UNDATED_S`` at most, then as undatable)."""
+        lock = self._undated_locks.get(producer)
+        if lock is None:  # not a producer of ours (a test's transport): as it is
+            deliver(translated(sample, self.offsets.get(producer)))
+            return
+        with lock:
+            held = self._undated[producer]
+            offset = self.offsets.get(producer)
+            if offset is None:
+                if len(held) >= MAX_UNDATED:
+                    _at, first, old = held.popleft()
+                    self.released_undatable += 1
+                    first(translated(old, None))
+                held.append((self._clock(), deliver, sample))
+                self.held_undated += 1
+                self.poke()
+                return
+            while held:  # in order: what waited goes first
+                _at, first, old = held.popleft()
+                first(translated(old, offset))
+            deliver(translated(sample, offset))
+
+    def _release(self, producer: str) -> None:
+        """Deliver what waited for ``producer``'s clock: dated once it is measured; undatable
+        once it waited ``HOLD_UNDATED_S``."""
+        held, lock = self._undated.get(producer), self._undated_locks.get(producer)
+        if not held or lock is None:
+            return
+        with lock:
+            offset = self.offsets.get(producer)
+            now = self._clock()
+            while held and (offset is not None or now - held[0][0] >= HOLD_UNDATED_S):
+                _at, first, old = held.popleft()
+                self.released_undatable += offset is None
+                first(translated(old, offset))
+
     def forget(self, producer: str) -> None:
         """A producer's session ended: a new one is measured afresh (its clock may differ)."""
         self.offsets.pop(producer, None)
@@ -187,6 +240,10 @@ class ClockSync:
         out: dict[str, object] = {p: o.as_dict() for p, o in sorted(self._latest.items())}
         if self.refused_replies:
             out["refused_replies"] = self.refused_replies
+        if self.held_undated:
+            out["held_until_dated"] = self.held_undated
+        if self.released_undatable:
+            out["undatable"] = self.released_undatable
         return out
 
     def close(self) -> None:
@@ -198,6 +255,15 @@ class ClockSync:
             self._queryable.undeclare()
         except Exception as exc:
             self._log.debug("clock queryable: %s", exc)
+
+
+def translated(sample: Any, offset: Offset | None) -> Any:
+    """``sample`` with its stamp and origin on our clock (``on_our_clock``)."""
+    translate = on_our_clock(offset)
+    if translate is None:
+        return sample
+    stamp, origin = translate(sample.stamp, sample.origin)
+    return msgspec.structs.replace(sample, stamp=stamp, origin=origin)
 
 
 def on_our_clock(offset: Offset | None) -> Callable[[float, float], tuple[float, float]] | None:

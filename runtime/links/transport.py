@@ -47,7 +47,6 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
-import msgspec
 import numpy as np
 import zenoh
 
@@ -65,7 +64,7 @@ from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
 from runtime.links.bounds import max_sample_bytes
-from runtime.links.clock_sync import ClockSync, on_our_clock
+from runtime.links.clock_sync import ClockSync
 from runtime.links.identity import (
     ALIVE,
     Sessions,
@@ -531,7 +530,14 @@ class ZenohTransport:
         bound = max_sample_bytes(expected, self._producer_params.get(key))
         stats.max_bytes = bound
         current, gone = self._sessions.current, self._sessions.gone
-        offsets = self.clocks.offsets
+        date = self.clocks.date
+
+        def hand_over(msg: Message) -> None:
+            for d in delivers:
+                d(msg)
+            for hook in hooks:
+                hook()
+
         trust, refused = _Trust(), self._refused
 
         held: deque[tuple[float, zenoh.Sample, bool]] = deque()
@@ -688,14 +694,7 @@ class ZenohTransport:
             if key in ended:
                 ended.discard(key)
                 self._state_changed()
-            translate = on_our_clock(offsets.get(producer))  # type: ignore[arg-type]
-            if translate is not None:  # another clock, or none measured yet (undatable)
-                stamp, origin = translate(msg.stamp, msg.origin)
-                msg = msgspec.structs.replace(msg, stamp=stamp, origin=origin)
-            for d in delivers:
-                d(msg)
-            for hook in hooks:
-                hook()
+            date(producer, msg, hand_over)  # on our clock: at once, or once it is measured
 
         sub = self._session.declare_subscriber(link.key, on_sample)
         self._subs[link.key] = (sub, stats, delivers)
