@@ -85,6 +85,7 @@ class RegVel(Module):
     gripper = Output(Text, events=True, doc="gripper command, passed while the link is healthy")
     status = Output(
         Status,
+        origin_from=("command",),  # as old as the command it judges (a held jog is old news)
         doc="'passing' or 'zero' with the reason, the command's ages and the travel it let through "
         "(on change, and at least every 0.1 s; every 0.02 s while it passes motion)",
     )

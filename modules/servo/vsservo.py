@@ -111,7 +111,11 @@ class VsServo(Module):
         origin_from=("contour",),  # as old as the image the snake found the patch in
         doc="camera velocity command",
     )
-    status = Output(Status, doc="stage, errors, operator-assistance requests")
+    status = Output(
+        Status,
+        origin_from=("contour",),  # as old as the image its errors come from
+        doc="stage, errors, operator-assistance requests",
+    )
     gripper = Output(Text, events=True, doc="gripper command: open / close")
 
     def start(self) -> None:
