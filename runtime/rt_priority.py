@@ -134,3 +134,37 @@ def priority_for(requests: dict[str, int], process: str | None) -> int | None:
     if process is not None:
         return requests.get(process)
     return max(requests.values(), default=None)
+
+
+#: Highest ``nice`` a graph may ask for a process (Linux's range ends at 19).
+MAX_NICE = 19
+
+
+def is_nice(value: object) -> bool:
+    """A ``nice`` setting a graph may give a process: a whole number from 0 to ``MAX_NICE``."""
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_NICE
+
+
+class GiveWay:
+    """Every thread of the process in the background (``SCHED_BATCH`` at ``nice``), and those
+    it starts later too (they inherit it): a process that gives way under CPU starvation, such
+    as the operator's pages, whose frame rate must give before the control path's freshness."""
+
+    def __init__(self, nice: int | None, log: logging.Logger | None = None) -> None:
+        self.nice = nice
+        self.held = False
+        self._log = log or logging.getLogger("umbra")
+
+    def acquire(self) -> None:
+        if self.nice is None:
+            return
+        for tid in _threads():
+            with contextlib.suppress(AttributeError, OSError):
+                os.sched_setscheduler(tid, os.SCHED_BATCH, os.sched_param(0))
+            with contextlib.suppress(OSError):
+                os.setpriority(os.PRIO_PROCESS, tid, self.nice)
+        self.held = True
+        self._log.info("giving way: threads under SCHED_BATCH at nice %d", self.nice)
+
+    def summary(self) -> dict[str, Any]:
+        return {"nice": self.nice, "held": self.held}

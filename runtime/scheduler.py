@@ -53,7 +53,7 @@ from runtime.gc_pause import HeapFreeze
 from runtime.graph.plan import GraphPlan
 from runtime.links_api import LinkTransport
 from runtime.realtime import CpuLatencyHold
-from runtime.rt_priority import RealtimePriority, priority_for
+from runtime.rt_priority import GiveWay, RealtimePriority, priority_for
 from runtime.stats import ModuleStats, RunResult
 
 INTERRUPTED = 130
@@ -304,6 +304,13 @@ class Scheduler:
             unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_PRIORITY,
         )
         priority.acquire()
+        give_way = GiveWay(  # a process of its own only: in one process the servo lives too
+            self.plan.spec.nice.get(self.options.process or "")
+            if self.options.process is not None and self.clock.kind == "real"
+            else None,
+            self.options.log,
+        )
+        give_way.acquire()
         # no full collection mid-loop; before t0, so the collection takes no time of the run
         heap = HeapFreeze(enabled=self.clock.kind == "real")
         heap.acquire()
@@ -365,6 +372,8 @@ class Scheduler:
             extra["realtime"] = hold.summary()
         if priority.priority is not None:
             extra["realtime_priority"] = priority.summary()
+        if give_way.nice is not None:
+            extra["give_way"] = give_way.summary()
         if heap.enabled:
             extra["gc"] = heap.summary()
         if self.recorder is not None:

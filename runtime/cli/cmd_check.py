@@ -57,6 +57,7 @@ def _process_text(name: str, spec: GraphSpec) -> str:
         for key, values in (
             ("cpu_latency_us", spec.cpu_latency_us),
             ("realtime_priority", spec.realtime_priority),
+            ("nice", spec.nice),
         )
         if name in values
     ]

@@ -51,7 +51,7 @@ from runtime.graph.spec import (
 from runtime.hints import did_you_mean
 from runtime.realtime import NO_CONSTRAINT_US, is_latency_us
 from runtime.recording.settings import parse_record
-from runtime.rt_priority import MAX_PRIORITY, MIN_PRIORITY, is_priority
+from runtime.rt_priority import MAX_NICE, MAX_PRIORITY, MIN_PRIORITY, is_nice, is_priority
 
 TOP_KEYS = (
     "graph",
@@ -67,7 +67,7 @@ TOP_KEYS = (
     "record",
 )
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
-PROCESS_KEYS = ("cpu_latency_us", "realtime_priority")
+PROCESS_KEYS = ("cpu_latency_us", "realtime_priority", "nice")
 LINK_KEYS = ("prefix", "listen", "connect", "zenoh_config", "dispatch")
 DISPATCH_MODES = ("inline", "loop")
 CONNECTION_RE = re.compile(
@@ -216,6 +216,12 @@ class _Parser:
                 is_priority,
                 f"a whole number from {MIN_PRIORITY} to {MAX_PRIORITY} (SCHED_FIFO)",
                 spec.realtime_priority,
+            ),
+            (
+                "nice",
+                is_nice,
+                f"a whole number from 0 to {MAX_NICE} (the process gives way: SCHED_BATCH)",
+                spec.nice,
             ),
         )
         for key, valid, expected, into in settings:

@@ -99,6 +99,8 @@ class GraphSpec:
     cpu_latency_us: dict[str, int] = field(default_factory=dict)
     #: process -> the SCHED_FIFO priority its threads run at (``runtime.rt_priority``)
     realtime_priority: dict[str, int] = field(default_factory=dict)
+    #: per process: ``nice`` (0..19) for a process that gives way (SCHED_BATCH), e.g. the pages
+    nice: dict[str, int] = field(default_factory=dict)
     modules: dict[str, ModuleSpec] = field(default_factory=dict)
     connections: list[ConnectionSpec] = field(default_factory=list)
     frames: list[StaticFrameSpec] = field(default_factory=list)
