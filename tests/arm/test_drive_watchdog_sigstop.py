@@ -23,6 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
+
 SPEED_M_S = 0.04  # the commanded tool speed along the camera's x axis
 WATCHDOG_S = 0.1  # WOLVERINE_JNTS's drive_watchdog (its default)
 LAG_S = 0.02  # WOLVERINE_JNTS's lag_tau (its default)

@@ -35,6 +35,9 @@ from tests.hostile.bombs import (
     zstd_rle_frame,
 )
 
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[2]
 GRAPH = REPO / "tests" / "recording" / "pickup_small.yaml"
 #: A 98 kB zstd frame of RLE blocks: 3.2 GB of zeros.

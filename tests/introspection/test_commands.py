@@ -10,9 +10,14 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
+
 from runtime.links.observe import Observation
 from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli, user_folder
 from tests.links.conftest import Running
+
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
 
 PREFIX = "umbra/counter_split"
 

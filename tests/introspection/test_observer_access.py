@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 import zenoh
 
 from connectors.codec import Codec
@@ -20,6 +21,9 @@ from runtime.links.observe import Observation, Observed
 from runtime.links.runs import observer_endpoint
 from tests.introspection.helpers import running, user_folder
 from tests.links.conftest import Running, guarded_arm_graph
+
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
 
 KEY = "umbra/observed/source/twist"
 

@@ -8,10 +8,15 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
+
 from runtime.links.config import free_loopback_ports
 from runtime.links.observe import Observation, Observed
 from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli
 from tests.links.conftest import Running
+
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
 
 COUNT, DOUBLE = "umbra/counter_split/counter/count", "umbra/counter_split/double/output"
 

@@ -3,9 +3,14 @@ sequence gaps, the end of a stream."""
 
 from __future__ import annotations
 
+import pytest
+
 from connectors.messages import Scalar
 from runtime.cli.cmd_topics import Seen, _row
 from runtime.links.observe import Observed
+
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
 
 
 def _sample(seq: int, at: float) -> Observed:

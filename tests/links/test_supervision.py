@@ -11,9 +11,13 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from modules.generic.recording import read_recording
 from tests.links.conftest import Running
+
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
 
 SERVO_GRAPH = """
 graph: guarded

@@ -14,6 +14,9 @@ from runtime.recording.encoders import channel_encodings
 from runtime.recording.tap import topic_of
 from tests.live.helpers import REPO, LiveRun, install_client, needs_node, run_client
 
+# whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
+pytestmark = pytest.mark.slow
+
 GRAPH = REPO / "graphs" / "tool_pickup.yaml"
 
 

@@ -93,6 +93,7 @@ def test_bad_command_lines_exit_2_without_traceback(
     assert fragment in proc.stderr
 
 
+@pytest.mark.slow  # every command's --help in a subprocess of its own: ~24 s
 def test_help_on_every_command() -> None:
     from runtime.cli.main import _load_commands
 

@@ -64,7 +64,8 @@ def test_killing_the_vision_process_stops_the_servo_side_within_its_watchdog(
     assert result.assist_reason
 
 
-@pytest.mark.timeout(330)  # two sim pick-ups in a subprocess: on a machine at load 10, ~2 min
+@pytest.mark.slow  # two sim pick-ups in a subprocess: 27 s quiet, ~2 min at load 10
+@pytest.mark.timeout(330)
 def test_trials_command_json(tmp_path: Path) -> None:
     proc = subprocess.run(
         [
