@@ -7,18 +7,14 @@ from pathlib import Path
 
 import pytest
 
-#: Debian's package ``chromium`` (``apt-get install -y chromium``).
-CHROMIUM = Path("/usr/bin/chromium")
-#: Headless, and no calls home (this machine has no network but the package registries).
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
+from modules.world.trial_faults import CHROMIUM as CHROMIUM_PATH
+from modules.world.trial_faults import CHROMIUM_FLAGS
+
+#: Debian's package ``chromium`` (``apt-get install -y chromium``), headless and with no calls
+#: home (this machine has no network but the package registries): the same flags the overload
+#: trials open the operator's page with, declared once in ``modules.world.trial_faults``.
+CHROMIUM = Path(CHROMIUM_PATH)
+CHROMIUM_ARGS = list(CHROMIUM_FLAGS)
 
 needs_chromium = pytest.mark.skipif(
     not CHROMIUM.exists(),
