@@ -16,8 +16,12 @@ PERIOD = 0.01
 
 def pickup_with_watch(folder: Path) -> str:
     """Write the pick-up graph plus an ArmWatch (100 Hz, process `smart`) on the joints and the
-    guard's status into ``folder``; the file's name."""
+    guard's status into ``folder``; the file's name. The console goes back into `umbra` (the
+    attacks are on the links between vision and servo), so the two processes a test starts by
+    hand are the whole graph (`ui` is left without modules)."""
     text = PICKUP.read_text()
+    assert text.count("process: ui") == 1
+    text = text.replace("process: ui", "process: umbra")
     watch = "  arm: {type: ArmWatch, process: smart, rate: 100}\n"
     assert text.count("\nconnections:\n") == 1
     text = text.replace("\nconnections:\n", f"\n{watch}connections:\n")

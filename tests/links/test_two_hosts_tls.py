@@ -77,7 +77,7 @@ def test_mtls_pick_up_across_two_hosts_refuses_every_other_peer(
     plugin_env: dict[str, str],
     tmp_path: Path,
 ) -> None:
-    graph = pickup_with_watch(tmp_path)
+    graph = pickup_with_watch(tmp_path)  # the page beside vision: two hosts, two processes
     for folder in ("keys", "other"):
         done = run_umbra(
             plugin_env,
@@ -100,10 +100,6 @@ def test_mtls_pick_up_across_two_hosts_refuses_every_other_peer(
     )  # fmt: skip
     vision = umbra(
         "run", graph, "--process", "umbra", "--connect", endpoint, *common,
-        prefix=("ip", "netns", "exec", hosts.a),
-    )  # fmt: skip
-    page = umbra(  # the operator's page, a process of its own, on the vision host
-        "run", graph, "--process", "ui", "--connect", endpoint, *common,
         prefix=("ip", "netns", "exec", hosts.a),
     )  # fmt: skip
     smart.wait_for("links ready", timeout=60)
@@ -136,8 +132,6 @@ def test_mtls_pick_up_across_two_hosts_refuses_every_other_peer(
     assert smart.finish(timeout=120) == 0, smart.text
     vision.popen.send_signal(signal.SIGINT)
     vision.finish()
-    page.popen.send_signal(signal.SIGINT)
-    page.finish()
     assert "grasped" in smart.wait_for("umbra.world: grasped")
     smart_summary = summary(tmp_path / "out", "smart")
     twist = link(smart_summary, TWIST_KEY)
