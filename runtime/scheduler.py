@@ -455,7 +455,7 @@ class Scheduler:
                         break
             if not run_it:
                 continue
-            slot.track.oldest = math.inf
+            slot.track.reset()
             start = perf()
             try:
                 slot.module.step(now)
@@ -531,7 +531,7 @@ class Scheduler:
             module = slot.module
             hook = getattr(module, "safe_stop", None)
             try:
-                slot.track.oldest = math.inf
+                slot.track.reset()
                 if callable(hook):
                     hook(now)
                     sent = True
@@ -548,7 +548,7 @@ class Scheduler:
             return
         for slot in started:
             if any(reg.fresh for reg in slot.trigger_regs):
-                slot.track.oldest = math.inf
+                slot.track.reset()
                 try:
                     slot.module.step(now)
                 except Exception as exc:

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 from runtime.links.observe import Run, local_runs
-from tests.links.conftest import REPO, Running
+from tests.links.conftest import REPO, Running, run_umbra
 
 COUNTER = str(REPO / "graphs" / "counter_split.yaml")
 
@@ -40,16 +39,8 @@ def running(
 def umbra_cli(
     env: dict[str, str], *args: str, timeout: float = 60, cwd: Path | None = None
 ) -> subprocess.CompletedProcess:
-    """``umbra ARGS...`` run to its end."""
-    return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", *args],
-        env=env,
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        stdin=subprocess.DEVNULL,
-    )
+    """``umbra ARGS...`` run to its end (in ``cwd``, this folder by default)."""
+    return run_umbra(env, cwd or Path.cwd(), *args, timeout=timeout)
 
 
 def json_lines(text: str) -> list[dict]:
