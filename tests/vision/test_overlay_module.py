@@ -41,9 +41,11 @@ def test_draws_the_contour_its_shapes_and_the_stage(tmp_path) -> None:
         h.push("image", image)
         drawn = h.step(0.01)["overlay"][0]
     assert drawn.stamp == image.stamp
-    midpoint = 0.5 * (contour.vertices[3] + contour.vertices[4])
-    assert near(drawn.pixels, midpoint, CONTOUR_BGR)
-    assert not near(image.pixels, midpoint, CONTOUR_BGR)
+    # The contour's segments are drawn (the outer rectangle may cross a few of them).
+    midpoints = 0.5 * (contour.vertices + np.roll(contour.vertices, -1, axis=0))
+    drawn_share = np.mean([near(drawn.pixels, m, CONTOUR_BGR) for m in midpoints])
+    assert drawn_share >= 0.8
+    assert not any(near(image.pixels, m, CONTOUR_BGR) for m in midpoints)
     # The outer rectangle lies 12 % outside the contour along the major axis.
     c, s = np.cos(contour.orientation), np.sin(contour.orientation)
     reach = 0.5 * contour.axes[0] * np.sqrt(12) / 4 * 1.12
