@@ -21,28 +21,16 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import threading
 from typing import Any
+
+from connectors.threads import BACKGROUND_POLICIES, background
+
+__all__ = ["BACKGROUND_POLICIES", "RealtimePriority", "background", "priority_for"]
 
 #: The priorities ``SCHED_FIFO`` takes on Linux (higher runs first).
 MIN_PRIORITY = 1
 MAX_PRIORITY = 99
 TASKS = "/proc/self/task"
-
-
-#: Policies a thread takes to say it must give way (``background``): never made real-time.
-BACKGROUND_POLICIES = (os.SCHED_BATCH, os.SCHED_IDLE)
-
-
-def background(nice: int = 10) -> None:
-    """Put the calling thread in the background: ``SCHED_BATCH`` at ``nice`` (a recorder, a
-    video encoder), so that under CPU starvation it gives way first and a process's
-    ``realtime_priority`` leaves it there. Where the system refuses, it stays as it is."""
-    tid = threading.get_native_id()
-    with contextlib.suppress(AttributeError, OSError):
-        os.sched_setscheduler(tid, os.SCHED_BATCH, os.sched_param(0))
-    with contextlib.suppress(AttributeError, OSError):
-        os.setpriority(os.PRIO_PROCESS, tid, nice)
 
 
 def is_priority(value: object) -> bool:

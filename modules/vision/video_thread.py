@@ -5,7 +5,9 @@ the GIL: on its own thread it overlaps the vision loop instead of adding to its 
 wait in a bounded queue (``depth``). When the queue is full, ``wait=True`` (the sim clock, where
 nothing is real time) waits for room, so the file holds every frame; ``wait=False`` (the real
 clock) drops the frame and counts it in ``dropped``. A frame of another size than the first is
-refused where it is offered (``VideoFileError``), as :class:`VideoWriter` refuses it.
+refused where it is offered (``VideoFileError``), as :class:`VideoWriter` refuses it. The thread
+runs in the background (``SCHED_BATCH``): under CPU starvation the file loses frames (counted),
+the vision loop none of its time.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from connectors.threads import background
 from modules.vision.video import VideoWriter
 
 _CLOSE = None
@@ -88,6 +91,7 @@ class ThreadedVideoWriter:
         return False
 
     def _run(self) -> None:
+        background()  # under starvation the operator's video gives way, never the vision loop
         try:
             while (frame := self._queue.get()) is not _CLOSE:
                 if self.error:

@@ -135,3 +135,23 @@ def test_a_failing_encoder_counts_what_it_lost_and_never_holds_the_caller(
         dead.write(_frame(i))
     dead.close()
     assert "video encoder stopped" in dead.error and dead.frames == 0
+
+
+def test_the_encoder_gives_way_under_starvation(tmp_path: Path, monkeypatch) -> None:
+    """The encoder's thread runs under SCHED_BATCH at a positive nice: a starved CPU takes its
+    frames (counted as dropped), not the vision loop's time."""
+    import os
+
+    seen: list[tuple[int, int]] = []
+    original = VideoWriter.write
+
+    def noting_write(self: VideoWriter, frame: np.ndarray) -> None:
+        tid = threading.get_native_id()
+        seen.append((os.sched_getscheduler(tid), os.getpriority(os.PRIO_PROCESS, tid)))
+        original(self, frame)
+
+    monkeypatch.setattr(VideoWriter, "write", noting_write)
+    writer = ThreadedVideoWriter(tmp_path / "v.avi", 10.0, (160, 120), wait=True)
+    writer.write(_frame(1))
+    writer.close()
+    assert seen == [(os.SCHED_BATCH, 10)]
