@@ -8,6 +8,10 @@ so that playback delivers each frame once. At the end of a file the reader loops
 says so; a file that cannot be read again from its start ends there. A still image is decoded
 once and needs no thread (:attr:`CaptureReader.still`). What a source names and why it cannot
 be opened is :mod:`modules.vision.capture_source`.
+
+A device's or stream's frame carries its capture time [s, ``time.monotonic()``]: the driver's
+buffer stamp where the backend gives one on that clock, else the moment ``grab()`` dequeued it,
+before decoding (:mod:`modules.vision.capture_time`).
 """
 
 from __future__ import annotations
@@ -15,6 +19,8 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
+import time
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -26,8 +32,19 @@ from modules.vision.capture_source import (
     probe_stream,
     source_problem,
 )
+from modules.vision.capture_time import capture_time
 
-__all__ = ["CaptureError", "CaptureReader", "CaptureSource"]
+__all__ = ["CaptureError", "CaptureReader", "CaptureSource", "LiveFrame"]
+
+
+class LiveFrame(NamedTuple):
+    """The newest frame of a device or stream: its number (1, 2, ...), its pixels, its capture
+    time [s, ``time.monotonic()``] and where that time comes from (``"driver"`` or ``"grab"``)."""
+
+    number: int
+    pixels: NDArray[np.uint8]
+    captured_at: float
+    stamped_by: str
 
 
 def _as_bgr(frame: NDArray[np.uint8], size_wh: tuple[int, int] | None) -> NDArray[np.uint8]:
@@ -66,7 +83,8 @@ class CaptureReader:
         self.failed_reads = 0
         self._stop = threading.Event()
         self._lock = threading.Lock()
-        self._latest: tuple[int, NDArray[np.uint8]] | None = None
+        self._latest: LiveFrame | None = None
+        self._first_at = (0.0, "grab")  # capture time of the frame read while opening
         self._queue: queue.Queue[NDArray[np.uint8]] = queue.Queue(maxsize=max(file_queue, 1))
         self._thread: threading.Thread | None = None
         self.loop_failed = False
@@ -91,11 +109,26 @@ class CaptureReader:
                 raise CaptureError(unreachable)
         self._open_timeout_s = open_timeout_s
         self._capture = self._open(fps)
-        ok, first = self._capture.read()
-        if not ok or first is None:
+        first, self._first_at = self._read()
+        if first is None:
             self._capture.release()
             raise CaptureError(f"{source.describe()} opened but delivered no frame (cannot decode)")
         self._first = _as_bgr(first, size_wh)
+
+    def _read(self) -> tuple[NDArray[np.uint8] | None, tuple[float, str]]:
+        """One frame (None: none) and, for a live one, its capture time [s] and its source."""
+        if self.is_file:
+            ok, frame = self._capture.read()
+            return (frame if ok else None), (0.0, "grab")
+        if not self._capture.grab():
+            return None, (0.0, "grab")
+        grabbed = time.monotonic()
+        driver_ms = (
+            self._capture.get(cv2.CAP_PROP_POS_MSEC) if self.source.kind == "device" else None
+        )
+        captured = capture_time(driver_ms, grabbed)
+        ok, frame = self._capture.retrieve()
+        return (frame if ok else None), captured
 
     def _video_capture(self) -> cv2.VideoCapture:
         source = self.source
@@ -140,12 +173,15 @@ class CaptureReader:
         )
         self._thread.start()
 
-    def _publish(self, frame: NDArray[np.uint8]) -> bool:
-        """Hand a frame over; False when asked to stop while waiting for queue space."""
+    def _publish(
+        self, frame: NDArray[np.uint8], captured: tuple[float, str] = (0.0, "grab")
+    ) -> bool:
+        """Hand a frame over (a live one captured at ``captured``: time [s], its source);
+        False when asked to stop while waiting for queue space."""
         self.frames_read += 1
         if not self.is_file:
             with self._lock:
-                self._latest = (self.frames_read, frame)
+                self._latest = LiveFrame(self.frames_read, frame, *captured)
             return True
         while not self._stop.is_set():
             try:
@@ -157,13 +193,13 @@ class CaptureReader:
 
     def _run(self) -> None:
         first, self._first = self._first, None
-        if first is not None and not self._publish(first):
+        if first is not None and not self._publish(first, self._first_at):
             return
         while not self._stop.is_set():
-            ok, frame = self._capture.read()
-            if ok and frame is not None:
+            frame, captured = self._read()
+            if frame is not None:
                 self.failed_reads = 0
-                if not self._publish(_as_bgr(frame, self.size_wh)):
+                if not self._publish(_as_bgr(frame, self.size_wh), captured):
                     return
                 continue
             if self.is_file:
@@ -187,8 +223,8 @@ class CaptureReader:
             return False
         return self._publish(_as_bgr(frame, self.size_wh))
 
-    def latest(self) -> tuple[int, NDArray[np.uint8]] | None:
-        """(frame number, frame) of the newest frame of a device or stream; None before one."""
+    def latest(self) -> LiveFrame | None:
+        """The newest frame of a device or stream; None before one."""
         with self._lock:
             return self._latest
 

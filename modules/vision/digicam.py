@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 from typing import Literal
 
 import msgspec
@@ -196,6 +196,8 @@ class DigiCam(Module):
         self._sent = 0
         self._ended_reported = False
         self._last_number: int | None = None
+        #: live frames by where their capture time came from: driver, grab, step (sim clock)
+        self._stamped_by: Counter[str] = Counter()
         self._fault: SceneFault | None = None
         self._first_step_at: float | None = None
         self._fault_started_at: float | None = None
@@ -254,6 +256,8 @@ class DigiCam(Module):
 
     def summary(self) -> dict[str, object]:
         out: dict[str, object] = {"frames": self._sent, "stale_events": self._stale_events}
+        if self._stamped_by:
+            out["capture_stamps"] = dict(self._stamped_by)
         if self._sim is not None:
             out["renderers_built"] = self._sim.renderers_built
             out["fault"] = self.params.fault
@@ -314,9 +318,13 @@ class DigiCam(Module):
                 self.log.info("%s: %s ended; holding its last frame", self.name, what)
         else:
             latest = reader.latest()
-            if latest is not None and latest[0] != self._last_number:
-                self._last_number = latest[0]
-                self._send(latest[1], now)
+            if latest is not None and latest.number != self._last_number:
+                self._last_number = latest.number
+                # on the real clock a live frame is as old as its capture (the driver's stamp
+                # where the device gives one), not as the step that takes it over
+                real = self.context.clock == "real"
+                self._stamped_by[latest.stamped_by if real else "step"] += 1
+                self._send(latest.pixels, now, stamp=latest.captured_at if real else None)
                 return
         self._check_stale(now)
 
