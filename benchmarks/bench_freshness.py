@@ -10,7 +10,8 @@ far the true tool travelled during them (SafetyMonitor's record), and the run's 
 
 Then the cost of carrying the origin on a small link round trip: a 6-vector twist ping-ponged over
 two zenoh sessions on loopback, msgspec-encoded with and without the origin field, the receiver
-bringing the origin onto its clock as the transport does — ratio of the round trips, same run.
+bringing the origin onto its clock as the transport does — ratio of the round trips, same run,
+the two kinds alternating round by round so that a change of load hits both alike.
 
 Goals (issue #28): healthy with a page open, command origin age p99 <= 150 ms and no watchdog
 zero; under 4x overload every run grasps or stops with at most 5 mm of travel on stale data; the
@@ -127,41 +128,45 @@ def stamp_cost(rounds: int) -> dict[str, Any]:
     offset = Offset(0.0021, 0.0001, 0.0002, 8)  # another host's clock: the translation runs
     translate = on_our_clock(offset)
     assert translate is not None
-    results: dict[str, list[float]] = {"plain": [], "stamped": []}
+    kinds = {"plain": _Plain, "stamped": _Stamped}
+    results: dict[str, list[float]] = {kind: [] for kind in kinds}
+    got = threading.Event()
+    encoder = msgspec.msgpack.Encoder()
+    subscribers = []
     try:
-        for kind, cls in (("plain", _Plain), ("stamped", _Stamped)):
+        for kind, cls in kinds.items():
             decoder = msgspec.msgpack.Decoder(cls)
-            encoder = msgspec.msgpack.Encoder()
-            got = threading.Event()
 
-            def echo(sample: zenoh.Sample, _d=decoder, _e=encoder) -> None:
+            def echo(sample: zenoh.Sample, _d=decoder, _k=kind) -> None:
                 msg = _d.decode(sample.payload.to_bytes())
                 if isinstance(msg, _Stamped):
                     stamp, origin = translate(msg.stamp, msg.origin)
                     msg = msgspec.structs.replace(msg, stamp=stamp, origin=origin)
-                b.put("bench/pong", _e.encode(msg))
+                b.put(f"bench/{_k}/pong", encoder.encode(msg))
 
-            def back(sample: zenoh.Sample, _d=decoder, _got=got) -> None:
+            def back(sample: zenoh.Sample, _d=decoder) -> None:
                 _d.decode(sample.payload.to_bytes())
-                _got.set()
+                got.set()
 
-            s1 = b.declare_subscriber("bench/ping", echo)
-            s2 = a.declare_subscriber("bench/pong", back)
-            time.sleep(0.3)
-            for i in range(rounds + 200):
-                now = time.monotonic()
-                fields = dict(stamp=now, seq=i, vector=vector, frame="camera")
-                msg = _Stamped(origin=now - 0.03, **fields) if cls is _Stamped else _Plain(**fields)
-                got.clear()
-                t0 = time.perf_counter()
-                a.put("bench/ping", encoder.encode(msg))
-                if not got.wait(1.0):
-                    continue
-                if i >= 200:  # warm-up rounds left out
-                    results[kind].append((time.perf_counter() - t0) * 1e6)
-            s1.undeclare()
-            s2.undeclare()
+            subscribers.append(b.declare_subscriber(f"bench/{kind}/ping", echo))
+            subscribers.append(a.declare_subscriber(f"bench/{kind}/pong", back))
+        time.sleep(0.3)
+        # The two kinds alternate round by round, so a change of load hits both alike.
+        for i in range(2 * (rounds + 200)):
+            kind = ("plain", "stamped")[i % 2]
+            now = time.monotonic()
+            fields = dict(stamp=now, seq=i, vector=vector, frame="camera")
+            msg = _Stamped(origin=now - 0.03, **fields) if kind == "stamped" else _Plain(**fields)
+            got.clear()
+            t0 = time.perf_counter()
+            a.put(f"bench/{kind}/ping", encoder.encode(msg))
+            if not got.wait(1.0):
+                continue
+            if i >= 400:  # warm-up rounds left out
+                results[kind].append((time.perf_counter() - t0) * 1e6)
     finally:
+        for subscriber in subscribers:
+            subscriber.undeclare()
         a.close()
         b.close()
     plain, stamped = percentiles(results["plain"]), percentiles(results["stamped"])
