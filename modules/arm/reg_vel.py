@@ -112,6 +112,8 @@ class RegVel(Module):
         self._status_at = -float("inf")
         self._passing_origin_ages: list[float] = []  # [s] of the commands passed, for the summary
         self._passing_arrival_ages: list[float] = []  # [s] since they arrived, beside them
+        self._refused_origin_ages: list[float] = []  # [s] of the commands refused as too old
+        self._refused_arrival_ages: list[float] = []  # [s] since they arrived, beside them
         #: [start, end] [s] of each stretch at zero for old data (end None: to the end)
         self._stale_episodes: list[list[float | None]] = []
         self._last_out: RegisterOutput | None = None
@@ -195,6 +197,9 @@ class RegVel(Module):
         else:
             self._zeroed += 1
             self._stale_zeroes += out.stale
+            if out.stale and len(self._refused_origin_ages) < 1_000_000:
+                self._refused_origin_ages.append(out.origin_age)
+                self._refused_arrival_ages.append(out.age)
             last = self._last_out
             self._watchdog_zeroes += out.zero_reason.startswith("no new command") and (
                 last is not None and last.passing
@@ -234,6 +239,8 @@ class RegVel(Module):
             "watchdog_zeroes": self._watchdog_zeroes,
             "passed_origin_age_ms": _percentiles_ms(self._passing_origin_ages),
             "passed_arrival_age_ms": _percentiles_ms(self._passing_arrival_ages),
+            "refused_origin_age_ms": _percentiles_ms(self._refused_origin_ages),
+            "refused_arrival_age_ms": _percentiles_ms(self._refused_arrival_ages),
             "stale_episodes_s": self._stale_episodes,
             "last_zero_reason": self._last_zero_reason,
         }

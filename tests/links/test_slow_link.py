@@ -46,13 +46,18 @@ connections:
 """
 
 
-def test_late_commands_on_a_congested_link_are_refused_by_their_age(
+def _run_shaped(
     hosts: Hosts,  # noqa: F811
     umbra: Callable[..., Running],
     plugin_env: dict[str, str],
     tmp_path: Path,
-) -> None:
-    (tmp_path / "g.yaml").write_text(GRAPH)
+    graph: str,
+    rate: str,
+) -> tuple[dict, str]:
+    """Run ``graph`` split over the two hosts, shape the producer's side to ``rate`` (tbf, a
+    5 s queue) after the clocks are measured, run 10 s more, and return REG_VEL's summary and
+    the shaper's statistics."""
+    (tmp_path / "g.yaml").write_text(graph)
     endpoint = f"tcp/{hosts.address_b}:7447"
     common = ("--insecure", "--out", "out", "--duration", "60")
     consumer = umbra(
@@ -69,10 +74,11 @@ def test_late_commands_on_a_congested_link_are_refused_by_their_age(
     time.sleep(1.5)  # the clocks measured over the free link
     shaped = subprocess.run(
         ["ip", "netns", "exec", hosts.a, "tc", "qdisc", "add", "dev", hosts.veth_a, "root",
-         "tbf", "rate", "200kbit", "burst", "4kb", "latency", "5s"],
+         "tbf", "rate", rate, "burst", "4kb", "latency", "5s"],
         capture_output=True, text=True, timeout=10,
     )  # fmt: skip
     if shaped.returncode != 0:
+        stop_all([producer, consumer])
         pytest.skip(f"cannot shape the link with tc: {shaped.stderr.strip()}")
     time.sleep(10.0)  # a while on the congested link
     stats = subprocess.run(
@@ -88,6 +94,16 @@ def test_late_commands_on_a_congested_link_are_refused_by_their_age(
         stop_all([producer])
     summary = json.loads((tmp_path / "out" / "summary-smart.json").read_text())
     (register,) = [m for m in summary["modules"] if m["module"] == "register"]
+    return register, stats
+
+
+def test_late_commands_on_a_congested_link_are_refused_by_their_age(
+    hosts: Hosts,  # noqa: F811
+    umbra: Callable[..., Running],
+    plugin_env: dict[str, str],
+    tmp_path: Path,
+) -> None:
+    register, stats = _run_shaped(hosts, umbra, plugin_env, tmp_path, GRAPH, "200kbit")
     overlimits = re.search(r"overlimits (\d+)", stats)
     assert overlimits is not None and int(overlimits.group(1)) > 0, stats  # the link was full
     passed = register["passed_origin_age_ms"]
@@ -97,3 +113,35 @@ def test_late_commands_on_a_congested_link_are_refused_by_their_age(
     # old twist rather than queueing it behind the bulk), so the arm was driven all along
     assert passed["ticks"] >= 500, json.dumps(register)
     assert passed["p99"] <= 250.0, json.dumps(register)
+
+
+#: The twist alone, at 50 Hz, on a link too slow for it: nothing to drop it for, so it queues in
+#: the sockets and the shaper and arrives steadily, later and later.
+TWIST_ONLY = (
+    GRAPH.replace(
+        "  ballast: {type: Ballast, process: umbra, rate: 100, params: {floats: 1500}}\n", ""
+    )
+    .replace("  - ballast.load -> sink.value\n", "")
+    .replace("  sink: {type: Printer, process: smart, params: {max_rate_hz: 0.1}}\n", "")
+)
+
+
+def test_commands_that_keep_arriving_late_are_refused_though_the_watchdog_is_fed(
+    hosts: Hosts,  # noqa: F811
+    umbra: Callable[..., Running],
+    plugin_env: dict[str, str],
+    tmp_path: Path,
+) -> None:
+    """The case of the issue: a link that delivers every command, but late. Judged by arrival
+    the commands were fresh (one every few tens of ms feeds a 0.1 s watchdog); judged by their
+    origin they are seconds old, and the guard refuses every one of them."""
+    register, _ = _run_shaped(hosts, umbra, plugin_env, tmp_path, TWIST_ONLY, "16kbit")
+    refused = register["refused_origin_age_ms"]
+    arrival = register["refused_arrival_age_ms"]
+    assert refused["ticks"] >= 300, json.dumps(register)  # 3 s or more held for old data
+    # they kept coming: most refused commands had arrived within the 0.1 s watchdog ...
+    assert arrival["p50"] <= 100.0, json.dumps(register)
+    # ... but were made from data well past the bound
+    assert refused["p50"] > 500.0, json.dumps(register)
+    passed = register["passed_origin_age_ms"]
+    assert passed["max"] is None or passed["max"] <= 250.0, json.dumps(register)
