@@ -207,6 +207,7 @@ class Register(Generic[M]):
         "_track",
         "_value",
         "clock_error",
+        "connected",
         "events",
         "fresh",
         "link_alive",
@@ -228,6 +229,10 @@ class Register(Generic[M]):
         self.superseded = 0
         #: True when fed by an events output (ordered, lossless)
         self.events = False
+        #: True when the graph wires an output to this input (set by the runtime as it wires
+        #: the graph; by the harness at the first push): a module can tell "nothing yet" from
+        #: "nothing will come"
+        self.connected = False
         #: False when the producer is in another process that is known to be gone.
         self.link_alive = True
         #: bound [s] on the error of the samples' stamps and origins on this process's clock (0:

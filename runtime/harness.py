@@ -116,7 +116,9 @@ class ModuleHarness:
         stamped = msgspec.structs.replace(
             sample, seq=seq, stamp=stamp, origin=sample.origin or stamp
         )
-        self.module.registers[input_name].write(stamped, self.now)
+        register = self.module.registers[input_name]
+        register.connected = True
+        register.write(stamped, self.now)
         return stamped
 
     def step(self, dt: float = 0.0) -> dict[str, list[Message]]:

@@ -200,6 +200,7 @@ class Scheduler:
                 out = self.modules[conn.src.module].outputs[conn.src.port]
                 reg = self.modules[conn.dst.module].registers[conn.dst.port]
                 reg.events = out.events
+                reg.connected = True
                 if conn.delayed:
                     out.sinks.append(self._delayed_writer(reg))
                 else:
@@ -211,6 +212,7 @@ class Scheduler:
                 if dst_here:
                     reg = self.modules[conn.dst.module].registers[conn.dst.port]
                     reg.events = link.reliable
+                    reg.connected = True
                     self.transport.subscribe(
                         link, self._deliverer(reg, link.reliable), self._arrived
                     )

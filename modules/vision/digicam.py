@@ -167,6 +167,8 @@ class DigiCam(Module):
                 raise ParamProblem("cast_rgb", f"needs 3 non-negative values, got {self.cast_rgb}")
             return self
 
+    # sim: a wired pose or model is waited for before the first frame (no frame from a pose
+    # nobody measured); unwired, the parameters stand in for it
     camera_pose = Input(
         Pose, required=False, feedback=True, doc="camera (or its mount) pose, for sim"
     )
@@ -205,6 +207,7 @@ class DigiCam(Module):
         #: (t, T_world_camera, T_world_patch) of recent steps, for the ``lag`` fault
         self._poses: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
         self._decoder_stalled = False
+        self._told_waiting = False
         size = (p.width, p.height) if p.width and p.height else None
         if (p.width == 0) != (p.height == 0):
             raise UserError(f"{self.name}: give both width and height, or neither (0)")
@@ -412,6 +415,15 @@ class DigiCam(Module):
         if faulted and self._fault_started_at is None:
             self._fault_started_at = now
             self.log.warning("%s: injected fault %r begins at %.3f s", self.name, p.fault, now)
+        waiting = [
+            reg.name for reg in (self.camera_pose, self.patch_pose, self.camera_model)
+            if reg.connected and reg.value is None
+        ]  # fmt: skip
+        if waiting:  # wired poses not here yet: no frame from a pose nobody measured
+            if not self._told_waiting:
+                self._told_waiting = True
+                self.log.info("%s: waiting for %s before the first frame", self.name, waiting)
+            return
         T_world_patch = self._patch_pose()
         T_world_camera = self._camera_pose(T_world_patch)
         captured = now
