@@ -122,6 +122,7 @@ class SimWorld(Module):
         self._closing_seen = False
         self._judged = False
         self._stopped_since: float | None = None
+        self._vision_seen_alive = False  # the servo status's producer was seen up once
         self._stop_reason = ""
 
     def step(self, now: float) -> None:
@@ -166,11 +167,14 @@ class SimWorld(Module):
         if person is not None and person.values.get("acted"):
             self._stopped_since = None  # a person at the console answers for the grab
             return False
+        # a producer is gone once it was seen alive: at start its samples may come before its
+        # liveliness token does (a process slow to start under load is not a vanished one)
+        self._vision_seen_alive |= self.servo_status.link_alive and status is not None
         if self._stopped_since is None:
             if status is not None and status.assist:
                 self._stopped_since = now
                 self._stop_reason = f"operator assistance requested ({status.reason})"
-            elif status is not None and not self.servo_status.link_alive:
+            elif self._vision_seen_alive and not self.servo_status.link_alive:
                 self._stopped_since = now
                 self._stop_reason = "the vision process is gone"
         return (
