@@ -51,17 +51,11 @@ from runtime.links.config import (
     check_config_file,
     check_endpoint,
     default_mesh,
-    file_endpoints,
     free_loopback_ports,
     loopback_mesh,
 )
-from runtime.links.exposure import (
-    authenticates,
-    check_exposure,
-    config_for,
-    routed_mode,
-    uses_tls,
-)
+from runtime.links.config_facts import config_facts
+from runtime.links.exposure import check_exposure, config_for
 from runtime.links.host_auth import host_credentials
 from runtime.links.shm_sweep import mapped_segments, remove_orphans
 from runtime.links.stats import link_lines
@@ -167,6 +161,7 @@ def run_one(
     config_file = _config_file(plan, args)
     if config_file:
         config_file = config_for(config_file, name)
+    facts = config_facts(config_file)  # the one parse of the file
     endpoints = Endpoints(
         _endpoints(args.listen, "--listen"), _endpoints(args.connect, "--connect")
     )
@@ -178,7 +173,7 @@ def run_one(
         )
         origin = _graph_links(plan)
     if endpoints.empty and config_file:
-        endpoints = file_endpoints(config_file)
+        endpoints = facts.endpoints
         origin = config_file
     if endpoints.empty:
         endpoints = default_mesh(have)[name]
@@ -187,8 +182,8 @@ def run_one(
     supervised = bool(getattr(args, "supervised", False))
     link_auth = getattr(args, "link_auth", None)
     auth = None
-    routed = routed_mode(config_file)
-    if routed and not (link_auth or insecure or authenticates(config_file)):
+    routed = facts.routed_mode
+    if routed and not (link_auth or insecure or facts.authenticates):
         logging.getLogger("umbra").warning(
             "process `%s`: %s: mode `%s` links through a zenoh router, which does not hold the "
             "graph's credentials: links are not authenticated (set TLS or usrpwd up in that file)",
@@ -196,7 +191,7 @@ def run_one(
             config_file,
             routed,
         )
-    elif not (link_auth or insecure or authenticates(config_file)):
+    elif not (link_auth or insecure or facts.authenticates):
         auth = host_credentials(plan, name)
         logging.getLogger("umbra").info(
             "process `%s`: links authenticated with this user's secret %s (only the graph's "
@@ -211,6 +206,7 @@ def run_one(
         clock=clock,
         duration=duration,
         zenoh_config=config_file,
+        zenoh_facts=facts,
         link_auth=link_auth,
         auth=auth,
         link_checks=not getattr(args, "unchecked_links", False),
@@ -339,7 +335,7 @@ class Supervisor:
             if p not in names:
                 self.say(f"process `{p}` has no modules; not started")
         config_file = _config_file(plan, args)
-        tls = uses_tls(config_for(config_file, names[0]) if config_file else None)
+        tls = config_facts(config_for(config_file, names[0]) if config_file else None).tls
         mesh = loopback_mesh(names, free_loopback_ports(len(names)), "tls" if tls else "tcp")
         extra_listen = _endpoints(args.listen, "--listen") or _endpoints(
             plan.spec.links.listen, "links.listen"

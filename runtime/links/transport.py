@@ -206,7 +206,7 @@ class ZenohTransport:
         }
         #: the graph's one time base: our offset to each producer's clock (``clock_sync``)
         self.clocks = ClockSync(
-            session, self.prefix, process, producers, self._sessions.live.get, log=self._log
+            session, self.prefix, process, producers, self._sessions.session_of, log=self._log
         )
         self._alive_sub = session.liveliness().declare_subscriber(
             alive_pattern(self.prefix), self._on_liveliness, history=True
@@ -241,7 +241,7 @@ class ZenohTransport:
                 "ignored; only the live session drives its links",
                 name,
                 session,
-                self._sessions.live.get(name),
+                self._sessions.session_of(name),
             )
             return
         if not up and not self._sessions.token_down(token):
@@ -383,7 +383,7 @@ class ZenohTransport:
         frame, frame_header = self._codec.frame, self._codec.frame_header
         reader, peer_pid = self._reader, self._peer_pid
         # a descriptor only while every connected session is a proven process of the graph
-        only_graph = only_graph_peers(self._session, lambda: self._sessions.live.values())
+        only_graph = only_graph_peers(self._session, self._sessions.live_sessions)
 
         array_names = array_fields(link.msg_type)
 

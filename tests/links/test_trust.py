@@ -285,7 +285,7 @@ def test_tokens_of_processes_the_graph_does_not_have_are_ignored(
         send(Scalar(value=1.0, seq=1))
         assert _until(lambda: len(got) == 1)
         assert pair.consumer.alive_processes() == {"umbra"}  # no stranger is tracked
-        assert pair.consumer._sessions.live.keys() == {"umbra"}
+        assert pair.consumer._sessions.current.keys() == {"umbra"}
         for token in [*tokens, probe]:
             token.undeclare()
     finally:
