@@ -172,7 +172,16 @@ class Scheduler:
         if record is not None and record.enabled:
             from runtime.recording.tap import RunRecorder
 
-            self.recorder = RunRecorder(self, record)
+            self.recorder = RunRecorder(
+                self.plan,
+                self.modules,
+                record,
+                process=self.options.process,
+                output_dir=self.options.output_dir,
+                clock_kind=self.clock.kind,
+                now=self.clock.now(),
+                log=self.options.log,
+            )
         for name in names:
             mplan = self.plan.modules[name]
             module = self.modules[name]

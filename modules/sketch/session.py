@@ -18,7 +18,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
 from modules.arm.dh import puma560
 from modules.arm.dls import DLSSettings, solve_dls
 from modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
@@ -27,6 +26,7 @@ from modules.arm.velocity_register import RegisterSettings, VelocityRegister
 from modules.geometry.transforms import translation
 from modules.ptu.sim_ptu import SimPtu
 from modules.sketch.macros import MacroError, macro_keys, menu_for
+from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
 from modules.sketch.path_check import PathLimits, plan_path
 from modules.sketch.primitives import place_primitive, triad_box
 from modules.sketch.rig import RigCamera, default_rig

@@ -7,7 +7,11 @@ import numpy as np
 
 from connectors import Input, Module, Output, UserError, param
 from connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
-from connectors.sketch_messages import (
+from modules.arm.arm_params import ArmParams
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.command_text import Command, parse
+from modules.sketch.macros import MacroError, macro_keys, menu_for
+from modules.sketch.messages import (
     PtuCommand,
     PtuState,
     SketchBox,
@@ -17,10 +21,6 @@ from connectors.sketch_messages import (
     VcrCommand,
     VcrState,
 )
-from modules.arm.arm_params import ArmParams
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.command_text import Command, parse
-from modules.sketch.macros import MacroError, macro_keys, menu_for
 from modules.sketch.path_check import PathLimits, plan_path
 from modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
 from modules.sketch.session import Q_READY, Q_STOW

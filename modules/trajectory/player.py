@@ -29,9 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.sketch_messages import ToolPath
 from modules.arm.dh import DHTable
 from modules.arm.jacobian import jacobian_and_pose
+from modules.sketch.messages import ToolPath
 from modules.trajectory.joint_path import JointPath
 from modules.trajectory.vcr import MOVING_MODES, STARTS, Vcr, VcrError, VcrLimits
 

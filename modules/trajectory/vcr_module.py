@@ -7,9 +7,9 @@ import numpy as np
 from connectors import Input, Module, Output, from_param, param
 from connectors.limits import MAX_PATH_AGE_S
 from connectors.messages import JointState, Status, Text, Twist
-from connectors.sketch_messages import ToolPath, VcrCommand, VcrState
 from modules.arm.arm_params import ArmParams
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import ToolPath, VcrCommand, VcrState
 from modules.trajectory.player import PathPlayer, PlayerOutput
 from modules.trajectory.vcr import ARGUMENT, MOVING_MODES, STARTS, VcrError
 
