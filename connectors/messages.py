@@ -14,18 +14,35 @@ Jacobian, the velocity register and the joint driver agree on the arm's joints a
 
 from __future__ import annotations
 
+import functools
+import logging
+from importlib.metadata import entry_points
 from typing import ClassVar
 
 import msgspec
 import numpy as np
 
+#: Entry-point group through which a package adds message types: each entry point names a
+#: module (``[project.entry-points."umbra.messages"]`` ``sketch = "modules.sketch.messages"``)
+#: whose :class:`Message` subclasses every process then knows by class name.
+MESSAGE_GROUP = "umbra.messages"
+
 _EMPTY = np.zeros(0)
+_F8 = "float64"
 
 
 class Message(msgspec.Struct, frozen=True, kw_only=True):
     """Base of every message: sample time ``stamp`` [s], sequence number ``seq`` and ``origin``
     [s], the capture time of the oldest sensor data behind the sample (0: not set yet, filled in
     when sent; ``-inf``: cannot be dated, which every guard treats as old)."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "stamp": "s, the run's clock: the time the data describes (e.g. exposure)",
+        "seq": "per-output sequence number, 1, 2, 3... (0: never sent)",
+        "origin": "s, same clock as `stamp`: capture time of the oldest sensor data the "
+        "sample derives from (0: not set; -inf: cannot be dated, treat as old)",
+    }
 
     stamp: float = 0.0
     seq: int = 0
@@ -40,17 +57,32 @@ class Message(msgspec.Struct, frozen=True, kw_only=True):
 class Scalar(Message, frozen=True, kw_only=True):
     """One number, in the unit its producer documents."""
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "value": "the unit its producer documents",
+    }
+
     value: float
 
 
 class Vector(Message, frozen=True, kw_only=True):
     """A vector of numbers, in the unit its producer documents."""
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "values": f"{_F8} (N,), the unit its producer documents",
+    }
+
     values: np.ndarray = _EMPTY
 
 
 class Text(Message, frozen=True, kw_only=True):
     """A line of text: operator commands (``resume``, ``abort``, ``seed 320,240``), log lines."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "text": "UTF-8 text: an operator command or a log line",
+    }
 
     text: str
 
@@ -60,6 +92,13 @@ class Image(Message, frozen=True, kw_only=True):
 
     ``stale`` is set when the source stopped delivering and this is the last good frame again.
     """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "pixels": "uint8 (H, W, 3), BGR order, row-major",
+        "frame": "camera frame name",
+        "stale": "true: the source stopped; this is its last good frame again",
+    }
 
     pixels: np.ndarray
     frame: str = "camera"
@@ -75,6 +114,18 @@ class Contour(Message, frozen=True, kw_only=True):
     that broke a sanity check.
     """
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "vertices": f"{_F8} (N, 2), px (u right, v down)",
+        "centroid": f"{_F8} (2,), px [u, v]",
+        "area": "px²",
+        "orientation": "rad, principal axis from the u axis",
+        "axes": f"{_F8} (2,), px [major, minor]",
+        "status": '"tracking", "failed" or "idle"',
+        "reason": "why tracking failed",
+        "offending": "int or float (K,), indices of vertices that broke a check",
+    }
+
     vertices: np.ndarray
     centroid: np.ndarray
     area: float
@@ -88,6 +139,12 @@ class Contour(Message, frozen=True, kw_only=True):
 class Twist(Message, frozen=True, kw_only=True):
     """A spatial velocity [vx, vy, vz, wx, wy, wz] (m/s, rad/s) expressed in ``frame``."""
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "vector": f"{_F8} (6,), [vx, vy, vz] m/s then [wx, wy, wz] rad/s",
+        "frame": "frame the twist is expressed in",
+    }
+
     vector: np.ndarray
     frame: str
 
@@ -96,6 +153,13 @@ class Twist(Message, frozen=True, kw_only=True):
 
 class Pose(Message, frozen=True, kw_only=True):
     """Rigid transform ``matrix`` (4 x 4, m): pose of ``child`` in ``parent``, T_parent_child."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "matrix": f"{_F8} (4, 4), m: T_parent_child",
+        "parent": "frame name",
+        "child": "frame name",
+    }
 
     matrix: np.ndarray
     parent: str
@@ -112,6 +176,13 @@ class Poses(Message, frozen=True, kw_only=True):
     frames.
     """
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "matrices": f"{_F8} (N, 4, 4), m: T_frame_children[i]",
+        "children": "N frame names",
+        "frame": "parent frame of every matrix",
+    }
+
     matrices: np.ndarray
     children: tuple[str, ...]
     frame: str
@@ -121,6 +192,14 @@ class Poses(Message, frozen=True, kw_only=True):
 
 class JointState(Message, frozen=True, kw_only=True):
     """Joint positions [rad or m] and velocities [rad/s or m/s], one per joint in ``names``."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "names": "N joint names, in the order of the arrays",
+        "position": f"{_F8} (N,), rad (revolute) or m (prismatic)",
+        "velocity": f"{_F8} (N,) or (0,), rad/s or m/s",
+        "gripper": "opening, 0 closed .. 1 open",
+    }
 
     names: tuple[str, ...]
     position: np.ndarray
@@ -133,6 +212,15 @@ class JointState(Message, frozen=True, kw_only=True):
 class JointRates(Message, frozen=True, kw_only=True):
     """Commanded joint rates [rad/s or m/s], one per joint in ``names``; flags from the solver."""
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "names": "N joint names",
+        "rates": f"{_F8} (N,), commanded rad/s or m/s",
+        "near_singularity": "solver flag",
+        "near_limit": "solver flag",
+        "gripper": '"", "open" or "close"',
+    }
+
     names: tuple[str, ...]
     rates: np.ndarray
     near_singularity: bool = False
@@ -144,6 +232,14 @@ class JointRates(Message, frozen=True, kw_only=True):
 
 class ZoomState(Message, frozen=True, kw_only=True):
     """Zoom of a zoom camera: normalized ``zoom`` 0 (wide) .. 1 (tele), ``raw`` device units."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "zoom": "0 wide .. 1 tele",
+        "raw": "device units",
+        "moving": "true while zooming",
+        "status": '"ok" or what is wrong',
+    }
 
     zoom: float
     raw: int = 0
@@ -158,6 +254,22 @@ class CameraModel(Message, frozen=True, kw_only=True):
     ``dist`` = [k1, k2, p1, p2, k3]; image ``width`` x ``height`` [px]. ``T_mount_camera`` (4 x 4,
     metres) is the camera's pose in its mount frame (``mount``), and ``frame`` names the camera.
     """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "fx": "px",
+        "fy": "px",
+        "skew": "px",
+        "u0": "px, principal point",
+        "v0": "px, principal point",
+        "dist": f"{_F8} (5,), OpenCV [k1, k2, p1, p2, k3]",
+        "width": "px",
+        "height": "px",
+        "T_mount_camera": f"{_F8} (4, 4), m: the camera in `mount`",
+        "mount": "frame name",
+        "frame": "camera frame name",
+        "zoom": "0 wide .. 1 tele, the zoom these intrinsics hold at",
+    }
 
     fx: float
     fy: float
@@ -185,6 +297,15 @@ class Status(Message, frozen=True, kw_only=True):
     ``values`` carries named figures (errors, counters) for display and logs.
     """
 
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "stage": "the module's stage",
+        "message": "for the operator",
+        "assist": "true: the operator's help is requested",
+        "reason": "why help is requested",
+        "values": "map str -> float: named figures",
+    }
+
     stage: str
     message: str = ""
     assist: bool = False
@@ -192,14 +313,30 @@ class Status(Message, frozen=True, kw_only=True):
     values: dict[str, float] = msgspec.field(default_factory=dict)
 
 
+@functools.cache
+def plugin_message_modules() -> tuple[str, ...]:
+    """Import the modules the ``umbra.messages`` entry points name (once per process) and return
+    their names; one that fails to import is left out with a warning (its types stay unknown,
+    and samples of them are refused as of an unknown type)."""
+    loaded = []
+    for ep in sorted(entry_points(group=MESSAGE_GROUP), key=lambda e: e.name):
+        try:
+            module = ep.load()
+        except Exception as exc:  # a broken plug-in must not stop a reader of the others
+            logging.getLogger("umbra").warning(
+                "message types of entry point %s = %s not loaded: %s", ep.name, ep.value, exc
+            )
+            continue
+        loaded.append(module.__name__)
+    return tuple(loaded)
+
+
 def message_types() -> dict[str, type[Message]]:
-    """All message types by class name (the names used in YAML, ``describe`` and the wire).
-
-    The Active Sketch types (:mod:`connectors.sketch_messages`) are imported here, so that a
-    process that never imported them (a recording's reader, a relay) still knows them.
-    """
-    import connectors.sketch_messages  # noqa: F401 - registers its subclasses
-
+    """All message types by class name (the names used in YAML, ``describe`` and the wire):
+    those defined here, those of the ``umbra.messages`` entry points (imported here, so that a
+    process that never imported them, a recording's reader or a relay, still knows them) and
+    any other subclass imported so far."""
+    plugin_message_modules()
     found: dict[str, type[Message]] = {}
     stack: list[type[Message]] = [Message]
     while stack:
@@ -208,3 +345,10 @@ def message_types() -> dict[str, type[Message]]:
             found[sub.__name__] = sub
             stack.append(sub)
     return found
+
+
+def registered_message_types() -> dict[str, type[Message]]:
+    """The message types that ship: those of this module and of the ``umbra.messages`` entry
+    points (not a subclass a test or a script defines on its own), by class name."""
+    homes = {__name__, *plugin_message_modules()}
+    return {n: c for n, c in message_types().items() if c.__module__ in homes}

@@ -1,268 +1,32 @@
-"""Message types of Active Sketch (LDRD report section 3): snapshots, primitives, paths, VCR.
+"""Deprecated home of the Active Sketch message types: they live in the sketch domain,
+:mod:`modules.sketch.messages`; import them from there.
 
-All are :class:`connectors.messages.Message` subclasses, so the codec and the graph checker know
-them by class name once this module is imported (every module that uses them imports it).
-Units are SI (metres, radians, seconds); poses are 4 x 4 homogeneous transforms named
-``T_<parent>_<child>``; 3-D points are in the frame named by ``frame`` (``base`` in the shipped
-graph). Pixel coordinates are ideal pin-hole pixels (u right, v down) of the image named.
-
-Flow::
-
-    cameras + PTUs --StereoSnapshot--> sketch (operator places vertices in both images)
-    sketch --SketchPrimitive / SketchBox--> 3-D view, planner
-    planner --ToolPath--> VCR player (smart) <--VcrCommand-- console
-    VCR player --VcrState--> console;  --JointRates--> REG_VEL (safety guard)
-    sketch --PtuCommand--> PTU --PtuState--> cameras
+Kept only so that importers not yet moved keep working; the framework's base layer imports
+nothing from here (``tests/test_import_direction.py`` allows this one arrow back, and only here).
 """
 
-from __future__ import annotations
+from modules.sketch.messages import (
+    MacroRequest,
+    PtuCommand,
+    PtuState,
+    SceneObjects,
+    SketchBox,
+    SketchPrimitive,
+    StereoSnapshot,
+    ToolPath,
+    VcrCommand,
+    VcrState,
+)
 
-from typing import ClassVar
-
-import msgspec
-import numpy as np
-
-from connectors.messages import CameraModel, Message
-
-_EMPTY = np.zeros(0)
-_EMPTY2 = np.zeros((0, 2))
-_EMPTY3 = np.zeros((0, 3))
-
-
-class StereoSnapshot(Message, frozen=True, kw_only=True):
-    """Both images and both camera models of a stereo pair at one instant (``stamp``).
-
-    ``image_a`` / ``image_b``: H x W x 3 uint8 BGR frames of camera a (left) and b (right).
-    ``K_a`` / ``K_b`` (3 x 3, px): intrinsics of each camera at the zoom it had (``zoom_a`` /
-    ``zoom_b``, 0 wide .. 1 tele); ``dist_a`` / ``dist_b``: OpenCV distortion [k1, k2, p1, p2, k3].
-    ``T_base_camera_a`` / ``T_base_camera_b`` (4 x 4, m): pose of each camera in ``frame`` at the
-    instant (PTU angles included), so ``P = K [R | d]`` with ``[R | d]`` its inverse's top rows.
-    ``snapshot_id`` names the pair; primitives placed on it carry the same id. The models are
-    kept flat (not nested messages) so the compact link codec can carry them;
-    :meth:`camera_model` rebuilds a :class:`~connectors.messages.CameraModel`.
-    """
-
-    snapshot_id: str
-    image_a: np.ndarray
-    image_b: np.ndarray
-    K_a: np.ndarray
-    K_b: np.ndarray
-    dist_a: np.ndarray = np.zeros(5)
-    dist_b: np.ndarray = np.zeros(5)
-    zoom_a: float = 0.0
-    zoom_b: float = 0.0
-    camera_a_name: str = "cam_a"
-    camera_b_name: str = "cam_b"
-    T_base_camera_a: np.ndarray = np.eye(4)
-    T_base_camera_b: np.ndarray = np.eye(4)
-    frame: str = "base"
-
-    FRAME_KIND: ClassVar[str] = "frame"
-
-    @classmethod
-    def of_pair(
-        cls,
-        stamp: float,
-        snapshot_id: str,
-        a: tuple[CameraModel, np.ndarray, np.ndarray],
-        b: tuple[CameraModel, np.ndarray, np.ndarray],
-        frame: str = "base",
-    ) -> StereoSnapshot:
-        """The pair from each camera's ``(model, image, T_frame_camera)``: intrinsics,
-        distortion, zoom and name from the model, the pose [m] in ``frame``."""
-        (ma, ia, Ta), (mb, ib, Tb) = a, b
-        return cls(
-            stamp=stamp,
-            snapshot_id=snapshot_id,
-            image_a=ia,
-            image_b=ib,
-            K_a=ma.K,
-            K_b=mb.K,
-            dist_a=np.asarray(ma.dist),
-            dist_b=np.asarray(mb.dist),
-            zoom_a=ma.zoom,
-            zoom_b=mb.zoom,
-            camera_a_name=ma.frame,
-            camera_b_name=mb.frame,
-            T_base_camera_a=Ta,
-            T_base_camera_b=Tb,
-            frame=frame,
-        )
-
-    def camera_model(self, side: str) -> CameraModel:
-        """The model of camera ``side`` ("a" or "b"), mounted in ``frame`` at its pose."""
-        if side not in ("a", "b"):
-            raise ValueError(f"camera side must be 'a' or 'b', got {side!r}")
-        K = np.asarray(getattr(self, f"K_{side}"), dtype=float)
-        image = getattr(self, f"image_{side}")
-        return CameraModel(
-            stamp=self.stamp,
-            fx=float(K[0, 0]),
-            fy=float(K[1, 1]),
-            skew=float(K[0, 1]),
-            u0=float(K[0, 2]),
-            v0=float(K[1, 2]),
-            dist=np.asarray(getattr(self, f"dist_{side}"), dtype=float),
-            width=int(image.shape[1]),
-            height=int(image.shape[0]),
-            T_mount_camera=np.asarray(getattr(self, f"T_base_camera_{side}"), dtype=float),
-            mount=self.frame,
-            frame=getattr(self, f"camera_{side}_name"),
-            zoom=float(getattr(self, f"zoom_{side}")),
-        )
-
-    def camera_matrix(self, side: str) -> np.ndarray:
-        """The 3 x 4 camera matrix ``K [R | d]`` of camera ``side`` (world = ``frame``)."""
-        model = self.camera_model(side)
-        T_camera_base = np.linalg.inv(model.T_mount_camera)
-        return model.K @ T_camera_base[:3, :]
-
-
-class SketchPrimitive(Message, frozen=True, kw_only=True):
-    """A geometric primitive placed in both images of a snapshot and triangulated to 3-D.
-
-    ``kind``: "point" (1 vertex), "line" (2), "plane" (3: two connected lines a-b, b-c, vertex b
-    shared), "triad" (4: three lines from the common vertex 0 to vertices 1, 2, 3).
-    ``pixels_a`` / ``pixels_b`` (N x 2, px): vertices in image a / b; each ``pixels_b[i]`` lies
-    on the epipolar line of ``pixels_a[i]``. ``points`` (N x 3, m, ``frame``): triangulated
-    vertices; ``covariances`` (N x 3 x 3, m²): their uncertainty from pixel noise and
-    calibration; ``gaps`` (N, m): ray gaps. ``edges`` (E x 2, int): vertex index pairs drawn.
-    """
-
-    primitive_id: str
-    kind: str
-    snapshot_id: str = ""
-    pixels_a: np.ndarray = _EMPTY2
-    pixels_b: np.ndarray = _EMPTY2
-    points: np.ndarray = _EMPTY3
-    covariances: np.ndarray = np.zeros((0, 3, 3))
-    gaps: np.ndarray = _EMPTY
-    edges: np.ndarray = np.zeros((0, 2), dtype=np.int64)
-    frame: str = "base"
-
-    FRAME_KIND: ClassVar[str] = "frame"
-
-
-class SketchBox(Message, frozen=True, kw_only=True):
-    """A box built from a triad (kept as scene geometry for the 3-D view).
-
-    ``T_base_box`` (4 x 4, m): box centre and axes in ``frame``; ``size`` (3,, m): edge lengths
-    along the box's x, y, z axes; ``covariance`` (3 x 3, m²) of the centre.
-    """
-
-    box_id: str
-    T_base_box: np.ndarray
-    size: np.ndarray
-    covariance: np.ndarray = np.zeros((3, 3))
-    frame: str = "base"
-
-    FRAME_KIND: ClassVar[str] = "frame"
-
-
-class MacroRequest(Message, frozen=True, kw_only=True):
-    """The operator's choice of a motion macro for a primitive (``primitive_id`` "" = none).
-
-    ``macro``: a name from the primitive's menu (e.g. "grab_pipe", "move_around_axis");
-    ``options``: named numbers for the macro (e.g. ``angle`` [rad], ``standoff`` [m]).
-    """
-
-    macro: str
-    primitive_id: str = ""
-    options: dict[str, float] = msgspec.field(default_factory=dict)
-
-
-class ToolPath(Message, frozen=True, kw_only=True):
-    """A planned and checked path for the arm, as waypoints along path parameter ``s``.
-
-    ``s`` (N,, m-equivalent, increasing from 0): path parameter at each waypoint (arc length of
-    the joint path in the weighted norm of the planner); ``joints`` (N x n, rad): joint positions
-    for ``names``; ``T_base_tool`` (N x 4 x 4, m): tool poses (for display); ``gripper`` (N,):
-    commanded gripper opening 0 closed .. 1 open at each waypoint. ``ok`` is False when a check
-    failed, and ``reason`` says which check, where and by how much. ``checks`` holds the figures
-    (min margins, peak rates). ``path_id`` names the plan; VCR commands refer to it.
-    """
-
-    path_id: str
-    macro: str
-    names: tuple[str, ...]
-    s: np.ndarray
-    joints: np.ndarray
-    T_base_tool: np.ndarray = np.zeros((0, 4, 4))
-    gripper: np.ndarray = _EMPTY
-    ok: bool = True
-    reason: str = ""
-    checks: dict[str, float] = msgspec.field(default_factory=dict)
-    frame: str = "base"
-
-    HAS_JOINTS: ClassVar[bool] = True
-
-
-class VcrCommand(Message, frozen=True, kw_only=True):
-    """A command to the VCR trajectory player.
-
-    ``action``: "play" (forward), "back" (reverse along the same path), "pause" (jerk-limited
-    stop on the path), "speed" (set ``speed``), "seek" (move along the path to ``s``), "stop".
-    ``speed``: fraction of the planned speed, 0.1 .. 1 (0: keep the current one) for "play",
-    "back" and "speed". ``s``: seek target. ``path_id`` must match the loaded path.
-    """
-
-    action: str
-    path_id: str = ""
-    speed: float = 0.0
-    s: float = 0.0
-
-
-class VcrState(Message, frozen=True, kw_only=True):
-    """The VCR player's state: ``mode`` ("idle", "playing", "backing", "pausing", "paused",
-    "halted", "done"), path parameter ``s`` and its rate ``s_dot`` [1/s of s], ``speed`` override,
-    ``progress`` 0 .. 1, ``reason`` for a halt (lost console, stale command, guard stop)."""
-
-    path_id: str
-    mode: str
-    s: float = 0.0
-    s_dot: float = 0.0
-    speed: float = 1.0
-    progress: float = 0.0
-    reason: str = ""
-
-
-class PtuCommand(Message, frozen=True, kw_only=True):
-    """A pan/tilt unit command: ``mode`` "angles" (go to ``pan``, ``tilt`` [rad]) or "point"
-    (aim the camera's optical axis at ``point`` (3,, m) in ``frame``)."""
-
-    mode: str
-    pan: float = 0.0
-    tilt: float = 0.0
-    point: np.ndarray = np.zeros(3)
-    frame: str = "base"
-
-
-class PtuState(Message, frozen=True, kw_only=True):
-    """A pan/tilt unit's angles [rad] and rates [rad/s]; ``moving`` while slewing; ``status``."""
-
-    pan: float
-    tilt: float
-    pan_rate: float = 0.0
-    tilt_rate: float = 0.0
-    moving: bool = False
-    status: str = "ok"
-
-
-class SceneObjects(Message, frozen=True, kw_only=True):
-    """The true objects of the simulated world (for rendering and the 3-D view), in ``frame``.
-
-    One row per solid: ``names``; ``kinds`` "box" (``sizes`` = edge lengths x, y, z, centred on
-    the pose) or "cylinder" (``sizes`` = radius, radius, length along the pose's z, centred);
-    ``poses`` (N x 4 x 4, m): T_base_object; ``colors`` (N x 3, uint8 RGB).
-    ``values``: named state figures (e.g. ``door_angle`` [rad], ``gripper`` 0 .. 1).
-    """
-
-    names: tuple[str, ...]
-    kinds: tuple[str, ...]
-    poses: np.ndarray
-    sizes: np.ndarray
-    colors: np.ndarray
-    values: dict[str, float] = msgspec.field(default_factory=dict)
-    frame: str = "base"
-
-    FRAME_KIND: ClassVar[str] = "frame"
+__all__ = [
+    "MacroRequest",
+    "PtuCommand",
+    "PtuState",
+    "SceneObjects",
+    "SketchBox",
+    "SketchPrimitive",
+    "StereoSnapshot",
+    "ToolPath",
+    "VcrCommand",
+    "VcrState",
+]

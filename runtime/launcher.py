@@ -30,46 +30,33 @@ split run is an error (use ``--single-process`` to run on sim time).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
-from collections import deque
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
 from connectors.errors import UserError
+from runtime.child_summaries import Child, cause_of, reason_of, write_summaries
 from runtime.graph.plan import GraphPlan
-from runtime.hints import did_you_mean
+from runtime.link_settings import checked_endpoints, graph_links_origin, zenoh_config_file
 from runtime.links.auth import RunCredentials
 from runtime.links.config import (
     Endpoints,
     check_config_file,
-    check_endpoint,
-    default_mesh,
-    file_endpoints,
     free_loopback_ports,
     loopback_mesh,
 )
-from runtime.links.exposure import (
-    authenticates,
-    check_exposure,
-    config_for,
-    routed_mode,
-    uses_tls,
-)
-from runtime.links.host_auth import host_credentials
+from runtime.links.config_facts import config_facts
+from runtime.links.exposure import check_exposure, config_for
 from runtime.links.shm_sweep import mapped_segments, remove_orphans
-from runtime.links.stats import link_lines
-from runtime.realtime import latency_limit
+from runtime.run_one import run_one
 from runtime.scheduler import INTERRUPTED
 
 #: Seconds a supervised process may wait for its consumers to come up.
-READY_TIMEOUT = 30.0
 #: Seconds a process has to stop once told (abort), before SIGTERM; SIGKILL after as long again.
 STOP_GRACE = 5.0
 #: Extra seconds given to a process told to ``finish`` (it drains its inputs first).
@@ -117,140 +104,7 @@ def servo_processes(plan: GraphPlan) -> set[str]:
     }
 
 
-def _config_file(plan: GraphPlan, args: argparse.Namespace) -> str | None:
-    if getattr(args, "zenoh_config", None):
-        return str(args.zenoh_config)
-    if plan.spec.links.zenoh_config:
-        path = Path(plan.spec.links.zenoh_config)
-        if not path.is_absolute():  # relative to the graph file
-            path = Path(plan.spec.file).parent / path
-        return str(path)
-    return None
-
-
-def _graph_links(plan: GraphPlan) -> str:
-    """``FILE:LINE`` of the graph's ``links:`` section (where its endpoints come from)."""
-    loc = plan.spec.links.loc
-    return f"{loc.file}:{loc.line}" if loc is not None else str(plan.spec.file)
-
-
-def _endpoints(values: list[str], where: str) -> list[str]:
-    return [check_endpoint(v, where) for v in values]
-
-
-# -- one process ---------------------------------------------------------------------------------
-def run_one(
-    plan: GraphPlan, args: argparse.Namespace, clock: str, duration: float | None, out: Path
-) -> int:
-    """``umbra run GRAPH --process NAME``: one process with its links (by hand or supervised).
-
-    Endpoints: ``--listen``/``--connect`` when given, else the graph's ``links:``, else those of
-    the zenoh configuration file, else a fixed loopback mesh (process i of the graph listens on
-    tcp/127.0.0.1:7447+i and connects to the ones before it), so processes started by hand on one
-    host find each other with no flags.
-
-    Credentials: the launcher's (``--link-auth``), else those of the zenoh configuration file when
-    it authenticates on its own (TLS, a password), else, unless ``--insecure``, those derived
-    from this user's secret (``runtime.links.host_auth``), shared by every process of the graph
-    this user starts by hand on this host."""
-    import logging
-
-    from runtime.links.process import ProcessOptions, run_linked_process
-
-    name = args.process
-    have = plan.populated_processes
-    if name not in have:
-        raise UserError(
-            f"--process: graph `{plan.spec.name}` has no process `{name}` with "
-            f"modules (processes: {', '.join(have)}){did_you_mean(name, have)}"
-        )
-    config_file = _config_file(plan, args)
-    if config_file:
-        config_file = config_for(config_file, name)
-    endpoints = Endpoints(
-        _endpoints(args.listen, "--listen"), _endpoints(args.connect, "--connect")
-    )
-    origin = "--listen/--connect"
-    if endpoints.empty:
-        endpoints = Endpoints(
-            _endpoints(plan.spec.links.listen, "links.listen"),
-            _endpoints(plan.spec.links.connect, "links.connect"),
-        )
-        origin = _graph_links(plan)
-    if endpoints.empty and config_file:
-        endpoints = file_endpoints(config_file)
-        origin = config_file
-    if endpoints.empty:
-        endpoints = default_mesh(have)[name]
-    insecure = bool(getattr(args, "insecure", False))
-    check_exposure(endpoints.listen, endpoints.connect, insecure, origin)
-    supervised = bool(getattr(args, "supervised", False))
-    link_auth = getattr(args, "link_auth", None)
-    auth = None
-    routed = routed_mode(config_file)
-    if routed and not (link_auth or insecure or authenticates(config_file)):
-        logging.getLogger("umbra").warning(
-            "process `%s`: %s: mode `%s` links through a zenoh router, which does not hold the "
-            "graph's credentials: links are not authenticated (set TLS or usrpwd up in that file)",
-            name,
-            config_file,
-            routed,
-        )
-    elif not (link_auth or insecure or authenticates(config_file)):
-        auth = host_credentials(plan, name)
-        logging.getLogger("umbra").info(
-            "process `%s`: links authenticated with this user's secret %s (only the graph's "
-            "processes this user starts on this host can join; --insecure: anyone)",
-            name,
-            auth["secret_file"],
-        )
-    options = ProcessOptions(
-        process=name,
-        output_dir=out,
-        endpoints=endpoints,
-        clock=clock,
-        duration=duration,
-        zenoh_config=config_file,
-        link_auth=link_auth,
-        auth=auth,
-        link_checks=not getattr(args, "unchecked_links", False),
-        ready_timeout=READY_TIMEOUT if supervised else None,
-        quiet=args.quiet,
-        cpu_latency_us=latency_limit(
-            plan.spec.cpu_latency_us, name, getattr(args, "cpu_latency_us", None)
-        ),
-        publish_all=bool(getattr(args, "publish_all", False)),
-    )
-    result = run_linked_process(
-        plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")
-    )
-    if not args.quiet:
-        print(result.table(), file=sys.stderr)
-        for line in link_lines(result.extra.get("links", {})):
-            print(line, file=sys.stderr)
-        print(f"summary written to {out / f'summary-{name}.json'}", file=sys.stderr)
-    return result.exit_code
-
-
 # -- supervision ---------------------------------------------------------------------------------
-@dataclass
-class _Child:
-    name: str
-    endpoints: Endpoints
-    popen: subprocess.Popen[bytes]
-    servo: bool
-    tail: deque[str] = field(default_factory=lambda: deque(maxlen=8))
-    told_at: float | None = None
-    told: str = ""
-    termed: bool = False
-    code: int | None = None
-    segments: set[str] = field(default_factory=set)  #: /dev/shm files it was seen to map
-
-    @property
-    def running(self) -> bool:
-        return self.code is None
-
-
 class Supervisor:
     """Starts every process of a split graph and sees the run through (see module docstring)."""
 
@@ -258,7 +112,7 @@ class Supervisor:
         self, plan: GraphPlan, args: argparse.Namespace, duration: float | None, out: Path
     ) -> None:
         self.plan, self.args, self.duration, self.out = plan, args, duration, out
-        self.children: list[_Child] = []
+        self.children: list[Child] = []
         self._lock = threading.Lock()
         self._signals: list[str] = []
         self._pumps: list[threading.Thread] = []
@@ -277,7 +131,7 @@ class Supervisor:
                 stream.write(data.decode("utf-8", "replace"))
             stream.flush()
 
-    def _pump(self, child: _Child, pipe: IO[bytes], stream: IO[str], prefix: bytes) -> None:
+    def _pump(self, child: Child, pipe: IO[bytes], stream: IO[str], prefix: bytes) -> None:
         for line in iter(pipe.readline, b""):
             if stream is sys.stderr:
                 child.tail.append(line.decode("utf-8", "replace").rstrip())
@@ -311,7 +165,7 @@ class Supervisor:
             cmd += ["--listen", e]
         for e in endpoints.connect:
             cmd += ["--connect", e]
-        config_file = _config_file(plan, args)
+        config_file = zenoh_config_file(plan, args)
         if config_file:
             cmd += ["--zenoh-config", config_file]
         if self.credentials is not None:
@@ -338,13 +192,13 @@ class Supervisor:
         for p in plan.processes:
             if p not in names:
                 self.say(f"process `{p}` has no modules; not started")
-        config_file = _config_file(plan, args)
-        tls = uses_tls(config_for(config_file, names[0]) if config_file else None)
+        config_file = zenoh_config_file(plan, args)
+        tls = config_facts(config_for(config_file, names[0]) if config_file else None).tls
         mesh = loopback_mesh(names, free_loopback_ports(len(names)), "tls" if tls else "tcp")
-        extra_listen = _endpoints(args.listen, "--listen") or _endpoints(
+        extra_listen = checked_endpoints(args.listen, "--listen") or checked_endpoints(
             plan.spec.links.listen, "links.listen"
         )
-        extra_connect = _endpoints(args.connect, "--connect") or _endpoints(
+        extra_connect = checked_endpoints(args.connect, "--connect") or checked_endpoints(
             plan.spec.links.connect, "links.connect"
         )
         insecure = bool(getattr(args, "insecure", False))
@@ -353,7 +207,7 @@ class Supervisor:
             extra_listen,
             extra_connect,
             insecure,
-            "--listen/--connect" if given else _graph_links(plan),
+            "--listen/--connect" if given else graph_links_origin(plan),
         )
         if config_file:
             for name in names:  # every process has a file zenoh accepts: say so now
@@ -379,7 +233,7 @@ class Supervisor:
                 env=env,
                 start_new_session=True,
             )
-            child = _Child(name, endpoints, popen, name in servo)
+            child = Child(name, endpoints, popen, name in servo)
             self.children.append(child)
             prefix = f"[{name}]".ljust(width + 3).encode()
             for pipe, stream in ((popen.stdout, sys.stdout), (popen.stderr, sys.stderr)):
@@ -398,7 +252,7 @@ class Supervisor:
             )
 
     # -- commands --------------------------------------------------------------------------------
-    def _tell(self, child: _Child, command: str, reason: str) -> None:
+    def _tell(self, child: Child, command: str, reason: str) -> None:
         if not child.running or child.told_at is not None:
             return
         child.told_at, child.told = time.monotonic(), command
@@ -449,7 +303,7 @@ class Supervisor:
                 self.credentials.close()
             for s, handler in old.items():
                 signal.signal(s, handler)
-        self._write_summaries(code, reason, started)
+        write_summaries(self.plan, self.out, self.children, code, reason, started)
         if self.plan.spec.record.enabled:
             from runtime.recording.merge import merge_run
 
@@ -475,7 +329,7 @@ class Supervisor:
                 if child.running and (rc := child.popen.poll()) is not None:
                     child.code = rc
                     ended.append(child)
-                    how = f"exit {rc}" if rc >= 0 else self._cause(child)
+                    how = f"exit {rc}" if rc >= 0 else cause_of(self.out, child)
                     self.say(f"process `{child.name}` ended ({how})")
                     removed = remove_orphans(child.segments)
                     if removed and rc != 0:
@@ -497,7 +351,7 @@ class Supervisor:
             for child in ended:
                 if child.code == 0:
                     if verdict is None:
-                        reason = f"process `{child.name}` finished: {self._reason(child)}"
+                        reason = f"process `{child.name}` finished: {reason_of(self.out, child)}"
                         verdict = (0, reason)
                         for other in self.children:
                             self._tell(other, "finish", reason)
@@ -506,7 +360,7 @@ class Supervisor:
                     continue  # stopped as told, or died while stopping: the first cause stands
                 if child.told == "abort":
                     continue
-                cause = self._cause(child)
+                cause = cause_of(self.out, child)
                 code = 2 if child.code == 2 else 1
                 verdict = (code, f"process `{child.name}` {cause}")
                 abort_rest_at = self._abort(verdict[1], now)
@@ -531,63 +385,3 @@ class Supervisor:
                 child.told_at = None if child.told == "finish" else child.told_at
                 self._tell(child, "abort", reason)
         return now if not any(c.servo and c.running for c in self.children) else now + STOP_GRACE
-
-    # -- causes and summaries ------------------------------------------------------------------
-    def _summary(self, child: _Child) -> dict[str, Any] | None:
-        path = self.out / f"summary-{child.name}.json"
-        try:
-            return json.loads(path.read_text())
-        except (OSError, ValueError):
-            return None
-
-    def _reason(self, child: _Child) -> str:
-        summary = self._summary(child)
-        if summary and summary.get("reason"):
-            return str(summary["reason"])
-        return child.tail[-1] if child.tail else "no reason given"
-
-    def _cause(self, child: _Child) -> str:
-        rc = child.code
-        assert rc is not None
-        if rc < 0:
-            try:
-                name = signal.Signals(-rc).name
-            except ValueError:
-                name = f"signal {-rc}"
-            return f"died: killed by {name}"
-        return f"failed (exit {rc}): {self._reason(child)}"
-
-    def _write_summaries(self, code: int, reason: str, started: float) -> None:
-        processes = []
-        for child in self.children:
-            summary = self._summary(child)
-            if summary is None:  # died before writing one
-                summary = {
-                    "process": child.name,
-                    "exit_code": child.code,
-                    "reason": self._cause(child) if child.code else "no summary written",
-                    "modules": [],
-                }
-                path = self.out / f"summary-{child.name}.json"
-                path.write_text(json.dumps(summary, indent=2))
-            processes.append(
-                {
-                    "process": child.name,
-                    "pid": child.popen.pid,
-                    "exit_code": child.code,
-                    "reason": summary.get("reason", ""),
-                    "servo_side": child.servo,
-                    "listen": child.endpoints.listen,
-                    "connect": child.endpoints.connect,
-                }
-            )
-        whole = {
-            "graph": self.plan.spec.name,
-            "mode": "split",
-            "exit_code": code,
-            "reason": reason,
-            "wall_time_s": round(time.time() - started, 3),
-            "key_prefix": self.plan.key_prefix,
-            "processes": processes,
-        }
-        (self.out / "summary.json").write_text(json.dumps(whole, indent=2))

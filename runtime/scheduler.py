@@ -3,13 +3,8 @@
 Every tick, in the graph's data order, a module runs when its rate makes it due or when one of its
 trigger inputs received a new sample earlier in the same tick — so a sample crosses a chain in one
 tick. Delayed connections (``~>``) are written after the tick, so their consumers read the previous
-tick's value. Link samples from other processes are written into registers at the start of a tick:
-on an events link (declared ``events`` on its output: operator actions, gripper, paths) one sample
-per register per tick, in order (the rest wait for the next tick, which follows at once), so a
-consumer sees every event as it would in one process; on a state link (everything else: images,
-contours, poses, joint states, statuses, twists) the newest sample wins and the ones it replaced
-are counted (``superseded``), so a starved consumer catches up at once instead of working through
-a backlog of the past.
+tick's value. Link samples from other processes are written into registers at the start of a tick
+(``runtime.link_inbox``: events one per register per tick, in order; state the newest).
 
 Before each step the module's :class:`~connectors.ports.OriginTrack` is reset, so what it sends
 takes the oldest origin among the inputs it reads in that step.
@@ -22,90 +17,41 @@ them, so a module still never sees concurrency. When the loop is busy the sample
 of its tick, as with ``dispatch: loop``, which always hands samples to the loop's thread (use it
 when a module must run on one thread, or steps that block would hold zenoh's receive thread).
 
-When the loop ends, for any reason, the runtime first puts outputs in a safe state, then stops the
-modules: each module that defines ``safe_stop(now)`` has it called (in data order), each
-``SAFETY_GUARD`` module without one has its numeric-array outputs (a twist, joint rates) sent
-once more as zeros, and the modules those samples trigger run once so the zero reaches the drives.
+When the loop ends, for any reason, the runtime first puts outputs in a safe state
+(``runtime.safe_stop``), then stops the modules. While it runs the process holds what
+``runtime.process_holds`` takes (CPU latency, priority, a frozen heap).
 """
 
 from __future__ import annotations
 
 import math
-import signal
 import threading
 import time
 import zlib
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
-import msgspec
 import numpy as np
 
 from connectors.errors import ModuleFailed, UserError
 from connectors.messages import Message
 from connectors.module import Module, ModuleContext
-from connectors.ports import OriginTrack, Register
+from connectors.ports import Register
 from runtime.clock import make_clock
-from runtime.gc_pause import HeapFreeze
 from runtime.graph.plan import GraphPlan
+from runtime.link_inbox import drain
 from runtime.links_api import LinkTransport
-from runtime.realtime import CpuLatencyHold
-from runtime.rt_priority import GiveWay, RealtimePriority, priority_for
+from runtime.process_holds import ProcessHolds
+from runtime.run_options import INTERRUPTED, SchedulerOptions, StopRequest
+from runtime.safe_stop import Slot, safe_stop
 from runtime.stats import ModuleStats, RunResult
+from runtime.stop_signals import install_stop_signals, restore_signals
 
-INTERRUPTED = 130
-#: Why a sim-clock run holds no CPU latency it was asked for (what its summary says).
-SIM_CLOCK_NO_LATENCY = "sim clock: nothing waits for a CPU to wake"
-#: Why a sim-clock run takes no real-time priority it was asked for.
-SIM_CLOCK_NO_PRIORITY = "sim clock: nothing waits for a CPU"
 #: At most this many ticks in a row on a link's thread before the rest is left to the loop.
 REACT_ROUNDS = 16
 
-
-@dataclass
-class _Slot:
-    """A module in the loop: its schedule and counters."""
-
-    module: Module
-    stats: ModuleStats
-    period: float | None
-    next_due: float
-    k: int
-    trigger_regs: list[Register[Any]]
-    all_regs: list[Register[Any]]
-    track: OriginTrack
-
-
-@dataclass
-class StopRequest:
-    """Why the loop should end after the current tick, and with which exit status."""
-
-    reason: str
-    exit_code: int
-
-
-@dataclass
-class SchedulerOptions:
-    """How to run: clock, duration [s], output folder, process, signal handling."""
-
-    clock: str = "sim"
-    duration: float | None = None
-    output_dir: Path = field(default_factory=lambda: Path("."))
-    process: str | None = None  # None: every module (single process)
-    handle_signals: bool = False
-    max_ticks: int | None = None
-    log: Any = None
-    #: "inline": a link sample arriving while the loop is idle is handled at once on the thread
-    #: that received it; "loop": always on the loop's thread (see the module docstring).
-    dispatch: str = "inline"
-    #: the CPU wake-up latency [µs] held while the loop runs (``runtime.realtime``); None: none
-    cpu_latency_us: int | None = None
-    #: record every output of this process (``runtime.recording.tap``); None:
-    #: as the graph's ``record:`` says
-    record: Any = None
+__all__ = ["INTERRUPTED", "Scheduler", "SchedulerOptions", "StopRequest"]
 
 
 class Scheduler:
@@ -136,7 +82,7 @@ class Scheduler:
         self._t0 = 0.0
         self._failure: ModuleFailed | None = None
         self.modules: dict[str, Module] = {}
-        self._slots: list[_Slot] = []
+        self._slots: list[Slot] = []
         self._build()
 
     # -- construction ----------------------------------------------------------------------------
@@ -172,13 +118,22 @@ class Scheduler:
         if record is not None and record.enabled:
             from runtime.recording.tap import RunRecorder
 
-            self.recorder = RunRecorder(self, record)
+            self.recorder = RunRecorder(
+                self.plan,
+                self.modules,
+                record,
+                process=self.options.process,
+                output_dir=self.options.output_dir,
+                clock_kind=self.clock.kind,
+                now=self.clock.now(),
+                log=self.options.log,
+            )
         for name in names:
             mplan = self.plan.modules[name]
             module = self.modules[name]
             period = 1.0 / mplan.spec.rate if mplan.spec.rate else None
             self._slots.append(
-                _Slot(
+                Slot(
                     module=module,
                     stats=ModuleStats(name, mplan.spec.type),
                     period=period,
@@ -288,34 +243,19 @@ class Scheduler:
         """Start every module, loop until a stop, stop every started module; never raises for a
         module's failure (the result says what happened)."""
         wall0 = time.monotonic()
-        started: list[_Slot] = []
-        old_handlers = self._install_signals()
+        started: list[Slot] = []
+        old_handlers = (
+            install_stop_signals(self.request_stop) if self.options.handle_signals else {}
+        )
         lateness: list[float] = []
         ticks = 0
         failure: ModuleFailed | None = None
         user_error: UserError | None = None
-        hold = CpuLatencyHold(
-            self.options.cpu_latency_us,
-            self.options.log,
-            unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_LATENCY,
+        opts = self.options
+        holds = ProcessHolds(
+            self.plan, opts.process, self.clock.kind, opts.cpu_latency_us, opts.log
         )
-        hold.acquire()
-        priority = RealtimePriority(
-            priority_for(self.plan.spec.realtime_priority, self.options.process),
-            self.options.log,
-            unneeded="" if self.clock.kind == "real" else SIM_CLOCK_NO_PRIORITY,
-        )
-        priority.acquire()
-        give_way = GiveWay(  # a process of its own only: in one process the servo lives too
-            self.plan.spec.nice.get(self.options.process or "")
-            if self.options.process is not None and self.clock.kind == "real"
-            else None,
-            self.options.log,
-        )
-        give_way.acquire()
-        # no full collection mid-loop; before t0, so the collection takes no time of the run
-        heap = HeapFreeze(enabled=self.clock.kind == "real")
-        heap.acquire()
+        holds.acquire()
         t0 = self.clock.now()
         if self.recorder is not None:
             self.recorder.start(t0)
@@ -335,7 +275,7 @@ class Scheduler:
                     slot.next_due = t0
                 ticks, failure = self._loop(t0, lateness)
         finally:
-            self._safe_stop(started)
+            safe_stop(started, self.clock.now(), self.options.log)
             for slot in reversed(started):
                 try:
                     slot.module.stop()
@@ -344,10 +284,8 @@ class Scheduler:
                         failure = ModuleFailed(
                             slot.module.name, slot.stats.type_name, "stop", ticks, exc
                         )
-            heap.release()
-            priority.release()
-            hold.release()
-            self._restore_signals(old_handlers)
+            holds.release()
+            restore_signals(old_handlers)
             if self.recorder is not None:
                 self.recorder.close()  # after the modules: the safe-stop zeros are recorded
         if user_error is not None:
@@ -370,14 +308,7 @@ class Scheduler:
             extra["links"]["superseded"] = {
                 str(link.connection): reg.superseded for reg, link in self._link_regs
             }
-        if hold.limit_us is not None:
-            extra["realtime"] = hold.summary()
-        if priority.priority is not None:
-            extra["realtime_priority"] = priority.summary()
-        if give_way.nice is not None:
-            extra["give_way"] = give_way.summary()
-        if heap.enabled:
-            extra["gc"] = heap.summary()
+        extra.update(holds.summary())
         if self.recorder is not None:
             extra["recording"] = self.recorder.summary()
         return RunResult(
@@ -434,8 +365,8 @@ class Scheduler:
             if len(inbound) == 1:  # the usual case: one sample since the last tick
                 reg, sample, _in_order = inbound.popleft()
                 reg.write(sample, now)
-            else:
-                self._drain(now)
+            elif drain(inbound, now) and self._wake is not None:
+                self._wake.set()  # events left for the next tick: it follows at once
         self._ticks += 1
         perf = time.perf_counter_ns
         t0 = self._t0
@@ -497,110 +428,3 @@ class Scheduler:
         for reg, link in self._link_regs:
             reg.link_alive = alive(link)
             reg.clock_error = error(link)
-
-    def _drain(self, now: float) -> None:
-        """Several samples since the last tick: on an events link one per register, in order
-        (the rest wait for the next tick); on a state link the newest wins and the samples it
-        replaced are counted as ``superseded``."""
-        inbound = self._inbound
-        written: set[int] = set()
-        held = []
-        for _ in range(len(inbound)):  # samples arriving meanwhile wait for the next tick
-            item = inbound.popleft()
-            reg, sample, in_order = item
-            if id(reg) in written:
-                if in_order:
-                    held.append(item)
-                    continue
-                reg.superseded += 1
-            reg.write(sample, now)
-            written.add(id(reg))
-        if held:
-            inbound.extendleft(reversed(held))
-            if self._wake is not None:
-                self._wake.set()
-
-    # -- safe stop -------------------------------------------------------------------------------
-    def _safe_stop(self, started: list[_Slot]) -> None:
-        """Zero commands before anything stops: ``safe_stop`` hooks, zeros from safety guards, then
-        one pass of the modules those samples trigger. Failures are logged, never raised."""
-        import logging
-
-        log = self.options.log or logging.getLogger("umbra")
-        now = self.clock.now()
-        sent = False
-        for slot in started:
-            module = slot.module
-            hook = getattr(module, "safe_stop", None)
-            try:
-                slot.track.reset()
-                if callable(hook):
-                    hook(now)
-                    sent = True
-                elif module.SAFETY_GUARD:
-                    for port in module.outputs.values():
-                        zero = _zeroed(port.last)
-                        if zero is not None:
-                            port.send(zero)
-                            sent = True
-                            log.info("safe stop: `%s.%s` sent zero", module.name, port.name)
-            except Exception as exc:
-                log.error("safe stop of `%s` failed: %s: %s", module.name, type(exc).__name__, exc)
-        if not sent:
-            return
-        for slot in started:
-            if any(reg.fresh for reg in slot.trigger_regs):
-                slot.track.reset()
-                try:
-                    slot.module.step(now)
-                except Exception as exc:
-                    log.error(
-                        "safe stop: `%s` failed passing the zero on: %s: %s",
-                        slot.module.name,
-                        type(exc).__name__,
-                        exc,
-                    )
-                for reg in slot.all_regs:
-                    reg.fresh = False
-
-    # -- signals ---------------------------------------------------------------------------------
-    def _install_signals(self) -> dict[int, Any]:
-        if (
-            not self.options.handle_signals
-            or threading.current_thread() is not threading.main_thread()
-        ):
-            return {}
-        old = {}
-
-        def on_signal(signum: int, frame: Any) -> None:
-            name = signal.Signals(signum).name
-            if signum == signal.SIGTSTP:  # Ctrl-Z: a suspended loop cannot watch the arm
-                self.request_stop("suspended by Ctrl-Z (SIGTSTP): stopped safely instead", 130)
-            else:
-                self.request_stop(f"interrupted by {name}", INTERRUPTED)
-            if self._wake is not None:
-                self._wake.set()
-
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGTSTP):
-            old[sig] = signal.signal(sig, on_signal)
-        return old
-
-    @staticmethod
-    def _restore_signals(old: dict[int, Any]) -> None:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-
-
-def _zeroed(sample: Message | None) -> Message | None:
-    """``sample`` with every floating-point array zeroed and a fresh stamp, or None when it has
-    no such array (text, status: nothing to zero, nothing re-sent)."""
-    if sample is None:
-        return None
-    zeros = {
-        name: np.zeros_like(value)
-        for name in sample.__struct_fields__
-        if isinstance(value := getattr(sample, name), np.ndarray) and value.dtype.kind in "fc"
-    }
-    if not zeros:
-        return None
-    return msgspec.structs.replace(sample, stamp=0.0, **zeros)

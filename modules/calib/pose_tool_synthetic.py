@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.calib.pose_tool import MountSnapshot
 from modules.calib.synthetic import random_pose
+from modules.geometry.mount_offset import offset_mount
 from modules.geometry.transforms import (
     compose,
     rot_y,
@@ -23,7 +24,6 @@ from modules.geometry.transforms import (
     transform_from_rotation_translation,
     translation,
 )
-from modules.vision.mount_offset import offset_mount
 
 FloatArray = NDArray[np.float64]
 

@@ -102,17 +102,24 @@ def transform_points(T_a_b: ArrayLike, points_b: ArrayLike) -> FloatArray:
     return p @ T[:3, :3].T + T[:3, 3]
 
 
-def is_rigid(T: ArrayLike, tolerance: float = 1e-9) -> bool:
-    """True when ``T`` is a 4x4 rigid transform: orthonormal, det +1, last row ``[0, 0, 0, 1]``."""
+def is_orthonormal_transform(T: ArrayLike, tolerance: float = 1e-9) -> bool:
+    """True when ``T`` is a finite 4x4 with orthonormal axes (a rotation or a reflection, det
+    +-1) and last row ``[0, 0, 0, 1]``, each within ``tolerance``."""
     T = np.asarray(T, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         return False
     R = T[:3, :3]
     return bool(
         np.allclose(R.T @ R, np.eye(3), atol=tolerance)
-        and abs(np.linalg.det(R) - 1.0) < tolerance
         and np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), atol=tolerance)
     )
+
+
+def is_rigid(T: ArrayLike, tolerance: float = 1e-9) -> bool:
+    """True when ``T`` is a 4x4 rigid transform: orthonormal, det +1, last row ``[0, 0, 0, 1]``."""
+    if not is_orthonormal_transform(T, tolerance):
+        return False
+    return bool(abs(np.linalg.det(np.asarray(T, dtype=float)[:3, :3]) - 1.0) < tolerance)
 
 
 def transform_from_xyz_rpy_deg(xyz: ArrayLike, rpy_deg: ArrayLike) -> FloatArray:

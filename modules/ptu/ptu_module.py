@@ -6,10 +6,10 @@ import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import CameraModel, Pose
-from connectors.sketch_messages import PtuCommand, PtuState
 from modules.calib.camera_message import pinhole_from_message
 from modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
 from modules.ptu.sim_ptu import SimPtu
+from modules.sketch.messages import PtuCommand, PtuState
 
 
 class Ptu(Module):

@@ -26,12 +26,12 @@ import numpy as np
 
 from connectors.cli_support import print_json
 from connectors.errors import UserError
-from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.macros import MacroError, check_options
 from modules.sketch.primitives import KINDS, PrimitiveError
 from modules.sketch.session import SessionError, SketchSession
 from modules.sketch.session_file import load_session_state
 from modules.sketch.stereo import StereoPair
+from modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
 from modules.trajectory.vcr import VcrError
 from modules.world.scene_objects import targets_from_objects
 

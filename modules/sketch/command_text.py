@@ -22,9 +22,10 @@ import numpy as np
 
 from connectors import UserError
 from modules.sketch.primitives import KINDS
+from modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
+from modules.trajectory.vcr import ARGUMENT, VcrError, check_command
 
 VERBS = ("aim", "zoom", "snapshot", "place", "plan", "vcr")
-VCR_ACTIONS = ("play", "back", "pause", "resume", "speed", "seek", "stop")
 
 
 @dataclass
@@ -121,12 +122,14 @@ def parse(text: str) -> Command:
         )
     action = rest[0]
     values = _numbers(rest[1:], f"vcr {action}", text)
-    takes = 1 if action in ("play", "back", "resume", "speed", "seek") else 0
-    if len(values) > takes or (action in ("speed", "seek") and not values):
+    takes = ARGUMENT[action]
+    if len(values) > bool(takes) or (action in ("speed", "seek") and not values):
         what = {"seek": " S", "speed": " SPEED"}.get(action, " [SPEED]" if takes else "")
         raise UserError(f"sketch command {text!r}: expected vcr {action}{what}")
-    speed = values[0] if values and action != "seek" else None
-    if speed is not None and not 0.1 <= speed <= 1.0:
-        raise UserError(f"sketch command {text!r}: expected a speed within 0.1 .. 1")
-    s = values[0] if values and action == "seek" else None
+    speed = values[0] if values and takes == "speed" else None
+    s = values[0] if values and takes == "s" else None
+    try:
+        check_command(action, speed, s)
+    except VcrError as exc:
+        raise UserError(f"sketch command {text!r}: {exc}") from None
     return Command(verb, action=action, speed=speed, s=s)

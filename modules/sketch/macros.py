@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.sketch_messages import SketchPrimitive
+from modules.sketch.messages import SketchPrimitive
 from modules.sketch.primitives import line_axis, plane_rect, point_of
 from modules.sketch.tool_poses import DOWN, arc, rotate_about_axis, tool_pose
 

@@ -9,14 +9,14 @@ from pydantic import field_validator
 
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import Status, Text
-from connectors.sketch_messages import (
+from modules.sketch.command_text import VERBS, parse
+from modules.sketch.messages import (
     PtuState,
     SceneObjects,
     SketchPrimitive,
     StereoSnapshot,
     VcrState,
 )
-from modules.sketch.command_text import VERBS, parse
 from modules.sketch.primitives import KINDS
 from modules.sketch.stereo import StereoPair
 from modules.trajectory.vcr import MODES

@@ -30,10 +30,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from connectors.sketch_messages import ToolPath
 from modules.arm.dh import DHTable
 from modules.arm.jacobian import jacobian_and_pose
 from modules.sketch.macros import MacroKeys
+from modules.sketch.messages import ToolPath
 from modules.sketch.tool_poses import interpolate
 from modules.sketch.transit import goal_candidates, transit_options, transit_problem
 from modules.world.ik import IKFailed, solve_ik

@@ -3,7 +3,7 @@
 A primitive is placed by its vertices in both images of a snapshot. Each right-hand vertex is
 moved onto the epipolar line of its left-hand mate (the report's constraint), then each vertex
 pair is triangulated with its covariance (:mod:`modules.sketch.stereo`). The result is a
-:class:`connectors.sketch_messages.SketchPrimitive`; the helpers below read its geometry
+:class:`modules.sketch.messages.SketchPrimitive`; the helpers below read its geometry
 (a line's axis, a plane's rectangle, a triad's box) in metres in the base frame.
 """
 
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.sketch_messages import SketchBox, SketchPrimitive
+from modules.sketch.messages import SketchBox, SketchPrimitive
 from modules.sketch.stereo import StereoNoise, StereoPair
 
 FloatArray = NDArray[np.float64]

@@ -18,7 +18,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
 from modules.arm.dh import puma560
 from modules.arm.dls import DLSSettings, solve_dls
 from modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
@@ -26,13 +25,14 @@ from modules.arm.sim_joints import SimJoints, SimJointSettings
 from modules.arm.velocity_register import RegisterSettings, VelocityRegister
 from modules.geometry.transforms import translation
 from modules.ptu.sim_ptu import SimPtu
-from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.macros import MacroError, macro_keys, menu_for
+from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
 from modules.sketch.path_check import PathLimits, plan_path
 from modules.sketch.primitives import place_primitive, triad_box
 from modules.sketch.rig import RigCamera, default_rig
 from modules.sketch.stereo import StereoNoise, StereoPair
 from modules.trajectory.player import PathPlayer
+from modules.trajectory.vcr import ARGUMENT, MOVING_MODES, VcrError, check_command
 from modules.vision.sketch_render import render_scene
 from modules.world.scene_objects import SketchScene
 from modules.world.sketch_judge import SketchJudge
@@ -304,7 +304,7 @@ class SketchSession:
                 player.command(action, **kwargs, q_measured=self.arm.q_reported)
             out = player.step(self.dt, self.arm.q_reported)
             guard = self._tick(out.twist_tool, out.gripper)
-            if guard and out.mode in ("playing", "backing", "seeking", "pausing"):
+            if guard and out.mode in MOVING_MODES:
                 player.halt(f"guard stop: {guard}", freeze=True)
             log.t.append(self.time - start)
             log.mode.append(out.mode)
@@ -369,17 +369,11 @@ def _check_step(when: float, action: str, kwargs: dict, length: float) -> None:
     where = f"script step {when}:{action}"
     if not (np.isfinite(when) and when >= 0):
         raise SessionError(f"{where}: expected a time >= 0 s, got {when}")
-    if action not in VCR_ACTIONS:
-        raise SessionError(f"{where}: unknown action; expected one of {', '.join(VCR_ACTIONS)}")
-    takes = {"seek": {"s"}, "pause": set(), "stop": set()}.get(action, {"speed"})
-    unknown = set(kwargs) - takes
-    if unknown:
-        expected = " or ".join(sorted(takes)) or "nothing"
-        raise SessionError(f"{where}: takes {expected}, got {sorted(unknown)}")
-    speed, s = kwargs.get("speed"), kwargs.get("s")
-    if action == "speed" and speed is None:
-        raise SessionError(f"{where}: expected a speed within 0.1 .. 1")
-    if speed is not None and not (np.isfinite(speed) and 0.1 <= speed <= 1.0):
-        raise SessionError(f"{where}: expected a speed within 0.1 .. 1, got {speed}")
-    if action == "seek" and (s is None or not (np.isfinite(s) and 0.0 <= s <= length)):
-        raise SessionError(f"{where}: expected a seek target within 0 .. {length:.4g}, got {s}")
+    takes = ARGUMENT.get(action, "")
+    unknown = set(kwargs) - {takes}
+    if action in ARGUMENT and unknown:
+        raise SessionError(f"{where}: takes {takes or 'nothing'}, got {sorted(unknown)}")
+    try:
+        check_command(action, kwargs.get("speed"), kwargs.get("s"), length)
+    except VcrError as exc:
+        raise SessionError(f"{where}: {exc}") from None

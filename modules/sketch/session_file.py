@@ -22,8 +22,8 @@ from connectors.errors import UserError
 from connectors.limits import MAX_SKETCH_SESSION_BYTES as MAX_SESSION_BYTES
 from connectors.limits import MAX_SKETCH_SESSION_EVENTS as MAX_SESSION_EVENTS
 from connectors.user_files import decode_text, read_bytes
-from modules.sketch.command_text import VCR_ACTIONS
 from modules.sketch.primitives import KINDS
+from modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
 
 #: Largest coordinate or option value kept in a session (a bound, not physics: finite numbers).
 _BIG = 1e9

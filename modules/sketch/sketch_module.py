@@ -7,7 +7,11 @@ import numpy as np
 
 from connectors import Input, Module, Output, UserError, param
 from connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
-from connectors.sketch_messages import (
+from modules.arm.arm_params import ArmParams
+from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.command_text import Command, parse
+from modules.sketch.macros import MacroError, macro_keys, menu_for
+from modules.sketch.messages import (
     PtuCommand,
     PtuState,
     SketchBox,
@@ -17,24 +21,18 @@ from connectors.sketch_messages import (
     VcrCommand,
     VcrState,
 )
-from modules.arm.arm_params import ArmParams
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.command_text import Command, parse
-from modules.sketch.macros import MacroError, macro_keys, menu_for
 from modules.sketch.path_check import PathLimits, plan_path
 from modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
 from modules.sketch.session import Q_READY, Q_STOW
 from modules.sketch.stereo import StereoNoise, StereoPair
-
-_MOVING = ("playing", "backing", "seeking", "pausing", "halting", "gripping", "at_stop")
-
-
-def _ends_the_snapshot(exc: Exception) -> bool:
-    """Whether a refusal is the snapshot's own (it ends a waiting snapshot)."""
-    return str(exc).startswith("snapshot:")
+from modules.trajectory.player import BUSY_MODES
 
 
-class _NotYet(UserError):
+class _SnapshotRefused(UserError):
+    """The snapshot's own refusal: it ends a waiting snapshot."""
+
+
+class _NotYet(_SnapshotRefused):
     """A snapshot that must wait: a camera is settling or has no frame to match its model."""
 
 
@@ -150,13 +148,13 @@ class Sketch(Module):
                 self._snapshot_due = None
                 self._refuse(f"{exc} (waited {self.params.snapshot_wait:.1f} s)")
             return
-        except (UserError, MacroError, PrimitiveError, ValueError) as exc:
-            if _ends_the_snapshot(exc):
-                self._snapshot_due = None
+        except _SnapshotRefused as exc:
+            self._snapshot_due = None
             self._refuse(str(exc))
             return
-        if message.startswith("snapshot "):
-            self._snapshot_due = None
+        except (UserError, MacroError, PrimitiveError, ValueError) as exc:
+            self._refuse(str(exc))
+            return
         self.status.send(Status(stage="ok", message=message))
 
     def _refuse(self, message: str) -> None:
@@ -201,13 +199,17 @@ class Sketch(Module):
         ):
             frame, cam, pose, unit = image.get(now), model.get(now), mount.get(now), ptu.get(now)
             if frame is None or cam is None or pose is None:
-                raise UserError(
+                raise _SnapshotRefused(
                     f"snapshot: camera {side} has not delivered an image, a model and a PTU pose"
                 )
             if image.age(now) > self.params.max_image_age:
-                raise UserError(f"snapshot: camera {side}'s image is {image.age(now):.2f} s old")
+                raise _SnapshotRefused(
+                    f"snapshot: camera {side}'s image is {image.age(now):.2f} s old"
+                )
             if unit is not None and unit.moving:
-                raise UserError(f"snapshot: PTU {side} is still slewing; wait until it stops")
+                raise _SnapshotRefused(
+                    f"snapshot: PTU {side} is still slewing; wait until it stops"
+                )
             settled = self._moved_at[side] + self.params.settle_time
             if now < settled:
                 raise _NotYet(
@@ -227,6 +229,7 @@ class Sketch(Module):
         )
         sent = self.snapshot.send(snap)  # dated by the oldest image it holds
         self.snapshots[sid] = sent
+        self._snapshot_due = None  # taken: nothing waits any more
         return sent
 
     def _place(self, cmd: Command, now: float) -> str:
@@ -265,7 +268,7 @@ class Sketch(Module):
         if state is None:
             raise UserError("plan: no joint state from the arm yet")
         vcr = self.vcr_state.get(now)
-        if vcr is not None and vcr.mode in _MOVING:
+        if vcr is not None and vcr.mode in BUSY_MODES:
             raise UserError(
                 f"plan: the arm is moving ({vcr.path_id} {vcr.mode}); pause it, then plan"
             )

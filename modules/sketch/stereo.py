@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from connectors.sketch_messages import StereoSnapshot
 from modules.calib.distortion import distort_points, undistort_points
 from modules.geometry.rays import epipolar_line, line_distance, triangulate_pixels
+from modules.sketch.messages import StereoSnapshot
 
 FloatArray = NDArray[np.float64]
 

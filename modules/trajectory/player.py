@@ -29,11 +29,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.sketch_messages import ToolPath
 from modules.arm.dh import DHTable
 from modules.arm.jacobian import jacobian_and_pose
+from modules.sketch.messages import ToolPath
 from modules.trajectory.joint_path import JointPath
-from modules.trajectory.vcr import Vcr, VcrError, VcrLimits
+from modules.trajectory.vcr import MOVING_MODES, STARTS, Vcr, VcrError, VcrLimits
 
 FloatArray = NDArray[np.float64]
 
@@ -56,8 +56,9 @@ class PlayerOutput:
 MAX_WAYPOINTS = 20_000
 RESYNC_WINDOW = 0.3  #: path units (rad of joint arc)
 SETTLE_BAND = 0.01  #: rad: standing still, a smaller tracking error is still corrected
-_MOVING = ("playing", "backing", "seeking", "pausing", "halting")
-_STARTS = ("play", "resume", "back", "seek")
+#: Modes of the player's output in which a path is under way: the VCR's moving modes, a stop
+#: point reached and the wait for the gripper there.
+BUSY_MODES = (*MOVING_MODES, "gripping", "at_stop")
 
 
 def _check_path(path: ToolPath, table: DHTable, rate: float) -> None:
@@ -144,7 +145,7 @@ class PathPlayer:
         (rad), a start from standstill is refused (VcrError) when the arm is off the path."""
         st = self.vcr.state
         end = self.joint_path.length
-        if action in _STARTS and q_measured is not None and st.mode not in _MOVING:
+        if action in STARTS and q_measured is not None and st.mode not in MOVING_MODES:
             q = np.asarray(q_measured, dtype=float)
             if st.mode == "halted":  # the arm may have coasted on after a hard stop: take up
                 # the path where the arm is (the nearest point near where it froze)
@@ -197,7 +198,7 @@ class PathPlayer:
                 self._grip(self.events[end][1], then="")
         q_d = self.joint_path.q(st.s)
         error = q_d - q_meas
-        if st.mode in _MOVING and self._hold <= 0:
+        if st.mode in MOVING_MODES and self._hold <= 0:
             qd = self.joint_path.dq_ds(st.s) * st.s_dot + self.gain * error
         elif np.max(np.abs(error)) <= SETTLE_BAND:
             qd = self.gain * error  # standing on the path: the last of the lag settles

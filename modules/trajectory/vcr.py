@@ -36,11 +36,54 @@ MODES = (
     "halted",
     "done",
 )
+#: Modes in which the path parameter may be changing (the player drives the arm).
+MOVING_MODES = ("playing", "backing", "seeking", "pausing", "halting")
+#: Every VCR command, and the argument each takes: ``speed`` (0.1 .. 1), ``s`` (path units)
+#: or nothing.
+ARGUMENT = {
+    "play": "speed",
+    "back": "speed",
+    "pause": "",
+    "resume": "speed",
+    "speed": "speed",
+    "seek": "s",
+    "stop": "",
+}
+ACTIONS = tuple(ARGUMENT)
+#: Commands that set the path parameter moving from standstill.
+STARTS = ("play", "resume", "back", "seek")
+#: Range of the speed override (fraction of the path's nominal rate).
+SPEED_MIN, SPEED_MAX = 0.1, 1.0
+#: Round-off allowed at the ends of the speed range (the VCR clips into it).
+_SPEED_SLACK = 1e-9
 _STILL = 1e-9
 
 
 class VcrError(ValueError):
     """A VCR command that cannot be obeyed (unknown action, speed out of range, no path)."""
+
+
+def check_command(
+    action: str, speed: float | None = None, s: float | None = None, length: float | None = None
+) -> None:
+    """The one rule for a VCR command, wherever it is written (text, script, message): VcrError
+    saying what was expected unless ``action`` is known, ``speed`` (when given, or required by
+    ``speed``) is finite within ``SPEED_MIN .. SPEED_MAX``, and a seek has a finite target
+    ``s`` >= 0, within ``0 .. length`` when the path's ``length`` is known (path units)."""
+    if action not in ARGUMENT:
+        raise VcrError(f"unknown VCR action {action!r}; expected one of {', '.join(ACTIONS)}")
+    speeds = f"a speed within {SPEED_MIN:g} .. {SPEED_MAX:g}"
+    if action == "speed" and speed is None:
+        raise VcrError(f"expected {speeds}")
+    if speed is not None and not (
+        np.isfinite(speed) and SPEED_MIN - _SPEED_SLACK <= speed <= SPEED_MAX + _SPEED_SLACK
+    ):
+        raise VcrError(f"expected {speeds}, got {speed}")
+    if action == "seek":
+        top = np.inf if length is None else length
+        if s is None or not (np.isfinite(s) and 0.0 <= s <= top):
+            within = ">= 0" if length is None else f"within 0 .. {length:.4g}"
+            raise VcrError(f"expected a seek target {within}, got {s}")
 
 
 @dataclass(frozen=True)
@@ -95,12 +138,11 @@ class Vcr:
     # -- commands -----------------------------------------------------------------------------
     def command(self, action: str, speed: float | None = None, s: float | None = None) -> None:
         """Obey a VCR command: play, back, pause, resume (= play), speed, seek, stop."""
+        check_command(action, speed, s, self.length)
         st = self.state
         self._plan_key = None
         if speed is not None:
-            if not (np.isfinite(speed) and 0.1 - 1e-9 <= speed <= 1.0 + 1e-9):
-                raise VcrError(f"speed must be within 0.1 .. 1, got {speed}")
-            st.speed = float(np.clip(speed, 0.1, 1.0))
+            st.speed = float(np.clip(speed, SPEED_MIN, SPEED_MAX))
         if action in ("play", "resume"):
             if st.s >= self.length - 1e-9:
                 st.mode = "done"
@@ -112,17 +154,7 @@ class Vcr:
             if st.mode not in ("paused", "halted", "done"):
                 st.mode = "pausing"
         elif action == "seek":
-            if s is None or not np.isfinite(s) or not 0.0 <= s <= self.length:
-                raise VcrError(f"seek target must be within 0 .. {self.length:.4g}, got {s}")
-            st.mode, st.reason, st.target = "seeking", "", float(s)
-        elif action == "speed":
-            if speed is None:
-                raise VcrError("a speed command needs a speed within 0.1 .. 1")
-        else:
-            raise VcrError(
-                f"unknown VCR action {action!r}; expected play, back, pause, resume, speed, "
-                "seek or stop"
-            )
+            st.mode, st.reason, st.target = "seeking", "", float(s)  # type: ignore[arg-type]
 
     def halt(self, reason: str, *, freeze: bool = False) -> None:
         """Stop on the path and stay stopped until the next play/back: smoothly (jerk-limited)

@@ -7,13 +7,11 @@ import numpy as np
 from connectors import Input, Module, Output, from_param, param
 from connectors.limits import MAX_PATH_AGE_S
 from connectors.messages import JointState, Status, Text, Twist
-from connectors.sketch_messages import ToolPath, VcrCommand, VcrState
 from modules.arm.arm_params import ArmParams
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import ToolPath, VcrCommand, VcrState
 from modules.trajectory.player import PathPlayer, PlayerOutput
-from modules.trajectory.vcr import VcrError
-
-_MOVING = ("playing", "backing", "seeking", "pausing", "halting")
+from modules.trajectory.vcr import ARGUMENT, MOVING_MODES, STARTS, VcrError
 
 
 class VcrPlayer(Module):
@@ -101,12 +99,12 @@ class VcrPlayer(Module):
             return
         mode = self.player.vcr.state.mode
         age = self.joint_state.age(now)
-        if age > self.params.max_state_age and mode in _MOVING:
+        if age > self.params.max_state_age and mode in MOVING_MODES:
             self._halt(f"joint state is stale ({age:.3f} s old)", freeze=True)
-        if self._console_seen and not self.command.link_alive and mode in _MOVING:
+        if self._console_seen and not self.command.link_alive and mode in MOVING_MODES:
             self._halt("console lost")
         guard = self.guard.get(now)
-        if guard is not None and guard.stage == "zero" and mode in _MOVING:
+        if guard is not None and guard.stage == "zero" and mode in MOVING_MODES:
             self._halt(f"guard stop: {guard.reason or guard.message}", freeze=True)
         out = self.player.step(dt, np.asarray(state.position, dtype=float))
         self._send(out)
@@ -129,7 +127,7 @@ class VcrPlayer(Module):
             self._problem = old
             self.log.warning("VCR_PLAYER %s: %s", self.name, old)
             return
-        if self.player is not None and self.player.vcr.state.mode in _MOVING:
+        if self.player is not None and self.player.vcr.state.mode in MOVING_MODES:
             self._refused += 1
             self._problem = (
                 f"path {path.path_id} refused: {self.player.path.path_id} is "
@@ -161,14 +159,14 @@ class VcrPlayer(Module):
                 f"stale command {command.action!r}: {age:.3f} s old, expected at most "
                 f"{self.params.max_command_age:.3f} s"
             )
-            if self.player is not None and self.player.vcr.state.mode in _MOVING:
+            if self.player is not None and self.player.vcr.state.mode in MOVING_MODES:
                 self._halt(self._problem)
             return
         if self.player is None:
             self._problem = f"command {command.action!r} but no path is loaded"
             return
         old = self._path_too_old(self.player.path, now)
-        if old and command.action in ("play", "back", "resume", "seek"):
+        if old and command.action in STARTS:
             self._refused += 1
             self._problem = old
             return
@@ -179,10 +177,10 @@ class VcrPlayer(Module):
             return
         try:
             speed = None
-            if command.speed > 0 and command.action in ("speed", "play", "resume", "back"):
+            if command.speed > 0 and ARGUMENT.get(command.action) == "speed":
                 speed = command.speed
             q = None if state is None else np.asarray(state.position, dtype=float)
-            if q is None and command.action in ("play", "resume", "back", "seek"):
+            if q is None and command.action in STARTS:
                 raise VcrError(f"{command.action} refused: no joint state from the arm yet")
             self.player.command(command.action, speed=speed, s=command.s, q_measured=q)
             self._problem = ""

@@ -6,7 +6,7 @@ import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, param
 from connectors.messages import Pose
-from modules.vision.mount_offset import offset_mount, offset_transform
+from modules.geometry.mount_offset import offset_mount, offset_transform
 
 
 class MountOffset(Module):

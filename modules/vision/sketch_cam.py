@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import CameraModel, Image, Pose
-from connectors.sketch_messages import SceneObjects
+from modules.sketch.messages import SceneObjects
 from modules.vision.sketch_render import NoiseField, render_scene
 
 

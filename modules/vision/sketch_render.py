@@ -13,8 +13,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.sketch_messages import SceneObjects
 from modules.calib.distortion import distort_points
+from modules.sketch.messages import SceneObjects
 
 FloatArray = NDArray[np.float64]
 _LIGHT = np.array([0.3, -0.4, 0.87]) / np.linalg.norm([0.3, -0.4, 0.87])

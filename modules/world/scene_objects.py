@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.sketch_messages import SceneObjects
 from modules.geometry.transforms import rot_z
+from modules.sketch.messages import SceneObjects
 
 FloatArray = NDArray[np.float64]
 

@@ -6,9 +6,9 @@ import numpy as np
 
 from connectors import Input, Module, Output, param
 from connectors.messages import JointState, Status
-from connectors.sketch_messages import SceneObjects, ToolPath
 from modules.arm.arm_params import ArmParams
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import SceneObjects, ToolPath
 from modules.world.scene_objects import SketchScene
 from modules.world.sketch_judge import SketchJudge
 

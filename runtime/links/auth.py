@@ -24,6 +24,7 @@ ends.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -31,6 +32,7 @@ import secrets
 import shutil
 import stat
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -66,7 +68,7 @@ class RunCredentials:
         #: zenoh id of each process (lowercase hex without a leading zero, as zenoh wants it)
         self.zids = {p: format(secrets.randbits(127) | 1 << 126, "x") for p in processes}
         dictionary = self.folder / "dictionary.txt"
-        _private_write(dictionary, "".join(f"{p}:{pw}\n" for p, pw in passwords.items()))
+        write_private(dictionary, dictionary_text(passwords))
         self.files: dict[str, Path] = {}
         for i, process in enumerate(processes):
             before = set(processes[:i])  # this process connects to them: known by zenoh id
@@ -75,26 +77,54 @@ class RunCredentials:
                 return {"zids": [self.zids[other]]} if other in before else by_username(other)
 
             path = self.folder / f"{process}.json"
-            auth = {
-                "user": process,
-                "password": passwords[process],
-                "dictionary_file": str(dictionary),
-                "zid": self.zids[process],
-                "token_key": token_key,
-                "access_control": zenoh_acl(plan, subject, [observer]),
-                "observer": {"user": OBSERVER_USER, "password": passwords[OBSERVER_USER]},
-            }
-            _private_write(path, json.dumps(auth))
+            acl = zenoh_acl(plan, subject, [observer])
+            auth = credentials(process, passwords, dictionary, self.zids[process], token_key, acl)
+            write_private(path, json.dumps(auth))
             self.files[process] = path
 
     def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def _private_write(path: Path, text: str) -> None:
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
+def dictionary_text(passwords: Mapping[str, str]) -> str:
+    """zenoh's ``usrpwd`` dictionary: one ``user:password`` line per user."""
+    return "".join(f"{user}:{password}\n" for user, password in passwords.items())
+
+
+def credentials(
+    process: str,
+    passwords: Mapping[str, str],
+    dictionary: Path,
+    zid: str,
+    token_key: str,
+    access_control: dict[str, Any],
+) -> dict[str, Any]:
+    """The credentials of ``process`` in the form :func:`load_auth` reads: its user name and
+    password, the dictionary file, its zenoh id, the token key, the graph's access rules and
+    the observer's user name and password (``passwords`` holds every user's)."""
+    return {
+        "user": process,
+        "password": passwords[process],
+        "dictionary_file": str(dictionary),
+        "zid": zid,
+        "token_key": token_key,
+        "access_control": access_control,
+        "observer": {"user": OBSERVER_USER, "password": passwords[OBSERVER_USER]},
+    }
+
+
+def write_private(path: Path, text: str) -> None:
+    """Write ``text`` at ``path`` (mode 0600) by replacing it whole: processes starting at once
+    may write the same text, and no reader ever sees half of it."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".new-")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def load_auth(path: str) -> dict[str, Any]:

@@ -107,7 +107,9 @@ _PARSER_AT = re.compile(r"-->\s*(\d+):(\d+)")
 _PARSER_WHY = re.compile(r"^\s*=\s*(.*?)(?: at /\S+)?\.?\s*$", re.MULTILINE)
 
 
-def _user_config(path: str) -> zenoh.Config:
+def read_user_config(path: str) -> zenoh.Config:
+    """Parse the user's zenoh configuration file ``path`` (bounded in size; UserError
+    ``FILE:LINE:COL: error:`` when zenoh refuses it), its TLS file names made absolute."""
     file = Path(path)
     read_text(file, "zenoh configuration file (JSON5)", MAX_CONFIG_BYTES)  # a bounded file
     try:
@@ -153,28 +155,22 @@ def _resolve_tls_files(cfg: zenoh.Config, folder: Path) -> None:
             cfg.insert_json5(key, json.dumps(str(folder / value)))
 
 
-def file_endpoints(path: str) -> Endpoints:
-    """The listen/connect endpoints a zenoh configuration file sets (empty when it sets none)."""
-    cfg, stock = _user_config(path), zenoh.Config()
-    found = Endpoints()
-    for key, attr in (("listen/endpoints", "listen"), ("connect/endpoints", "connect")):
-        value = json.loads(cfg.get_json(key))
-        if value != json.loads(stock.get_json(key)):
-            if isinstance(value, dict):  # per-mode form {"peer": [...], "router": [...]}
-                value = value.get("peer", [])
-            setattr(found, attr, list(value))
-    return found
-
-
 def build_config(
-    endpoints: Endpoints, config_file: str | None = None, auth: dict[str, Any] | None = None
+    endpoints: Endpoints,
+    config_file: str | None = None,
+    auth: dict[str, Any] | None = None,
+    parsed: zenoh.Config | None = None,
 ) -> zenoh.Config:
     """A zenoh configuration for one process: ``config_file`` (JSON5, for TLS, access control,
     routers) when given, then our safety settings and exactly ``endpoints``; ``auth`` (the
     launcher's per-run credentials, ``runtime.links.auth``) adds password authentication and the
-    graph's access-control rules."""
+    graph's access-control rules. ``parsed``: ``config_file`` already parsed
+    (``runtime.links.config_facts``), completed here in place instead of parsing it again."""
     stock = zenoh.Config()
-    cfg = _user_config(config_file) if config_file else zenoh.Config()
+    if parsed is not None:
+        cfg = parsed
+    else:
+        cfg = read_user_config(config_file) if config_file else zenoh.Config()
     if auth is not None:
         apply_auth(cfg, auth)
 

@@ -9,10 +9,7 @@ processes can open it. ``--insecure`` lifts this.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-
-import zenoh
 
 from connectors.errors import UserError
 from runtime.graph.names import plain_beyond_host
@@ -55,52 +52,3 @@ def config_for(path: str, process: str) -> str:
             f"(expected {file.name}; write the folder with `umbra keys GRAPH --out {path}`)"
         )
     return str(file)
-
-
-def uses_tls(config_file: str | None) -> bool:
-    """Whether ``config_file`` sets up TLS (a CA to verify peers with)."""
-    if not config_file:
-        return False
-    try:
-        cfg = zenoh.Config.from_file(config_file)
-        value = json.loads(cfg.get_json("transport/link/tls/root_ca_certificate"))
-    except Exception:
-        return False
-    return bool(value)
-
-
-def authenticates(config_file: str | None) -> bool:
-    """Whether ``config_file`` authenticates sessions on its own: TLS (a CA to verify peers
-    with) or a zenoh user name and password."""
-    if not config_file:
-        return False
-    if uses_tls(config_file):
-        return True
-    try:
-        cfg = zenoh.Config.from_file(config_file)
-        return bool(json.loads(cfg.get_json("transport/auth/usrpwd/user")))
-    except Exception:
-        return False
-
-
-def routed_mode(config_file: str | None) -> str:
-    """The mode ``config_file`` sets when it is not ``peer`` (``client``, ``router``: links then
-    go through a zenoh router); empty otherwise."""
-    if not config_file:
-        return ""
-    try:
-        mode = json.loads(zenoh.Config.from_file(config_file).get_json("mode"))
-    except Exception:
-        return ""
-    return mode if isinstance(mode, str) and mode != "peer" else ""
-
-
-def has_access_control(config_file: str | None) -> bool:
-    """Whether ``config_file`` enables zenoh access control of its own."""
-    if not config_file:
-        return False
-    try:
-        cfg = zenoh.Config.from_file(config_file)
-        return bool(json.loads(cfg.get_json("access_control/enabled")))
-    except Exception:
-        return False

@@ -44,6 +44,7 @@ from typing import Any
 from connectors.errors import UserError
 from runtime.graph.plan import GraphPlan
 from runtime.links.acl import OBSERVER_USER, local_observer, zenoh_acl
+from runtime.links.auth import credentials, dictionary_text, write_private
 
 #: Bytes of the secret (written as hex digits).
 SECRET_BYTES = 32
@@ -162,7 +163,6 @@ class HostSecret:
     """What every process of one graph derives from the user's secret."""
 
     secret: bytes
-    file: Path
 
     def password(self, process: str) -> str:
         return _derive(self.secret, "password", process).hex()[:PASSWORD_HEX]
@@ -182,39 +182,18 @@ class HostSecret:
         return [{"usernames": [process]}, {"zids": [self.zid(process)]}]
 
 
-def _write_dictionary(path: Path, text: str) -> None:
-    """Write ``text`` at ``path`` (mode 0600) by replacing it whole: processes starting at once
-    write the same text, and zenoh never reads half of it."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".new-")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 def host_credentials(plan: GraphPlan, process: str, folder: Path | None = None) -> dict[str, Any]:
     """Credentials of ``process`` of ``plan`` in the form ``runtime.links.auth.load_auth``
     gives (plus ``secret_file``, and ``observer``: the observer's user name and password);
     UserError when the secret's folder or file is not private."""
     secret, file = load_secret(plan.spec.name, plan.key_prefix, folder)
-    host = HostSecret(secret, file)
-    users = [*plan.populated_processes, OBSERVER_USER]
+    host = HostSecret(secret)
+    passwords = {p: host.password(p) for p in [*plan.populated_processes, OBSERVER_USER]}
     dictionary = file.with_name(file.name + ".dict")
     try:
-        _write_dictionary(dictionary, "".join(f"{p}:{host.password(p)}\n" for p in users))
+        write_private(dictionary, dictionary_text(passwords))
     except OSError as exc:
         raise UserError(f"{dictionary}: error: cannot write the link passwords: {exc}") from None
-    return {
-        "user": process,
-        "password": host.password(process),
-        "dictionary_file": str(dictionary),
-        "zid": host.zid(process),
-        "token_key": host.token_key(),
-        "access_control": zenoh_acl(plan, host.subject, [local_observer(plan)]),
-        "secret_file": str(file),
-        "observer": {"user": OBSERVER_USER, "password": host.password(OBSERVER_USER)},
-    }
+    acl = zenoh_acl(plan, host.subject, [local_observer(plan)])
+    auth = credentials(process, passwords, dictionary, host.zid(process), host.token_key(), acl)
+    return {**auth, "secret_file": str(file)}

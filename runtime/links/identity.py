@@ -104,13 +104,21 @@ class Sessions:
     session, even one with the same zenoh id (a process started again by hand: its marker
     differs), so ``is`` tells a new session from the one already seen."""
 
-    live: dict[str, str] = field(default_factory=dict)  #: zenoh id of each live process
     current: dict[str, Token] = field(default_factory=dict)
     #: the latest live token of each process, kept after it is gone
     latest: dict[str, Token] = field(default_factory=dict)
     gone: set[str] = field(default_factory=set)
     conflicts: int = 0
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    def session_of(self, process: str) -> str | None:
+        """Zenoh id of the live session of ``process`` (None when it has none)."""
+        token = self.current.get(process)  # one dict read: atomic, no lock
+        return None if token is None else token.session
+
+    def live_sessions(self) -> list[str]:
+        """Zenoh ids of every live process's session."""
+        return [token.session for token in list(self.current.values())]
 
     def token_up(self, token: Token) -> bool:
         """A token appeared; True when it is now (or still) the live one of its process."""
@@ -125,7 +133,6 @@ class Sessions:
             if latest != token:
                 latest = self.latest[token.process] = Token(*token)  # a new session: a new count
             self.current[token.process] = latest
-            self.live[token.process] = token.session
             self.gone.discard(token.process)
             return True
 
@@ -135,6 +142,5 @@ class Sessions:
             if self.current.get(token.process) != token:
                 return False
             del self.current[token.process]
-            del self.live[token.process]
             self.gone.add(token.process)
             return True

@@ -35,7 +35,7 @@ from runtime.graph.plan import GraphPlan
 from runtime.links.auth import load_auth
 from runtime.links.bounds import inbound_limit
 from runtime.links.config import Endpoints, build_config, describe
-from runtime.links.exposure import has_access_control
+from runtime.links.config_facts import ConfigFacts, config_facts
 from runtime.links.publish_all import AllOutputs
 from runtime.links.runs import RunFile, describe_outputs, write_run_file
 from runtime.links.session import open_session
@@ -62,6 +62,8 @@ class ProcessOptions:
     clock: str = "real"
     duration: float | None = None
     zenoh_config: str | None = None
+    #: ``zenoh_config`` as the launcher already parsed it (None: parsed here)
+    zenoh_facts: ConfigFacts | None = None
     #: the launcher's per-run credentials file of this process (``runtime.links.auth``)
     link_auth: str | None = None
     #: credentials of a process started by hand (``runtime.links.host_auth``), when no file
@@ -184,10 +186,10 @@ def run_linked_process(
     log = log or logging.getLogger("umbra")
     options.output_dir.mkdir(parents=True, exist_ok=True)
     auth = load_auth(options.link_auth) if options.link_auth else options.auth
-    own_rules = has_access_control(options.zenoh_config)
-    if auth is not None and own_rules:
+    facts = options.zenoh_facts or config_facts(options.zenoh_config)
+    if auth is not None and facts.access_control:
         auth.pop("access_control", None)  # the file's rules (``umbra keys``: by certificate)
-    config = build_config(options.endpoints, options.zenoh_config, auth)
+    config = build_config(options.endpoints, options.zenoh_config, auth, facts.config)
     if options.link_checks and config.get_json(RX_LIMIT) == zenoh.Config().get_json(RX_LIMIT):
         config.insert_json5(RX_LIMIT, str(inbound_limit(plan, options.process)))
     session = open_session(config)
@@ -231,7 +233,11 @@ def run_linked_process(
         else None
     )
     supervised = control is not None
-    run_file = _run_file(plan, options, auth, own_rules, supervised) if options.run_file else None
+    run_file = (
+        _run_file(plan, options, auth, facts.access_control, supervised)
+        if options.run_file
+        else None
+    )
     stop = threading.Event()
     try:
         transport.announce()

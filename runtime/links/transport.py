@@ -12,27 +12,11 @@ Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overr
   session, which also stamps every sample it publishes; ``proof`` shows the token was made by a
   holder of the run's credentials (``runtime.links.identity``).
 
-Trust: a consumer accepts a sample only from the live session of the process the graph names as
-the link's producer (others are counted as foreign and dropped; a producer declared gone stays
-gone until its token comes back, whatever arrives meanwhile), only when its size is within the
-link's bound (``runtime.links.bounds``; checked before anything is copied or decoded), and only
-with a plausible sequence number, tracked per producer session. A sample that overtakes its
-producer's token (a new session's first samples may) is held briefly and let through, in order,
-only once the token names its session.
-
-Events never drop: an events link (its output declared ``events``: operator actions, gripper,
-paths) publishes with congestion control BLOCK; state (images, contours, poses, joint states,
-statuses, twists) is latest-only: DROP, so a congested link loses old samples rather than queueing
-them (the consumer's scheduler likewise takes the newest, ``runtime.scheduler``). Frames go at
-data priority, everything else above them; all are ``express`` (no batching delay). Large samples
-are sent in one of two ways: when every consumer of the output runs on this host and no session
-other than the graph's proven processes is connected (``runtime.links.wire``: an observer or a
-foreign client gets the sample's bytes), through this process's frame pool
-(``runtime.links.pool``: one copy, the consumer reads the shared memory in place, and the small
-descriptor is sent with BLOCK so no slot is orphaned);
-otherwise through zenoh's shared memory (``runtime.links.shm``), which zenoh turns into bytes for a
-consumer on another host. Samples are decoded on zenoh's threads; a sample that does not decode is
-counted and dropped with one log line (rate-limited), and the process keeps running.
+The parts: publishing (``runtime.links.publishing``, large samples through the frame pool:
+``runtime.links.pool_handoff``), receiving (``runtime.links.receiving``) behind the producer's
+trust (``runtime.links.trust``), counters (``runtime.links.stats``) and rate-limited log lines
+(``runtime.links.log_limit``). This class ties them to the process's liveliness: it tracks the
+graph's processes' tokens, declares its own, and waits for consumers before producing.
 """
 
 from __future__ import annotations
@@ -42,24 +26,12 @@ import logging
 import secrets
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
-from functools import partial
 from typing import Any
 
-import numpy as np
 import zenoh
 
-from connectors.codec import (
-    FRAME_MAGIC,
-    FRAMED_MIN_BYTES,
-    FRAMED_VERSION,
-    Codec,
-    DecodeError,
-    array_bytes,
-    array_fields,
-)
-from connectors.compact import COMPACT_VERSION
+from connectors.codec import Codec
 from connectors.messages import Message
 from connectors.ports import Sink
 from runtime.graph.plan import GraphPlan, LinkPlan
@@ -75,54 +47,21 @@ from runtime.links.identity import (
     proven,
     sign,
 )
-from runtime.links.pool import (
-    DESCRIPTOR_MAGIC,
-    FORWARD_MAGIC,
-    MAX_CONSUMERS,
-    FramePool,
-    HostMarker,
-    PoolReader,
-    is_descriptor,
-    is_forward,
-    marker_pid,
-    pid_alive,
-)
+from runtime.links.log_limit import RateLimitedLog
+from runtime.links.pool import FramePool, HostMarker, PoolReader, marker_pid
+from runtime.links.pool_handoff import PoolHandoff
+from runtime.links.publishing import declare_publisher, publish_sink
+from runtime.links.receiving import Decoders, Receiving, receiver
 from runtime.links.shm import ShmWriter
 from runtime.links.stats import PublishStats, SubscribeStats
-from runtime.links.wire import only_graph_peers, pool_encoding, sample_encoding
+from runtime.links.trust import ProducerGate
 
 #: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
 END_GRACE = 0.05
-#: At most one log line per key and this many seconds about undecodable samples.
-ERROR_LOG_PERIOD = 5.0
-#: Largest sequence number a sample may carry (2**48: a century at 80 kHz).
-MAX_SEQ = 2**48
-#: Largest forward jump of sequence numbers within one producer session (2**20 samples lost: an
-#: hour at 290 Hz); a larger jump is implausible and dropped, so one sample cannot make every
-#: later genuine one look old.
-MAX_SEQ_JUMP = 2**20
-#: Source ids (publishers) remembered per producer session: a producer has one or two per key.
-MAX_SOURCE_IDS = 8
-#: Samples a link holds while its producer's token has not arrived yet (a sample may overtake
-#: the token on the way): let through, in order, if the token comes within ``MAX_HOLD_S`` and
-#: names their session; dropped and counted otherwise.
-MAX_HELD = 64
-#: Longest a sample waits for its producer's token [s]: a command that waited longer is old.
-MAX_HOLD_S = 0.1
+#: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
+END_GRACE = 0.05
 
 __all__ = ["ALIVE", "ZenohTransport", "alive_key"]
-
-
-class _Trust:
-    """The producer session a subscription accepts samples from, and the source ids (its
-    publishers' ``zenoh.EntityGlobalId``) already matched to it: the fast path is one set
-    lookup."""
-
-    __slots__ = ("ids", "token")
-
-    def __init__(self) -> None:
-        self.token: Token | None = None  #: the producer's token these ids were matched under
-        self.ids: set[Any] = set()
 
 
 def _no_sink(sample: Message, now: float) -> None:
@@ -156,7 +95,6 @@ class ZenohTransport:
         self._log = log or logging.getLogger("umbra.links")
         self._shm = shm if shm is not None else ShmWriter(log=self._log)
         self._codec = Codec()  # publishing happens on the scheduler's thread only
-        self._local = threading.local()  # one decoder per zenoh thread
         self._lock = threading.Lock()
         self._producer_of: dict[str, str] = {}
         self._consumers_of: dict[str, set[str]] = {}
@@ -167,6 +105,7 @@ class ZenohTransport:
             )
         #: processes of the graph, indexing the flag columns of frame pools
         self._proc_index = {p: i for i, p in enumerate(sorted(self._graph_processes(plan)))}
+        self._warn = RateLimitedLog(self._log)
         self._pubs: dict[str, tuple[Any, PublishStats]] = {}
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
         self._arrived: dict[str, list[Callable[[], None]]] = {}
@@ -185,18 +124,32 @@ class ZenohTransport:
         #: key proving this process's token and checking the others' (``identity.sign``)
         self._token_key = token_key
         self.forged_tokens = 0
-        self._last_forged_log = -ERROR_LOG_PERIOD
         self.liveliness_flaps = 0
         #: Changes whenever a producer's liveliness or the end of a stream changes (what
         #: ``producer_alive`` answers): the scheduler re-reads link states only then.
         self.state_version: int | None = 0
         self._versions = itertools.count(1)
         self._ended: set[str] = set()
-        self._last_error_log: dict[str, tuple[float, int]] = {}
-        self._last_refusal_log: dict[str, tuple[float, int]] = {}
         self._marker = HostMarker() if frame_pool else None
         self._pools: dict[str, FramePool] = {}
         self._reader = PoolReader()
+        self._handoff = PoolHandoff(
+            session,
+            process,
+            sorted(self._proc_index),
+            self._consumers_of,
+            marker=self._marker,
+            codec=self._codec,
+            reader=self._reader,
+            peer_pid=self._peer_pid,
+            lock=self._lock,
+            live_sessions=self._sessions.live_sessions,
+            pools=self._pools,
+            stamp=checks,
+        )
+        self._receiving = Receiving(
+            self._reader, Decoders(), checks, self._ended, self._state_changed, self._warn
+        )
         self._token: Any = None
         self._closed = False
         producers = {
@@ -206,7 +159,7 @@ class ZenohTransport:
         }
         #: the graph's one time base: our offset to each producer's clock (``clock_sync``)
         self.clocks = ClockSync(
-            session, self.prefix, process, producers, self._sessions.live.get, log=self._log
+            session, self.prefix, process, producers, self._sessions.session_of, log=self._log
         )
         self._alive_sub = session.liveliness().declare_subscriber(
             alive_pattern(self.prefix), self._on_liveliness, history=True
@@ -241,7 +194,7 @@ class ZenohTransport:
                 "ignored; only the live session drives its links",
                 name,
                 session,
-                self._sessions.live.get(name),
+                self._sessions.session_of(name),
             )
             return
         if not up and not self._sessions.token_down(token):
@@ -272,18 +225,16 @@ class ZenohTransport:
                 self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
 
     def _forged(self, token: Token) -> None:
-        """Count a token whose proof is wrong; log at most every ``ERROR_LOG_PERIOD`` s."""
+        """Count a token whose proof is wrong; log it (rate-limited)."""
         self.forged_tokens += 1
-        now = time.monotonic()
-        if now - self._last_forged_log >= ERROR_LOG_PERIOD:
-            self._last_forged_log = now
-            self._log.warning(
-                "a token of process `%s` (session %s) without a valid proof: ignored (%d so "
-                "far); it was not declared by the graph's process",
-                token.process,
-                token.session,
-                self.forged_tokens,
-            )
+        self._warn.warning(
+            "forged",
+            "a token of process `%s` (session %s) without a valid proof: ignored (%d so "
+            "far); it was not declared by the graph's process",
+            token.process,
+            token.session,
+            self.forged_tokens,
+        )
 
     def announce(self) -> None:
         """Declare this process's liveliness token (after every subscription is declared)."""
@@ -308,152 +259,20 @@ class ZenohTransport:
         if link.key in self._pubs:
             self._pubs[link.key][1].links.append(str(link.connection))
             return _no_sink
-        type_name = link.msg_type.__name__
-        encoding = sample_encoding(type_name, COMPACT_VERSION)  # docs/wire-format.md
-        framed_encoding = sample_encoding(type_name, FRAMED_VERSION)
-        pub = self._session.declare_publisher(
-            link.key,
-            encoding=encoding,
-            congestion_control=(
-                zenoh.CongestionControl.BLOCK if link.reliable else zenoh.CongestionControl.DROP
-            ),
-            priority=zenoh.Priority.DATA if link.bulk else zenoh.Priority.DATA_HIGH,
-            express=True,
-        )
+        pub = declare_publisher(self._session, link)
         stats = PublishStats(link.key, [str(link.connection)], link.reliable)
         self._pubs[link.key] = (pub, stats)
-        encode = self._codec.compact_writer(link.msg_type)
-        source = zenoh.SourceInfo(pub.id, 0)  # this session's id on every sample
-        wrap, log = self._shm.payload, self._log
-
-        put = partial(pub.put, source_info=source) if self.checks else pub.put
-
-        counters, threshold = self._shm.counters, self._shm.threshold
-        pooled = self._pooled_publish(link, stats) if not link.reliable else None
-
-        def publish(sample: Message, now: float) -> None:
-            try:
-                if pooled is not None and pooled(sample):
-                    return
-                data = encode(sample)
-                size = len(data)
-                # a framed sample (large arrays) says so in its encoding
-                framed = size >= FRAMED_MIN_BYTES and data[:4] == FRAME_MAGIC
-                if size < threshold:
-                    put(data, encoding=framed_encoding) if framed else put(data)
-                else:
-                    before = counters.shm_samples
-                    put(wrap(data), encoding=framed_encoding if framed else encoding)
-                    stats.shm_samples += counters.shm_samples - before
-            except Exception as exc:  # session closing, or a zenoh error: count, never raise
-                stats.put_errors += 1
-                if stats.put_errors == 1:
-                    log.warning("link `%s`: publishing failed: %s", stats.key, exc)
-                return
-            stats.sent += 1
-            stats.bytes += size
-
-        return publish
-
-    def _column(self, setter: str, holder: str) -> int:
-        """Flag column of a pool slot held by ``holder`` on behalf of ``setter`` (the process
-        that published the descriptor)."""
-        return self._proc_index[setter] * len(self._proc_index) + self._proc_index[holder]
-
-    def _pooled_publish(
-        self, link: LinkPlan, stats: PublishStats
-    ) -> Callable[[Message], bool] | None:
-        """The frame-pool path of a best-effort output (None when this host has no /dev/shm or
-        the graph has too many processes for a pool's flags)."""
-        if self._marker is None or self._marker.id == "none":
-            return None
-        n_columns = len(self._proc_index) ** 2
-        if n_columns > MAX_CONSUMERS:
-            return None
-        consumers = sorted(self._consumers_of.get(link.key, set()))
-        columns = [self._column(self.process, c) for c in consumers]
-        descriptors = self._session.declare_publisher(
-            link.key,
-            encoding=pool_encoding(link.msg_type.__name__),
-            congestion_control=zenoh.CongestionControl.BLOCK,
-            priority=zenoh.Priority.DATA,
-            express=True,
+        pooled = self._handoff.publisher(link, stats) if not link.reliable else None
+        return publish_sink(
+            pub,
+            link,
+            stats,
+            self._codec,
+            self._shm,
+            stamp=self.checks,
+            pooled=pooled,
+            log=self._log,
         )
-        descriptor_source, stamp = zenoh.SourceInfo(descriptors.id, 0), self.checks
-        frame, frame_header = self._codec.frame, self._codec.frame_header
-        reader, peer_pid = self._reader, self._peer_pid
-        # a descriptor only while every connected session is a proven process of the graph
-        only_graph = only_graph_peers(self._session, lambda: self._sessions.live.values())
-
-        array_names = array_fields(link.msg_type)
-
-        def forward(sample: Message) -> bytes | None:
-            """A forward descriptor when every array of ``sample`` lies in one held slot (a
-            fresh frame is told apart by its first array, before any header is built)."""
-            first = None
-            for name in array_names:
-                value = getattr(sample, name, None)
-                if isinstance(value, np.ndarray):
-                    first = value
-                    break
-            found = reader.slot_of(first) if first is not None else None
-            if found is None:
-                return None
-            pool_slot = found[:2]
-
-            def place(arr: np.ndarray) -> int:
-                where = found if arr is first else reader.slot_of(arr)
-                if where is None or where[:2] != pool_slot:
-                    raise LookupError("not in one pool slot")
-                return where[2]
-
-            try:
-                header = frame_header(sample, place)
-            except LookupError:
-                return None
-            return reader.forward(*pool_slot, columns, header)
-
-        def pooled(sample: Message) -> bool:
-            if array_bytes(sample) < FRAMED_MIN_BYTES:
-                return False
-            if not all(c in peer_pid for c in consumers):  # a dict read: atomic, no lock
-                return False  # a consumer on another host (or not known yet)
-            if not only_graph():  # an observer or a foreign client would get a descriptor
-                stats.pool_declined += 1
-                return False
-            descriptor = forward(sample)
-            if descriptor is not None:
-                size = len(descriptor)  # the frame itself stays where it is
-                stats.forwarded += 1
-            else:
-                head, parts, size = frame(sample)
-                pool = self._pools.get(link.key)
-                if pool is None:
-                    pool = self._pools[link.key] = FramePool(size, n_columns)
-                descriptor = pool.write(head, parts, size, columns)
-                if descriptor is None:
-                    self._reclaim(pool)
-                    descriptor = pool.write(head, parts, size, columns)
-                    if descriptor is None:
-                        stats.pool_full += 1
-                        return False
-            descriptors.put(descriptor, source_info=descriptor_source if stamp else None)
-            stats.sent += 1
-            stats.bytes += size
-            stats.pool_samples += 1
-            return True
-
-        return pooled
-
-    def _reclaim(self, pool: FramePool) -> None:
-        """Free the slots held by processes that have died."""
-        with self._lock:
-            pids = dict(self._peer_pid)
-        n = len(self._proc_index)
-        for name, holder in self._proc_index.items():
-            pid = pids.get(name)
-            if pid is not None and not pid_alive(pid):
-                pool.release_consumer([setter * n + holder for setter in range(n)])
 
     def consumers_ready(self) -> list[str]:
         """What producers still wait for: one line per output whose consumers are not all up."""
@@ -489,14 +308,6 @@ class ZenohTransport:
                 return False
 
     # -- consumer side --------------------------------------------------------------------------
-    def _decoder(self) -> Codec:
-        """This thread's codec."""
-        try:
-            return self._local.codec
-        except AttributeError:
-            codec = self._local.codec = Codec()
-            return codec
-
     def subscribe(
         self,
         link: LinkPlan,
@@ -517,20 +328,9 @@ class ZenohTransport:
         )
         delivers = [deliver]
         hooks = self._arrived[link.key] = [arrived] if arrived is not None else []
-        expected, key, ended = link.msg_type, link.key, self._ended
-        put_kind = zenoh.SampleKind.PUT
         producer = self._producer_of.get(link.key)
-        column = (
-            self._column(producer, self.process)
-            if producer in self._proc_index and self.process in self._proc_index
-            else 0
-        )
-        reader, monotonic = self._reader, time.monotonic
-        read_compact = self._decoder().compact_reader(expected) or (lambda data: None)
-        bound = max_sample_bytes(expected, self._producer_params.get(key))
+        bound = max_sample_bytes(link.msg_type, self._producer_params.get(link.key))
         stats.max_bytes = bound
-        current, gone = self._sessions.current, self._sessions.gone
-        date = self.clocks.date
 
         def hand_over(msg: Message) -> None:
             for d in delivers:
@@ -538,199 +338,21 @@ class ZenohTransport:
             for hook in hooks:
                 hook()
 
-        trust, refused = _Trust(), self._refused
-
-        held: deque[tuple[float, zenoh.Sample, bool]] = deque()
-        holding = threading.Lock()
-
-        def unowned(was_gone: bool, count: int = 1) -> None:
-            """Count (``count`` 1) or un-count (-1) a sample that came while no session of the
-            producer was live."""
-            if was_gone:
-                stats.after_gone += count
-            else:
-                stats.unattributed += count
-
-        def refuse_unowned(was_gone: bool) -> None:
-            if was_gone:
-                refused(stats, f"`{producer}` was declared gone; only its return revives it")
-            else:
-                refused(stats, f"`{producer}` has not announced its session yet")
-
-        def attributed(sample: zenoh.Sample) -> bool | None:
-            """Whether ``sample`` comes from the live session of the link's producer (counted
-            when not); None when it is held for the producer's token (counted as refused until
-            the token lets it through)."""
-            token = current.get(producer)  # type: ignore[arg-type]
-            if token is None:  # not up yet, or declared gone: nobody drives the link now
-                was_gone = producer in gone
-                unowned(was_gone)
-                if len(held) < MAX_HELD:
-                    held.append((monotonic(), sample, was_gone))
-                    return None
-                refuse_unowned(was_gone)
-                return False
-            info = sample.source_info
-            if info is None:
-                stats.foreign += 1
-                refused(stats, "it names no source session (not from the producer)")
-                return False
-            source = info.source_id
-            zid = str(source.zid)
-            if zid != token.session:
-                stats.foreign += 1
-                refused(stats, f"session {zid} is not `{producer}`'s live session {token.session}")
-                return False
-            if trust.token is not token:  # a new token of the producer: a new count
-                if trust.token is not None:
-                    stats.restarts += 1
-                stats.last_seq = 0
-                trust.token = token
-                trust.ids = set()
-            if len(trust.ids) < MAX_SOURCE_IDS:
-                trust.ids.add(source)
-            return True
-
-        checks = self.checks
-
-        def let_go(now: float) -> None:
-            """Let the held samples go, oldest first (caller holds ``holding``): those that
-            waited too long are dropped; the others are judged again now that a session may be
-            live — never reviving anything, only the token does."""
-            while held:
-                at, sample, was_gone = held[0]
-                if current.get(producer) is None and now - at < MAX_HOLD_S:  # type: ignore[arg-type]
-                    return  # still waiting for the token
-                held.popleft()
-                if now - at >= MAX_HOLD_S:
-                    refuse_unowned(was_gone)  # counted when it came
-                    continue
-                unowned(was_gone, -1)  # judged again, as if it came now
-                before = stats.received
-                handle(sample)
-                stats.held += stats.received - before
-
-        def let_go_now() -> None:
-            with holding:
-                let_go(monotonic())
-
+        gate = ProducerGate(producer, stats, self._sessions, self._receiving.refused)
         if producer is not None:
-            self._releasers.setdefault(producer, []).append(let_go_now)
-
-        def on_sample(sample: zenoh.Sample) -> None:
-            if held:  # samples wait for the producer's token: they go first, in order
-                with holding:
-                    let_go(monotonic())
-                    handle(sample)
-                return
-            handle(sample)
-
-        def handle(sample: zenoh.Sample) -> None:
-            if checks:
-                info = sample.source_info
-                if (
-                    info is None
-                    or info.source_id not in trust.ids
-                    or current.get(producer) is not trust.token  # type: ignore[arg-type]
-                ) and not attributed(sample):
-                    return
-            if sample.kind != put_kind:  # end of stream: the producer stopped cleanly
-                stats.ended += 1
-                ended.add(key)
-                self._state_changed()
-                return
-            payload = sample.payload
-            if checks and len(payload) > bound:  # before any copy or decode
-                stats.oversize += 1
-                refused(stats, f"{len(payload)} bytes, more than the {bound} allowed")
-                return
-            release: Callable[[], None] | None = None
-            try:
-                data: Any = payload.to_bytes()
-                magic = data[:4]
-                if magic == DESCRIPTOR_MAGIC and is_descriptor(data):
-                    data, release = reader.open(data, column)
-                    if len(data) > bound:
-                        release()
-                        stats.oversize += 1
-                        refused(stats, f"a frame of {len(data)} bytes, more than {bound} allowed")
-                        return
-                    stats.pool_samples += 1
-                    msg = self._decoder().decode(data, expected)
-                elif magic == FORWARD_MAGIC and is_forward(data):
-                    data, release, header = reader.open_forward(data, column)
-                    if len(data) > bound:
-                        release()
-                        stats.oversize += 1
-                        refused(stats, f"a frame of {len(data)} bytes, more than {bound} allowed")
-                        return
-                    stats.pool_samples += 1
-                    msg = self._decoder().decode_placed(header, data, expected)
-                else:  # a small sample: the compact reader, else the general path (or its error)
-                    msg = read_compact(data)
-                    if msg is None:
-                        msg = self._decoder().decode(data, expected)
-            except Exception as exc:  # DecodeError, or anything a foreign payload provokes
-                if release is not None:
-                    release()
-                self._bad_sample(stats, exc)
-                return
-            seq, last = msg.seq, stats.last_seq
-            if checks and not (0 <= seq <= MAX_SEQ and (not last or seq - last <= MAX_SEQ_JUMP)):
-                if release is not None:
-                    release()
-                stats.implausible += 1
-                refused(stats, f"sequence number {seq} after {last} is implausible")
-                return
-            if last and seq <= last:
-                stats.stale_dropped += 1
-                return
-            if last and seq > last + 1:
-                stats.missing += seq - last - 1
-            stats.last_seq = seq
-            stats.received += 1
-            stats.bytes += len(data)
-            stats.last_arrival = monotonic()
-            if key in ended:
-                ended.discard(key)
-                self._state_changed()
-            date(producer, msg, hand_over)  # on our clock: at once, or once it is measured
-
+            self._releasers.setdefault(producer, []).append(gate.release)
+        on_sample = receiver(
+            self._receiving,
+            link.key,
+            link.msg_type,
+            gate,
+            column=self._handoff.column(producer or "", self.process),
+            bound=bound,
+            date=self.clocks.date,
+            hand_over=hand_over,
+        )
         sub = self._session.declare_subscriber(link.key, on_sample)
         self._subs[link.key] = (sub, stats, delivers)
-
-    def _refused(self, stats: SubscribeStats, why: str) -> None:
-        """Log a refused sample: at most one line per key every ``ERROR_LOG_PERIOD`` seconds."""
-        now = time.monotonic()
-        last, quiet = self._last_refusal_log.get(stats.key, (-ERROR_LOG_PERIOD, 0))
-        if now - last >= ERROR_LOG_PERIOD:
-            more = f" ({quiet} more since the last report)" if quiet else ""
-            self._log.warning(
-                "link `%s`: refused a sample: %s%s; the link keeps running", stats.key, why, more
-            )
-            self._last_refusal_log[stats.key] = (now, 0)
-        else:
-            self._last_refusal_log[stats.key] = (last, quiet + 1)
-
-    def _bad_sample(self, stats: SubscribeStats, exc: Exception) -> None:
-        stats.decode_errors += 1
-        reason = str(exc) if isinstance(exc, DecodeError) else f"{type(exc).__name__}: {exc}"
-        stats.last_error = reason[:300]
-        now = time.monotonic()
-        last, quiet = self._last_error_log.get(stats.key, (-ERROR_LOG_PERIOD, 0))
-        if now - last >= ERROR_LOG_PERIOD:
-            more = f" ({quiet} more since the last report)" if quiet else ""
-            self._log.warning(
-                "link `%s`: dropped a sample that does not decode: %s; "
-                "%d dropped so far%s, the link keeps running",
-                stats.key,
-                stats.last_error,
-                stats.decode_errors,
-                more,
-            )
-            self._last_error_log[stats.key] = (now, 0)
-        else:
-            self._last_error_log[stats.key] = (last, quiet + 1)
 
     def producer_alive(self, link: LinkPlan) -> bool:
         """Whether the process producing ``link`` is up and has not ended the stream."""
@@ -789,7 +411,6 @@ class ZenohTransport:
                 self._token.undeclare()
         finally:
             self._session.close()
-            for pool in self._pools.values():
-                pool.close()
+            self._handoff.close()
             if self._marker is not None:
                 self._marker.close()

@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import platform
 import time
+from collections.abc import Mapping
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -35,8 +36,10 @@ from runtime.recording.writer import (
 )
 
 if TYPE_CHECKING:
+    import logging
+
+    from connectors.module import Module
     from runtime.graph.plan import GraphPlan
-    from runtime.scheduler import Scheduler
 
 #: Distributions whose versions a recording names.
 VERSIONED = (
@@ -169,15 +172,28 @@ def check_file_clash(plan: GraphPlan, settings: RecordSettings) -> None:
 class RunRecorder:
     """The recording of one process of a run (see the module docstring)."""
 
-    def __init__(self, scheduler: Scheduler, settings: RecordSettings) -> None:
-        opts = scheduler.options
-        self.plan = scheduler.plan
+    def __init__(
+        self,
+        plan: GraphPlan,
+        modules: Mapping[str, Module],
+        settings: RecordSettings,
+        *,
+        process: str,
+        output_dir: Path,
+        clock_kind: str,
+        now: float,
+        log: logging.Logger | None = None,
+    ) -> None:
+        """Record the outputs of ``modules`` (this process's, wired) of ``plan`` into the part
+        file of ``process`` under ``output_dir``; ``clock_kind`` ("sim", "real") and ``now`` (s)
+        are the scheduler's clock."""
+        self.plan = plan
         check_file_clash(self.plan, settings)
         self.settings = settings
-        self.process = opts.process
-        self.clock = scheduler.clock.kind
-        self.path = part_path(opts.output_dir, settings, opts.process)
-        outputs = kept_outputs(self.plan, set(scheduler.modules), settings)
+        self.process = process
+        self.clock = clock_kind
+        self.path = part_path(output_dir, settings, process)
+        outputs = kept_outputs(self.plan, set(modules), settings)
         # raw pixels do not compress: LZ4 would cost the recorder and every reader time for less
         # than a percent; JPEG/PNG images and the rest stay small either way
         raw_images = any(c == "raw" and issubclass(i.msg_type, Image) for _m, _p, c, i in outputs)
@@ -187,8 +203,8 @@ class RunRecorder:
             jpeg_quality=settings.jpeg_quality,
             compress=not raw_images,
             # one offset for the whole file: every time written is wall-clock time
-            clock_offset=wall_offset(scheduler.clock.now()),
-            log=opts.log,
+            clock_offset=wall_offset(now),
+            log=log,
         )
         self.topics: list[str] = []
         # children of poses recorded by any process of the run: every part leaves them out of
@@ -204,7 +220,7 @@ class RunRecorder:
                 META_JOINTS: ",".join(info.joints or ()),
             }
             self.file.declare(topic, info.msg_type, meta, images=choice if is_image else "raw")
-            scheduler.modules[module].outputs[port].sinks.append(self.file.sink(topic))
+            modules[module].outputs[port].sinks.append(self.file.sink(topic))
             self.topics.append(topic)
 
     def start(self, now: float) -> None:

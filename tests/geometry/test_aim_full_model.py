@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from connectors.sketch_messages import PtuCommand
 from modules.calib.camcalib import REPORT_FILE
 from modules.calib.camera_model import Intrinsics, PinholeCamera
 from modules.geometry.rochester_head import (
@@ -25,6 +24,7 @@ from modules.geometry.rochester_head import (
     aim_camera_model_at_point,
 )
 from modules.ptu.ptu_module import Ptu
+from modules.sketch.messages import PtuCommand
 from modules.sketch.rig import default_rig
 from runtime.harness import ModuleHarness
 

@@ -111,3 +111,21 @@ def test_bad_shapes_are_rejected():
         tf.transform_from_rotation_translation(np.eye(2), [0, 0, 0])
     with pytest.raises(tf.TransformError, match="axis"):
         tf.rotation_about_axis("w", 1.0)
+
+
+def test_rigid_and_orthonormal_transforms_share_one_rule():
+    A = random_transform(np.random.default_rng(7))
+    mirror = A.copy()
+    mirror[:3, 2] *= -1.0  # a reflection: orthonormal axes, det -1
+    scaled = A.copy()
+    scaled[:3, :3] *= 1.01
+    not_affine = A.copy()
+    not_affine[3, 0] = 0.1
+    assert tf.is_rigid(A) and tf.is_orthonormal_transform(A)
+    assert not tf.is_rigid(mirror) and tf.is_orthonormal_transform(mirror)
+    for bad in (scaled, not_affine, np.full((4, 4), np.nan), np.eye(3)):
+        assert not tf.is_rigid(bad) and not tf.is_orthonormal_transform(bad)
+    nudged = A.copy()
+    nudged[0, 3] += 1.0  # translation is free
+    nudged[:3, :3] += 5e-7  # within 1e-6, not within 1e-9
+    assert tf.is_orthonormal_transform(nudged, 1e-6) and not tf.is_orthonormal_transform(nudged)

@@ -16,10 +16,10 @@ from runtime.links.config import (
     build_config,
     check_endpoint,
     default_mesh,
-    file_endpoints,
     free_loopback_ports,
     loopback_mesh,
 )
+from runtime.links.config_facts import config_facts
 from runtime.links.session import open_session
 from tests.links.conftest import REPO, run_umbra
 
@@ -50,7 +50,7 @@ def test_user_file_keeps_its_settings_but_never_scouts(tmp_path: Path) -> None:
       scouting: { multicast: { enabled: true }, gossip: { enabled: true } },
       transport: { link: { tx: { lease: 3000 } } },
     }""")
-    assert file_endpoints(str(path)) == Endpoints([], ["tcp/10.1.2.3:7447"])
+    assert config_facts(str(path)).endpoints == Endpoints([], ["tcp/10.1.2.3:7447"])
     cfg = build_config(Endpoints(connect=["tcp/10.1.2.3:7447"]), str(path))
     assert _get(cfg, "mode") == "client"
     assert _get(cfg, "scouting/multicast/enabled") is False

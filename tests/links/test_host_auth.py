@@ -15,7 +15,7 @@ from connectors.errors import UserError
 from runtime.graph.check import load_graph
 from runtime.links.auth import load_auth
 from runtime.links.config import free_loopback_ports
-from runtime.links.exposure import authenticates, routed_mode
+from runtime.links.config_facts import config_facts
 from runtime.links.host_auth import (
     HostSecret,
     host_credentials,
@@ -137,7 +137,7 @@ def test_credentials_derive_from_the_secret_alone(tmp_path: Path) -> None:
     policy = next(p for p in smart["access_control"]["policies"] if p["id"] == "umbra: graph")
     assert policy["subjects"] == ["umbra", "umbra#2"]
     secret = bytes.fromhex(Path(smart["secret_file"]).read_text())
-    assert HostSecret(secret, Path(smart["secret_file"])).zid("umbra") == umbra["zid"]
+    assert HostSecret(secret).zid("umbra") == umbra["zid"]
     # the form the launcher's per-run files have
     path = tmp_path / "smart.json"
     path.write_text(json.dumps(smart))
@@ -152,8 +152,9 @@ def test_a_zenoh_configuration_that_authenticates_keeps_its_own(tmp_path: Path) 
     password.write_text('{ transport: { auth: { usrpwd: { user: "u", password: "p" } } } }')
     tls = tmp_path / "tls.json5"
     tls.write_text('{ transport: { link: { tls: { root_ca_certificate: "ca.pem" } } } }')
-    assert not authenticates(None) and not authenticates(str(plain))
-    assert authenticates(str(password)) and authenticates(str(tls))
+    assert not config_facts(None).authenticates and not config_facts(str(plain)).authenticates
+    assert config_facts(str(password)).authenticates and config_facts(str(tls)).authenticates
+    assert config_facts(str(tls)).tls and not config_facts(str(password)).tls
 
 
 def test_run_refuses_a_secret_others_may_read_before_anything_starts(
@@ -216,5 +217,5 @@ def test_a_configuration_through_a_router_is_named_as_not_authenticated(tmp_path
     client.write_text('{ mode: "client" }')
     peer = tmp_path / "peer.json5"
     peer.write_text('{ mode: "peer" }')
-    assert routed_mode(str(client)) == "client"
-    assert routed_mode(str(peer)) == "" and routed_mode(None) == ""
+    assert config_facts(str(client)).routed_mode == "client"
+    assert config_facts(str(peer)).routed_mode == "" and config_facts(None).routed_mode == ""

@@ -212,7 +212,7 @@ def test_stop_zeroes_safety_guards_and_calls_safe_stop_hooks(tmp_path: Path) -> 
 
 def test_zeroing_touches_float_arrays_only() -> None:
     from connectors.messages import Text, Twist
-    from runtime.scheduler import _zeroed
+    from runtime.safe_stop import zeroed as _zeroed
 
     twist = Twist(vector=np.arange(1.0, 7.0), frame="tool", stamp=3.0, seq=4)
     zero = _zeroed(twist)

@@ -25,7 +25,7 @@ from connectors.messages import Image, Message, Scalar, Twist
 from runtime.graph.check import check_spec, load_graph
 from runtime.graph.parse import parse_graph_text
 from runtime.graph.plan import GraphPlan, LinkPlan
-from runtime.links import transport
+from runtime.links import trust
 from runtime.links.bounds import ENVELOPE_BYTES, max_sample_bytes
 from runtime.links.config import Endpoints, build_config, free_loopback_ports
 from runtime.links.identity import alive_key, parse_alive_key, sign
@@ -285,7 +285,7 @@ def test_tokens_of_processes_the_graph_does_not_have_are_ignored(
         send(Scalar(value=1.0, seq=1))
         assert _until(lambda: len(got) == 1)
         assert pair.consumer.alive_processes() == {"umbra"}  # no stranger is tracked
-        assert pair.consumer._sessions.live.keys() == {"umbra"}
+        assert pair.consumer._sessions.current.keys() == {"umbra"}
         for token in [*tokens, probe]:
             token.undeclare()
     finally:
@@ -306,7 +306,7 @@ def _before_the_token(pair: Pair, link: LinkPlan, got: list[Message]) -> Callabl
 def test_samples_that_overtake_their_producers_token_wait_for_it(
     counter_plan: GraphPlan, pair: Pair, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(transport, "MAX_HOLD_S", 5.0)  # however slow this machine is
+    monkeypatch.setattr(trust, "MAX_HOLD_S", 5.0)  # however slow this machine is
     link = counter_plan.links[0]
     got: list[Message] = []
     send = _before_the_token(pair, link, got)
@@ -326,7 +326,7 @@ def test_samples_that_overtake_their_producers_token_wait_for_it(
 def test_samples_whose_token_comes_too_late_or_names_another_session_are_dropped(
     counter_plan: GraphPlan, pair: Pair, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(transport, "MAX_HOLD_S", 0.2)
+    monkeypatch.setattr(trust, "MAX_HOLD_S", 0.2)
     link = counter_plan.links[0]
     got: list[Message] = []
     send = _before_the_token(pair, link, got)

@@ -130,11 +130,11 @@ def test_a_run_on_a_host_that_refuses_goes_on_and_its_summary_says_why(
 ) -> None:
     import functools
 
-    import runtime.scheduler
+    import runtime.process_holds
 
     absent = tmp_path / "absent" / "qos"
     monkeypatch.setattr(
-        runtime.scheduler, "CpuLatencyHold", functools.partial(CpuLatencyHold, path=absent)
+        runtime.process_holds, "CpuLatencyHold", functools.partial(CpuLatencyHold, path=absent)
     )
     plan = check_text(GRAPH.format(clock="real"), "rt.yaml", make_registry())
     options = SchedulerOptions(clock="real", duration=0.05, output_dir=tmp_path, cpu_latency_us=0)

@@ -11,19 +11,8 @@ import cv2
 import numpy as np
 import pytest
 
+from modules.ptu.aim import look_at
 from modules.sketch.stereo import StereoPair
-
-
-def look_at(eye, target) -> np.ndarray:
-    z = np.asarray(target, float) - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, -1.0])
-    x /= np.linalg.norm(x)
-    T = np.eye(4)
-    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
-    T[:3, 3] = eye
-    return T
-
 
 TARGET = np.array([1.5, 0.0, 0.3])
 T_A = look_at(np.array([0.0, 0.35, 1.0]), TARGET)

@@ -185,7 +185,7 @@ def test_bad_options_are_refused_before_planning():
         check_options("grab_pipe", {"standoff": 0.1})
     s = _session()
     s.snapshot(render=False)
-    with pytest.raises(SessionError, match=r"script step 0.0:fly: unknown action"):
+    with pytest.raises(SessionError, match=r"script step 0.0:fly: unknown VCR action"):
         s.play(s.plan("stow").path_id, [(0.0, "fly", {})])
     with pytest.raises(SessionError, match=r"aim at .* outside the unit's travel"):
         s.aim([5.0, 5.0, 5.0])

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.sketch_messages import SketchPrimitive
 from modules.arm.dh import puma560
 from modules.geometry.transforms import translation
 from modules.sketch.macros import MacroError, macro_keys, menu_for
+from modules.sketch.messages import SketchPrimitive
 from modules.sketch.path_check import PathLimits, plan_path
 from modules.sketch.session import Q_READY
 from modules.world.scene_objects import SketchScene

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.sketch_messages import StereoSnapshot
 from modules.ptu.aim import look_at
+from modules.sketch.messages import StereoSnapshot
 from modules.sketch.primitives import (
     PrimitiveError,
     line_axis,

@@ -16,6 +16,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
+from modules.ptu.aim import look_at
 from modules.sketch.primitives import (
     line_direction_covariance,
     place_primitive,
@@ -28,17 +29,6 @@ NOISE = StereoNoise(pixel_px=0.5, rotation_rad=3e-4, translation_m=3e-4, focal_r
 K = np.array([[1500.0, 0.0, 330.0], [0.0, 1490.0, 235.0], [0.0, 0.0, 1.0]])
 DIST = np.array([-0.2, 0.05, 0.0005, -0.0003, 0.0])
 RUNS = 60
-
-
-def look_at(eye, target) -> np.ndarray:
-    z = np.asarray(target, float) - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, -1.0])
-    x /= np.linalg.norm(x)
-    T = np.eye(4)
-    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
-    T[:3, 3] = eye
-    return T
 
 
 TARGET = np.array([1.6, 0.05, 0.3])

@@ -92,11 +92,11 @@ def test_seek_and_bad_commands():
     log: list = []
     _run(vcr, 3.0, log)
     assert vcr.state.mode == "paused" and vcr.state.s == pytest.approx(0.7, abs=1e-9)
-    with pytest.raises(VcrError, match=r"speed must be within 0\.1 \.\. 1, got 1\.5"):
+    with pytest.raises(VcrError, match=r"expected a speed within 0\.1 \.\. 1, got 1\.5"):
         vcr.command("speed", speed=1.5)
     with pytest.raises(VcrError, match="unknown VCR action 'rewind'"):
         vcr.command("rewind")
-    with pytest.raises(VcrError, match=r"seek target must be within 0 \.\. 2"):
+    with pytest.raises(VcrError, match=r"expected a seek target within 0 \.\. 2"):
         vcr.command("seek", s=-1)
 
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from connectors.messages import JointState, Status
-from connectors.sketch_messages import SketchPrimitive, VcrCommand
 from modules.arm.dh import puma560
 from modules.geometry.transforms import translation
 from modules.sketch.macros import macro_keys
+from modules.sketch.messages import SketchPrimitive, VcrCommand
 from modules.sketch.path_check import PathLimits, plan_path
 from modules.sketch.session import Q_READY
 from modules.trajectory.vcr_module import VcrPlayer

@@ -7,6 +7,7 @@ from collections.abc import Callable, Iterator
 from typing import TypeVar
 
 import pytest
+import serial
 
 from modules.calib.visca.client import ViscaSettings, ViscaZoomClient
 from modules.calib.visca.sim_camera import SimFcbCamera
@@ -31,6 +32,14 @@ def wait_for(probe: Callable[[], T], ok: Callable[[T], bool], timeout_s: float) 
         time.sleep(0.02)
         value = probe()
     return value
+
+
+@pytest.fixture
+def wire(sim: SimFcbCamera) -> Iterator[serial.Serial]:
+    """pyserial on the simulated camera's pty, for raw bytes."""
+    port = serial.Serial(sim.path, 9600, timeout=2.0)
+    yield port
+    port.close()
 
 
 @pytest.fixture(name="wait_for")

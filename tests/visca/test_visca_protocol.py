@@ -10,11 +10,7 @@ from hypothesis import strategies as st
 
 from modules.calib.visca import commands as vc
 from modules.calib.visca import protocol as vp
-
-
-def h(text: str) -> bytes:
-    return bytes.fromhex(text)
-
+from tests.visca.raw_wire import h
 
 # -- encoding ---------------------------------------------------------------------------------
 

@@ -5,28 +5,13 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 
 import pytest
 import serial
 
 from modules.calib.visca import protocol as vp
 from modules.calib.visca.sim_camera import Fault, SimFcbCamera
-
-
-def h(text: str) -> bytes:
-    return bytes.fromhex(text)
-
-
-@pytest.fixture
-def wire(sim: SimFcbCamera) -> Iterator[serial.Serial]:
-    port = serial.Serial(sim.path, 9600, timeout=2.0)
-    yield port
-    port.close()
-
-
-def read_packet(port: serial.Serial) -> bytes:
-    return port.read_until(b"\xff")
+from tests.visca.raw_wire import h, read_packet
 
 
 def test_address_set_and_if_clear_answer_as_the_manual_says(wire: serial.Serial) -> None:

@@ -5,7 +5,6 @@ error replies (cancelled, no socket, buffer full, not executable) with their soc
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import pytest
 import serial
@@ -14,26 +13,7 @@ from modules.calib.visca import commands as vc
 from modules.calib.visca import protocol as vp
 from modules.calib.visca.sim_camera import SimFcbCamera
 from modules.calib.visca.zoom_motion import ZoomSpeeds
-
-
-def h(text: str) -> bytes:
-    return bytes.fromhex(text)
-
-
-@pytest.fixture
-def wire(sim: SimFcbCamera) -> Iterator[serial.Serial]:
-    port = serial.Serial(sim.path, 9600, timeout=2.0)
-    yield port
-    port.close()
-
-
-def read_packet(port: serial.Serial) -> bytes:
-    return port.read_until(b"\xff")
-
-
-def position(port: serial.Serial) -> int:
-    port.write(h("81 09 04 47 FF"))
-    return vp.decode_zoom_position(vp.decode_reply(read_packet(port)))
+from tests.visca.raw_wire import h, position, read_packet
 
 
 def test_standard_tele_acks_completes_at_once_and_moves_until_stop(

@@ -7,7 +7,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors.messages import Message, message_types
+from connectors.messages import Message, registered_message_types
 
 #: Fields holding images: big enough that the sample is framed (envelope version 2).
 IMAGE_FIELDS = {"pixels", "image_a", "image_b"}
@@ -38,8 +38,9 @@ def _value(name: str, typ: Any, i: int) -> Any:
 
 
 def every_type() -> dict[str, type[Message]]:
-    """The shipped message types (those of ``connectors``), by name."""
-    return {n: c for n, c in message_types().items() if c.__module__.startswith("connectors.")}
+    """The shipped message types (``connectors.messages`` and the ``umbra.messages`` entry
+    points), by name."""
+    return registered_message_types()
 
 
 def example(cls: type[Message], seq: int = 1) -> Message:

@@ -14,7 +14,7 @@ from tests.wire.samples import every_type, example, same
 def test_the_field_tables_are_those_of_the_message_types() -> None:
     types = every_type()
     assert len(types) >= 23
-    assert missing_notes(types) == [], "document the new fields in runtime/links/wire_spec.NOTES"
+    assert missing_notes(types) == [], "document the new fields in their type's FIELD_NOTES"
     text = DOC.read_text()
     assert render(text, types) == text, "run `python -m runtime.links.wire_spec --write`"
 

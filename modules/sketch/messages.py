@@ -1,0 +1,384 @@
+"""Message types of Active Sketch (LDRD report section 3): snapshots, primitives, paths, VCR.
+
+All are :class:`connectors.messages.Message` subclasses of the Active Sketch domain, registered
+as a plug-in's would be: the entry point ``sketch`` of the group ``umbra.messages`` (in
+``pyproject.toml``) names this module, so the codec, the graph checker and a recording's reader
+know them by class name in any process (``connectors.messages.message_types``), while the
+framework's base layer never imports them.
+Units are SI (metres, radians, seconds); poses are 4 x 4 homogeneous transforms named
+``T_<parent>_<child>``; 3-D points are in the frame named by ``frame`` (``base`` in the shipped
+graph). Pixel coordinates are ideal pin-hole pixels (u right, v down) of the image named.
+
+Flow::
+
+    cameras + PTUs --StereoSnapshot--> sketch (operator places vertices in both images)
+    sketch --SketchPrimitive / SketchBox--> 3-D view, planner
+    planner --ToolPath--> VCR player (smart) <--VcrCommand-- console
+    VCR player --VcrState--> console;  --JointRates--> REG_VEL (safety guard)
+    sketch --PtuCommand--> PTU --PtuState--> cameras
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import msgspec
+import numpy as np
+
+from connectors.messages import CameraModel, Message
+
+_EMPTY = np.zeros(0)
+_F8 = "float64"
+_EMPTY2 = np.zeros((0, 2))
+_EMPTY3 = np.zeros((0, 3))
+
+
+class StereoSnapshot(Message, frozen=True, kw_only=True):
+    """Both images and both camera models of a stereo pair at one instant (``stamp``).
+
+    ``image_a`` / ``image_b``: H x W x 3 uint8 BGR frames of camera a (left) and b (right).
+    ``K_a`` / ``K_b`` (3 x 3, px): intrinsics of each camera at the zoom it had (``zoom_a`` /
+    ``zoom_b``, 0 wide .. 1 tele); ``dist_a`` / ``dist_b``: OpenCV distortion [k1, k2, p1, p2, k3].
+    ``T_base_camera_a`` / ``T_base_camera_b`` (4 x 4, m): pose of each camera in ``frame`` at the
+    instant (PTU angles included), so ``P = K [R | d]`` with ``[R | d]`` its inverse's top rows.
+    ``snapshot_id`` names the pair; primitives placed on it carry the same id. The models are
+    kept flat (not nested messages) so the compact link codec can carry them;
+    :meth:`camera_model` rebuilds a :class:`~connectors.messages.CameraModel`.
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "snapshot_id": "names the pair",
+        "image_a": "uint8 (H, W, 3), BGR: camera a (left)",
+        "image_b": "uint8 (H, W, 3), BGR: camera b (right)",
+        "K_a": f"{_F8} (3, 3), px: intrinsics of camera a",
+        "K_b": f"{_F8} (3, 3), px: intrinsics of camera b",
+        "dist_a": f"{_F8} (5,), OpenCV distortion of camera a",
+        "dist_b": f"{_F8} (5,), OpenCV distortion of camera b",
+        "zoom_a": "0 wide .. 1 tele",
+        "zoom_b": "0 wide .. 1 tele",
+        "camera_a_name": "frame name of camera a",
+        "camera_b_name": "frame name of camera b",
+        "T_base_camera_a": f"{_F8} (4, 4), m: camera a in `frame`",
+        "T_base_camera_b": f"{_F8} (4, 4), m: camera b in `frame`",
+        "frame": "world frame of the poses",
+    }
+
+    snapshot_id: str
+    image_a: np.ndarray
+    image_b: np.ndarray
+    K_a: np.ndarray
+    K_b: np.ndarray
+    dist_a: np.ndarray = np.zeros(5)
+    dist_b: np.ndarray = np.zeros(5)
+    zoom_a: float = 0.0
+    zoom_b: float = 0.0
+    camera_a_name: str = "cam_a"
+    camera_b_name: str = "cam_b"
+    T_base_camera_a: np.ndarray = np.eye(4)
+    T_base_camera_b: np.ndarray = np.eye(4)
+    frame: str = "base"
+
+    FRAME_KIND: ClassVar[str] = "frame"
+
+    @classmethod
+    def of_pair(
+        cls,
+        stamp: float,
+        snapshot_id: str,
+        a: tuple[CameraModel, np.ndarray, np.ndarray],
+        b: tuple[CameraModel, np.ndarray, np.ndarray],
+        frame: str = "base",
+    ) -> StereoSnapshot:
+        """The pair from each camera's ``(model, image, T_frame_camera)``: intrinsics,
+        distortion, zoom and name from the model, the pose [m] in ``frame``."""
+        (ma, ia, Ta), (mb, ib, Tb) = a, b
+        return cls(
+            stamp=stamp,
+            snapshot_id=snapshot_id,
+            image_a=ia,
+            image_b=ib,
+            K_a=ma.K,
+            K_b=mb.K,
+            dist_a=np.asarray(ma.dist),
+            dist_b=np.asarray(mb.dist),
+            zoom_a=ma.zoom,
+            zoom_b=mb.zoom,
+            camera_a_name=ma.frame,
+            camera_b_name=mb.frame,
+            T_base_camera_a=Ta,
+            T_base_camera_b=Tb,
+            frame=frame,
+        )
+
+    def camera_model(self, side: str) -> CameraModel:
+        """The model of camera ``side`` ("a" or "b"), mounted in ``frame`` at its pose."""
+        if side not in ("a", "b"):
+            raise ValueError(f"camera side must be 'a' or 'b', got {side!r}")
+        K = np.asarray(getattr(self, f"K_{side}"), dtype=float)
+        image = getattr(self, f"image_{side}")
+        return CameraModel(
+            stamp=self.stamp,
+            fx=float(K[0, 0]),
+            fy=float(K[1, 1]),
+            skew=float(K[0, 1]),
+            u0=float(K[0, 2]),
+            v0=float(K[1, 2]),
+            dist=np.asarray(getattr(self, f"dist_{side}"), dtype=float),
+            width=int(image.shape[1]),
+            height=int(image.shape[0]),
+            T_mount_camera=np.asarray(getattr(self, f"T_base_camera_{side}"), dtype=float),
+            mount=self.frame,
+            frame=getattr(self, f"camera_{side}_name"),
+            zoom=float(getattr(self, f"zoom_{side}")),
+        )
+
+    def camera_matrix(self, side: str) -> np.ndarray:
+        """The 3 x 4 camera matrix ``K [R | d]`` of camera ``side`` (world = ``frame``)."""
+        model = self.camera_model(side)
+        T_camera_base = np.linalg.inv(model.T_mount_camera)
+        return model.K @ T_camera_base[:3, :]
+
+
+class SketchPrimitive(Message, frozen=True, kw_only=True):
+    """A geometric primitive placed in both images of a snapshot and triangulated to 3-D.
+
+    ``kind``: "point" (1 vertex), "line" (2), "plane" (3: two connected lines a-b, b-c, vertex b
+    shared), "triad" (4: three lines from the common vertex 0 to vertices 1, 2, 3).
+    ``pixels_a`` / ``pixels_b`` (N x 2, px): vertices in image a / b; each ``pixels_b[i]`` lies
+    on the epipolar line of ``pixels_a[i]``. ``points`` (N x 3, m, ``frame``): triangulated
+    vertices; ``covariances`` (N x 3 x 3, m²): their uncertainty from pixel noise and
+    calibration; ``gaps`` (N, m): ray gaps. ``edges`` (E x 2, int): vertex index pairs drawn.
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "primitive_id": "names the primitive",
+        "kind": '"point", "line", "plane" or "triad"',
+        "snapshot_id": "the snapshot it was placed on",
+        "pixels_a": f"{_F8} (N, 2), px in image a",
+        "pixels_b": f"{_F8} (N, 2), px in image b",
+        "points": f"{_F8} (N, 3), m in `frame`",
+        "covariances": f"{_F8} (N, 3, 3), m²",
+        "gaps": f"{_F8} (N,), m: ray gaps",
+        "edges": "int64 (E, 2): vertex index pairs",
+        "frame": "frame of `points`",
+    }
+
+    primitive_id: str
+    kind: str
+    snapshot_id: str = ""
+    pixels_a: np.ndarray = _EMPTY2
+    pixels_b: np.ndarray = _EMPTY2
+    points: np.ndarray = _EMPTY3
+    covariances: np.ndarray = np.zeros((0, 3, 3))
+    gaps: np.ndarray = _EMPTY
+    edges: np.ndarray = np.zeros((0, 2), dtype=np.int64)
+    frame: str = "base"
+
+    FRAME_KIND: ClassVar[str] = "frame"
+
+
+class SketchBox(Message, frozen=True, kw_only=True):
+    """A box built from a triad (kept as scene geometry for the 3-D view).
+
+    ``T_base_box`` (4 x 4, m): box centre and axes in ``frame``; ``size`` (3,, m): edge lengths
+    along the box's x, y, z axes; ``covariance`` (3 x 3, m²) of the centre.
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "box_id": "names the box",
+        "T_base_box": f"{_F8} (4, 4), m: centre and axes in `frame`",
+        "size": f"{_F8} (3,), m: edge lengths along x, y, z",
+        "covariance": f"{_F8} (3, 3), m²: of the centre",
+        "frame": "frame name",
+    }
+
+    box_id: str
+    T_base_box: np.ndarray
+    size: np.ndarray
+    covariance: np.ndarray = np.zeros((3, 3))
+    frame: str = "base"
+
+    FRAME_KIND: ClassVar[str] = "frame"
+
+
+class MacroRequest(Message, frozen=True, kw_only=True):
+    """The operator's choice of a motion macro for a primitive (``primitive_id`` "" = none).
+
+    ``macro``: a name from the primitive's menu (e.g. "grab_pipe", "move_around_axis");
+    ``options``: named numbers for the macro (e.g. ``angle`` [rad], ``standoff`` [m]).
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "macro": "macro name",
+        "primitive_id": '"" = none',
+        "options": "map str -> float (e.g. angle rad, standoff m)",
+    }
+
+    macro: str
+    primitive_id: str = ""
+    options: dict[str, float] = msgspec.field(default_factory=dict)
+
+
+class ToolPath(Message, frozen=True, kw_only=True):
+    """A planned and checked path for the arm, as waypoints along path parameter ``s``.
+
+    ``s`` (N,, m-equivalent, increasing from 0): path parameter at each waypoint (arc length of
+    the joint path in the weighted norm of the planner); ``joints`` (N x n, rad): joint positions
+    for ``names``; ``T_base_tool`` (N x 4 x 4, m): tool poses (for display); ``gripper`` (N,):
+    commanded gripper opening 0 closed .. 1 open at each waypoint. ``ok`` is False when a check
+    failed, and ``reason`` says which check, where and by how much. ``checks`` holds the figures
+    (min margins, peak rates). ``path_id`` names the plan; VCR commands refer to it.
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "path_id": "names the plan",
+        "macro": "macro that made it",
+        "names": "n joint names",
+        "s": f"{_F8} (N,), path parameter, increasing from 0",
+        "joints": f"{_F8} (N, n), rad",
+        "T_base_tool": f"{_F8} (N, 4, 4) or (0, 4, 4), m",
+        "gripper": f"{_F8} (N,) or (0,), 0 closed .. 1 open",
+        "ok": "false: a check failed",
+        "reason": "which check failed, where, by how much",
+        "checks": "map str -> float: margins, peak rates",
+        "frame": "frame of the tool poses",
+    }
+
+    path_id: str
+    macro: str
+    names: tuple[str, ...]
+    s: np.ndarray
+    joints: np.ndarray
+    T_base_tool: np.ndarray = np.zeros((0, 4, 4))
+    gripper: np.ndarray = _EMPTY
+    ok: bool = True
+    reason: str = ""
+    checks: dict[str, float] = msgspec.field(default_factory=dict)
+    frame: str = "base"
+
+    HAS_JOINTS: ClassVar[bool] = True
+
+
+class VcrCommand(Message, frozen=True, kw_only=True):
+    """A command to the VCR trajectory player.
+
+    ``action``: "play" (forward), "back" (reverse along the same path), "pause" (jerk-limited
+    stop on the path), "speed" (set ``speed``), "seek" (move along the path to ``s``), "stop".
+    ``speed``: fraction of the planned speed, 0.1 .. 1 (0: keep the current one) for "play",
+    "back" and "speed". ``s``: seek target. ``path_id`` must match the loaded path.
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "action": '"play", "back", "pause", "speed", "seek" or "stop"',
+        "path_id": "must match the loaded path",
+        "speed": "fraction of the planned speed, 0.1 .. 1 (0: keep)",
+        "s": "seek target (path parameter)",
+    }
+
+    action: str
+    path_id: str = ""
+    speed: float = 0.0
+    s: float = 0.0
+
+
+class VcrState(Message, frozen=True, kw_only=True):
+    """The VCR player's state: ``mode`` ("idle", "playing", "backing", "pausing", "paused",
+    "halted", "done"), path parameter ``s`` and its rate ``s_dot`` [1/s of s], ``speed`` override,
+    ``progress`` 0 .. 1, ``reason`` for a halt (lost console, stale command, guard stop)."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "path_id": "the loaded path",
+        "mode": '"idle", "playing", "backing", "pausing", "paused", "halted", "done"',
+        "s": "path parameter",
+        "s_dot": "1/s (of s)",
+        "speed": "override, fraction of the planned speed",
+        "progress": "0 .. 1",
+        "reason": "why it halted",
+    }
+
+    path_id: str
+    mode: str
+    s: float = 0.0
+    s_dot: float = 0.0
+    speed: float = 1.0
+    progress: float = 0.0
+    reason: str = ""
+
+
+class PtuCommand(Message, frozen=True, kw_only=True):
+    """A pan/tilt unit command: ``mode`` "angles" (go to ``pan``, ``tilt`` [rad]) or "point"
+    (aim the camera's optical axis at ``point`` (3,, m) in ``frame``)."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "mode": '"angles" or "point"',
+        "pan": "rad",
+        "tilt": "rad",
+        "point": f"{_F8} (3,), m in `frame`",
+        "frame": "frame of `point`",
+    }
+
+    mode: str
+    pan: float = 0.0
+    tilt: float = 0.0
+    point: np.ndarray = np.zeros(3)
+    frame: str = "base"
+
+
+class PtuState(Message, frozen=True, kw_only=True):
+    """A pan/tilt unit's angles [rad] and rates [rad/s]; ``moving`` while slewing; ``status``."""
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "pan": "rad",
+        "tilt": "rad",
+        "pan_rate": "rad/s",
+        "tilt_rate": "rad/s",
+        "moving": "true while slewing",
+        "status": '"ok" or what is wrong',
+    }
+
+    pan: float
+    tilt: float
+    pan_rate: float = 0.0
+    tilt_rate: float = 0.0
+    moving: bool = False
+    status: str = "ok"
+
+
+class SceneObjects(Message, frozen=True, kw_only=True):
+    """The true objects of the simulated world (for rendering and the 3-D view), in ``frame``.
+
+    One row per solid: ``names``; ``kinds`` "box" (``sizes`` = edge lengths x, y, z, centred on
+    the pose) or "cylinder" (``sizes`` = radius, radius, length along the pose's z, centred);
+    ``poses`` (N x 4 x 4, m): T_base_object; ``colors`` (N x 3, uint8 RGB).
+    ``values``: named state figures (e.g. ``door_angle`` [rad], ``gripper`` 0 .. 1).
+    """
+
+    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "names": "N object names",
+        "kinds": 'N kinds, "box" or "cylinder"',
+        "poses": f"{_F8} (N, 4, 4), m: T_frame_object",
+        "sizes": f"{_F8} (N, 3), m: box edges, or radius, radius, length",
+        "colors": "uint8 (N, 3), RGB",
+        "values": "map str -> float: named state figures",
+        "frame": "frame of the poses",
+    }
+
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]
+    poses: np.ndarray
+    sizes: np.ndarray
+    colors: np.ndarray
+    values: dict[str, float] = msgspec.field(default_factory=dict)
+    frame: str = "base"
+
+    FRAME_KIND: ClassVar[str] = "frame"

@@ -1,0 +1,99 @@
+"""The children of a split run as the launcher sees them, and the summaries of the run: each
+process's ``summary-NAME.json`` (written for it when it died without one) and ``summary.json``."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from runtime.graph.plan import GraphPlan
+from runtime.links.config import Endpoints
+
+
+@dataclass
+class Child:
+    name: str
+    endpoints: Endpoints
+    popen: subprocess.Popen[bytes]
+    servo: bool
+    tail: deque[str] = field(default_factory=lambda: deque(maxlen=8))
+    told_at: float | None = None
+    told: str = ""
+    termed: bool = False
+    code: int | None = None
+    segments: set[str] = field(default_factory=set)  #: /dev/shm files it was seen to map
+
+    @property
+    def running(self) -> bool:
+        return self.code is None
+
+
+def read_summary(out: Path, child: Child) -> dict[str, Any] | None:
+    path = out / f"summary-{child.name}.json"
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def reason_of(out: Path, child: Child) -> str:
+    summary = read_summary(out, child)
+    if summary and summary.get("reason"):
+        return str(summary["reason"])
+    return child.tail[-1] if child.tail else "no reason given"
+
+
+def cause_of(out: Path, child: Child) -> str:
+    rc = child.code
+    assert rc is not None
+    if rc < 0:
+        try:
+            name = signal.Signals(-rc).name
+        except ValueError:
+            name = f"signal {-rc}"
+        return f"died: killed by {name}"
+    return f"failed (exit {rc}): {reason_of(out, child)}"
+
+
+def write_summaries(
+    plan: GraphPlan, out: Path, children: list[Child], code: int, reason: str, started: float
+) -> None:
+    processes = []
+    for child in children:
+        summary = read_summary(out, child)
+        if summary is None:  # died before writing one
+            summary = {
+                "process": child.name,
+                "exit_code": child.code,
+                "reason": cause_of(out, child) if child.code else "no summary written",
+                "modules": [],
+            }
+            path = out / f"summary-{child.name}.json"
+            path.write_text(json.dumps(summary, indent=2))
+        processes.append(
+            {
+                "process": child.name,
+                "pid": child.popen.pid,
+                "exit_code": child.code,
+                "reason": summary.get("reason", ""),
+                "servo_side": child.servo,
+                "listen": child.endpoints.listen,
+                "connect": child.endpoints.connect,
+            }
+        )
+    whole = {
+        "graph": plan.spec.name,
+        "mode": "split",
+        "exit_code": code,
+        "reason": reason,
+        "wall_time_s": round(time.time() - started, 3),
+        "key_prefix": plan.key_prefix,
+        "processes": processes,
+    }
+    (out / "summary.json").write_text(json.dumps(whole, indent=2))

@@ -1,0 +1,238 @@
+"""The direction of imports in the project, declared once, and a checker that reads every file's
+imports with ``ast`` (nothing is imported or run).
+
+``docs/code-map.md`` explains these rules to a newcomer; ``tests/test_import_direction.py``
+holds the code to them and the map's table of domain arrows to ``DOMAIN_ARROWS``.
+
+Every import counts: at module level, inside functions (lazy imports) and under
+``if TYPE_CHECKING:`` (a type-only import is still an arrow a reader must follow).
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+#: The project's top-level packages and what each may import of them.
+LAYERS: dict[str, set[str]] = {
+    "connectors": {"connectors"},  # the base layer: message types, ports, module base class
+    "modules": {"connectors", "modules"},  # domains: modules and their plain math
+    "runtime": {"connectors", "runtime"},  # runs graphs; finds modules by entry point only
+}
+
+#: Domain packages under ``modules/`` and the other domains each may import (beyond any
+#: domain's ``messages`` module, its public vocabulary, which every domain may import).
+DOMAIN_ARROWS: dict[str, set[str]] = {
+    "geometry": set(),
+    "generic": set(),
+    "webdoor": set(),
+    "arm": {"geometry"},
+    "calib": {"geometry"},
+    "ptu": {"calib", "geometry"},
+    "servo": {"calib", "geometry"},
+    "trajectory": {"arm", "geometry"},
+    "vision": {"calib", "geometry", "servo"},
+    "world": {"arm", "geometry", "servo"},
+    "view3d": {"arm", "calib", "geometry"},
+    "operator": {"arm", "geometry", "vision", "webdoor"},
+    "sketch": {"arm", "calib", "geometry", "ptu", "trajectory", "vision", "world"},
+    "sketch_page": {"geometry", "operator", "sketch", "webdoor"},
+}
+
+#: A domain's vocabulary: ``modules/<domain>/messages.py`` imports only ``connectors`` and may
+#: be imported by every domain (its types travel between them, as ``connectors.messages``'s do).
+VOCABULARY = "messages"
+
+#: Declared exceptions, file -> (imported package prefix, why). Each is a debt named here so
+#: that no new one comes in unseen.
+EXCEPTIONS: dict[str, tuple[str, str]] = {
+    "connectors/sketch_messages.py": (
+        "modules.sketch.messages",
+        "deprecated re-export of the sketch domain's types for importers not yet moved",
+    ),
+    "modules/vision/mount_offset.py": (
+        "modules.geometry.mount_offset",
+        "deprecated re-export (allowed anyway: vision may import geometry)",
+    ),
+    "modules/generic/recording.py": (
+        "runtime.recording",
+        "the Recorder module writes and reads the runtime's recording format",
+    ),
+    "modules/generic/recorder.py": (
+        "runtime.recording",
+        "the Recorder module takes the runtime's image choices and run-folder rule",
+    ),
+    "modules/world/trial_runner.py": (
+        "runtime",
+        "`umbra trials` runs whole graphs: an application on top of the runtime",
+    ),
+    "runtime/live/gate.py": (
+        "modules.webdoor",
+        "the Foxglove bridge reuses the web door's host and token rules (to move below both)",
+    ),
+    "runtime/live/session.py": (
+        "modules.webdoor",
+        "the Foxglove bridge reuses the web door's token rules (to move below both)",
+    ),
+}
+
+#: Import cycles between files that are known and declared (each a set of module names).
+KNOWN_CYCLES: list[set[str]] = [
+    {  # helpers split from the client take it as their owner; typed under TYPE_CHECKING
+        "modules.calib.visca.client",
+        "modules.calib.visca.client_moves",
+        "modules.calib.visca.client_startup",
+        "modules.calib.visca.client_wire",
+    },
+]
+
+
+@dataclass(frozen=True)
+class Rules:
+    """What may import what (see the module constants for the project's own)."""
+
+    layers: Mapping[str, set[str]] = field(default_factory=lambda: LAYERS)
+    domains: Mapping[str, set[str]] = field(default_factory=lambda: DOMAIN_ARROWS)
+    exceptions: Mapping[str, tuple[str, str]] = field(default_factory=lambda: EXCEPTIONS)
+    known_cycles: list[set[str]] = field(default_factory=lambda: KNOWN_CYCLES)
+
+
+def module_files(root: Path, layers: Iterable[str]) -> dict[str, Path]:
+    """Module name -> file for every ``.py`` file of the ``layers`` packages under ``root``."""
+    found = {}
+    for top in layers:
+        for path in sorted((root / top).rglob("*.py")):
+            parts = path.relative_to(root).with_suffix("").parts
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            found[".".join(parts)] = path
+    return found
+
+
+def imports_of(path: Path, module: str) -> list[tuple[int, str]]:
+    """``(line, imported name)`` of every import in ``path`` (module ``module``), relative ones
+    made absolute; ``from a import b`` gives ``a.b`` (a submodule or a name in ``a``)."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, base] if base else anchor)
+            out += [(node.lineno, f"{base}.{alias.name}") for alias in node.names]
+    return out
+
+
+def _domain(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if parts[0] == "modules" and len(parts) > 2 else ""
+
+
+def _resolve(name: str, files: Mapping[str, Path]) -> str:
+    """The project module ``name`` refers to (its longest known prefix); "" when none."""
+    while name and name not in files:
+        name = name.rpartition(".")[0]
+    return name
+
+
+def judge(module: str, target: str, rules: Rules) -> str:
+    """Why ``module`` may not import ``target`` (both project modules); "" when it may."""
+    top, target_top = module.split(".")[0], target.split(".")[0]
+    if target_top not in rules.layers.get(top, {target_top}):
+        return f"`{top}` may import only {', '.join(sorted(rules.layers[top]))}"
+    src, dst = _domain(module), _domain(target)
+    if module.endswith(f".{VOCABULARY}") and src and target_top != "connectors":
+        return f"a domain's `{VOCABULARY}` module imports only connectors"
+    if not src or not dst or src == dst:
+        return ""
+    if src not in rules.domains:
+        return f"domain `{src}` is not declared in DOMAIN_ARROWS"
+    if target.split(".")[2] == VOCABULARY or dst in rules.domains[src]:
+        return ""
+    allowed = ", ".join(sorted(rules.domains[src])) or "no other domain"
+    return f"domain `{src}` may import {allowed} (and any domain's `{VOCABULARY}`)"
+
+
+def violations(root: Path, rules: Rules | None = None) -> list[str]:
+    """``FILE:LINE: imports NAME: why`` for every import against ``rules`` under ``root``."""
+    rules = rules or Rules()
+    files = module_files(root, rules.layers)
+    found = []
+    for module, path in files.items():
+        rel = path.relative_to(root).as_posix()
+        excused = rules.exceptions.get(rel)
+        for line, name in imports_of(path, module):
+            target = _resolve(name, files)
+            if not target or (excused and target.startswith(excused[0])):
+                continue
+            why = judge(module, target, rules)
+            if why:
+                found.append(f"{rel}:{line}: imports {target}: {why}")
+    return found
+
+
+def import_graph(root: Path, rules: Rules | None = None) -> dict[str, set[str]]:
+    """Module -> the project modules it imports (every import, see the module docstring)."""
+    rules = rules or Rules()
+    files = module_files(root, rules.layers)
+    graph: dict[str, set[str]] = {m: set() for m in files}
+    for module, path in files.items():
+        for _line, name in imports_of(path, module):
+            target = _resolve(name, files)
+            if target and target != module:
+                graph[module].add(target)
+    return graph
+
+
+def cycles(graph: Mapping[str, Iterable[str]]) -> list[set[str]]:
+    """The strongly connected sets of more than one node (Tarjan's algorithm, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    on_stack: set[str] = set()
+    stack: list[str] = []
+    found: list[set[str]] = []
+    for start in graph:
+        if start in index:
+            continue
+        work = [(start, iter(graph.get(start, ())))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            node, edges = work[-1]
+            for nxt in edges:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = len(index)
+                    stack.append(nxt)
+                    on_stack.add(nxt)
+                    work.append((nxt, iter(graph.get(nxt, ()))))
+                    break
+                if nxt in on_stack:
+                    low[node] = min(low[node], index[nxt])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    group = set()
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        group.add(member)
+                        if member == node:
+                            break
+                    if len(group) > 1:
+                        found.append(group)
+    return found
+
+
+def new_cycles(root: Path, rules: Rules | None = None) -> list[set[str]]:
+    """Import cycles between files under ``root`` that ``rules`` does not declare."""
+    rules = rules or Rules()
+    return [c for c in cycles(import_graph(root, rules)) if c not in rules.known_cycles]
