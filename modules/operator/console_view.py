@@ -7,6 +7,8 @@ import math
 from typing import Any
 
 from modules.operator import view_state
+from modules.operator.jog_labels import jog_labels
+from modules.operator.state_line import commands_available, phase_of, state_line
 
 #: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
 CLOCK_SYNC_BOUND_S = 0.005
@@ -73,31 +75,42 @@ class ConsoleView:
         blip = guard is not None and guard.reason.startswith("no new command")
         return text if not blip or now - self._zero_since >= BANNER_HOLD_S else ""
 
+    def _panels(self) -> dict[str, bool]:
+        """Which panels this graph feeds (a graph without some module lacks its panel)."""
+        links = self._server.links if self._server is not None else {}
+        return {
+            "video": True,
+            "controls": bool(self.operator.sinks) or bool(self.seed.sinks),
+            "plot": self.servo.value is not None,
+            "jog": bool(self.jog.sinks),
+            "health": True,
+            "messages": True,
+            "zoom": bool(self._zoom),
+            "sketch": "/sketch" in links,
+        }
+
     def _state(self, now: float) -> dict[str, Any]:
         servo = self.servo.get(now)
         guard = self.guard.get(now)
         world = self.world.get(now)
         held = self.deadman.held
+        phase = phase_of(self.history.latest is not None, self._phase_ended)
+        line = state_line(phase, servo, guard, world, self.arbiter.holder_name(), held is not None)
         return {
-            "t": round(now - (self._t0 or now), 3),
+            "t": self._run_time(),
+            "phase": phase,
+            "line": line.for_page(),
+            "commands": commands_available(phase, line.stage),
+            "panels": self._panels(),
             "overlay": view_state.overlay(self.contour.get(now), self._limits),
             "servo": view_state.servo_view(servo),
             "banner": self._held_banner(now, servo, guard),
             "data_age": self._data_ages(now),
             "guard": None if guard is None else {"stage": guard.stage, "reason": guard.reason},
-            "world": None if world is None else {"stage": world.stage, "message": world.message},
-            "errors": [
-                [
-                    e[0],
-                    *[
-                        round(x * s, 3) if math.isfinite(x) else None
-                        for x, s in zip(
-                            e[1:], (1000.0, 1000.0, 1000.0, 180.0 / math.pi), strict=True
-                        )
-                    ],
-                ]
-                for e in list(self._errors)[-150:]
-            ],
+            "world": None
+            if world is None
+            else {"stage": world.stage, "message": world.message, "values": world.values},
+            "errors": view_state.error_rows(self._errors),
             "links": [
                 view_state.link_view(
                     name,
@@ -114,12 +127,15 @@ class ConsoleView:
             "control": self.arbiter.holder_name(),
             "control_session": self.arbiter.holder or "",
             "viewers": [name for name in self.arbiter.sessions.values()],
-            "refused": self.counts["refused"],
+            "refused": self.counts["refused_others"],
             "jog": None
             if held is None
             else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
+            "jog_labels": {
+                frame: jog_labels(frame, self._T_tool_camera) for frame in ("tool", "camera")
+            },
             "assist": self._assist,
             "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._zoom.items()],
-            "notices": list(self._notices),
+            "notices": self.board.for_page(),
             "links_extra": dict(self._server.links) if self._server is not None else {},
         }
