@@ -103,7 +103,7 @@ class Operator:
         _click_patch(page)
         page.wait_for_timeout(600)
         if page.evaluate("window.umbra.state.overlay?.status") == "tracking":
-            page.click("aside button[data-action=resume]")
+            page.click("#commands button[data-action=resume]")
             self.answered += 1
             self.counts.clear()
             page.wait_for_timeout(500)
@@ -185,8 +185,9 @@ def test_an_occluder_asks_for_help_the_person_reseeds_and_resumes(tmp_path: Path
                 page.wait_for_selector("#assist[open]", timeout=40000)
             except Exception as exc:
                 raise AssertionError(f"no assistance dialog:\n{run.text()[-4000:]}") from exc
-            reason = page.inner_text("#assist-reason")
+            reason = page.evaluate("window.umbra.state.assist.reason")
             assert reason.startswith("snake failure"), reason
+            assert page.inner_text("#assist-reason")  # in plain words, the exact one a click away
             assert page.evaluate("window.umbra.state.banner").startswith("servo side at zero")
             page.wait_for_function(  # the frame that caused the stop
                 "document.getElementById('assist-img').naturalWidth === 1280", timeout=5000
@@ -194,7 +195,7 @@ def test_an_occluder_asks_for_help_the_person_reseeds_and_resumes(tmp_path: Path
             page.wait_for_timeout(300)
             page.screenshot(path=str(tmp_path / "console_assist.png"))
             # the dialog covers neither the live image nor the banner nor the grab's buttons
-            for selector in ("#video", "#banner", "aside button[data-action=pause]", "#jog"):
+            for selector in ("#video", "#banner", "#commands button[data-action=pause]", "#jog"):
                 assert not _overlaps(page, "#assist", selector), selector
             page.click("#assist button[data-action=resume]")  # the snake is still failed
             page.wait_for_function(
@@ -272,7 +273,7 @@ def test_the_jog_pad_moves_the_arm_only_while_held(tmp_path: Path) -> None:
             cdp.send("Debugger.resume")
             page.mouse.up()
             page.wait_for_timeout(1000)
-            page.click("aside button[data-action=abort]")
+            page.click("#commands button[data-action=abort]")
             page.wait_for_timeout(300)
         run.kill()
         summary = json.loads((tmp_path / "run" / "summary-umbra.json").read_text())

@@ -21,7 +21,9 @@
     $("line-phase").className = "pill " + ({ running: "ok", ended: "ended" }[umbra.ended ? "ended" : l.phase] || "");
     $("line-stage").textContent = l.stage;
     $("line-doing").textContent = `· ${l.doing} · control: ${l.control}`;
-    $("line-stopped").textContent = l.stopped ? `· arm stopped: ${l.stopped}` : "";
+    // the reason the arm is held is said once: in the red banner while it holds, else here
+    const held = s.banner && !umbra.ended;
+    $("line-stopped").textContent = l.stopped && !held ? `· arm stopped: ${l.stopped}` : "";
     const det = $("line-detail");
     det.hidden = !l.stopped_detail || l.stopped_detail === l.stopped;
     det.querySelector("span").textContent = l.stopped_detail;
@@ -32,7 +34,9 @@
       b.textContent = `verdict: ${l.verdict}`;
       $("line-verdict").append(b);
     }
-    $("banner").style.display = s.banner && !umbra.ended ? "block" : "none"; $("banner").textContent = s.banner;
+    $("banner").style.display = held ? "block" : "none";
+    const why = s.assist && l.stage === "assist" ? "the grab asks for you (the request is below)" : l.stopped || s.banner;
+    $("banner").textContent = held ? `arm held at zero: ${why}` : "";
   }
   umbra.on("state", render);
   umbra.on("ended", (s) => {

@@ -32,6 +32,7 @@
         c.width = head.w; c.height = head.h;
         $("overlay").setAttribute("viewBox", `0 0 ${head.w} ${head.h}`);
         $("video-info").textContent = `${head.w}×${head.h}`;
+        document.documentElement.style.setProperty("--aspect", head.w / head.h);
       }
       c.getContext("2d").drawImage(bitmap, 0, 0);
       bitmap.close();
@@ -44,7 +45,13 @@
       $("fps").textContent = `${paintTimes.length} fps`;
     });
   });
-  umbra.on("state", (s) => umbra.drawOverlay($("overlay"), s.overlay));
+  function fit() {  // the image's height: what is left under the commands and the dialog
+    const top = $("stage").getBoundingClientRect().top - $("col-left").getBoundingClientRect().top +
+                $("desk").getBoundingClientRect().top;
+    document.documentElement.style.setProperty("--video-h", Math.max(160, innerHeight - top - 14) + "px");
+  }
+  addEventListener("resize", fit);
+  umbra.on("state", (s) => { fit(); umbra.drawOverlay($("overlay"), s.overlay); });
   function imagePoint(ev) {
     const r = $("overlay").getBoundingClientRect();
     return [(ev.clientX - r.left) / r.width * umbra.size[0], (ev.clientY - r.top) / r.height * umbra.size[1]];
