@@ -358,9 +358,8 @@ def test_zoom_sliders_drive_the_cameras_and_the_scripted_zoom_steps_aside() -> N
             h.push("zoom_auto", Scalar(value=0.3))  # a person zoomed: the script steps aside
             h.step(dt=0.01)
             assert h.output("zoom_1").value == 0.7 and h.output("zoom_2").value == 0.2
-            assert (
-                "expected a camera of ['left', 'right'], found 'middle'"
-                in (h.module.board.lines[-1].text)
+            assert "expected a camera of ['left', 'right'], found 'middle'" in (
+                h.module.board.lines[-1].text
             )
         finally:
             page.close()

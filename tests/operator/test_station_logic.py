@@ -17,8 +17,8 @@ from modules.operator.state_line import (
     phase_of,
     state_line,
 )
-from tests.operator.test_console_module import _harness, _operator, _pump, _state
 from tests.operator.helpers import Page
+from tests.operator.test_console_module import _harness, _operator, _pump, _state
 
 #: the reason the issue found shown five times, as vsSnake gives it
 SNAKE_REASON = (
