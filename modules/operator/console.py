@@ -11,7 +11,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
-from connectors.messages import Contour, Image, JointState, Scalar, Status, Text, Twist, Vector
+from connectors.messages import (
+    Contour,
+    Image,
+    JointState,
+    Pose,
+    Poses,
+    Scalar,
+    Status,
+    Text,
+    Twist,
+    Vector,
+)
 from modules.arm.arm_params import load_arm
 from modules.operator import view_state
 from modules.operator.actions import FrameHistory, ShownFrame
@@ -81,6 +92,12 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         zoom_names: list[str] = param(
             [], "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2)"
         )
+        view_fov_deg: float = param(
+            77.3, "3-D panel: the wrist camera's horizontal field of view", unit="deg", gt=1, lt=179
+        )
+        patch_size_m: list[float] = param(
+            [0.06, 0.04], "3-D panel: the patch's sides drawn at patch_pose", unit="m"
+        )
         rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
         ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
 
@@ -90,6 +107,15 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
     guard = Input(Status, required=False, doc="REG_VEL status: passing, or zero and why")
     joints = Input(JointState, required=False, feedback=True, doc="measured joint state")
     world = Input(Status, required=False, feedback=True, doc="simulated world: grasp verdict")
+    link_poses = Input(
+        Poses, required=False, feedback=True, doc="3-D panel: T_base_link of the arm's links"
+    )
+    camera_pose = Input(
+        Pose, required=False, feedback=True, doc="3-D panel: the wrist camera (T_table_camera)"
+    )
+    patch_pose = Input(
+        Pose, required=False, feedback=True, doc="3-D panel: the tool's patch (T_table_patch)"
+    )
     sim_seed = Input(Vector, required=False, doc="the simulated operator's click")
     zoom_auto = Input(
         Scalar, required=False, doc="zoom request passed to every zoom output until a person zooms"
@@ -123,6 +149,13 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         except KeyError:
             self._T_tool_camera = None  # tool-frame jogs are refused (no static frame)
         self._jog_limits = JogLimits(p.jog_linear, p.jog_angular)
+        if len(p.patch_size_m) != 2 or not all(0 < x < 10 for x in p.patch_size_m):
+            raise UserError(
+                f"{self.name}: patch_size_m: expected two sides in (0, 10) m, found "
+                f"{p.patch_size_m}"
+            )
+        #: static transforms the 3-D panel looked up, by (parent, child) (None: not connected)
+        self._static: dict[tuple[str, str], np.ndarray | None] = {}
         self.arbiter = ControlArbiter()
         self.deadman = DeadMan(p.deadman_s)
         self.history = FrameHistory()

@@ -8,6 +8,7 @@ from typing import Any
 
 from modules.operator import view_state
 from modules.operator.jog_labels import jog_labels
+from modules.operator.scene_view import scene_view
 from modules.operator.state_line import commands_available, phase_of, state_line
 
 #: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
@@ -87,7 +88,38 @@ class ConsoleView:
             "messages": True,
             "zoom": bool(self._zoom),
             "sketch": "/sketch" in links,
+            "view3d": self.link_poses.value is not None,
         }
+
+    def _scene(self, now: float) -> dict[str, Any] | None:
+        """The 3-D panel's scene (None: no arm in this graph)."""
+        latest = self.history.latest
+        aspect = latest.width / latest.height if latest is not None else 16 / 9
+        p = self.params
+        links, camera, patch = (
+            r.get(now) for r in (self.link_poses, self.camera_pose, self.patch_pose)
+        )
+        base = links.frame if links is not None else ""
+        return scene_view(
+            links,
+            camera,
+            patch,
+            None if camera is None else self._static_pose(base, camera.parent),
+            None if patch is None else self._static_pose(base, patch.parent),
+            p.view_fov_deg,
+            aspect,
+            (p.patch_size_m[0], p.patch_size_m[1]),
+        )
+
+    def _static_pose(self, parent: str, child: str) -> Any:
+        """T_parent_child from the graph's static frames, looked up once (None: not tied)."""
+        key = (parent, child)
+        if key not in self._static:
+            try:
+                self._static[key] = self.context.frames.lookup(parent, child)
+            except KeyError:
+                self._static[key] = None
+        return self._static[key]
 
     def _state(self, now: float) -> dict[str, Any]:
         servo = self.servo.get(now)
@@ -103,6 +135,7 @@ class ConsoleView:
             "commands": commands_available(phase, line.stage),
             "panels": self._panels(),
             "overlay": view_state.overlay(self.contour.get(now), self._limits),
+            "scene": self._scene(now),
             "servo": view_state.servo_view(servo),
             "banner": self._held_banner(now, servo, guard),
             "data_age": self._data_ages(now),

@@ -3,10 +3,10 @@
 "use strict";
 (() => {
   const KEY = "umbra.station.layout", NAMES = { video: "Live video", sketch: "Active Sketch",
-    jog: "Jog", messages: "Messages", plot: "Servo errors", health: "Health", zoom: "Zoom" };
+    jog: "Jog", messages: "Messages", plot: "Servo errors", health: "Health", zoom: "Zoom", view3d: "3-D view" };
   let saved = {};
   try { saved = JSON.parse(localStorage.getItem(KEY) || "{}"); } catch (e) { saved = {}; }
-  saved.hidden = saved.hidden || (innerWidth < 1600 ? ["sketch"] : []);
+  saved.hidden = saved.hidden || (innerWidth < 1600 ? ["sketch", "view3d"] : []);
   saved.heights = saved.heights || {};
   const store = () => localStorage.setItem(KEY, JSON.stringify(saved));
   const panels = [...document.querySelectorAll(".panel")];
