@@ -307,3 +307,61 @@ def test_the_jog_pad_moves_the_arm_only_while_held(tmp_path: Path) -> None:
         assert np.median(gaps) >= 0.02, np.median(gaps)  # keep-alives (40 ms), not 100 Hz
     finally:
         run.kill()
+
+
+def _inside_viewport(page: Any, selector: str) -> bool:
+    size = page.viewport_size
+    b = page.locator(selector).bounding_box()
+    return (
+        b is not None
+        and b["x"] >= 0
+        and b["y"] >= 0
+        and b["x"] + b["width"] <= size["width"]
+        and b["y"] + b["height"] <= size["height"]
+    )
+
+
+def test_the_station_through_a_whole_run_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
+    """A person at 1280x800 seeds, answers an assistance request without scrolling and sees
+    the run end with its verdict; a viewer at 1920x1080 watches with the 3-D panel open. The
+    screenshots are the README's."""
+    fault = [
+        "--set", "camera.fault=occluder", "--set", "camera.fault_at_s=20",
+        "--set", "camera.fault_duration_s=3",
+    ]  # fmt: skip
+    run = GraphRun(["graphs/tool_pickup.yaml", *NO_SIM_CLICK, *fault], tmp_path / "run")
+    images = REPO / "docs" / "images"
+    try:
+        url = run.wait_url()
+        with chromium() as browser:
+            person = open_console(browser, url, 1280, 800)
+            take_control(person)
+            _click_patch(person)
+            viewer = open_console(browser, url, 1920, 1080)
+            viewer.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 6")
+            viewer.wait_for_timeout(2500)
+            assert viewer.is_visible("section[data-panel=view3d]") and viewer.is_visible("#plot canvas")
+            viewer.screenshot(path=str(images / "station-1920.png"))
+            person.wait_for_selector("#assist[open]", timeout=40000)
+            person.wait_for_function(
+                "document.getElementById('assist-img').naturalWidth === 1280", timeout=5000
+            )
+            for selector in (
+                "#assist button[data-action=resume]",
+                "#assist button[data-action=abort]",
+                "#commands button[data-action=pause]",
+                "#take",
+            ):
+                assert _inside_viewport(person, selector), selector
+            assert person.evaluate("document.scrollingElement.scrollHeight") <= 800
+            person.wait_for_timeout(300)
+            person.screenshot(path=str(images / "station-1280.png"))
+            assert Operator(person).until_done(run) >= 1
+            code = run.wait(30)
+            for page in (person, viewer):
+                page.wait_for_function("window.umbra.ended", timeout=10000)
+                assert "grasped" in page.inner_text("#ended"), page.inner_text("#ended")
+                assert page.is_disabled("#commands button[data-action=abort]")
+        assert code == 0, run.text()[-3000:]
+    finally:
+        run.kill()
