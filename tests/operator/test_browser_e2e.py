@@ -153,7 +153,7 @@ def test_a_person_clicks_the_patch_and_the_grab_completes(tmp_path: Path) -> Non
             _wait_stage(second, ("approach",))  # the second page sees the same run
             assert page.evaluate("window.umbra.name") in second.inner_text("#holder")
             person = Operator(page)
-            person.check_overlay_while_tracking(REPO / "docs" / "images" / "console.png")
+            person.check_overlay_while_tracking(tmp_path / "console.png")
             person.until_done(run)  # on a loaded machine the snake may ask for help
             code = run.wait(30)
         out = run.text()
