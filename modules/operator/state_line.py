@@ -79,7 +79,7 @@ def state_line(
     if jogging:
         doing = "jogging by hand (the grab is paused)"
     elif servo is None:
-        doing = "no status from the servo yet"
+        doing = ""  # no grab in this graph (or no word from it yet): nothing to say
     elif servo.stage == "acquire" and servo.message.startswith("waiting"):
         doing = "waiting for a seed: click the patch (the approach then starts by itself)"
     else:

@@ -9,9 +9,9 @@
   $("take").onclick = () => umbra.send("take");
   $("release").onclick = () => umbra.send("release");
   function render(s) {
-    const mine = umbra.holds(), live = s.phase === "running" && !umbra.ended;
+    const mine = umbra.holds(), over = umbra.ended || s.phase === "ended";
     $("holder").textContent = s.control ? s.control + (mine ? " (you)" : "") : "nobody";
-    $("take").disabled = !!s.control || !live; $("release").disabled = !mine || !live;
+    $("take").disabled = !!s.control || over; $("release").disabled = !mine || over;
     $("viewers").textContent = `${s.viewers.length} viewer(s)`;
     $("refused").textContent = s.refused ? `${s.refused} refused from pages without control` : "";
     for (const b of document.querySelectorAll("#commands [data-action]")) b.disabled = !(mine && s.commands[b.dataset.action]) || umbra.ended;
@@ -20,7 +20,7 @@
     $("line-phase").textContent = umbra.ended ? "ended" : l.phase;
     $("line-phase").className = "pill " + ({ running: "ok", ended: "ended" }[umbra.ended ? "ended" : l.phase] || "");
     $("line-stage").textContent = l.stage;
-    $("line-doing").textContent = `· ${l.doing} · control: ${l.control}`;
+    $("line-doing").textContent = `${l.doing ? "· " + l.doing + " " : ""}· control: ${l.control}`;
     // the reason the arm is held is said once: in the red banner while it holds, else here
     const held = s.banner && !umbra.ended;
     $("line-stopped").textContent = l.stopped && !held ? `· arm stopped: ${l.stopped}` : "";

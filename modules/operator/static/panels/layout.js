@@ -6,12 +6,14 @@
     jog: "Jog", messages: "Messages", plot: "Servo errors", health: "Health", zoom: "Zoom", view3d: "3-D view" };
   let saved = {};
   try { saved = JSON.parse(localStorage.getItem(KEY) || "{}"); } catch (e) { saved = {}; }
-  saved.hidden = saved.hidden || (innerWidth < 1600 ? ["sketch", "view3d"] : []);
   saved.heights = saved.heights || {};
   const store = () => localStorage.setItem(KEY, JSON.stringify(saved));
   const panels = [...document.querySelectorAll(".panel")];
   let fed = {};
   function apply() {
+    // first visit: on a narrow screen the 3-D view starts hidden, and Active Sketch too when the
+    // page has a grab to run (a sketch-only graph shows its sketch)
+    if (!saved.hidden) saved.hidden = innerWidth < 1600 ? (fed.controls ? ["sketch", "view3d"] : ["view3d"]) : [];
     for (const p of panels) {
       const name = p.dataset.panel;
       p.hidden = !fed[name] || saved.hidden.includes(name);
