@@ -340,7 +340,9 @@ def test_the_station_through_a_whole_run_at_1280x800_and_1920x1080(tmp_path: Pat
             viewer = open_console(browser, url, 1920, 1080)
             viewer.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 6")
             viewer.wait_for_timeout(2500)
-            assert viewer.is_visible("section[data-panel=view3d]") and viewer.is_visible("#plot canvas")
+            assert viewer.is_visible("section[data-panel=view3d]") and viewer.is_visible(
+                "#plot canvas"
+            )
             viewer.screenshot(path=str(images / "station-1920.png"))
             person.wait_for_selector("#assist[open]", timeout=40000)
             person.wait_for_function(

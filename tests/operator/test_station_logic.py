@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors.messages import Status
+from connectors.messages import Pose, Poses, Status
 from modules.operator.jog_labels import jog_labels
 from modules.operator.message_board import MessageBoard
 from modules.operator.plain_words import plain_reason
+from modules.operator.scene_view import scene_view
 from modules.operator.state_line import (
     ENDED,
     RUNNING,
@@ -181,3 +182,26 @@ def test_a_stopping_console_tells_its_pages_the_run_ended_with_the_verdict() -> 
     assert last is not None and last["phase"] == ENDED
     assert last["line"]["verdict"] == verdict and last["world"]["values"]["time_s"] == 14.2
     assert not any(last["commands"].values())
+
+
+def test_the_3d_panel_draws_in_the_arms_base_frame() -> None:
+    links = Poses(
+        matrices=np.stack([np.eye(4), np.eye(4)]),
+        children=("link1", "flange"),
+        frame="base",
+    )
+    T_table_camera = np.eye(4)
+    T_table_camera[:3, 3] = [0.4, 0.1, 0.3]
+    T_base_table = np.eye(4)
+    T_base_table[2, 3] = 0.25
+    camera = Pose(matrix=T_table_camera, parent="table", child="camera")
+    patch = Pose(matrix=np.eye(4), parent="table", child="patch")
+    scene = scene_view(links, camera, patch, T_base_table, None, 77.3, 16 / 9, (0.06, 0.04))
+    assert [link["name"] for link in scene["links"]] == ["link1", "flange"]
+    T = np.array(scene["camera"]["T"]).reshape(4, 4)
+    assert np.allclose(T[:3, 3], [0.4, 0.1, 0.55])  # the table is 0.25 m above the base
+    assert abs(scene["camera"]["tan_half_fov_x"] - np.tan(np.radians(77.3 / 2))) < 1e-4
+    assert scene["patch"] is None  # no static frame from the base to the patch's parent given
+    assert (
+        scene_view(None, camera, patch, T_base_table, T_base_table, 77.3, 1.0, (0.06, 0.04)) is None
+    )
