@@ -1,10 +1,13 @@
 // 3-D panel (three.js, vendored): the arm's link frames as a chain, the wrist camera's frustum
 // with the live video on it, the tool's patch, each frame's name and the task's stage; drag to
 // orbit, wheel to zoom. Drawn only while the panel is shown, at most 5 times a second (a
-// software-rendered WebGL must not take the live video's frames).
-import * as THREE from "../vendor/three-station.min.js";
+// software-rendered WebGL must not take the live video's frames). three.js is loaded the first
+// time the panel has something to draw: a page without the panel never parses it.
+"use strict";
+(() => {
+let THREE = null, loading = false;
 
-const panel = document.querySelector('[data-panel="view3d"]'), box = $("view3d");
+const panel = document.querySelector('section[data-panel="view3d"]'), box = $("view3d");
 let view = null;
 
 function matrix(rows) { return new THREE.Matrix4().set(...rows); }
@@ -109,9 +112,14 @@ function draw() {
 
 umbra.on("state", (s) => {
   if (!s.scene || panel.hidden) return;
+  if (!THREE) {
+    if (!loading) { loading = true; import("../vendor/three-station.min.js").then((m) => { THREE = m; }); }
+    return;
+  }
   if (!view) view = make();
   const now = performance.now();
   if (now - view.last < 200) return;
   view.last = now;
   draw();
 });
+})();
