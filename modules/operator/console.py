@@ -178,6 +178,8 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._errors: collections.deque[list[float]] = collections.deque(
             maxlen=int(PLOT_WINDOW_S / ERROR_PERIOD_S)
         )
+        self._errors_full_at = -math.inf  #: when the page last got the whole error history [s]
+        self._errors_sent_t = -math.inf  #: run time of the last error row sent [s]
         self._t0: float | None = None
         self._last_now = 0.0  #: the latest step's time [s]
         self.counts = collections.Counter()
@@ -320,7 +322,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         errs = [status.values.get(n, math.nan) for n in view_state.ERRORS]
         t = self._run_time()
         if any(math.isfinite(e) for e in errs) and (
-            not self._errors or t - self._errors[-1][0] >= ERROR_PERIOD_S
+            not self._errors or t - self._errors[-1][0] >= ERROR_PERIOD_S - 1e-6
         ):
             self._errors.append([t, *errs])
         if status.stage == "assist" and self._last_servo_stage != "assist":

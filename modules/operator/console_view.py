@@ -13,6 +13,9 @@ from modules.operator.state_line import commands_available, phase_of, state_line
 
 #: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
 CLOCK_SYNC_BOUND_S = 0.005
+#: The page gets the whole error history this often [s]; in between only the rows since the
+#: previous page state (a page that skipped a state is whole again within this time).
+ERRORS_FULL_PERIOD_S = 2.0
 #: A zero shorter than this [s] is not shown as the arm held (it is counted, not flashed).
 BANNER_HOLD_S = 0.15
 
@@ -75,6 +78,20 @@ class ConsoleView:
             self._zero_since = now
         blip = guard is not None and guard.reason.startswith("no new command")
         return text if not blip or now - self._zero_since >= BANNER_HOLD_S else ""
+
+    def _error_rows(self, now: float) -> dict[str, Any]:
+        """The servo errors for the plot: ``errors`` rows (page units) and ``errors_full``
+        (True: the whole history, which replaces the page's; False: the rows since the previous
+        state, which extend it)."""
+        rows = list(self._errors)
+        full = now - self._errors_full_at >= ERRORS_FULL_PERIOD_S
+        if full:
+            self._errors_full_at = now
+        else:
+            rows = [r for r in rows if r[0] > self._errors_sent_t]
+        if rows:
+            self._errors_sent_t = rows[-1][0]
+        return {"errors": view_state.error_rows(rows), "errors_full": full}
 
     def _panels(self) -> dict[str, bool]:
         """Which panels this graph feeds (a graph without some module lacks its panel)."""
@@ -143,7 +160,7 @@ class ConsoleView:
             "world": None
             if world is None
             else {"stage": world.stage, "message": world.message, "values": world.values},
-            "errors": view_state.error_rows(self._errors),
+            **self._error_rows(now),
             "links": [
                 view_state.link_view(
                     name,

@@ -18,7 +18,7 @@ from modules.operator.state_line import (
     phase_of,
     state_line,
 )
-from tests.operator.helpers import Page
+from tests.operator.helpers import Page, image
 from tests.operator.test_console_module import _harness, _operator, _pump, _state
 
 #: the reason the issue found shown five times, as vsSnake gives it
@@ -205,3 +205,27 @@ def test_the_3d_panel_draws_in_the_arms_base_frame() -> None:
     assert (
         scene_view(None, camera, patch, T_base_table, T_base_table, 77.3, 1.0, (0.06, 0.04)) is None
     )
+
+
+def test_the_plot_gets_its_whole_history_now_and_then_and_new_rows_in_between() -> None:
+    with _harness(serve=False) as h:
+
+        def servo_steps(n: int) -> None:
+            for k in range(n):
+                values = {"error_x": 0.01 * k, "error_y": 0.0, "error_z": -0.002, "error_roll": 0.1}
+                h.push("servo", Status(stage="approach", values=values))
+                h.push("image", image())
+                h.step(dt=0.1)
+
+        servo_steps(5)
+        first = h.module._error_rows(h.module._last_now)
+        assert first["errors_full"] and len(first["errors"]) == 5
+        assert first["errors"][1][1:] == [10.0, 0.0, -2.0, round(0.1 * 180 / np.pi, 3)]  # mm, deg
+        assert h.module._error_rows(h.module._last_now) == {"errors": [], "errors_full": False}
+        servo_steps(3)
+        more = h.module._error_rows(h.module._last_now)
+        assert not more["errors_full"] and len(more["errors"]) == 3
+        assert more["errors"][0][0] > first["errors"][-1][0]
+        servo_steps(20)  # 2 s later: the whole history again
+        again = h.module._error_rows(h.module._last_now)
+        assert again["errors_full"] and len(again["errors"]) == 28

@@ -2,7 +2,7 @@
 // millimetre scale and roll on its own degree scale, values on hover, a chosen window length.
 "use strict";
 (() => {
-  let chart = null;
+  let chart = null, rows = [];  // [t s, x mm, y mm, z mm, roll deg], the last 120 s
   const box = $("plot");
   function make() {
     const width = Math.max(200, box.clientWidth - 4);
@@ -24,11 +24,15 @@
     }, [[], [], [], [], []], box);
   }
   umbra.on("state", (s) => {
-    if (!s.errors.length || box.closest(".panel").hidden) return;
+    // the whole history now and then, else the rows since the previous state
+    if (s.errors_full) rows = s.errors.slice();
+    else for (const r of s.errors) if (!rows.length || r[0] > rows[rows.length - 1][0]) rows.push(r);
+    if (!rows.length || box.closest(".panel").hidden) return;
     if (!chart) chart = umbra.plot = make();
-    const win = Number($("plot-window").value), t1 = s.errors[s.errors.length - 1][0];
-    const rows = s.errors.filter((r) => r[0] >= t1 - win);
-    chart.setData([0, 1, 2, 3, 4].map((k) => rows.map((r) => r[k])));
+    const win = Number($("plot-window").value), t1 = rows[rows.length - 1][0];
+    rows = rows.filter((r) => r[0] >= t1 - 120);
+    const shown = rows.filter((r) => r[0] >= t1 - win);
+    chart.setData([0, 1, 2, 3, 4].map((k) => shown.map((r) => r[k])));
     chart.setScale("x", { min: Math.max(0, t1 - win), max: Math.max(t1, win) });
   });
   new ResizeObserver(() => { if (chart) chart.setSize({ width: Math.max(200, box.clientWidth - 4), height: 170 }); }).observe(box);
