@@ -339,7 +339,7 @@ def test_the_station_through_a_whole_run_at_1280x800_and_1920x1080(tmp_path: Pat
             _click_patch(person)
             viewer = open_console(browser, url, 1920, 1080)
             viewer.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 6")
-            viewer.wait_for_timeout(2500)
+            viewer.wait_for_function("window.umbra.plot && window.umbra.plot.data[0].length > 20")
             assert viewer.is_visible("section[data-panel=view3d]") and viewer.is_visible(
                 "#plot canvas"
             )

@@ -17,7 +17,10 @@
       img.src = `assist.jpg?n=${a.id}`;
       $("assist-svg").setAttribute("viewBox", `0 0 ${umbra.size[0]} ${umbra.size[1]}`);
     }
-    if (a && hidden !== a.id && !dialog.open) dialog.show();
+    if (a && hidden !== a.id && !dialog.open) {
+      dialog.show();
+      if (dialog.contains(document.activeElement)) document.activeElement.blur();  // keys stay the jog's
+    }
     if ((!a || umbra.ended) && dialog.open) dialog.close();
     $("assist-show").hidden = !a || dialog.open || umbra.ended;
     const mine = umbra.holds();
@@ -25,5 +28,5 @@
   });
   umbra.on("notice", (n) => { if (n.level === "error" && dialog.open) $("assist-msg").textContent = n.text; });
   $("assist-hide").onclick = () => { hidden = shown; dialog.close(); $("assist-show").hidden = false; };
-  $("assist-show").onclick = () => { hidden = 0; dialog.show(); $("assist-show").hidden = true; };
+  $("assist-show").onclick = () => { hidden = 0; dialog.show(); document.activeElement.blur(); $("assist-show").hidden = true; };
 })();
