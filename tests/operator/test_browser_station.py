@@ -228,3 +228,38 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
         plant.halt.set()
         if not stopped:
             h.__exit__(None, None, None)
+
+
+def test_active_sketch_is_a_panel_of_the_station_behind_the_same_door() -> None:
+    """With a SketchPage on the console's server, the station offers the Active Sketch panel:
+    the /sketch page in a same-origin frame, which knows this browser as the holder of control
+    taken on the station."""
+    from modules.sketch_page.sketch_page import SketchPage
+    from tests.sketch.test_sketch_page import Stepper as Steppers
+
+    with (
+        ModuleHarness(OperatorConsole, {}) as console,
+        ModuleHarness(SketchPage, {}) as sketch,
+        Steppers(console, sketch) as stepper,
+        chromium() as browser,
+    ):
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(console.module.url)
+        for _ in range(5):
+            stepper.push(console, "image", image())
+        page.wait_for_function("window.umbra.state && window.umbra.state.panels.sketch")
+        assert page.is_hidden("section[data-panel=sketch]")  # narrow screen, a grab to run
+        take_control(page)
+        page.click("#panel-menu summary")
+        page.check("#panel-list input[data-panel=sketch]")
+        frame = page.frame_locator("#sketch-frame")
+        name = page.evaluate("window.umbra.name")
+        holder = frame.locator("#holder")
+        holder.wait_for(timeout=20000)
+        page.wait_for_function(
+            "document.getElementById('sketch-frame').contentDocument"
+            f".getElementById('holder').textContent === {name + ' (you)'!r}",
+            timeout=20000,
+        )
+        # one holder for the browser: the station page stands for it, the framed page follows
+        assert console.module.arbiter.holder == page.evaluate("window.umbra.session")
