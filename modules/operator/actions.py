@@ -42,6 +42,11 @@ class FrameHistory:
         while len(self._frames) > self.keep:
             self._frames.popitem(last=False)
 
+    @property
+    def latest(self) -> ShownFrame | None:
+        """The newest frame shown (None before the first)."""
+        return next(reversed(self._frames.values()), None)
+
     def frame_for(self, seq: int, now: float, max_age: float) -> ShownFrame:
         """The frame ``seq``, when it is younger than ``max_age`` at ``now``."""
         frame = self._frames.get(seq)

@@ -11,22 +11,29 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
-from connectors.messages import Contour, Image, JointState, Scalar, Status, Text, Twist, Vector
+from connectors.messages import (
+    Contour,
+    Image,
+    JointState,
+    Pose,
+    Poses,
+    Scalar,
+    Status,
+    Text,
+    Twist,
+    Vector,
+)
 from modules.arm.arm_params import load_arm
 from modules.operator import view_state
-from modules.operator.actions import (
-    FrameHistory,
-    Refused,
-    ShownFrame,
-    box_seed,
-    check_snake_healthy,
-    point_seed,
-)
+from modules.operator.actions import FrameHistory, ShownFrame
+from modules.operator.console_events import ConsoleEvents
 from modules.operator.console_view import ConsoleView
 from modules.operator.control import ControlArbiter
 from modules.operator.cpu import process_cpu_s
 from modules.operator.jog import DeadMan, JogLimits, jog_twist
 from modules.operator.mailbox import Lanes
+from modules.operator.message_board import MessageBoard
+from modules.operator.plain_words import plain_reason
 from modules.operator.web_figures import cpu_figures, web_figures
 from modules.vision.sanity import SanityLimits
 from modules.webdoor.secret import resolve_token
@@ -35,10 +42,14 @@ if TYPE_CHECKING:  # the web side is imported only when the console serves (not 
     from modules.operator.console_app import ConsoleApp, Event
     from modules.operator.web_server import WebServer
 
-_ACTIVE = ("acquire", "approach", "final_grab")
+#: the plots' longest window [s] and the spacing of their points [s]
+PLOT_WINDOW_S = 120.0
+ERROR_PERIOD_S = 0.1
+#: how long [s] the stopping console waits for its pages to get the run's end
+END_FLUSH_S = 1.0
 
 
-class OperatorConsole(ConsoleView, Module):
+class OperatorConsole(ConsoleEvents, ConsoleView, Module):
     """The operator's console: a web page (127.0.0.1 by default) with the live camera image, the
     snake drawn over it in the browser, the grab's stage and errors, link and arm health, and
     the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
@@ -81,6 +92,12 @@ class OperatorConsole(ConsoleView, Module):
         zoom_names: list[str] = param(
             [], "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2)"
         )
+        view_fov_deg: float = param(
+            77.3, "3-D panel: the wrist camera's horizontal field of view", unit="deg", gt=1, lt=179
+        )
+        patch_size_m: list[float] = param(
+            [0.06, 0.04], "3-D panel: the patch's sides drawn at patch_pose", unit="m"
+        )
         rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
         ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
 
@@ -90,6 +107,15 @@ class OperatorConsole(ConsoleView, Module):
     guard = Input(Status, required=False, doc="REG_VEL status: passing, or zero and why")
     joints = Input(JointState, required=False, feedback=True, doc="measured joint state")
     world = Input(Status, required=False, feedback=True, doc="simulated world: grasp verdict")
+    link_poses = Input(
+        Poses, required=False, feedback=True, doc="3-D panel: T_base_link of the arm's links"
+    )
+    camera_pose = Input(
+        Pose, required=False, feedback=True, doc="3-D panel: the wrist camera (T_table_camera)"
+    )
+    patch_pose = Input(
+        Pose, required=False, feedback=True, doc="3-D panel: the tool's patch (T_table_patch)"
+    )
     sim_seed = Input(Vector, required=False, doc="the simulated operator's click")
     zoom_auto = Input(
         Scalar, required=False, doc="zoom request passed to every zoom output until a person zooms"
@@ -123,13 +149,20 @@ class OperatorConsole(ConsoleView, Module):
         except KeyError:
             self._T_tool_camera = None  # tool-frame jogs are refused (no static frame)
         self._jog_limits = JogLimits(p.jog_linear, p.jog_angular)
+        if len(p.patch_size_m) != 2 or not all(0 < x < 10 for x in p.patch_size_m):
+            raise UserError(
+                f"{self.name}: patch_size_m: expected two sides in (0, 10) m, found "
+                f"{p.patch_size_m}"
+            )
+        #: static transforms the 3-D panel looked up, by (parent, child) (None: not connected)
+        self._static: dict[tuple[str, str], np.ndarray | None] = {}
         self.arbiter = ControlArbiter()
         self.deadman = DeadMan(p.deadman_s)
         self.history = FrameHistory()
         self.lanes: Lanes[Event] = Lanes()
         self._logged_refusal: dict[str, tuple[float, int]] = {}  #: session -> (wall, count)
-        self._notices: collections.deque[dict[str, Any]] = collections.deque(maxlen=30)
-        self._notice_id = 0
+        self.board = MessageBoard()
+        self._phase_ended = False  #: set by stop(): the page shows the run's end
         self._jogging = False
         self._keepalive = False  #: a held jog's keep-alive arrived since the last step
         self._last_state = -math.inf
@@ -141,8 +174,14 @@ class OperatorConsole(ConsoleView, Module):
         self._last_presence: tuple[str, int, int] | None = None
         self._last_servo_stage = ""
         self._assist: dict[str, Any] | None = None
-        self._errors: collections.deque[list[float]] = collections.deque(maxlen=300)
+        #: [t s, x m, y m, z m, roll rad] at most every ERROR_PERIOD_S, the last PLOT_WINDOW_S
+        self._errors: collections.deque[list[float]] = collections.deque(
+            maxlen=int(PLOT_WINDOW_S / ERROR_PERIOD_S)
+        )
+        self._errors_full_at = -math.inf  #: when the page last got the whole error history [s]
+        self._errors_sent_t = -math.inf  #: run time of the last error row sent [s]
         self._t0: float | None = None
+        self._last_now = 0.0  #: the latest step's time [s]
         self.counts = collections.Counter()
         #: per seed from a page: (wall time the click reached the web thread, wall time sent) [s]
         self.seed_sent_wall: list[tuple[float, float]] = []
@@ -179,6 +218,10 @@ class OperatorConsole(ConsoleView, Module):
 
     def stop(self) -> None:
         self._cpu_end = self._cpu_figures()
+        if self._app is not None and self._app.stats.viewers:  # tell the pages the run ended
+            self._phase_ended = True
+            now = self._last_now
+            self._app.flush_final(self._state(now), END_FLUSH_S)
         if self._server is not None:  # kept for the summary (the server goes below)
             self._refused_requests = self._server.refused_requests
         if self._app is not None:
@@ -193,6 +236,7 @@ class OperatorConsole(ConsoleView, Module):
     def step(self, now: float) -> None:
         if self._t0 is None:
             self._t0 = now
+        self._last_now = now
         wall = time.monotonic()
         self._video(now)
         for event in self.lanes.drain():
@@ -225,143 +269,6 @@ class OperatorConsole(ConsoleView, Module):
             self._app.frames.put(
                 self._app.raw_frame(pixels, image.seq, time.time(), now - image.stamp)
             )
-
-    def _notice(self, text: str, session: str = "*", level: str = "info", log: bool = True) -> None:
-        """Tell the page ``session`` (``*``: every page) ``text``, and log it unless ``log`` is
-        False."""
-        self._notice_id += 1
-        self._notices.append({"id": self._notice_id, "to": session, "level": level, "text": text})
-        if not log:
-            return
-        who = self.arbiter.sessions.get(session, "console") if session != "*" else "console"
-        (self.log.warning if level == "error" else self.log.info)("%s: %s", who, text)
-
-    def _refuse(self, session: str, text: str) -> None:
-        """Tell the page ``session`` why; the log says it at most once a second per page (a page
-        sending refused commands in a flood is not a flood of log lines)."""
-        self.counts["refused"] += 1
-        wall = time.monotonic()
-        last, count = self._logged_refusal.get(session, (-math.inf, 0))
-        logged = wall - last >= 1.0
-        if logged:
-            more = self.counts["refused"] - count - 1 if count else 0
-            text_log = f"{text} (and {more} more refusals since)" if more > 0 else text
-            self._logged_refusal[session] = (wall, self.counts["refused"])
-            who = self.arbiter.sessions.get(session, "console")
-            self.log.warning("%s: %s", who, text_log)
-        self._notice(text, session, "error", log=False)
-
-    # -- events from the pages ----------------------------------------------------------------
-    def _handle(self, event: Event, now: float) -> None:
-        s = event.session
-        if event.kind == "join":
-            self.arbiter.join(s, event.payload, event.browser)
-            self._notice(f"{event.payload} is watching")
-        elif event.kind == "leave":
-            self.deadman.release(s)
-            self._logged_refusal.pop(s, None)
-            name = self.arbiter.sessions.get(s, s)
-            if self.arbiter.leave(s):
-                self._notice(f"{name} disconnected; control is free")
-        elif event.kind == "msg":
-            self._message(s, event.payload.type, event.payload.fields, now, event.wall)
-
-    def _message(self, s: str, kind: str, f: dict[str, Any], now: float, wall: float) -> None:
-        if kind == "hello":
-            return
-        if kind in ("take", "release"):
-            decision = self.arbiter.take(s) if kind == "take" else self.arbiter.release(s)
-            if kind == "release" and decision.ok:
-                self.deadman.release(s)
-            if decision.ok:
-                self._notice(decision.message)
-            else:
-                self._refuse(s, decision.message)
-            return
-        what = f.get("action", kind)
-        decision = self.arbiter.may_command(s, what)
-        if not decision.ok:
-            self.deadman.release(s)
-            self._refuse(s, decision.message)
-            return
-        try:
-            if kind == "jog":
-                self._jog_message(s, f, now, wall)
-            elif kind == "click":
-                frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
-                self._send_seed(point_seed(frame, f["u"], f["v"]), wall, "click")
-            elif kind == "box":
-                frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
-                box = box_seed(frame, f["u0"], f["v0"], f["u1"], f["v1"])
-                self._send_seed(box, wall, "box")
-            elif kind == "zoom":
-                self._zoom_message(f["camera"], f["value"])
-            elif kind == "action":
-                self._action(s, f["action"], now)
-            else:
-                raise Refused(f"{kind} is not available on this console")
-        except Refused as exc:
-            self._refuse(s, str(exc))
-
-    def _send_seed(self, values: list[float], wall: float, what: str) -> None:
-        self.seed.send(Vector(values=np.asarray(values, dtype=float)))
-        self.seed_sent_wall.append((wall, time.monotonic()))
-        self.counts["seeds"] += 1
-        where = ", ".join(f"{v:.1f}" for v in values)
-        self._notice(f"{what} seed sent to the snake at [{where}] px")
-
-    def _action(self, s: str, action: str, now: float) -> None:
-        if action in ("resume", "start"):
-            check_snake_healthy(
-                self.contour.get(now), self.contour.age(now), self.params.max_contour_age, action
-            )
-        self.operator.send(Text(text=action))
-        self.counts[action] += 1
-        self._notice(f"{action} sent to vsServo")
-
-    def _zoom_message(self, camera: str, value: float) -> None:
-        if camera not in self._zoom:
-            raise Refused(
-                f"zoom refused: expected a camera of {list(self._zoom)}, found {camera!r}"
-            )
-        if not 0.0 <= value <= 1.0:
-            raise Refused(f"zoom refused: expected 0 (wide) .. 1 (tele), found {value}")
-        self._person_zoomed = True
-        self._send_zoom(camera, value)
-
-    def _send_zoom(self, camera: str, value: float) -> None:
-        self._zoom[camera] = value
-        port = (self.zoom_1, self.zoom_2)[self.params.zoom_names.index(camera)]
-        port.send(Scalar(value=float(value)))
-
-    def _zoom_auto(self, now: float) -> None:
-        if not self.zoom_auto.fresh or self.zoom_auto.value is None or self._person_zoomed:
-            return
-        value = float(np.clip(self.zoom_auto.value.value, 0.0, 1.0))
-        for camera in self._zoom:
-            self._send_zoom(camera, value)
-
-    def _jog_message(self, s: str, f: dict[str, Any], now: float, wall: float) -> None:
-        if f["held"]:  # nobody jogs blind: the page must show live video (a release always goes)
-            try:
-                self.history.frame_for(f["frame"], now, self.params.stale_page_s)
-            except Refused as exc:
-                self.deadman.release(s)
-                raise Refused(f"jog refused: {exc}") from None
-        if f["held"] and f["jog_frame"] == "tool" and self._T_tool_camera is None:
-            raise Refused(
-                f"tool-frame jog refused: expected a static frame {self.params.tool_frame}->"
-                f"{self.params.camera_frame} in the graph, found none (jog in the camera frame)"
-            )
-        was = self.deadman.held
-        self.deadman.update(s, f["held"], f["axes"], f["speed"], f["jog_frame"], wall)
-        self._keepalive = self.deadman.held is not None
-        if self.deadman.held is not None and was is None:
-            self.counts["jogs"] += 1
-            servo = self.servo.value
-            if servo is not None and servo.stage in _ACTIVE:
-                self.operator.send(Text(text="pause"))
-                self._notice("jog: the grab is paused (resume it when done)")
 
     # -- periodic -----------------------------------------------------------------------------
     def _jog_step(self, wall: float) -> None:
@@ -413,21 +320,31 @@ class OperatorConsole(ConsoleView, Module):
         if status is None or not self.servo.fresh:
             return
         errs = [status.values.get(n, math.nan) for n in view_state.ERRORS]
-        if any(math.isfinite(e) for e in errs):
-            self._errors.append([round(now - (self._t0 or now), 3), *errs])
+        t = self._run_time()
+        if any(math.isfinite(e) for e in errs) and (
+            not self._errors or t - self._errors[-1][0] >= ERROR_PERIOD_S - 1e-6
+        ):
+            self._errors.append([t, *errs])
         if status.stage == "assist" and self._last_servo_stage != "assist":
+            reason = status.reason or status.message
             self._assist = {
                 "id": self.counts["assists"] + 1,
-                "reason": status.reason or status.message,
+                "reason": reason,
+                "plain": plain_reason(reason),
                 "overlay": view_state.overlay(self.contour.value, self._limits),
             }
             self.counts["assists"] += 1
             if self._app is not None and self.image.value is not None:
                 self._app.assist_frame.put(np.array(self.image.value.pixels))  # kept: a copy
-            self._notice(f"assistance requested: {self._assist['reason']}", level="error")
+            self.board.post_reason("the grab stopped and asks for you", reason, self._run_time())
+            self.log.warning("console: assistance requested: %s", reason)
         elif status.stage != "assist":
             self._assist = None
         self._last_servo_stage = status.stage
+
+    def _run_time(self) -> float:
+        """Seconds since the console's first step (the page's time axis)."""
+        return round(self._last_now - (self._t0 if self._t0 is not None else self._last_now), 3)
 
     # -- summary ------------------------------------------------------------------------------
     def _cpu_figures(self) -> dict[str, float]:
@@ -440,6 +357,7 @@ class OperatorConsole(ConsoleView, Module):
             "sim_seeds": self.counts["sim_seeds"],
             "sim_seeds_ignored": self.counts["sim_seeds_ignored"],
             "refused": self.counts["refused"],
+            "refused_others": self.counts["refused_others"],
             "bad_messages": 0
             if self._app is None
             else self._app.stats.malformed + self._app.stats.replayed,

@@ -92,8 +92,25 @@ class WebStats:
     web_tid: int = 0
 
 
+#: the station's files by route (``/station/<name>``): its style, one small script per panel,
+#: and the vendored plotting library (uPlot, MIT; see ``static/vendor/README.txt``)
+_MEDIA = {".js": "text/javascript", ".css": "text/css"}
+
+
 def _static(name: str) -> str:
     return resources.files("modules.operator").joinpath("static", name).read_text("utf-8")
+
+
+def _station_files() -> dict[str, tuple[str, str]]:
+    """``name -> (text, media type)`` of every file the station page loads (read once)."""
+    root = resources.files("modules.operator").joinpath("static")
+    files: dict[str, tuple[str, str]] = {"station.css": (_static("station.css"), "text/css")}
+    for folder in ("panels", "vendor"):
+        for entry in root.joinpath(folder).iterdir():
+            media = _MEDIA.get("." + entry.name.rsplit(".", 1)[-1])
+            if media is not None:
+                files[f"{folder}/{entry.name}"] = (entry.read_text("utf-8"), media)
+    return files
 
 
 class ConsoleApp:
@@ -113,11 +130,15 @@ class ConsoleApp:
         self._pump: asyncio.Task | None = None
         self._names = itertools.count(1)
         self._lock = threading.Lock()
-        self._page = _static("console.html")
-        self._js = _static("console.js")
+        self._page = _static("station.html")
+        self._files = _station_files()
+        #: per open socket: the state version it last sent (web thread writes, ``flush_final``
+        #: reads)
+        self._sent_state: dict[int, int] = {}
         app = server.app
         app.add_api_route("/", self._index, methods=["GET"])
-        app.add_api_route("/console.js", self._script, methods=["GET"])
+        app.add_api_route("/station/{folder}/{name}", self._file, methods=["GET"])
+        app.add_api_route("/station/{name}", self._file, methods=["GET"])
         app.add_api_route("/assist.jpg", self._assist_jpeg, methods=["GET"])
         app.add_api_websocket_route("/ws", self._socket)
 
@@ -130,8 +151,23 @@ class ConsoleApp:
     async def _index(self) -> HTMLResponse:
         return HTMLResponse(self._page, headers={"cache-control": "no-store"})
 
-    async def _script(self) -> Response:
-        return Response(self._js, media_type="text/javascript")
+    async def _file(self, name: str, folder: str = "") -> Response:
+        found = self._files.get(f"{folder}/{name}" if folder else name)
+        if found is None:
+            return Response(status_code=404)
+        return Response(found[0], media_type=found[1], headers={"cache-control": "no-cache"})
+
+    def flush_final(self, state: dict[str, Any], timeout: float) -> None:
+        """Hand the pages their last state (the run's end) and wait, at most ``timeout`` [s],
+        until every open socket has sent it (called by the stopping module, not the web
+        thread)."""
+        self.state.put(state)
+        version = self.state.get()[0]
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if all(v >= version for v in list(self._sent_state.values())):
+                return
+            threading.Event().wait(0.02)
 
     async def _assist_jpeg(self) -> Response:
         _, pixels = self.assist_frame.get()
@@ -274,12 +310,15 @@ class ConsoleApp:
         """Send each new state snapshot, and the newest frame while fewer than
         ``MAX_IN_FLIGHT`` frames await their painted report."""
         frame_version = sent_state = 0
+        key = id(ws)
+        self._sent_state[key] = 0
         try:
             while True:
                 state_version, state = self.state.get()
                 if state is not None and state_version > sent_state:
                     sent_state = state_version
                     await ws.send_text(self._state_text(state_version, state))
+                    self._sent_state[key] = sent_state
                 can_send = flight.can_send()
                 version, data = self._encoded.get()
                 if can_send and data is not None and version > frame_version:
@@ -302,6 +341,8 @@ class ConsoleApp:
                     task.cancel()
         except (asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
             return
+        finally:
+            self._sent_state.pop(key, None)
 
 
 class _InFlight:

@@ -7,9 +7,15 @@ import math
 from typing import Any
 
 from modules.operator import view_state
+from modules.operator.jog_labels import jog_labels
+from modules.operator.scene_view import scene_view
+from modules.operator.state_line import commands_available, phase_of, state_line
 
 #: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
 CLOCK_SYNC_BOUND_S = 0.005
+#: The page gets the whole error history this often [s]; in between only the rows since the
+#: previous page state (a page that skipped a state is whole again within this time).
+ERRORS_FULL_PERIOD_S = 2.0
 #: A zero shorter than this [s] is not shown as the arm held (it is counted, not flashed).
 BANNER_HOLD_S = 0.15
 
@@ -73,31 +79,88 @@ class ConsoleView:
         blip = guard is not None and guard.reason.startswith("no new command")
         return text if not blip or now - self._zero_since >= BANNER_HOLD_S else ""
 
+    def _error_rows(self, now: float) -> dict[str, Any]:
+        """The servo errors for the plot: ``errors`` rows (page units) and ``errors_full``
+        (True: the whole history, which replaces the page's; False: the rows since the previous
+        state, which extend it)."""
+        rows = list(self._errors)
+        full = now - self._errors_full_at >= ERRORS_FULL_PERIOD_S
+        if full:
+            self._errors_full_at = now
+        else:
+            rows = [r for r in rows if r[0] > self._errors_sent_t]
+        if rows:
+            self._errors_sent_t = rows[-1][0]
+        return {"errors": view_state.error_rows(rows), "errors_full": full}
+
+    def _panels(self) -> dict[str, bool]:
+        """Which panels this graph feeds (a graph without some module lacks its panel)."""
+        links = self._server.links if self._server is not None else {}
+        return {
+            "video": True,
+            "controls": bool(self.operator.sinks) or bool(self.seed.sinks),
+            "plot": self.servo.value is not None,
+            "jog": bool(self.jog.sinks),
+            "health": True,
+            "messages": True,
+            "zoom": bool(self._zoom),
+            "sketch": "/sketch" in links,
+            "view3d": self.link_poses.value is not None,
+        }
+
+    def _scene(self, now: float) -> dict[str, Any] | None:
+        """The 3-D panel's scene (None: no arm in this graph)."""
+        latest = self.history.latest
+        aspect = latest.width / latest.height if latest is not None else 16 / 9
+        p = self.params
+        links, camera, patch = (
+            r.get(now) for r in (self.link_poses, self.camera_pose, self.patch_pose)
+        )
+        base = links.frame if links is not None else ""
+        return scene_view(
+            links,
+            camera,
+            patch,
+            None if camera is None else self._static_pose(base, camera.parent),
+            None if patch is None else self._static_pose(base, patch.parent),
+            p.view_fov_deg,
+            aspect,
+            (p.patch_size_m[0], p.patch_size_m[1]),
+        )
+
+    def _static_pose(self, parent: str, child: str) -> Any:
+        """T_parent_child from the graph's static frames, looked up once (None: not tied)."""
+        key = (parent, child)
+        if key not in self._static:
+            try:
+                self._static[key] = self.context.frames.lookup(parent, child)
+            except KeyError:
+                self._static[key] = None
+        return self._static[key]
+
     def _state(self, now: float) -> dict[str, Any]:
         servo = self.servo.get(now)
         guard = self.guard.get(now)
         world = self.world.get(now)
         held = self.deadman.held
+        phase = phase_of(self.history.latest is not None, self._phase_ended)
+        line = state_line(phase, servo, guard, world, self.arbiter.holder_name(), held is not None)
         return {
-            "t": round(now - (self._t0 or now), 3),
+            "t": self._run_time(),
+            "phase": phase,
+            "line": line.for_page(),
+            "commands": commands_available(phase, line.stage),
+            "panels": self._panels(),
             "overlay": view_state.overlay(self.contour.get(now), self._limits),
+            "scene": self._scene(now),
             "servo": view_state.servo_view(servo),
             "banner": self._held_banner(now, servo, guard),
             "data_age": self._data_ages(now),
             "guard": None if guard is None else {"stage": guard.stage, "reason": guard.reason},
-            "world": None if world is None else {"stage": world.stage, "message": world.message},
-            "errors": [
-                [
-                    e[0],
-                    *[
-                        round(x * s, 3) if math.isfinite(x) else None
-                        for x, s in zip(
-                            e[1:], (1000.0, 1000.0, 1000.0, 180.0 / math.pi), strict=True
-                        )
-                    ],
-                ]
-                for e in list(self._errors)[-150:]
-            ],
+            "world": None
+            if world is None
+            else {"stage": world.stage, "message": world.message, "values": world.values},
+            **self._error_rows(now),
             "links": [
                 view_state.link_view(
                     name,
@@ -114,12 +177,15 @@ class ConsoleView:
             "control": self.arbiter.holder_name(),
             "control_session": self.arbiter.holder or "",
             "viewers": [name for name in self.arbiter.sessions.values()],
-            "refused": self.counts["refused"],
+            "refused": self.counts["refused_others"],
             "jog": None
             if held is None
             else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
+            "jog_labels": {
+                frame: jog_labels(frame, self._T_tool_camera) for frame in ("tool", "camera")
+            },
             "assist": self._assist,
             "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._zoom.items()],
-            "notices": list(self._notices),
+            "notices": self.board.for_page(),
             "links_extra": dict(self._server.links) if self._server is not None else {},
         }

@@ -93,6 +93,22 @@ def servo_view(status: Status | None) -> dict[str, Any]:
     }
 
 
+def error_rows(rows: Any) -> list[list[float | None]]:
+    """Servo error rows ``[t s, x m, y m, z m, roll rad]`` in page units ``[t s, x mm, y mm,
+    z mm, roll deg]`` (None where an error was not measured)."""
+    scales = [scale for _label, scale, _unit in ERRORS.values()]
+    return [
+        [
+            row[0],
+            *[
+                round(x * k, 3) if math.isfinite(x) else None
+                for x, k in zip(row[1:], scales, strict=True)
+            ],
+        ]
+        for row in rows
+    ]
+
+
 def zero_banner(servo: Status | None, guard: Status | None) -> str:
     """Why the servo side commands zero now ("" when it is passing a command)."""
     if guard is not None and guard.stage == "zero":

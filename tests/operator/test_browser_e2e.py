@@ -103,7 +103,7 @@ class Operator:
         _click_patch(page)
         page.wait_for_timeout(600)
         if page.evaluate("window.umbra.state.overlay?.status") == "tracking":
-            page.click("aside button[data-action=resume]")
+            page.click("#commands button[data-action=resume]")
             self.answered += 1
             self.counts.clear()
             page.wait_for_timeout(500)
@@ -153,7 +153,7 @@ def test_a_person_clicks_the_patch_and_the_grab_completes(tmp_path: Path) -> Non
             _wait_stage(second, ("approach",))  # the second page sees the same run
             assert page.evaluate("window.umbra.name") in second.inner_text("#holder")
             person = Operator(page)
-            person.check_overlay_while_tracking(REPO / "docs" / "images" / "console.png")
+            person.check_overlay_while_tracking(tmp_path / "console.png")
             person.until_done(run)  # on a loaded machine the snake may ask for help
             code = run.wait(30)
         out = run.text()
@@ -185,8 +185,9 @@ def test_an_occluder_asks_for_help_the_person_reseeds_and_resumes(tmp_path: Path
                 page.wait_for_selector("#assist[open]", timeout=40000)
             except Exception as exc:
                 raise AssertionError(f"no assistance dialog:\n{run.text()[-4000:]}") from exc
-            reason = page.inner_text("#assist-reason")
+            reason = page.evaluate("window.umbra.state.assist.reason")
             assert reason.startswith("snake failure"), reason
+            assert page.inner_text("#assist-reason")  # in plain words, the exact one a click away
             assert page.evaluate("window.umbra.state.banner").startswith("servo side at zero")
             page.wait_for_function(  # the frame that caused the stop
                 "document.getElementById('assist-img').naturalWidth === 1280", timeout=5000
@@ -194,7 +195,7 @@ def test_an_occluder_asks_for_help_the_person_reseeds_and_resumes(tmp_path: Path
             page.wait_for_timeout(300)
             page.screenshot(path=str(tmp_path / "console_assist.png"))
             # the dialog covers neither the live image nor the banner nor the grab's buttons
-            for selector in ("#video", "#banner", "aside button[data-action=pause]", "#jog"):
+            for selector in ("#video", "#banner", "#commands button[data-action=pause]", "#jog"):
                 assert not _overlaps(page, "#assist", selector), selector
             page.click("#assist button[data-action=resume]")  # the snake is still failed
             page.wait_for_function(
@@ -272,7 +273,7 @@ def test_the_jog_pad_moves_the_arm_only_while_held(tmp_path: Path) -> None:
             cdp.send("Debugger.resume")
             page.mouse.up()
             page.wait_for_timeout(1000)
-            page.click("aside button[data-action=abort]")
+            page.click("#commands button[data-action=abort]")
             page.wait_for_timeout(300)
         run.kill()
         summary = json.loads((tmp_path / "run" / "summary-umbra.json").read_text())
@@ -304,5 +305,65 @@ def test_the_jog_pad_moves_the_arm_only_while_held(tmp_path: Path) -> None:
         assert max(waits) <= 0.1 + 0.012, max(waits)  # REG_VEL's timeout and one tick
         gaps = np.diff(jogs)
         assert np.median(gaps) >= 0.02, np.median(gaps)  # keep-alives (40 ms), not 100 Hz
+    finally:
+        run.kill()
+
+
+def _inside_viewport(page: Any, selector: str) -> bool:
+    size = page.viewport_size
+    b = page.locator(selector).bounding_box()
+    return (
+        b is not None
+        and b["x"] >= 0
+        and b["y"] >= 0
+        and b["x"] + b["width"] <= size["width"]
+        and b["y"] + b["height"] <= size["height"]
+    )
+
+
+def test_the_station_through_a_whole_run_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
+    """A person at 1280x800 seeds, answers an assistance request without scrolling and sees
+    the run end with its verdict; a viewer at 1920x1080 watches with the 3-D panel open. The
+    screenshots are the README's."""
+    fault = [
+        "--set", "camera.fault=occluder", "--set", "camera.fault_at_s=20",
+        "--set", "camera.fault_duration_s=3",
+    ]  # fmt: skip
+    run = GraphRun(["graphs/tool_pickup.yaml", *NO_SIM_CLICK, *fault], tmp_path / "run")
+    images = REPO / "docs" / "images"
+    try:
+        url = run.wait_url()
+        with chromium() as browser:
+            person = open_console(browser, url, 1280, 800)
+            take_control(person)
+            _click_patch(person)
+            viewer = open_console(browser, url, 1920, 1080)
+            viewer.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 6")
+            viewer.wait_for_function("window.umbra.plot && window.umbra.plot.data[0].length > 20")
+            assert viewer.is_visible("section[data-panel=view3d]") and viewer.is_visible(
+                "#plot canvas"
+            )
+            viewer.screenshot(path=str(images / "station-1920.png"))
+            person.wait_for_selector("#assist[open]", timeout=40000)
+            person.wait_for_function(
+                "document.getElementById('assist-img').naturalWidth === 1280", timeout=5000
+            )
+            for selector in (
+                "#assist button[data-action=resume]",
+                "#assist button[data-action=abort]",
+                "#commands button[data-action=pause]",
+                "#take",
+            ):
+                assert _inside_viewport(person, selector), selector
+            assert person.evaluate("document.scrollingElement.scrollHeight") <= 800
+            person.wait_for_timeout(300)
+            person.screenshot(path=str(images / "station-1280.png"))
+            assert Operator(person).until_done(run) >= 1
+            code = run.wait(30)
+            for page in (person, viewer):
+                page.wait_for_function("window.umbra.ended", timeout=10000)
+                assert "grasped" in page.inner_text("#ended"), page.inner_text("#ended")
+                assert page.is_disabled("#commands button[data-action=abort]")
+        assert code == 0, run.text()[-3000:]
     finally:
         run.kill()

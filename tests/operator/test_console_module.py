@@ -129,7 +129,7 @@ def test_clicks_outside_the_image_and_on_a_stale_page_are_refused_with_the_reaso
                 h.step(dt=0.02)
             page.send("click", u=340.0, v=230.0, frame=old)
             _pump(h, lambda: h.module.counts["refused"] == 2)
-            texts = [n["text"] for n in h.module._notices if n["level"] == "error"]
+            texts = [n["text"] for n in map(vars, h.module.board.lines) if n["level"] == "error"]
             assert "click outside the image: expected 0 <= u < 640" in texts[0]
             assert texts[1].startswith("stale page: the image you acted on is 1.")
             assert texts[1].endswith("expected at most 1.000 s")
@@ -150,7 +150,7 @@ def test_nobody_jogs_on_a_frozen_page_but_a_live_one_jogs_and_a_release_always_g
                 h.step(dt=0.02)
             page.send("jog", held=True, axes=[1, 0, 0, 0], jog_frame="camera", speed=1.0, frame=old)
             _pump(h, lambda: h.module.counts["refused"] == 1)
-            texts = [n["text"] for n in h.module._notices if n["level"] == "error"]
+            texts = [n["text"] for n in map(vars, h.module.board.lines) if n["level"] == "error"]
             assert texts[-1].startswith("jog refused: stale page: the image you acted on is 0.")
             assert not any(np.any(t.vector) for t in h.outputs("jog"))
             live = _frame_seq(h)
@@ -195,7 +195,7 @@ def test_malformed_and_replayed_messages_are_refused_and_counted(
             assert not h.outputs("jog")
             # the page was told at once, by the web side; nothing was queued for the module,
             # and no log line per message (a flood of junk is not a flood of log lines)
-            texts = [n["text"] for n in h.module._notices]
+            texts = [n["text"] for n in map(vars, h.module.board.lines)]
             assert not any(t.startswith(("malformed", "replayed")) for t in texts), texts
             assert "replayed message" not in caplog.text and "malformed" not in caplog.text
             assert s["closed_abusers"] == 0  # 6 is under the limit: the page stays
@@ -222,7 +222,7 @@ def test_resume_is_refused_while_the_snake_is_not_healthy() -> None:
             page.send("action", action="resume")
             _pump(h, lambda: h.module.counts["refused"] == 1)
             assert not h.outputs("operator")
-            text = h.module._notices[-1]["text"]
+            text = h.module.board.lines[-1].text
             assert (
                 "resume refused: the snake is not healthy (contour touches the image border)"
                 in text
@@ -274,7 +274,7 @@ def test_the_token_is_needed_on_loopback_too(tmp_path: Path) -> None:
         assert cookie.startswith("umbra_token=s3cret-token-for-tests;")
         assert "HttpOnly" in cookie and "SameSite=Strict" in cookie
         ok = httpx.get(base, cookies={"umbra_token": "s3cret-token-for-tests"}, timeout=5)
-        assert ok.status_code == 200 and "umbra operator console" in ok.text
+        assert ok.status_code == 200 and "umbra operator station" in ok.text
         with pytest.raises(InvalidStatus, match="HTTP 403"):
             Page(base)
         Page(h.module.url).close()
@@ -358,9 +358,8 @@ def test_zoom_sliders_drive_the_cameras_and_the_scripted_zoom_steps_aside() -> N
             h.push("zoom_auto", Scalar(value=0.3))  # a person zoomed: the script steps aside
             h.step(dt=0.01)
             assert h.output("zoom_1").value == 0.7 and h.output("zoom_2").value == 0.2
-            assert (
-                "expected a camera of ['left', 'right'], found 'middle'"
-                in (h.module._notices[-1]["text"])
+            assert "expected a camera of ['left', 'right'], found 'middle'" in (
+                h.module.board.lines[-1].text
             )
         finally:
             page.close()

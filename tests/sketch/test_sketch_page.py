@@ -303,7 +303,7 @@ def test_one_holder_for_the_console_and_the_sketch_page_of_one_server() -> None:
         alice_console.send("action", action="abort")
         _wait(lambda: console.module.counts["refused"] == 1)
         assert not console.outputs("operator")
-        notice = console.module._notices[-1]["text"]
+        notice = console.module.board.lines[-1].text
         assert notice == f"refused abort: {bob_name} holds control"
         assert arbiter.holder_name() == bob_name
         # taken back on the sketch page by the first person: the console page holds it too

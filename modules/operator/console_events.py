@@ -1,0 +1,170 @@
+"""The console's handling of what its pages send: control, seeds, grab commands, zoom and the
+dead-man jog (a mixin of :class:`~modules.operator.console.OperatorConsole`; every action ends
+as one of its typed outputs or as a refusal with the reason, told to the page that sent it)."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from connectors.messages import Scalar, Text, Vector
+from modules.operator.actions import Refused, box_seed, check_snake_healthy, point_seed
+
+if TYPE_CHECKING:
+    from modules.operator.console_app import Event
+
+#: vsServo's stages in which the arm moves by itself (a jog pauses the grab first)
+ACTIVE_STAGES = ("acquire", "approach", "final_grab")
+
+
+class ConsoleEvents:
+    """Page events for the console (reads and writes the console's ports and tables)."""
+
+    def _notice(
+        self,
+        text: str,
+        session: str = "*",
+        level: str = "info",
+        log: bool = True,
+        detail: str = "",
+    ) -> None:
+        """Tell the page ``session`` (``*``: every page) ``text`` (a repeat is counted on its
+        line, not added), with the exact ``detail`` behind it; log it unless ``log`` is False."""
+        self.board.post(text, self._run_time(), session, level, detail)
+        if not log:
+            return
+        who = self.arbiter.sessions.get(session, "console") if session != "*" else "console"
+        (self.log.warning if level == "error" else self.log.info)("%s: %s", who, detail or text)
+
+    def _refuse(self, session: str, text: str) -> None:
+        """Tell the page ``session`` why; the log says it at most once a second per page (a page
+        sending refused commands in a flood is not a flood of log lines). Refusals of pages
+        without control are counted apart (the holder's own, e.g. a stale click, are not
+        another operator knocking)."""
+        self.counts["refused"] += 1
+        if not self.arbiter.holds(session):
+            self.counts["refused_others"] += 1
+        wall = time.monotonic()
+        last, count = self._logged_refusal.get(session, (-math.inf, 0))
+        if wall - last >= 1.0:
+            more = self.counts["refused"] - count - 1 if count else 0
+            text_log = f"{text} (and {more} more refusals since)" if more > 0 else text
+            self._logged_refusal[session] = (wall, self.counts["refused"])
+            who = self.arbiter.sessions.get(session, "console")
+            self.log.warning("%s: %s", who, text_log)
+        self._notice(text, session, "error", log=False)
+
+    # -- events from the pages ----------------------------------------------------------------
+    def _handle(self, event: Event, now: float) -> None:
+        s = event.session
+        if event.kind == "join":
+            self.arbiter.join(s, event.payload, event.browser)
+            self._notice(f"{event.payload} is watching")
+        elif event.kind == "leave":
+            self.deadman.release(s)
+            self._logged_refusal.pop(s, None)
+            name = self.arbiter.sessions.get(s, s)
+            if self.arbiter.leave(s):
+                self._notice(f"{name} disconnected; control is free")
+        elif event.kind == "msg":
+            self._message(s, event.payload.type, event.payload.fields, now, event.wall)
+
+    def _message(self, s: str, kind: str, f: dict[str, Any], now: float, wall: float) -> None:
+        if kind == "hello":
+            return
+        if kind in ("take", "release"):
+            decision = self.arbiter.take(s) if kind == "take" else self.arbiter.release(s)
+            if kind == "release" and decision.ok:
+                self.deadman.release(s)
+            if decision.ok:
+                self._notice(decision.message)
+            else:
+                self._refuse(s, decision.message)
+            return
+        what = f.get("action", kind)
+        decision = self.arbiter.may_command(s, what)
+        if not decision.ok:
+            self.deadman.release(s)
+            self._refuse(s, decision.message)
+            return
+        try:
+            if kind == "jog":
+                self._jog_message(s, f, now, wall)
+            elif kind == "click":
+                frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
+                self._send_seed(point_seed(frame, f["u"], f["v"]), wall, "click")
+            elif kind == "box":
+                frame = self.history.frame_for(f["frame"], now, self.params.stale_page_s)
+                box = box_seed(frame, f["u0"], f["v0"], f["u1"], f["v1"])
+                self._send_seed(box, wall, "box")
+            elif kind == "zoom":
+                self._zoom_message(f["camera"], f["value"])
+            elif kind == "action":
+                self._action(s, f["action"], now)
+            else:
+                raise Refused(f"{kind} is not available on this console")
+        except Refused as exc:
+            self._refuse(s, str(exc))
+
+    def _send_seed(self, values: list[float], wall: float, what: str) -> None:
+        self.seed.send(Vector(values=np.asarray(values, dtype=float)))
+        self.seed_sent_wall.append((wall, time.monotonic()))
+        self.counts["seeds"] += 1
+        where = ", ".join(f"{v:.1f}" for v in values)
+        self._notice(f"{what} seed sent to the snake at [{where}] px")
+
+    def _action(self, s: str, action: str, now: float) -> None:
+        if action in ("resume", "start"):
+            check_snake_healthy(
+                self.contour.get(now), self.contour.age(now), self.params.max_contour_age, action
+            )
+        self.operator.send(Text(text=action))
+        self.counts[action] += 1
+        self._notice(f"{action} sent to vsServo")
+
+    def _zoom_message(self, camera: str, value: float) -> None:
+        if camera not in self._zoom:
+            raise Refused(
+                f"zoom refused: expected a camera of {list(self._zoom)}, found {camera!r}"
+            )
+        if not 0.0 <= value <= 1.0:
+            raise Refused(f"zoom refused: expected 0 (wide) .. 1 (tele), found {value}")
+        self._person_zoomed = True
+        self._send_zoom(camera, value)
+
+    def _send_zoom(self, camera: str, value: float) -> None:
+        self._zoom[camera] = value
+        port = (self.zoom_1, self.zoom_2)[self.params.zoom_names.index(camera)]
+        port.send(Scalar(value=float(value)))
+
+    def _zoom_auto(self, now: float) -> None:
+        if not self.zoom_auto.fresh or self.zoom_auto.value is None or self._person_zoomed:
+            return
+        value = float(np.clip(self.zoom_auto.value.value, 0.0, 1.0))
+        for camera in self._zoom:
+            self._send_zoom(camera, value)
+
+    def _jog_message(self, s: str, f: dict[str, Any], now: float, wall: float) -> None:
+        if f["held"]:  # nobody jogs blind: the page must show live video (a release always goes)
+            try:
+                self.history.frame_for(f["frame"], now, self.params.stale_page_s)
+            except Refused as exc:
+                self.deadman.release(s)
+                raise Refused(f"jog refused: {exc}") from None
+        if f["held"] and f["jog_frame"] == "tool" and self._T_tool_camera is None:
+            raise Refused(
+                f"tool-frame jog refused: expected a static frame {self.params.tool_frame}->"
+                f"{self.params.camera_frame} in the graph, found none (jog in the camera frame)"
+            )
+        was = self.deadman.held
+        self.deadman.update(s, f["held"], f["axes"], f["speed"], f["jog_frame"], wall)
+        self._keepalive = self.deadman.held is not None
+        if self.deadman.held is not None and was is None:
+            self.counts["jogs"] += 1
+            servo = self.servo.value
+            if servo is not None and servo.stage in ACTIVE_STAGES:
+                self.operator.send(Text(text="pause"))
+                self._notice("jog: the grab is paused (resume it when done)")

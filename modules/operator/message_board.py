@@ -1,0 +1,66 @@
+"""The station's Messages panel: what happened, in the operator's words, each once.
+
+A message that repeats (the same words to the same pages) is not a new line: its count grows
+and it moves to the top, so a reason said five times is shown once with "×5". The exact text
+behind a plain message (a module's full reason) is kept as its ``detail``, shown on a click.
+Pure: no clock (times are passed in, seconds of the run).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from modules.operator.plain_words import plain_reason
+
+
+@dataclass
+class Message:
+    """One line of the panel: ``to`` a session ("*": every page), ``level`` info or error."""
+
+    id: int
+    to: str
+    level: str
+    text: str
+    detail: str
+    count: int
+    t: float  #: when it was last said [s of the run]
+
+
+class MessageBoard:
+    """The last ``size`` distinct messages, newest last; ``id`` grows with every post (a page
+    redraws when the newest id changed)."""
+
+    def __init__(self, size: int = 30) -> None:
+        if size < 1:
+            raise ValueError(f"size must be >= 1, got {size}")
+        self.size = size
+        self.lines: list[Message] = []
+        self.last_id = 0
+
+    def post(
+        self, text: str, t: float, to: str = "*", level: str = "info", detail: str = ""
+    ) -> None:
+        """Say ``text`` (with the exact ``detail`` behind it, "" none) at time ``t`` [s]."""
+        self.last_id += 1
+        for i, line in enumerate(self.lines):
+            if (line.to, line.level, line.text) == (to, level, text):
+                del self.lines[i]
+                line.id, line.count, line.t = self.last_id, line.count + 1, t
+                line.detail = detail or line.detail
+                self.lines.append(line)
+                return
+        self.lines.append(Message(self.last_id, to, level, text, detail, 1, t))
+        del self.lines[: -self.size]
+
+    def post_reason(
+        self, lead: str, reason: str, t: float, to: str = "*", level: str = "error"
+    ) -> None:
+        """``lead`` and ``reason`` in plain words (:func:`plain_reason`), the reason as it came
+        kept as the detail."""
+        plain = plain_reason(reason)
+        text = f"{lead}: {plain}" if plain else lead
+        self.post(text, t, to, level, detail=reason if reason != plain else "")
+
+    def for_page(self) -> list[dict[str, object]]:
+        """Every line as JSON-ready dicts, newest first (each page keeps those ``to`` it)."""
+        return [asdict(line) for line in reversed(self.lines)]

@@ -1,0 +1,114 @@
+"""The station's one state line and the run's life cycle, from the graph's statuses. Pure.
+
+The line answers four questions at a glance: which stage the task is in, who holds control,
+what the robot is doing, and, when it stands still, why. The life cycle is ``starting`` (no
+camera image yet), ``running``, ``ended`` (the process is stopping: the page says so, with the
+verdict, instead of trying to reconnect to a run that is gone).
+
+A seed starts the approach: vsServo waits in ``acquire`` for a healthy snake and moves as soon
+as the snake holds the patch for a few frames. *Start* begins a new grab from a stopped stage
+(done, aborted, paused, assist); in ``acquire`` there is nothing to start but the seed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from connectors.messages import Status
+from modules.operator.plain_words import plain_reason
+
+STARTING, RUNNING, ENDED = "starting", "running", "ended"
+
+#: what the robot does in each of vsServo's stages, in the operator's words
+_DOING = {
+    "acquire": "waiting for the tracker to hold the patch; the approach starts by itself",
+    "approach": "moving toward the patch",
+    "final_grab": "final grab: advancing and closing the gripper",
+    "done": "grab complete; the arm holds",
+    "assist": "stopped: the grab asks for you",
+    "paused": "paused by the operator; the arm holds",
+    "aborted": "aborted; the arm holds with the gripper open",
+}
+
+#: vsServo stages from which *Start* begins a new grab (elsewhere it would change nothing)
+STARTABLE = ("done", "aborted", "paused", "assist")
+#: stages in which *Pause* holds the arm
+PAUSABLE = ("acquire", "approach", "final_grab", "assist")
+
+
+@dataclass(frozen=True)
+class StateLine:
+    """What the page's state line says; ``stopped`` is "" while the robot may move."""
+
+    phase: str
+    stage: str
+    control: str
+    doing: str
+    stopped: str
+    stopped_detail: str
+    verdict: str
+
+    def for_page(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def phase_of(images_seen: bool, stopping: bool) -> str:
+    """The run's life-cycle phase for the page."""
+    if stopping:
+        return ENDED
+    return RUNNING if images_seen else STARTING
+
+
+def state_line(
+    phase: str,
+    servo: Status | None,
+    guard: Status | None,
+    world: Status | None,
+    holder: str,
+    jogging: bool,
+) -> StateLine:
+    """The state line from vsServo's and REG_VEL's statuses, the world's verdict (None: no
+    judge in the graph, or not judged yet), the control holder's name ("" nobody) and whether
+    a jog is held."""
+    control = holder or "nobody (take control to act)"
+    verdict = world.message if world is not None and world.stage in ("grasped", "missed") else ""
+    stage = servo.stage if servo is not None else "-"
+    if phase == STARTING:
+        return StateLine(phase, stage, control, "starting: waiting for the camera", "", "", "")
+    if jogging:
+        doing = "jogging by hand (the grab is paused)"
+    elif servo is None:
+        doing = ""  # no grab in this graph (or no word from it yet): nothing to say
+    elif servo.stage == "acquire" and servo.message.startswith("waiting"):
+        doing = "waiting for a seed: click the patch (the approach then starts by itself)"
+    else:
+        doing = _DOING.get(servo.stage, servo.message or servo.stage)
+    if phase == ENDED:
+        doing = "the run has ended"
+    stopped, detail = _why_stopped(servo, guard, jogging)
+    return StateLine(phase, stage, control, doing, plain_reason(stopped), detail, verdict)
+
+
+def _why_stopped(servo: Status | None, guard: Status | None, jogging: bool) -> tuple[str, str]:
+    """Why the arm stands still, and the exact reason ("", "" when it may move)."""
+    if guard is not None and guard.stage == "zero" and not jogging:
+        reason = guard.reason or guard.message
+        if servo is not None and servo.stage in ("assist", "paused", "aborted", "done"):
+            reason = servo.reason or _DOING[servo.stage]
+        return reason, reason
+    if servo is not None and servo.stage == "assist":
+        return servo.reason, servo.reason
+    return "", ""
+
+
+def commands_available(phase: str, stage: str) -> dict[str, bool]:
+    """Which grab commands would do something now (for the page that holds control; abort is
+    offered for as long as the run lives)."""
+    live = phase == RUNNING
+    return {
+        "start": live and stage in STARTABLE,
+        "pause": live and stage in PAUSABLE,
+        "resume": live and stage in ("paused", "assist"),
+        "abort": live,
+    }

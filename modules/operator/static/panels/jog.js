@@ -1,0 +1,46 @@
+// Jog pad: buttons named by where they take the camera in the live image (the frame and axis
+// beneath), held to move: a keep-alive every 40 ms; released on up, blur, hide or unload.
+"use strict";
+(() => {
+  let held = null, timer = null, drawn = "";
+  function jogSend(isHeld) {
+    umbra.send("jog", { held: isHeld, axes: held || [0, 0, 0, 0], jog_frame: $("jog-frame").value,
+                        speed: Number($("jog-speed").value), frame: umbra.frame || 0 });
+  }
+  function holdJog(axis, sign) {
+    held = [0, 0, 0, 0]; held[axis] = sign; jogSend(true);
+    clearInterval(timer); timer = setInterval(() => jogSend(true), 40);
+  }
+  function releaseJog() {
+    if (timer) { clearInterval(timer); timer = null; }
+    if (held) { jogSend(false); held = null; }
+  }
+  umbra.holdJog = holdJog; umbra.releaseJog = releaseJog;
+  function draw(labels) {
+    const pad = $("jog"); pad.innerHTML = "";
+    for (const j of labels) {
+      const b = document.createElement("button");
+      b.dataset.axis = j.axis; b.dataset.sign = j.sign;
+      b.innerHTML = `${j.label}<small>${j.axis_name}</small>`;
+      b.addEventListener("pointerdown", (ev) => { b.setPointerCapture(ev.pointerId); holdJog(j.axis, j.sign); });
+      for (const e of ["pointerup", "pointercancel", "lostpointercapture"]) b.addEventListener(e, releaseJog);
+      pad.append(b);
+    }
+  }
+  umbra.on("state", (s) => {
+    const frame = $("jog-frame").value, labels = s.jog_labels[frame] || [];
+    const key = frame + JSON.stringify(labels);
+    if (key !== drawn) { drawn = key; draw(labels); }
+    $("jog-hint").textContent = `${frame} frame · as seen in the live image`;
+    for (const b of $("jog").querySelectorAll("button")) b.disabled = !umbra.holds() || umbra.ended;
+  });
+  $("jog-frame").addEventListener("change", () => { releaseJog(); if (umbra.state) umbra.emit("state", umbra.state); });
+  const KEYS = { ArrowRight: [0, 1], ArrowLeft: [0, -1], ArrowDown: [1, 1], ArrowUp: [1, -1],
+                 PageDown: [2, 1], PageUp: [2, -1], e: [3, 1], q: [3, -1] };
+  addEventListener("keydown", (ev) => { const k = KEYS[ev.key]; if (k && !ev.repeat && ev.target.tagName !== "SELECT") { ev.preventDefault(); holdJog(...k); } });
+  addEventListener("keyup", (ev) => { if (KEYS[ev.key]) releaseJog(); });
+  addEventListener("blur", releaseJog);
+  addEventListener("pagehide", releaseJog);
+  document.addEventListener("visibilitychange", () => { if (document.hidden) releaseJog(); });
+  umbra.on("connection", () => releaseJog());
+})();

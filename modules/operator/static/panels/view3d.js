@@ -1,0 +1,125 @@
+// 3-D panel (three.js, vendored): the arm's link frames as a chain, the wrist camera's frustum
+// with the live video on it, the tool's patch, each frame's name and the task's stage; drag to
+// orbit, wheel to zoom. Drawn only while the panel is shown, at most 5 times a second (a
+// software-rendered WebGL must not take the live video's frames). three.js is loaded the first
+// time the panel has something to draw: a page without the panel never parses it.
+"use strict";
+(() => {
+let THREE = null, loading = false;
+
+const panel = document.querySelector('section[data-panel="view3d"]'), box = $("view3d");
+let view = null;
+
+function matrix(rows) { return new THREE.Matrix4().set(...rows); }
+
+function make() {
+  const renderer = new THREE.WebGLRenderer({ antialias: false });
+  box.prepend(renderer.domElement);
+  const scene = new THREE.Scene();
+  scene.background = new THREE.Color(0x1d2024);
+  const eye = new THREE.PerspectiveCamera(45, 1, 0.01, 20);
+  eye.up.set(0, 0, 1); eye.position.set(1.1, -1.3, 0.9);
+  const controls = new THREE.OrbitControls(eye, renderer.domElement);
+  controls.target.set(0.35, 0, 0.25);
+  controls.update();
+  const grid = new THREE.GridHelper(2, 20, 0x555555, 0x333333);
+  grid.rotateX(Math.PI / 2);
+  scene.add(grid, new THREE.AxesHelper(0.2));
+  const chain = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0x66ccff }));
+  const frames = new THREE.Group(), camera = new THREE.Group(), patch = new THREE.Group();
+  for (const g of [camera, patch]) g.matrixAutoUpdate = false;
+  scene.add(chain, frames, camera, patch);
+  // the frustum's lines, and the live image on its far plane (drawn from the video canvas)
+  camera.add(new THREE.LineSegments(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0xffd000 })));
+  const screen = new THREE.Mesh(new THREE.PlaneGeometry(1, 1), new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
+  screen.rotation.x = Math.PI;  // plane +y is the image's up: camera -y
+  camera.add(screen, new THREE.AxesHelper(0.05));
+  patch.add(new THREE.Mesh(new THREE.PlaneGeometry(1, 1), new THREE.MeshBasicMaterial({ color: 0x22bb44, side: THREE.DoubleSide })));
+  controls.addEventListener("change", () => draw());
+  return { renderer, scene, eye, controls, chain, frames, camera, patch, video: null, size: "", screen, painted: -1, last: 0 };
+}
+
+function videoTexture() {  // the live image as a texture, made again when the image's size changes
+  const c = $("video"), size = `${c.width}x${c.height}`;
+  if (size !== view.size) {
+    if (view.video) view.video.dispose();
+    view.video = new THREE.CanvasTexture(c);
+    view.video.colorSpace = THREE.SRGBColorSpace;
+    view.screen.material.map = view.video; view.screen.material.needsUpdate = true;
+    view.size = size;
+  }
+  if (umbra.painted !== view.painted) { view.painted = umbra.painted; view.video.needsUpdate = true; }
+}
+
+function label(text, where) {
+  const p = where.clone().project(view.eye), w = box.clientWidth, h = box.clientHeight;
+  if (p.z > 1) return;
+  const div = document.createElement("div");
+  div.className = "frame-name"; div.textContent = text;
+  div.style.left = `${((p.x + 1) / 2 * w).toFixed(0)}px`; div.style.top = `${((1 - p.y) / 2 * h).toFixed(0)}px`;
+  $("view3d-labels").append(div);
+}
+
+function draw() {
+  const s = umbra.state && umbra.state.scene;
+  if (!view || !s) return;
+  const w = box.clientWidth, h = Math.max(120, box.clientHeight);
+  view.renderer.setSize(w, h, false);
+  view.renderer.domElement.style.width = "100%"; view.renderer.domElement.style.height = "100%";
+  view.eye.aspect = w / h; view.eye.updateProjectionMatrix();
+  $("view3d-labels").innerHTML = "";
+  const points = [new THREE.Vector3(0, 0, 0)];
+  view.frames.clear();
+  for (const l of s.links) {
+    const T = matrix(l.T), at = new THREE.Vector3().setFromMatrixPosition(T);
+    points.push(at);
+    const triad = new THREE.AxesHelper(0.06);
+    triad.matrixAutoUpdate = false; triad.matrix.copy(T);
+    view.frames.add(triad);
+  }
+  view.chain.geometry.setFromPoints(points);
+  label(s.frame, points[0]);
+  s.links.forEach((l, i) => label(l.name, points[i + 1]));
+  view.camera.visible = !!s.camera;
+  if (s.camera) {
+    const c = s.camera;
+    view.camera.matrix.copy(matrix(c.T));
+    // the image is drawn where the patch is (the frustum reaches its plane), else 10 cm out
+    let d = 0.1;
+    if (s.patch) {
+      const there = new THREE.Vector3().setFromMatrixPosition(matrix(s.patch.T)).applyMatrix4(view.camera.matrix.clone().invert());
+      if (there.z > 0.03 && there.z < 2) d = there.z;
+    }
+    const x = d * c.tan_half_fov_x, y = x / c.aspect;
+    const corners = [[x, y], [-x, y], [-x, -y], [x, -y]].map(([a, b]) => [a, b, d]);
+    const seg = [];
+    corners.forEach((p, i) => { seg.push(0, 0, 0, ...p, ...p, ...corners[(i + 1) % 4]); });
+    view.camera.children[0].geometry.setAttribute("position", new THREE.Float32BufferAttribute(seg, 3));
+    view.screen.scale.set(2 * x, 2 * y, 1); view.screen.position.set(0, 0, d);
+    videoTexture();
+    label(c.name, new THREE.Vector3().setFromMatrixPosition(view.camera.matrix));
+  }
+  view.patch.visible = !!s.patch;
+  if (s.patch) {
+    view.patch.matrix.copy(matrix(s.patch.T));
+    view.patch.children[0].scale.set(s.patch.size[0], s.patch.size[1], 1);
+    label(s.patch.name, new THREE.Vector3().setFromMatrixPosition(view.patch.matrix));
+  }
+  $("view3d-stage").textContent = `stage: ${umbra.state.line.stage} · ${umbra.state.line.doing}`;
+  view.renderer.render(view.scene, view.eye);
+  umbra.view3d = { drawn: (umbra.view3d ? umbra.view3d.drawn : 0) + 1, links: s.links.length };
+}
+
+umbra.on("state", (s) => {
+  if (!s.scene || panel.hidden) return;
+  if (!THREE) {
+    if (!loading) { loading = true; import("../vendor/three-station.min.js").then((m) => { THREE = m; }); }
+    return;
+  }
+  if (!view) view = make();
+  const now = performance.now();
+  if (now - view.last < 200) return;
+  view.last = now;
+  draw();
+});
+})();

@@ -1,0 +1,265 @@
+"""The station page in real Chromium at 1280x800 and 1920x1080, against the console module in
+the harness (vsServo's and the world's statuses played by the test): seed, start, pause,
+resume, abort, an assistance request answered without scrolling, a jog named in the image's
+words, and the end of the run with its verdict."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from connectors.messages import Message, Status
+from modules.operator.console import OperatorConsole
+from runtime.harness import ModuleHarness
+from tests.operator.browser import chromium, click_image, needs_chromium, take_control
+from tests.operator.helpers import image, rectangle_contour
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
+
+SNAKE_REASON = (
+    "snake failure: no colour edge under 100% of the contour (featureless image); "
+    "area changed -63% in one frame"
+)
+VERDICT = "grasped: tool point 0.74 mm from the grasp point, roll error 0.06 deg"
+
+
+class Plant(threading.Thread):
+    """Steps the console every 10 ms with a 30 fps camera, a tracking contour and the latest
+    vsServo status (set by the test); records what the console sends."""
+
+    def __init__(self, h: ModuleHarness) -> None:
+        super().__init__(daemon=True)
+        self.h = h
+        self.servo = Status(stage="acquire", message="waiting: snake has no contour")
+        self.extra: list[tuple[str, Message]] = []
+        self.sent: list[tuple[str, Message]] = []
+        self.halt = threading.Event()
+        self.lock = threading.Lock()
+
+    def run(self) -> None:
+        k = 0
+        while not self.halt.is_set():
+            with self.lock:
+                extra, self.extra = self.extra, []
+                if k % 3 == 0:
+                    self.h.push("image", image())
+                    self.h.push("contour", rectangle_contour())
+                    self.h.push("servo", self.servo)
+                for port, sample in extra:
+                    self.h.push(port, sample)
+                out = self.h.step(dt=0.01)
+            self.sent.extend((port, s) for port, samples in out.items() for s in samples)
+            k += 1
+            time.sleep(0.01)
+
+    def stage(self, stage: str, reason: str = "") -> None:
+        self.servo = Status(stage=stage, message=stage, reason=reason, assist=stage == "assist")
+
+    def commands(self) -> list[str]:
+        return [s.text for port, s in list(self.sent) if port == "operator"]
+
+
+def _wait(cond: Any, timeout: float = 10.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if cond():
+            return
+        time.sleep(0.02)
+    raise AssertionError("condition not reached in time")
+
+
+def _in_view(page: Any, selector: str, size: tuple[int, int]) -> bool:
+    """Whether every element matching ``selector`` is visible and wholly inside the viewport."""
+    boxes = [
+        page.locator(selector).nth(i).bounding_box() for i in range(page.locator(selector).count())
+    ]
+    return bool(boxes) and all(
+        b is not None
+        and b["x"] >= 0
+        and b["y"] >= 0
+        and b["x"] + b["width"] <= size[0]
+        and b["y"] + b["height"] <= size[1]
+        for b in boxes
+    )
+
+
+def _command(page: Any, plant: Plant, action: str, stage_before: str) -> None:
+    """Click a grab command once the page offers it; vsServo's output gets it."""
+    before = len(plant.commands())
+    button = f"#commands button[data-action={action}]"
+    page.wait_for_function(
+        f"window.umbra.state.line.stage === '{stage_before}' && "
+        f"!document.querySelector('{button}').disabled",
+        timeout=10000,
+    )
+    page.click(button)
+    _wait(lambda: plant.commands()[before:] == [action])
+
+
+def _layout_persists(page: Any) -> None:
+    """Only the panels the graph feeds are offered; a hidden one stays hidden after a reload
+    (the layout is kept per browser), and the Panels menu shows it again."""
+    offered = page.eval_on_selector_all(
+        "#panel-list input", "boxes => boxes.map(b => b.dataset.panel)"
+    )
+    assert "sketch" not in offered and "view3d" not in offered and "zoom" not in offered
+    assert {"video", "jog", "messages", "health"} <= set(offered), offered
+    page.click("section[data-panel=messages] .hide")
+    assert page.is_hidden("section[data-panel=messages]")
+    page.reload()
+    page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+    assert page.is_hidden("section[data-panel=messages]")
+    page.click("#panel-menu summary")
+    page.check("#panel-list input[data-panel=messages]")
+    assert page.is_visible("section[data-panel=messages]")
+    page.click("#panel-menu summary")
+
+
+def _drive(page: Any, plant: Plant, size: tuple[int, int], shot: Path) -> None:
+    """One operator's session on the page at ``size``."""
+    plant.servo = Status(stage="acquire", message="waiting: snake has no contour")
+    take_control(page)
+    assert page.evaluate("document.scrollingElement.scrollHeight") <= size[1]
+    for action in ("start", "pause", "resume", "abort"):
+        assert _in_view(page, f"#commands button[data-action={action}]", size), action
+    # a click on the patch seeds; the page says the approach then starts by itself
+    assert "starts by itself" in page.inner_text("#seed-hint")
+    seeds = len([1 for port, _ in plant.sent if port == "seed"])
+    click_image(page, 340.0, 230.0)
+    _wait(lambda: len([1 for port, _ in plant.sent if port == "seed"]) == seeds + 1)
+    page.wait_for_function(
+        "document.getElementById('line-doing').textContent.includes('click the patch')"
+    )
+    assert page.is_disabled("#commands button[data-action=start]")  # nothing to start yet
+    plant.stage("approach")
+    page.wait_for_function(
+        "document.getElementById('line-doing').textContent.includes('moving toward the patch')"
+    )
+    _command(page, plant, "pause", "approach")
+    plant.stage("paused")
+    _command(page, plant, "resume", "paused")
+    plant.stage("approach")
+    _command(page, plant, "abort", "approach")
+    plant.stage("aborted")
+    _command(page, plant, "start", "aborted")
+    plant.stage("approach")
+    # an assistance request: the dialog and its buttons in view, no scrolling
+    plant.stage("assist", SNAKE_REASON)
+    page.wait_for_selector("#assist[open]", timeout=10000)
+    for selector in ("#assist button[data-action=resume]", "#assist button[data-action=abort]"):
+        assert _in_view(page, selector, size), selector
+    assert page.evaluate("document.scrollingElement.scrollHeight") <= size[1]
+    assert page.inner_text("#assist-reason") == (
+        "the tracker lost the patch's edge; the patch's size jumped"
+    )
+    page.wait_for_function(  # the long reason is one message line, however often it came
+        "document.querySelectorAll('#notices div').length >= 1 && [...document.querySelectorAll"
+        "('#notices div')].filter(d => d.textContent.includes('asks for you')).length === 1"
+    )
+    page.screenshot(path=str(shot))
+    # hidden, the request can be shown again
+    page.click("#assist-hide")
+    page.click("#assist-show")
+    page.wait_for_selector("#assist[open]")
+    before = len(plant.commands())
+    page.click("#assist button[data-action=resume]")
+    _wait(lambda: plant.commands()[before:] == ["resume"])
+    plant.stage("paused")
+    page.wait_for_selector("#assist", state="hidden")
+    # a jog named in the image's words: tool z- lifts the camera (camera z < 0)
+    lift = page.locator("#jog button", has_text="away (lift)")
+    assert "tool z-" in lift.inner_text()
+    box = lift.bounding_box()
+    page.mouse.move(box["x"] + 5, box["y"] + 5)
+    page.mouse.down()
+    page.wait_for_timeout(500)
+    page.mouse.up()
+    page.wait_for_timeout(300)
+    jogs = [s.vector for port, s in list(plant.sent) if port == "jog"]
+    assert any(v[2] < -1e-3 and abs(v[0]) < 1e-9 for v in jogs), jogs[-3:]
+    assert not np.any(jogs[-1])  # released: zero
+
+
+def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
+    T = np.eye(4)
+    T[:3, 3] = [0, 0, -0.12]
+    h = ModuleHarness(OperatorConsole, {}, frames={"tool->camera": T})
+    h.__enter__()
+    plant = Plant(h)
+    plant.start()
+    stopped = False
+    try:
+        with chromium() as browser:
+            pages = []
+            for size in ((1280, 800), (1920, 1080)):
+                page = browser.new_page(viewport={"width": size[0], "height": size[1]})
+                page.goto(h.module.url)
+                page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+                if not pages:
+                    _layout_persists(page)
+                _drive(page, plant, size, tmp_path / f"station-{size[0]}.png")
+                page.click("#release")
+                page.wait_for_function("!window.umbra.state.control")
+                pages.append(page)
+            # the end of the run: the verdict, buttons disabled, no "reconnecting"
+            with plant.lock:
+                plant.extra.append(("world", Status(stage="grasped", message=VERDICT)))
+            for page in pages:
+                page.wait_for_function(
+                    "document.getElementById('line-verdict').textContent.includes('grasped')"
+                )
+            plant.halt.set()
+            plant.join(5)
+            h.__exit__(None, None, None)
+            stopped = True
+            for page in pages:
+                page.wait_for_function("window.umbra.ended", timeout=10000)
+                assert page.inner_text("#conn") == "run ended"
+                assert VERDICT in page.inner_text("#ended")
+                assert page.is_disabled("#take")
+                assert page.is_disabled("#commands button[data-action=abort]")
+            pages[0].screenshot(path=str(tmp_path / "station-ended.png"))
+    finally:
+        plant.halt.set()
+        if not stopped:
+            h.__exit__(None, None, None)
+
+
+def test_active_sketch_is_a_panel_of_the_station_behind_the_same_door() -> None:
+    """With a SketchPage on the console's server, the station offers the Active Sketch panel:
+    the /sketch page in a same-origin frame, which knows this browser as the holder of control
+    taken on the station."""
+    from modules.sketch_page.sketch_page import SketchPage
+    from tests.sketch.test_sketch_page import Stepper as Steppers
+
+    with (
+        ModuleHarness(OperatorConsole, {}) as console,
+        ModuleHarness(SketchPage, {}) as sketch,
+        Steppers(console, sketch) as stepper,
+        chromium() as browser,
+    ):
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(console.module.url)
+        for _ in range(5):
+            stepper.push(console, "image", image())
+        page.wait_for_function("window.umbra.state && window.umbra.state.panels.sketch")
+        assert page.is_hidden("section[data-panel=sketch]")  # narrow screen, a grab to run
+        take_control(page)
+        page.click("#panel-menu summary")
+        page.check("#panel-list input[data-panel=sketch]")
+        frame = page.frame_locator("#sketch-frame")
+        name = page.evaluate("window.umbra.name")
+        holder = frame.locator("#holder")
+        holder.wait_for(timeout=20000)
+        page.wait_for_function(
+            "document.getElementById('sketch-frame').contentDocument"
+            f".getElementById('holder').textContent === {name + ' (you)'!r}",
+            timeout=20000,
+        )
+        # one holder for the browser: the station page stands for it, the framed page follows
+        assert console.module.arbiter.holder == page.evaluate("window.umbra.session")
