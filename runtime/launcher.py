@@ -220,6 +220,7 @@ def run_one(
             plan.spec.cpu_latency_us, name, getattr(args, "cpu_latency_us", None)
         ),
         publish_all=bool(getattr(args, "publish_all", False)),
+        attended=bool(getattr(args, "attended", False)),
     )
     result = run_linked_process(
         plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")
@@ -322,6 +323,8 @@ class Supervisor:
             cmd.append("--unchecked-links")
         if getattr(args, "publish_all", False):
             cmd.append("--publish-all")
+        if getattr(args, "attended", False):
+            cmd.append("--attended")
         if getattr(args, "cpu_latency_us", None) is not None:
             cmd += ["--cpu-latency-us", str(args.cpu_latency_us)]
         if args.quiet:

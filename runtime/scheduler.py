@@ -106,6 +106,16 @@ class SchedulerOptions:
     #: record every output of this process (``runtime.recording.tap``); None:
     #: as the graph's ``record:`` says
     record: Any = None
+    #: a person runs this run (``ModuleContext.attended``): modules read it; the run ends when
+    #: that person stops it, never by ``duration`` (which must then be None)
+    attended: bool = False
+
+    def __post_init__(self) -> None:
+        if self.attended and self.duration is not None:
+            raise UserError(
+                f"an attended run ends when its operator stops it: expected no duration, "
+                f"found {self.duration:g} s"
+            )
 
 
 class Scheduler:
@@ -162,6 +172,7 @@ class Scheduler:
                 log=log,
                 request_stop=self.request_stop,
                 process=mplan.process,
+                attended=self.options.attended,
             )
             module = mplan.cls(name, mplan.params, context)
             module.bind_ports(self.tick_time)

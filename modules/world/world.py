@@ -5,6 +5,10 @@ It knows the truth the controller never sees: the true joint angles (from the si
 calibration error included), hence the true camera pose, and the true pose of the tool's patch on
 its tray. It publishes both for the simulated camera, and when the gripper closes it judges the
 grasp against the truth and ends the run: exit 0 when grasped within tolerance, 1 otherwise.
+Its ``status`` says ``running`` until then and the verdict after, re-sent every
+``status_period_s`` so a page that joins late reads it. In an attended run
+(``ModuleContext.attended``) the verdict is published and logged but the run goes on until the
+person stops it: no end after an assistance request, no timeout.
 
 Frames: ``base`` (robot base), ``flange``, ``tool`` (gripper centre point; the graph's static
 frame ``flange->tool``), ``camera`` (``flange->camera`` through the static frames), ``table``
@@ -60,6 +64,13 @@ class WorldParams(ArmParams):
     )
     timeout_s: float = param(60.0, "end the run as failed when no grasp by then", unit="s", gt=0)
     end_run: bool = param(True, "end the run when the grasp is judged")
+    status_period_s: float = param(
+        1.0,
+        "re-send the status (running, or the verdict) this often, for pages that join late",
+        unit="s",
+        gt=0,
+        le=60,
+    )
     end_after_stop_s: float = param(
         1.5,
         "after an operator-assistance request or a lost vision process, end the run this "
@@ -123,12 +134,15 @@ class SimWorld(Module):
         self._judged = False
         self._stopped_since: float | None = None
         self._stop_reason = ""
+        self._status = Status(stage="running", message="no grasp yet")
+        self._status_due = -np.inf
 
     def step(self, now: float) -> None:
         if self.t0 is None:
             self.t0 = now
         state = self.joint_state.get(now)
         self.patch_pose.send(Pose(matrix=self.T_table_patch, parent="table", child="patch"))
+        self._send_status(now)
         if state is None:
             return
         T_table_flange = self.T_table_base @ self.params.table.fk(state.position)
@@ -146,6 +160,8 @@ class SimWorld(Module):
             self._closing_seen = True
         if self._closing_seen and state.gripper <= 0.0:
             self._judge(now, T_table_flange @ self.T_flange_tool)
+        elif self.context.attended:
+            return  # the person answers requests and decides when to stop
         elif self._servo_stopped(now):
             self._finish(now, False, f"stopped without a grasp: {self._stop_reason}")
         elif now - self.t0 > self.params.timeout_s:
@@ -218,12 +234,23 @@ class SimWorld(Module):
             }
         )
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
-        self.status.send(
-            Status(stage="grasped" if grasped else "missed", message=verdict, values=values)
+        self._status = Status(
+            stage="grasped" if grasped else "missed", message=verdict, values=values
         )
+        self._status_due = -np.inf
+        self._send_status(now)
         self.log.info(verdict)
-        if self.params.end_run:
+        if self.context.attended:
+            self.log.info("attended run: the run goes on until its operator stops it (Ctrl-C)")
+        elif self.params.end_run:
             self.context.request_stop(verdict, 0 if grasped else 1)
+
+    def _send_status(self, now: float) -> None:
+        """The status (running, or the verdict once judged) when due."""
+        if now < self._status_due:
+            return
+        self._status_due = now + self.params.status_period_s
+        self.status.send(self._status)
 
     def summary(self) -> dict[str, object]:
         return dict(self.result)
