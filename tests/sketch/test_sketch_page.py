@@ -26,7 +26,7 @@ from websockets.sync.client import connect
 
 from connectors.sketch_messages import SketchPrimitive, VcrState
 from modules.operator.console import OperatorConsole
-from modules.sketch_page import sketch_page
+from modules.sketch_page import page_web
 from modules.sketch_page.sketch_page import SketchPage
 from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, needs_chromium
@@ -382,7 +382,7 @@ def test_beyond_loopback_the_page_makes_a_token_and_prints_it(
 def test_a_request_step_never_answered_is_dropped_not_sent_late(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr(sketch_page, "REPLY_TIMEOUT_S", 0.3)
+    monkeypatch.setattr(page_web, "REPLY_TIMEOUT_S", 0.3)
     with ModuleHarness(SketchPage, {}) as h:  # nobody steps it
         op = Browser(h.module.url)
         code, reply = op.command("snapshot")
