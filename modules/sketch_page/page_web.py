@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
+import cv2
 from fastapi import Request
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
@@ -51,6 +52,8 @@ class PageWeb:
     _state: Any
     _control_view: Any
     _images: Any
+    _live: dict[str, Any]
+    params: Any
     _pair: Any
     _inbox: Any
     _refused: int
@@ -101,6 +104,23 @@ class PageWeb:
             images[1] if side == "a.jpg" else images[2],
             media_type="image/jpeg",
             headers={"Cache-Control": "no-store"},
+        )
+
+    async def _live_image(self, side: str) -> Response:
+        """``a.jpg`` / ``b.jpg``: the camera's latest live frame, encoded on request (nothing is
+        encoded while no page watches); 404 before the first frame."""
+        live = self._live.get(side.removesuffix(".jpg")) if side.endswith(".jpg") else None
+        frame = live.get()[1] if live is not None else None
+        if frame is None:
+            return Response(status_code=404)
+        quality = [cv2.IMWRITE_JPEG_QUALITY, self.params.jpeg_quality]
+        ok, jpeg = await asyncio.to_thread(cv2.imencode, ".jpg", frame.pixels, quality)
+        if not ok:
+            return Response(status_code=500)
+        return Response(
+            jpeg.tobytes(),
+            media_type="image/jpeg",
+            headers={"Cache-Control": "no-store", "X-Frame-Stamp": f"{frame.stamp:.6f}"},
         )
 
     async def _epipolar(self, request: Request) -> JSONResponse:

@@ -11,7 +11,7 @@ from typing import Any
 import cv2
 
 from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Status, Text
+from connectors.messages import Image, Status, Text
 from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
@@ -73,6 +73,15 @@ class SketchPage(PageControl, PageWeb, Module):
     plan_preview = Input(ToolPath, required=False, doc="plans, passed or refused (Sketch)")
     vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
     sketch_status = Input(Status, required=False, doc="Sketch's reply to each command")
+    verdict = Input(
+        Status,
+        required=False,
+        doc="each macro's verdict, success or miss with the numbers (SketchWorld.verdict)",
+    )
+    live_a = Input(
+        Image, required=False, doc="camera a's live frames (as the PTU slews it to watch)"
+    )
+    live_b = Input(Image, required=False, doc="camera b's live frames")
     command = Output(Text, events=True, doc="the page's commands (to Sketch.console)")
 
     def start(self) -> None:
@@ -83,6 +92,7 @@ class SketchPage(PageControl, PageWeb, Module):
         self._state: Latest[dict[str, Any]] = Latest()
         self._control_view: Latest[dict[str, Any]] = Latest()
         self._images: Latest[tuple[str, bytes, bytes]] = Latest()
+        self._live: dict[str, Latest[Image]] = {"a": Latest(), "b": Latest()}
         #: the snapshot's stereo pair and image b's size, for epipolar curves (web thread)
         self._pair: Latest[tuple[str, StereoPair, tuple[int, int]]] = Latest()
         #: requests by browser: the holder's never wait behind another browser's
@@ -108,6 +118,7 @@ class SketchPage(PageControl, PageWeb, Module):
         app.add_api_route("/sketch/sketch.js", self._script, methods=["GET"])
         app.add_api_route("/sketch/state", self._get_state, methods=["GET"])
         app.add_api_route("/sketch/image/{side}", self._image, methods=["GET"])
+        app.add_api_route("/sketch/live/{side}", self._live_image, methods=["GET"])
         app.add_api_route("/sketch/epipolar", self._epipolar, methods=["GET"])
         app.add_api_route("/sketch/command", self._post_command, methods=["POST"])
         app.add_api_route("/sketch/control", self._post_control, methods=["POST"])
@@ -147,7 +158,7 @@ class SketchPage(PageControl, PageWeb, Module):
         if prim is not None and self.primitive.fresh:
             self._primitives.append(prim)
             changed = True
-        for port in (self.plan_preview, self.sketch_status):
+        for port in (self.plan_preview, self.sketch_status, self.verdict):
             if port.get(now) is not None and port.fresh:
                 changed = True
         vcr = self.vcr_state.get(now)
@@ -163,8 +174,13 @@ class SketchPage(PageControl, PageWeb, Module):
                     self.plan_preview.get(now),
                     self.vcr_state.get(now),
                     self.sketch_status.get(now),
+                    self.verdict.get(now),
                 )
             )
+        for side, port in (("a", self.live_a), ("b", self.live_b)):
+            frame = port.get(now)
+            if frame is not None and port.fresh:
+                self._live[side].put(frame)  # encoded only when a page asks (web thread)
         wall = time.monotonic()
         seen = self._sync_sessions(wall)
         for request in self._inbox.drain():
