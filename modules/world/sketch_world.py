@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, param
-from connectors.messages import JointState, Status
+from connectors.messages import JointState, Poses, Status
 from connectors.sketch_messages import SceneObjects, ToolPath, VcrState
 from modules.arm.arm_params import ArmParams
+from modules.arm.arm_solids import arm_frames
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
 from modules.world.scene_objects import SketchScene
 from modules.world.sketch_judge import SketchJudge
@@ -54,6 +55,12 @@ class SketchWorld(Module):
     )
     objects = Output(SceneObjects, measured=True, doc="the true solids of the scene")
     status = Output(Status, measured=True, doc="the measures of the macro being played")
+    arm_poses = Output(
+        Poses,
+        frame="base",
+        measured=True,
+        doc="TRUE T_base_link of the arm's links, tool and fingers, for the cameras to draw it",
+    )
     verdict = Output(
         Status,
         events=True,
@@ -79,6 +86,7 @@ class SketchWorld(Module):
         self._path_id = ""
         self._judged = True  #: the current macro has had its verdict (none before a path)
         self._macro_verdicts: list[dict[str, object]] = []
+        self._arm: tuple[np.ndarray, float, float] | None = None  #: true q, gripper, stamp
 
     def step(self, now: float) -> None:
         if self._started is None:
@@ -91,6 +99,7 @@ class SketchWorld(Module):
         if state is not None and self.joint_state.fresh:
             T = self.table.fk(np.asarray(state.position, dtype=float), self.T_flange_tool)
             self.judge.update(T, float(state.gripper))
+            self._arm = (state.position, float(state.gripper), state.stamp)
         self._maybe_judge(now)
         if now >= self._next_objects:
             self._next_objects = now + 1.0 / self.params.objects_rate_hz
@@ -99,6 +108,12 @@ class SketchWorld(Module):
                 self.judge.scene.message(values={"door_angle": self.judge.scene.door.angle})
             )
             self._report(now, v)
+            if self._arm is not None:  # at the objects' rate: what the cameras draw
+                q, gripper, stamp = self._arm
+                matrices, children = arm_frames(self.table, q, self.T_flange_tool, gripper)
+                self.arm_poses.send(
+                    Poses(matrices=matrices, children=children, frame="base", stamp=stamp)
+                )
         self._maybe_end(now)
 
     def _report(self, now: float, v) -> None:

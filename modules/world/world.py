@@ -22,8 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, UserError, param
-from connectors.messages import JointState, Pose, Status
+from connectors.messages import JointState, Pose, Poses, Status
 from modules.arm.arm_params import ArmParams
+from modules.arm.arm_solids import arm_frames
 from modules.world.grasp import grasp_error
 
 
@@ -112,6 +113,13 @@ class SimWorld(Module):
     status = Output(
         Status, measured=True, doc="world state: running, grasped or missed, with errors"
     )
+    arm_poses = Output(
+        Poses,
+        frame="table",
+        measured=True,
+        doc="TRUE T_table_link of the arm's links, tool and fingers (by the gripper's opening), "
+        "for the simulated camera to draw the arm",
+    )
 
     def start(self) -> None:
         p = self.params
@@ -146,6 +154,12 @@ class SimWorld(Module):
         if state is None:
             return
         T_table_flange = self.T_table_base @ self.params.table.fk(state.position)
+        matrices, children = arm_frames(
+            self.params.table, state.position, self.T_flange_tool, state.gripper, self.T_table_base
+        )
+        self.arm_poses.send(
+            Poses(matrices=matrices, children=children, frame="table", stamp=state.stamp)
+        )
         self.camera_pose.send(
             Pose(
                 matrix=T_table_flange @ self.T_flange_camera,
