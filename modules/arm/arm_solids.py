@@ -32,7 +32,7 @@ WRIST_SIZE_M = (0.08, 0.08, 0.05)
 #: a finger: across (tool x), thickness (tool y), length (tool z, ending at the tool point) [m]
 FINGER_SIZE_M = (0.014, 0.01, 0.07)
 #: the gap between the fingers' inner faces, closed and fully open [m]
-FINGER_GAP_M = (0.0, 0.08)
+FINGER_GAP_M = (0.0, 0.1)
 FINGERS = ("finger_a", "finger_b")
 
 

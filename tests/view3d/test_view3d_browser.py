@@ -22,7 +22,7 @@ from modules.view3d.geometry import (
     viewer_pose_looking_at,
 )
 from modules.view3d.view3d import View3D
-from modules.view3d.viewer import FRUSTUM_SCALES
+from modules.view3d.viewer_video import FRUSTUM_SCALES
 from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (
     block_outside_loopback,

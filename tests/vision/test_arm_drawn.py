@@ -17,7 +17,9 @@ from modules.vision.sketch_render import render_scene
 from modules.world.scene_objects import SketchScene
 from runtime.harness import ModuleHarness
 
-K = np.array([[600.0, 0.0, 320.0], [0.0, 600.0, 240.0], [0.0, 0.0, 1.0]])
+#: the shipped pick-up's 720p wrist camera (graphs/tool_pickup.yaml)
+W, H = 1280, 720
+K = np.array([[800.0, 0.0, 640.0], [0.0, 800.0, 360.0], [0.0, 0.0, 1.0]])
 #: the wrist camera 0.22 m above the patch, looking down; the tool point 0.12 m in front of it
 T_WORLD_CAMERA = camera_looking_down((0.0, 0.0, 0.03), 0.22)
 T_CAMERA_TOOL = np.eye(4)
@@ -36,7 +38,7 @@ def _fingers(T_world_tool: np.ndarray, opening: float = 1.0) -> Poses:
 
 def _projected_area(poses: Poses) -> tuple[np.ndarray, int]:
     """A mask of the pixels the finger boxes cover (their projected convex hulls) and its area."""
-    mask = np.zeros((480, 640), np.uint8)
+    mask = np.zeros((H, W), np.uint8)
     T_camera_world = np.linalg.inv(T_WORLD_CAMERA)
     for T, size in arm_boxes(poses.matrices, tuple(poses.children)):
         corners = box_corners(T, size) @ T_camera_world[:3, :3].T + T_camera_world[:3, 3]
@@ -47,7 +49,7 @@ def _projected_area(poses: Poses) -> tuple[np.ndarray, int]:
 
 
 def _frames(arm: Poses | None) -> tuple[np.ndarray, object]:
-    model = CameraModel(fx=600.0, fy=600.0, u0=320.0, v0=240.0, width=640, height=480)
+    model = CameraModel(fx=800.0, fy=800.0, u0=640.0, v0=360.0, width=W, height=H)
     with ModuleHarness(DigiCam, {"background": "flat", "noise_sigma": 0.0}) as h:
         h.push("camera_model", model)
         h.push("camera_pose", Pose(matrix=T_WORLD_CAMERA, parent="world", child="camera"))
@@ -63,14 +65,14 @@ def test_the_wrist_camera_draws_the_fingers_where_they_project() -> None:
     drawn, truth = _frames(arm)
     changed = np.any(drawn.astype(int) != bare, axis=2)
     mask, area = _projected_area(arm)
-    assert area > 2000  # two fingers at the image's top and bottom borders
+    assert area > 3000  # two fingers open wide: short strips at the top and bottom borders
     # the changed pixels are the projected fingers: overlap (IoU) within the edges' half pixel
     inter = np.count_nonzero(changed & (mask > 0))
     union = np.count_nonzero(changed | (mask > 0))
     assert inter / union > 0.95, (inter, union, area)
     rows = np.nonzero(changed.any(axis=1))[0]
-    assert rows.min() == 0 and rows.max() == 479  # from each border inwards
-    assert np.all((rows < 140) | (rows > 340))  # never over the middle, where the patch is
+    assert rows.min() == 0 and rows.max() == H - 1  # from each border inwards
+    assert np.all((rows < 40) | (rows > H - 40))  # a strip at the border, the patch far from it
     # dark grey fingers over the brown table
     assert drawn[changed].mean() < 75 and bare[changed].mean() > 80
     # the patch is untouched, and so is its ground truth
@@ -86,12 +88,12 @@ def test_closing_fingers_move_inwards() -> None:
     bare, _ = _frames(None)
     changed = np.any(half.astype(int) != bare, axis=2)
     assert np.count_nonzero(changed & (half_mask > 0)) / max(np.count_nonzero(changed), 1) > 0.95
-    assert not half_mask[240, 320] and not changed[240, 320]  # a gap between the fingers
+    assert not half_mask[360, 640] and not changed[360, 640]  # a gap between the fingers
 
     def edges(mask: np.ndarray) -> tuple[int, int]:
         """Inner edges of the top and bottom fingers on the centre column (rows)."""
-        rows = np.nonzero(mask[:, 320])[0]
-        return int(rows[rows < 240].max()), int(rows[rows > 240].min())
+        rows = np.nonzero(mask[:, 640])[0]
+        return int(rows[rows < 360].max()), int(rows[rows > 360].min())
 
     (top_open, bottom_open), (top_half, bottom_half) = edges(open_mask), edges(half_mask)
     assert top_half > top_open + 20 and bottom_half < bottom_open - 20  # nearer the middle
@@ -125,6 +127,7 @@ def test_the_sketch_cameras_draw_the_links_where_they_project() -> None:
     T_base_camera[:3, :3] = np.column_stack([x, np.cross(z, x), z])
     T_base_camera[:3, 3] = eye
     boxes = arm_in(arm, np.eye(4))
+    K = np.array([[600.0, 0.0, 320.0], [0.0, 600.0, 240.0], [0.0, 0.0, 1.0]])
     bare = render_scene(objects, K, T_base_camera, 640, 480)
     drawn = render_scene(with_arm(objects, boxes), K, T_base_camera, 640, 480)
     T_camera_base = np.linalg.inv(T_base_camera)
