@@ -24,6 +24,8 @@ FloatArray = NDArray[np.float64]
 #: the arm's links and the fingers (RGB): a light and a dark grey, unlike the patch and table
 ARM_RGB: RGB = (175, 178, 185)
 FINGER_RGB: RGB = (60, 62, 70)
+#: a box no nearer than this in front of the lens is not drawn [m]
+NEAR_M = 1e-3
 #: faces of a box: corner indices (of :func:`box_corners`) and the outward axis (+-1, axis)
 _FACES = (
     ((0, 1, 3, 2), (-1, 0)),
@@ -51,10 +53,13 @@ def arm_occluders(
     boxes: list[tuple[FloatArray, FloatArray, RGB]], T_world_camera: FloatArray
 ) -> tuple[Occluder, ...]:
     """The faces of ``boxes`` that face the camera, farthest first, as world occluders."""
-    eye = np.asarray(T_world_camera, dtype=float)[:3, 3]
+    T_world_camera = np.asarray(T_world_camera, dtype=float)
+    eye, forward = T_world_camera[:3, 3], T_world_camera[:3, 2]
     faces: list[tuple[float, Occluder]] = []
     for T, size, rgb in boxes:
         corners = box_corners(T, size)
+        if np.all((corners - eye) @ forward <= NEAR_M):
+            continue  # wholly behind the lens (the forearm, seen from the wrist)
         for index, (sign, axis) in _FACES:
             normal = sign * T[:3, axis]
             quad = corners[list(index)]

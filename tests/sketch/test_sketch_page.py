@@ -371,6 +371,7 @@ def test_every_route_of_the_page_needs_the_token(tmp_path: Path) -> None:
             ("GET", "/sketch/sketch.js"),
             ("GET", "/sketch/state"),
             ("GET", "/sketch/image/a.jpg"),
+            ("GET", "/sketch/live/a.jpg"),
             ("POST", "/sketch/command"),
             ("POST", "/sketch/control"),
         ]
