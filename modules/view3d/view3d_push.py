@@ -21,6 +21,7 @@ from modules.view3d.geometry import (
     frustum_from_model,
 )
 from modules.view3d.scene_file import save_scene
+from modules.view3d.viewer_video import FRUSTUM_SCALES
 
 CAMERAS = ("wrist", "left", "right")
 
@@ -163,7 +164,7 @@ class ViewPush:
                     self._shown[f"{camera}_image"] = image
                     pixels = np.asarray(image.pixels)
                 self.page.set_camera(camera, frustum, pixels)
-                self.page.label(f"camera {camera}", camera, frustum.T_world_camera)
+                self.page.label(f"camera {camera}", camera, label_under(frustum, camera))
 
     @contextlib.contextmanager
     def _part(self, what: str) -> Iterator[None]:
@@ -276,3 +277,14 @@ def stage_line(status: Status) -> str:
     if status.assist and status.reason:
         line += f" (asks the operator: {status.reason})"
     return line
+
+
+def label_under(frustum: Frustum, camera: str) -> np.ndarray:
+    """Where a camera's name goes: a quarter of the image's height under its drawn image, so
+    that it never covers the video (T_world_label, m)."""
+    w, h = frustum.width, frustum.height
+    depth = frustum.image_depth(FRUSTUM_SCALES.get(camera, 0.15))
+    at = frustum.points_from_pixels(np.array([[w / 2, 1.25 * h]]), depth)[0]
+    T = np.eye(4)
+    T[:3, 3] = at
+    return T

@@ -259,8 +259,15 @@ def test_only_fed_cameras_are_offered_frames_are_named_and_the_stage_is_shown(
         assert text == "table" and np.allclose(at, [0, 0, 0.25])
         T_tool = h.module.params.table.fk(q) @ frames["flange->tool"]
         assert np.allclose(page.labels["tool"][1], T_tool[:3, 3])
-        assert np.allclose(page.labels["camera left"][1], T_left[:3, 3])
-        assert page.labels["camera left"][0] == "left"
+        # the camera's name under its drawn image, never over the video: in the camera frame
+        # (z forward, y down) in front of the lens, below the image's bottom edge
+        text, at = page.labels["camera left"]
+        in_camera = np.linalg.inv(T_left) @ np.append(at, 1.0)
+        frustum = page.cameras["left"].frustum
+        depth = frustum.image_depth(0.15)
+        half_height = depth * np.tan(frustum.fov_y / 2)
+        assert text == "left" and in_camera[2] == pytest.approx(depth)
+        assert in_camera[1] == pytest.approx(1.5 * half_height) and abs(in_camera[0]) < 1e-9
         # the task's state line, with why it stopped
         line = "assist: halted (asks the operator: snake failure: featureless)"
         assert stage_line(status) == line
