@@ -156,9 +156,8 @@ def main() -> None:
         for name, r in results.items()
     ]
     print(table(rows, header))
-    print(
-        f"results: {write_results('arm_render', {'frames': frames, 'rows': results}, quick=args.quick)}"
-    )
+    path = write_results("arm_render", {"frames": frames, "rows": results}, quick=args.quick)
+    print(f"results: {path}")
 
 
 if __name__ == "__main__":
