@@ -140,9 +140,14 @@ def _marker_on_preview(page, path: dict, at_start: bool = False) -> None:
         f"window.sketch.state.vcr && window.sketch.state.vcr.path === {json.dumps(path['id'])}",
         timeout=10000,
     )
-    marker = page.locator("[data-testid=marker-a]")
-    marker.wait_for(timeout=5000)
-    at = np.array([float(marker.get_attribute("cx")), float(marker.get_attribute("cy"))])
+    page.locator("[data-testid=marker-a]").wait_for(timeout=5000)
+    # both coordinates of one drawing (the page redraws the marker as the arm moves)
+    at = np.array(
+        page.evaluate(
+            "(() => { const m = document.querySelector('[data-testid=marker-a]');"
+            " return [m.cx.baseVal.value, m.cy.baseVal.value]; })()"
+        )
+    )
     preview = np.array(path["preview_a"])
     from_start = float(np.linalg.norm(at - preview[0]))
     assert (from_start < 1.0) if at_start else (from_start > 2.0), (at, preview[0])
