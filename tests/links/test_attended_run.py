@@ -49,7 +49,7 @@ def test_attended_split_run_waits_for_its_operator_then_ctrl_c_ends_it(
     operator = _module(umbra_side, "operator")
     assert operator["attended"] is True and operator["clicked_after_s"] is None
     smart = json.loads((out / "summary-smart.json").read_text())
-    assert smart["wall_time_s"] > 4 * DURATION_S
+    assert smart["wall_time_s"] > 2 * DURATION_S  # the servo side ran well past its duration
     assert _module(smart, "world")["verdict"] == "no grasp attempted"
     # the world's status (running, later the verdict) reaches the page's process every second
     ui = json.loads((out / "summary-ui.json").read_text())
