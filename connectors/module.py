@@ -45,6 +45,8 @@ class ModuleContext:
     sim run is reproducible. ``clock``: "sim" or "real". ``request_stop(reason, exit_code)`` ends
     the run after the current tick (a simulated world that judged the grasp, a file that ended).
     Whether an input's producer (in another process) is alive: ``self.<input>.link_alive``.
+    ``attended``: a person runs this run (``umbra run --attended``): simulated operators stay
+    off, and judges publish their verdict but leave ending the run to the person (Ctrl-C).
     """
 
     graph: str = "graph"
@@ -55,6 +57,7 @@ class ModuleContext:
     log: logging.Logger = field(default_factory=lambda: logging.getLogger("umbra"))
     request_stop: Callable[[str, int], None] = field(default=lambda reason, code: None)
     process: str = "main"
+    attended: bool = False
 
 
 class Module:

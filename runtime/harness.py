@@ -44,6 +44,7 @@ class ModuleHarness:
         seed: int = 0,
         output_dir: str | Path | None = None,
         registry: Registry | None = None,
+        attended: bool = False,
     ) -> None:
         cls = (
             (registry or Registry()).require(module_type)
@@ -73,6 +74,7 @@ class ModuleHarness:
             rng=np.random.default_rng(seed),
             clock="sim",
             request_stop=self._request_stop,
+            attended=attended,
         )
         self.module = cls(name, validated, context)
         self.module.bind_ports(self.clock.now)

@@ -176,6 +176,8 @@ class Supervisor:
             cmd.append("--unchecked-links")
         if getattr(args, "publish_all", False):
             cmd.append("--publish-all")
+        if getattr(args, "attended", False):
+            cmd.append("--attended")
         if getattr(args, "cpu_latency_us", None) is not None:
             cmd += ["--cpu-latency-us", str(args.cpu_latency_us)]
         if args.quiet:

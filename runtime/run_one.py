@@ -105,6 +105,7 @@ def run_one(
             plan.spec.cpu_latency_us, name, getattr(args, "cpu_latency_us", None)
         ),
         publish_all=bool(getattr(args, "publish_all", False)),
+        attended=bool(getattr(args, "attended", False)),
     )
     result = run_linked_process(
         plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from connectors.errors import UserError
+
 #: Exit status of a run stopped by Ctrl-C or a signal.
 INTERRUPTED = 130
 
@@ -37,3 +39,13 @@ class SchedulerOptions:
     #: record every output of this process (``runtime.recording.tap``); None:
     #: as the graph's ``record:`` says
     record: Any = None
+    #: a person runs this run (``ModuleContext.attended``): modules read it; the run ends when
+    #: that person stops it, never by ``duration`` (which must then be None)
+    attended: bool = False
+
+    def __post_init__(self) -> None:
+        if self.attended and self.duration is not None:
+            raise UserError(
+                f"an attended run ends when its operator stops it: expected no duration, "
+                f"found {self.duration:g} s"
+            )

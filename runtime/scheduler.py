@@ -108,6 +108,7 @@ class Scheduler:
                 log=log,
                 request_stop=self.request_stop,
                 process=mplan.process,
+                attended=self.options.attended,
             )
             module = mplan.cls(name, mplan.params, context)
             module.bind_ports(self.tick_time)

@@ -45,6 +45,12 @@ MENU: dict[str, list[tuple[str, str]]] = {
     "triad": [("make_box", "keep the box as scene geometry (no motion)")],
 }
 
+
+def macro_label(macro: str) -> str:
+    """The macro's name for a person ("grab_pipe" -> "Grab pipe")."""
+    return macro.replace("_", " ").capitalize()
+
+
 #: the options each macro takes: name -> (lowest, highest) accepted value (m, deg or 1)
 OPTIONS: dict[str, dict[str, tuple[float, float]]] = {
     "move_to": {"standoff": (0.0, 0.5)},

@@ -83,7 +83,8 @@ class SketchOperatorSim(Module):
     ``wait S`` (seconds), ``settle`` (until both PTUs stop, then ``settle_s``), ``wait_vcr MODE``
     (until the player reports MODE; a halt on the way is met as an operator would: after
     ``resume_after_halt_s`` it presses play, or back, again). A command the Sketch module refuses
-    ends the run (exit 1).
+    ends the run (exit 1). In an attended run (``ModuleContext.attended``) it plays nothing: the
+    person at the page is the operator.
     """
 
     TYPE = "SketchOperatorSim"
@@ -125,8 +126,12 @@ class SketchOperatorSim(Module):
         self._halted_since: float | None = None
         self._direction = "play"
         self._resumes = 0
+        if self.context.attended:
+            self.log.info("attended run: the scripted operator stays off (a person sketches)")
 
     def step(self, now: float) -> None:
+        if self.context.attended:
+            return
         reply = self.sketch_status.get(now)
         if self._waiting_reply:
             if reply is None or not self.sketch_status.fresh:
@@ -230,5 +235,9 @@ class SketchOperatorSim(Module):
             f"{fmt(f'{u:.3f},{v:.3f}' for u, v in b)}"
         )
 
-    def summary(self) -> dict[str, int]:
-        return {"steps_done": self._index, "resumes_after_halt": self._resumes}
+    def summary(self) -> dict[str, object]:
+        return {
+            "steps_done": self._index,
+            "resumes_after_halt": self._resumes,
+            "attended": self.context.attended,
+        }

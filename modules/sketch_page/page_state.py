@@ -6,7 +6,8 @@ epipolar curve of a vertex, distortion included, comes from ``/sketch/epipolar``
 :meth:`modules.sketch.stereo.StereoPair.epipolar_curve_b`), each image's size, the camera
 matrices for the test tools, every primitive with its vertices reprojected from 3-D, its
 centroid (m, base: where the cameras aim) and largest sigma (mm), the macro menu of each kind of
-primitive, and the planned tool path projected into both images.
+primitive, and the planned tool path projected into both images, and the last macro's verdict
+(success or miss, with the numbers).
 """
 
 from __future__ import annotations
@@ -18,12 +19,17 @@ import numpy as np
 from connectors.messages import Status
 from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.geometry.rays import fundamental_matrix
-from modules.sketch.macros import MENU, menu_for
+from modules.sketch.macros import MENU, macro_label, menu_for
 from modules.sketch.stereo import StereoPair
 
 
 def _r(values: Any, digits: int = 3) -> Any:
     return np.round(np.asarray(values, dtype=float), digits).tolist()
+
+
+def _menu(items: list[tuple[str, str]]) -> list[list[str]]:
+    """Menu entries as ``[macro, what it does, its label for a person]``."""
+    return [[name, help_text, macro_label(name)] for name, help_text in items]
 
 
 def page_state(
@@ -32,16 +38,18 @@ def page_state(
     path: ToolPath | None,
     vcr: VcrState | None,
     status: Status | None,
+    verdict: Status | None = None,
 ) -> dict[str, Any]:
     """The page's JSON state (see module docstring)."""
     state: dict[str, Any] = {
         "snapshot": None,
         "primitives": [],
-        "menu": [list(m) for m in menu_for(None)],
-        "menus": {kind: [list(m) for m in items] for kind, items in MENU.items()},
+        "menu": _menu(menu_for(None)),
+        "menus": {kind: _menu(items) for kind, items in MENU.items()},
         "path": None,
         "vcr": None,
         "status": None,
+        "verdict": None,
     }
     pair = None
     if snapshot is not None:
@@ -74,11 +82,12 @@ def page_state(
             entry["reprojected_b"] = _r(pair.project("b", prim.points))
         state["primitives"].append(entry)
     if current:
-        state["menu"] = [list(m) for m in menu_for(current[-1])]
+        state["menu"] = _menu(menu_for(current[-1]))
     if path is not None:
         entry = {
             "id": path.path_id,
             "macro": path.macro,
+            "label": macro_label(path.macro),
             "ok": bool(path.ok),
             "reason": path.reason,
             "duration_s": float(path.checks.get("duration", 0.0)),
@@ -87,6 +96,8 @@ def page_state(
             points = np.asarray(path.T_base_tool)[:, :3, 3]
             entry["preview_a"] = _r(pair.project("a", points), 1)
             entry["preview_b"] = _r(pair.project("b", points), 1)
+            s_end = float(path.s[-1]) if len(path.s) and path.s[-1] > 0 else 1.0
+            entry["preview_s"] = _r(np.asarray(path.s, dtype=float) / s_end, 4)
         state["path"] = entry
     if vcr is not None:
         state["vcr"] = {
@@ -99,4 +110,11 @@ def page_state(
         }
     if status is not None:
         state["status"] = {"stage": status.stage, "message": status.message}
+    if verdict is not None:
+        state["verdict"] = {
+            "macro": verdict.stage,
+            "label": macro_label(verdict.stage),
+            "text": verdict.message,
+            "success": bool(verdict.values.get("success", 0.0)),
+        }
     return state

@@ -2,61 +2,28 @@
 
 from __future__ import annotations
 
-import asyncio
-import concurrent.futures
 import itertools
-import json
 import math
-import secrets
 import threading
 import time
-from dataclasses import dataclass
-from importlib import resources
 from typing import Any
 
 import cv2
-from fastapi import Request
-from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from connectors import Input, Module, Output, Parameters, param
-from connectors.limits import MAX_PAGE_CONNECTIONS
-from connectors.messages import Status, Text
+from connectors.messages import Image, Status, Text
 from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
-from modules.operator.control import Decision
 from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
-from modules.sketch.command_text import parse
 from modules.sketch.stereo import StereoPair
+from modules.sketch_page.page_control import PageControl
 from modules.sketch_page.page_state import page_state
+from modules.sketch_page.page_web import PageRequest, PageWeb
 from modules.webdoor.gate import Refusals
 from modules.webdoor.secret import resolve_token
-from modules.webdoor.viewer import VIEWER_SCOPE
-
-MAX_COMMAND_CHARS = 2000
-#: the web side waits at most this long for ``step`` to decide on a request [s]
-REPLY_TIMEOUT_S = 5.0
-#: VCR actions that set the path moving (a page that then goes silent pauses it)
-_MOVING = ("play", "back", "resume", "seek")
 
 
-def _static(name: str) -> str:
-    return resources.files("modules.sketch_page").joinpath("static", name).read_text("utf-8")
-
-
-@dataclass(frozen=True)
-class _Request:
-    """From the web thread to ``step``: a checked command (``kind`` "command", its ``text``)
-    or a control request ("take" / "release"), the browser it came from (viewer key, "" none)
-    and its address, and where ``step`` puts its :class:`Decision`."""
-
-    viewer: str
-    host: str
-    kind: str
-    text: str
-    reply: concurrent.futures.Future
-
-
-class SketchPage(Module):
+class SketchPage(PageControl, PageWeb, Module):
     """The operator's Active Sketch page on the console's web server (``/sketch``).
 
     Shows the last snapshot pair side by side with SVG overlays: primitives dropped in both
@@ -106,6 +73,15 @@ class SketchPage(Module):
     plan_preview = Input(ToolPath, required=False, doc="plans, passed or refused (Sketch)")
     vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
     sketch_status = Input(Status, required=False, doc="Sketch's reply to each command")
+    verdict = Input(
+        Status,
+        required=False,
+        doc="each macro's verdict, success or miss with the numbers (SketchWorld.verdict)",
+    )
+    live_a = Input(
+        Image, required=False, doc="camera a's live frames (as the PTU slews it to watch)"
+    )
+    live_b = Input(Image, required=False, doc="camera b's live frames")
     command = Output(Text, events=True, doc="the page's commands (to Sketch.console)")
 
     def start(self) -> None:
@@ -116,10 +92,11 @@ class SketchPage(Module):
         self._state: Latest[dict[str, Any]] = Latest()
         self._control_view: Latest[dict[str, Any]] = Latest()
         self._images: Latest[tuple[str, bytes, bytes]] = Latest()
+        self._live: dict[str, Latest[Image]] = {"a": Latest(), "b": Latest()}
         #: the snapshot's stereo pair and image b's size, for epipolar curves (web thread)
         self._pair: Latest[tuple[str, StereoPair, tuple[int, int]]] = Latest()
         #: requests by browser: the holder's never wait behind another browser's
-        self._inbox: Lanes[_Request] = Lanes(per_session=4, budget=16, holder_capacity=64)
+        self._inbox: Lanes[PageRequest] = Lanes(per_session=4, budget=16, holder_capacity=64)
         self._primitives: list[SketchPrimitive] = []
         self._vcr_key: tuple | None = None
         self._control_key: tuple | None = None
@@ -141,6 +118,7 @@ class SketchPage(Module):
         app.add_api_route("/sketch/sketch.js", self._script, methods=["GET"])
         app.add_api_route("/sketch/state", self._get_state, methods=["GET"])
         app.add_api_route("/sketch/image/{side}", self._image, methods=["GET"])
+        app.add_api_route("/sketch/live/{side}", self._live_image, methods=["GET"])
         app.add_api_route("/sketch/epipolar", self._epipolar, methods=["GET"])
         app.add_api_route("/sketch/command", self._post_command, methods=["POST"])
         app.add_api_route("/sketch/control", self._post_control, methods=["POST"])
@@ -180,7 +158,7 @@ class SketchPage(Module):
         if prim is not None and self.primitive.fresh:
             self._primitives.append(prim)
             changed = True
-        for port in (self.plan_preview, self.sketch_status):
+        for port in (self.plan_preview, self.sketch_status, self.verdict):
             if port.get(now) is not None and port.fresh:
                 changed = True
         vcr = self.vcr_state.get(now)
@@ -196,8 +174,13 @@ class SketchPage(Module):
                     self.plan_preview.get(now),
                     self.vcr_state.get(now),
                     self.sketch_status.get(now),
+                    self.verdict.get(now),
                 )
             )
+        for side, port in (("a", self.live_a), ("b", self.live_b)):
+            frame = port.get(now)
+            if frame is not None and port.fresh:
+                self._live[side].put(frame)  # encoded only when a page asks (web thread)
         wall = time.monotonic()
         seen = self._sync_sessions(wall)
         for request in self._inbox.drain():
@@ -208,234 +191,11 @@ class SketchPage(Module):
         self._publish_control()
         self._watch_page(vcr, seen, wall)
 
-    # -- control (step) -----------------------------------------------------------------------
-    def _sync_sessions(self, wall: float) -> dict[str, float]:
-        """Join the browsers whose pages poll, let go of those silent for ``lost_after``;
-        returns each seen browser's last contact (monotonic s)."""
-        with self._seen_lock:
-            seen = dict(self._seen)
-        gone = []
-        for viewer, (last, host) in seen.items():
-            if wall - last <= self.params.lost_after:
-                self._session(viewer, host)
-                continue
-            gone.append(viewer)
-            if viewer in self._sessions:
-                self._leave(viewer, wall - last)
-        with self._seen_lock:  # forget them, unless they came back meanwhile
-            for viewer in gone:
-                if self._seen.get(viewer) == seen[viewer]:
-                    del self._seen[viewer]
-        return {viewer: last for viewer, (last, _) in seen.items()}
-
-    def _session(self, viewer: str, host: str) -> str:
-        """The browser's session in the control table (joined on its first contact)."""
-        session = self._sessions.get(viewer)
-        if session is None:
-            session = f"sketch-{secrets.token_hex(4)}"
-            name = self._control.name_in(viewer) or f"sketch viewer {next(self._numbers)} ({host})"
-            self._control.join(session, name, viewer, lead=False)  # told by browser
-            self._sessions[viewer] = session
-            self.log.info("%s opened the Active Sketch page", name)
-        return session
-
-    def _leave(self, viewer: str, silent: float) -> None:
-        session = self._sessions.pop(viewer)
-        name = self._control.sessions.get(session, session)
-        freed = self._control.leave(session)
-        self.log.info(
-            "%s: no poll of the Active Sketch page for %.1f s: gone%s",
-            name,
-            silent,
-            "; control is free" if freed else "",
-        )
-
-    def _refuse(self, name: str, message: str) -> Decision:
-        self._control_refused += 1
-        self.log.warning("SketchPage %s: %s: %s", self.name, name, message)
-        return Decision(False, message)
-
-    def _decide(self, request: _Request, wall: float) -> Decision:
-        """Take / release control, or send a command if the request's browser holds control."""
-        if not request.viewer:
-            return self._refuse(
-                f"a client at {request.host}",
-                "refused: the request carried no viewer cookie: open the page /sketch in a "
-                "browser (its requests carry the cookie the server gave it)",
-            )
-        session = self._session(request.viewer, request.host)
-        name = self._control.sessions[session]
-        if request.kind in ("take", "release"):
-            take = request.kind == "take"
-            decision = self._control.take(session) if take else self._control.release(session)
-            if not decision.ok:
-                return self._refuse(name, decision.message)
-            self.log.info("SketchPage %s: %s", self.name, decision.message)
-            return decision
-        cmd = parse(request.text)
-        words = request.text.split()
-        what = " ".join(words[:2]) if cmd.verb in ("vcr", "plan") else words[0]
-        decision = self._control.may_command(session, what)
-        if not decision.ok:
-            return self._refuse(name, decision.message)
-        if cmd.verb == "vcr" and cmd.action != "speed":
-            self._driver = request.viewer if cmd.action in _MOVING else None
-        self.command.send(Text(text=request.text, origin=self._command_origin()))
-        self._sent += 1
-        return Decision(True, f"sent {what}")
-
-    def _publish_control(self) -> None:
-        """Who holds control, each browser's name, the refusals (for the web thread; the
-        browser keys never leave the server)."""
-        c = self._control
-        names = {v: c.sessions.get(s, "") for v, s in self._sessions.items()}
-        refused = self._refused + self._control_refused
-        key = (c.holder_name(), c.holder_browser(), refused, tuple(sorted(names.items())))
-        if key != self._control_key:
-            self._control_key = key
-            self._control_view.put(
-                {"holder": key[0], "holder_browser": key[1], "refused": refused, "names": names}
-            )
-
-    def _watch_page(self, vcr: VcrState | None, seen: dict[str, float], wall: float) -> None:
-        """Pause a path set moving from this page once that browser's page has not polled
-        for ``lost_after``."""
-        if self._driver is None:
-            return
-        silent = wall - seen.get(self._driver, -math.inf)
-        moving = vcr is not None and vcr.mode in ("playing", "backing", "seeking", "gripping")
-        if moving and silent > self.params.lost_after:
-            self._driver = None
-            self._lost += 1
-            self.log.warning(
-                "SketchPage %s: the page that set %s moving has not polled for %.1f s while "
-                "it was %s: pausing it",
-                self.name,
-                vcr.path_id,
-                silent,
-                vcr.mode,
-            )
-            self.command.send(Text(text="vcr pause", origin=self._command_origin()))
-
     def stop(self) -> None:
         for session in self._sessions.values():
             self._control.leave(session)
         self._sessions.clear()
         release_server(self._server)
-
-    # -- web thread ---------------------------------------------------------------------------
-    def _saw(self, request: Request) -> str:
-        """The request's viewer key ("" none); its browser's page is alive."""
-        viewer = str(request.scope.get(VIEWER_SCOPE, ""))
-        if viewer:
-            host = request.client.host if request.client else "?"
-            with self._seen_lock:
-                if viewer not in self._seen and len(self._seen) >= MAX_PAGE_CONNECTIONS:
-                    return ""  # as many browsers as the server has connections: no more
-                self._seen[viewer] = (time.monotonic(), host)
-        return viewer
-
-    async def _page(self) -> HTMLResponse:
-        return HTMLResponse(_static("sketch.html"), headers={"cache-control": "no-store"})
-
-    async def _script(self) -> Response:
-        return Response(_static("sketch.js"), media_type="text/javascript")
-
-    async def _get_state(self, request: Request) -> JSONResponse:
-        viewer = self._saw(request)
-        version, state = self._state.get()
-        _, control = self._control_view.get()
-        control = control or {}
-        mine = bool(viewer) and viewer == control.get("holder_browser")
-        return JSONResponse(
-            {
-                "version": version,
-                **(state or {}),
-                "control": {
-                    "holder": control.get("holder", ""),
-                    "mine": mine,
-                    "you": control.get("names", {}).get(viewer, ""),
-                    "refused": control.get("refused", 0),
-                },
-            }
-        )
-
-    async def _image(self, side: str) -> Response:
-        _, images = self._images.get()
-        if images is None or side not in ("a.jpg", "b.jpg"):
-            return Response(status_code=404)
-        return Response(
-            images[1] if side == "a.jpg" else images[2],
-            media_type="image/jpeg",
-            headers={"Cache-Control": "no-store"},
-        )
-
-    async def _epipolar(self, request: Request) -> JSONResponse:
-        """``?u=U&v=V`` (px, image a): the epipolar curve in image b, as the camera model gives
-        it (``StereoPair.epipolar_curve_b``), for the page to draw and to keep b's vertex on."""
-        try:
-            pixel = [float(request.query_params[k]) for k in ("u", "v")]
-        except (KeyError, ValueError):
-            return self._malformed("/sketch/epipolar: expected ?u=U&v=V, numbers in pixels")
-        if not all(math.isfinite(x) and abs(x) < 1e6 for x in pixel):
-            return self._malformed(f"/sketch/epipolar: expected finite pixels, got {pixel}")
-        _, held = self._pair.get()
-        if held is None:
-            return JSONResponse({"snapshot": None, "points": []})
-        sid, pair, size_b = held
-        points = await asyncio.to_thread(pair.epipolar_curve_b, pixel, size_b)
-        return JSONResponse({"snapshot": sid, "points": points.tolist()})
-
-    def _malformed(self, message: str) -> JSONResponse:
-        self._refused += 1
-        self._malformed_log.add("malformed", f"a malformed request to {self.name}: {message}")
-        return JSONResponse({"ok": False, "error": message}, status_code=400)
-
-    async def _post_command(self, request: Request) -> JSONResponse:
-        viewer = self._saw(request)
-        body = await request.body()
-        try:
-            text = str(json.loads(body[: MAX_COMMAND_CHARS + 100])["text"])
-            if len(text) > MAX_COMMAND_CHARS:
-                raise ValueError(f"at most {MAX_COMMAND_CHARS} characters")
-            parse(text)
-        except Exception as exc:  # any malformed request is refused with the reason
-            return self._malformed(f'expected {{"text": COMMAND}}: {exc}')
-        return await self._ask(request, viewer, "command", text)
-
-    async def _post_control(self, request: Request) -> JSONResponse:
-        viewer = self._saw(request)
-        body = await request.body()
-        try:
-            action = str(json.loads(body[:200])["action"])
-            if action not in ("take", "release"):
-                raise ValueError(f"found {action!r}")
-        except Exception as exc:  # any malformed request is refused with the reason
-            return self._malformed(f'expected {{"action": "take" or "release"}}: {exc}')
-        return await self._ask(request, viewer, action, "")
-
-    async def _ask(self, request: Request, viewer: str, kind: str, text: str) -> JSONResponse:
-        """Queue the request for ``step`` and answer with its decision."""
-        host = request.client.host if request.client else "?"
-        reply: concurrent.futures.Future = concurrent.futures.Future()
-        if not self._inbox.put(viewer, _Request(viewer, host, kind, text, reply)):
-            return JSONResponse(
-                {"ok": False, "error": "refused: too many of your requests are waiting"}, 429
-            )
-        try:
-            decision = await asyncio.wait_for(asyncio.wrap_future(reply), REPLY_TIMEOUT_S)
-        except TimeoutError:  # cancelled: step drops it, it is never sent late
-            return JSONResponse(
-                {
-                    "ok": False,
-                    "error": f"refused: the page's module did not answer within "
-                    f"{REPLY_TIMEOUT_S:.0f} s (is the run stopping?)",
-                },
-                status_code=503,
-            )
-        if decision.ok:
-            return JSONResponse({"ok": True, "message": decision.message})
-        return JSONResponse({"ok": False, "error": decision.message}, status_code=403)
 
     def summary(self) -> dict[str, int]:
         return {

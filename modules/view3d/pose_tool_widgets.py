@@ -11,7 +11,8 @@ import viser
 
 from modules.calib.errors import CalibrationError
 from modules.view3d.pose_tool_panel import PoseTool
-from modules.view3d.viewer import SNAPSHOT_SCALE, ViewerPage
+from modules.view3d.viewer import ViewerPage
+from modules.view3d.viewer_video import SNAPSHOT_SCALE
 
 
 class PoseToolWidgets:

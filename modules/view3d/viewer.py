@@ -19,11 +19,9 @@ slow browser gets the newest frame, never a backlog.
 from __future__ import annotations
 
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 import viser
 
@@ -33,18 +31,18 @@ from modules.view3d.geometry import (
     ViewerPose,
     box_mesh,
     cylinder_mesh,
-    interpolate_viewer,
     solid_pose,
-    viewer_pose_from_camera,
     wxyz_from_matrix,
 )
-from modules.view3d.scene_file import SceneBox, ScenePrimitive, SceneSnapshot
-
-#: size of a live camera's frustum (viser's volume-normalized scale, m); the wrist camera's is
-#: small so that its image lies in front of the gripper it looks past
-FRUSTUM_SCALES = {"wrist": 0.05, "left": 0.15, "right": 0.15}
-SNAPSHOT_SCALE = 0.2  #: size of a snapshot's frustum
-CAMERA_COLORS = {"wrist": (230, 120, 20), "left": (20, 120, 230), "right": (20, 170, 90)}
+from modules.view3d.scene_file import SceneSnapshot
+from modules.view3d.viewer_moves import ViewerMoves
+from modules.view3d.viewer_sketch import ViewerSketch
+from modules.view3d.viewer_video import (
+    CAMERA_COLORS,
+    FRUSTUM_SCALES,
+    node_name,
+    video_rgba,
+)
 
 
 @dataclass
@@ -61,22 +59,7 @@ class CameraState:
     last_image: np.ndarray | None = field(default=None, repr=False)
 
 
-def video_rgba(image_bgr: np.ndarray, opacity: float, max_width: int) -> np.ndarray:
-    """The image as the page draws it: at most ``max_width`` wide, RGB, plus an alpha channel
-    of ``opacity`` (0 transparent .. 1 opaque) when it is not opaque."""
-    h, w = image_bgr.shape[:2]
-    if w > max_width:
-        image_bgr = cv2.resize(
-            image_bgr, (max_width, max(1, round(h * max_width / w))), interpolation=cv2.INTER_AREA
-        )
-    if opacity >= 1.0:
-        return cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB)
-    rgba = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGBA)
-    rgba[..., 3] = round(255 * max(0.0, opacity))
-    return rgba
-
-
-class ViewerPage:
+class ViewerPage(ViewerMoves, ViewerSketch):
     """The viser server and its scene (see the module docstring)."""
 
     def __init__(
@@ -98,6 +81,8 @@ class ViewerPage:
         self.cameras = {name: CameraState(name) for name in cameras}
         self.snapshots: dict[str, tuple[SceneSnapshot, Frustum]] = {}
         self.meshes: dict[str, Mesh] = {}  #: the model's surfaces, by scene node name
+        #: the frames' names written in the model: label -> (text, position in the world, m)
+        self.labels: dict[str, tuple[str, np.ndarray]] = {}
         #: per browser (viser client id): the number of its latest viewer move, and the live
         #: camera its viewer rides with after "View from ..."
         self._generation: dict[int, int] = {}
@@ -136,20 +121,9 @@ class ViewerPage:
         gui.main_panel.dock_right()
         self.overview_button = gui.add_button("Overview")
         self.overview_button.on_click(lambda event: self.animate_to(event.client, self.overview))
+        self.stage_note = gui.add_markdown("**stage**: (no task status wired)")
         self.sliders: dict[str, object] = {}
         self.view_buttons: dict[str, object] = {}
-        for name in self.cameras:
-            with gui.add_folder(f"Camera {name}"):
-                slider = gui.add_slider(
-                    "video opacity", min=0.0, max=1.0, step=0.05, initial_value=1.0
-                )
-                button = gui.add_button(f"View from {name}")
-                take = gui.add_button(f"Snapshot {name}")
-            take.on_click(lambda _event, n=name: self.take_snapshot(n))
-            slider.on_update(lambda _event, n=name, s=slider: self.set_opacity(n, float(s.value)))
-            button.on_click(lambda event, n=name: self.view_from_camera(event.client, n))
-            self.sliders[name] = slider
-            self.view_buttons[name] = button
         with gui.add_folder("Snapshots"):
             self.snapshot_dropdown = gui.add_dropdown("snapshot", options=("(none)",))
             self.snapshot_button = gui.add_button("View from snapshot")
@@ -160,135 +134,36 @@ class ViewerPage:
         )
         self.save_button.on_click(lambda _event: self._save_clicked())
 
+    def _camera_gui(self, name: str) -> None:
+        """A camera's folder (opacity, View from, Snapshot), added when it first shows: the page
+        offers only the cameras the graph feeds it. Call with ``self._lock`` held."""
+        if name in self.sliders:
+            return
+        gui = self.server.gui
+        with gui.add_folder(f"Camera {name}"):
+            slider = gui.add_slider("video opacity", min=0.0, max=1.0, step=0.05, initial_value=1.0)
+            button = gui.add_button(f"View from {name}")
+            take = gui.add_button(f"Snapshot {name}")
+        take.on_click(lambda _event, n=name: self.take_snapshot(n))
+        slider.on_update(lambda _event, n=name, s=slider: self.set_opacity(n, float(s.value)))
+        button.on_click(lambda event, n=name: self.view_from_camera(event.client, n))
+        self.sliders[name] = slider
+        self.view_buttons[name] = button
+
+    def set_stage(self, text: str) -> None:
+        """The task's state line (the stage and what it is doing), shown above the cameras."""
+        self.stage_note.content = f"**stage**: {text}"
+
+    def label(self, name: str, text: str, T_world_frame: np.ndarray) -> None:
+        """A frame's name written at its origin in the model (``labels``: where each is)."""
+        self.labels[name] = (text, np.array(T_world_frame[:3, 3]))
+        self.server.scene.add_label(
+            f"/labels/{node_name(name)}", text=text, position=tuple(T_world_frame[:3, 3])
+        )
+
     def _save_clicked(self) -> None:
         if self.on_save is not None:
             self.save_note.content = f"saved {self.on_save()}"
-
-    # -- the viewer's camera --------------------------------------------------------------------
-
-    def set_viewer(self, client: viser.ClientHandle, pose: ViewerPose) -> None:
-        """Put one browser's camera at ``pose`` at once."""
-        with client.atomic():
-            client.camera.fov = pose.fov_y
-            client.camera.position = pose.position
-            client.camera.look_at = pose.look_at
-            client.camera.up_direction = pose.up
-
-    def current_viewer(self, client: viser.ClientHandle) -> ViewerPose:
-        cam = client.camera
-        from modules.view3d.geometry import matrix_from_wxyz
-
-        R = matrix_from_wxyz(cam.wxyz)
-        return ViewerPose(
-            np.array(cam.position),
-            np.array(cam.wxyz),
-            float(cam.fov),
-            np.array(cam.look_at),
-            -R[:, 1],
-        )
-
-    def animate_to(
-        self,
-        client: viser.ClientHandle,
-        target: ViewerPose | Callable[[], ViewerPose],
-        follow: str | None = None,
-    ) -> None:
-        """Move a browser's camera to ``target`` over ``animation_s`` seconds (own thread).
-
-        ``target`` may be a function, read at every step: the viewer flies to a camera that is
-        moving. With ``follow`` (a live camera's name) the viewer then stays on that camera as
-        it moves (the wrist camera rides the arm) until the next move of this browser's viewer
-        (Overview, another camera or snapshot). A new move cancels one still under way.
-        """
-        goal = target if callable(target) else (lambda: target)
-        with self._lock:
-            self._generation[client.client_id] = generation = (
-                self._generation.get(client.client_id, 0) + 1
-            )
-            self._following.pop(client.client_id, None)
-        start = self.current_viewer(client)
-
-        def current() -> bool:
-            return self._generation.get(client.client_id) == generation
-
-        def fly() -> None:
-            steps = max(1, int(self.animation_s * 30))
-            for k in range(1, steps + 1):
-                if not current():
-                    return
-                self.set_viewer(client, interpolate_viewer(start, goal(), k / steps))
-                time.sleep(self.animation_s / steps)
-            if not current():
-                return
-            self.set_viewer(client, goal())
-            # the browser reports its camera back as it applies each step; an echo of a step
-            # can arrive after the last one, so the target is set once more when it has settled
-            time.sleep(0.25)
-            with self._lock:
-                if not current():
-                    return
-                if follow is not None:
-                    self._following[client.client_id] = follow
-            self.set_viewer(client, goal())
-
-        def run() -> None:
-            try:
-                fly()
-            finally:
-                with self._lock:
-                    if current():
-                        self._moving.discard(client.client_id)
-
-        with self._lock:
-            self._moving.add(client.client_id)
-
-        threading.Thread(target=run, name="view3d-animate", daemon=True).start()
-
-    def camera_viewer_pose(self, name: str) -> ViewerPose | None:
-        """The viewer pose that sees what live camera ``name`` sees now, or None."""
-        frustum = self.cameras[name].frustum
-        if frustum is None:
-            return None
-        return viewer_pose_from_camera(frustum.T_world_camera, frustum.fov_y)
-
-    def view_from_camera(self, client: viser.ClientHandle, name: str) -> None:
-        """Fly into a live camera's pose and field of view, and stay there as it moves."""
-        if self.cameras[name].frustum is None:
-            return
-        last = [self.camera_viewer_pose(name)]
-
-        def goal() -> ViewerPose:
-            pose = self.camera_viewer_pose(name)
-            if pose is not None:
-                last[0] = pose
-            return last[0]
-
-        self.animate_to(client, goal, follow=name)
-
-    def moving(self, client_id: int) -> bool:
-        """Whether a browser's viewer is being flown somewhere now."""
-        return client_id in self._moving
-
-    def following(self, client_id: int) -> str | None:
-        """The live camera a browser's viewer rides with, or None."""
-        return self._following.get(client_id)
-
-    def _move_followers(self, name: str) -> None:
-        """Keep the viewers that ride with camera ``name`` on its new pose."""
-        if name not in self._following.values():
-            return
-        pose = self.camera_viewer_pose(name)
-        clients = self.server.get_clients()
-        for client_id, camera in list(self._following.items()):
-            if client_id not in clients:
-                self._following.pop(client_id, None)  # the browser has gone
-            elif camera == name and pose is not None:
-                self.set_viewer(clients[client_id], pose)
-
-    def view_from_snapshot(self, client: viser.ClientHandle, snapshot_id: str) -> None:
-        if snapshot_id in self.snapshots:
-            _, frustum = self.snapshots[snapshot_id]
-            self.animate_to(client, viewer_pose_from_camera(frustum.T_world_camera, frustum.fov_y))
 
     # -- the workcell and the arm ---------------------------------------------------------------
 
@@ -316,7 +191,7 @@ class ViewerPage:
         size that is not positive and finite); the others are drawn all the same."""
         refused = []
         for name, kind, pose, size, color in zip(names, kinds, poses, sizes, colors, strict=True):
-            node = f"/objects/{_node(name)}"
+            node = f"/objects/{node_name(name)}"
             T = solid_pose(pose)
             size = np.asarray(size, dtype=float)
             if T is None or not (np.all(np.isfinite(size)) and np.all(size > 0)):
@@ -412,6 +287,7 @@ class ViewerPage:
             wxyz = wxyz_from_matrix(frustum.T_world_camera[:3, :3])
             position = frustum.T_world_camera[:3, 3].copy()
             if shape_changed:
+                self._camera_gui(name)
                 state.handle = self.server.scene.add_camera_frustum(
                     f"/cameras/{name}",
                     fov=frustum.fov_y,
@@ -464,61 +340,3 @@ class ViewerPage:
         if self.on_snapshot is not None:
             self.on_snapshot(snapshot)
         return snapshot
-
-    # -- snapshots and sketched geometry --------------------------------------------------------
-
-    def add_snapshot(self, snapshot: SceneSnapshot, frustum: Frustum) -> None:
-        self.snapshots[snapshot.id] = (snapshot, frustum)
-        self.server.scene.add_camera_frustum(
-            f"/snapshots/{_node(snapshot.id)}",
-            fov=frustum.fov_y,
-            aspect=frustum.aspect,
-            scale=SNAPSHOT_SCALE,
-            thickness=2.0,
-            thickness_units="screen",
-            color=(150, 60, 200),
-            image=video_rgba(snapshot.image, 1.0, max(self.video_width, 640)),
-            format="jpeg",
-            jpeg_quality=90,
-            wxyz=wxyz_from_matrix(frustum.T_world_camera[:3, :3]),
-            position=tuple(frustum.T_world_camera[:3, 3]),
-        )
-        self.snapshot_dropdown.options = tuple(self.snapshots)
-
-    def add_scene_box(self, box: SceneBox) -> None:
-        self.add_box(f"/sketch/boxes/{_node(box.id)}", box.T_world_box, box.size, (200, 150, 60))
-
-    def add_primitive(self, primitive: ScenePrimitive) -> None:
-        name = f"/sketch/primitives/{_node(primitive.id)}"
-        if len(primitive.edges):
-            segments = primitive.points[primitive.edges].astype(np.float32)
-            self.server.scene.add_line_segments(
-                name + "/edges",
-                points=segments,
-                colors=(220, 40, 160),
-                thickness=4.0,
-                thickness_units="screen",
-            )
-        if len(primitive.points):
-            self.server.scene.add_point_cloud(
-                name + "/vertices",
-                points=primitive.points.astype(np.float32),
-                colors=(220, 40, 160),
-                point_size=0.02,
-                point_shape="circle",
-            )
-        corners = primitive.plane_corners()
-        if corners is not None:
-            self.server.scene.add_mesh_simple(
-                name + "/plane",
-                vertices=corners.astype(np.float32),
-                faces=np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32),
-                color=(220, 40, 160),
-                opacity=0.35,
-                side="double",
-            )
-
-
-def _node(item_id: str) -> str:
-    """A scene-tree name for an item id (no slashes)."""
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in item_id) or "item"

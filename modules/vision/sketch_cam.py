@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import CameraModel, Image, Pose
+from connectors.messages import CameraModel, Image, Pose, Poses
 from modules.sketch.messages import SceneObjects
+from modules.vision.arm_view import arm_in, with_arm
 from modules.vision.sketch_render import NoiseField, render_scene
 
 
@@ -24,6 +27,12 @@ class SketchCam(Module):
     camera_model = Input(CameraModel, feedback=True, doc="model at the current zoom (CamCalib)")
     mount_pose = Input(Pose, feedback=True, doc="T_world_mount of the PTU (PTU.mount_pose)")
     objects = Input(SceneObjects, feedback=True, doc="the scene's solids (SketchWorld)")
+    arm_poses = Input(
+        Poses,
+        required=False,
+        feedback=True,
+        doc="the arm's TRUE frames in the objects' frame (SketchWorld.arm_poses): drawn too",
+    )
     image = Output(Image, measured=True, doc="BGR frames")
 
     def start(self) -> None:
@@ -37,6 +46,9 @@ class SketchCam(Module):
         if model is None or mount is None or objects is None:
             return
         T_base_camera = mount.matrix @ model.T_mount_camera
+        arm = self.arm_poses.get(now)
+        if arm is not None and arm.frame == objects.frame:
+            objects = with_arm(objects, arm_in(arm, np.eye(4)))
         shape = (model.height, model.width, 3)
         if self.params.noise_sigma > 0 and (self._noise is None or self._noise.shape != shape):
             self._noise = NoiseField(self.context.rng, self.params.noise_sigma, shape)

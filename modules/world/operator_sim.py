@@ -5,7 +5,8 @@ simulation the camera knows where the patch is (its ``truth`` output); this modu
 with a little hand jitter, once the image has been on screen for ``click_delay_s``. It never
 answers an assistance request: a stopped grab stays stopped, which is what the safety trials
 measure. With an operator console (``console`` input, its ``presence`` output), it steps aside
-for good the moment a person takes control, and does not click after that.
+for good the moment a person takes control, and does not click after that. In an attended run
+(``umbra run --attended``: ``ModuleContext.attended``) it never clicks at all.
 """
 
 from __future__ import annotations
@@ -39,11 +40,13 @@ class OperatorSim(Module):
         self.clicked_at: float | None = None
         self.click: list[float] = []
         self.stepped_aside_at: float | None = None
+        if self.context.attended:
+            self.log.info("attended run: the simulated operator stays off (a person seeds)")
 
     def step(self, now: float) -> None:
         if self._started is None:
             self._started = now
-        if self.stepped_aside_at is not None:
+        if self.stepped_aside_at is not None or self.context.attended:
             return
         console = self.console.get(now)
         if console is not None and (console.stage == "person" or console.values.get("acted")):
@@ -72,7 +75,8 @@ class OperatorSim(Module):
         """``clicked_after_s``: seconds from the module's first step to the click (None: no
         click); ``clicked_at_s``: the clock time of the click [s], comparable with the other
         modules' clock times (a fault's start, say); ``click_uv``: where it clicked [px];
-        ``stepped_aside_at_s``: when a person took over (None: never)."""
+        ``stepped_aside_at_s``: when a person took over (None: never); ``attended``: the run
+        was attended, so it stayed off."""
         after = None
         if self.clicked_at is not None and self._started is not None:
             after = round(self.clicked_at - self._started, 3)
@@ -81,4 +85,5 @@ class OperatorSim(Module):
             "clicked_at_s": self.clicked_at,
             "click_uv": self.click,
             "stepped_aside_at_s": self.stepped_aside_at,
+            "attended": self.context.attended,
         }

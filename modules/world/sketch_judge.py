@@ -59,6 +59,12 @@ class Verdicts:
     perimeter_max_dev_m: float = 0.0
     perimeter_passed: float = 0.0
     device_error_m: float = float("nan")
+    #: distance of the tool point from the pipe axis at the last close, wherever it was [m]
+    closed_distance_m: float = float("nan")
+    #: distance of the tool point from the handle's axis when the gripper caught it [m]
+    handle_distance_m: float = float("nan")
+    closes: int = 0  #: gripper closings seen since the macro started
+    opens: int = 0  #: gripper openings seen since the macro started
     events: list[str] = field(default_factory=list)
 
     def success(self, macro: str) -> bool:
@@ -129,6 +135,8 @@ class SketchJudge:
         rel = p - pipe.center
         along = float(rel @ pipe.axis)
         distance = float(np.linalg.norm(rel - along * pipe.axis))
+        v.closes += 1
+        v.closed_distance_m = distance
         if distance < 0.05:
             v.grasp_distance_m = distance
             v.grasp_angle_rad = float(np.arccos(min(1.0, abs(x_axis @ pipe.axis))))
@@ -147,10 +155,12 @@ class SketchJudge:
             and abs(x_axis @ door.handle_axis) >= np.cos(np.radians(10.0))
         ):
             self._handle_held = v.handle_held = True
+            v.handle_distance_m = off_axis
             v.events.append(f"handle held ({off_axis * 1e3:.1f} mm from its axis)")
 
     def _on_open(self, T: FloatArray) -> None:
         v = self.verdicts
+        v.opens += 1
         if self._handle_held:
             self._handle_held = False
             v.events.append(f"handle released at {np.degrees(self.scene.door.angle):.1f} deg")

@@ -5,12 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, param
-from connectors.messages import JointState, Status
+from connectors.messages import JointState, Poses, Status
 from modules.arm.arm_params import ArmParams
+from modules.arm.arm_solids import arm_frames
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import SceneObjects, ToolPath
+from modules.sketch.messages import SceneObjects, ToolPath, VcrState
 from modules.world.scene_objects import SketchScene
 from modules.world.sketch_judge import SketchJudge
+from modules.world.sketch_verdict import GRASP_MACROS, RELEASE_MACROS, macro_verdict
 
 
 class SketchWorld(Module):
@@ -22,7 +24,14 @@ class SketchWorld(Module):
     coverage, perimeter deviation, device error; ``stage`` = macro, ``message`` = events).
     ``randomize`` moves the objects about the nominal layout with the graph's seeded rng.
     With ``end_after`` set, the run ends (exit 0) once those macros have all succeeded, or with
-    exit 1 at ``timeout_s``.
+    exit 1 at ``timeout_s`` (never in an attended run: ``ModuleContext.attended``).
+
+    Every macro played ends with one ``verdict`` (``stage`` = macro, ``message`` = what
+    happened with the numbers, "grasped: 2.1 mm off the pipe axis, 0.4 deg off it" or "missed:
+    gripper closed 11.0 mm off the pipe axis, ..."; ``values``: the figures and ``success`` 1/0;
+    :mod:`modules.world.sketch_verdict`): a grasp macro when the gripper closes, placing a
+    device when it opens, any other when the player reports the path ``done``. Logged, and
+    listed in the summary (``macro_verdicts``).
     """
 
     TYPE = "SketchWorld"
@@ -38,8 +47,26 @@ class SketchWorld(Module):
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper")
     path = Input(ToolPath, required=False, feedback=True, doc="the macro being played")
+    vcr_state = Input(
+        VcrState,
+        required=False,
+        feedback=True,
+        doc="the player's state: a path played to its end (done) ends its macro",
+    )
     objects = Output(SceneObjects, measured=True, doc="the true solids of the scene")
-    status = Output(Status, measured=True, doc="the verdict of the macro being played")
+    status = Output(Status, measured=True, doc="the measures of the macro being played")
+    arm_poses = Output(
+        Poses,
+        frame="base",
+        measured=True,
+        doc="TRUE T_base_link of the arm's links, tool and fingers, for the cameras to draw it",
+    )
+    verdict = Output(
+        Status,
+        events=True,
+        measured=True,
+        doc="one per macro played: success or miss with the numbers (stage = macro)",
+    )
 
     def start(self) -> None:
         p = self.params
@@ -56,18 +83,24 @@ class SketchWorld(Module):
         self._next_objects = 0.0
         self._started: float | None = None
         self._last_key: tuple | None = None
+        self._path_id = ""
+        self._judged = True  #: the current macro has had its verdict (none before a path)
+        self._macro_verdicts: list[dict[str, object]] = []
+        self._arm: tuple[np.ndarray, float, float] | None = None  #: true q, gripper, stamp
 
     def step(self, now: float) -> None:
         if self._started is None:
             self._started = now
         path = self.path.get(now)
         if path is not None and self.path.fresh and path.ok:
-            self._macro = path.macro
+            self._macro, self._path_id, self._judged = path.macro, path.path_id, False
             self.judge.reset_measures()
         state = self.joint_state.get(now)
         if state is not None and self.joint_state.fresh:
             T = self.table.fk(np.asarray(state.position, dtype=float), self.T_flange_tool)
             self.judge.update(T, float(state.gripper))
+            self._arm = (state.position, float(state.gripper), state.stamp)
+        self._maybe_judge(now)
         if now >= self._next_objects:
             self._next_objects = now + 1.0 / self.params.objects_rate_hz
             v = self.judge.verdicts
@@ -75,6 +108,12 @@ class SketchWorld(Module):
                 self.judge.scene.message(values={"door_angle": self.judge.scene.door.angle})
             )
             self._report(now, v)
+            if self._arm is not None:  # at the objects' rate: what the cameras draw
+                q, gripper, stamp = self._arm
+                matrices, children = arm_frames(self.table, q, self.T_flange_tool, gripper)
+                self.arm_poses.send(
+                    Poses(matrices=matrices, children=children, frame="base", stamp=stamp)
+                )
         self._maybe_end(now)
 
     def _report(self, now: float, v) -> None:
@@ -99,9 +138,33 @@ class SketchWorld(Module):
                 Status(stage=self._macro or "idle", message="; ".join(v.events[-3:]), values=values)
             )
 
+    def _maybe_judge(self, now: float) -> None:
+        """The macro's verdict, once: at the gripper's close (grasps), its opening (placing a
+        device) or the end of the path."""
+        if self._judged:
+            return
+        v = self.judge.verdicts
+        vcr = self.vcr_state.get(now)
+        ended = (
+            (self._macro in GRASP_MACROS and v.closes > 0)
+            or (self._macro in RELEASE_MACROS and v.opens > 0)
+            or (vcr is not None and vcr.path_id == self._path_id and vcr.mode == "done")
+        )
+        if not ended:
+            return
+        self._judged = True
+        outcome, text, figures = macro_verdict(self._macro, v)
+        figures = {k: round(float(x), 3) for k, x in figures.items()}
+        self.verdict.send(Status(stage=self._macro, message=text, values=figures))
+        self._macro_verdicts.append(
+            {"macro": self._macro, "path_id": self._path_id, "outcome": outcome, "verdict": text}
+            | figures
+        )
+        self.log.info("verdict of %s: %s", self._macro, text)
+
     def _maybe_end(self, now: float) -> None:
         wanted = self.params.end_after
-        if not wanted:
+        if not wanted or self.context.attended:
             return
         if all(m in self._verdicts for m in wanted):
             self.context.request_stop(f"macros succeeded: {', '.join(wanted)}", 0)
@@ -117,4 +180,5 @@ class SketchWorld(Module):
             "door_angle_deg": float(np.degrees(self.judge.scene.door.angle)),
             "grasp_distance_mm": float(v.grasp_distance_m * 1e3),
             "events": list(v.events),
+            "macro_verdicts": list(self._macro_verdicts),
         }

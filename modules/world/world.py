@@ -5,6 +5,10 @@ It knows the truth the controller never sees: the true joint angles (from the si
 calibration error included), hence the true camera pose, and the true pose of the tool's patch on
 its tray. It publishes both for the simulated camera, and when the gripper closes it judges the
 grasp against the truth and ends the run: exit 0 when grasped within tolerance, 1 otherwise.
+Its ``status`` says ``running`` until then and the verdict after, re-sent every
+``status_period_s`` so a page that joins late reads it. In an attended run
+(``ModuleContext.attended``) the verdict is published and logged but the run goes on until the
+person stops it: no end after an assistance request, no timeout.
 
 Frames: ``base`` (robot base), ``flange``, ``tool`` (gripper centre point; the graph's static
 frame ``flange->tool``), ``camera`` (``flange->camera`` through the static frames), ``table``
@@ -18,8 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, UserError, param
-from connectors.messages import JointState, Pose, Status
+from connectors.messages import JointState, Pose, Poses, Status
 from modules.arm.arm_params import ArmParams
+from modules.arm.arm_solids import arm_frames
 from modules.world.grasp import grasp_error
 
 
@@ -60,6 +65,13 @@ class WorldParams(ArmParams):
     )
     timeout_s: float = param(60.0, "end the run as failed when no grasp by then", unit="s", gt=0)
     end_run: bool = param(True, "end the run when the grasp is judged")
+    status_period_s: float = param(
+        1.0,
+        "re-send the status (running, or the verdict) this often, for pages that join late",
+        unit="s",
+        gt=0,
+        le=60,
+    )
     end_after_stop_s: float = param(
         1.5,
         "after an operator-assistance request or a lost vision process, end the run this "
@@ -101,6 +113,13 @@ class SimWorld(Module):
     status = Output(
         Status, measured=True, doc="world state: running, grasped or missed, with errors"
     )
+    arm_poses = Output(
+        Poses,
+        frame="table",
+        measured=True,
+        doc="TRUE T_table_link of the arm's links, tool and fingers (by the gripper's opening), "
+        "for the simulated camera to draw the arm",
+    )
 
     def start(self) -> None:
         p = self.params
@@ -124,15 +143,24 @@ class SimWorld(Module):
         self._stopped_since: float | None = None
         self._vision_seen_alive = False  # the servo status's producer was seen up once
         self._stop_reason = ""
+        self._status = Status(stage="running", message="no grasp yet")
+        self._status_due = -np.inf
 
     def step(self, now: float) -> None:
         if self.t0 is None:
             self.t0 = now
         state = self.joint_state.get(now)
         self.patch_pose.send(Pose(matrix=self.T_table_patch, parent="table", child="patch"))
+        self._send_status(now)
         if state is None:
             return
         T_table_flange = self.T_table_base @ self.params.table.fk(state.position)
+        matrices, children = arm_frames(
+            self.params.table, state.position, self.T_flange_tool, state.gripper, self.T_table_base
+        )
+        self.arm_poses.send(
+            Poses(matrices=matrices, children=children, frame="table", stamp=state.stamp)
+        )
         self.camera_pose.send(
             Pose(
                 matrix=T_table_flange @ self.T_flange_camera,
@@ -147,6 +175,8 @@ class SimWorld(Module):
             self._closing_seen = True
         if self._closing_seen and state.gripper <= 0.0:
             self._judge(now, T_table_flange @ self.T_flange_tool)
+        elif self.context.attended:
+            return  # the person answers requests and decides when to stop
         elif self._servo_stopped(now):
             self._finish(now, False, f"stopped without a grasp: {self._stop_reason}")
         elif now - self.t0 > self.params.timeout_s:
@@ -222,12 +252,23 @@ class SimWorld(Module):
             }
         )
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
-        self.status.send(
-            Status(stage="grasped" if grasped else "missed", message=verdict, values=values)
+        self._status = Status(
+            stage="grasped" if grasped else "missed", message=verdict, values=values
         )
+        self._status_due = -np.inf
+        self._send_status(now)
         self.log.info(verdict)
-        if self.params.end_run:
+        if self.context.attended:
+            self.log.info("attended run: the run goes on until its operator stops it (Ctrl-C)")
+        elif self.params.end_run:
             self.context.request_stop(verdict, 0 if grasped else 1)
+
+    def _send_status(self, now: float) -> None:
+        """The status (running, or the verdict once judged) when due."""
+        if now < self._status_due:
+            return
+        self._status_due = now + self.params.status_period_s
+        self.status.send(self._status)
 
     def summary(self) -> dict[str, object]:
         return dict(self.result)

@@ -27,6 +27,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clock", choices=("sim", "real"), help="override the graph's clock")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument(
+        "--attended",
+        action="store_true",
+        help="a person runs this run from the operator's page: simulated operators stay off, "
+        "the run never ends on its own (no duration; a judge's verdict is published and "
+        "printed, then the run waits); stop it with Ctrl-C (exit 130, summaries written)",
+    )
+    parser.add_argument(
         "--set",
         action="append",
         metavar="MODULE.PARAM=VALUE",
@@ -175,6 +182,21 @@ def enable_recording(plan: GraphPlan, args: argparse.Namespace) -> None:
         plan.spec.record.images = args.record_images
 
 
+def run_duration(plan: GraphPlan, args: argparse.Namespace) -> float | None:
+    """How long the run lasts [s]: ``--duration``, else the graph's; None (until stopped) for an
+    ``--attended`` run, which says so once when it leaves a duration aside."""
+    duration = args.duration if args.duration is not None else plan.spec.duration
+    if not getattr(args, "attended", False):
+        return duration
+    if duration is not None and not getattr(args, "supervised", False):
+        print(
+            f"umbra run: attended: the run waits for its operator (Ctrl-C stops it); the "
+            f"duration of {duration:g} s is not applied",
+            file=sys.stderr,
+        )
+    return None
+
+
 def main(args: argparse.Namespace) -> int:
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         raise UserError(
@@ -193,7 +215,12 @@ def main(args: argparse.Namespace) -> int:
     plan = load_graph(args.graph, overrides=parse_module_set(args.set), prefix=args.prefix)
     enable_recording(plan, args)
     clock = args.clock or plan.spec.clock
-    duration = args.duration if args.duration is not None else plan.spec.duration
+    if args.attended and clock != "real":
+        raise UserError(
+            f"--attended: a person acts in real time: expected the real clock, found clock "
+            f"{clock} ({'--clock' if args.clock else plan.spec.file}); add --clock real"
+        )
+    duration = run_duration(plan, args)
     out = args.out or default_output_dir(plan)
     logging.basicConfig(
         level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr
@@ -206,6 +233,7 @@ def main(args: argparse.Namespace) -> int:
             output_dir=out,
             handle_signals=True,
             cpu_latency_us=latency_limit(plan.spec.cpu_latency_us, None, latency),
+            attended=args.attended,
         )
         live: Any = None
 

@@ -79,6 +79,8 @@ class ProcessOptions:
     #: write a run file for observers of this user (``runtime.links.runs``); off in tests that
     #: share no user folder
     run_file: bool = True
+    #: a person runs this run (``SchedulerOptions.attended``)
+    attended: bool = False
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -214,6 +216,7 @@ def run_linked_process(
                 log=log,
                 dispatch=plan.spec.links.dispatch,
                 cpu_latency_us=options.cpu_latency_us,
+                attended=options.attended,
             ),
             transport,
         )

@@ -76,6 +76,7 @@ def test_set_overrides_a_parameter(graph: Path, tmp_path: Path) -> None:
         (["run", "GRAPH", "--duration", "abc"], "invalid float value: 'abc'"),
         (["run", "GRAPH", "--duration", "-1"], "--duration must be a positive, finite number"),
         (["run", "GRAPH", "--duration", "inf"], "--duration must be a positive, finite number"),
+        (["run", "GRAPH", "--attended"], "--attended: a person acts in real time: expected the"),
         (["run", "GRAPH", "--set", "gain=2"], "--set expects MODULE.PARAM=VALUE"),
         (["run", "GRAPH", "--set", "nope.gain=2"], "--set: unknown module `nope`"),
         (["run", "GRAPH", "--set", "g.gain=abc"], "--set g.gain: error: parameter `gain`"),

@@ -8,6 +8,7 @@ a line on the hinge (Move Around Axis): the door opens."""
 from __future__ import annotations
 
 import contextlib
+import itertools
 import json
 import os
 import signal
@@ -26,6 +27,8 @@ from modules.world.scene_objects import SketchScene
 from tests.browser import launch, needs_chromium
 
 GRAPH = str(Path(__file__).resolve().parents[2] / "graphs" / "active_sketch_page.yaml")
+#: the README's pictures of the page, taken by these tests
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "images"
 
 pytestmark = [
     pytest.mark.browser,
@@ -122,6 +125,39 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
         summaries += [json.loads(f.read_text()) for f in tmp_path.rglob("summary*.json")]
         if not summaries:
             print(output[-3000:])
+
+
+def _fits(page, width: int) -> None:
+    """Nothing of the page is wider than the window (no sideways scrolling)."""
+    wide = page.evaluate("document.documentElement.scrollWidth")
+    assert wide <= width, f"the page is {wide} px wide in a {width} px window"
+
+
+def _marker_on_preview(page, path: dict, at_start: bool = False) -> None:
+    """The arm's marker lies on the previewed path in image a (``at_start``: on its first
+    point; else past it, where the progress puts it)."""
+    page.wait_for_function(
+        f"window.sketch.state.vcr && window.sketch.state.vcr.path === {json.dumps(path['id'])}",
+        timeout=10000,
+    )
+    page.locator("[data-testid=marker-a]").wait_for(timeout=5000)
+    # both coordinates of one drawing (the page redraws the marker as the arm moves)
+    at = np.array(
+        page.evaluate(
+            "(() => { const m = document.querySelector('[data-testid=marker-a]');"
+            " return [m.cx.baseVal.value, m.cy.baseVal.value]; })()"
+        )
+    )
+    preview = np.array(path["preview_a"])
+    from_start = float(np.linalg.norm(at - preview[0]))
+    assert (from_start < 1.0) if at_start else (from_start > 2.0), (at, preview[0])
+    gaps = [
+        abs((b - a)[0] * (at - a)[1] - (b - a)[1] * (at - a)[0]) / max(np.linalg.norm(b - a), 1e-9)
+        if 0 <= (at - a) @ (b - a) <= (b - a) @ (b - a)
+        else min(np.linalg.norm(at - a), np.linalg.norm(at - b))
+        for a, b in itertools.pairwise(preview)
+    ]
+    assert min(gaps) < 1.0, f"marker {at} is {min(gaps):.1f} px off the preview"
 
 
 def _done(path: dict) -> str:
@@ -247,11 +283,28 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
 
     with _graph(tmp_path) as (base, summaries), sync_playwright() as p:
         browser = launch(p)
-        page = browser.new_page(viewport={"width": 1400, "height": 1000})
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
         page.goto(f"{base}/sketch?token={TOKEN}")
         op = Operator(page)
         name = op.take_control()
+        # before the first snapshot: a line of text where the images go, never a broken image
+        assert page.locator("#img-a").is_hidden() and page.locator("#empty-a").is_visible()
+        # the live video of camera a (the PTUs slewed it to the pipe) is shown as it comes
+        page.wait_for_function(
+            "document.getElementById('live').naturalWidth > 0 && "
+            "document.getElementById('empty-live').hidden",
+            timeout=20000,
+        )
+        assert page.locator("#empty-live").is_hidden() and page.locator("#live").is_visible()
+        _fits(page, 1280)
+        page.screenshot(path=str(DOCS / "sketch_page_start.png"))
         op.snapshot()
+        page.wait_for_function(
+            "document.getElementById('img-a').naturalWidth > 0 && "
+            "document.getElementById('empty-a').hidden",
+            timeout=10000,
+        )
+        assert page.locator("#empty-a").is_hidden() and page.locator("#img-a").is_visible()
         pipe = SketchScene.nominal().pipe.ends
         # image b's handles aimed 12 px off the pipe's image: they stay on their lines
         placed = op.place("line", pipe, b_offset_px=(0.0, 12.0))
@@ -263,11 +316,13 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
             assert page.locator(f"#svg-{side} circle.reproj-dot").count() == 2
         assert "line1 line at" in page.inner_text("[data-testid=primitives]")
         assert max(placed["sigma_mm"]) < 10.0
-        op.plan("grab_pipe")
-        page.screenshot(path=str(tmp_path / "sketch_page.png"))  # the README's picture
+        assert page.inner_text("[data-testid=macro-grab_pipe]") == "Grab pipe"
+        path = op.plan("grab_pipe")
+        _marker_on_preview(page, path, at_start=True)  # loaded, not played: at its start
         # a second page, without control, sees who holds it and cannot play the macro
-        watcher = browser.new_page(viewport={"width": 1400, "height": 1000})
-        watcher.goto(f"{base}/sketch?token={TOKEN}")
+        # (embedded as a station panel would show it: no header of its own, the width it gets)
+        watcher = browser.new_page(viewport={"width": 640, "height": 700})
+        watcher.goto(f"{base}/sketch?embed=1&token={TOKEN}")
         watcher.wait_for_function(
             f"document.getElementById('holder').textContent === {name!r} && "
             "window.sketch.state && window.sketch.state.path",
@@ -284,9 +339,14 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         after = watcher.evaluate("window.sketch.state.vcr")
         assert (after or {}).get("mode") != "playing", after
         assert (after or {}).get("progress", 0.0) == (before or {}).get("progress", 0.0)
+        assert watcher.locator("[data-testid=header]").is_hidden()
+        assert page.locator("[data-testid=header]").is_visible()
+        _fits(watcher, 640)
+        watcher.screenshot(path=str(DOCS / "sketch_page_embedded.png"))
         watcher.close()
         page.click("[data-testid=play]")
         op.until("window.sketch.state.vcr.progress > 0.2", "play", 40)
+        _marker_on_preview(page, path)
         page.click("[data-testid=pause]")
         page.wait_for_function(
             "['paused', 'halted'].includes(window.sketch.state.vcr.mode)", timeout=10000
@@ -299,11 +359,24 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         op.slider("speed", 0.5)
         op.until("window.sketch.state.vcr.speed === 0.5", "resume", 10)
         op.until("window.sketch.state.vcr.mode === 'done'", "resume", 90)
+        # the verdict of the grab, from the world's truth, with its numbers
+        page.wait_for_function(
+            "document.getElementById('verdict').textContent.length > 0", timeout=20000
+        )
+        verdict = page.inner_text("[data-testid=verdict]")
+        assert verdict.startswith("Grab pipe: grasped: "), verdict
+        assert "mm off the pipe axis" in verdict
+        assert page.get_attribute("[data-testid=verdict]", "class") == "ok"
+        _fits(page, 1280)
+        page.screenshot(path=str(DOCS / "sketch_page.png"))  # the README's picture
         browser.close()
-        time.sleep(1.5)  # the gripper closes, the world judges
+        time.sleep(1.5)
     world = _world(summaries)
     assert world["succeeded"] == ["grab_pipe"]
     assert world["grasp_distance_mm"] < 5.0
+    (judged,) = world["macro_verdicts"]
+    assert judged["macro"] == "grab_pipe" and judged["verdict"] in verdict
+    assert judged["grasp_distance_mm"] == pytest.approx(world["grasp_distance_mm"], abs=1e-3)
 
 
 def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):

@@ -19,14 +19,16 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import cv2
 import httpx
 import numpy as np
 import pytest
 from websockets.sync.client import connect
 
+from connectors.messages import Image, Status
 from modules.operator.console import OperatorConsole
 from modules.sketch.messages import SketchPrimitive, VcrState
-from modules.sketch_page import sketch_page
+from modules.sketch_page import page_web
 from modules.sketch_page.sketch_page import SketchPage
 from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, needs_chromium
@@ -138,7 +140,10 @@ def test_state_menus_and_checked_commands() -> None:
         assert state["menus"]["none"][1][0] == "stow"
         entry = state["primitives"][0]
         assert entry["centroid_m"] == [0.55, 0.05, 0.35] and entry["sigma_mm"] == [1.0] * 4
-        assert state["menu"] == [["make_box", "keep the box as scene geometry (no motion)"]]
+        assert state["menu"] == [
+            ["make_box", "keep the box as scene geometry (no motion)", "Make box"]
+        ]
+        assert state["menus"]["line"][0][2] == "Grab pipe"  # the button's label: words
         name = _wait(lambda: op.state()["control"]["you"])
         assert op.control("take") == (200, {"ok": True, "message": f"{name} took control"})
         assert op.command("aim 0.55 0.05 0.35 0.3") == (200, {"ok": True, "message": "sent aim"})
@@ -151,6 +156,37 @@ def test_state_menus_and_checked_commands() -> None:
         assert op.command("plan make_box triad1")[0] == 200
         assert stepper.commands(h) == ["aim 0.55 0.05 0.35 0.3", "plan make_box triad1"]
         assert op.state()["control"]["refused"] == 3  # the malformed ones
+        op.close()
+
+
+def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
+    with _page() as (h, stepper):
+        op = Browser(h.module.url)
+        assert op.client.get(op.root + "/sketch/live/a.jpg").status_code == 404  # no frame yet
+        pixels = np.zeros((120, 160, 3), np.uint8)
+        pixels[30:90, 40:120] = (0, 0, 255)  # a red box, BGR
+        stepper.push(h, "live_a", Image(pixels=pixels, frame="cam_left"))
+        text = "missed: gripper closed 11.0 mm off the pipe axis, 0.4 deg off it"
+        stepper.push(
+            h,
+            "verdict",
+            Status(stage="grab_pipe", message=text, values={"grasp_distance_mm": 11.0}),
+        )
+        state = _wait(lambda: (s := op.state()).get("verdict") and s)
+        assert state["verdict"] == {
+            "macro": "grab_pipe",
+            "label": "Grab pipe",
+            "text": text,
+            "success": False,
+        }
+        reply = _wait(lambda: (r := op.client.get(op.root + "/sketch/live/a.jpg")).is_success and r)
+        assert reply.headers["content-type"] == "image/jpeg"
+        frame = cv2.imdecode(np.frombuffer(reply.content, np.uint8), cv2.IMREAD_COLOR)
+        assert frame.shape == (120, 160, 3)
+        assert frame[60, 80, 2] > 200 and frame[60, 80, 1] < 60  # red inside the box
+        assert frame[10, 10].max() < 40  # black outside it
+        assert op.client.get(op.root + "/sketch/live/b.jpg").status_code == 404
+        assert op.client.get(op.root + "/sketch/live/c.jpg").status_code == 404
         op.close()
 
 
@@ -335,6 +371,7 @@ def test_every_route_of_the_page_needs_the_token(tmp_path: Path) -> None:
             ("GET", "/sketch/sketch.js"),
             ("GET", "/sketch/state"),
             ("GET", "/sketch/image/a.jpg"),
+            ("GET", "/sketch/live/a.jpg"),
             ("POST", "/sketch/command"),
             ("POST", "/sketch/control"),
         ]
@@ -382,7 +419,7 @@ def test_beyond_loopback_the_page_makes_a_token_and_prints_it(
 def test_a_request_step_never_answered_is_dropped_not_sent_late(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr(sketch_page, "REPLY_TIMEOUT_S", 0.3)
+    monkeypatch.setattr(page_web, "REPLY_TIMEOUT_S", 0.3)
     with ModuleHarness(SketchPage, {}) as h:  # nobody steps it
         op = Browser(h.module.url)
         code, reply = op.command("snapshot")

@@ -23,7 +23,7 @@ from modules.view3d.geometry import (
     viewer_pose_looking_at,
     wxyz_from_matrix,
 )
-from modules.view3d.viewer import video_rgba
+from modules.view3d.viewer_video import video_rgba
 
 T_WORLD_MOUNT = transform_from_xyz_rpy_deg([0.6, -0.3, 1.5], [180.0, -5.0, 10.0])
 T_MOUNT_CAMERA = transform_from_xyz_rpy_deg([0.01, 0.02, 0.03], [1.0, -2.0, 3.0])

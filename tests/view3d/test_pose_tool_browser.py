@@ -31,7 +31,7 @@ from modules.view3d.geometry import (
     viewer_pose_looking_at,
 )
 from modules.view3d.view3d import View3D
-from modules.view3d.viewer import SNAPSHOT_SCALE
+from modules.view3d.viewer_video import SNAPSHOT_SCALE
 from modules.vision.mount_offset import offset_transform
 from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (

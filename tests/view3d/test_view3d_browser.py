@@ -22,7 +22,7 @@ from modules.view3d.geometry import (
     viewer_pose_looking_at,
 )
 from modules.view3d.view3d import View3D
-from modules.view3d.viewer import FRUSTUM_SCALES
+from modules.view3d.viewer_video import FRUSTUM_SCALES
 from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (
     block_outside_loopback,
@@ -213,7 +213,9 @@ def test_transparency_slider_blends_the_video_with_the_model(view: View) -> None
     model through it, blended pixel by pixel (the green channel: magenta has none)."""
     _behind_camera(view)
     quad = _image_quad(view, view.client)
-    slider = view.page.locator('[role="slider"]').nth(1)  # folders: wrist, left, right
+    sliders = view.page.locator('[role="slider"]')
+    assert sliders.count() == 1  # only the camera the graph feeds (left) is offered
+    slider = sliders.nth(0)
     slider.focus()
 
     def inner() -> np.ndarray:

@@ -228,3 +228,47 @@ def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
         assert h.module.page.cameras["left"].frustum is not None
         assert h.module.page.cameras["wrist"].frustum is None  # no wrist camera: none drawn
         assert h.module.summary()["update_parts_failed"] == 0
+
+
+def test_only_fed_cameras_are_offered_frames_are_named_and_the_stage_is_shown(
+    tmp_path: Path,
+) -> None:
+    from connectors.messages import CameraModel, JointState, Pose, Status
+    from modules.view3d.view3d_push import stage_line
+
+    model = CameraModel(fx=600.0, fy=600.0, u0=320.0, v0=240.0, width=640, height=480)
+    frames = {**FRAMES, "flange->tool": transform_from_xyz_rpy_deg([0, 0, 0.14], [0, 0, 0])}
+    q = np.radians([0.0, 45.6, -182.7, 0.0, -42.9, 0.0])
+    with ModuleHarness(View3D, {"port": 0}, frames=frames, output_dir=tmp_path) as h:
+        page = h.module.page
+        assert page.sliders == {} and page.view_buttons == {}  # nothing fed yet: none offered
+        h.push("left_model", model)
+        T_left = transform_from_xyz_rpy_deg([0, 0, 1.5], [180, 0, 0])
+        h.push("left_pose", Pose(matrix=T_left, parent="base", child="left"))
+        h.push("joint_state", JointState(names=h.module.params.joint_names, position=q))
+        status = Status(
+            stage="assist", message="halted", assist=True, reason="snake failure: featureless"
+        )
+        h.push("stage", status)
+        h.step(dt=0.05)
+        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        # the graph feeds the left camera only: only it has a folder and a "View from" button
+        assert set(page.sliders) == set(page.view_buttons) == {"left"}
+        # frames named where they are: the table (25 cm above base), the tool, the camera
+        text, at = page.labels["table"]
+        assert text == "table" and np.allclose(at, [0, 0, 0.25])
+        T_tool = h.module.params.table.fk(q) @ frames["flange->tool"]
+        assert np.allclose(page.labels["tool"][1], T_tool[:3, 3])
+        # the camera's name under its drawn image, never over the video: in the camera frame
+        # (z forward, y down) in front of the lens, below the image's bottom edge
+        text, at = page.labels["camera left"]
+        in_camera = np.linalg.inv(T_left) @ np.append(at, 1.0)
+        frustum = page.cameras["left"].frustum
+        depth = frustum.image_depth(0.15)
+        half_height = depth * np.tan(frustum.fov_y / 2)
+        assert text == "left" and in_camera[2] == pytest.approx(depth)
+        assert in_camera[1] == pytest.approx(1.5 * half_height) and abs(in_camera[0]) < 1e-9
+        # the task's state line, with why it stopped
+        line = "assist: halted (asks the operator: snake failure: featureless)"
+        assert stage_line(status) == line
+        assert page.stage_note.content == f"**stage**: {line}"

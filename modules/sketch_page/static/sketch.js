@@ -72,7 +72,8 @@ function drawControl(c) {
   $("take").disabled = !!c.holder; $("release").disabled = !c.mine;
   $("you").textContent = c.you ? `you: ${c.you}` + (c.mine ? "" : " (watching: take control to command)") : "";
   $("refused").textContent = `${c.refused} refused`;
-  document.body.className = c.mine ? "operator" : "viewer";
+  document.body.classList.toggle("operator", !!c.mine);
+  document.body.classList.toggle("viewer", !c.mine);
 }
 function el(svg, name, attrs) {
   const e = document.createElementNS(NS, name);
@@ -96,9 +97,9 @@ function drawMenu() {
   const st = sk.state, prim = selectedPrimitive();
   const menu = st.menus ? st.menus[prim ? prim.kind : "none"] : st.menu;
   $("menu").innerHTML = "";
-  for (const [name, help] of menu) {
+  for (const [name, help, label] of menu) {
     const b = document.createElement("button");
-    b.textContent = name; b.title = help; b.dataset.testid = "macro-" + name;
+    b.textContent = label || name; b.title = help; b.dataset.testid = "macro-" + name;
     b.onclick = () => send(`plan ${name} ${prim ? prim.id : ""}`.trim());
     $("menu").appendChild(b);
   }
@@ -119,6 +120,8 @@ function draw() {
     svg.innerHTML = "";
     for (const prim of st.primitives) drawPrimitive(svg, prim, side);
     if (st.path) polyline(svg, st.path["preview_" + side], "preview");
+    const at = markerAt(st, side);
+    if (at) el(svg, "circle", { cx: at[0], cy: at[1], r: 8, class: "marker", "data-testid": "marker-" + side });
     const verts = sk[side];
     for (const [i, j] of EDGES[sk.kind] || []) el(svg, "line", { x1: verts[i][0], y1: verts[i][1], x2: verts[j][0], y2: verts[j][1], class: "edge" });
     if (side === "b" && st.snapshot) {
@@ -137,10 +140,25 @@ function draw() {
   }
   drawMenu();
   const p = st.path;
-  $("plan").textContent = p ? `${p.id} ${p.macro}: ${p.ok ? "checked, " + p.duration_s.toFixed(1) + " s" : "REFUSED: " + p.reason}` : "";
+  $("plan").textContent = p ? `${p.id} ${p.label || p.macro}: ${p.ok ? "checked, " + p.duration_s.toFixed(1) + " s" : "REFUSED: " + p.reason}` : "";
   const v = st.vcr;
   $("vcr").textContent = v ? `${v.path} ${v.mode} ${(100 * v.progress).toFixed(1)} % x${v.speed.toFixed(1)} ${v.reason}` : "";
+  $("progress").value = v ? v.progress : 0;
   $("status").textContent = st.status ? `${st.status.stage}: ${st.status.message}` : "";
+  const vd = st.verdict;
+  $("verdict").textContent = vd ? `${vd.label}: ${vd.text}` : "";
+  $("verdict").className = vd ? (vd.text.startsWith("done") ? "done" : vd.success ? "ok" : "miss") : "";
+}
+// Where the arm is along the previewed path: the player's progress (0..1 of the path
+// parameter) interpolated between the preview's waypoints (their own s, 0..1).
+function markerAt(st, side) {
+  const p = st.path, v = st.vcr, pts = p && p["preview_" + side], s = p && p.preview_s;
+  if (!pts || !s || !v || v.path !== p.id || pts.length !== s.length) return null;
+  let k = 0;
+  while (k + 2 < s.length && s[k + 1] < v.progress) k++;
+  const t = Math.max(0, Math.min(1, (v.progress - s[k]) / ((s[k + 1] - s[k]) || 1)));
+  const a = pts[k], b = pts[Math.min(k + 1, pts.length - 1)];
+  return [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
 }
 function pointer(ev) {
   if (!sk.drag) return;
@@ -196,12 +214,12 @@ async function poll() {
       if (st.snapshot && st.snapshot.id !== sk.snap) {
         sk.snap = st.snapshot.id;
         for (const s of ["a", "b"]) {
+          $("img-" + s).onload = () => { $("empty-" + s).hidden = true; };
           $("img-" + s).src = `/sketch/image/${s}.jpg?v=${sk.snap}`;
           const [w, h] = imageSize(s);  // drawn in the image's own pixels, stretched as the image is
           $("svg-" + s).setAttribute("viewBox", `0 0 ${w} ${h}`);
           $("svg-" + s).setAttribute("preserveAspectRatio", "none");
-          const shown = `${Math.round(640 * h / w)}px`;  // 640 px wide, the image's own aspect
-          for (const e of [$("svg-" + s).parentElement, $("svg-" + s), $("img-" + s)]) e.style.height = shown;
+          $("view-" + s).style.aspectRatio = `${w} / ${h}`;  // as wide as the panel, the image's aspect
         }
         sk.epi = [];
         sk.a = []; sk.b = []; sk.kind = ""; sk.selected = null;
@@ -213,3 +231,21 @@ async function poll() {
   } finally { setTimeout(poll, 200); }
 }
 poll();
+// Live video of the camera the PTUs slewed to watch: the next frame is fetched off-screen and
+// shown once it decoded (never a broken image); none while the graph wires no live camera.
+async function live() {
+  try {
+    const r = await fetch(`/sketch/live/${$("live-side").value}.jpg`);
+    if (r.ok) {
+      const url = URL.createObjectURL(await r.blob()), img = $("live"), old = img.src;
+      await new Promise((done) => { img.onload = done; img.onerror = done; img.src = url; });
+      if (old && old.startsWith("blob:")) URL.revokeObjectURL(old);
+      $("empty-live").hidden = true;
+      const [w, h] = [img.naturalWidth, img.naturalHeight];
+      if (w && h) $("view-live").style.aspectRatio = `${w} / ${h}`;
+    }
+  } catch (e) { /* the server is gone: the state poll says so */ }
+  finally { setTimeout(live, document.hidden ? 1000 : 200); }
+}
+if (new URLSearchParams(location.search).get("embed") === "1") document.body.classList.add("embed");
+live();

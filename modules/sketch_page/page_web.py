@@ -1,0 +1,191 @@
+"""The /sketch page's web side: its routes run on the web server's thread, read the latest
+state through :class:`~modules.operator.mailbox.Latest` and queue requests for ``step`` (a mixin
+of :class:`~modules.sketch_page.sketch_page.SketchPage`); they never touch the graph.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import json
+import math
+import time
+from dataclasses import dataclass
+from importlib import resources
+from typing import Any
+
+import cv2
+from fastapi import Request
+from fastapi.responses import HTMLResponse, JSONResponse, Response
+
+from connectors.limits import MAX_PAGE_CONNECTIONS
+from modules.sketch.command_text import parse
+from modules.webdoor.viewer import VIEWER_SCOPE
+
+MAX_COMMAND_CHARS = 2000
+#: the web side waits at most this long for ``step`` to decide on a request [s]
+REPLY_TIMEOUT_S = 5.0
+
+
+def static_text(name: str) -> str:
+    """A file of the page (``static/NAME``), served from the package."""
+    return resources.files("modules.sketch_page").joinpath("static", name).read_text("utf-8")
+
+
+@dataclass(frozen=True)
+class PageRequest:
+    """From the web thread to ``step``: a checked command (``kind`` "command", its ``text``)
+    or a control request ("take" / "release"), the browser it came from (viewer key, "" none)
+    and its address, and where ``step`` puts its :class:`Decision`."""
+
+    viewer: str
+    host: str
+    kind: str
+    text: str
+    reply: concurrent.futures.Future
+
+
+class PageWeb:
+    """The routes of the /sketch page (web thread); state lives on the SketchPage."""
+
+    _seen: dict[str, tuple[float, str]]
+    _state: Any
+    _control_view: Any
+    _images: Any
+    _live: dict[str, Any]
+    params: Any
+    _pair: Any
+    _inbox: Any
+    _refused: int
+    _malformed_log: Any
+    name: str
+
+    def _saw(self, request: Request) -> str:
+        """The request's viewer key ("" none); its browser's page is alive."""
+        viewer = str(request.scope.get(VIEWER_SCOPE, ""))
+        if viewer:
+            host = request.client.host if request.client else "?"
+            with self._seen_lock:
+                if viewer not in self._seen and len(self._seen) >= MAX_PAGE_CONNECTIONS:
+                    return ""  # as many browsers as the server has connections: no more
+                self._seen[viewer] = (time.monotonic(), host)
+        return viewer
+
+    async def _page(self) -> HTMLResponse:
+        return HTMLResponse(static_text("sketch.html"), headers={"cache-control": "no-store"})
+
+    async def _script(self) -> Response:
+        return Response(static_text("sketch.js"), media_type="text/javascript")
+
+    async def _get_state(self, request: Request) -> JSONResponse:
+        viewer = self._saw(request)
+        version, state = self._state.get()
+        _, control = self._control_view.get()
+        control = control or {}
+        mine = bool(viewer) and viewer == control.get("holder_browser")
+        return JSONResponse(
+            {
+                "version": version,
+                **(state or {}),
+                "control": {
+                    "holder": control.get("holder", ""),
+                    "mine": mine,
+                    "you": control.get("names", {}).get(viewer, ""),
+                    "refused": control.get("refused", 0),
+                },
+            }
+        )
+
+    async def _image(self, side: str) -> Response:
+        _, images = self._images.get()
+        if images is None or side not in ("a.jpg", "b.jpg"):
+            return Response(status_code=404)
+        return Response(
+            images[1] if side == "a.jpg" else images[2],
+            media_type="image/jpeg",
+            headers={"Cache-Control": "no-store"},
+        )
+
+    async def _live_image(self, side: str) -> Response:
+        """``a.jpg`` / ``b.jpg``: the camera's latest live frame, encoded on request (nothing is
+        encoded while no page watches); 404 before the first frame."""
+        live = self._live.get(side.removesuffix(".jpg")) if side.endswith(".jpg") else None
+        frame = live.get()[1] if live is not None else None
+        if frame is None:
+            return Response(status_code=404)
+        quality = [cv2.IMWRITE_JPEG_QUALITY, self.params.jpeg_quality]
+        ok, jpeg = await asyncio.to_thread(cv2.imencode, ".jpg", frame.pixels, quality)
+        if not ok:
+            return Response(status_code=500)
+        return Response(
+            jpeg.tobytes(),
+            media_type="image/jpeg",
+            headers={"Cache-Control": "no-store", "X-Frame-Stamp": f"{frame.stamp:.6f}"},
+        )
+
+    async def _epipolar(self, request: Request) -> JSONResponse:
+        """``?u=U&v=V`` (px, image a): the epipolar curve in image b, as the camera model gives
+        it (``StereoPair.epipolar_curve_b``), for the page to draw and to keep b's vertex on."""
+        try:
+            pixel = [float(request.query_params[k]) for k in ("u", "v")]
+        except (KeyError, ValueError):
+            return self._malformed("/sketch/epipolar: expected ?u=U&v=V, numbers in pixels")
+        if not all(math.isfinite(x) and abs(x) < 1e6 for x in pixel):
+            return self._malformed(f"/sketch/epipolar: expected finite pixels, got {pixel}")
+        _, held = self._pair.get()
+        if held is None:
+            return JSONResponse({"snapshot": None, "points": []})
+        sid, pair, size_b = held
+        points = await asyncio.to_thread(pair.epipolar_curve_b, pixel, size_b)
+        return JSONResponse({"snapshot": sid, "points": points.tolist()})
+
+    def _malformed(self, message: str) -> JSONResponse:
+        self._refused += 1
+        self._malformed_log.add("malformed", f"a malformed request to {self.name}: {message}")
+        return JSONResponse({"ok": False, "error": message}, status_code=400)
+
+    async def _post_command(self, request: Request) -> JSONResponse:
+        viewer = self._saw(request)
+        body = await request.body()
+        try:
+            text = str(json.loads(body[: MAX_COMMAND_CHARS + 100])["text"])
+            if len(text) > MAX_COMMAND_CHARS:
+                raise ValueError(f"at most {MAX_COMMAND_CHARS} characters")
+            parse(text)
+        except Exception as exc:  # any malformed request is refused with the reason
+            return self._malformed(f'expected {{"text": COMMAND}}: {exc}')
+        return await self._ask(request, viewer, "command", text)
+
+    async def _post_control(self, request: Request) -> JSONResponse:
+        viewer = self._saw(request)
+        body = await request.body()
+        try:
+            action = str(json.loads(body[:200])["action"])
+            if action not in ("take", "release"):
+                raise ValueError(f"found {action!r}")
+        except Exception as exc:  # any malformed request is refused with the reason
+            return self._malformed(f'expected {{"action": "take" or "release"}}: {exc}')
+        return await self._ask(request, viewer, action, "")
+
+    async def _ask(self, request: Request, viewer: str, kind: str, text: str) -> JSONResponse:
+        """Queue the request for ``step`` and answer with its decision."""
+        host = request.client.host if request.client else "?"
+        reply: concurrent.futures.Future = concurrent.futures.Future()
+        if not self._inbox.put(viewer, PageRequest(viewer, host, kind, text, reply)):
+            return JSONResponse(
+                {"ok": False, "error": "refused: too many of your requests are waiting"}, 429
+            )
+        try:
+            decision = await asyncio.wait_for(asyncio.wrap_future(reply), REPLY_TIMEOUT_S)
+        except TimeoutError:  # cancelled: step drops it, it is never sent late
+            return JSONResponse(
+                {
+                    "ok": False,
+                    "error": f"refused: the page's module did not answer within "
+                    f"{REPLY_TIMEOUT_S:.0f} s (is the run stopping?)",
+                },
+                status_code=503,
+            )
+        if decision.ok:
+            return JSONResponse({"ok": True, "message": decision.message})
+        return JSONResponse({"ok": False, "error": decision.message}, status_code=403)
