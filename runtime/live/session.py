@@ -9,8 +9,10 @@ from typing import TYPE_CHECKING, Any
 from connectors.errors import UserError
 from modules.webdoor.secret import is_loopback, resolve_token
 from runtime.live.feed import ObservedFeed, run_parameters, serve_local
-from runtime.live.gate import DEFAULT_ORIGINS, Gate
+from runtime.live.gate import DEFAULT_ORIGINS
+from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
+from runtime.live.viewer_server import ViewerServer
 from runtime.recording.foxglove_msgs import wall_offset
 
 if TYPE_CHECKING:
@@ -58,30 +60,29 @@ class LiveRun:
         self.plan = plan
         self.log = log or logging.getLogger("umbra.foxglove")
         token = resolve_token(options.token_file or page_token_file(plan), "--foxglove")
+        try:
+            self.gate = ViewerServer(
+                name=f"umbra {plan.spec.name}",
+                host=options.host,
+                port=options.port,
+                token=token,
+                origins=[*DEFAULT_ORIGINS, *options.origins],
+                parameters=ParameterTable(run_parameters(plan), self.log),
+                log=self.log,
+            )
+        except OSError as exc:
+            raise UserError(
+                f"--foxglove-port: cannot listen on {options.host}:{options.port}: "
+                f"{exc.strerror or exc} (give another port, or 0 for any free one)"
+            ) from None
         self.server = LiveServer(
-            name=f"umbra {plan.spec.name}",
+            socket=self.gate,
             clock_offset=wall_offset(clock.now()),
-            parameters=run_parameters(plan),
             images=options.images,
             log=self.log,
         )
         frames = [(f.parent, f.child, f.T_parent_child) for f in plan.spec.frames]
         self.server.set_static_frames(frames, clock)
-        try:
-            self.gate = Gate(
-                host=options.host,
-                port=options.port,
-                inner_port=self.server.port,
-                token=token,
-                origins=[*DEFAULT_ORIGINS, *options.origins],
-                log=self.log,
-            )
-        except OSError as exc:
-            self.server.close()
-            raise UserError(
-                f"--foxglove-port: cannot listen on {options.host}:{options.port}: "
-                f"{exc.strerror or exc} (give another port, or 0 for any free one)"
-            ) from None
         self._feed: ObservedFeed | None = None
         self.local: list[str] = []
 
@@ -100,13 +101,14 @@ class LiveRun:
     def close(self) -> None:
         if self._feed is not None:
             self._feed.close()
-        self.gate.close()
         self.server.close()
+        self.gate.close()
 
     def summary(self) -> dict[str, Any]:
         found = self.server.summary()
         found["viewers_refused"] = self.gate.refused
         found["viewers"] = self.gate.passed
+        found["viewer_backlog_dropped"] = self.gate.dropped
         if self._feed is not None:
             found["observed"] = self._feed.samples
         return found

@@ -1,0 +1,87 @@
+"""Nothing of a run is served without the token: every TCP port the run's processes listen on
+(read from ``/proc``, not from what the server says) is tried by a raw Foxglove viewer with and
+without the token; only the printed address, with its token, gives data."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from connectors.messages import Scalar
+from runtime.live.parameters import ParameterTable
+from runtime.live.server import LiveServer
+from runtime.live.viewer_server import ViewerServer
+from tests.live.helpers import REPO, LiveRun
+from tests.live.ports import descendants, listening_ports, viewer_gets
+
+TOKEN = "t0ken-of-this-run-0123456789"
+
+
+@pytest.fixture
+def served() -> Iterator[tuple[ViewerServer, set[int]]]:
+    """A live server publishing a scalar at 50 Hz; the ports this process listens on that it
+    added."""
+    before = listening_ports(os.getpid())
+    door = ViewerServer(
+        name="test",
+        host="127.0.0.1",
+        port=0,
+        token=TOKEN,
+        origins=[],
+        parameters=ParameterTable({}),
+    )
+    server = LiveServer(socket=door, clock_offset=0.0)
+    server.declare("/servo/error", Scalar)
+    added = listening_ports(os.getpid()) - before
+    stop = threading.Event()
+
+    def feed() -> None:
+        n = 0
+        while not stop.wait(0.02):
+            n += 1
+            server.offer("/servo/error", Scalar(value=0.5, stamp=n * 0.02, seq=n), n * 0.02)
+
+    thread = threading.Thread(target=feed, daemon=True)
+    thread.start()
+    yield door, added
+    stop.set()
+    thread.join()
+    server.close()
+    door.close()
+
+
+def test_the_live_server_listens_on_one_port_that_serves_only_with_the_token(
+    served: tuple[ViewerServer, set[int]],
+) -> None:
+    door, added = served
+    assert added == {door.port}  # no second, private port (Foxglove's SDK had one)
+    assert viewer_gets(door.port, "", "/servo/error") == "refused"
+    assert viewer_gets(door.port, "?token=guess-0123456789abcdef", "/servo/error") == "refused"
+    assert viewer_gets(door.port, f"?token={TOKEN}", "/servo/error") == "data"
+
+
+@pytest.mark.slow
+def test_no_port_of_a_split_run_serves_a_viewer_without_the_token(tmp_path: Path) -> None:
+    graph = str(REPO / "graphs" / "tool_pickup.yaml")
+    run = LiveRun(graph, tmp_path / "run", "--duration", "60")
+    try:
+        time.sleep(5.0)  # the processes up and linked, the servo side publishing
+        token = run.url.split("?token=", 1)[1]
+        printed = int(run.url.split(":")[2].split("/")[0])
+        ports = {port: pid for pid in descendants(run.proc.pid) for port in listening_ports(pid)}
+        assert printed in ports and ports[printed] == run.proc.pid
+        assert len(ports) > 1  # zenoh's listeners, the console's page server
+        without = {port: viewer_gets(port, "", "/joints/joint_state") for port in ports}
+        with_token = {
+            port: viewer_gets(port, f"?token={token}", "/joints/joint_state") for port in ports
+        }
+    finally:
+        run.stop()
+    assert set(without.values()) == {"refused"}, without
+    assert with_token[printed] == "data"
+    assert {p for p, got in with_token.items() if got != "refused"} == {printed}, with_token
