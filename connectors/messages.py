@@ -192,6 +192,22 @@ class Status(Message, frozen=True, kw_only=True):
     values: dict[str, float] = msgspec.field(default_factory=dict)
 
 
+class ParamChange(Message, frozen=True, kw_only=True):
+    """A change of a module's tunable parameter while the graph runs (``umbra run --foxglove``).
+
+    As a request (``old`` empty) it travels from the process that serves viewers to the process
+    that runs ``module``; as a record (``old`` set) it is what that process applied, between two
+    steps. ``value`` and ``old`` are JSON text (the parameter's type decides); ``by`` names who
+    asked (``foxglove viewer #2 (127.0.0.1)``).
+    """
+
+    module: str
+    param: str
+    value: str
+    old: str = ""
+    by: str = ""
+
+
 def message_types() -> dict[str, type[Message]]:
     """All message types by class name (the names used in YAML, ``describe`` and the wire).
 

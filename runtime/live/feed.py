@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from runtime.live.server import LiveServer
 from runtime.recording.tap import topic_of
@@ -123,12 +123,3 @@ class ObservedFeed:
         self._thread.join(timeout=2.0)
         if self._observation is not None:
             self._observation.close()
-
-
-def run_parameters(plan: GraphPlan) -> dict[str, Any]:
-    """``MODULE.PARAM`` → value of every module parameter (what a viewer may read)."""
-    found: dict[str, Any] = {}
-    for name, mplan in plan.modules.items():
-        for key, value in mplan.params.model_dump(mode="json").items():
-            found[f"{name}.{key}"] = value
-    return found

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from connectors.errors import UserError
 from modules.webdoor.secret import is_loopback, resolve_token
-from runtime.live.feed import ObservedFeed, run_parameters, serve_local
+from runtime.live.feed import ObservedFeed, serve_local
 from runtime.live.gate import DEFAULT_ORIGINS
 from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
@@ -60,6 +60,7 @@ class LiveRun:
         self.plan = plan
         self.log = log or logging.getLogger("umbra.foxglove")
         token = resolve_token(options.token_file or page_token_file(plan), "--foxglove")
+        self.parameters = ParameterTable(plan, self.log)
         try:
             self.gate = ViewerServer(
                 name=f"umbra {plan.spec.name}",
@@ -67,7 +68,7 @@ class LiveRun:
                 port=options.port,
                 token=token,
                 origins=[*DEFAULT_ORIGINS, *options.origins],
-                parameters=ParameterTable(run_parameters(plan), self.log),
+                parameters=self.parameters,
                 log=self.log,
             )
         except OSError as exc:
@@ -91,8 +92,10 @@ class LiveRun:
         return self.gate.url
 
     def serve(self, scheduler: Scheduler) -> None:
-        """Serve every output of the modules of ``scheduler`` (this process)."""
+        """Serve every output of the modules of ``scheduler`` (this process); changes of their
+        tunable parameters go to its tuner."""
         self.local = serve_local(self.server, scheduler)
+        self.parameters.serve_locally(scheduler.tuner, list(scheduler.modules))
 
     def observe(self, skip: set[str] | None = None) -> None:
         """Serve the other processes' outputs, observed on zenoh (``--publish-all``)."""

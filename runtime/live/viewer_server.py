@@ -50,8 +50,11 @@ class ParameterHandler(Protocol):
         """``{"name", "value"}`` of ``names`` (all when empty; unknown names left out)."""
         ...
 
-    def set(self, viewer: str, changes: list[tuple[str, Any]]) -> tuple[list[str], list[str]]:
-        """Apply what may be applied; ``(names to answer with, refusals to tell the viewer)``."""
+    def set(
+        self, viewer: str, changes: list[tuple[str, Any]]
+    ) -> tuple[list[dict[str, Any]], list[str]]:
+        """Apply what may be applied; ``(values to answer with, refusals to tell the viewer)``:
+        the value asked for when it was taken, the current one when refused."""
         ...
 
 
@@ -261,10 +264,9 @@ class ViewerServer:
             viewer.push_control(protocol.parameter_values(found, protocol.request_id(request)))
         elif op == "setParameters":
             changes = protocol.parameter_changes(request)
-            names, refusals = self._parameters.set(viewer.label, changes)
+            answer, refusals = self._parameters.set(f"foxglove viewer {viewer.label}", changes)
             for why in refusals:
                 viewer.push_control(protocol.status(protocol.ERROR, why))
-            answer = self._parameters.get(names) if names else []
             viewer.push_control(protocol.parameter_values(answer, protocol.request_id(request)))
         else:
             raise ValueError(f"`{op}` is not served here (read only: subscribe, parameters)")

@@ -16,6 +16,7 @@ from connectors.messages import Scalar
 from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
 from runtime.live.viewer_server import ViewerServer
+from tests.live.graphs import small_plan
 
 TOKEN = "t0ken-of-this-run-0123456789"
 VIEWER = "http://127.0.0.1:8080"
@@ -29,7 +30,7 @@ def gate() -> Iterator[ViewerServer]:
         port=0,
         token=TOKEN,
         origins=[VIEWER],
-        parameters=ParameterTable({"servo.gain": 0.5}),
+        parameters=ParameterTable(small_plan()),
     )
     server = LiveServer(socket=door, clock_offset=0.0)
     server.declare("/servo/error", Scalar)
@@ -101,9 +102,18 @@ def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: ViewerServer) ->
         set_request = {"op": "setParameters", "parameters": [{"name": "servo.gain", "value": 9}]}
         conn.send(json.dumps({**set_request, "id": "x"}))
         conn.send(json.dumps({"op": "getParameters", "parameterNames": [], "id": "y"}))
-        values = {}
+        values, said = {}, []
         while "y" not in values:
             msg = json.loads(conn.recv(timeout=5))
             if msg.get("op") == "parameterValues":
                 values[msg.get("id")] = {p["name"]: p["value"] for p in msg["parameters"]}
-        assert values["y"] == {"servo.gain": 0.5}  # unchanged
+            elif msg.get("op") == "status":
+                said.append(msg["message"])
+        # no process takes changes here (nothing runs the graph): refused, said, unchanged
+        assert values["x"] == {"servo.gain": 0.5}
+        assert values["y"]["servo.gain"] == 0.5 and values["y"]["guard.timeout"] == 0.2
+        assert len(said) == 1 and "servo.gain" in said[0] and "takes no changes" in said[0]
+        for bad in ('{"op": "advertise", "channels": []}', "not json", '{"op": 3}'):
+            conn.send(bad)  # client publishing is not served, nor malformed requests
+            status = json.loads(conn.recv(timeout=5))
+            assert status["op"] == "status" and status["level"] == 2, status

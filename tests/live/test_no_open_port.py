@@ -16,6 +16,7 @@ from connectors.messages import Scalar
 from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
 from runtime.live.viewer_server import ViewerServer
+from tests.live.graphs import small_plan
 from tests.live.helpers import REPO, LiveRun
 from tests.live.ports import descendants, listening_ports, viewer_gets
 
@@ -33,7 +34,7 @@ def served() -> Iterator[tuple[ViewerServer, set[int]]]:
         port=0,
         token=TOKEN,
         origins=[],
-        parameters=ParameterTable({}),
+        parameters=ParameterTable(small_plan()),
     )
     server = LiveServer(socket=door, clock_offset=0.0)
     server.declare("/servo/error", Scalar)
