@@ -20,8 +20,10 @@ from runtime.recording.tap import topic_of
 from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT, META_PROCESS
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from runtime.graph.plan import GraphPlan
-    from runtime.links.observe import Observation, Observed
+    from runtime.links.observe import Observation, Observed, Run
     from runtime.scheduler import Scheduler
 
 #: Seconds to keep trying to join the run as an observer (its processes start meanwhile).
@@ -68,11 +70,13 @@ class ObservedFeed:
         plan: GraphPlan,
         skip: set[str] | None = None,
         log: logging.Logger | None = None,
+        on_joined: Callable[[Run], None] | None = None,
     ) -> None:
         self._live = live
         self._plan = plan
         self._topics = declare_all(live, plan)
         self._skip = set(skip or ())  #: modules whose outputs are served locally
+        self._on_joined = on_joined  #: called with the run once every process is up
         self._log = log or logging.getLogger("umbra.foxglove")
         self._prefix = plan.key_prefix
         self._observation: Observation | None = None
@@ -91,7 +95,8 @@ class ObservedFeed:
         deadline = time.monotonic() + JOIN_PATIENCE
         while not self._stop.is_set():
             try:
-                if len(choose_run(self._prefix).processes) < expected:
+                run = choose_run(self._prefix)
+                if len(run.processes) < expected:
                     raise UserError(f"error: fewer than the run's {expected} processes are up")
                 observation = Observation.open(self._prefix)
             except UserError as exc:
@@ -106,6 +111,8 @@ class ObservedFeed:
                 return
             self._observation = observation
             observation.subscribe(self._on_sample, f"{self._prefix}/*/*")
+            if self._on_joined is not None:
+                self._on_joined(run)
             return
 
     def _on_sample(self, seen: Observed) -> None:

@@ -79,7 +79,7 @@ class ParameterTable:
             if why:
                 refusals.append(f"parameter `{name}` not changed: {why}")
                 self._log.warning(
-                    "foxglove: %s asked to set %s = %s: refused: %s",
+                    "%s asked to set %s = %s: refused: %s",
                     viewer,
                     name,
                     as_json(value)[:200],
@@ -101,7 +101,11 @@ class ParameterTable:
             return str(exc), None
         sender = self._senders.get(module)
         if sender is None:
-            return f"`{module}` runs in process `{mplan.process}`, which takes no changes", None
+            return (
+                f"`{module}` runs in process `{mplan.process}`, which the live server does not "
+                "reach (yet: it joins the run's processes once they are up)",
+                None,
+            )
         why = sender(module, key, value, viewer)
         if not why:
             self._params[module] = changed

@@ -26,7 +26,7 @@ needs_node = pytest.mark.skipif(
 def install_client(folder: Path) -> Path:
     """``tests/live/node`` installed by npm into ``folder`` (no global install); its client."""
     folder.mkdir(parents=True, exist_ok=True)
-    for name in ("package.json", "client.js"):
+    for name in ("package.json", "client.js", "tune.js"):
         shutil.copy(NODE_DIR / name, folder / name)
     done = subprocess.run(
         ["npm", "install", "--no-audit", "--no-fund", "--loglevel=error"],

@@ -139,3 +139,24 @@ def test_a_viewer_s_change_is_taken_as_set_reads_it() -> None:
     assert sched.tuner.pending
     sched.tuner.apply(0.0)
     assert sched.modules["servo"].params.bias == 0.25
+
+
+def test_only_the_tuner_may_put_parameter_changes_and_each_process_reads_its_own() -> None:
+    from runtime.links.acl import TUNER_USER, by_username, local_observer, param_key, zenoh_acl
+
+    plan = small_plan()
+    acl = zenoh_acl(plan, by_username, [local_observer(plan)], by_username(TUNER_USER))
+    rules = {r["id"]: r for r in acl["rules"]}
+    changes = [param_key(plan.key_prefix, p) for p in plan.populated_processes]
+    puts = [r for r in acl["rules"] if "put" in r["messages"] and r["flows"] == ["ingress"]]
+    on_changes = [r["id"] for r in puts if set(r["key_exprs"]) & set(changes)]
+    assert on_changes == ["tuner: parameter changes"]
+    assert rules["tuner: parameter changes"]["key_exprs"] == sorted(changes)
+    tuner = [p for p in acl["policies"] if p["subjects"] == ["tuner"]]
+    assert len(tuner) == 1 and len(tuner[0]["rules"]) == 2  # put, and hear of subscribers
+    assert zenoh_acl(plan, by_username, [local_observer(plan)]) == {
+        **acl,
+        "rules": [r for r in acl["rules"] if not r["id"].startswith("tuner")],
+        "subjects": [s for s in acl["subjects"] if s["id"] != "tuner"],
+        "policies": [p for p in acl["policies"] if p["subjects"] != ["tuner"]],
+    }  # a run not served live has no tuner at all
