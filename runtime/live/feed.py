@@ -76,7 +76,9 @@ class ObservedFeed:
         self._plan = plan
         self._topics = declare_all(live, plan)
         self._skip = set(skip or ())  #: modules whose outputs are served locally
-        self._on_joined = on_joined  #: called with the run once every process is up
+        #: called with the run once samples of the other processes arrive
+        self._on_joined = on_joined
+        self._run: Run | None = None
         self._log = log or logging.getLogger("umbra.foxglove")
         self._prefix = plan.key_prefix
         self._observation: Observation | None = None
@@ -110,14 +112,17 @@ class ObservedFeed:
                 observation.close()
                 return
             self._observation = observation
+            self._run = run
             observation.subscribe(self._on_sample, f"{self._prefix}/*/*")
-            if self._on_joined is not None:
-                self._on_joined(run)
             return
 
     def _on_sample(self, seen: Observed) -> None:
         if seen.kind != "sample" or seen.message is None:
             return
+        joined, self._on_joined = self._on_joined, None
+        if joined is not None and self._run is not None:  # the first sample: the run flows
+            run = self._run
+            threading.Thread(target=joined, args=(run,), name="umbra-fox-join", daemon=True).start()
         module, _, port = seen.key[len(self._prefix) + 1 :].partition("/")
         topic = self._topics.get((module, port))
         if topic is None or module in self._skip:

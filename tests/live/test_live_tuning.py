@@ -6,7 +6,6 @@ parameter that is not tunable and a value the model refuses are refused with a m
 from __future__ import annotations
 
 import json
-import subprocess
 import time
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from connectors.messages import ParamChange
 from runtime.links.acl import param_key
 from runtime.links.observe import Observation
 from runtime.tuning import CHANGES_TOPIC
-from tests.live.helpers import REPO, LiveRun, install_client, needs_node
+from tests.live.helpers import REPO, LiveRun, install_client, needs_node, run_tune, wait_joined
 
 pytestmark = pytest.mark.slow
 
@@ -28,23 +27,6 @@ GRAPH = REPO / "graphs" / "counter_split.yaml"
 @pytest.fixture(scope="module")
 def tune_js(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return install_client(tmp_path_factory.mktemp("npm")).parent / "tune.js"
-
-
-def _wait_tuner(run: LiveRun, timeout: float = 60.0) -> None:
-    """Until the live server has joined the run's processes as the tuner."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if "foxglove: parameter changes reach processes" in run.text():
-            return
-        time.sleep(0.2)
-    raise AssertionError(f"the live server did not join the processes:\n{run.text()[-3000:]}")
-
-
-def _tune(tune_js: Path, url: str, seconds: float, topics: str, changes: list[dict]) -> dict:
-    args = ["node", str(tune_js), url, str(seconds), topics, json.dumps(changes)]
-    done = subprocess.run(args, capture_output=True, text=True, timeout=seconds + 60)
-    assert done.returncode == 0, done.stderr[-2000:]
-    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def _intrude(run: LiveRun) -> None:
@@ -66,13 +48,13 @@ def test_a_viewer_tunes_a_module_of_another_process(tune_js: Path, tmp_path: Pat
     out = tmp_path / "run"
     run = LiveRun(str(GRAPH), out, "--duration", "25", "--record", "--set", "counter.stop_after=0")
     try:
-        _wait_tuner(run)
+        wait_joined(run)
         changes = [
             {"at": 2.0, "name": "double.gain", "value": 5},
             {"at": 2.0, "name": "counter.stop_after", "value": 3},  # not tunable
             {"at": 2.0, "name": "double.bias", "value": "fast"},  # not a number
         ]
-        report = _tune(tune_js, run.url, 5.0, "/counter/count,/double/output", changes)
+        report = run_tune(tune_js, run.url, 20.0, "/counter/count,/double/output", changes)
         _intrude(run)
         assert run.wait(90) == 0, run.text()[-3000:]
     finally:

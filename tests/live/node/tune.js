@@ -1,6 +1,7 @@
 // Change parameters of a running graph as a Foxglove viewer does, with @foxglove/ws-protocol:
 // get every parameter, subscribe to JSON TOPICs, then send each change of CHANGES at its time.
-// Usage: node tune.js URL SECONDS TOPIC,TOPIC CHANGES_JSON -> one JSON line on stdout:
+// Usage: node tune.js URL SECONDS TOPIC,TOPIC CHANGES_JSON -> one JSON line on stdout, 1.5 s
+// after every change was answered (at most SECONDS after the start):
 // {parameters: {name: value}, answers: {id: [{name, value}]}, statuses: [{level, message}],
 //  samples: {topic: [[receiptMs, message], ...]}}
 // CHANGES_JSON: [{"at": seconds after the first parameters arrived, "name": ..., "value": ...}]
@@ -28,6 +29,7 @@ client.on("parameterValues", (event) => {
     });
   } else if (event.id) {
     out.answers[event.id] = event.parameters.map((p) => ({ name: p.name, value: p.value }));
+    if (Object.keys(out.answers).length === changes.length) setTimeout(finish, 1500);
   }
 });
 client.on("status", (status) => out.statuses.push({ level: status.level, message: status.message }));
@@ -47,7 +49,9 @@ client.on("message", ({ subscriptionId, data }) => {
 client.on("error", (err) => {
   out.error = String(err && err.message ? err.message : err);
 });
-setTimeout(() => {
+// the report: 1.5 s after the last change was answered (samples after it), or at SECONDS
+function finish() {
   client.close();
   process.stdout.write(JSON.stringify(out) + "\n", () => process.exit(0));
-}, seconds * 1000);
+}
+setTimeout(finish, seconds * 1000);
