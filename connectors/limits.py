@@ -73,3 +73,6 @@ MAX_VIEWERS = 16
 #: Messages held for a viewer that does not keep up, per viewer; then its oldest data is dropped
 #: (about half a second of a pick-up's image and joint streams).
 MAX_VIEWER_BACKLOG = 64
+#: ... and bytes held for it (about ten 640 x 480 JPEG frames: a viewer that falls behind sees
+#: fresh video again within a third of a second, not a backlog of old frames).
+MAX_VIEWER_BACKLOG_BYTES = 512 * 1024

@@ -6,7 +6,8 @@ and the channels, subscribes, and receives message data (:mod:`runtime.live.prot
 
 - **Publishing never waits.** :meth:`ViewerServer.publish` is called from the encoding threads; it
   hands the frame to the server's loop, which appends it to each subscribed viewer's backlog
-  (``MAX_VIEWER_BACKLOG`` frames; full: the oldest is dropped and counted). Each viewer has a
+  (``MAX_VIEWER_BACKLOG`` frames and ``MAX_VIEWER_BACKLOG_BYTES``; full: the oldest is dropped
+  and counted). Each viewer has a
   sender task of its own: a slow or stalled viewer holds only its own backlog.
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
   sends, ``MAX_PAGE_BAD_MESSAGES`` malformed ones (then its socket is closed, 1008); the whole
@@ -21,6 +22,7 @@ import asyncio
 import contextlib
 import itertools
 import logging
+import socket
 import threading
 import time
 from collections import deque
@@ -34,6 +36,7 @@ from connectors.limits import (
     MAX_PAGE_BAD_MESSAGES,
     MAX_PAGE_REQUEST_S,
     MAX_VIEWER_BACKLOG,
+    MAX_VIEWER_BACKLOG_BYTES,
     MAX_VIEWER_MESSAGE_BYTES,
     MAX_VIEWERS,
 )
@@ -41,6 +44,10 @@ from modules.webdoor.hosts import allowed_hosts
 from modules.webdoor.secret import TOKEN_QUERY
 from runtime.live import protocol
 from runtime.live.gate import origin_netlocs, refusal
+
+#: Send buffer of a viewer's socket [bytes] (Linux doubles it): the kernel holds a few frames,
+#: not seconds of video, for a viewer that reads slowly.
+SOCKET_BUFFER = 128 * 1024
 
 
 class ParameterHandler(Protocol):
@@ -67,6 +74,7 @@ class _Viewer:
         self.label = f"#{number} ({peer[0] if peer else '?'})"
         self.sub_of_channel: dict[int, int] = {}  #: channel id -> subscription id
         self.data: deque[bytes] = deque()
+        self.data_bytes = 0
         self.control: deque[str] = deque()
         self.wake = asyncio.Event()
         self.dropped = 0
@@ -77,11 +85,23 @@ class _Viewer:
         self.wake.set()
 
     def push_data(self, frame: bytes) -> None:
-        if len(self.data) >= MAX_VIEWER_BACKLOG:
-            self.data.popleft()
+        while self.data and (
+            len(self.data) >= MAX_VIEWER_BACKLOG
+            or self.data_bytes + len(frame) > MAX_VIEWER_BACKLOG_BYTES
+        ):
+            self.data_bytes -= len(self.data.popleft())
             self.dropped += 1
         self.data.append(frame)
+        self.data_bytes += len(frame)
         self.wake.set()
+
+    def pop(self) -> str | bytes:
+        """The next message to send: control first (advertisements before data)."""
+        if self.control:
+            return self.control.popleft()
+        frame = self.data.popleft()
+        self.data_bytes -= len(frame)
+        return frame
 
 
 class ViewerServer:
@@ -203,6 +223,9 @@ class ViewerServer:
 
     async def _serve(self, conn: ServerConnection) -> None:
         viewer = _Viewer(conn, next(self._numbers))
+        with contextlib.suppress(AttributeError, OSError):  # the kernel's share of the backlog
+            sock = conn.transport.get_extra_info("socket")
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
         self._viewers.add(viewer)
         self.passed += 1
         self._log.info("foxglove: viewer %s connected", viewer.label)
@@ -229,8 +252,7 @@ class ViewerServer:
                 await viewer.wake.wait()
                 viewer.wake.clear()
                 while viewer.control or viewer.data:
-                    item = viewer.control.popleft() if viewer.control else viewer.data.popleft()
-                    await viewer.conn.send(item)
+                    await viewer.conn.send(viewer.pop())
 
     def _handle(self, viewer: _Viewer, message: str | bytes) -> bool:
         """Answer one message; False when the viewer has sent too many malformed ones."""

@@ -5,6 +5,7 @@ topics and frames, wall-clock times, parameters visible and not changeable."""
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -28,9 +29,9 @@ pytestmark = pytest.mark.slow
 GRAPH = REPO / "graphs" / "tool_pickup.yaml"
 #: A safety parameter (of REG_VEL, a guard), a tunable one out of its bounds, then within them.
 TUNING = [
-    {"at": 0.5, "name": "register.timeout", "value": 1.0},
-    {"at": 1.0, "name": "snake.tension", "value": 3.0},
-    {"at": 1.5, "name": "snake.tension", "value": 0.25},
+    {"at": 0.2, "name": "register.timeout", "value": 1.0},
+    {"at": 0.4, "name": "snake.tension", "value": 3.0},
+    {"at": 0.6, "name": "snake.tension", "value": 0.25},
 ]
 
 
@@ -58,9 +59,11 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
     args = ("--single-process", "--clock", "real", "--duration", "30")
     run = LiveRun(str(GRAPH), tmp_path / "run", *args)
     try:
-        time.sleep(2.0)  # the pick-up under way
-        report = run_client(client, run.url, 6.0)
-        tuned = run_tune(client.parent / "tune.js", run.url, 20.0, "/servo/status", TUNING)
+        time.sleep(2.0)  # the pick-up under way (it ends when the tool is grasped)
+        with ThreadPoolExecutor(1) as pool:  # a second viewer, tuning, at the same time
+            tuning = pool.submit(run_tune, client.parent / "tune.js", run.url, 8.0, "", TUNING)
+            report = run_client(client, run.url, 6.0)
+            tuned = tuning.result()
     finally:
         run.stop()
     assert report.get("error") is None, report.get("error")
