@@ -6,8 +6,9 @@ and the channels, subscribes, and receives message data (:mod:`runtime.live.prot
 
 - **Publishing never waits.** :meth:`ViewerServer.publish` is called from the encoding threads; it
   hands the frame to the server's loop, which appends it to each subscribed viewer's backlog
-  (``MAX_VIEWER_BACKLOG`` frames and ``MAX_VIEWER_BACKLOG_BYTES``; full: the oldest is dropped
-  and counted). Each viewer has a
+  (``MAX_VIEWER_BACKLOG`` frames and ``MAX_VIEWER_BACKLOG_BYTES``; full: the oldest frame of the
+  same channel is dropped and counted, so a video replaces its own old frames and a rare message
+  such as ``/tf_static`` stays). Each viewer has a
   sender task of its own: a slow or stalled viewer holds only its own backlog.
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
   sends, ``MAX_PAGE_BAD_MESSAGES`` malformed ones (then its socket is closed, 1008); the whole
@@ -73,7 +74,7 @@ class _Viewer:
         peer = conn.remote_address
         self.label = f"#{number} ({peer[0] if peer else '?'})"
         self.sub_of_channel: dict[int, int] = {}  #: channel id -> subscription id
-        self.data: deque[bytes] = deque()
+        self.data: deque[tuple[int, bytes]] = deque()  #: (channel id, frame), oldest first
         self.data_bytes = 0
         self.control: deque[str] = deque()
         self.wake = asyncio.Event()
@@ -84,22 +85,30 @@ class _Viewer:
         self.control.append(text)
         self.wake.set()
 
-    def push_data(self, frame: bytes) -> None:
+    def push_data(self, channel_id: int, frame: bytes) -> None:
+        """Hold ``frame``; when the backlog is full, drop the oldest frame of the same channel
+        (a stream replaces its own old samples), else the oldest of all."""
         while self.data and (
             len(self.data) >= MAX_VIEWER_BACKLOG
             or self.data_bytes + len(frame) > MAX_VIEWER_BACKLOG_BYTES
         ):
-            self.data_bytes -= len(self.data.popleft())
-            self.dropped += 1
-        self.data.append(frame)
+            self._drop(channel_id)
+        self.data.append((channel_id, frame))
         self.data_bytes += len(frame)
         self.wake.set()
+
+    def _drop(self, channel_id: int) -> None:
+        same = next((i for i, (held, _f) in enumerate(self.data) if held == channel_id), 0)
+        frame = self.data[same][1]
+        del self.data[same]
+        self.data_bytes -= len(frame)
+        self.dropped += 1
 
     def pop(self) -> str | bytes:
         """The next message to send: control first (advertisements before data)."""
         if self.control:
             return self.control.popleft()
-        frame = self.data.popleft()
+        frame = self.data.popleft()[1]
         self.data_bytes -= len(frame)
         return frame
 
@@ -218,7 +227,7 @@ class ViewerServer:
             sub = viewer.sub_of_channel.get(channel_id)
             if sub is not None:
                 before = viewer.dropped
-                viewer.push_data(protocol.message_data(sub, log_time_ns, payload))
+                viewer.push_data(channel_id, protocol.message_data(sub, log_time_ns, payload))
                 self.dropped += viewer.dropped - before
 
     async def _serve(self, conn: ServerConnection) -> None:

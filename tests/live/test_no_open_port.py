@@ -17,7 +17,7 @@ from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
 from runtime.live.viewer_server import ViewerServer
 from tests.live.graphs import small_plan
-from tests.live.helpers import REPO, LiveRun
+from tests.live.helpers import REPO, LiveRun, wait_joined
 from tests.live.ports import descendants, listening_ports, viewer_gets
 
 TOKEN = "t0ken-of-this-run-0123456789"
@@ -71,7 +71,7 @@ def test_no_port_of_a_split_run_serves_a_viewer_without_the_token(tmp_path: Path
     graph = str(REPO / "graphs" / "tool_pickup.yaml")
     run = LiveRun(graph, tmp_path / "run", "--duration", "60")
     try:
-        time.sleep(5.0)  # the processes up and linked, the servo side publishing
+        wait_joined(run)  # the processes up and linked, their samples reaching the live server
         token = run.url.split("?token=", 1)[1]
         printed = int(run.url.split(":")[2].split("/")[0])
         ports = {port: pid for pid in descendants(run.proc.pid) for port in listening_ports(pid)}
@@ -106,6 +106,7 @@ def test_a_viewer_that_stops_reading_gets_fresh_data_when_it_reads_again() -> No
         parameters=ParameterTable(small_plan()),
     )
     channel = door.add_channel("/camera/image", "protobuf", "x.Image", "protobuf", b"")
+    rare = door.add_channel("/tf_static", "protobuf", "x.Frames", "protobuf", b"")
     stop = threading.Event()
     frame = bytes(60_000)  # a 640 x 480 JPEG's size
 
@@ -127,21 +128,27 @@ def test_a_viewer_that_stops_reading_gets_fresh_data_when_it_reads_again() -> No
         ) as conn:
             conn.recv(timeout=5)  # serverInfo
             conn.recv(timeout=5)  # advertise
-            sub = {"op": "subscribe", "subscriptions": [{"id": 7, "channelId": channel}]}
+            subs = [{"id": 7, "channelId": channel}, {"id": 8, "channelId": rare}]
+            sub = {"op": "subscribe", "subscriptions": subs}
             conn.send(json.dumps(sub))
             thread.start()
             conn.recv(timeout=5)
-            time.sleep(1.5)  # stalled: the server keeps publishing
+            time.sleep(0.5)  # stalled: the server keeps publishing
+            door.publish(rare, time.time_ns(), b"once")  # a message sent once, mid-pause
+            time.sleep(1.0)
             resumed = time.monotonic()
-            stale = 0  # frames held for the viewer (server, kernel, client) since the pause
+            stale, got_rare = 0, False  # frames held for the viewer since the pause
             while True:
                 message = conn.recv(timeout=5)
                 assert isinstance(message, bytes)
                 _op, sub_id, log_ns = struct.unpack_from("<BIQ", message)
-                assert sub_id == 7
+                if sub_id == 8:
+                    got_rare = True  # the video replaced its own frames, not this one
+                    continue
                 if time.time_ns() - log_ns < 0.3e9:
                     break
                 stale += 1
+            assert got_rare
             # 64 frames (the message bound alone) would be 3.8 MB; the byte bound holds ~9,
             # the sockets' buffers a few more
             assert stale <= 25, stale
