@@ -14,7 +14,9 @@ inputs would make the scheduler wait for it, or change the graph a recording or 
   the Foxglove WebSocket protocol (``websockets``), with ``gate.py``'s checks on the upgrade
   request: the per-run token, ``Host`` and ``Origin`` with the operator pages' own rules
   (``modules.webdoor``); nothing else listens;
-- ``parameters.py``: the module parameters a viewer sees;
+- ``parameters.py``: the module parameters a viewer sees and may change (those declared
+  tunable; ``runtime.tuning`` applies them between steps), and ``param_link.py``: how a change
+  reaches a module of another process (the run's tuner, on ``P/_params/<process>``);
 - ``feed.py``: where samples come from: the outputs of the ``umbra`` process itself, and the
   other processes' outputs by subscribing on zenoh as an observer to what ``--publish-all``
   publishes.

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import secrets
+import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -25,6 +26,8 @@ if TYPE_CHECKING:
     from runtime.links.observe import Run
     from runtime.scheduler import Scheduler
 
+#: Seconds the tuner's session has to reach every process of the run.
+TUNER_PATIENCE = 5.0
 #: Foxglove's conventional port for its WebSocket protocol.
 DEFAULT_PORT = 8765
 
@@ -126,10 +129,21 @@ class LiveRun:
             cfg = local_config(
                 run, credentials={"user": TUNER_USER, "password": self.tuner_password}
             )
-            sender = ParamSender(open_session(cfg), self.plan)
+            session = open_session(cfg)
         except Exception as exc:  # the run goes on, read only: say why
             self.log.warning("foxglove: cannot send parameter changes: %s", exc)
             return
+        deadline = time.monotonic() + TUNER_PATIENCE
+        while len(list(session.info.transports())) < len(run.processes):
+            if time.monotonic() > deadline:  # processes started by hand know no tuner
+                session.close()
+                self.log.warning(
+                    "foxglove: parameters of other processes cannot be changed: their "
+                    "credentials do not let this process send changes (a run started by hand)"
+                )
+                return
+            time.sleep(0.05)
+        sender = ParamSender(session, self.plan)
         self._sender = sender
         remote = [m for m in self.plan.modules if m not in self._local_modules]
         self.parameters.send_remotely(sender.send, remote)

@@ -11,8 +11,9 @@ and the channels, subscribes, and receives message data (:mod:`runtime.live.prot
   such as ``/tf_static`` stays). Each viewer has a
   sender task of its own: a slow or stalled viewer holds only its own backlog.
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
-  sends, ``MAX_PAGE_BAD_MESSAGES`` malformed ones (then its socket is closed, 1008); the whole
-  request within ``MAX_PAGE_REQUEST_S``.
+  sends, ``MAX_PAGE_BAD_MESSAGES`` malformed ones, ``MAX_VIEWER_BACKLOG`` answers waiting for a
+  viewer that asks and does not read (then its socket is closed, 1008); the whole request within
+  ``MAX_PAGE_REQUEST_S``.
 - **Parameters** are answered by a :class:`ParameterHandler` (get and set), whose refusals go to
   the asking viewer as ``status`` messages.
 """
@@ -159,6 +160,7 @@ class ViewerServer:
             open_timeout=MAX_PAGE_REQUEST_S,
             max_size=MAX_VIEWER_MESSAGE_BYTES,
             max_queue=4,
+            close_timeout=2.0,  # a viewer that does not answer the closing handshake: cut off
             server_header=None,
         )
 
@@ -179,6 +181,11 @@ class ViewerServer:
         self._channels[info.id] = info
         self._loop.call_soon_threadsafe(self._broadcast, protocol.advertise([info]))
         return info.id
+
+    @property
+    def viewers(self) -> int:
+        """Viewers connected now."""
+        return len(self._viewers)
 
     def watched(self, channel_id: int) -> bool:
         """Whether a viewer subscribes to the channel (a look-up: any thread, never waits)."""
@@ -237,7 +244,7 @@ class ViewerServer:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
         self._viewers.add(viewer)
         self.passed += 1
-        self._log.info("foxglove: viewer %s connected", viewer.label)
+        self._log.info("foxglove: viewer connected: %s", viewer.label)
         viewer.push_control(protocol.server_info(self.name, self._session))
         viewer.push_control(protocol.advertise(list(self._channels.values())))
         sender = asyncio.create_task(self._send(viewer))
@@ -246,6 +253,9 @@ class ViewerServer:
                 if not self._handle(viewer, message):
                     await conn.close(1008, "too many malformed messages")
                     break
+                if len(viewer.control) > MAX_VIEWER_BACKLOG:  # asks, never reads the answers
+                    await conn.close(1008, "too many answers waiting to be read")
+                    break
         except ConnectionClosed:
             pass
         finally:
@@ -253,7 +263,7 @@ class ViewerServer:
             self._viewers.discard(viewer)
             for channel_id in viewer.sub_of_channel:
                 self._watched[channel_id] -= 1
-            self._log.info("foxglove: viewer %s left", viewer.label)
+            self._log.info("foxglove: viewer left: %s", viewer.label)
 
     async def _send(self, viewer: _Viewer) -> None:
         with contextlib.suppress(ConnectionClosed):
@@ -279,11 +289,15 @@ class ViewerServer:
     def _answer(self, viewer: _Viewer, request: dict[str, Any]) -> None:
         op = request["op"]
         if op == "subscribe":
+            wrong = []
             for sub, channel_id in protocol.subscriptions(request):
                 if channel_id not in self._channels or channel_id in viewer.sub_of_channel:
-                    raise ValueError(f"no channel {channel_id} to subscribe to (or subscribed)")
+                    wrong.append(channel_id)  # the others of the request still count
+                    continue
                 viewer.sub_of_channel[channel_id] = sub
                 self._watched[channel_id] = self._watched.get(channel_id, 0) + 1
+            if wrong:
+                raise ValueError(f"no channel {wrong} to subscribe to, or subscribed already")
         elif op == "unsubscribe":
             gone = set(protocol.subscription_ids(request))
             for channel_id, sub in list(viewer.sub_of_channel.items()):

@@ -117,3 +117,24 @@ def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: ViewerServer) ->
             conn.send(bad)  # client publishing is not served, nor malformed requests
             status = json.loads(conn.recv(timeout=5))
             assert status["op"] == "status" and status["level"] == 2, status
+
+
+def test_a_client_that_asks_and_never_reads_is_closed(gate: ViewerServer) -> None:
+    import socket as sockets
+    import time
+
+    sock = sockets.create_connection(("127.0.0.1", gate.port))
+    sock.setsockopt(sockets.SOL_SOCKET, sockets.SO_RCVBUF, 4096)
+    conn = ws_client.connect(
+        gate.url, sock=sock, subprotocols=["foxglove.websocket.v1"], max_queue=1
+    )
+    try:
+        ask = json.dumps({"op": "getParameters", "parameterNames": [], "id": "again"})
+        for _ in range(500):  # each answer holds every parameter; none is read
+            conn.send(ask)
+        deadline = time.monotonic() + 10
+        while gate.viewers and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert gate.viewers == 0  # closed by the server (1008), its answers dropped
+    finally:
+        conn.close()
