@@ -64,3 +64,15 @@ MAX_PAGE_MESSAGES_PER_S = 120.0
 MAX_PAGE_MESSAGE_BURST = 240
 #: Malformed or refused-as-replayed messages after which a page's socket is closed.
 MAX_PAGE_BAD_MESSAGES = 20
+
+# -- the live Foxglove server (runtime/live): what one viewer may make it hold --
+#: Largest message a viewer may send (a subscription to every channel of a big graph is ~4 KiB).
+MAX_VIEWER_MESSAGE_BYTES = 64 * 1024
+#: Viewers connected at once.
+MAX_VIEWERS = 16
+#: Messages held for a viewer that does not keep up, per viewer; then its oldest data is dropped
+#: (about half a second of a pick-up's image and joint streams).
+MAX_VIEWER_BACKLOG = 64
+#: ... and bytes held for it (about ten 640 x 480 JPEG frames: a viewer that falls behind sees
+#: fresh video again within a third of a second, not a backlog of old frames).
+MAX_VIEWER_BACKLOG_BYTES = 512 * 1024

@@ -313,6 +313,30 @@ class Status(Message, frozen=True, kw_only=True):
     values: dict[str, float] = msgspec.field(default_factory=dict)
 
 
+class ParamChange(Message, frozen=True, kw_only=True):
+    """A change of a module's tunable parameter while the graph runs (``umbra run --foxglove``).
+
+    As a request (``old`` empty) it travels from the process that serves viewers to the process
+    that runs ``module``; as a record (``old`` set) it is what that process applied, between two
+    steps. ``value`` and ``old`` are JSON text (the parameter's type decides); ``by`` names who
+    asked (``foxglove viewer #2 (127.0.0.1)``).
+    """
+
+    FIELD_NOTES: ClassVar[dict[str, str]] = {
+        "module": "module instance name, as in the graph",
+        "param": "parameter name (declared tunable)",
+        "value": "JSON text: the new value",
+        "old": "JSON text: the value it replaced (empty: a request)",
+        "by": "who asked: a viewer's label",
+    }
+
+    module: str
+    param: str
+    value: str
+    old: str = ""
+    by: str = ""
+
+
 @functools.cache
 def plugin_message_modules() -> tuple[str, ...]:
     """Import the modules the ``umbra.messages`` entry points name (once per process) and return

@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from connectors.frames import FrameTree
-from connectors.params import Parameters
+from connectors.params import Parameters, is_tunable
 from connectors.ports import Input, OriginTrack, Output, OutputPort, Register
 
 
@@ -69,6 +69,16 @@ class Module:
     Params: ClassVar[type[Parameters]] = Parameters
     #: True for safety guards (watchdog registers): command paths to guarded inputs must pass one.
     SAFETY_GUARD: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.SAFETY_GUARD:
+            tunable = [n for n in cls.Params.model_fields if is_tunable(cls.Params, n)]
+            if tunable:
+                raise TypeError(
+                    f"{cls.__qualname__} is a safety guard: its parameter `{tunable[0]}` cannot be "
+                    "tunable (every parameter of a guard bounds what reaches the arm)"
+                )
 
     def __init__(self, name: str, params: Parameters, context: ModuleContext | None = None):
         self.name = name
@@ -115,6 +125,11 @@ class Module:
 
     def stop(self) -> None:
         """Release resources; always called once the module has started, even after an error."""
+
+    def retune(self, old: Parameters) -> None:
+        """``self.params`` was changed while running (tunable parameters only, between two
+        steps; ``old``: the parameters before): rebuild what ``start`` derived from them. Nothing
+        by default (a module that reads ``self.params`` in ``step`` needs nothing)."""
 
     def summary(self) -> dict[str, Any]:
         """Figures for the end-of-run summary (counts, results); empty by default."""

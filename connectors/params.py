@@ -17,6 +17,15 @@ A check across parameters raises :class:`ParamProblem` naming the parameter at f
 ``umbra check`` points at its line.
 A module whose safety depends on its rate overrides :meth:`Parameters.rate_problem`.
 A file the module writes is declared ``RunFile``: a path inside the run folder (or empty: none).
+
+A parameter a viewer may change while the graph runs is declared ``tunable=True`` (``umbra run
+--foxglove``: validated exactly as ``--set`` is, by this model, and applied between steps). One
+that bounds what reaches the arm (speeds, clamps, timeouts, origin ages, joint limits) is declared
+``safety=True`` and can never be tunable: declaring both is an error when the class is defined,
+as is any tunable parameter of a safety guard (``Module.SAFETY_GUARD``: every parameter of a
+watchdog bounds the arm). Why safety is a mark of its own rather than "not tunable": the mark
+says what a parameter *is*, so a later ``tunable=True`` on it fails at import instead of passing
+a review.
 """
 
 from __future__ import annotations
@@ -52,6 +61,16 @@ class Parameters(pydantic.BaseModel):
         """``(parent, child)`` pairs the graph's static frames must join for the module to start
         (``umbra check`` reports the missing ones); none by default."""
         return []
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        both = [n for n in cls.model_fields if is_tunable(cls, n) and is_safety(cls, n)]
+        if both:
+            raise TypeError(
+                f"{cls.__qualname__}: parameter `{both[0]}` is declared safety and tunable; "
+                "a safety parameter is never changed while the graph runs"
+            )
 
     def rate_problem(self, rate_hz: float | None) -> str:
         """Why the module cannot work at graph ``rate`` ``rate_hz`` [Hz] (None: triggered only);
@@ -104,9 +123,20 @@ class ParamProblem(ValueError):
         self.field = field
 
 
-def param(default: Any, doc: str, *, unit: str = "", **constraints: Any) -> Any:
-    """Declare a parameter: ``default``, one-line ``doc``, ``unit`` and pydantic constraints."""
-    extra = {"unit": unit} if unit else None
+def param(
+    default: Any,
+    doc: str,
+    *,
+    unit: str = "",
+    tunable: bool = False,
+    safety: bool = False,
+    **constraints: Any,
+) -> Any:
+    """Declare a parameter: ``default``, one-line ``doc``, ``unit``, whether it may be changed
+    while the graph runs (``tunable``) or bounds what reaches the arm (``safety``: never tunable),
+    and pydantic constraints."""
+    marks = {"unit": unit, "tunable": tunable, "safety": safety}
+    extra = {k: v for k, v in marks.items() if v} or None
     if isinstance(default, list | dict | set):
         frozen_default = default
         return Field(
@@ -116,6 +146,37 @@ def param(default: Any, doc: str, *, unit: str = "", **constraints: Any) -> Any:
             **constraints,
         )
     return Field(default, description=doc, json_schema_extra=extra, **constraints)
+
+
+def _marks(params_cls: type[Parameters], name: str) -> dict[str, Any]:
+    field = params_cls.model_fields.get(name)
+    extra = field.json_schema_extra if field is not None else None
+    return extra if isinstance(extra, dict) else {}
+
+
+def is_tunable(params_cls: type[Parameters], name: str) -> bool:
+    """Whether parameter ``name`` is declared ``tunable``."""
+    return bool(_marks(params_cls, name).get("tunable"))
+
+
+def is_safety(params_cls: type[Parameters], name: str) -> bool:
+    """Whether parameter ``name`` is declared ``safety``."""
+    return bool(_marks(params_cls, name).get("safety"))
+
+
+def with_change(params: Parameters, name: str, value: Any) -> Parameters:
+    """``params`` with ``name`` set to ``value``, validated by the same model as the graph file
+    and ``--set`` (bounds, types, checks across parameters); ``ValueError`` with one plain
+    sentence per problem."""
+    cls = type(params)
+    values = {key: getattr(params, key) for key in cls.model_fields}
+    values[name] = value
+    try:
+        return cls(**values)
+    except pydantic.ValidationError as exc:
+        raise ValueError("; ".join(validation_problems(cls, exc))) from None
+    except (TypeError, ValueError) as exc:  # a module's own validator
+        raise ValueError(str(exc)) from None
 
 
 @dataclass(frozen=True)

@@ -215,7 +215,9 @@ class Supervisor:
             for name in names:  # every process has a file zenoh accepts: say so now
                 check_config_file(config_for(config_file, name))
         if not insecure:
-            self.credentials = RunCredentials(plan)
+            # a run served live (--foxglove): the live server may send parameter changes
+            tuner = getattr(self.args, "tuner_password", None)
+            self.credentials = RunCredentials(plan, tuner_password=tuner)
         servo = servo_processes(plan)
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         root = str(Path(__file__).resolve().parents[1])

@@ -129,6 +129,12 @@ class Scheduler:
                 now=self.clock.now(),
                 log=self.options.log,
             )
+        from runtime.tuning import CHANGES_TOPIC, Tuner
+
+        #: live changes of tunable parameters, applied at the start of a tick
+        self.tuner = Tuner(self.modules, log)
+        if self.recorder is not None:
+            self.tuner.record = self.recorder.file.sink(CHANGES_TOPIC)
         for name in names:
             mplan = self.plan.modules[name]
             module = self.modules[name]
@@ -361,6 +367,8 @@ class Scheduler:
         """One tick at ``now`` [s]: link samples into registers, then every due or triggered
         module in data order, then delayed writes. Call with the tick lock held."""
         self._tick_now = now
+        if self.tuner.pending:  # between steps: never under a module's feet
+            self.tuner.apply(now)
         inbound = self._inbound
         if inbound:
             if len(inbound) == 1:  # the usual case: one sample since the last tick

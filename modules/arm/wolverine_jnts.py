@@ -32,13 +32,23 @@ class WolverineJnts(Module):
     class Params(ArmParams):
         backend: Literal["sim", "canopen"] = param("sim", "joint driver")
         max_command_age: float = param(
-            0.1, "older rate commands count as zero", unit="s", gt=0, le=MAX_COMMAND_AGE_S
+            0.1,
+            "older rate commands count as zero",
+            unit="s",
+            gt=0,
+            le=MAX_COMMAND_AGE_S,
+            safety=True,
         )
         initial_q_deg: list[float] | None = param(
             None, "sim: initial joint angles (default zeros, clipped to limits)", unit="deg"
         )
         accel_max: float = param(
-            8.0, "sim: joint acceleration limit", unit="rad/s^2", gt=0, le=MAX_JOINT_ACCEL_RAD_S2
+            8.0,
+            "sim: joint acceleration limit",
+            unit="rad/s^2",
+            gt=0,
+            le=MAX_JOINT_ACCEL_RAD_S2,
+            safety=True,
         )
         lag_tau: float = param(0.02, "sim: time constant of the rate response", unit="s", ge=0)
         calibration_error_deg: list[float] = param(

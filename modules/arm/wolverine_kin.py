@@ -58,7 +58,7 @@ class WolverineKin(Module):
         dls_lambda_max: float = param(0.04, "damping at a singularity (J units)", gt=0)
         limit_margin_deg: float = param(5.0, "flag joints this close to a limit", unit="deg", ge=0)
         max_state_age: float = param(
-            0.1, "oldest joint state used", unit="s", gt=0, le=MAX_COMMAND_AGE_S
+            0.1, "oldest joint state used", unit="s", gt=0, le=MAX_COMMAND_AGE_S, safety=True
         )
 
         @property

@@ -10,8 +10,8 @@ class Gain(Module):
     """output = gain * input + bias, on every new input."""
 
     class Params(Parameters):
-        gain: float = param(1.0, "factor")
-        bias: float = param(0.0, "added after scaling")
+        gain: float = param(1.0, "factor", tunable=True)
+        bias: float = param(0.0, "added after scaling", tunable=True)
 
     input = Input(Scalar, trigger=True, doc="value to scale")
     output = Output(Scalar, doc="scaled value")

@@ -17,13 +17,15 @@ class StatusPlot(Module):
     """Collects ``values`` of each new Status and writes them as a PNG plot at the end."""
 
     class Params(Parameters):
-        keys: list[str] = param([], "figures to plot (empty: every figure seen)")
-        scale: dict[str, float] = param({}, "multiply a figure before plotting, e.g. m -> mm: 1000")
+        keys: list[str] = param([], "figures to plot (empty: every figure seen)", tunable=True)
+        scale: dict[str, float] = param(
+            {}, "multiply a figure before plotting, e.g. m -> mm: 1000", tunable=True
+        )
         units: dict[str, str] = param({}, "unit shown in the legend per figure")
         path: RunFile = param(
             "plot.png", "PNG file, relative to the run's output folder (empty: none)"
         )
-        title: str = param("", "plot title (default: the module name)")
+        title: str = param("", "plot title (default: the module name)", tunable=True)
 
     status = Input(Status, trigger=True, doc="status stream with figures in `values`")
 

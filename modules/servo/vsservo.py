@@ -74,13 +74,23 @@ class VsServo(Module):
         )
         goal_roll_deg: float = param(0.0, "goal principal-axis angle from +u", unit="deg")
         gains: list[float] = param(
-            [0.8, 0.8, 0.6, 0.8], "gains x, y, z, roll", unit="1/s", min_length=4, max_length=4
+            [0.8, 0.8, 0.6, 0.8],
+            "gains x, y, z, roll",
+            unit="1/s",
+            min_length=4,
+            max_length=4,
+            tunable=True,
         )
         max_linear: float = param(
-            0.05, "linear speed clamp", unit="m/s", gt=0, le=MAX_TOOL_SPEED_M_S
+            0.05, "linear speed clamp", unit="m/s", gt=0, le=MAX_TOOL_SPEED_M_S, safety=True
         )
         max_angular: float = param(
-            0.3, "angular speed clamp", unit="rad/s", gt=0, le=MAX_TOOL_ANGULAR_RAD_S
+            0.3,
+            "angular speed clamp",
+            unit="rad/s",
+            gt=0,
+            le=MAX_TOOL_ANGULAR_RAD_S,
+            safety=True,
         )
         acquire_frames: int = param(5, "healthy frames before the approach", ge=1)
         settle_frames: int = param(5, "in-tolerance frames that end the approach", ge=1)
@@ -88,9 +98,11 @@ class VsServo(Module):
         tolerance_z: float = param(0.003, "depth tolerance", unit="m", gt=0)
         tolerance_roll_deg: float = param(1.0, "roll tolerance", unit="deg", gt=0)
         grab_distance: float = param(0.05, "final open-loop advance", unit="m", ge=0)
-        grab_speed: float = param(0.02, "speed of the final advance", unit="m/s", gt=0)
+        grab_speed: float = param(0.02, "speed of the final advance", unit="m/s", gt=0, safety=True)
         gripper_close_time: float = param(0.5, "wait after closing the gripper", unit="s", ge=0)
-        max_contour_age: float = param(0.5, "older contours count as lost", unit="s", gt=0)
+        max_contour_age: float = param(
+            0.5, "older contours count as lost", unit="s", gt=0, safety=True
+        )
         camera_frame: str = param("camera", "frame of the output twist")
         progress_period_s: float = param(
             1.0, "log stage and errors this often (0: only stage changes)", unit="s", ge=0
@@ -150,6 +162,12 @@ class VsServo(Module):
         self.stages = ServoStages(self._goal(), gains, settings)
         self._last_key: tuple[str, str, str] | None = None
         self._assists = 0
+
+    def retune(self, old: Parameters) -> None:
+        """The gains changed: the stages go on with the new ones (the clamps are safety
+        parameters, never changed live)."""
+        p = self.params
+        self.stages.gains = ServoGains(tuple(p.gains), p.max_linear, p.max_angular)  # type: ignore[arg-type]
 
     def _goal(self) -> MomentFeatures:
         p = self.params

@@ -11,8 +11,8 @@ from connectors.messages import Contour, Image, Vector
 from modules.vision import color
 from modules.vision.contour_message import contour_message
 from modules.vision.polygon import rectangle
-from modules.vision.sanity import FAILED
-from modules.vision.snake import seed_samples
+from modules.vision.sanity import FAILED, SanityLimits
+from modules.vision.snake import SnakeParams, seed_samples
 from modules.vision.snake_config import SettingsError, setting_defaults, settings_from
 from modules.vision.tracker import IDLE, SnakeTracker
 
@@ -56,14 +56,22 @@ class VsSnake(Module):
         target_noise_gray: float = param(
             8.0, "spread of the target_rgb color model", unit="gray levels", gt=0
         )
-        k_sigma: float = param(_DEFAULTS["k_sigma"], "color gate radius", unit="sigma", gt=0)
+        k_sigma: float = param(
+            _DEFAULTS["k_sigma"], "color gate radius", unit="sigma", gt=0, tunable=True
+        )
         min_gray: float = param(
             _DEFAULTS["min_gray"], "darker pixels never count", unit="gray levels", ge=0
         )
         step_px: float = param(
-            _DEFAULTS["step_px"], "largest pressure move per iteration", unit="px", gt=0
+            _DEFAULTS["step_px"],
+            "largest pressure move per iteration",
+            unit="px",
+            gt=0,
+            tunable=True,
         )
-        tension: float = param(_DEFAULTS["tension"], "smoothing per iteration", ge=0, le=0.5)
+        tension: float = param(
+            _DEFAULTS["tension"], "smoothing per iteration", ge=0, le=0.5, tunable=True
+        )
         window_radius_px: int = param(
             _DEFAULTS["window_radius_px"], "half-width of the pixel window", unit="px", ge=0
         )
@@ -80,13 +88,17 @@ class VsSnake(Module):
             _DEFAULTS["max_iterations"], "iterations to acquire after a seed", ge=1, le=10_000
         )
         track_iterations: int = param(
-            _DEFAULTS["track_iterations"], "iterations per image when tracking", ge=1, le=1_000
+            _DEFAULTS["track_iterations"],
+            "iterations per image when tracking",
+            ge=1,
+            le=1_000,
+            tunable=True,
         )
         converge_px: float = param(
             _DEFAULTS["converge_px"], "converged when no vertex moves more", unit="px", gt=0
         )
         adapt_rate: float = param(
-            _DEFAULTS["adapt_rate"], "color model adaptation per image", ge=0, le=1
+            _DEFAULTS["adapt_rate"], "color model adaptation per image", ge=0, le=1, tunable=True
         )
         edge_half_length_px: float = param(
             _DEFAULTS["edge_half_length_px"],
@@ -144,14 +156,18 @@ class VsSnake(Module):
         Contour, origin_from=("image",), doc="tracked contour, features and sanity status"
     )
 
-    def start(self) -> None:
+    def _settings(self) -> tuple[SnakeParams, SanityLimits]:
+        """Snake parameters and sanity limits from this module's parameters."""
         p = self.params
         names = set(_DEFAULTS) & set(type(p).model_fields)
         try:
-            snake_params, limits = settings_from({name: getattr(p, name) for name in names})
+            return settings_from({name: getattr(p, name) for name in names})
         except SettingsError as exc:
             raise UserError(f"{self.name}: {exc}") from None
-        self._tracker = SnakeTracker(snake_params, limits)
+
+    def start(self) -> None:
+        p = self.params
+        self._tracker = SnakeTracker(*self._settings())
         self._target = None
         if p.target_rgb:
             if len(p.target_rgb) != 3 or not all(0 <= c <= 255 for c in p.target_rgb):
@@ -169,6 +185,11 @@ class VsSnake(Module):
         self._was_failed = False
         self._previous: np.ndarray | None = None
         self._identical = 0
+
+    def retune(self, old: Parameters) -> None:
+        """A tunable setting changed (tension, gate, step, iterations, adaptation): the tracker
+        goes on with its contour and color model under the new settings."""
+        self._tracker.params, self._tracker.limits = self._settings()
 
     def _frozen(self, pixels: np.ndarray) -> bool:
         """True when the last ``max_identical_frames`` images were identical: a live sensor always

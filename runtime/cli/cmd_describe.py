@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import inspect
 
-from connectors.params import describe_params
+from connectors.params import describe_params, is_safety, is_tunable
 from runtime.registry import Registry
 
 NAME = "describe"
@@ -52,8 +52,15 @@ def describe(cls: type) -> str:
         unit = f" [{p.unit}]" if p.unit else ""
         cons = f", {p.constraints}" if p.constraints else ""
         default = "(required)" if p.required else f"= {p.default!r}"
-        lines.append(f"  {p.name}: {p.type} {default}{unit}{cons}  {p.doc}")
+        marks = [m for m, on in _marks(cls, p.name).items() if on]
+        mark = f" ({', '.join(marks)})" if marks else ""
+        lines.append(f"  {p.name}: {p.type} {default}{unit}{cons}{mark}  {p.doc}")
     return "\n".join(lines)
+
+
+def _marks(cls: type, name: str) -> dict[str, bool]:
+    """``tunable``: may be changed while the graph runs; ``safety``: bounds what reaches the arm."""
+    return {"tunable": is_tunable(cls.Params, name), "safety": is_safety(cls.Params, name)}
 
 
 def main(args: argparse.Namespace) -> int:

@@ -267,6 +267,7 @@ def main(args: argparse.Namespace) -> int:
         args.publish_all = True  # every process's outputs, for the live server to observe
     live = start_live(plan, args, RealClock())
     if live is not None:
+        args.tuner_password = live.tuner_password  # the launcher's credentials let it tune
         live.observe()
     try:
         return launcher.main(plan, args, clock=clock, duration=duration, out=out)

@@ -20,6 +20,11 @@ An *observer* (``Observer``: ``umbra topics``, a viewer) is a read-only subject:
 subscribers on its keys (by default every output key of the graph, ``output_keys``) and is sent
 their samples and ends of stream; it may watch and query the graph's liveliness tokens. It may
 not put, delete, declare a token or query anything else.
+
+The *tuner* (user ``TUNER_USER``, only in a run served live with ``--foxglove``: the launcher's
+process, which hosts the live server) may put parameter changes on ``P/_params/<process>``
+(``param_key``) and be told of the processes' subscribers there; nothing else. A process
+subscribes only to its own key, and nobody else may put there.
 """
 
 from __future__ import annotations
@@ -55,6 +60,15 @@ def by_certificate(graph: str) -> SubjectOf:
 
 #: User name of the observer of a local run (``@`` is in no process name, so no process has it).
 OBSERVER_USER = "observer@umbra"
+#: User name of the live server's process when it sends parameter changes (``@``: no process).
+TUNER_USER = "tuner@umbra"
+#: Key segment of the parameter changes sent to a process.
+PARAMS = "_params"
+
+
+def param_key(prefix: str, process: str) -> str:
+    """Key on which ``process`` takes changes of its modules' tunable parameters."""
+    return f"{prefix}/{PARAMS}/{process}"
 
 
 @dataclass(frozen=True)
@@ -101,9 +115,13 @@ def link_keys(plan: GraphPlan) -> tuple[dict[str, set[str]], dict[str, set[str]]
 
 
 def zenoh_acl(
-    plan: GraphPlan, subject_of: SubjectOf, observers: Sequence[Observer] = ()
+    plan: GraphPlan,
+    subject_of: SubjectOf,
+    observers: Sequence[Observer] = (),
+    tuner: dict[str, list[str]] | None = None,
 ) -> dict[str, Any]:
-    """The ``access_control`` section for every process of ``plan`` (and ``observers``)."""
+    """The ``access_control`` section for every process of ``plan`` (and ``observers``, and the
+    ``tuner`` subject when the run is served live)."""
     produces, consumes = link_keys(plan)
     prefix = plan.key_prefix
     alive_all = f"{prefix}/{ALIVE}/**"
@@ -190,6 +208,16 @@ def zenoh_acl(
             rule(f"{oid}: tokens to it", ["liveliness_token", "reply"], ["egress"], [alive_all]),
         ]
         policies.append({"id": f"{oid}: read only", "rules": reads, "subjects": [oid]})
+    if tuner is not None:
+        changes = [param_key(prefix, p) for p in plan.populated_processes]
+        subjects.append({"id": "tuner", **tuner})
+        sends = [
+            rule("tuner: parameter changes", ["put"], ["ingress"], changes),
+            rule("tuner: their subscribers", ["declare_subscriber"], ["egress"], changes),
+        ]
+        policies.append(
+            {"id": "tuner: parameter changes only", "rules": sends, "subjects": ["tuner"]}
+        )
     return {
         "enabled": True,
         "default_permission": "deny",

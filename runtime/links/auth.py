@@ -41,7 +41,13 @@ import zenoh
 from connectors.errors import UserError
 from connectors.user_files import read_text
 from runtime.graph.plan import GraphPlan
-from runtime.links.acl import OBSERVER_USER, by_username, local_observer, zenoh_acl
+from runtime.links.acl import (
+    OBSERVER_USER,
+    TUNER_USER,
+    by_username,
+    local_observer,
+    zenoh_acl,
+)
 
 _ZID_RE = re.compile(r"^[0-9a-f]{1,32}$")
 _KEY_RE = re.compile(r"^[0-9a-f]{64}$")
@@ -59,10 +65,15 @@ class RunCredentials:
     connects to those before it (``runtime.links.config.loopback_mesh``).
     """
 
-    def __init__(self, plan: GraphPlan) -> None:
+    def __init__(self, plan: GraphPlan, tuner_password: str | None = None) -> None:
+        """``tuner_password``: the live server's, when the run is served live (its process
+        may then send parameter changes: ``runtime.links.acl``)."""
         self.folder = Path(tempfile.mkdtemp(prefix="umbra-auth-"))  # mode 0700
         processes = plan.populated_processes
         passwords = {p: secrets.token_hex(24) for p in [*processes, OBSERVER_USER]}
+        if tuner_password:
+            passwords[TUNER_USER] = tuner_password
+        tuner = by_username(TUNER_USER) if tuner_password else None
         observer = local_observer(plan)
         token_key = secrets.token_hex(32)  # proves the run's liveliness tokens
         #: zenoh id of each process (lowercase hex without a leading zero, as zenoh wants it)
@@ -77,8 +88,9 @@ class RunCredentials:
                 return {"zids": [self.zids[other]]} if other in before else by_username(other)
 
             path = self.folder / f"{process}.json"
-            acl = zenoh_acl(plan, subject, [observer])
+            acl = zenoh_acl(plan, subject, [observer], tuner)
             auth = credentials(process, passwords, dictionary, self.zids[process], token_key, acl)
+            auth["tuner"] = bool(tuner_password)  # take parameter changes from the live server
             write_private(path, json.dumps(auth))
             self.files[process] = path
 

@@ -116,9 +116,12 @@ def _runs_folder_text(folder: Path | None) -> str:
     return str(runs_folder(folder))
 
 
-def _local_config(run: Run, zenoh_config: str | None = None) -> zenoh.Config:
+def local_config(
+    run: Run, zenoh_config: str | None = None, credentials: dict[str, str] | None = None
+) -> zenoh.Config:
     """The observer's configuration for a local run: its processes' endpoints, the run's
-    observer password, and ``zenoh_config`` (an observer certificate) for a run with TLS."""
+    observer password (or ``credentials``: user and password of another of the run's
+    subjects), and ``zenoh_config`` (an observer certificate) for a run with TLS."""
     endpoints = sorted({observer_endpoint(e) for p in run.processes for e in p.listen})
     if run.access == "config" and not zenoh_config:
         raise UserError(
@@ -128,7 +131,7 @@ def _local_config(run: Run, zenoh_config: str | None = None) -> zenoh.Config:
             f"DIR/observer@NAME.json5"
         )
     cfg = build_config(Endpoints(connect=endpoints), zenoh_config)
-    observer = run.processes[0].observer
+    observer = credentials or run.processes[0].observer
     if observer:  # the run's password too (the launcher's runs have one, TLS or not)
         usrpwd = {"user": observer["user"], "password": observer["password"]}
         cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
@@ -186,7 +189,7 @@ class Observation:
         if zenoh_config and not connect:  # a local run with TLS: its endpoints, a certificate
             run = choose_run(graph, folder, run_id)
             readable = observer_keys(zenoh_config)
-            session = open_session(_local_config(run, zenoh_config))
+            session = open_session(local_config(run, zenoh_config))
             keys = readable[1] if readable is not None else None
             observation = cls(session, run.prefix, run, keys=keys)
             observation._wait_joined(len(run.processes))
@@ -204,7 +207,7 @@ class Observation:
             observation._wait_joined(1)
             return observation
         run = choose_run(graph, folder, run_id)
-        session = open_session(_local_config(run))
+        session = open_session(local_config(run))
         observation = cls(session, run.prefix, run)
         observation._wait_joined(len(run.processes))
         return observation

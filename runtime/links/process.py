@@ -40,6 +40,7 @@ from runtime.links.publish_all import AllOutputs
 from runtime.links.runs import RunFile, describe_outputs, write_run_file
 from runtime.links.session import open_session
 from runtime.links.transport import ZenohTransport
+from runtime.live.param_link import ParamListener
 from runtime.run import write_summary
 from runtime.scheduler import INTERRUPTED, Scheduler, SchedulerOptions
 from runtime.stats import RunResult
@@ -235,6 +236,12 @@ def run_linked_process(
         if options.publish_all
         else None
     )
+    # a run served live: the live server's parameter changes for this process's modules
+    tuning = (
+        ParamListener(session, plan, options.process, scheduler.tuner, log)
+        if auth is not None and auth.get("tuner")
+        else None
+    )
     supervised = control is not None
     run_file = (
         _run_file(plan, options, auth, facts.access_control, supervised)
@@ -261,6 +268,8 @@ def run_linked_process(
             log.info("process `%s`: links ready, running", options.process)
         result = scheduler.run()
     finally:
+        if tuning is not None:
+            tuning.close()
         if everything is not None:
             everything.close()
         transport.close()

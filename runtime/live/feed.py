@@ -13,15 +13,17 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from runtime.live.server import LiveServer
 from runtime.recording.tap import topic_of
 from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT, META_PROCESS
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from runtime.graph.plan import GraphPlan
-    from runtime.links.observe import Observation, Observed
+    from runtime.links.observe import Observation, Observed, Run
     from runtime.scheduler import Scheduler
 
 #: Seconds to keep trying to join the run as an observer (its processes start meanwhile).
@@ -68,11 +70,15 @@ class ObservedFeed:
         plan: GraphPlan,
         skip: set[str] | None = None,
         log: logging.Logger | None = None,
+        on_joined: Callable[[Run], None] | None = None,
     ) -> None:
         self._live = live
         self._plan = plan
         self._topics = declare_all(live, plan)
         self._skip = set(skip or ())  #: modules whose outputs are served locally
+        #: called with the run once samples of the other processes arrive
+        self._on_joined = on_joined
+        self._run: Run | None = None
         self._log = log or logging.getLogger("umbra.foxglove")
         self._prefix = plan.key_prefix
         self._observation: Observation | None = None
@@ -91,7 +97,8 @@ class ObservedFeed:
         deadline = time.monotonic() + JOIN_PATIENCE
         while not self._stop.is_set():
             try:
-                if len(choose_run(self._prefix).processes) < expected:
+                run = choose_run(self._prefix)
+                if len(run.processes) < expected:
                     raise UserError(f"error: fewer than the run's {expected} processes are up")
                 observation = Observation.open(self._prefix)
             except UserError as exc:
@@ -105,12 +112,17 @@ class ObservedFeed:
                 observation.close()
                 return
             self._observation = observation
+            self._run = run
             observation.subscribe(self._on_sample, f"{self._prefix}/*/*")
             return
 
     def _on_sample(self, seen: Observed) -> None:
         if seen.kind != "sample" or seen.message is None:
             return
+        joined, self._on_joined = self._on_joined, None
+        if joined is not None and self._run is not None:  # the first sample: the run flows
+            run = self._run
+            threading.Thread(target=joined, args=(run,), name="umbra-fox-join", daemon=True).start()
         module, _, port = seen.key[len(self._prefix) + 1 :].partition("/")
         topic = self._topics.get((module, port))
         if topic is None or module in self._skip:
@@ -123,12 +135,3 @@ class ObservedFeed:
         self._thread.join(timeout=2.0)
         if self._observation is not None:
             self._observation.close()
-
-
-def run_parameters(plan: GraphPlan) -> dict[str, Any]:
-    """``MODULE.PARAM`` → value of every module parameter (what a viewer may read)."""
-    found: dict[str, Any] = {}
-    for name, mplan in plan.modules.items():
-        for key, value in mplan.params.model_dump(mode="json").items():
-            found[f"{name}.{key}"] = value
-    return found

@@ -3,20 +3,31 @@
 from __future__ import annotations
 
 import logging
+import secrets
+import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from connectors.errors import UserError
 from modules.webdoor.secret import is_loopback, resolve_token
-from runtime.live.feed import ObservedFeed, run_parameters, serve_local
-from runtime.live.gate import DEFAULT_ORIGINS, Gate
+from runtime.links.acl import TUNER_USER
+from runtime.links.observe import local_config
+from runtime.links.session import open_session
+from runtime.live.feed import ObservedFeed, serve_local
+from runtime.live.gate import DEFAULT_ORIGINS
+from runtime.live.param_link import ParamSender
+from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
+from runtime.live.viewer_server import ViewerServer
 from runtime.recording.foxglove_msgs import wall_offset
 
 if TYPE_CHECKING:
     from runtime.graph.plan import GraphPlan
+    from runtime.links.observe import Run
     from runtime.scheduler import Scheduler
 
+#: Seconds the tuner's session has to reach every process of the run.
+TUNER_PATIENCE = 5.0
 #: Foxglove's conventional port for its WebSocket protocol.
 DEFAULT_PORT = 8765
 
@@ -58,55 +69,100 @@ class LiveRun:
         self.plan = plan
         self.log = log or logging.getLogger("umbra.foxglove")
         token = resolve_token(options.token_file or page_token_file(plan), "--foxglove")
+        self.parameters = ParameterTable(plan, self.log)
+        try:
+            self.gate = ViewerServer(
+                name=f"umbra {plan.spec.name}",
+                host=options.host,
+                port=options.port,
+                token=token,
+                origins=[*DEFAULT_ORIGINS, *options.origins],
+                parameters=self.parameters,
+                log=self.log,
+            )
+        except OSError as exc:
+            raise UserError(
+                f"--foxglove-port: cannot listen on {options.host}:{options.port}: "
+                f"{exc.strerror or exc} (give another port, or 0 for any free one)"
+            ) from None
         self.server = LiveServer(
-            name=f"umbra {plan.spec.name}",
+            socket=self.gate,
             clock_offset=wall_offset(clock.now()),
-            parameters=run_parameters(plan),
             images=options.images,
             log=self.log,
         )
         frames = [(f.parent, f.child, f.T_parent_child) for f in plan.spec.frames]
         self.server.set_static_frames(frames, clock)
-        try:
-            self.gate = Gate(
-                host=options.host,
-                port=options.port,
-                inner_port=self.server.port,
-                token=token,
-                origins=[*DEFAULT_ORIGINS, *options.origins],
-                log=self.log,
-            )
-        except OSError as exc:
-            self.server.close()
-            raise UserError(
-                f"--foxglove-port: cannot listen on {options.host}:{options.port}: "
-                f"{exc.strerror or exc} (give another port, or 0 for any free one)"
-            ) from None
         self._feed: ObservedFeed | None = None
+        self._sender: ParamSender | None = None
+        self._local_modules: set[str] = set()
         self.local: list[str] = []
+        #: the password the launcher gives the run's tuner (``runtime.links.auth``): only this
+        #: process may send parameter changes to the others
+        self.tuner_password = secrets.token_hex(24)
 
     @property
     def url(self) -> str:
         return self.gate.url
 
     def serve(self, scheduler: Scheduler) -> None:
-        """Serve every output of the modules of ``scheduler`` (this process)."""
+        """Serve every output of the modules of ``scheduler`` (this process); changes of their
+        tunable parameters go to its tuner."""
         self.local = serve_local(self.server, scheduler)
+        self._local_modules = set(scheduler.modules)
+        self.parameters.serve_locally(scheduler.tuner, list(scheduler.modules))
 
     def observe(self, skip: set[str] | None = None) -> None:
-        """Serve the other processes' outputs, observed on zenoh (``--publish-all``)."""
-        self._feed = ObservedFeed(self.server, self.plan, skip, self.log)
+        """Serve the other processes' outputs, observed on zenoh (``--publish-all``); changes of
+        their tunable parameters go to them over the run's parameter link once they are up."""
+        self._feed = ObservedFeed(self.server, self.plan, skip, self.log, self._join_as_tuner)
+
+    def _join_as_tuner(self, run: Run) -> None:
+        """Open the tuner's session to ``run``'s processes (a local run the launcher secures
+        with its credentials; else the other processes take no changes)."""
+        if run.access != "credentials":
+            self.log.info(
+                "foxglove: parameters of other processes cannot be changed (%s)", run.access
+            )
+            return
+        try:
+            cfg = local_config(
+                run, credentials={"user": TUNER_USER, "password": self.tuner_password}
+            )
+            session = open_session(cfg)
+        except Exception as exc:  # the run goes on, read only: say why
+            self.log.warning("foxglove: cannot send parameter changes: %s", exc)
+            return
+        deadline = time.monotonic() + TUNER_PATIENCE
+        while len(list(session.info.transports())) < len(run.processes):
+            if time.monotonic() > deadline:  # processes started by hand know no tuner
+                session.close()
+                self.log.warning(
+                    "foxglove: parameters of other processes cannot be changed: their "
+                    "credentials do not let this process send changes (a run started by hand)"
+                )
+                return
+            time.sleep(0.05)
+        sender = ParamSender(session, self.plan)
+        self._sender = sender
+        remote = [m for m in self.plan.modules if m not in self._local_modules]
+        self.parameters.send_remotely(sender.send, remote)
+        processes = ", ".join(p.process for p in run.processes)
+        self.log.info("foxglove: parameter changes reach processes %s", processes)
 
     def close(self) -> None:
         if self._feed is not None:
             self._feed.close()
-        self.gate.close()
+        if self._sender is not None:
+            self._sender.close()
         self.server.close()
+        self.gate.close()
 
     def summary(self) -> dict[str, Any]:
         found = self.server.summary()
         found["viewers_refused"] = self.gate.refused
         found["viewers"] = self.gate.passed
+        found["viewer_backlog_dropped"] = self.gate.dropped
         if self._feed is not None:
             found["observed"] = self._feed.samples
         return found

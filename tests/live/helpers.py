@@ -26,7 +26,7 @@ needs_node = pytest.mark.skipif(
 def install_client(folder: Path) -> Path:
     """``tests/live/node`` installed by npm into ``folder`` (no global install); its client."""
     folder.mkdir(parents=True, exist_ok=True)
-    for name in ("package.json", "client.js"):
+    for name in ("package.json", "client.js", "tune.js"):
         shutil.copy(NODE_DIR / name, folder / name)
     done = subprocess.run(
         ["npm", "install", "--no-audit", "--no-fund", "--loglevel=error"],
@@ -46,6 +46,25 @@ def run_client(client: Path, url: str, seconds: float, subprotocol: str = "") ->
     done = subprocess.run(args, capture_output=True, text=True, timeout=seconds + 60)
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def run_tune(tune_js: Path, url: str, seconds: float, topics: str, changes: list[dict]) -> dict:
+    """``tune.js``'s report: parameters, answers to ``changes``, status messages, samples."""
+    args = ["node", str(tune_js), url, str(seconds), topics, json.dumps(changes)]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=seconds + 60)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def wait_joined(run: LiveRun, timeout: float = 60.0) -> None:
+    """Until the live server of a split run receives the other processes' samples (it then
+    joins them as the tuner and says so)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if "foxglove: parameter changes reach processes" in run.text():
+            return
+        time.sleep(0.2)
+    raise AssertionError(f"the live server did not join the processes:\n{run.text()[-3000:]}")
 
 
 class LiveRun:

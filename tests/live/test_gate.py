@@ -1,5 +1,5 @@
 """The live server's door, with real sockets: the token, Host and Origin are checked before a
-byte reaches Foxglove's SDK; a client gets nothing it could command the run with."""
+byte of the run is sent; a client gets nothing it could command the run with."""
 
 from __future__ import annotations
 
@@ -13,21 +13,30 @@ import pytest
 import websockets.sync.client as ws_client
 
 from connectors.messages import Scalar
-from runtime.live.gate import Gate
+from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
+from runtime.live.viewer_server import ViewerServer
+from tests.live.graphs import small_plan
 
 TOKEN = "t0ken-of-this-run-0123456789"
 VIEWER = "http://127.0.0.1:8080"
 
 
 @pytest.fixture
-def gate() -> Iterator[Gate]:
-    server = LiveServer(name="test", clock_offset=0.0, parameters={"servo.gain": 0.5})
+def gate() -> Iterator[ViewerServer]:
+    door = ViewerServer(
+        name="test",
+        host="127.0.0.1",
+        port=0,
+        token=TOKEN,
+        origins=[VIEWER],
+        parameters=ParameterTable(small_plan()),
+    )
+    server = LiveServer(socket=door, clock_offset=0.0)
     server.declare("/servo/error", Scalar)
-    door = Gate(host="127.0.0.1", port=0, inner_port=server.port, token=TOKEN, origins=[VIEWER])
     yield door
-    door.close()
     server.close()
+    door.close()
 
 
 def _upgrade(port: int, target: str, host: str, origin: str | None, protocol: str) -> bytes:
@@ -52,7 +61,7 @@ def _upgrade(port: int, target: str, host: str, origin: str | None, protocol: st
 
 
 def test_only_the_address_with_the_token_from_this_host_and_an_allowed_page_gets_in(
-    gate: Gate,
+    gate: ViewerServer,
 ) -> None:
     port, good = gate.port, f"/?token={TOKEN}"
     here = f"127.0.0.1:{port}"
@@ -72,7 +81,7 @@ def test_only_the_address_with_the_token_from_this_host_and_an_allowed_page_gets
 
 
 def test_a_client_asking_for_either_name_of_the_protocol_gets_the_one_it_asked_for(
-    gate: Gate,
+    gate: ViewerServer,
 ) -> None:
     for protocol in ("foxglove.websocket.v1", "foxglove.sdk.v1"):
         answer = _upgrade(gate.port, f"/?token={TOKEN}", f"127.0.0.1:{gate.port}", None, protocol)
@@ -80,7 +89,7 @@ def test_a_client_asking_for_either_name_of_the_protocol_gets_the_one_it_asked_f
         assert f"sec-websocket-protocol: {protocol}" in headers, headers
 
 
-def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: Gate) -> None:
+def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: ViewerServer) -> None:
     with ws_client.connect(
         gate.url, subprotocols=["foxglove.websocket.v1"], open_timeout=5
     ) as conn:
@@ -93,9 +102,39 @@ def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: Gate) -> None:
         set_request = {"op": "setParameters", "parameters": [{"name": "servo.gain", "value": 9}]}
         conn.send(json.dumps({**set_request, "id": "x"}))
         conn.send(json.dumps({"op": "getParameters", "parameterNames": [], "id": "y"}))
-        values = {}
+        values, said = {}, []
         while "y" not in values:
             msg = json.loads(conn.recv(timeout=5))
             if msg.get("op") == "parameterValues":
                 values[msg.get("id")] = {p["name"]: p["value"] for p in msg["parameters"]}
-        assert values["y"] == {"servo.gain": 0.5}  # unchanged
+            elif msg.get("op") == "status":
+                said.append(msg["message"])
+        # no process takes changes here (nothing runs the graph): refused, said, unchanged
+        assert values["x"] == {"servo.gain": 0.5}
+        assert values["y"]["servo.gain"] == 0.5 and values["y"]["guard.timeout"] == 0.2
+        assert len(said) == 1 and "servo.gain" in said[0] and "does not reach" in said[0]
+        for bad in ('{"op": "advertise", "channels": []}', "not json", '{"op": 3}'):
+            conn.send(bad)  # client publishing is not served, nor malformed requests
+            status = json.loads(conn.recv(timeout=5))
+            assert status["op"] == "status" and status["level"] == 2, status
+
+
+def test_a_client_that_asks_and_never_reads_is_closed(gate: ViewerServer) -> None:
+    import socket as sockets
+    import time
+
+    sock = sockets.create_connection(("127.0.0.1", gate.port))
+    sock.setsockopt(sockets.SOL_SOCKET, sockets.SO_RCVBUF, 4096)
+    conn = ws_client.connect(
+        gate.url, sock=sock, subprotocols=["foxglove.websocket.v1"], max_queue=1
+    )
+    try:
+        ask = json.dumps({"op": "getParameters", "parameterNames": [], "id": "again"})
+        for _ in range(500):  # each answer holds every parameter; none is read
+            conn.send(ask)
+        deadline = time.monotonic() + 10
+        while gate.viewers and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert gate.viewers == 0  # closed by the server (1008), its answers dropped
+    finally:
+        conn.close()

@@ -5,6 +5,7 @@ topics and frames, wall-clock times, parameters visible and not changeable."""
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -12,12 +13,26 @@ import pytest
 from runtime.graph.check import load_graph
 from runtime.recording.encoders import channel_encodings
 from runtime.recording.tap import topic_of
-from tests.live.helpers import REPO, LiveRun, install_client, needs_node, run_client
+from tests.live.helpers import (
+    REPO,
+    LiveRun,
+    install_client,
+    needs_node,
+    run_client,
+    run_tune,
+    wait_joined,
+)
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow
 
 GRAPH = REPO / "graphs" / "tool_pickup.yaml"
+#: A safety parameter (of REG_VEL, a guard), a tunable one out of its bounds, then within them.
+TUNING = [
+    {"at": 0.2, "name": "register.timeout", "value": 1.0},
+    {"at": 0.4, "name": "snake.tension", "value": 3.0},
+    {"at": 0.6, "name": "snake.tension", "value": 0.25},
+]
 
 
 @pytest.fixture(scope="module")
@@ -44,8 +59,11 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
     args = ("--single-process", "--clock", "real", "--duration", "30")
     run = LiveRun(str(GRAPH), tmp_path / "run", *args)
     try:
-        time.sleep(2.0)  # the pick-up under way
-        report = run_client(client, run.url, 6.0)
+        time.sleep(2.0)  # the pick-up under way (it ends when the tool is grasped)
+        with ThreadPoolExecutor(1) as pool:  # a second viewer, tuning, at the same time
+            tuning = pool.submit(run_tune, client.parent / "tune.js", run.url, 8.0, "", TUNING)
+            report = run_client(client, run.url, 6.0)
+            tuned = tuning.result()
     finally:
         run.stop()
     assert report.get("error") is None, report.get("error")
@@ -96,6 +114,16 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
     assert report["afterSet"] == [{"name": tried["name"], "value": tried["value"]}]
     assert "asked to set" in run.text() and "refused" in run.text()
 
+    # a safety parameter and a value out of its bounds are refused, with the reason; a tunable
+    # one within its bounds is changed between two of the snake's steps and logged
+    assert tuned["answers"]["set0"] == [{"name": "register.timeout", "value": 0.1}]
+    assert tuned["answers"]["set1"] == [{"name": "snake.tension", "value": 0.2}]
+    assert tuned["answers"]["set2"] == [{"name": "snake.tension", "value": 0.25}]
+    said = [s["message"] for s in tuned["statuses"]]
+    assert len(said) == 2 and "safety guard (REG_VEL)" in said[0], said
+    assert "snake.tension" in said[1] and "less than or equal to 0.5" in said[1], said
+    assert "param snake.tension 0.2 -> 0.25 by foxglove viewer" in run.text()
+
 
 @needs_node
 def test_a_split_pickup_is_served_from_every_process_it_runs(client: Path, tmp_path: Path) -> None:
@@ -103,7 +131,8 @@ def test_a_split_pickup_is_served_from_every_process_it_runs(client: Path, tmp_p
     live server in the `umbra` command observes each on zenoh (--publish-all) and serves them."""
     run = LiveRun(str(GRAPH), tmp_path / "run", "--duration", "40")
     try:
-        time.sleep(5.0)  # the processes up and linked
+        wait_joined(run)  # the processes up, linked, and their samples reaching the live server
+        time.sleep(1.0)
         report = run_client(client, run.url, 6.0)
     finally:
         run.stop()

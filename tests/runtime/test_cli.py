@@ -52,7 +52,7 @@ def test_run_check_graph_describe_modules(graph: Path, tmp_path: Path, capsys) -
     assert main(["describe", "Gain"]) == 0
     text = capsys.readouterr().out
     assert "input: Scalar [trigger]  value to scale" in text
-    assert "gain: float = 1.0  factor" in text
+    assert "gain: float = 1.0 (tunable)  factor" in text
     assert main(["modules"]) == 0
     assert "Counter" in capsys.readouterr().out
 

@@ -1,0 +1,317 @@
+"""The live server's one socket: the Foxglove WebSocket protocol behind the run's door.
+
+Served with ``websockets`` on a thread of its own (its own event loop): the upgrade request is
+checked by :mod:`runtime.live.gate` before anything is sent, then the viewer gets ``serverInfo``
+and the channels, subscribes, and receives message data (:mod:`runtime.live.protocol`).
+
+- **Publishing never waits.** :meth:`ViewerServer.publish` is called from the encoding threads; it
+  hands the frame to the server's loop, which appends it to each subscribed viewer's backlog
+  (``MAX_VIEWER_BACKLOG`` frames and ``MAX_VIEWER_BACKLOG_BYTES``; full: the oldest frame of the
+  same channel is dropped and counted, so a video replaces its own old frames and a rare message
+  such as ``/tf_static`` stays). Each viewer has a
+  sender task of its own: a slow or stalled viewer holds only its own backlog.
+- **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
+  sends, ``MAX_PAGE_BAD_MESSAGES`` malformed ones, ``MAX_VIEWER_BACKLOG`` answers waiting for a
+  viewer that asks and does not read (then its socket is closed, 1008); the whole request within
+  ``MAX_PAGE_REQUEST_S``.
+- **Parameters** are answered by a :class:`ParameterHandler` (get and set), whose refusals go to
+  the asking viewer as ``status`` messages.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import logging
+import socket
+import threading
+import time
+from collections import deque
+from collections.abc import Iterable
+from typing import Any, Protocol
+
+from websockets.asyncio.server import Request, Response, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
+
+from connectors.limits import (
+    MAX_PAGE_BAD_MESSAGES,
+    MAX_PAGE_REQUEST_S,
+    MAX_VIEWER_BACKLOG,
+    MAX_VIEWER_BACKLOG_BYTES,
+    MAX_VIEWER_MESSAGE_BYTES,
+    MAX_VIEWERS,
+)
+from modules.webdoor.hosts import allowed_hosts
+from modules.webdoor.secret import TOKEN_QUERY
+from runtime.live import protocol
+from runtime.live.gate import origin_netlocs, refusal
+
+#: Send buffer of a viewer's socket [bytes] (Linux doubles it): the kernel holds a few frames,
+#: not seconds of video, for a viewer that reads slowly.
+SOCKET_BUFFER = 128 * 1024
+
+
+class ParameterHandler(Protocol):
+    """What answers a viewer's parameter requests."""
+
+    def get(self, names: list[str]) -> list[dict[str, Any]]:
+        """``{"name", "value"}`` of ``names`` (all when empty; unknown names left out)."""
+        ...
+
+    def set(
+        self, viewer: str, changes: list[tuple[str, Any]]
+    ) -> tuple[list[dict[str, Any]], list[str]]:
+        """Apply what may be applied; ``(values to answer with, refusals to tell the viewer)``:
+        the value asked for when it was taken, the current one when refused."""
+        ...
+
+
+class _Viewer:
+    """One connected viewer: its subscriptions and its backlog."""
+
+    def __init__(self, conn: ServerConnection, number: int) -> None:
+        self.conn = conn
+        peer = conn.remote_address
+        self.label = f"#{number} ({peer[0] if peer else '?'})"
+        self.sub_of_channel: dict[int, int] = {}  #: channel id -> subscription id
+        self.data: deque[tuple[int, bytes]] = deque()  #: (channel id, frame), oldest first
+        self.data_bytes = 0
+        self.control: deque[str] = deque()
+        self.wake = asyncio.Event()
+        self.dropped = 0
+        self.bad = 0
+
+    def push_control(self, text: str) -> None:
+        self.control.append(text)
+        self.wake.set()
+
+    def push_data(self, channel_id: int, frame: bytes) -> None:
+        """Hold ``frame``; when the backlog is full, drop the oldest frame of the same channel
+        (a stream replaces its own old samples), else the oldest of all."""
+        while self.data and (
+            len(self.data) >= MAX_VIEWER_BACKLOG
+            or self.data_bytes + len(frame) > MAX_VIEWER_BACKLOG_BYTES
+        ):
+            self._drop(channel_id)
+        self.data.append((channel_id, frame))
+        self.data_bytes += len(frame)
+        self.wake.set()
+
+    def _drop(self, channel_id: int) -> None:
+        same = next((i for i, (held, _f) in enumerate(self.data) if held == channel_id), 0)
+        frame = self.data[same][1]
+        del self.data[same]
+        self.data_bytes -= len(frame)
+        self.dropped += 1
+
+    def pop(self) -> str | bytes:
+        """The next message to send: control first (advertisements before data)."""
+        if self.control:
+            return self.control.popleft()
+        frame = self.data.popleft()[1]
+        self.data_bytes -= len(frame)
+        return frame
+
+
+class ViewerServer:
+    """The Foxglove WebSocket server of a run (see the module docstring)."""
+
+    def __init__(
+        self,
+        *,
+        name: str,
+        host: str,
+        port: int,
+        token: str,
+        origins: Iterable[str],
+        parameters: ParameterHandler,
+        log: logging.Logger | None = None,
+    ) -> None:
+        self.name, self.host, self.token = name, host, token
+        self._origins = origin_netlocs(origins)
+        self._parameters = parameters
+        self._log = log or logging.getLogger("umbra.foxglove")
+        self._session = str(time.time_ns())
+        self._channels: dict[int, protocol.ChannelInfo] = {}
+        self._ids = itertools.count(1)
+        self._viewers: set[_Viewer] = set()
+        self._numbers = itertools.count(1)
+        self._watched: dict[int, int] = {}  #: channel id -> viewers subscribed
+        self.refused = 0
+        self.passed = 0
+        self.dropped = 0
+        self._loop = asyncio.new_event_loop()
+        self._server = self._loop.run_until_complete(self._start(port))
+        self.port = self._server.sockets[0].getsockname()[1]
+        self._hosts = allowed_hosts(host, self.port)
+        self._thread = threading.Thread(target=self._loop.run_forever, name="umbra-fox-server")
+        self._thread.daemon = True
+        self._thread.start()
+
+    async def _start(self, port: int) -> Any:
+        return await serve(
+            self._serve,
+            self.host,
+            port,
+            subprotocols=list(protocol.SUBPROTOCOLS),  # type: ignore[arg-type]
+            process_request=self._check,
+            compression=None,  # JPEG and protobuf: deflate would cost CPU for little
+            open_timeout=MAX_PAGE_REQUEST_S,
+            max_size=MAX_VIEWER_MESSAGE_BYTES,
+            max_queue=4,
+            close_timeout=2.0,  # a viewer that does not answer the closing handshake: cut off
+            server_header=None,
+        )
+
+    @property
+    def url(self) -> str:
+        """The address a viewer opens: ``ws://HOST:PORT/?token=...``."""
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"ws://{host}:{self.port}/?{TOKEN_QUERY}={self.token}"
+
+    # -- from any thread ---------------------------------------------------------------------
+    def add_channel(
+        self, topic: str, encoding: str, schema_name: str, schema_encoding: str, schema: bytes
+    ) -> int:
+        """Advertise a channel to every viewer (and to those that come); its id."""
+        info = protocol.ChannelInfo(
+            next(self._ids), topic, encoding, schema_name, schema_encoding, schema
+        )
+        self._channels[info.id] = info
+        self._loop.call_soon_threadsafe(self._broadcast, protocol.advertise([info]))
+        return info.id
+
+    @property
+    def viewers(self) -> int:
+        """Viewers connected now."""
+        return len(self._viewers)
+
+    def watched(self, channel_id: int) -> bool:
+        """Whether a viewer subscribes to the channel (a look-up: any thread, never waits)."""
+        return self._watched.get(channel_id, 0) > 0
+
+    def publish(self, channel_id: int, log_time_ns: int, payload: bytes) -> None:
+        """Send ``payload`` on the channel to the viewers subscribed; never waits."""
+        if self._watched.get(channel_id, 0) > 0:
+            self._loop.call_soon_threadsafe(self._fan_out, channel_id, log_time_ns, payload)
+
+    def close(self) -> None:
+        """Close every viewer's socket, stop listening, end the thread."""
+
+        async def stop() -> None:
+            self._server.close()
+            await self._server.wait_closed()
+
+        with contextlib.suppress(Exception):
+            asyncio.run_coroutine_threadsafe(stop(), self._loop).result(timeout=3.0)
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(timeout=2.0)
+
+    # -- the server's loop --------------------------------------------------------------------
+    def _check(self, conn: ServerConnection, request: Request) -> Response | None:
+        hosts, origins = request.headers.get_all("Host"), request.headers.get_all("Origin")
+        if len(hosts) != 1 or len(origins) > 1:
+            why: tuple[int, str] | None = (400, "expected one Host and at most one Origin")
+        elif len(self._viewers) >= MAX_VIEWERS:
+            why = (503, f"already {MAX_VIEWERS} viewers")
+        else:
+            origin = origins[0] if origins else None
+            hosts_ok, origins_ok = self._hosts, self._origins
+            why = refusal(request.path, hosts[0], origin, self.token, hosts_ok, origins_ok)
+        if why is None:
+            return None
+        self.refused += 1
+        self._log.warning("foxglove: connection refused (%d): %s", *why)
+        return conn.respond(why[0], why[1] + "\n")
+
+    def _broadcast(self, text: str) -> None:
+        for viewer in self._viewers:
+            viewer.push_control(text)
+
+    def _fan_out(self, channel_id: int, log_time_ns: int, payload: bytes) -> None:
+        for viewer in self._viewers:
+            sub = viewer.sub_of_channel.get(channel_id)
+            if sub is not None:
+                before = viewer.dropped
+                viewer.push_data(channel_id, protocol.message_data(sub, log_time_ns, payload))
+                self.dropped += viewer.dropped - before
+
+    async def _serve(self, conn: ServerConnection) -> None:
+        viewer = _Viewer(conn, next(self._numbers))
+        with contextlib.suppress(AttributeError, OSError):  # the kernel's share of the backlog
+            sock = conn.transport.get_extra_info("socket")
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
+        self._viewers.add(viewer)
+        self.passed += 1
+        self._log.info("foxglove: viewer connected: %s", viewer.label)
+        viewer.push_control(protocol.server_info(self.name, self._session))
+        viewer.push_control(protocol.advertise(list(self._channels.values())))
+        sender = asyncio.create_task(self._send(viewer))
+        try:
+            async for message in conn:
+                if not self._handle(viewer, message):
+                    await conn.close(1008, "too many malformed messages")
+                    break
+                if len(viewer.control) > MAX_VIEWER_BACKLOG:  # asks, never reads the answers
+                    await conn.close(1008, "too many answers waiting to be read")
+                    break
+        except ConnectionClosed:
+            pass
+        finally:
+            sender.cancel()
+            self._viewers.discard(viewer)
+            for channel_id in viewer.sub_of_channel:
+                self._watched[channel_id] -= 1
+            self._log.info("foxglove: viewer left: %s", viewer.label)
+
+    async def _send(self, viewer: _Viewer) -> None:
+        with contextlib.suppress(ConnectionClosed):
+            while True:
+                await viewer.wake.wait()
+                viewer.wake.clear()
+                while viewer.control or viewer.data:
+                    await viewer.conn.send(viewer.pop())
+
+    def _handle(self, viewer: _Viewer, message: str | bytes) -> bool:
+        """Answer one message; False when the viewer has sent too many malformed ones."""
+        try:
+            if isinstance(message, bytes):
+                raise ValueError("expected a JSON text message (this server takes no data)")
+            request = protocol.read_request(message)
+            self._answer(viewer, request)
+        except ValueError as exc:
+            viewer.bad += 1
+            viewer.push_control(protocol.status(protocol.ERROR, str(exc)))
+            return viewer.bad < MAX_PAGE_BAD_MESSAGES
+        return True
+
+    def _answer(self, viewer: _Viewer, request: dict[str, Any]) -> None:
+        op = request["op"]
+        if op == "subscribe":
+            wrong = []
+            for sub, channel_id in protocol.subscriptions(request):
+                if channel_id not in self._channels or channel_id in viewer.sub_of_channel:
+                    wrong.append(channel_id)  # the others of the request still count
+                    continue
+                viewer.sub_of_channel[channel_id] = sub
+                self._watched[channel_id] = self._watched.get(channel_id, 0) + 1
+            if wrong:
+                raise ValueError(f"no channel {wrong} to subscribe to, or subscribed already")
+        elif op == "unsubscribe":
+            gone = set(protocol.subscription_ids(request))
+            for channel_id, sub in list(viewer.sub_of_channel.items()):
+                if sub in gone:
+                    del viewer.sub_of_channel[channel_id]
+                    self._watched[channel_id] -= 1
+        elif op == "getParameters":
+            found = self._parameters.get(protocol.parameter_names(request))
+            viewer.push_control(protocol.parameter_values(found, protocol.request_id(request)))
+        elif op == "setParameters":
+            changes = protocol.parameter_changes(request)
+            answer, refusals = self._parameters.set(f"foxglove viewer {viewer.label}", changes)
+            for why in refusals:
+                viewer.push_control(protocol.status(protocol.ERROR, why))
+            viewer.push_control(protocol.parameter_values(answer, protocol.request_id(request)))
+        else:
+            raise ValueError(f"`{op}` is not served here (read only: subscribe, parameters)")

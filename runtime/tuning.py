@@ -1,0 +1,143 @@
+"""Tunable parameters changed while a process runs: checked on arrival, applied between steps.
+
+A change (``connectors.messages.ParamChange``: module, parameter, JSON value, who asked) reaches
+the process that runs the module, from its own live server or over the run's parameter link
+(``runtime.live.param_link``). :meth:`Tuner.request` checks it at once (the module runs here, the
+parameter is declared tunable, the value passes the module's parameter model exactly as ``--set``
+does: :func:`connectors.params.with_change`) and queues it; the scheduler calls :meth:`apply` at
+the start of a tick, before any module steps, so a step never sees its parameters change under
+it. Applied, it is checked again (against the parameters of that moment), set, the module's
+``retune`` rebuilds what it derived, and the change is logged
+(``param snake.tension 0.1 -> 0.2 by foxglove viewer #1 (127.0.0.1)``) and recorded when the
+run records (``/umbra/param_changes``, ``ParamChange`` with ``old`` set).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from connectors.cli_support import parse_value
+from connectors.errors import UserError
+from connectors.messages import ParamChange
+from connectors.module import Module
+from connectors.params import Parameters, is_safety, is_tunable, with_change
+
+#: The recording's topic of applied changes.
+CHANGES_TOPIC = "/umbra/param_changes"
+#: Changes waiting for the next tick at most (more: refused, the viewer is told).
+MAX_PENDING = 64
+
+
+def tunable_problem(module_cls: type[Module], module: str, name: str) -> str:
+    """Why ``module.name`` may not be changed live; empty when it may."""
+    params = module_cls.Params
+    if name not in params.model_fields:
+        known = ", ".join(params.model_fields) or "none"
+        kind = module_cls.type_name()
+        return f"`{module}` ({kind}) has no parameter `{name}` (parameters: {known})"
+    if module_cls.SAFETY_GUARD:
+        return (
+            f"`{module}.{name}` is a parameter of a safety guard ({module_cls.type_name()}): "
+            "never changed while the graph runs"
+        )
+    if is_safety(params, name):
+        return f"`{module}.{name}` is a safety parameter: never changed while the graph runs"
+    if not is_tunable(params, name):
+        tunable = [n for n in params.model_fields if is_tunable(params, n)]
+        which = ", ".join(tunable) if tunable else "none"
+        return f"`{module}.{name}` is not declared tunable (tunable in {module}: {which})"
+    return ""
+
+
+def checked(
+    module_cls: type[Module], module: str, params: Parameters, name: str, value: Any
+) -> tuple[Parameters, Any]:
+    """``params`` of ``module`` with ``name`` = ``value``, and the value as read (text read as
+    ``--set`` reads it); ``ValueError`` saying what was expected and what was found."""
+    why = tunable_problem(module_cls, module, name)
+    if why:
+        raise ValueError(why)
+    if isinstance(value, str):
+        try:
+            value = parse_value(value, f"{module}.{name}")
+        except UserError as exc:
+            raise ValueError(str(exc)) from None
+    return with_change(params, name, value), value
+
+
+def as_json(value: Any) -> str:
+    return json.dumps(value, default=str)
+
+
+class Tuner:
+    """The live changes of one process's modules (see the module docstring)."""
+
+    def __init__(
+        self,
+        modules: dict[str, Module],
+        log: logging.Logger | None = None,
+        record: Callable[[ParamChange, float], Any] | None = None,
+    ) -> None:
+        self._modules = modules
+        self._log = log or logging.getLogger("umbra")
+        self.record = record  #: ``(change, now)`` for each applied change, when recording
+        self._pending: deque[tuple[str, str, Any, str]] = deque()
+        self._lock = threading.Lock()
+        self.applied: deque[ParamChange] = deque(maxlen=1000)  #: the latest applied
+        self.refused = 0
+
+    def request(self, module: str, name: str, value: Any, by: str) -> str:
+        """Queue ``module.name = value`` for the next tick; the reason when refused (empty:
+        queued). Any thread."""
+        instance = self._modules.get(module)
+        if instance is None:
+            why = f"no module `{module}` runs in this process"
+        else:
+            try:
+                _new, value = checked(type(instance), module, instance.params, name, value)
+                why = ""
+            except ValueError as exc:
+                why = str(exc)
+        with self._lock:
+            if not why and len(self._pending) >= MAX_PENDING:
+                why = f"{MAX_PENDING} changes already wait for the next tick"
+            if not why:
+                self._pending.append((module, name, value, by))
+        if why:
+            self.refused += 1
+            self._log.warning("param %s.%s = %r by %s refused: %s", module, name, value, by, why)
+        return why
+
+    @property
+    def pending(self) -> bool:
+        return bool(self._pending)
+
+    def apply(self, now: float) -> None:
+        """Apply the queued changes (the scheduler's thread, before the tick's first step)."""
+        with self._lock:
+            todo = list(self._pending)
+            self._pending.clear()
+        for module, name, value, by in todo:
+            instance = self._modules[module]
+            old = instance.params
+            try:
+                new, value = checked(type(instance), module, old, name, value)
+            except ValueError as exc:
+                self.refused += 1
+                self._log.warning("param %s.%s by %s refused: %s", module, name, by, exc)
+                continue
+            instance.params = new
+            instance.retune(old)
+            before, after = as_json(getattr(old, name)), as_json(getattr(new, name))
+            self._log.info("param %s.%s %s -> %s by %s", module, name, before, after, by)
+            change = ParamChange(
+                module=module, param=name, value=after, old=before, by=by, stamp=now
+            )
+            self.applied.append(change)
+            if self.record is not None:
+                self.record(change, now)
