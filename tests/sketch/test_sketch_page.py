@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
+from connectors.sketch_messages import SketchPrimitive, VcrState
 from modules.operator.console import OperatorConsole
-from modules.sketch.messages import SketchPrimitive, VcrState
 from modules.sketch_page import sketch_page
 from modules.sketch_page.sketch_page import SketchPage
 from runtime.harness import ModuleHarness
