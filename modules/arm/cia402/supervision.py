@@ -271,26 +271,14 @@ class ArmSupervision:
 
     def _check_drive_locked(self, drive: DriveRegisters, now: float) -> None:
         cfg = self.config
-        if drive.heartbeat_time is not None:
-            silent = now - drive.heartbeat_time
-            if silent > cfg.heartbeat_timeout_s:
-                self._trip_locked(
-                    self._drive_trip(
-                        drive,
-                        TripCause.HEARTBEAT_LOST,
-                        f"no heartbeat for {silent:.3f} s (timeout {cfg.heartbeat_timeout_s} s)",
-                    )
-                )
-        if drive.feedback_time is not None:
-            stale = now - drive.feedback_time
-            if stale > cfg.feedback_timeout_s:
-                self._trip_locked(
-                    self._drive_trip(
-                        drive,
-                        TripCause.FEEDBACK_LOST,
-                        f"no TPDO for {stale:.3f} s (timeout {cfg.feedback_timeout_s} s)",
-                    )
-                )
+        for since, timeout_s, cause, what in (
+            (drive.heartbeat_time, cfg.heartbeat_timeout_s, TripCause.HEARTBEAT_LOST, "heartbeat"),
+            (drive.feedback_time, cfg.feedback_timeout_s, TripCause.FEEDBACK_LOST, "TPDO"),
+        ):
+            silent = None if since is None else now - since
+            if silent is not None and silent > timeout_s:
+                message = f"no {what} for {silent:.3f} s (timeout {timeout_s} s)"
+                self._trip_locked(self._drive_trip(drive, cause, message))
 
 
 def state_or_none(statusword: int | None) -> State | None:
