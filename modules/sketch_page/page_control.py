@@ -10,13 +10,11 @@ import secrets
 from typing import Any
 
 from connectors.messages import Text
-from connectors.sketch_messages import VcrState
 from modules.operator.control import Decision
 from modules.sketch.command_text import parse
+from modules.sketch.messages import VcrState
 from modules.sketch_page.page_web import PageRequest
-
-#: VCR actions that set the path moving (a page that then goes silent pauses it)
-MOVING = ("play", "back", "resume", "seek")
+from modules.trajectory.vcr import STARTS
 
 
 class PageControl:
@@ -96,7 +94,9 @@ class PageControl:
         if not decision.ok:
             return self._refuse(name, decision.message)
         if cmd.verb == "vcr" and cmd.action != "speed":
-            self._driver = request.viewer if cmd.action in MOVING else None
+            self._driver = (
+                request.viewer if cmd.action in STARTS else None
+            )  # a page gone silent then pauses it
         self.command.send(Text(text=request.text, origin=self._command_origin()))
         self._sent += 1
         return Decision(True, f"sent {what}")

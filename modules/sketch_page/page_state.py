@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from connectors.messages import Status
-from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.geometry.rays import fundamental_matrix
 from modules.sketch.macros import MENU, macro_label, menu_for
+from modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.sketch.stereo import StereoPair
 
 

@@ -12,9 +12,9 @@ import cv2
 
 from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import Image, Status, Text
-from connectors.sketch_messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
+from modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from modules.sketch.stereo import StereoPair
 from modules.sketch_page.page_control import PageControl
 from modules.sketch_page.page_state import page_state

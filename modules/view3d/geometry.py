@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from connectors.messages import CameraModel
 from modules.arm.dh import DHTable
+from modules.geometry.transforms import is_orthonormal_transform
 
 FloatArray = NDArray[np.float64]
 
@@ -98,15 +99,10 @@ def solid_pose(T: ArrayLike, tolerance: float = 1e-6) -> FloatArray | None:
     reflection (orthonormal, determinant -1) describes the same solid as the rigid pose with
     its z axis turned round; that pose is returned. Anything else (scaled, sheared,
     non-finite) is None: the solid cannot be drawn."""
+    if not is_orthonormal_transform(T, tolerance):
+        return None
     M = np.asarray(T, dtype=float)
-    if M.shape != (4, 4) or not np.all(np.isfinite(M)):
-        return None
     R = M[:3, :3]
-    if not (
-        np.allclose(R.T @ R, np.eye(3), atol=tolerance)
-        and np.allclose(M[3], (0.0, 0.0, 0.0, 1.0), atol=tolerance)
-    ):
-        return None
     if np.linalg.det(R) > 0:
         return M.copy()
     rigid = M.copy()

@@ -9,8 +9,8 @@ import numpy as np
 
 from connectors import Input, Module, Output, UserError, from_param, param
 from connectors.messages import CameraModel, Image, JointState, Pose, Status
-from connectors.sketch_messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
 from modules.arm.arm_params import ArmParams
+from modules.sketch.messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
 from modules.view3d.geometry import (
     viewer_pose_looking_at,
 )

@@ -13,7 +13,7 @@ import numpy as np
 
 from connectors import UserError
 from connectors.messages import CameraModel, Image, JointState, Pose, Status
-from connectors.sketch_messages import SceneObjects
+from modules.sketch.messages import SceneObjects
 from modules.view3d.geometry import (
     Frustum,
     arm_joint_points,

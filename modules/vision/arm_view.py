@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from connectors.messages import Poses
-from connectors.sketch_messages import SceneObjects
 from modules.arm.arm_solids import arm_boxes, box_corners
+from modules.sketch.messages import SceneObjects
 from modules.vision.scene import RGB, Occluder
 
 FloatArray = NDArray[np.float64]

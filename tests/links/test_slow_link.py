@@ -70,6 +70,19 @@ def _run_shaped(
         own, tmp_path, "run", "g.yaml", "--process", "umbra", "--connect", endpoint, *common,
         prefix=("ip", "netns", "exec", hosts.a),
     )  # fmt: skip
+    try:
+        return _shape_and_finish(hosts, consumer, producer, tmp_path, rate)
+    finally:
+        stop_all([producer])  # on every path: a producer left behind would wait forever
+
+
+def _shape_and_finish(
+    hosts: Hosts,  # noqa: F811
+    consumer: Running,
+    producer: Running,
+    tmp_path: Path,
+    rate: str,
+) -> tuple[dict, str]:
     consumer.wait_for("process `umbra` is up", timeout=60)
     time.sleep(1.5)  # the clocks measured over the free link
     shaped = subprocess.run(
@@ -78,20 +91,16 @@ def _run_shaped(
         capture_output=True, text=True, timeout=10,
     )  # fmt: skip
     if shaped.returncode != 0:
-        stop_all([producer, consumer])
         pytest.skip(f"cannot shape the link with tc: {shaped.stderr.strip()}")
     time.sleep(10.0)  # a while on the congested link
     stats = subprocess.run(
         ["ip", "netns", "exec", hosts.a, "tc", "-s", "qdisc", "show", "dev", hosts.veth_a],
         capture_output=True, text=True, timeout=10,
     ).stdout  # fmt: skip
-    try:
-        for run in (consumer, producer):
-            run.popen.send_signal(signal.SIGINT)
-        assert consumer.finish() == 130, consumer.text
-        producer.finish()
-    finally:
-        stop_all([producer])
+    for run in (consumer, producer):
+        run.popen.send_signal(signal.SIGINT)
+    assert consumer.finish() == 130, consumer.text
+    producer.finish()
     summary = json.loads((tmp_path / "out" / "summary-smart.json").read_text())
     (register,) = [m for m in summary["modules"] if m["module"] == "register"]
     return register, stats

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from connectors.codec import Codec
-from connectors.sketch_messages import StereoSnapshot
+from modules.sketch.messages import StereoSnapshot
 from runtime.graph.check import load_graph
 from runtime.links.bounds import max_sample_bytes
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from connectors.messages import CameraModel
-from connectors.sketch_messages import StereoSnapshot
+from modules.sketch.messages import StereoSnapshot
 from modules.sketch_page.sketch_page import SketchPage
 from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, needs_chromium

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from connectors.messages import JointState
-from connectors.sketch_messages import ToolPath, VcrState
 from modules.arm.arm_params import ArmParams
 from modules.geometry.transforms import rot_z
+from modules.sketch.messages import ToolPath, VcrState
 from modules.sketch.tool_poses import DOWN, tool_pose
 from modules.world.ik import solve_ik
 from modules.world.scene_objects import SketchScene

@@ -23,8 +23,8 @@ from modules.calib.pose_tool_synthetic import (
     random_case,
     table_points,
 )
+from modules.geometry.mount_offset import offset_mount, offset_transform
 from modules.geometry.transforms import transform_from_xyz_rpy_deg, xyz_rpy_deg_from_transform
-from modules.vision.mount_offset import offset_mount, offset_transform
 from runtime.cli.main import main
 
 REPO = Path(__file__).resolve().parents[2]

@@ -20,10 +20,11 @@ import pytest
 import yaml
 
 from connectors.messages import CameraModel, Image, Pose
-from connectors.sketch_messages import SceneObjects
 from modules.calib.pose_tool import pose_error
 from modules.calib.pose_tool_synthetic import T_WORLD_PTU_BASE, T_base_head, aim
+from modules.geometry.mount_offset import offset_transform
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import SceneObjects
 from modules.view3d.geometry import (
     frustum_from_model,
     ray_hit,
@@ -32,7 +33,6 @@ from modules.view3d.geometry import (
 )
 from modules.view3d.view3d import View3D
 from modules.view3d.viewer_video import SNAPSHOT_SCALE
-from modules.vision.mount_offset import offset_transform
 from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (
     block_outside_loopback,

@@ -13,6 +13,7 @@ import yaml
 from connectors.messages import CameraModel
 from modules.calib.errors import CalibrationError
 from modules.calib.pose_tool import pose_error
+from modules.geometry.mount_offset import offset_transform
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
 from modules.view3d.geometry import (
     box_mesh,
@@ -22,7 +23,6 @@ from modules.view3d.geometry import (
 )
 from modules.view3d.pose_tool_panel import PoseTool
 from modules.view3d.scene_file import SceneSnapshot
-from modules.vision.mount_offset import offset_transform
 from runtime.cli.main import main
 
 MODEL = CameraModel(fx=700.0, fy=700.0, u0=320.0, v0=240.0, width=640, height=480)

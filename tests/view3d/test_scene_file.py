@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from connectors.errors import UserError
-from connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
 from modules.view3d.scene_file import (
     Scene,
     SceneBox,

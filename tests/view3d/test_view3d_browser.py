@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from connectors.messages import CameraModel, Image, Pose
-from connectors.sketch_messages import SketchBox
 from modules.calib.rotations import vector_from_rotation
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import SketchBox
 from modules.view3d.geometry import (
     frustum_from_model,
     matrix_from_wxyz,

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from connectors.errors import UserError
-from connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
 from modules.view3d.scene_file import load_scene
 from modules.view3d.view3d import View3D
 from runtime.harness import ModuleHarness
@@ -163,7 +163,7 @@ def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> No
 
 
 def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
-    from connectors.sketch_messages import SceneObjects
+    from modules.sketch.messages import SceneObjects
 
     poses = np.stack(
         [
@@ -195,7 +195,7 @@ def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
     a scaled pose is not drawn; the other solids and the cameras are drawn in the same
     update."""
     from connectors.messages import CameraModel, Pose
-    from connectors.sketch_messages import SceneObjects
+    from modules.sketch.messages import SceneObjects
     from modules.view3d.geometry import ray_hit
 
     mirrored = np.eye(4)
