@@ -66,7 +66,7 @@ EXCEPTIONS: dict[str, tuple[str, str]] = {
     ),
     "runtime/live/viewer_server.py": (
         "modules.webdoor",
-        "the Foxglove socket checks Host, Origin and the token as the pages do (to move below both)",
+        "the Foxglove socket checks Host, Origin and token as the pages do (to move below both)",
     ),
     "runtime/live/session.py": (
         "modules.webdoor",
