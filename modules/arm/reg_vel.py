@@ -251,14 +251,24 @@ MAX_EPISODES = 200
 
 
 def _percentiles_ms(ages_s: list[float]) -> dict[str, float | int | None]:
-    """p50, p99 and max [ms] of ages [s], and how many."""
+    """p50, p99 and max [ms] of the ages [s] that could be dated, how many ticks in all, and
+    how many of them were of data that could not be dated (an infinite age)."""
     ages = np.asarray(ages_s, dtype=float)
-    if not ages.size:
-        return {"p50": None, "p99": None, "max": None, "ticks": 0}
-    p50, p99 = np.percentile(ages, [50, 99]) * 1e3
+    dated = ages[np.isfinite(ages)]
+    undatable = int(ages.size - dated.size)
+    if not dated.size:
+        return {
+            "p50": None,
+            "p99": None,
+            "max": None,
+            "ticks": int(ages.size),
+            "undatable": undatable,
+        }
+    p50, p99 = np.percentile(dated, [50, 99]) * 1e3
     return {
         "p50": float(p50),
         "p99": float(p99),
-        "max": float(ages.max() * 1e3),
+        "max": float(dated.max() * 1e3),
         "ticks": int(ages.size),
+        "undatable": undatable,
     }
