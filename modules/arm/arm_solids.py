@@ -34,6 +34,10 @@ FINGER_SIZE_M = (0.014, 0.01, 0.07)
 #: the gap between the fingers' inner faces, closed and fully open [m]
 FINGER_GAP_M = (0.0, 0.1)
 FINGERS = ("finger_a", "finger_b")
+#: The plant's frames are named apart from the arm's estimated ones (WOLVERINE_KIN's
+#: ``link_poses``: ``link1`` ... ``tool``), which differ by the calibration error: one name, one
+#: parent, in a recording's and a viewer's tf tree.
+TRUE_PREFIX = "true_"
 
 
 def finger_offsets(opening: float) -> FloatArray:
@@ -52,9 +56,11 @@ def arm_frames(
     T_flange_tool: ArrayLike,
     opening: float,
     T_frame_base: ArrayLike | None = None,
+    prefix: str = TRUE_PREFIX,
 ) -> tuple[FloatArray, tuple[str, ...]]:
     """``(matrices, children)``: T_frame_link of every link frame, the tool and the fingers at
-    joints ``q`` [rad] and gripper ``opening``; ``frame`` is the base unless ``T_frame_base``."""
+    joints ``q`` [rad] and gripper ``opening``; ``frame`` is the base unless ``T_frame_base``;
+    each child's name starts with ``prefix``."""
     A = table.link_transforms(q)
     T = np.eye(4) if T_frame_base is None else np.asarray(T_frame_base, dtype=float)
     links = []
@@ -68,7 +74,7 @@ def arm_frames(
         T_finger[:3, 3] = T_tool[:3, :3] @ offset + T_tool[:3, 3]
         fingers.append(T_finger)
     names = (*[f"link{i + 1}" for i in range(len(A) - 1)], "flange", "tool", *FINGERS)
-    return np.stack([*links, T_tool, *fingers]), names
+    return np.stack([*links, T_tool, *fingers]), tuple(prefix + name for name in names)
 
 
 def arm_boxes(
@@ -77,8 +83,9 @@ def arm_boxes(
     """Boxes ``(T_frame_box (4 x 4), size (3,))`` of the arm in the frames of
     :func:`arm_frames` (see the module docstring); frames it does not know are ignored."""
     M = np.asarray(matrices, dtype=float)
-    by_name = dict(zip(children, M, strict=True))
-    chain = [by_name[n] for n in children if n.startswith("link") or n == "flange"]
+    names = [c[len(TRUE_PREFIX) :] if c.startswith(TRUE_PREFIX) else c for c in children]
+    by_name = dict(zip(names, M, strict=True))
+    chain = [by_name[n] for n in names if n.startswith("link") or n == "flange"]
     boxes: list[tuple[FloatArray, FloatArray]] = []
     for T0, T1 in itertools.pairwise(chain):
         start, end = T0[:3, 3], T1[:3, 3]

@@ -41,7 +41,7 @@ def arm_in(poses: Poses, T_world_frame: FloatArray) -> list[tuple[FloatArray, Fl
     """The arm's boxes ``(T_world_box, size, rgb)`` from its frames (``poses``, in the frame
     ``T_world_frame`` places in the world)."""
     boxes = arm_boxes(poses.matrices, tuple(poses.children))
-    count = sum(1 for c in poses.children if c.startswith("finger"))
+    count = sum(1 for c in poses.children if "finger" in c)
     out = []
     for i, (T, size) in enumerate(boxes):
         rgb = FINGER_RGB if i >= len(boxes) - count else ARM_RGB

@@ -144,7 +144,7 @@ def test_record_info_lists_channels_rates_gaps_drops_and_duration(
     assert info["duration_s"] == pytest.approx(1.49, abs=1e-9)  # 100 Hz ticks from 0 to 1.49 s
     channels = {c["topic"]: c for c in info["channels"]}
     image = channels["/camera/image"]
-    assert image["count"] == 45 and image["rate_hz"] == pytest.approx(30.0, rel=1e-6)
+    assert image["count"] == 44 and image["rate_hz"] == pytest.approx(30.0, rel=1e-6)
     assert image["gaps"] == 0 and image["max_gap"] == pytest.approx(1 / 30, abs=1e-6)
     assert channels["/kinematics/joint_rates"]["rate_hz"] == pytest.approx(100.0, rel=0.01)
     assert channels["/snake/contour/annotations"]["role"] == "view"

@@ -38,7 +38,7 @@ def _replayed(pickup_run: Run, out: Path, **overrides: dict[str, Any]) -> Run:
     feed, names = plan_replay(plan, pickup_run.recording, None, "sim")
     assert names == ["camera"]  # the default: the modules whose recorded outputs are images
     run = run_graph(plan, out)
-    assert feed.sent == len(pickup_run.sent["camera.image"]) + 45  # images and truth contours
+    assert feed.sent == len(pickup_run.sent["camera.image"]) + 44  # images and truth contours
     return run
 
 
@@ -303,4 +303,4 @@ def test_the_replay_command_recorded_again_gives_the_same_file_message_for_messa
     assert set(again) == set(original)
     for topic, messages in original.items():
         assert again[topic] == messages, topic
-    assert len(original["/servo/twist"]) == 45 and len(original["/register/twist"]) == 151
+    assert len(original["/servo/twist"]) == 44 and len(original["/register/twist"]) == 151
