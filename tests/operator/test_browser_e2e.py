@@ -49,19 +49,29 @@ def _click_patch(page: Any) -> tuple[float, float]:
 
 def _overlay_green_on_snake(page: Any) -> tuple[int, int]:
     """(hits, probes): vertices of the drawn snake whose screen pixels (within 4 px) have the
-    overlay's green, read from one screenshot taken with the snake the page drew."""
+    overlay's green, read from one screenshot. The snake moves while the screenshot is taken (a
+    state comes every 0.1 s), so a vertex counts where the snake was just before or just after."""
     from PIL import Image as PILImage
 
-    points = page.evaluate("window.umbra.state.overlay ? window.umbra.state.overlay.points : []")
+    read = "window.umbra.state.overlay ? window.umbra.state.overlay.points : []"
+    before = page.evaluate(read)
     shot = np.asarray(PILImage.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
-    probes = points[:: max(1, len(points) // 12)]
+    after = page.evaluate(read)
+    if len(before) != len(after):
+        return 0, 0  # a snake of another shape came meanwhile
+    step = max(1, len(before) // 12)
     hits = 0
-    for u, v in probes:
-        x, y = (round(c) for c in image_to_screen(page, u, v))
-        win = shot[max(0, y - 4) : y + 5, max(0, x - 4) : x + 5].reshape(-1, 3)
-        # the stroke's own green (0, 255, 64), which the lit patch (about 30, 170, 60) never is
-        hits += bool(np.any((win[:, 1] >= 240) & (win[:, 0] <= 40) & (win[:, 2] <= 110)))
-    return hits, len(probes)
+    for was, now in zip(before[::step], after[::step], strict=True):
+        hits += any(_stroke_near(page, shot, u, v) for u, v in (was, now))
+    return hits, len(before[::step])
+
+
+def _stroke_near(page: Any, shot: np.ndarray, u: float, v: float) -> bool:
+    """Whether the overlay's stroke green (0, 255, 64), which the lit patch (about 30, 170, 60)
+    never is, lies within 4 px of image pixel (u, v) on the screenshot."""
+    x, y = (round(c) for c in image_to_screen(page, u, v))
+    win = shot[max(0, y - 4) : y + 5, max(0, x - 4) : x + 5].reshape(-1, 3)
+    return bool(np.any((win[:, 1] >= 240) & (win[:, 0] <= 40) & (win[:, 2] <= 110)))
 
 
 def _overlaps(page: Any, a: str, b: str) -> bool:
@@ -129,7 +139,7 @@ class Operator:
             tracking = self.page.evaluate("window.umbra.state.overlay?.status") == "tracking"
             if stage == "approach" and tracking:
                 result = _overlay_green_on_snake(self.page)
-                if result[1] >= 8 and result[0] >= 0.75 * result[1]:
+                if result[1] >= 8 and result[0] >= 0.5 * result[1]:  # a misplaced overlay: ~0
                     shot.parent.mkdir(parents=True, exist_ok=True)
                     self.page.screenshot(path=str(shot))
                     return
@@ -326,7 +336,7 @@ def test_the_station_through_a_whole_run_at_1280x800_and_1920x1080(tmp_path: Pat
     the run end with its verdict; a viewer at 1920x1080 watches with the 3-D panel open. The
     screenshots are the README's."""
     fault = [
-        "--set", "camera.fault=occluder", "--set", "camera.fault_at_s=20",
+        "--set", "camera.fault=occluder", "--set", "camera.fault_at_s=12",
         "--set", "camera.fault_duration_s=3",
     ]  # fmt: skip
     run = GraphRun(["graphs/tool_pickup.yaml", *NO_SIM_CLICK, *fault], tmp_path / "run")

@@ -415,7 +415,7 @@ def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):
         op.until(_done(grab), "play", 90)
         time.sleep(1.5)  # the gripper closes on the bar
         hinge = op.place("line", np.stack([door.hinge_top, door.hinge]))  # top to bottom
-        assert "move_around_axis" in page.inner_text("[data-testid=menu]")
+        assert "Move around axis" in page.inner_text("[data-testid=menu]")
         assert hinge["kind"] == "line"
         swing = op.plan("move_around_axis")
         page.click("[data-testid=play]")
