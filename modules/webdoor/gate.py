@@ -85,6 +85,8 @@ class Gate:
             status, reason, text = refusal
             client = (scope.get("client") or ("?", 0))[0]
             self.refusals.add(reason, f"{kind} {scope.get('path', '')} from {client}: {text}")
+            if kind == "http":
+                await _drain_small_body(scope, receive)
             await _refuse(kind, send, status, text)
             return
         query = _query(scope)
@@ -193,6 +195,31 @@ class Gate:
         client = (scope.get("client") or ("?", 0))[0]
         self.refusals.add(f"body{status}", f"{scope.get('path', '')} from {client}: {text}")
         await _refuse("http", send, status, text)
+
+
+#: Longest a refused request's small body is read for before the refusal closes the connection
+#: [s]: a close with unread bytes resets it, and the client loses the refusal's text.
+DRAIN_S = 0.5
+
+
+async def _drain_small_body(scope: dict, receive: Any) -> None:
+    """Read (and drop) a refused request's body when it declares one of at most
+    ``MAX_PAGE_BODY_BYTES``, for at most ``DRAIN_S``: nothing larger or slower is waited for."""
+    length = _header(scope, b"content-length")
+    if length is None or not length.strip().isdigit() or int(length) > MAX_PAGE_BODY_BYTES:
+        return
+    deadline = time.monotonic() + DRAIN_S
+    size = 0
+    while size <= MAX_PAGE_BODY_BYTES:
+        try:
+            message = await asyncio.wait_for(receive(), deadline - time.monotonic())
+        except (TimeoutError, ValueError):
+            return
+        if message["type"] != "http.request":
+            return
+        size += len(message.get("body", b""))
+        if not message.get("more_body", False):
+            return
 
 
 async def _refuse(kind: str, send: Any, status: int, text: str) -> None:
