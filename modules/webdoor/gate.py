@@ -167,25 +167,12 @@ class Gate:
             if int(length) > MAX_PAGE_BODY_BYTES:
                 await self._refuse_body(scope, send, 413, f"{int(length)} bytes")
                 return None
-        chunks: list[bytes] = []
-        size = 0
-        deadline = time.monotonic() + MAX_PAGE_REQUEST_S
-        while True:
-            try:
-                message = await asyncio.wait_for(receive(), deadline - time.monotonic())
-            except TimeoutError:
-                await self._refuse_body(scope, send, 408, f"more than {MAX_PAGE_REQUEST_S:g} s")
-                return None
-            if message["type"] != "http.request":
-                return b"".join(chunks)  # disconnected: the route sees an empty body
-            chunk = message.get("body", b"")
-            size += len(chunk)
-            if size > MAX_PAGE_BODY_BYTES:
-                await self._refuse_body(scope, send, 413, f"over {size} bytes (streamed)")
-                return None
-            chunks.append(chunk)
-            if not message.get("more_body", False):
-                return b"".join(chunks)
+        body, problem = await _read_body(receive, MAX_PAGE_REQUEST_S)
+        if problem == "late":
+            await self._refuse_body(scope, send, 408, f"more than {MAX_PAGE_REQUEST_S:g} s")
+        elif problem:
+            await self._refuse_body(scope, send, 413, f"{problem} (streamed)")
+        return body
 
     async def _refuse_body(self, scope: dict, send: Any, status: int, found: str) -> None:
         text = (
@@ -206,20 +193,31 @@ async def _drain_small_body(scope: dict, receive: Any) -> None:
     """Read (and drop) a refused request's body when it declares one of at most
     ``MAX_PAGE_BODY_BYTES``, for at most ``DRAIN_S``: nothing larger or slower is waited for."""
     length = _header(scope, b"content-length")
-    if length is None or not length.strip().isdigit() or int(length) > MAX_PAGE_BODY_BYTES:
-        return
-    deadline = time.monotonic() + DRAIN_S
+    if length is not None and length.strip().isdigit() and int(length) <= MAX_PAGE_BODY_BYTES:
+        await _read_body(receive, DRAIN_S)
+
+
+async def _read_body(receive: Any, seconds: float) -> tuple[bytes | None, str]:
+    """A request's body as it streams in, read for at most ``seconds`` and at most
+    ``MAX_PAGE_BODY_BYTES``: ``(body, "")``, or ``(None, "late")`` / ``(None, "over N bytes")``.
+    A client that disconnects leaves the body read so far (a route sees it empty or cut)."""
+    chunks: list[bytes] = []
     size = 0
-    while size <= MAX_PAGE_BODY_BYTES:
+    deadline = time.monotonic() + seconds
+    while True:
         try:
             message = await asyncio.wait_for(receive(), deadline - time.monotonic())
-        except (TimeoutError, ValueError):
-            return
+        except TimeoutError:
+            return None, "late"
         if message["type"] != "http.request":
-            return
-        size += len(message.get("body", b""))
+            return b"".join(chunks), ""  # disconnected
+        chunk = message.get("body", b"")
+        size += len(chunk)
+        if size > MAX_PAGE_BODY_BYTES:
+            return None, f"over {size} bytes"
+        chunks.append(chunk)
         if not message.get("more_body", False):
-            return
+            return b"".join(chunks), ""
 
 
 async def _refuse(kind: str, send: Any, status: int, text: str) -> None:

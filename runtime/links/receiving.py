@@ -126,25 +126,23 @@ def receiver(
         release: Callable[[], None] | None = None
         try:
             data: Any = payload.to_bytes()
-            magic = data[:4]
+            magic, header = data[:4], None
             if magic == DESCRIPTOR_MAGIC and is_descriptor(data):
                 data, release = reader.open(data, column)
-                if len(data) > bound:
-                    release()
-                    stats.oversize += 1
-                    refused(stats, f"a frame of {len(data)} bytes, more than {bound} allowed")
-                    return
-                stats.pool_samples += 1
-                msg = decoder().decode(data, expected)
             elif magic == FORWARD_MAGIC and is_forward(data):
                 data, release, header = reader.open_forward(data, column)
+            if release is not None:  # a frame in the pool: bounded like any payload
                 if len(data) > bound:
                     release()
                     stats.oversize += 1
                     refused(stats, f"a frame of {len(data)} bytes, more than {bound} allowed")
                     return
                 stats.pool_samples += 1
-                msg = decoder().decode_placed(header, data, expected)
+                msg = (
+                    decoder().decode(data, expected)
+                    if header is None
+                    else decoder().decode_placed(header, data, expected)
+                )
             else:  # a small sample: the compact reader, else the general path (or its error)
                 msg = read_compact(data)
                 if msg is None:
