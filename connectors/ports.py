@@ -204,6 +204,7 @@ class Register(Generic[M]):
 
     __slots__ = (
         "_max_age",
+        "_seen_alive",
         "_track",
         "_value",
         "clock_error",
@@ -233,13 +234,26 @@ class Register(Generic[M]):
         #: the graph; by the harness at the first push): a module can tell "nothing yet" from
         #: "nothing will come"
         self.connected = False
-        #: False when the producer is in another process that is known to be gone.
+        #: False while the producer is in another process not known to be alive (not yet seen,
+        #: or gone): set by the runtime through :meth:`set_link_alive`
         self.link_alive = True
+        self._seen_alive = False
         #: bound [s] on the error of the samples' stamps and origins on this process's clock (0:
         #: the same process; a link's: its measured offset's, inf until it is measured)
         self.clock_error = 0.0
         self._max_age = max_age
         self._track = track
+
+    def set_link_alive(self, alive: bool) -> None:
+        """The runtime's word on the producer's process (its liveliness, a link's end)."""
+        self.link_alive = alive
+        self._seen_alive = self._seen_alive or alive
+
+    @property
+    def link_gone(self) -> bool:
+        """True once the producer's process was seen alive and is no longer: gone, not merely
+        not yet known (at start a sample may come before its producer's liveliness token)."""
+        return self._seen_alive and not self.link_alive
 
     @property
     def value(self) -> M | None:

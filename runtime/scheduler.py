@@ -435,5 +435,5 @@ class Scheduler:
         self._clocks_read_at = now
         alive, error = transport.producer_alive, transport.clock_error
         for reg, link in self._link_regs:
-            reg.link_alive = alive(link)
+            reg.set_link_alive(alive(link))
             reg.clock_error = error(link)

@@ -141,7 +141,6 @@ class SimWorld(Module):
         self._closing_seen = False
         self._judged = False
         self._stopped_since: float | None = None
-        self._vision_seen_alive = False  # the servo status's producer was seen up once
         self._stop_reason = ""
         self._status = Status(stage="running", message="no grasp yet")
         self._status_due = -np.inf
@@ -197,14 +196,11 @@ class SimWorld(Module):
         if person is not None and person.values.get("acted"):
             self._stopped_since = None  # a person at the console answers for the grab
             return False
-        # a producer is gone once it was seen alive: at start its samples may come before its
-        # liveliness token does (a process slow to start under load is not a vanished one)
-        self._vision_seen_alive |= self.servo_status.link_alive and status is not None
         if self._stopped_since is None:
             if status is not None and status.assist:
                 self._stopped_since = now
                 self._stop_reason = f"operator assistance requested ({status.reason})"
-            elif self._vision_seen_alive and not self.servo_status.link_alive:
+            elif status is not None and self.servo_status.link_gone:
                 self._stopped_since = now
                 self._stop_reason = "the vision process is gone"
         return (

@@ -22,7 +22,7 @@ Q = np.deg2rad([14.482, 45.603, -182.743, 0.0, -42.86, -165.518])
 def _tick(world: ModuleHarness, alive: bool) -> None:
     world.push("joint_state", JointState(names=NAMES, position=Q, gripper=1.0))
     world.push("servo_status", Status(stage="acquire", message="waiting for a seed"))
-    world.module.registers["servo_status"].link_alive = alive
+    world.module.registers["servo_status"].set_link_alive(alive)
     world.step(0.01)
 
 
