@@ -56,7 +56,6 @@ from runtime.links.shm_sweep import mapped_segments, remove_orphans
 from runtime.run_one import run_one
 from runtime.scheduler import INTERRUPTED
 
-#: Seconds a supervised process may wait for its consumers to come up.
 #: Seconds a process has to stop once told (abort), before SIGTERM; SIGKILL after as long again.
 STOP_GRACE = 5.0
 #: Extra seconds given to a process told to ``finish`` (it drains its inputs first).

@@ -89,15 +89,19 @@ class SimCameraSide:
         return self._in_world(sample, "patch_pose")
 
     def _in_world(self, sample: Pose, port: str) -> np.ndarray:
+        return self._T_world(sample.parent, port) @ sample.matrix
+
+    def _T_world(self, parent: str, port: str) -> np.ndarray:
+        """T_world_parent of the frame ``parent`` an input's poses are in (static frames)."""
         world = self.params.world_frame
-        if sample.parent == world:
-            return np.asarray(sample.matrix, dtype=float)
+        if parent == world:
+            return np.eye(4)
         try:
-            return self.context.frames.lookup(world, sample.parent) @ sample.matrix
+            return self.context.frames.lookup(world, parent)
         except KeyError:
             raise UserError(
-                f"{self.name}: input `{port}` is a pose in `{sample.parent}`, and no static "
-                f"frames lead from `{world}` to it (declare `{world}->{sample.parent}`)"
+                f"{self.name}: input `{port}` is a pose in `{parent}`, and no static "
+                f"frames lead from `{world}` to it (declare `{world}->{parent}`)"
             ) from None
 
     def _camera_pose(self, T_world_patch: np.ndarray) -> np.ndarray:
@@ -180,10 +184,7 @@ class SimCameraSide:
         arm = self.arm_poses.value
         if arm is None:
             return scene
-        T_world_frame = self._in_world(
-            Pose(matrix=np.eye(4), parent=arm.frame, child=arm.frame), "arm_poses"
-        )
-        faces = arm_occluders(arm_in(arm, T_world_frame), T_world_camera)
+        faces = arm_occluders(arm_in(arm, self._T_world(arm.frame, "arm_poses")), T_world_camera)
         return dataclasses.replace(scene, occluders=(*scene.occluders, *faces))
 
     def _poses_origin(self, captured: float, now: float) -> float:

@@ -40,6 +40,10 @@ HANDLE_CATCH_M = 0.008
 HANDLE_LOSE_M = 0.015
 BAND_M = 0.01
 PERIMETER_TOLERANCE_M = 0.005
+#: macros that grasp (the pipe): judged when the gripper closes
+GRASP_MACROS = ("grab_pipe", "approach_side")
+#: share of the surface scanned, or of the outline followed, that counts as a success
+COVERAGE_GOAL = 0.95
 DEVICE_STANDOFF_M = 0.08
 DEVICE_HALF_HEIGHT_M = 0.03
 DEVICE_TOLERANCE_M = 0.01
@@ -69,7 +73,7 @@ class Verdicts:
 
     def success(self, macro: str) -> bool:
         """Did ``macro`` succeed (per the benchmark's criteria)?"""
-        if macro in ("grab_pipe", "approach_side"):
+        if macro in GRASP_MACROS:
             return bool(
                 self.grasp_inside
                 and self.grasp_distance_m <= GRASP_TOLERANCE_M
@@ -78,10 +82,11 @@ class Verdicts:
         if macro == "move_around_axis":
             return bool(self.door_max_rad >= DOOR_GOAL_RAD - 1e-9 and not self.handle_lost)
         if macro == "surface_scan":
-            return self.coverage >= 0.95
+            return self.coverage >= COVERAGE_GOAL
         if macro == "follow_perimeter":
             return bool(
-                self.perimeter_max_dev_m <= PERIMETER_TOLERANCE_M and self.perimeter_passed >= 0.95
+                self.perimeter_max_dev_m <= PERIMETER_TOLERANCE_M
+                and self.perimeter_passed >= COVERAGE_GOAL
             )
         if macro == "place_device":
             return bool(self.device_error_m <= DEVICE_TOLERANCE_M)

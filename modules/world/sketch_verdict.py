@@ -14,20 +14,18 @@ import math
 import numpy as np
 
 from modules.world.sketch_judge import (
+    COVERAGE_GOAL,
     DEVICE_TOLERANCE_M,
     DOOR_GOAL_RAD,
+    GRASP_MACROS,
     GRASP_TOLERANCE_M,
     GRASP_TOLERANCE_RAD,
     PERIMETER_TOLERANCE_M,
     Verdicts,
 )
 
-#: macros that end when the gripper closes (judged there, not at the end of the path)
-GRASP_MACROS = ("grab_pipe", "approach_side")
 #: macros that end when the gripper opens (the device is set down)
 RELEASE_MACROS = ("place_device",)
-#: coverage / outline passed that counts as a success (the judge's)
-COVERAGE_GOAL = 0.95
 
 
 def macro_verdict(macro: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:

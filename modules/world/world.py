@@ -24,7 +24,7 @@ import numpy as np
 from connectors import Input, Module, Output, UserError, param
 from connectors.messages import JointState, Pose, Poses, Status
 from modules.arm.arm_params import ArmParams
-from modules.arm.arm_solids import arm_frames
+from modules.arm.arm_solids import TRUE_PREFIX, arm_frames
 from modules.world.grasp import grasp_error
 
 
@@ -79,6 +79,9 @@ class WorldParams(ArmParams):
         unit="s",
         gt=0,
     )
+
+
+TRUE_FLANGE, TRUE_TOOL = TRUE_PREFIX + "flange", TRUE_PREFIX + "tool"
 
 
 class SimWorld(Module):
@@ -153,10 +156,11 @@ class SimWorld(Module):
         self._send_status(now)
         if state is None:
             return
-        T_table_flange = self.T_table_base @ self.params.table.fk(state.position)
         matrices, children = arm_frames(
             self.params.table, state.position, self.T_flange_tool, state.gripper, self.T_table_base
         )
+        T_table_flange = matrices[children.index(TRUE_FLANGE)]  # one forward kinematics a tick
+        T_table_tool = matrices[children.index(TRUE_TOOL)]
         self.arm_poses.send(
             Poses(matrices=matrices, children=children, frame="table", stamp=state.stamp)
         )
@@ -173,7 +177,7 @@ class SimWorld(Module):
         if state.gripper < 0.99:
             self._closing_seen = True
         if self._closing_seen and state.gripper <= 0.0:
-            self._judge(now, T_table_flange @ self.T_flange_tool)
+            self._judge(now, T_table_tool)
         elif self.context.attended:
             return  # the person answers requests and decides when to stop
         elif self._servo_stopped(now):

@@ -58,8 +58,6 @@ from runtime.links.trust import ProducerGate
 
 #: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
 END_GRACE = 0.05
-#: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
-END_GRACE = 0.05
 
 __all__ = ["ALIVE", "ZenohTransport", "alive_key"]
 
