@@ -36,7 +36,7 @@ DOMAIN_ARROWS: dict[str, set[str]] = {
     "vision": {"arm", "calib", "geometry", "servo"},
     "world": {"arm", "geometry", "servo"},
     "view3d": {"arm", "calib", "geometry"},
-    "operator": {"arm", "geometry", "vision", "webdoor"},
+    "operator": {"arm", "geometry", "servo", "vision", "webdoor"},
     "sketch": {"arm", "calib", "geometry", "ptu", "trajectory", "vision", "world"},
     "sketch_page": {"geometry", "operator", "sketch", "trajectory", "webdoor"},
 }

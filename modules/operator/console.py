@@ -31,6 +31,7 @@ from modules.operator.console_view import ConsoleView
 from modules.operator.control import ControlArbiter
 from modules.operator.cpu import process_cpu_s
 from modules.operator.jog import DeadMan, JogLimits, jog_twist
+from modules.operator.jog_labels import jog_labels
 from modules.operator.mailbox import Lanes
 from modules.operator.message_board import MessageBoard
 from modules.operator.plain_words import plain_reason
@@ -148,6 +149,8 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
             )
         except KeyError:
             self._T_tool_camera = None  # tool-frame jogs are refused (no static frame)
+        #: the jog buttons' names in both frames (the camera's mount is static)
+        self._jog_labels = {f: jog_labels(f, self._T_tool_camera) for f in ("tool", "camera")}
         self._jog_limits = JogLimits(p.jog_linear, p.jog_angular)
         if len(p.patch_size_m) != 2 or not all(0 < x < 10 for x in p.patch_size_m):
             raise UserError(

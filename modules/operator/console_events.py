@@ -12,12 +12,12 @@ import numpy as np
 
 from connectors.messages import Scalar, Text, Vector
 from modules.operator.actions import Refused, box_seed, check_snake_healthy, point_seed
+from modules.servo.stages import ACTIVE_STAGES
 
 if TYPE_CHECKING:
     from modules.operator.console_app import Event
 
 #: vsServo's stages in which the arm moves by itself (a jog pauses the grab first)
-ACTIVE_STAGES = ("acquire", "approach", "final_grab")
 
 
 class ConsoleEvents:

@@ -3,11 +3,11 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
 from modules.operator import view_state
-from modules.operator.jog_labels import jog_labels
 from modules.operator.scene_view import scene_view
 from modules.operator.state_line import commands_available, phase_of, state_line
 
@@ -83,12 +83,14 @@ class ConsoleView:
         """The servo errors for the plot: ``errors`` rows (page units) and ``errors_full``
         (True: the whole history, which replaces the page's; False: the rows since the previous
         state, which extend it)."""
-        rows = list(self._errors)
         full = now - self._errors_full_at >= ERRORS_FULL_PERIOD_S
         if full:
             self._errors_full_at = now
-        else:
-            rows = [r for r in rows if r[0] > self._errors_sent_t]
+            rows = list(self._errors)
+        else:  # only the rows since the previous state: walk back from the newest
+            sent = self._errors_sent_t
+            rows = list(itertools.takewhile(lambda r: r[0] > sent, reversed(self._errors)))
+            rows.reverse()
         if rows:
             self._errors_sent_t = rows[-1][0]
         return {"errors": view_state.error_rows(rows), "errors_full": full}
@@ -181,9 +183,7 @@ class ConsoleView:
             "jog": None
             if held is None
             else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
-            "jog_labels": {
-                frame: jog_labels(frame, self._T_tool_camera) for frame in ("tool", "camera")
-            },
+            "jog_labels": self._jog_labels,
             "assist": self._assist,
             "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._zoom.items()],
             "notices": self.board.for_page(),

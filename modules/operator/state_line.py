@@ -17,6 +17,7 @@ from typing import Any
 
 from connectors.messages import Status
 from modules.operator.plain_words import plain_reason
+from modules.servo.stages import ABORTED, ACTIVE_STAGES, ASSIST, DONE, PAUSED
 
 STARTING, RUNNING, ENDED = "starting", "running", "ended"
 
@@ -32,9 +33,9 @@ _DOING = {
 }
 
 #: vsServo stages from which *Start* begins a new grab (elsewhere it would change nothing)
-STARTABLE = ("done", "aborted", "paused", "assist")
+STARTABLE = (DONE, ABORTED, PAUSED, ASSIST)
 #: stages in which *Pause* holds the arm
-PAUSABLE = ("acquire", "approach", "final_grab", "assist")
+PAUSABLE = (*ACTIVE_STAGES, ASSIST)
 
 
 @dataclass(frozen=True)
@@ -86,20 +87,19 @@ def state_line(
         doing = _DOING.get(servo.stage, servo.message or servo.stage)
     if phase == ENDED:
         doing = "the run has ended"
-    stopped, detail = _why_stopped(servo, guard, jogging)
-    return StateLine(phase, stage, control, doing, plain_reason(stopped), detail, verdict)
+    why = _why_stopped(servo, guard, jogging)
+    return StateLine(phase, stage, control, doing, plain_reason(why), why, verdict)
 
 
-def _why_stopped(servo: Status | None, guard: Status | None, jogging: bool) -> tuple[str, str]:
-    """Why the arm stands still, and the exact reason ("", "" when it may move)."""
+def _why_stopped(servo: Status | None, guard: Status | None, jogging: bool) -> str:
+    """The exact reason the arm stands still ("" when it may move)."""
     if guard is not None and guard.stage == "zero" and not jogging:
-        reason = guard.reason or guard.message
-        if servo is not None and servo.stage in ("assist", "paused", "aborted", "done"):
-            reason = servo.reason or _DOING[servo.stage]
-        return reason, reason
-    if servo is not None and servo.stage == "assist":
-        return servo.reason, servo.reason
-    return "", ""
+        if servo is not None and servo.stage in (ASSIST, PAUSED, ABORTED, DONE):
+            return servo.reason or _DOING[servo.stage]
+        return guard.reason or guard.message
+    if servo is not None and servo.stage == ASSIST:
+        return servo.reason
+    return ""
 
 
 def commands_available(phase: str, stage: str) -> dict[str, bool]:
@@ -109,6 +109,6 @@ def commands_available(phase: str, stage: str) -> dict[str, bool]:
     return {
         "start": live and stage in STARTABLE,
         "pause": live and stage in PAUSABLE,
-        "resume": live and stage in ("paused", "assist"),
+        "resume": live and stage in (PAUSED, ASSIST),
         "abort": live,
     }
