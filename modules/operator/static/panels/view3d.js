@@ -30,7 +30,9 @@ function make() {
   for (const g of [camera, patch]) g.matrixAutoUpdate = false;
   scene.add(chain, frames, camera, patch);
   // the frustum's lines, and the live image on its far plane (drawn from the video canvas)
-  camera.add(new THREE.LineSegments(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0xffd000 })));
+  const lines = new THREE.BufferGeometry();  // 8 segments, updated in place at each draw
+  lines.setAttribute("position", new THREE.Float32BufferAttribute(new Float32Array(48), 3));
+  camera.add(new THREE.LineSegments(lines, new THREE.LineBasicMaterial({ color: 0xffd000 })));
   const screen = new THREE.Mesh(new THREE.PlaneGeometry(1, 1), new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
   screen.rotation.x = Math.PI;  // plane +y is the image's up: camera -y
   camera.add(screen, new THREE.AxesHelper(0.05));
@@ -69,14 +71,17 @@ function draw() {
   view.eye.aspect = w / h; view.eye.updateProjectionMatrix();
   $("view3d-labels").innerHTML = "";
   const points = [new THREE.Vector3(0, 0, 0)];
-  view.frames.clear();
-  for (const l of s.links) {
-    const T = matrix(l.T), at = new THREE.Vector3().setFromMatrixPosition(T);
-    points.push(at);
-    const triad = new THREE.AxesHelper(0.06);
-    triad.matrixAutoUpdate = false; triad.matrix.copy(T);
-    view.frames.add(triad);
-  }
+  s.links.forEach((l, i) => {  // one triad per link frame, made once and moved after
+    const T = matrix(l.T);
+    points.push(new THREE.Vector3().setFromMatrixPosition(T));
+    if (i >= view.frames.children.length) {
+      const made = new THREE.AxesHelper(0.06);
+      made.matrixAutoUpdate = false;
+      view.frames.add(made);
+    }
+    view.frames.children[i].matrix.copy(T);
+  });
+  view.frames.children.forEach((t, i) => { t.visible = i < s.links.length; });
   view.chain.geometry.setFromPoints(points);
   label(s.frame, points[0]);
   s.links.forEach((l, i) => label(l.name, points[i + 1]));
@@ -94,7 +99,8 @@ function draw() {
     const corners = [[x, y], [-x, y], [-x, -y], [x, -y]].map(([a, b]) => [a, b, d]);
     const seg = [];
     corners.forEach((p, i) => { seg.push(0, 0, 0, ...p, ...p, ...corners[(i + 1) % 4]); });
-    view.camera.children[0].geometry.setAttribute("position", new THREE.Float32BufferAttribute(seg, 3));
+    const position = view.camera.children[0].geometry.getAttribute("position");
+    position.array.set(seg); position.needsUpdate = true;
     view.screen.scale.set(2 * x, 2 * y, 1); view.screen.position.set(0, 0, d);
     videoTexture();
     label(c.name, new THREE.Vector3().setFromMatrixPosition(view.camera.matrix));
