@@ -81,15 +81,13 @@ class Tuner:
         self,
         modules: dict[str, Module],
         log: logging.Logger | None = None,
-        record: Callable[[ParamChange, float], Any] | None = None,
     ) -> None:
         self._modules = modules
         self._log = log or logging.getLogger("umbra")
-        self.record = record  #: ``(change, now)`` for each applied change, when recording
+        #: ``(change, now)`` for each applied change, set when the run records
+        self.record: Callable[[ParamChange, float], Any] | None = None
         self._pending: deque[tuple[str, str, Any, str]] = deque()
         self._lock = threading.Lock()
-        self.applied: deque[ParamChange] = deque(maxlen=1000)  #: the latest applied
-        self.refused = 0
 
     def request(self, module: str, name: str, value: Any, by: str) -> str:
         """Queue ``module.name = value`` for the next tick; the reason when refused (empty:
@@ -109,7 +107,6 @@ class Tuner:
             if not why:
                 self._pending.append((module, name, value, by))
         if why:
-            self.refused += 1
             self._log.warning("param %s.%s = %r by %s refused: %s", module, name, value, by, why)
         return why
 
@@ -128,7 +125,6 @@ class Tuner:
             try:
                 new, value = checked(type(instance), module, old, name, value)
             except ValueError as exc:
-                self.refused += 1
                 self._log.warning("param %s.%s by %s refused: %s", module, name, by, exc)
                 continue
             instance.params = new
@@ -138,6 +134,5 @@ class Tuner:
             change = ParamChange(
                 module=module, param=name, value=after, old=before, by=by, stamp=now
             )
-            self.applied.append(change)
             if self.record is not None:
                 self.record(change, now)

@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING
 
 from runtime.live.server import LiveServer
 from runtime.recording.tap import topic_of
-from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT, META_PROCESS
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -37,13 +36,7 @@ def declare_all(live: LiveServer, plan: GraphPlan) -> dict[tuple[str, str], str]
     for module, mplan in plan.modules.items():
         for port, info in mplan.outputs.items():
             topic = topic_of(module, port)
-            meta = {
-                META_PORT: f"{module}.{port}",
-                META_PROCESS: mplan.process,
-                META_FRAME: info.frame or "",
-                META_JOINTS: ",".join(info.joints or ()),
-            }
-            live.declare(topic, info.msg_type, meta)
+            live.declare(topic, info.msg_type)
             topics[(module, port)] = topic
     return topics
 

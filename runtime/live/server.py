@@ -103,11 +103,8 @@ class LiveServer:
         for thread in self._threads:
             thread.start()
 
-    def declare(
-        self, topic: str, msg_type: type[Message], meta: dict[str, str] | None = None
-    ) -> LiveChannel:
-        """Serve ``topic`` carrying ``msg_type``: one channel per encoding (as recorded);
-        ``meta`` (the recording's channel metadata) is not carried by the protocol."""
+    def declare(self, topic: str, msg_type: type[Message]) -> LiveChannel:
+        """Serve ``topic`` carrying ``msg_type``: one channel per encoding (as recorded)."""
         found = self._channels.get(topic)
         if found is not None:
             return found

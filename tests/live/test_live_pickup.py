@@ -112,7 +112,7 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
     assert report["parameters"] > 50
     tried = report["triedSet"]
     assert report["afterSet"] == [{"name": tried["name"], "value": tried["value"]}]
-    assert "asked to set" in run.text() and "refused" in run.text()
+    assert f"asked to set {tried['name']} = " in run.text() and "refused" in run.text()
 
     # a safety parameter and a value out of its bounds are refused, with the reason; a tunable
     # one within its bounds is changed between two of the snake's steps and logged

@@ -107,24 +107,27 @@ def test_a_change_is_applied_between_steps_logged_and_recorded(
 
 
 @pytest.mark.parametrize(
-    ("name", "value", "why"),
+    ("name", "value", "why", "unchanged"),
     [
-        ("guard.timeout", 0.5, "safety guard"),
-        ("servo.gain", ".inf", "finite"),
-        ("servo.gain", "fast", "valid number"),
-        ("servo.gian", 1.0, "has no parameter `gian`"),
-        ("src.value", 1.0, "not declared tunable"),
-        ("nobody.gain", 1.0, "expected MODULE.PARAM of a module of the graph"),
+        ("guard.timeout", 0.5, "safety guard", 0.2),
+        ("servo.gain", ".inf", "finite", 0.5),
+        ("servo.gain", "fast", "valid number", 0.5),
+        ("servo.gian", 1.0, "has no parameter `gian`", None),
+        ("src.value", 1.0, "not declared tunable", 2.0),
+        ("nobody.gain", 1.0, "expected MODULE.PARAM of a module of the graph", None),
     ],
 )
-def test_a_viewer_s_change_is_refused_with_the_reason(name: str, value: object, why: str) -> None:
+def test_a_viewer_s_change_is_refused_with_the_reason(
+    name: str, value: object, why: str, unchanged: float | None
+) -> None:
     plan = small_plan()
     sched = Scheduler(plan, SchedulerOptions(clock="sim", duration=0.1))
     table = ParameterTable(plan)
     table.serve_locally(sched.tuner, list(sched.modules))
     answer, refusals = table.set("viewer #1", [(name, value)])
     assert len(refusals) == 1 and why in refusals[0], refusals
-    assert answer == table.get([name])  # the current value
+    # the viewer is answered with the value the parameter still has (none: no such parameter)
+    assert answer == ([] if unchanged is None else [{"name": name, "value": unchanged}])
     assert not sched.tuner.pending
 
 
