@@ -78,8 +78,10 @@ def test_no_port_of_a_split_run_serves_a_viewer_without_the_token(tmp_path: Path
         assert printed in ports and ports[printed] == run.proc.pid
         assert len(ports) > 1  # zenoh's listeners, the console's page server
         without = {port: viewer_gets(port, "", "/joints/joint_state") for port in ports}
+        # with the token, wait up to 20 s for the 100 Hz joints (a loaded machine)
         with_token = {
-            port: viewer_gets(port, f"?token={token}", "/joints/joint_state") for port in ports
+            port: viewer_gets(port, f"?token={token}", "/joints/joint_state", 20.0)
+            for port in ports
         }
     finally:
         run.stop()

@@ -94,13 +94,18 @@ def test_bad_command_lines_exit_2_without_traceback(
     assert fragment in proc.stderr
 
 
-@pytest.mark.slow  # every command's --help in a subprocess of its own: ~24 s
-def test_help_on_every_command() -> None:
+def test_help_on_every_command(capsys: pytest.CaptureFixture[str]) -> None:
+    """Every command's --help, through the parser the console script builds (in this process),
+    and the whole list from `python -m runtime.cli.main --help` in a process of its own."""
     from runtime.cli.main import _load_commands
 
     for cmd in _load_commands():
-        proc = umbra(cmd.NAME, "--help")
-        assert proc.returncode == 0 and "usage: umbra " + cmd.NAME in proc.stdout
+        with pytest.raises(SystemExit) as stop:
+            main([cmd.NAME, "--help"])
+        assert stop.value.code == 0, cmd.NAME
+        assert "usage: umbra " + cmd.NAME in capsys.readouterr().out
+    proc = umbra("--help")  # the module entry point, in a process of its own
+    assert proc.returncode == 0 and all(cmd.NAME in proc.stdout for cmd in _load_commands())
 
 
 def test_failed_run_exits_1(tmp_path: Path) -> None:
