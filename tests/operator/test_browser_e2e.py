@@ -51,11 +51,19 @@ def _wait_stage(
         ) from exc
 
 
-def _click_patch(page: Any) -> tuple[float, float]:
-    u, v, n = green_patch_centre(page)
-    assert n > 200, f"no patch visible on the page ({n} green pixels)"
-    click_image(page, u, v)
-    return u, v
+def _click_patch(page: Any, tries: int = 5) -> tuple[float, float]:
+    """Click the patch's centre as a person would: again when the console refuses the click
+    as made on a stale image (a loaded machine paints late; the refusal is the safety rule)."""
+    notices = "(window.umbra.notices || []).map(n => n.text)"
+    for _ in range(tries):
+        u, v, n = green_patch_centre(page)
+        assert n > 200, f"no patch visible on the page ({n} green pixels)"
+        before = len(page.evaluate(notices))
+        click_image(page, u, v)
+        page.wait_for_timeout(1500)
+        if not any("stale page" in t for t in page.evaluate(notices)[before:]):
+            return u, v
+    raise AssertionError(f"every click was refused as stale: {page.evaluate(notices)[-3:]}")
 
 
 def _overlay_green_on_snake(page: Any) -> tuple[int, int]:
