@@ -1,7 +1,8 @@
 """The station page in real Chromium at 1280x800 and 1920x1080, against the console module in
 the harness (vsServo's and the world's statuses played by the test): seed, start, pause,
 resume, abort, an assistance request answered without scrolling, a jog named in the image's
-words, and the end of the run with its verdict."""
+words, and the end of the run by the operator's *Stop* (judged by a real World module) with its
+verdict."""
 
 from __future__ import annotations
 
@@ -15,9 +16,11 @@ import pytest
 
 from connectors.messages import Message, Status
 from modules.operator.console import OperatorConsole
+from modules.world.world import SimWorld
 from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, click_image, needs_chromium, take_control
 from tests.operator.helpers import image, rectangle_contour
+from tests.world.test_attended import FRAMES
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 
@@ -25,7 +28,7 @@ SNAKE_REASON = (
     "snake failure: no colour edge under 100% of the contour (featureless image); "
     "area changed -63% in one frame"
 )
-VERDICT = "grasped: tool point 0.74 mm from the grasp point, roll error 0.06 deg"
+VERDICT = "stopped by the operator before a grasp"
 
 
 class Plant(threading.Thread):
@@ -206,12 +209,27 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
                 page.click("#release")
                 page.wait_for_function("!window.umbra.state.control")
                 pages.append(page)
-            # the end of the run: the verdict, buttons disabled, no "reconnecting"
-            with plant.lock:
-                plant.extra.append(("world", Status(stage="grasped", message=VERDICT)))
+            # Stop: only the holder may; the world (attended: it would never end the run by
+            # itself) ends it, "stopped by the operator", and the pages show the run's end
+            viewer = pages[1]
+            take_control(pages[0])
+            stop = "#commands button[data-action=stop]"
+            pages[0].wait_for_function(f"!document.querySelector('{stop}').disabled")
+            viewer.wait_for_function("window.umbra.state.control !== ''")
+            assert viewer.is_disabled(stop)  # not the holder
+            pages[0].click(stop)
+            _wait(
+                lambda: [s.text for port, s in list(plant.sent) if port == "stop_run"] == ["stop"]
+            )
+            with ModuleHarness(SimWorld, frames=FRAMES, attended=True) as world:
+                world.push("operator", next(s for port, s in plant.sent if port == "stop_run"))
+                world.step(dt=0.01)
+                assert world.stop_request == (VERDICT, 0)
+                with plant.lock:
+                    plant.extra.append(("world", world.output("status")))
             for page in pages:
                 page.wait_for_function(
-                    "document.getElementById('line-verdict').textContent.includes('grasped')"
+                    "document.getElementById('line-verdict').textContent.includes('stopped by')"
                 )
             plant.halt.set()
             plant.join(5)
