@@ -40,6 +40,7 @@ class Plant(threading.Thread):
         self.h = h
         self.servo = Status(stage="acquire", message="waiting: snake has no contour")
         self.extra: list[tuple[str, Message]] = []
+        self.steady: dict[str, Message] = {}  #: more inputs, pushed with each frame
         self.sent: list[tuple[str, Message]] = []
         self.halt = threading.Event()
         self.lock = threading.Lock()
@@ -53,6 +54,8 @@ class Plant(threading.Thread):
                     self.h.push("image", image())
                     self.h.push("contour", rectangle_contour())
                     self.h.push("servo", self.servo)
+                    for port, sample in self.steady.items():
+                        self.h.push(port, sample)
                 for port, sample in extra:
                     self.h.push(port, sample)
                 out = self.h.step(dt=0.01)
@@ -281,3 +284,74 @@ def test_active_sketch_is_a_panel_of_the_station_behind_the_same_door() -> None:
         )
         # one holder for the browser: the station page stands for it, the framed page follows
         assert console.module.arbiter.holder == page.evaluate("window.umbra.session")
+
+
+def _pose(xyz: tuple[float, float, float], down: bool = False) -> np.ndarray:
+    """A pose at ``xyz`` [m]; ``down``: its z axis points down (a camera looking at the table)."""
+    T = np.diag([1.0, -1.0, -1.0, 1.0]) if down else np.eye(4)
+    T[:3, 3] = xyz
+    return T
+
+
+def _green(page: Any) -> int:
+    """Pixels of the patch's green (0x22bb44) on the 3-D panel's canvas."""
+    import io
+
+    from PIL import Image as PILImage
+
+    shot = page.locator("#view3d canvas").screenshot()
+    rgb = np.asarray(PILImage.open(io.BytesIO(shot)).convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return int(np.sum((abs(r - 0x22) < 30) & (abs(g - 0xBB) < 40) & (abs(b - 0x44) < 30)))
+
+
+def test_the_3d_panel_switches_between_the_overview_and_the_graphs_camera() -> None:
+    """The 3-D panel offers the view from the graph's camera only once the graph has one; seen
+    from the camera 20 cm above the patch, the patch fills a large part of the view (in the
+    overview, 2 m away, a few pixels), and the eye is at the camera's pose."""
+    from connectors.messages import Pose, Poses
+
+    frames = {"base->table": _pose((0.0, 0.0, 0.25))}
+    h = ModuleHarness(OperatorConsole, {}, frames=frames)
+    h.__enter__()
+    plant = Plant(h)
+    links = np.stack([_pose((0.0, 0.0, 0.3)), _pose((0.3, 0.0, 0.6))])
+    plant.steady = {
+        "link_poses": Poses(matrices=links, children=["link1", "link2"], frame="base"),
+        "patch_pose": Pose(matrix=_pose((0.6, 0.0, 0.03)), parent="table", child="patch"),
+    }
+    plant.start()
+    try:
+        with chromium() as browser:
+            page = browser.new_page(viewport={"width": 1920, "height": 1080})
+            page.goto(h.module.url)
+            page.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 2")
+            options = "[...document.querySelectorAll('#view3d-from option')].map(o => o.value)"
+            assert page.evaluate(options) == ["overview"]  # no camera in the graph (yet)
+            with plant.lock:
+                plant.steady["camera_pose"] = Pose(
+                    matrix=_pose((0.6, 0.0, 0.23), down=True), parent="table", child="camera"
+                )
+            page.wait_for_function(f"{options}.includes('camera')")
+            assert page.evaluate(options) == ["overview", "camera"]
+            page.wait_for_timeout(500)
+            overview = _green(page)
+            page.select_option("#view3d-from", "camera")
+            page.wait_for_function("window.umbra.view3d.from === 'camera'")
+            eye = page.evaluate("window.umbra.view3d.eye")
+            assert np.allclose(eye, [0.6, 0.0, 0.48], atol=1e-4), eye  # T_base_table @ camera
+            page.wait_for_timeout(500)
+            seen = _green(page)
+            area = page.evaluate(
+                "(() => { const c = document.querySelector('#view3d canvas');"
+                " return c.clientWidth * c.clientHeight; })()"
+            )
+            # the patch (6 x 4 cm at 20 cm, 62 deg vertical field): about 3 % of the view
+            assert seen > 0.01 * area and seen > 5 * overview, (seen, overview, area)
+            page.select_option("#view3d-from", "overview")
+            page.wait_for_function("window.umbra.view3d.from === 'overview'")
+            assert not np.allclose(page.evaluate("window.umbra.view3d.eye"), eye, atol=0.05)
+    finally:
+        plant.halt.set()
+        plant.join(5)
+        h.__exit__(None, None, None)
