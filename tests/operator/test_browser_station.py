@@ -355,3 +355,69 @@ def test_the_3d_panel_switches_between_the_overview_and_the_graphs_camera() -> N
         plant.halt.set()
         plant.join(5)
         h.__exit__(None, None, None)
+
+
+def _drag(page: Any, x0: float, y0: float, x1: float, y1: float) -> None:
+    """Press at (x0, y0), move to (x1, y1) in steps, release (a person's drag)."""
+    page.mouse.move(x0, y0)
+    page.mouse.down()
+    page.mouse.move(x1, y1, steps=8)
+    page.mouse.up()
+
+
+def test_panels_resize_by_drag_and_the_layout_persists_per_browser() -> None:
+    """At 1280x800: the columns' splitter and a panel's resize grip, dragged, change the sizes;
+    a reload keeps them (localStorage: per browser, another browser has its own); with the
+    bigger panels every command and the assistance dialog stay in view without scrolling."""
+    size = (1280, 800)
+    h = ModuleHarness(OperatorConsole, {})
+    h.__enter__()
+    plant = Plant(h)
+    plant.start()
+    try:
+        with chromium() as browser:
+            context = browser.new_context(viewport={"width": size[0], "height": size[1]})
+            page = context.new_page()
+            page.goto(h.module.url)
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            left = page.locator("#col-left").bounding_box()["width"]
+            split = page.locator("#split").bounding_box()
+            y = split["y"] + split["height"] / 2
+            _drag(page, split["x"] + 3, y, 0.45 * size[0], y)
+            narrower = page.locator("#col-left").bounding_box()["width"]
+            assert narrower < left - 150, (left, narrower)  # 62 % -> 45 % of 1280 px
+            messages = page.locator("section[data-panel=messages]")
+            box = messages.bounding_box()
+            grip = (box["x"] + box["width"] - 3, box["y"] + box["height"] - 3)
+            _drag(page, *grip, grip[0], grip[1] + 120)
+            taller = messages.bounding_box()["height"]
+            assert taller > box["height"] + 100, (box["height"], taller)
+            page.reload()
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            assert abs(page.locator("#col-left").bounding_box()["width"] - narrower) < 3
+            assert abs(messages.bounding_box()["height"] - taller) < 3
+            # every command and the assistance dialog in view, the page not scrolled
+            take_control(page)
+            plant.stage("assist", SNAKE_REASON)
+            page.wait_for_selector("#assist[open]", timeout=10000)
+            for selector in (
+                "#commands button[data-action]",
+                "#assist button[data-action=resume]",
+                "#assist button[data-action=abort]",
+                "#release",
+            ):
+                assert _in_view(page, selector, size), selector
+            assert page.evaluate("document.scrollingElement.scrollHeight") <= size[1]
+            # another browser (its own storage) starts from the default layout
+            other = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            other.goto(h.module.url)
+            other.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            assert abs(other.locator("#col-left").bounding_box()["width"] - left) < 3
+            height = "document.querySelector('section[data-panel=messages]').style.height"
+            assert other.evaluate(height) == ""  # sized by its content, as at first
+            assert abs(float(page.evaluate(height)[:-2]) - (taller - 12)) < 1.5  # 2 x 6 px pad
+            context.close()
+    finally:
+        plant.halt.set()
+        plant.join(5)
+        h.__exit__(None, None, None)
