@@ -43,6 +43,8 @@ from modules.view3d.viewer_video import (
     node_name,
     video_rgba,
 )
+from modules.view3d.viser_door import guard_viser
+from modules.webdoor.secret import TOKEN_QUERY
 
 
 @dataclass
@@ -71,8 +73,14 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         video_width: int = 320,
         jpeg_quality: int = 80,
         animation_s: float = 1.0,
+        token: str = "",
     ) -> None:
+        """``token``: the per-run access token every request and socket needs (required)."""
+        if not token:
+            raise ValueError("the 3-D view needs an access token")
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.token = token
+        self.door = guard_viser(self.server.get_port(), token, host)
         self.overview = overview
         self.video_width = video_width
         self.jpeg_quality = jpeg_quality
@@ -105,7 +113,12 @@ class ViewerPage(ViewerMoves, ViewerSketch):
 
     @property
     def address(self) -> str:
-        return f"http://{self.server.get_host()}:{self.server.get_port()}/"
+        """The page's address with its token (bound to every interface: the loopback one)."""
+        host = {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(
+            self.server.get_host(), self.server.get_host()
+        )
+        host = f"[{host}]" if ":" in host else host
+        return f"http://{host}:{self.server.get_port()}/?{TOKEN_QUERY}={self.token}"
 
     def clients(self) -> int:
         return len(self.server.get_clients())
