@@ -91,6 +91,7 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         self.meshes: dict[str, Mesh] = {}  #: the model's surfaces, by scene node name
         #: the frames' names written in the model: label -> (text, position in the world, m)
         self.labels: dict[str, tuple[str, np.ndarray]] = {}
+        self.labels_sent = 0
         #: per browser (viser client id): the number of its latest viewer move, and the live
         #: camera its viewer rides with after "View from ..."
         self._generation: dict[int, int] = {}
@@ -168,8 +169,14 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         self.stage_note.content = f"**stage**: {text}"
 
     def label(self, name: str, text: str, T_world_frame: np.ndarray) -> None:
-        """A frame's name written at its origin in the model (``labels``: where each is)."""
-        self.labels[name] = (text, np.array(T_world_frame[:3, 3]))
+        """A frame's name written at its origin in the model (``labels``: where each is); sent
+        to the browsers only when its text or place changed (``labels_sent`` counts them)."""
+        at = np.array(T_world_frame[:3, 3], dtype=float)
+        shown = self.labels.get(name)
+        if shown is not None and shown[0] == text and np.array_equal(shown[1], at):
+            return
+        self.labels[name] = (text, at)
+        self.labels_sent += 1
         self.server.scene.add_label(
             f"/labels/{node_name(name)}", text=text, position=tuple(T_world_frame[:3, 3])
         )
