@@ -54,7 +54,8 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
     """The operator's console: a web page (127.0.0.1 by default) with the live camera image, the
     snake drawn over it in the browser, the grab's stage and errors, link and arm health, and
     the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
-    ``operator`` (start / pause / resume / abort for vsServo) and ``jog`` (dead-man teleoperation
+    ``operator`` (start / pause / resume / abort for vsServo), ``stop_run`` (*Stop*: the run ends,
+    judged by the world) and ``jog`` (dead-man teleoperation
     twist in ``camera_frame``, for REG_VEL's ``jog`` input: one per keep-alive from the page, so
     REG_VEL's watchdog stops a jog whose keep-alives stop within its timeout).
 
@@ -130,6 +131,12 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         frame=from_param("camera_frame"),
         origin_from=("image",),  # a jog is as old as the picture the operator acts on
         doc="dead-man jog twist for REG_VEL: one per keep-alive of the held jog, zero on release",
+    )
+    stop_run = Output(
+        Text,
+        events=True,
+        doc="the operator's *Stop*: `stop`, for the judge of the run (the world), which ends it "
+        "as a normal stop with the verdict 'stopped by the operator'",
     )
     presence = Output(Status, doc="`person` while a person holds control, else `nobody`")
     zoom_1 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[0]")

@@ -117,6 +117,9 @@ class ConsoleEvents:
         self._notice(f"{what} seed sent to the snake at [{where}] px")
 
     def _action(self, s: str, action: str, now: float) -> None:
+        if action == "stop":
+            self._stop_run()
+            return
         if action in ("resume", "start"):
             check_snake_healthy(
                 self.contour.get(now), self.contour.age(now), self.params.max_contour_age, action
@@ -124,6 +127,17 @@ class ConsoleEvents:
         self.operator.send(Text(text=action))
         self.counts[action] += 1
         self._notice(f"{action} sent to vsServo")
+
+    def _stop_run(self) -> None:
+        """*Stop*: ask the run's judge (the world) to end the run; it says the verdict."""
+        if not self.stop_run.sinks:
+            raise Refused(
+                "stop refused: expected a judge of the run (the world's `operator` input) "
+                "connected to the console's `stop_run`, found none (Ctrl-C ends this run)"
+            )
+        self.stop_run.send(Text(text="stop"))
+        self.counts["stop"] += 1
+        self._notice("stop sent: the run ends (its summary and recordings are written)")
 
     def _zoom_message(self, camera: str, value: float) -> None:
         if camera not in self._zoom:

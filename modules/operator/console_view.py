@@ -151,7 +151,7 @@ class ConsoleView:
             "t": self._run_time(),
             "phase": phase,
             "line": line.for_page(),
-            "commands": commands_available(phase, line.stage),
+            "commands": commands_available(phase, line.stage, bool(self.stop_run.sinks)),
             "panels": self._panels(),
             "overlay": view_state.overlay(self.contour.get(now), self._limits),
             "scene": self._scene(now),

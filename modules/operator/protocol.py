@@ -16,7 +16,7 @@ from typing import Any
 from connectors.limits import MAX_PAGE_MESSAGE_BYTES
 
 MAX_MESSAGE_BYTES = MAX_PAGE_MESSAGE_BYTES  #: (the websocket protocol refuses larger ones first)
-ACTIONS = ("start", "pause", "resume", "abort")
+ACTIONS = ("start", "pause", "resume", "abort", "stop")  #: stop: end the run (the judge ends it)
 JOG_FRAMES = ("tool", "camera")
 
 #: message type -> required fields and their kinds ("num" finite number, "int", "bool", "str")

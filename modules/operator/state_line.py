@@ -20,6 +20,8 @@ from modules.operator.plain_words import plain_reason
 from modules.servo.stages import ABORTED, ACTIVE_STAGES, ASSIST, DONE, PAUSED
 
 STARTING, RUNNING, ENDED = "starting", "running", "ended"
+#: the world's status stages that carry the run's verdict (stopped: by the operator, no grasp)
+VERDICT_STAGES = ("grasped", "missed", "stopped")
 
 #: what the robot does in each of vsServo's stages, in the operator's words
 _DOING = {
@@ -73,7 +75,7 @@ def state_line(
     judge in the graph, or not judged yet), the control holder's name ("" nobody) and whether
     a jog is held."""
     control = holder or "nobody (take control to act)"
-    verdict = world.message if world is not None and world.stage in ("grasped", "missed") else ""
+    verdict = world.message if world is not None and world.stage in VERDICT_STAGES else ""
     stage = servo.stage if servo is not None else "-"
     if phase == STARTING:
         return StateLine(phase, stage, control, "starting: waiting for the camera", "", "", "")
@@ -102,13 +104,15 @@ def _why_stopped(servo: Status | None, guard: Status | None, jogging: bool) -> s
     return ""
 
 
-def commands_available(phase: str, stage: str) -> dict[str, bool]:
-    """Which grab commands would do something now (for the page that holds control; abort is
-    offered for as long as the run lives)."""
+def commands_available(phase: str, stage: str, can_stop: bool = False) -> dict[str, bool]:
+    """Which commands would do something now (for the page that holds control; abort is
+    offered for as long as the run lives, and *Stop* too when the graph has a judge to end the
+    run, ``can_stop``)."""
     live = phase == RUNNING
     return {
         "start": live and stage in STARTABLE,
         "pause": live and stage in PAUSABLE,
         "resume": live and stage in (PAUSED, ASSIST),
         "abort": live,
+        "stop": live and can_stop,
     }

@@ -8,8 +8,11 @@
     final_grab: advance ``grab_distance`` plus the depth error still measured when the approach
                 settled, along the optical axis at ``grab_speed`` (open loop),
                 then close the gripper and wait ``gripper_close_time``  ──> done
-    any active stage ──(snake failure)──> assist  (zero velocity at once)
+    any active stage ──(snake failure)──> assist  (zero velocity at once), except while the
+                gripper closes: the arm stands still, and the closing fingers in front of the
+                camera hide the patch the snake tracks (the grab no longer needs it)
     approach / final_grab ──(no contour, or one older than max_contour_age)──> assist
+                (not while the gripper closes, as above)
     assist ──operator "resume"──> acquire        any stage ──operator "abort"──> aborted
     done / aborted ──operator "resume"──> acquire (a new grab)
     acquire / approach / final_grab / assist ──operator "pause"──> paused (zero, the arm holds)
@@ -168,7 +171,7 @@ class ServoStages:
     def step(self, now: float, observation: Observation | None) -> ServoOutput:
         """Advance the machine to time ``now`` (s) with the latest observation (or None)."""
         waiting = ""
-        if self.stage in ACTIVE_STAGES:
+        if self.stage in ACTIVE_STAGES and not self._closing:
             if observation is not None and not observation.healthy:
                 self._enter(ASSIST, f"snake failure: {observation.reason or 'sanity check failed'}")
             else:
@@ -196,6 +199,12 @@ class ServoStages:
         return ServoOutput(
             _ZERO_TWIST, self.stage, self.stage == ASSIST, self.reason, message, gripper
         )
+
+    @property
+    def _closing(self) -> bool:
+        """The final grab has advanced and the gripper closes: the arm stands still and the
+        camera sees the fingers close over the patch, so the snake's view no longer counts."""
+        return self.stage == FINAL_GRAB and self._close_start is not None
 
     def _unusable(self, now: float, observation: Observation | None) -> str:
         """Why a healthy-flagged observation cannot be used ("" when it can)."""

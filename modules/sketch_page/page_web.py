@@ -6,6 +6,7 @@ of :class:`~modules.sketch_page.sketch_page.SketchPage`); they never touch the g
 from __future__ import annotations
 
 import asyncio
+import collections
 import concurrent.futures
 import json
 import math
@@ -53,6 +54,9 @@ class PageWeb:
     _control_view: Any
     _images: Any
     _live: dict[str, Any]
+    _live_jpeg: dict[str, tuple[int, bytes, float]]
+    _live_locks: dict[str, asyncio.Lock]
+    live_encodes: collections.Counter[str]
     params: Any
     _pair: Any
     _inbox: Any
@@ -107,20 +111,28 @@ class PageWeb:
         )
 
     async def _live_image(self, side: str) -> Response:
-        """``a.jpg`` / ``b.jpg``: the camera's latest live frame, encoded on request (nothing is
-        encoded while no page watches); 404 before the first frame."""
-        live = self._live.get(side.removesuffix(".jpg")) if side.endswith(".jpg") else None
-        frame = live.get()[1] if live is not None else None
-        if frame is None:
+        """``a.jpg`` / ``b.jpg``: the camera's latest live frame, encoded when a page first asks
+        for it (nothing is encoded while no page watches) and once per frame however many
+        polls ask (``live_encodes`` counts the encodings); 404 before the first frame."""
+        name = side.removesuffix(".jpg") if side.endswith(".jpg") else ""
+        live = self._live.get(name)
+        if live is None or live.get()[1] is None:
             return Response(status_code=404)
-        quality = [cv2.IMWRITE_JPEG_QUALITY, self.params.jpeg_quality]
-        ok, jpeg = await asyncio.to_thread(cv2.imencode, ".jpg", frame.pixels, quality)
-        if not ok:
-            return Response(status_code=500)
+        lock = self._live_locks.setdefault(name, asyncio.Lock())  # (one web loop: no race)
+        async with lock:  # a second poll of the same frame waits for the first's encoding
+            version, frame = live.get()
+            cached = self._live_jpeg.get(name)
+            if cached is None or cached[0] != version:
+                quality = [cv2.IMWRITE_JPEG_QUALITY, self.params.jpeg_quality]
+                ok, jpeg = await asyncio.to_thread(cv2.imencode, ".jpg", frame.pixels, quality)
+                if not ok:
+                    return Response(status_code=500)
+                self.live_encodes[name] += 1
+                cached = self._live_jpeg[name] = (version, jpeg.tobytes(), frame.stamp)
         return Response(
-            jpeg.tobytes(),
+            cached[1],
             media_type="image/jpeg",
-            headers={"Cache-Control": "no-store", "X-Frame-Stamp": f"{frame.stamp:.6f}"},
+            headers={"Cache-Control": "no-store", "X-Frame-Stamp": f"{cached[2]:.6f}"},
         )
 
     async def _epipolar(self, request: Request) -> JSONResponse:

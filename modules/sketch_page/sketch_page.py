@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+import collections
 import itertools
 import math
 import threading
@@ -93,6 +95,11 @@ class SketchPage(PageControl, PageWeb, Module):
         self._control_view: Latest[dict[str, Any]] = Latest()
         self._images: Latest[tuple[str, bytes, bytes]] = Latest()
         self._live: dict[str, Latest[Image]] = {"a": Latest(), "b": Latest()}
+        #: per live camera: (frame version, JPEG, stamp) of the last encoding, for every poll of
+        #: that frame (web thread), and the encodings counted
+        self._live_jpeg: dict[str, tuple[int, bytes, float]] = {}
+        self._live_locks: dict[str, asyncio.Lock] = {}
+        self.live_encodes: collections.Counter[str] = collections.Counter()
         #: the snapshot's stereo pair and image b's size, for epipolar curves (web thread)
         self._pair: Latest[tuple[str, StereoPair, tuple[int, int]]] = Latest()
         #: requests by browser: the holder's never wait behind another browser's

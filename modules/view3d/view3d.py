@@ -20,6 +20,7 @@ from modules.view3d.scene_file import Scene, load_scene
 from modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
 from modules.view3d.view3d_push import CAMERAS, ViewPush
 from modules.view3d.viewer import ViewerPage
+from modules.webdoor.secret import resolve_token
 
 
 class View3DParams(ArmParams):
@@ -27,6 +28,9 @@ class View3DParams(ArmParams):
 
     host: str = param("127.0.0.1", "address the page listens on (loopback by default)")
     port: int = param(8090, "TCP port of the page; 0: any free port", ge=0, le=65535)
+    token_file: str = param(
+        "", "file whose first line is the page's access token (else a random one, printed)"
+    )
     world_frame: str = param("base", "the view's reference frame (z up)")
     max_fps: float = param(
         10.0, "most scene updates (video frames) sent per second", unit="Hz", gt=0, le=60
@@ -160,7 +164,13 @@ class View3D(ViewPush, Module):
         )
         try:
             self.page = ViewerPage(
-                p.host, p.port, overview, CAMERAS, p.video_width, animation_s=p.animation_s
+                p.host,
+                p.port,
+                overview,
+                CAMERAS,
+                p.video_width,
+                animation_s=p.animation_s,
+                token=resolve_token(p.token_file, self.name),
             )
         except OSError as error:
             raise UserError(
@@ -204,7 +214,8 @@ class View3D(ViewPush, Module):
 
     def summary(self) -> dict[str, object]:
         return {
-            "address": getattr(self, "address", ""),
+            "address": getattr(self, "address", "").split("?")[0],  # not the token: a file
+            "refused_requests": self.page.door.refused if getattr(self, "page", None) else 0,
             "updates_sent": getattr(self, "_updates", 0),
             "video_frames_sent": {k: s.frames_sent for k, s in self.page.cameras.items()}
             if getattr(self, "page", None) is not None
@@ -295,7 +306,7 @@ class View3D(ViewPush, Module):
             self.status.send(
                 Status(
                     stage="serving",
-                    message=self.address,
+                    message=self.address.split("?")[0],  # not the token: it travels
                     values={
                         "browsers": float(self.page.clients()),
                         "updates_sent": float(self._updates),

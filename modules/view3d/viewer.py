@@ -43,6 +43,8 @@ from modules.view3d.viewer_video import (
     node_name,
     video_rgba,
 )
+from modules.view3d.viser_door import guard_viser
+from modules.webdoor.secret import TOKEN_QUERY
 
 
 @dataclass
@@ -71,8 +73,14 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         video_width: int = 320,
         jpeg_quality: int = 80,
         animation_s: float = 1.0,
+        token: str = "",
     ) -> None:
+        """``token``: the per-run access token every request and socket needs (required)."""
+        if not token:
+            raise ValueError("the 3-D view needs an access token")
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.token = token
+        self.door = guard_viser(self.server.get_port(), token, host)
         self.overview = overview
         self.video_width = video_width
         self.jpeg_quality = jpeg_quality
@@ -83,6 +91,7 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         self.meshes: dict[str, Mesh] = {}  #: the model's surfaces, by scene node name
         #: the frames' names written in the model: label -> (text, position in the world, m)
         self.labels: dict[str, tuple[str, np.ndarray]] = {}
+        self.labels_sent = 0
         #: per browser (viser client id): the number of its latest viewer move, and the live
         #: camera its viewer rides with after "View from ..."
         self._generation: dict[int, int] = {}
@@ -105,7 +114,12 @@ class ViewerPage(ViewerMoves, ViewerSketch):
 
     @property
     def address(self) -> str:
-        return f"http://{self.server.get_host()}:{self.server.get_port()}/"
+        """The page's address with its token (bound to every interface: the loopback one)."""
+        host = {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(
+            self.server.get_host(), self.server.get_host()
+        )
+        host = f"[{host}]" if ":" in host else host
+        return f"http://{host}:{self.server.get_port()}/?{TOKEN_QUERY}={self.token}"
 
     def clients(self) -> int:
         return len(self.server.get_clients())
@@ -155,8 +169,14 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         self.stage_note.content = f"**stage**: {text}"
 
     def label(self, name: str, text: str, T_world_frame: np.ndarray) -> None:
-        """A frame's name written at its origin in the model (``labels``: where each is)."""
-        self.labels[name] = (text, np.array(T_world_frame[:3, 3]))
+        """A frame's name written at its origin in the model (``labels``: where each is); sent
+        to the browsers only when its text or place changed (``labels_sent`` counts them)."""
+        at = np.array(T_world_frame[:3, 3], dtype=float)
+        shown = self.labels.get(name)
+        if shown is not None and shown[0] == text and np.array_equal(shown[1], at):
+            return
+        self.labels[name] = (text, at)
+        self.labels_sent += 1
         self.server.scene.add_label(
             f"/labels/{node_name(name)}", text=text, position=tuple(T_world_frame[:3, 3])
         )

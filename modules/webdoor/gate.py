@@ -67,12 +67,17 @@ class Gate:
     """ASGI middleware: ``app`` behind the door of a server with ``token`` answering to
     ``allowed`` hosts (see the module docstring)."""
 
-    def __init__(self, app: Any, token: str, allowed: frozenset[str]) -> None:
+    def __init__(
+        self, app: Any, token: str, allowed: frozenset[str], cookie: str = TOKEN_COOKIE
+    ) -> None:
+        """``cookie``: the name of the token's cookie (a browser sends a cookie to every port
+        of a host: a second server of the machine with a token of its own names its own)."""
         if not token:
             raise ValueError("a page server needs an access token")
         self.app = app
         self.token = token
         self.allowed = allowed
+        self.cookie = cookie
         self.refusals = Refusals()
 
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
@@ -80,7 +85,7 @@ class Gate:
         if kind not in ("http", "websocket"):
             await self.app(scope, receive, send)
             return
-        refusal = self._check(scope)
+        refusal = self.check(scope)
         if refusal is not None:
             status, reason, text = refusal
             client = (scope.get("client") or ("?", 0))[0]
@@ -103,8 +108,9 @@ class Gate:
                 send = _with_cookie(send, f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE}")
         await self.app(scope, receive, send)
 
-    def _check(self, scope: dict) -> tuple[int, str, str] | None:
-        """(status, reason, text) of a refusal, or None to let the request in."""
+    def check(self, scope: dict) -> tuple[int, str, str] | None:
+        """(status, reason, text) of a refusal, or None to let the request in (``scope``: an
+        ASGI scope's ``type``, ``method``, ``query_string`` and ``headers`` suffice)."""
         host = _header(scope, b"host")
         if not host_allowed(host, self.allowed):
             return (
@@ -116,7 +122,7 @@ class Gate:
         origin = _header(scope, b"origin")
         if not origin_allowed(origin, self.allowed):
             return 403, "origin", f"a request from another site's page (Origin {origin!r})"
-        cookie = _cookie(scope, TOKEN_COOKIE)
+        cookie = _cookie(scope, self.cookie)
         if scope["type"] == "http" and scope.get("method") not in _SAFE_METHODS:
             if not token_matches(self.token, cookie):
                 return 403, "token", "expected the access token's cookie on a POST, found none"
@@ -140,6 +146,13 @@ class Gate:
 
     async def _exchange(self, scope: dict, send: Any, query: dict[str, str]) -> None:
         """The token of the address for a cookie, and a redirect to the address without it."""
+        headers = self.exchange_headers(scope, query)
+        await send({"type": "http.response.start", "status": 303, "headers": headers})
+        await send({"type": "http.response.body", "body": b""})
+
+    def exchange_headers(self, scope: dict, query: dict[str, str]) -> list[tuple[bytes, bytes]]:
+        """The headers of the 303 that trades the address's token (``query``) for the cookie:
+        the address without it, and the cookies (token, viewer) the browser lacks."""
         rest = urlencode([(k, v) for k, v in query.items() if k != TOKEN_QUERY])
         path = (scope.get("raw_path") or scope.get("path", "/").encode()).decode("latin-1")
         path = "/" + path.lstrip("/\\")  # this server's path: never //another.host/
@@ -149,13 +162,12 @@ class Gate:
             (b"referrer-policy", b"no-referrer"),
         ]
         if token_matches(self.token, query.get(TOKEN_QUERY)):  # (else it came with the cookie)
-            headers.append((b"set-cookie", f"{TOKEN_COOKIE}={self.token}; {_COOKIE}".encode()))
+            headers.append((b"set-cookie", f"{self.cookie}={self.token}; {_COOKIE}".encode()))
         if not viewer_key(_cookie(scope, VIEWER_COOKIE)):
             headers.append(
                 (b"set-cookie", f"{VIEWER_COOKIE}={new_viewer_id()}; {_COOKIE}".encode())
             )
-        await send({"type": "http.response.start", "status": 303, "headers": headers})
-        await send({"type": "http.response.body", "body": b""})
+        return headers
 
     async def _body(self, scope: dict, receive: Any, send: Any) -> bytes | None:
         """The whole request body, or None once a refusal was sent (too large, too slow)."""

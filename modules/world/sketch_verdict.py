@@ -74,11 +74,17 @@ def macro_verdict(macro: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
 
 
 def _grasp(outcome: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
+    """A grasp macro's words; ``outcome`` is the judge's (a grasp macro's target is the pipe:
+    a grab that caught the door's handle instead is a miss of it, said with what it caught)."""
     if not np.isfinite(v.grasp_distance_m):
         if v.handle_held and np.isfinite(v.handle_distance_m):
             mm = v.handle_distance_m * 1e3
-            text = f"grasped: the door's handle, {mm:.1f} mm off its axis (not the pipe)"
-            return "succeeded", text, {"handle_distance_mm": mm, "success": 1.0}
+            text = (
+                f"the gripper caught the door's handle, {mm:.1f} mm off its axis, not the pipe "
+                "(Move Around Axis opens the door with it)"
+            )
+            figures = {"handle_distance_mm": mm, "success": float(outcome == "succeeded")}
+            return outcome, _prefix(outcome, text), figures
         if np.isfinite(v.closed_distance_m):
             text = f"missed: gripper closed {v.closed_distance_m * 1e3:.0f} mm off the pipe axis"
             return "missed", text, {"grasp_distance_mm": v.closed_distance_m * 1e3, "success": 0.0}

@@ -8,7 +8,10 @@ grasp against the truth and ends the run: exit 0 when grasped within tolerance, 
 Its ``status`` says ``running`` until then and the verdict after, re-sent every
 ``status_period_s`` so a page that joins late reads it. In an attended run
 (``ModuleContext.attended``) the verdict is published and logged but the run goes on until the
-person stops it: no end after an assistance request, no timeout.
+person stops it: no end after an assistance request, no timeout. The person stops it with the
+console's *Stop* (``stop`` on the ``operator`` input, any run): the run ends as a normal stop,
+its verdict "stopped by the operator" (after the grasp's verdict when one was judged), exit 0
+unless the grasp was judged missed.
 
 Frames: ``base`` (robot base), ``flange``, ``tool`` (gripper centre point; the graph's static
 frame ``flange->tool``), ``camera`` (``flange->camera`` through the static frames), ``table``
@@ -22,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from connectors import Input, Module, Output, UserError, param
-from connectors.messages import JointState, Pose, Poses, Status
+from connectors.messages import JointState, Pose, Poses, Status, Text
 from modules.arm.arm_params import ArmParams
 from modules.arm.arm_solids import TRUE_PREFIX, arm_frames
 from modules.world.grasp import grasp_error
@@ -82,6 +85,8 @@ class WorldParams(ArmParams):
 
 
 TRUE_FLANGE, TRUE_TOOL = TRUE_PREFIX + "flange", TRUE_PREFIX + "tool"
+#: the verdict of a run its operator ended with the console's *Stop*
+STOPPED_BY_OPERATOR = "stopped by the operator"
 
 
 class SimWorld(Module):
@@ -110,6 +115,13 @@ class SimWorld(Module):
         feedback=True,
         doc="the safety register's status (REG_VEL): a run that ends while it holds the arm for "
         "old data says 'stopped: data too old'",
+    )
+    operator = Input(
+        Text,
+        required=False,
+        feedback=True,
+        doc="the operator console's run command: `stop` ends the run (verdict 'stopped by the "
+        "operator')",
     )
     camera_pose = Output(Pose, frame="table->camera", measured=True, doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", measured=True, doc="true T_table_patch")
@@ -147,12 +159,14 @@ class SimWorld(Module):
         self._stop_reason = ""
         self._status = Status(stage="running", message="no grasp yet")
         self._status_due = -np.inf
+        self._operator_stopped = False
 
     def step(self, now: float) -> None:
         if self.t0 is None:
             self.t0 = now
         state = self.joint_state.get(now)
         self.patch_pose.send(Pose(matrix=self.T_table_patch, parent="table", child="patch"))
+        self._operator_command(now)
         self._send_status(now)
         if state is None:
             return
@@ -184,6 +198,21 @@ class SimWorld(Module):
             self._finish(now, False, f"stopped without a grasp: {self._stop_reason}")
         elif now - self.t0 > self.params.timeout_s:
             self._finish(now, False, self._why_not(f"no grasp within {self.params.timeout_s:g} s"))
+
+    def _operator_command(self, now: float) -> None:
+        """The console's *Stop*: the run ends now as a normal stop, its verdict 'stopped by the
+        operator' (after the grasp's verdict, when one was judged: exit 1 only for a miss)."""
+        command = self.operator.get(now)
+        if command is None or not self.operator.fresh or command.text != "stop":
+            return
+        if self._operator_stopped:
+            return
+        self._operator_stopped = True
+        if self._judged:
+            verdict = f"{self.result['verdict']}; {STOPPED_BY_OPERATOR}"
+            self._finish(now, bool(self.result["grasped"]), verdict, self._status.stage)
+        else:
+            self._finish(now, False, f"{STOPPED_BY_OPERATOR} before a grasp", stage="stopped")
 
     def _why_not(self, missed: str) -> str:
         """The verdict of a run without a grasp: 'stopped: data too old' first when the guard
@@ -242,26 +271,32 @@ class SimWorld(Module):
             return 1, self._why_not("no grasp before the run's duration ended")
         return None
 
-    def _finish(self, now: float, grasped: bool, verdict: str) -> None:
+    def _finish(self, now: float, grasped: bool, verdict: str, stage: str = "") -> None:
+        """Publish and log the verdict; end the run unless it is attended (a person ends an
+        attended run with *Stop*, which ends any run). ``stage``: the status's stage ("" says
+        grasped or missed)."""
         self._judged = True
         self.result.update(
             {
                 "grasped": grasped,
                 "verdict": verdict,
-                "time_s": round(now - (self.t0 if self.t0 is not None else now), 3),
             }
         )
+        self.result.setdefault("time_s", round(now - (self.t0 if self.t0 is not None else now), 3))
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
         self._status = Status(
-            stage="grasped" if grasped else "missed", message=verdict, values=values
+            stage=stage or ("grasped" if grasped else "missed"), message=verdict, values=values
         )
         self._status_due = -np.inf
         self._send_status(now)
         self.log.info(verdict)
-        if self.context.attended:
-            self.log.info("attended run: the run goes on until its operator stops it (Ctrl-C)")
+        code = 1 if self._status.stage == "missed" else 0
+        if self._operator_stopped:
+            self.context.request_stop(verdict, code)
+        elif self.context.attended:
+            self.log.info("attended run: the run goes on until its operator stops it (Stop)")
         elif self.params.end_run:
-            self.context.request_stop(verdict, 0 if grasped else 1)
+            self.context.request_stop(verdict, code)
 
     def _send_status(self, now: float) -> None:
         """The status (running, or the verdict once judged) when due."""

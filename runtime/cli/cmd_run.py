@@ -190,8 +190,8 @@ def run_duration(plan: GraphPlan, args: argparse.Namespace) -> float | None:
         return duration
     if duration is not None and not getattr(args, "supervised", False):
         print(
-            f"umbra run: attended: the run waits for its operator (Ctrl-C stops it); the "
-            f"duration of {duration:g} s is not applied",
+            "umbra run: attended: the run waits for its operator (the page's Stop run or "
+            f"Ctrl-C ends it); the duration of {duration:g} s is not applied",
             file=sys.stderr,
         )
     return None

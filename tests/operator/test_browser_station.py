@@ -1,7 +1,8 @@
 """The station page in real Chromium at 1280x800 and 1920x1080, against the console module in
 the harness (vsServo's and the world's statuses played by the test): seed, start, pause,
 resume, abort, an assistance request answered without scrolling, a jog named in the image's
-words, and the end of the run with its verdict."""
+words, and the end of the run by the operator's *Stop* (judged by a real World module) with its
+verdict."""
 
 from __future__ import annotations
 
@@ -15,9 +16,11 @@ import pytest
 
 from connectors.messages import Message, Status
 from modules.operator.console import OperatorConsole
+from modules.world.world import SimWorld
 from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, click_image, needs_chromium, take_control
 from tests.operator.helpers import image, rectangle_contour
+from tests.world.test_attended import FRAMES
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 
@@ -25,7 +28,7 @@ SNAKE_REASON = (
     "snake failure: no colour edge under 100% of the contour (featureless image); "
     "area changed -63% in one frame"
 )
-VERDICT = "grasped: tool point 0.74 mm from the grasp point, roll error 0.06 deg"
+VERDICT = "stopped by the operator before a grasp"
 
 
 class Plant(threading.Thread):
@@ -37,6 +40,7 @@ class Plant(threading.Thread):
         self.h = h
         self.servo = Status(stage="acquire", message="waiting: snake has no contour")
         self.extra: list[tuple[str, Message]] = []
+        self.steady: dict[str, Message] = {}  #: more inputs, pushed with each frame
         self.sent: list[tuple[str, Message]] = []
         self.halt = threading.Event()
         self.lock = threading.Lock()
@@ -50,6 +54,8 @@ class Plant(threading.Thread):
                     self.h.push("image", image())
                     self.h.push("contour", rectangle_contour())
                     self.h.push("servo", self.servo)
+                    for port, sample in self.steady.items():
+                        self.h.push(port, sample)
                 for port, sample in extra:
                     self.h.push(port, sample)
                 out = self.h.step(dt=0.01)
@@ -206,12 +212,27 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
                 page.click("#release")
                 page.wait_for_function("!window.umbra.state.control")
                 pages.append(page)
-            # the end of the run: the verdict, buttons disabled, no "reconnecting"
-            with plant.lock:
-                plant.extra.append(("world", Status(stage="grasped", message=VERDICT)))
+            # Stop: only the holder may; the world (attended: it would never end the run by
+            # itself) ends it, "stopped by the operator", and the pages show the run's end
+            viewer = pages[1]
+            take_control(pages[0])
+            stop = "#commands button[data-action=stop]"
+            pages[0].wait_for_function(f"!document.querySelector('{stop}').disabled")
+            viewer.wait_for_function("window.umbra.state.control !== ''")
+            assert viewer.is_disabled(stop)  # not the holder
+            pages[0].click(stop)
+            _wait(
+                lambda: [s.text for port, s in list(plant.sent) if port == "stop_run"] == ["stop"]
+            )
+            with ModuleHarness(SimWorld, frames=FRAMES, attended=True) as world:
+                world.push("operator", next(s for port, s in plant.sent if port == "stop_run"))
+                world.step(dt=0.01)
+                assert world.stop_request == (VERDICT, 0)
+                with plant.lock:
+                    plant.extra.append(("world", world.output("status")))
             for page in pages:
                 page.wait_for_function(
-                    "document.getElementById('line-verdict').textContent.includes('grasped')"
+                    "document.getElementById('line-verdict').textContent.includes('stopped by')"
                 )
             plant.halt.set()
             plant.join(5)
@@ -263,3 +284,140 @@ def test_active_sketch_is_a_panel_of_the_station_behind_the_same_door() -> None:
         )
         # one holder for the browser: the station page stands for it, the framed page follows
         assert console.module.arbiter.holder == page.evaluate("window.umbra.session")
+
+
+def _pose(xyz: tuple[float, float, float], down: bool = False) -> np.ndarray:
+    """A pose at ``xyz`` [m]; ``down``: its z axis points down (a camera looking at the table)."""
+    T = np.diag([1.0, -1.0, -1.0, 1.0]) if down else np.eye(4)
+    T[:3, 3] = xyz
+    return T
+
+
+def _green(page: Any) -> int:
+    """Pixels of the patch's green (0x22bb44) on the 3-D panel's canvas."""
+    import io
+
+    from PIL import Image as PILImage
+
+    shot = page.locator("#view3d canvas").screenshot()
+    rgb = np.asarray(PILImage.open(io.BytesIO(shot)).convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return int(np.sum((abs(r - 0x22) < 30) & (abs(g - 0xBB) < 40) & (abs(b - 0x44) < 30)))
+
+
+def test_the_3d_panel_switches_between_the_overview_and_the_graphs_camera() -> None:
+    """The 3-D panel offers the view from the graph's camera only once the graph has one; seen
+    from the camera 20 cm above the patch, the patch fills a large part of the view (in the
+    overview, 2 m away, a few pixels), and the eye is at the camera's pose."""
+    from connectors.messages import Pose, Poses
+
+    frames = {"base->table": _pose((0.0, 0.0, 0.25))}
+    h = ModuleHarness(OperatorConsole, {}, frames=frames)
+    h.__enter__()
+    plant = Plant(h)
+    links = np.stack([_pose((0.0, 0.0, 0.3)), _pose((0.3, 0.0, 0.6))])
+    plant.steady = {
+        "link_poses": Poses(matrices=links, children=["link1", "link2"], frame="base"),
+        "patch_pose": Pose(matrix=_pose((0.6, 0.0, 0.03)), parent="table", child="patch"),
+    }
+    plant.start()
+    try:
+        with chromium() as browser:
+            page = browser.new_page(viewport={"width": 1920, "height": 1080})
+            page.goto(h.module.url)
+            page.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 2")
+            options = "[...document.querySelectorAll('#view3d-from option')].map(o => o.value)"
+            assert page.evaluate(options) == ["overview"]  # no camera in the graph (yet)
+            with plant.lock:
+                plant.steady["camera_pose"] = Pose(
+                    matrix=_pose((0.6, 0.0, 0.23), down=True), parent="table", child="camera"
+                )
+            page.wait_for_function(f"{options}.includes('camera')")
+            assert page.evaluate(options) == ["overview", "camera"]
+            page.wait_for_timeout(500)
+            overview = _green(page)
+            page.select_option("#view3d-from", "camera")
+            page.wait_for_function("window.umbra.view3d.from === 'camera'")
+            eye = page.evaluate("window.umbra.view3d.eye")
+            assert np.allclose(eye, [0.6, 0.0, 0.48], atol=1e-4), eye  # T_base_table @ camera
+            page.wait_for_timeout(500)
+            seen = _green(page)
+            area = page.evaluate(
+                "(() => { const c = document.querySelector('#view3d canvas');"
+                " return c.clientWidth * c.clientHeight; })()"
+            )
+            # the patch (6 x 4 cm at 20 cm, 62 deg vertical field): about 3 % of the view
+            assert seen > 0.01 * area and seen > 5 * overview, (seen, overview, area)
+            page.select_option("#view3d-from", "overview")
+            page.wait_for_function("window.umbra.view3d.from === 'overview'")
+            assert not np.allclose(page.evaluate("window.umbra.view3d.eye"), eye, atol=0.05)
+    finally:
+        plant.halt.set()
+        plant.join(5)
+        h.__exit__(None, None, None)
+
+
+def _drag(page: Any, x0: float, y0: float, x1: float, y1: float) -> None:
+    """Press at (x0, y0), move to (x1, y1) in steps, release (a person's drag)."""
+    page.mouse.move(x0, y0)
+    page.mouse.down()
+    page.mouse.move(x1, y1, steps=8)
+    page.mouse.up()
+
+
+def test_panels_resize_by_drag_and_the_layout_persists_per_browser() -> None:
+    """At 1280x800: the columns' splitter and a panel's resize grip, dragged, change the sizes;
+    a reload keeps them (localStorage: per browser, another browser has its own); with the
+    bigger panels every command and the assistance dialog stay in view without scrolling."""
+    size = (1280, 800)
+    h = ModuleHarness(OperatorConsole, {})
+    h.__enter__()
+    plant = Plant(h)
+    plant.start()
+    try:
+        with chromium() as browser:
+            context = browser.new_context(viewport={"width": size[0], "height": size[1]})
+            page = context.new_page()
+            page.goto(h.module.url)
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            left = page.locator("#col-left").bounding_box()["width"]
+            split = page.locator("#split").bounding_box()
+            y = split["y"] + split["height"] / 2
+            _drag(page, split["x"] + 3, y, 0.45 * size[0], y)
+            narrower = page.locator("#col-left").bounding_box()["width"]
+            assert narrower < left - 150, (left, narrower)  # 62 % -> 45 % of 1280 px
+            messages = page.locator("section[data-panel=messages]")
+            box = messages.bounding_box()
+            grip = (box["x"] + box["width"] - 3, box["y"] + box["height"] - 3)
+            _drag(page, *grip, grip[0], grip[1] + 120)
+            taller = messages.bounding_box()["height"]
+            assert taller > box["height"] + 100, (box["height"], taller)
+            page.reload()
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            assert abs(page.locator("#col-left").bounding_box()["width"] - narrower) < 3
+            assert abs(messages.bounding_box()["height"] - taller) < 3
+            # every command and the assistance dialog in view, the page not scrolled
+            take_control(page)
+            plant.stage("assist", SNAKE_REASON)
+            page.wait_for_selector("#assist[open]", timeout=10000)
+            for selector in (
+                "#commands button[data-action]",
+                "#assist button[data-action=resume]",
+                "#assist button[data-action=abort]",
+                "#release",
+            ):
+                assert _in_view(page, selector, size), selector
+            assert page.evaluate("document.scrollingElement.scrollHeight") <= size[1]
+            # another browser (its own storage) starts from the default layout
+            other = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            other.goto(h.module.url)
+            other.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            assert abs(other.locator("#col-left").bounding_box()["width"] - left) < 3
+            height = "document.querySelector('section[data-panel=messages]').style.height"
+            assert other.evaluate(height) == ""  # sized by its content, as at first
+            assert abs(float(page.evaluate(height)[:-2]) - (taller - 12)) < 1.5  # 2 x 6 px pad
+            context.close()
+    finally:
+        plant.halt.set()
+        plant.join(5)
+        h.__exit__(None, None, None)

@@ -110,15 +110,17 @@ def test_the_life_cycle_starts_runs_and_ends_and_commands_follow_the_stage() -> 
         "pause": True,
         "resume": False,
         "abort": True,
+        "stop": False,  # no judge connected to end the run
     }
-    assert commands_available(RUNNING, "paused") == {
+    assert commands_available(RUNNING, "paused", can_stop=True) == {
         "start": True,
         "pause": False,
         "resume": True,
         "abort": True,
+        "stop": True,
     }
     assert commands_available(RUNNING, "done")["start"] is True
-    assert not any(commands_available(ENDED, "approach").values())
+    assert not any(commands_available(ENDED, "approach", can_stop=True).values())
     assert not any(commands_available(STARTING, "-").values())
 
 

@@ -118,6 +118,29 @@ def test_failure_during_the_final_grab_also_stops():
     assert not np.any(outputs[-1].camera_twist)
 
 
+def test_the_fingers_closing_over_the_patch_do_not_stop_a_grab_that_reached_its_grasp():
+    """The snake fails (the fingers hide the patch) or loses its contour while the gripper
+    closes: the grab still ends in done, not in an assistance request (its advance did)."""
+    for blind in (
+        Observation(None, healthy=False, stamp=0.0, reason="6 vertices inside the inner ellipse"),
+        Observation(None, healthy=True, stamp=0.0),  # no contour at all
+    ):
+        machine = ServoStages(GOAL, settings=SETTINGS)
+        closing = lambda m, now: m.stage == FINAL_GRAB and m._close_start is not None  # noqa: E731
+        stages, now, T = [], 0.0, camera_above(0.0, 0.0, 0.25, 5.0)
+        for _ in range(3000):
+            seen = dataclasses.replace(blind, stamp=now) if closing(machine, now) else None
+            out = machine.step(now, seen or healthy(T, now))
+            stages.append(out.stage)
+            T = move(T, out.camera_twist, DT)
+            now += DT
+            if out.stage in (DONE, ASSIST):
+                break
+        assert stages[-1] == DONE and ASSIST not in stages
+        blind_ticks = round(SETTINGS.gripper_close_time / DT)
+        assert stages[-blind_ticks - 1 : -1] == [FINAL_GRAB] * blind_ticks  # it was blind then
+
+
 def test_acquisition_waits_for_a_contour_and_restarts_its_count():
     machine = ServoStages(GOAL, settings=StageSettings(acquire_frames=3, max_contour_age=0.1))
     T = camera_above(0.0, 0.0, 0.3, 0.0)

@@ -185,6 +185,21 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
         assert frame.shape == (120, 160, 3)
         assert frame[60, 80, 2] > 200 and frame[60, 80, 1] < 60  # red inside the box
         assert frame[10, 10].max() < 40  # black outside it
+        # every poll of the same frame gets the one encoding; a new frame is encoded once more
+        polls = [op.client.get(op.root + "/sketch/live/a.jpg") for _ in range(3)]
+        assert {p.content for p in polls} == {reply.content}
+        assert h.module.live_encodes["a"] == 1
+        stepper.push(h, "live_a", Image(pixels=255 - pixels, frame="cam_left"))
+        newer = _wait(
+            lambda: (
+                (r := op.client.get(op.root + "/sketch/live/a.jpg")).content != reply.content and r
+            )
+        )
+        assert (
+            cv2.imdecode(np.frombuffer(newer.content, np.uint8), cv2.IMREAD_COLOR)[10, 10].min()
+            > 200
+        )
+        assert h.module.live_encodes["a"] == 2
         assert op.client.get(op.root + "/sketch/live/b.jpg").status_code == 404
         assert op.client.get(op.root + "/sketch/live/c.jpg").status_code == 404
         op.close()

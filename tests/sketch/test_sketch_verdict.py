@@ -62,6 +62,27 @@ def test_a_close_far_from_the_pipe_says_how_far() -> None:
     )
 
 
+def test_a_grab_that_caught_the_doors_handle_agrees_with_the_judge() -> None:
+    """Grab Pipe closing on the door's handle: the judge says the grab failed (its target is
+    the pipe); the verdict says missed too, with what the gripper caught and how far off."""
+    scene = SketchScene.nominal()
+    door = scene.door
+    T = tool_pose(door.handle_center + np.array([0.0, 0.0, 0.003]), DOWN, door.handle_axis)
+    judge = SketchJudge(scene)
+    judge.update(T, 1.0)
+    judge.update(T, 0.0)
+    v = judge.verdicts
+    assert v.handle_held and not np.isfinite(v.grasp_distance_m)  # the handle, not the pipe
+    for macro in ("grab_pipe", "approach_side"):
+        assert v.success(macro) is False
+        outcome, text, figures = macro_verdict(macro, v)
+        assert outcome == "missed" and figures["success"] == 0.0
+        assert text.startswith("missed: the gripper caught the door's handle, ")
+        assert "not the pipe" in text
+        assert figures["handle_distance_mm"] == pytest.approx(v.handle_distance_m * 1e3)
+        assert 0.0 <= figures["handle_distance_mm"] <= 10.0
+
+
 def test_other_macros_are_worded_with_their_figures() -> None:
     judge = SketchJudge(SketchScene.nominal())
     outcome, text, _ = macro_verdict("surface_scan", judge.verdicts)

@@ -53,7 +53,7 @@ def test_ptu_cameras_solids_and_sketch_items_in_the_3d_view(tmp_path: Path) -> N
 
         def address() -> str | None:
             for line in list(lines):
-                found = re.search(r"3-D view: (http://127\.0\.0\.1:\d+/)", line)
+                found = re.search(r"3-D view: (http://127\.0\.0\.1:\d+/\?token=\S+)", line)
                 if found:
                     return found.group(1)
             return None

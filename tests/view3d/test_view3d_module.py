@@ -268,6 +268,17 @@ def test_only_fed_cameras_are_offered_frames_are_named_and_the_stage_is_shown(
         half_height = depth * np.tan(frustum.fov_y / 2)
         assert text == "left" and in_camera[2] == pytest.approx(depth)
         assert in_camera[1] == pytest.approx(1.5 * half_height) and abs(in_camera[0]) < 1e-9
+        # pushed again with nothing moved: no label is sent again; a moved camera's is
+        sent = page.labels_sent
+        for _ in range(3):
+            h.module._push(dict(h.module._latest))
+        assert page.labels_sent == sent
+        T_moved = transform_from_xyz_rpy_deg([0.1, 0, 1.5], [180, 0, 0])
+        h.push("left_pose", Pose(matrix=T_moved, parent="base", child="left"))
+        h.step(dt=0.05)
+        h.module._push(dict(h.module._latest))
+        assert page.labels_sent == sent + 1
+        assert page.labels["camera left"][1][0] == pytest.approx(at[0] + 0.1)
         # the task's state line, with why it stopped
         line = "assist: halted (asks the operator: snake failure: featureless)"
         assert stage_line(status) == line

@@ -38,7 +38,8 @@
     hide.onclick = () => umbra.setPanel(p.dataset.panel, false);
     p.querySelector("h3").append(hide);
     new ResizeObserver(() => {
-      if (!p.hidden && p.style.height) { saved.heights[p.dataset.panel] = Math.round(p.getBoundingClientRect().height); store(); }
+      // the height the resize grip set (CSS, content box): stored as applied, so a reload keeps it
+      if (!p.hidden && p.style.height) { saved.heights[p.dataset.panel] = Math.round(parseFloat(p.style.height)); store(); }
     }).observe(p);
   }
   umbra.on("state", (s) => {

@@ -1,6 +1,7 @@
 // 3-D panel (three.js, vendored): the arm's link frames as a chain, the wrist camera's frustum
 // with the live video on it, the tool's patch, each frame's name and the task's stage; drag to
-// orbit, wheel to zoom. Drawn only while the panel is shown, at most 5 times a second (a
+// orbit, wheel to zoom. "view from" switches between that overview and the view from the
+// graph's camera pose (its field of view; offered only when the graph has a camera). Drawn only while the panel is shown, at most 5 times a second (a
 // software-rendered WebGL must not take the live video's frames). three.js is loaded the first
 // time the panel has something to draw: a page without the panel never parses it.
 "use strict";
@@ -38,7 +39,10 @@ function make() {
   camera.add(screen, new THREE.AxesHelper(0.05));
   patch.add(new THREE.Mesh(new THREE.PlaneGeometry(1, 1), new THREE.MeshBasicMaterial({ color: 0x22bb44, side: THREE.DoubleSide })));
   controls.addEventListener("change", () => draw());
-  return { renderer, scene, eye, controls, chain, frames, camera, patch, video: null, size: "", screen, painted: -1, last: 0 };
+  // the view from the graph's camera: its pose (z forward, y down) turned to three.js's (-z, y up)
+  const lens = new THREE.PerspectiveCamera(60, 1, 0.005, 20);
+  lens.matrixAutoUpdate = false;
+  return { renderer, scene, eye, lens, controls, chain, frames, camera, patch, video: null, size: "", screen, painted: -1, last: 0 };
 }
 
 function videoTexture() {  // the live image as a texture, made again when the image's size changes
@@ -54,7 +58,7 @@ function videoTexture() {  // the live image as a texture, made again when the i
 }
 
 function label(text, where) {
-  const p = where.clone().project(view.eye), w = box.clientWidth, h = box.clientHeight;
+  const p = where.clone().project(view.active), w = box.clientWidth, h = box.clientHeight;
   if (p.z > 1) return;
   const div = document.createElement("div");
   div.className = "frame-name"; div.textContent = text;
@@ -69,6 +73,10 @@ function draw() {
   view.renderer.setSize(w, h, false);
   view.renderer.domElement.style.width = "100%"; view.renderer.domElement.style.height = "100%";
   view.eye.aspect = w / h; view.eye.updateProjectionMatrix();
+  const fromCamera = picker.value === "camera" && !!s.camera;
+  view.active = fromCamera ? view.lens : view.eye;
+  view.controls.enabled = !fromCamera;
+  $("view3d-hint").hidden = fromCamera;
   $("view3d-labels").innerHTML = "";
   const points = [new THREE.Vector3(0, 0, 0)];
   s.links.forEach((l, i) => {  // one triad per link frame, made once and moved after
@@ -85,7 +93,14 @@ function draw() {
   view.chain.geometry.setFromPoints(points);
   label(s.frame, points[0]);
   s.links.forEach((l, i) => label(l.name, points[i + 1]));
-  view.camera.visible = !!s.camera;
+  view.camera.visible = !!s.camera && !fromCamera;  // seen from the camera: no frustum
+  if (fromCamera) {  // vertical field from the horizontal one; the panel's width shows the rest
+    const c = s.camera, flip = new THREE.Matrix4().makeRotationX(Math.PI);
+    view.lens.matrix.copy(matrix(c.T)).multiply(flip);
+    view.lens.matrixWorldNeedsUpdate = true;
+    view.lens.fov = 2 * Math.atan(c.tan_half_fov_x / c.aspect) * 180 / Math.PI;
+    view.lens.aspect = w / h; view.lens.updateProjectionMatrix();
+  }
   if (s.camera) {
     const c = s.camera;
     view.camera.matrix.copy(matrix(c.T));
@@ -103,7 +118,7 @@ function draw() {
     position.array.set(seg); position.needsUpdate = true;
     view.screen.scale.set(2 * x, 2 * y, 1); view.screen.position.set(0, 0, d);
     videoTexture();
-    label(c.name, new THREE.Vector3().setFromMatrixPosition(view.camera.matrix));
+    if (!fromCamera) label(c.name, new THREE.Vector3().setFromMatrixPosition(view.camera.matrix));
   }
   view.patch.visible = !!s.patch;
   if (s.patch) {
@@ -112,11 +127,24 @@ function draw() {
     label(s.patch.name, new THREE.Vector3().setFromMatrixPosition(view.patch.matrix));
   }
   $("view3d-stage").textContent = `stage: ${umbra.state.line.stage} · ${umbra.state.line.doing}`;
-  view.renderer.render(view.scene, view.eye);
-  umbra.view3d = { drawn: (umbra.view3d ? umbra.view3d.drawn : 0) + 1, links: s.links.length };
+  view.renderer.render(view.scene, view.active);
+  const at = new THREE.Vector3().setFromMatrixPosition(view.active.matrixWorld);
+  umbra.view3d = { drawn: (umbra.view3d ? umbra.view3d.drawn : 0) + 1, links: s.links.length,
+    from: fromCamera ? "camera" : "overview", eye: at.toArray() };
 }
 
+// "view from": the overview, and the graph's camera when it has one (no camera it lacks)
+const picker = $("view3d-from");
+function offer(s) {
+  const name = s.scene && s.scene.camera ? s.scene.camera.name : "";
+  const have = picker.querySelector("option[value=camera]");
+  if (name && !have) picker.add(new Option(name === "camera" ? "camera" : `camera ${name}`, "camera"));
+  if (!name && have) { have.remove(); picker.value = "overview"; }
+}
+picker.onchange = () => { if (view) draw(); };
+
 umbra.on("state", (s) => {
+  offer(s);
   if (!s.scene || panel.hidden) return;
   if (!THREE) {
     if (!loading) { loading = true; import("../vendor/three-station.min.js").then((m) => { THREE = m; }); }
