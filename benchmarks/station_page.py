@@ -61,11 +61,45 @@ def drawn_share(png: bytes) -> float:
     return float(off.mean())
 
 
-def watch_station(url: str, until: float, viewport: tuple[int, int]) -> dict[str, Any]:
-    """Open the station at ``url`` in a ``viewport`` (CSS px) page with the 3-D panel shown,
-    hold control and click the image every 0.4 s until ``until`` (``time.monotonic()`` [s]);
-    return what the page showed from the 3-D panel's first draws to then (latencies [ms], rates
-    [1/s], counts)."""
+def _window(page: Any, until: float, box: dict[str, float]) -> dict[str, Any]:
+    """Click the image's centre every 0.4 s until ``until`` (``time.monotonic()`` [s]); what the
+    page showed meanwhile: glass-to-glass p50/p95 [ms], video frames painted and 3-D draws per
+    second."""
+    if until - time.monotonic() < MIN_WINDOW_S:
+        raise RuntimeError(
+            f"the station took too long to open: {until - time.monotonic():.1f} s left of "
+            f"the run to measure (expected >= {MIN_WINDOW_S:g} s)"
+        )
+    start = page.evaluate(_COUNTERS)
+    clicks = 0
+    while time.monotonic() < until:
+        page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
+        clicks += 1
+        page.wait_for_timeout(400)
+    stop = page.evaluate(_COUNTERS)
+    latencies = page.evaluate(f"umbra.latencies.slice({start['latencies']}, {stop['latencies']})")
+    window_s = (stop["t_ms"] - start["t_ms"]) / 1e3
+    lat = percentiles(latencies, (50, 95)) if latencies else {}
+    return {
+        "window_s": round(window_s, 2),
+        "clicks": clicks,
+        "painted": stop["painted"] - start["painted"],
+        "latency_p50_ms": round(lat["p50"], 2) if lat else None,
+        "latency_p95_ms": round(lat["p95"], 2) if lat else None,
+        "fps_shown": round((stop["painted"] - start["painted"]) / window_s, 2),
+        "view3d_frames": stop["drawn"] - start["drawn"],
+        "view3d_fps": round((stop["drawn"] - start["drawn"]) / window_s, 2),
+    }
+
+
+def watch_station(
+    url: str, until: float, viewport: tuple[int, int], hidden_s: float
+) -> dict[str, Any]:
+    """Open the station at ``url`` in a ``viewport`` (CSS px) page and take control; then, each
+    window clicking the image every 0.4 s: ``hidden_s`` seconds with the 3-D panel hidden (the
+    same page without it, for comparison), and with the 3-D panel shown from its first draws
+    until ``until`` (``time.monotonic()`` [s]). Returns ``{"hidden": ..., "shown": ...}`` (see
+    ``_window``) and the 3-D panel's checks: links drawn, share of its pixels drawn, WebGL."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
@@ -73,49 +107,29 @@ def watch_station(url: str, until: float, viewport: tuple[int, int]) -> dict[str
         page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
         page.goto(url)
         page.wait_for_function("window.umbra.painted > 2", timeout=20000)
-        _open_3d_panel(page)
         page.click("#take")
         page.wait_for_function(
             "window.umbra.state && window.umbra.state.control_session === window.umbra.session",
             timeout=10000,
         )
+        page.evaluate("umbra.setPanel('view3d', false)")
         box = page.locator("#video").bounding_box()
-        start = page.evaluate(_COUNTERS)
-        if until - time.monotonic() < MIN_WINDOW_S:
-            raise RuntimeError(
-                f"the station took too long to open: {until - time.monotonic():.1f} s left of "
-                f"the run to measure (expected >= {MIN_WINDOW_S:g} s)"
-            )
-        clicks = 0
-        while time.monotonic() < until:
-            page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
-            clicks += 1
-            page.wait_for_timeout(400)
-        stop = page.evaluate(_COUNTERS)
-        latencies = page.evaluate(
-            f"umbra.latencies.slice({start['latencies']}, {stop['latencies']})"
-        )
+        hidden = _window(page, time.monotonic() + hidden_s, box)
+        _open_3d_panel(page)
+        shown = _window(page, until, page.locator("#video").bounding_box())
         links = page.evaluate("umbra.view3d.links")
         renderer = page.evaluate(_RENDERER)
         share = drawn_share(page.locator("#view3d canvas").screenshot())
         browser.close()
-    window_s = (stop["t_ms"] - start["t_ms"]) / 1e3
-    drawn = stop["drawn"] - start["drawn"]
-    if drawn < 1 or share < MIN_DRAWN_SHARE:
+    if shown["view3d_frames"] < 1 or share < MIN_DRAWN_SHARE:
         raise RuntimeError(
-            f"the 3-D panel did not draw: {drawn} frames in {window_s:.1f} s, "
-            f"{share:.1%} of its pixels off its background (expected >= {MIN_DRAWN_SHARE:.0%})"
+            f"the 3-D panel did not draw: {shown['view3d_frames']} frames in "
+            f"{shown['window_s']:.1f} s, {share:.1%} of its pixels off its background "
+            f"(expected >= {MIN_DRAWN_SHARE:.0%})"
         )
-    lat = percentiles(latencies, (50, 95)) if latencies else {}
     return {
-        "window_s": round(window_s, 2),
-        "clicks": clicks,
-        "painted": stop["painted"] - start["painted"],
-        "page_latency_p50_ms": round(lat["p50"], 2) if lat else None,
-        "page_latency_p95_ms": round(lat["p95"], 2) if lat else None,
-        "page_fps_shown": round((stop["painted"] - start["painted"]) / window_s, 2),
-        "view3d_frames": drawn,
-        "view3d_fps": round(drawn / window_s, 2),
+        "hidden": hidden,
+        "shown": shown,
         "view3d_links": links,
         "view3d_drawn_share": round(share, 3),
         "webgl_renderer": renderer,
