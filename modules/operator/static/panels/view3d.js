@@ -47,6 +47,9 @@ function videoTexture() {  // the live image as a texture, made again when the i
     if (view.video) view.video.dispose();
     view.video = new THREE.CanvasTexture(c);
     view.video.colorSpace = THREE.SRGBColorSpace;
+    // no mipmaps, as three's VideoTexture: making them again for each new image costs a
+    // software WebGL 5-7 times the rest of the draw, and the live video's frames with it
+    view.video.generateMipmaps = false; view.video.minFilter = 1006;  // THREE.LinearFilter
     view.screen.material.map = view.video; view.screen.material.needsUpdate = true;
     view.size = size;
   }
