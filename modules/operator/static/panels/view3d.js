@@ -46,15 +46,26 @@ function make() {
 }
 
 function videoTexture() {  // the live image as a texture, made again when the image's size changes
+  // a copy at most 320 px wide (the frustum is drawn small): uploading the full image at each
+  // draw cost a software WebGL more than all the rest, and the live video its frames at 1280x720
   const c = $("video"), size = `${c.width}x${c.height}`;
   if (size !== view.size) {
     if (view.video) view.video.dispose();
-    view.video = new THREE.CanvasTexture(c);
+    view.small = document.createElement("canvas");
+    view.small.width = Math.min(c.width, 320); view.small.height = Math.round(view.small.width * c.height / c.width);
+    view.video = new THREE.CanvasTexture(view.small);
     view.video.colorSpace = THREE.SRGBColorSpace;
+    // no mipmaps, as three's VideoTexture: making them again for each new image costs a
+    // software WebGL 5-7 times the rest of the draw, and the live video's frames with it
+    view.video.generateMipmaps = false; view.video.minFilter = 1006;  // THREE.LinearFilter
     view.screen.material.map = view.video; view.screen.material.needsUpdate = true;
-    view.size = size;
+    view.size = size; view.painted = -1;  // the copy is drawn below
   }
-  if (umbra.painted !== view.painted) { view.painted = umbra.painted; view.video.needsUpdate = true; }
+  if (umbra.painted !== view.painted) {
+    view.painted = umbra.painted;
+    view.small.getContext("2d").drawImage(c, 0, 0, view.small.width, view.small.height);
+    view.video.needsUpdate = true;
+  }
 }
 
 function label(text, where) {
