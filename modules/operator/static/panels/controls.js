@@ -35,6 +35,7 @@
       $("line-verdict").append(b);
     }
     $("banner").style.display = held ? "block" : "none";
+    $("banner").className = l.stage === "done" ? "calm" : "";  // held because the grab is done
     const why = s.assist && l.stage === "assist" ? "the grab asks for you (the request is below)" : l.stopped || s.banner;
     $("banner").textContent = held ? `arm held at zero: ${why}` : "";
   }
