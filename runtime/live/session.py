@@ -8,8 +8,8 @@ import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from connectors.access.secret import is_loopback, resolve_token
 from connectors.errors import UserError
-from modules.webdoor.secret import is_loopback, resolve_token
 from runtime.links.acl import TUNER_USER
 from runtime.links.observe import local_config
 from runtime.links.session import open_session

@@ -34,6 +34,8 @@ from typing import Any, Protocol
 from websockets.asyncio.server import Request, Response, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
+from connectors.access.hosts import allowed_hosts
+from connectors.access.secret import TOKEN_QUERY
 from connectors.limits import (
     MAX_PAGE_BAD_MESSAGES,
     MAX_PAGE_REQUEST_S,
@@ -42,8 +44,6 @@ from connectors.limits import (
     MAX_VIEWER_MESSAGE_BYTES,
     MAX_VIEWERS,
 )
-from modules.webdoor.hosts import allowed_hosts
-from modules.webdoor.secret import TOKEN_QUERY
 from runtime.live import protocol
 from runtime.live.gate import origin_netlocs, refusal
 
