@@ -159,6 +159,7 @@ class LiveRun:
         found["viewers_refused"] = self.gate.refused
         found["viewers"] = self.gate.passed
         found["viewer_backlog_dropped"] = self.gate.dropped
+        found["viewers_cut_off"] = self.gate.cut_off
         if self._feed is not None:
             found["observed"] = self._feed.samples
         return found
