@@ -258,10 +258,8 @@ class SimWorld(Module):
         self._status_due = -np.inf
         self._send_status(now)
         self.log.info(verdict)
-        if self.context.attended:
-            self.log.info("attended run: the run goes on until its operator stops it (Ctrl-C)")
-        elif self.params.end_run:
-            self.context.request_stop(verdict, 0 if grasped else 1)
+        if self.params.end_run:
+            self.context.end_run(verdict, 0 if grasped else 1)
 
     def _send_status(self, now: float) -> None:
         """The status (running, or the verdict once judged) when due."""
