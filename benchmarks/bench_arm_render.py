@@ -31,10 +31,10 @@ from modules.arm.arm_params import ArmParams  # noqa: E402
 from modules.arm.arm_solids import arm_frames  # noqa: E402
 from modules.geometry.transforms import rot_x  # noqa: E402
 from modules.vision.arm_view import arm_in, arm_occluders, with_arm  # noqa: E402
-from modules.vision.lighting import Lighting  # noqa: E402
+from modules.vision.lighting import Lighting, Sensor  # noqa: E402
 from modules.vision.scene import Scene  # noqa: E402
 from modules.vision.sim_camera import CameraSpec, SimulatedCamera  # noqa: E402
-from modules.vision.sketch_render import NoiseField, render_scene  # noqa: E402
+from modules.vision.sketch_render import render_scene  # noqa: E402
 from modules.world.ik import solve_ik  # noqa: E402
 from modules.world.scene_objects import SketchScene  # noqa: E402
 from modules.world.world import T_table_patch_of  # noqa: E402
@@ -108,14 +108,14 @@ def time_sketch(frames: int) -> dict[str, float]:
     T_base_camera[:3, :3] = np.column_stack([x, np.cross(z, x), z])
     T_base_camera[:3, 3] = eye
     rng = np.random.default_rng(2)
-    noise = NoiseField(rng, 2.0, (480, 640, 3))
+    sensor = Sensor((480, 640, 3))
     times: dict[bool, list[float]] = {False: [], True: []}
     image = None
     for _ in range(frames):
         for arm in (False, True):
             t0 = time.perf_counter()
             shown = with_arm(objects, arm_in(poses, np.eye(4))) if arm else objects
-            pixels = render_scene(shown, K, T_base_camera, 640, 480, None, rng, noise=noise)
+            pixels = render_scene(shown, K, T_base_camera, 640, 480, None, rng, 2.0, sensor)
             times[arm].append(time.perf_counter() - t0)
             if arm:
                 image = pixels

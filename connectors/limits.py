@@ -45,7 +45,8 @@ MAX_IMAGE_FILE_BYTES = 64_000_000
 #: Most pixels of an image file decoded (a 6000 x 4000 photo has 24 million).
 MAX_PHOTO_PIXELS = 40_000_000
 
-# -- the operator's web pages (modules/webdoor): what one client may make the page server hold --
+# -- the operator's web pages (modules/webdoor, connectors/access): what one client may make a
+# page server hold --
 #: Largest request head (request line and headers) a page server reads [bytes].
 MAX_PAGE_HEAD_BYTES = 16 * 1024
 #: Largest request body a page server reads (a sketch command is at most 2000 characters) [bytes].

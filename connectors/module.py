@@ -46,7 +46,8 @@ class ModuleContext:
     the run after the current tick (a simulated world that judged the grasp, a file that ended).
     Whether an input's producer (in another process) is alive: ``self.<input>.link_alive``.
     ``attended``: a person runs this run (``umbra run --attended``): simulated operators stay
-    off, and judges publish their verdict but leave ending the run to the person (Ctrl-C).
+    off, and judges publish their verdict but leave ending the run to the person (Ctrl-C):
+    a judge ends the run through :meth:`end_run`, which holds that rule.
     """
 
     graph: str = "graph"
@@ -58,6 +59,21 @@ class ModuleContext:
     request_stop: Callable[[str, int], None] = field(default=lambda reason, code: None)
     process: str = "main"
     attended: bool = False
+    _attended_said: bool = field(default=False, repr=False)
+
+    def end_run(self, verdict: str, exit_code: int) -> bool:
+        """A judge's ``verdict`` ends the run with ``exit_code`` (``request_stop``), unless the
+        run is attended: then the person ends it, and the log says so once. True when the run
+        was asked to end."""
+        if not self.attended:
+            self.request_stop(verdict, exit_code)
+            return True
+        if not self._attended_said:
+            self._attended_said = True
+            self.log.info(
+                "attended run: %s; the run goes on until its operator stops it (Stop run, or Ctrl-C)", verdict
+            )
+        return False
 
 
 class Module:

@@ -194,7 +194,9 @@ class Supervisor:
             if p not in names:
                 self.say(f"process `{p}` has no modules; not started")
         config_file = zenoh_config_file(plan, args)
-        tls = config_facts(config_for(config_file, names[0]) if config_file else None).tls
+        files = [config_for(config_file, name) for name in names] if config_file else []
+        facts = [config_facts(file) for file in files]  # the launcher's one parse of each
+        tls = bool(facts) and facts[0].tls
         mesh = loopback_mesh(names, free_loopback_ports(len(names)), "tls" if tls else "tcp")
         extra_listen = checked_endpoints(args.listen, "--listen") or checked_endpoints(
             plan.spec.links.listen, "links.listen"
@@ -210,9 +212,8 @@ class Supervisor:
             insecure,
             "--listen/--connect" if given else graph_links_origin(plan),
         )
-        if config_file:
-            for name in names:  # every process has a file zenoh accepts: say so now
-                check_config_file(config_for(config_file, name))
+        for file, parsed in zip(files, facts, strict=True):  # every process's file: say so now
+            check_config_file(file, parsed.config)
         if not insecure:
             # a run served live (--foxglove): the live server may send parameter changes
             tuner = getattr(self.args, "tuner_password", None)

@@ -2,12 +2,15 @@
 
 A change (``connectors.messages.ParamChange``: module, parameter, JSON value, who asked) reaches
 the process that runs the module, from its own live server or over the run's parameter link
-(``runtime.live.param_link``). :meth:`Tuner.request` checks it at once (the module runs here, the
+(``runtime.live.param_link``). It is checked once, where it comes in (:func:`checked`: the
 parameter is declared tunable, the value passes the module's parameter model exactly as ``--set``
-does: :func:`connectors.params.with_change`) and queues it; the scheduler calls :meth:`apply` at
-the start of a tick, before any module steps, so a step never sees its parameters change under
-it. Applied, it is checked again (against the parameters of that moment), set, the module's
-``retune`` rebuilds what it derived, and the change is logged
+does: :func:`connectors.params.with_change`): by :meth:`Tuner.request` for a change from another
+process, by the live server's table for a viewer's change to a module of this process (which
+hands it on with :meth:`Tuner.queue_checked`). The scheduler calls :meth:`apply` at the start of
+a tick, before any module steps, so a step never sees its parameters change under it. Applied,
+the value is set into the parameters of that moment (the model builds them: a change to another
+parameter since may have made it inconsistent), the module's ``retune`` rebuilds what it
+derived, and the change is logged
 (``param snake.tension 0.1 -> 0.2 by foxglove viewer #1 (127.0.0.1)``) and recorded when the
 run records (``/umbra/param_changes``, ``ParamChange`` with ``old`` set).
 """
@@ -90,24 +93,32 @@ class Tuner:
         self._lock = threading.Lock()
 
     def request(self, module: str, name: str, value: Any, by: str) -> str:
-        """Queue ``module.name = value`` for the next tick; the reason when refused (empty:
-        queued). Any thread."""
+        """Check ``module.name = value`` (:func:`checked`) and queue it for the next tick; the
+        reason when refused (empty: queued). Any thread."""
         instance = self._modules.get(module)
         if instance is None:
             why = f"no module `{module}` runs in this process"
-        else:
-            try:
-                _new, value = checked(type(instance), module, instance.params, name, value)
-                why = ""
-            except ValueError as exc:
-                why = str(exc)
+            return self._refused(module, name, value, by, why)
+        try:
+            _new, value = checked(type(instance), module, instance.params, name, value)
+        except ValueError as exc:
+            return self._refused(module, name, value, by, str(exc))
+        return self.queue_checked(module, name, value, by)
+
+    def queue_checked(self, module: str, name: str, value: Any, by: str) -> str:
+        """Queue a change of a module of this process that its caller has passed through
+        :func:`checked` (``value`` as it read it); the reason when refused (empty: queued)."""
         with self._lock:
-            if not why and len(self._pending) >= MAX_PENDING:
-                why = f"{MAX_PENDING} changes already wait for the next tick"
-            if not why:
+            full = len(self._pending) >= MAX_PENDING
+            if not full:
                 self._pending.append((module, name, value, by))
-        if why:
-            self._log.warning("param %s.%s = %r by %s refused: %s", module, name, value, by, why)
+        if full:
+            why = f"{MAX_PENDING} changes already wait for the next tick"
+            return self._refused(module, name, value, by, why)
+        return ""
+
+    def _refused(self, module: str, name: str, value: Any, by: str, why: str) -> str:
+        self._log.warning("param %s.%s = %r by %s refused: %s", module, name, value, by, why)
         return why
 
     @property
@@ -123,7 +134,7 @@ class Tuner:
             instance = self._modules[module]
             old = instance.params
             try:
-                new, value = checked(type(instance), module, old, name, value)
+                new = with_change(old, name, value)
             except ValueError as exc:
                 self._log.warning("param %s.%s by %s refused: %s", module, name, by, exc)
                 continue

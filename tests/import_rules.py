@@ -60,18 +60,6 @@ EXCEPTIONS: dict[str, tuple[str, str]] = {
         "runtime",
         "`umbra trials` runs whole graphs: an application on top of the runtime",
     ),
-    "runtime/live/gate.py": (
-        "modules.webdoor",
-        "the Foxglove bridge reuses the web door's host and token rules (to move below both)",
-    ),
-    "runtime/live/viewer_server.py": (
-        "modules.webdoor",
-        "the Foxglove socket checks Host, Origin and token as the pages do (to move below both)",
-    ),
-    "runtime/live/session.py": (
-        "modules.webdoor",
-        "the Foxglove bridge reuses the web door's token rules (to move below both)",
-    ),
 }
 
 #: Import cycles between files that are known and declared (each a set of module names).

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from connectors.access.secret import resolve_token
 from connectors.messages import (
     Contour,
     Image,
@@ -37,7 +38,6 @@ from modules.operator.message_board import MessageBoard
 from modules.operator.plain_words import plain_reason
 from modules.operator.web_figures import cpu_figures, web_figures
 from modules.vision.sanity import SanityLimits
-from modules.webdoor.secret import resolve_token
 
 if TYPE_CHECKING:  # the web side is imported only when the console serves (not in batch trials)
     from modules.operator.console_app import ConsoleApp, Event

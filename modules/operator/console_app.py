@@ -5,7 +5,7 @@ Nothing here touches the graph: the module hands over frames and a state snapsho
 :class:`~modules.operator.mailbox.Lanes` that its ``step`` drains: a page's arrival and departure
 and the holder's commands never wait behind anything another page sends.
 
-Each socket has a message budget (:class:`~modules.webdoor.rate.MessageBudget`): beyond its rate,
+Each socket has a message budget (:class:`~connectors.access.rate.MessageBudget`): beyond its rate,
 its burst or its malformed messages it is closed (1008, with the reason); a message larger than
 :data:`~connectors.limits.MAX_PAGE_MESSAGE_BYTES` is refused by the websocket protocol itself
 (1009) before it is read whole. Malformed messages are answered on their socket and counted,
@@ -37,10 +37,10 @@ import numpy as np
 from fastapi import WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, Response
 
+from connectors.access.rate import MessageBudget
 from modules.operator.mailbox import Lanes, Latest
 from modules.operator.protocol import MessageChecker, ProtocolError
 from modules.operator.web_server import WebServer
-from modules.webdoor.rate import MessageBudget
 from modules.webdoor.viewer import VIEWER_SCOPE
 
 _LOG = logging.getLogger("umbra.operator")

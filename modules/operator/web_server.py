@@ -41,11 +41,11 @@ from typing import Any
 import uvicorn
 from fastapi import FastAPI
 
+from connectors.access.hosts import allowed_hosts
+from connectors.access.secret import TOKEN_QUERY
 from connectors.errors import UserError
 from modules.operator.control import ControlArbiter
 from modules.webdoor.gate import Gate
-from modules.webdoor.hosts import allowed_hosts
-from modules.webdoor.secret import TOKEN_QUERY
 from modules.webdoor.transport import Connections, uvicorn_options
 
 
@@ -99,7 +99,7 @@ class WebServer:
     @property
     def url(self) -> str:
         """The address to open on this machine, with the token (bound to every interface:
-        the loopback one; the server answers to the names :mod:`modules.webdoor.hosts` says)."""
+        the loopback one; the server answers to the names :mod:`connectors.access.hosts` says)."""
         host = {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(self.host, self.host)
         host = f"[{host}]" if ":" in host else host
         return f"http://{host}:{self.port}/?{TOKEN_QUERY}={self.token}"

@@ -13,6 +13,7 @@ from typing import Any
 import cv2
 
 from connectors import Input, Module, Output, Parameters, param
+from connectors.access.secret import resolve_token
 from connectors.messages import Image, Status, Text
 from modules.operator.mailbox import Lanes, Latest
 from modules.operator.web_server import acquire_server, release_server
@@ -22,7 +23,6 @@ from modules.sketch_page.page_control import PageControl
 from modules.sketch_page.page_state import page_state
 from modules.sketch_page.page_web import PageRequest, PageWeb
 from modules.webdoor.gate import Refusals
-from modules.webdoor.secret import resolve_token
 
 
 class SketchPage(PageControl, PageWeb, Module):

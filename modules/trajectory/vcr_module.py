@@ -80,7 +80,6 @@ class VcrPlayer(Module):
         self._problem = ""
         self._halts = 0
         self._refused = 0
-        self._console_seen = False
 
     def step(self, now: float) -> None:
         dt = 0.0 if self._last is None else now - self._last
@@ -90,8 +89,6 @@ class VcrPlayer(Module):
             self._load(path, now)
         state = self.joint_state.get(now)
         command = self.command.get(now)
-        if command is not None:
-            self._console_seen = True
         if command is not None and self.command.fresh:
             self._obey(command, now, state)
         if self.player is None or state is None or dt <= 0:
@@ -101,7 +98,7 @@ class VcrPlayer(Module):
         age = self.joint_state.age(now)
         if age > self.params.max_state_age and mode in MOVING_MODES:
             self._halt(f"joint state is stale ({age:.3f} s old)", freeze=True)
-        if self._console_seen and not self.command.link_alive and mode in MOVING_MODES:
+        if self.command.link_gone and mode in MOVING_MODES:
             self._halt("console lost")
         guard = self.guard.get(now)
         if guard is not None and guard.stage == "zero" and mode in MOVING_MODES:

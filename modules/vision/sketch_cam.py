@@ -8,7 +8,8 @@ from connectors import Input, Module, Output, Parameters, param
 from connectors.messages import CameraModel, Image, Pose, Poses
 from modules.sketch.messages import SceneObjects
 from modules.vision.arm_view import arm_in, with_arm
-from modules.vision.sketch_render import NoiseField, render_scene
+from modules.vision.lighting import Sensor
+from modules.vision.sketch_render import render_scene
 
 
 class SketchCam(Module):
@@ -37,7 +38,7 @@ class SketchCam(Module):
 
     def start(self) -> None:
         self._frames = 0
-        self._noise: NoiseField | None = None
+        self._sensor: Sensor | None = None
 
     def step(self, now: float) -> None:
         model = self.camera_model.get(now)
@@ -50,8 +51,8 @@ class SketchCam(Module):
         if arm is not None and arm.frame == objects.frame:
             objects = with_arm(objects, arm_in(arm, np.eye(4)))
         shape = (model.height, model.width, 3)
-        if self.params.noise_sigma > 0 and (self._noise is None or self._noise.shape != shape):
-            self._noise = NoiseField(self.context.rng, self.params.noise_sigma, shape)
+        if self._sensor is None or self._sensor.shape != shape:
+            self._sensor = Sensor(shape)
         pixels = render_scene(
             objects,
             model.K,
@@ -60,7 +61,8 @@ class SketchCam(Module):
             model.height,
             model.dist,
             self.context.rng,
-            noise=self._noise,
+            self.params.noise_sigma,
+            self._sensor,
         )
         self._frames += 1
         self.image.send(Image(pixels=pixels, frame=model.frame))

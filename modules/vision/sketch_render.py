@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from modules.calib.distortion import distort_points
 from modules.sketch.messages import SceneObjects
+from modules.vision.lighting import Lighting, Sensor
 
 FloatArray = NDArray[np.float64]
 _LIGHT = np.array([0.3, -0.4, 0.87]) / np.linalg.norm([0.3, -0.4, 0.87])
@@ -64,15 +65,16 @@ def render_scene(
     dist: FloatArray | None = None,
     rng: np.random.Generator | None = None,
     noise_sigma: float = 0.0,
-    noise: NoiseField | None = None,
+    sensor: Sensor | None = None,
 ) -> NDArray[np.uint8]:
     """A BGR image (height x width x 3, uint8) of ``objects`` seen by the camera.
 
     Args:
         K: 3 x 3 intrinsics (px); ``dist``: OpenCV distortion or None.
         T_base_camera: the camera's pose (4 x 4, m) in the objects' frame.
-        noise_sigma: Gaussian pixel noise (grey levels) drawn from ``rng``; pass a
-            :class:`NoiseField` as ``noise`` to reuse one (much faster per frame).
+        noise_sigma: Gaussian pixel noise (grey levels) drawn from ``rng`` by the simulated
+            cameras' one sensor model (:class:`~modules.vision.lighting.Sensor`); pass one as
+            ``sensor`` to reuse its buffers and noise bank from frame to frame.
     """
     T_camera_base = np.linalg.inv(np.asarray(T_base_camera, dtype=float))
     eye = np.asarray(T_base_camera, dtype=float)[:3, 3]
@@ -98,27 +100,8 @@ def render_scene(
             faces.append((float(cam[:, 2].mean()), np.round(uv * scale).astype(np.int32), bgr))
     for _, polygon, bgr in sorted(faces, key=lambda f: -f[0]):
         cv2.fillPoly(image, [polygon], bgr, lineType=cv2.LINE_AA, shift=4)
-    if noise is not None and rng is not None:
-        return noise.apply(image, rng)
     if noise_sigma > 0 and rng is not None:
-        image = NoiseField(rng, noise_sigma, image.shape).apply(image, rng)
+        if sensor is None or sensor.shape != image.shape:
+            sensor = Sensor(image.shape)
+        image = sensor.apply(image, Lighting(noise_sigma=noise_sigma), rng)
     return image
-
-
-class NoiseField:
-    """Gaussian pixel noise, fast: one seeded field (a margin larger than the image) drawn once,
-    and a random window of it added to each frame (saturating)."""
-
-    MARGIN = 64
-
-    def __init__(self, rng: np.random.Generator, sigma: float, shape: tuple[int, ...]) -> None:
-        h, w, c = shape
-        field = rng.normal(0.0, sigma, (h + self.MARGIN, w + self.MARGIN, c))
-        self.field = np.round(field).astype(np.int16)
-        self.shape = shape
-
-    def apply(self, image: NDArray[np.uint8], rng: np.random.Generator) -> NDArray[np.uint8]:
-        h, w, _ = self.shape
-        dy, dx = (int(v) for v in rng.integers(0, self.MARGIN, 2))
-        window = self.field[dy : dy + h, dx : dx + w]
-        return cv2.add(image, window, dtype=cv2.CV_8U) if image.shape == self.shape else image

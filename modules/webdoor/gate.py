@@ -2,7 +2,7 @@
 
 In this order, for HTTP requests and websockets alike:
 
-1. ``Host`` must name this server (:mod:`modules.webdoor.hosts`), else 421: a DNS-rebinding page
+1. ``Host`` must name this server (:mod:`connectors.access.hosts`), else 421: a DNS-rebinding page
    sends its own name.
 2. ``Origin``, when present, must be one of this server's own pages, else 403: another site open
    in the operator's browser gets nothing.
@@ -29,9 +29,9 @@ from collections import Counter
 from typing import Any
 from urllib.parse import parse_qsl, urlencode
 
+from connectors.access.hosts import host_allowed, origin_allowed
+from connectors.access.secret import CSRF_HEADER, TOKEN_COOKIE, TOKEN_QUERY, token_matches
 from connectors.limits import MAX_PAGE_BODY_BYTES, MAX_PAGE_REQUEST_S
-from modules.webdoor.hosts import host_allowed, origin_allowed
-from modules.webdoor.secret import CSRF_HEADER, TOKEN_COOKIE, TOKEN_QUERY, token_matches
 from modules.webdoor.viewer import VIEWER_COOKIE, VIEWER_SCOPE, new_viewer_id, viewer_key
 
 _LOG = logging.getLogger("umbra.webdoor")

@@ -24,7 +24,7 @@ class SketchWorld(Module):
     coverage, perimeter deviation, device error; ``stage`` = macro, ``message`` = events).
     ``randomize`` moves the objects about the nominal layout with the graph's seeded rng.
     With ``end_after`` set, the run ends (exit 0) once those macros have all succeeded, or with
-    exit 1 at ``timeout_s`` (never in an attended run: ``ModuleContext.attended``).
+    exit 1 at ``timeout_s`` (never in an attended run: ``ModuleContext.end_run``).
 
     Every macro played ends with one ``verdict`` (``stage`` = macro, ``message`` = what
     happened with the numbers, "grasped: 2.1 mm off the pipe axis, 0.4 deg off it" or "missed:
@@ -164,13 +164,13 @@ class SketchWorld(Module):
 
     def _maybe_end(self, now: float) -> None:
         wanted = self.params.end_after
-        if not wanted or self.context.attended:
+        if not wanted:
             return
         if all(m in self._verdicts for m in wanted):
-            self.context.request_stop(f"macros succeeded: {', '.join(wanted)}", 0)
+            self.context.end_run(f"macros succeeded: {', '.join(wanted)}", 0)
         elif self._started is not None and now - self._started > self.params.timeout_s:
             missing = [m for m in wanted if m not in self._verdicts]
-            self.context.request_stop(f"timeout: not succeeded: {', '.join(missing)}", 1)
+            self.context.end_run(f"timeout: not succeeded: {', '.join(missing)}", 1)
 
     def summary(self) -> dict[str, object]:
         v = self.judge.verdicts

@@ -293,10 +293,8 @@ class SimWorld(Module):
         code = 1 if self._status.stage == "missed" else 0
         if self._operator_stopped:
             self.context.request_stop(verdict, code)
-        elif self.context.attended:
-            self.log.info("attended run: the run goes on until its operator stops it (Stop)")
         elif self.params.end_run:
-            self.context.request_stop(verdict, code)
+            self.context.end_run(verdict, code)
 
     def _send_status(self, now: float) -> None:
         """The status (running, or the verdict once judged) when due."""

@@ -129,10 +129,11 @@ def _parser_error(path: str, text: str) -> str:
     return f"{where}: error: not a valid zenoh configuration: {reason}"
 
 
-def check_config_file(path: str) -> None:
+def check_config_file(path: str, parsed: zenoh.Config | None = None) -> None:
     """UserError when ``path`` cannot be a zenoh configuration (missing, unreadable, not JSON5,
-    a setting zenoh refuses), before anything starts."""
-    build_config(Endpoints(), path)
+    a setting zenoh refuses), before anything starts. ``parsed``: ``path`` already parsed
+    (``runtime.links.config_facts``), completed here instead of parsing it again."""
+    build_config(Endpoints(), path, parsed=parsed)
 
 
 #: Zenoh TLS settings that name files.

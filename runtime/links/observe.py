@@ -35,7 +35,7 @@ from runtime.links.config import Endpoints, build_config
 from runtime.links.identity import alive_pattern, parse_alive_key
 from runtime.links.pool import DESCRIPTOR_MAGIC, FORWARD_MAGIC
 from runtime.links.runs import RunFile, live_runs, observer_endpoint
-from runtime.links.session import open_session
+from runtime.links.session import open_session, wait_joined
 from runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
 
 #: Seconds to wait for the sessions of a run's processes when joining it.
@@ -215,13 +215,7 @@ class Observation:
     def _wait_joined(self, count: int) -> None:
         """Wait until a session is open to each of the run's ``count`` processes; UserError
         when none opens (the credentials are refused, or the run just ended)."""
-        deadline = time.monotonic() + JOIN_TIMEOUT
-        while time.monotonic() < deadline:
-            if len(list(self.session.info.transports())) >= count:
-                return
-            time.sleep(0.02)
-        joined = len(list(self.session.info.transports()))
-        if joined == 0:
+        if wait_joined(self.session, count, JOIN_TIMEOUT) == 0:
             self.close()
             graph = self.run.graph if self.run else self.prefix
             raise UserError(

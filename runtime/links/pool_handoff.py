@@ -32,7 +32,7 @@ class PoolHandoff:
     ``processes``: the graph's processes, indexing the flag columns; ``consumers_of``: consumer
     processes per key; ``peer_pid``: pid of each process seen sharing this host's ``/dev/shm``
     (filled by the transport as tokens come); ``live_sessions``: zenoh ids of the graph's
-    processes whose tokens are proven; ``pools``: the pools by key (the caller's dict)."""
+    processes whose tokens are proven. :attr:`pools` holds the pools it made, by key."""
 
     def __init__(
         self,
@@ -47,7 +47,6 @@ class PoolHandoff:
         peer_pid: dict[str, int],
         lock: threading.Lock,
         live_sessions: Callable[[], list[str]],
-        pools: dict[str, FramePool],
         stamp: bool,
     ) -> None:
         self._session = session
@@ -60,7 +59,7 @@ class PoolHandoff:
         self._peer_pid = peer_pid
         self._lock = lock
         self._live_sessions = live_sessions
-        self.pools = pools
+        self.pools: dict[str, FramePool] = {}
         self._stamp = stamp
 
     def column(self, setter: str, holder: str) -> int:

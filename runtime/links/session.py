@@ -1,6 +1,9 @@
-"""Opening a zenoh session, with failures a user can fix reported as such."""
+"""Opening a zenoh session, with failures a user can fix reported as such, and waiting for it
+to reach a run's processes."""
 
 from __future__ import annotations
+
+import time
 
 import zenoh
 
@@ -24,3 +27,18 @@ def open_session(config: zenoh.Config) -> zenoh.Session:
         raise UserError(
             f"cannot open the zenoh session ({describe(config)}): {exc}{hint}"
         ) from None
+
+
+#: How often a waiting session's transports are counted [s].
+JOIN_POLL_S = 0.02
+
+
+def wait_joined(session: zenoh.Session, count: int, timeout_s: float) -> int:
+    """Wait up to ``timeout_s`` [s] until ``session`` has a transport to ``count`` peers (a
+    run's processes); the number it has then (fewer when the time ran out)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        joined = len(list(session.info.transports()))
+        if joined >= count or time.monotonic() > deadline:
+            return joined
+        time.sleep(JOIN_POLL_S)

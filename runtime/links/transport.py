@@ -48,7 +48,7 @@ from runtime.links.identity import (
     sign,
 )
 from runtime.links.log_limit import RateLimitedLog
-from runtime.links.pool import FramePool, HostMarker, PoolReader, marker_pid
+from runtime.links.pool import HostMarker, PoolReader, marker_pid
 from runtime.links.pool_handoff import PoolHandoff
 from runtime.links.publishing import declare_publisher, publish_sink
 from runtime.links.receiving import Decoders, Receiving, receiver
@@ -101,8 +101,8 @@ class ZenohTransport:
             self._consumers_of.setdefault(link.key, set()).add(
                 plan.modules[link.connection.dst.module].process
             )
-        #: processes of the graph, indexing the flag columns of frame pools
-        self._proc_index = {p: i for i, p in enumerate(sorted(self._graph_processes(plan)))}
+        #: processes of the graph (the frame pools' flag columns index them: ``PoolHandoff``)
+        self._processes = self._graph_processes(plan)
         self._warn = RateLimitedLog(self._log)
         self._pubs: dict[str, tuple[Any, PublishStats]] = {}
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
@@ -129,12 +129,11 @@ class ZenohTransport:
         self._versions = itertools.count(1)
         self._ended: set[str] = set()
         self._marker = HostMarker() if frame_pool else None
-        self._pools: dict[str, FramePool] = {}
         self._reader = PoolReader()
         self._handoff = PoolHandoff(
             session,
             process,
-            sorted(self._proc_index),
+            sorted(self._processes),
             self._consumers_of,
             marker=self._marker,
             codec=self._codec,
@@ -142,7 +141,6 @@ class ZenohTransport:
             peer_pid=self._peer_pid,
             lock=self._lock,
             live_sessions=self._sessions.live_sessions,
-            pools=self._pools,
             stamp=checks,
         )
         self._receiving = Receiving(
@@ -179,7 +177,7 @@ class ZenohTransport:
         if token is None:
             return
         name, marker, session, _proof = token
-        if name == self.process or name not in self._proc_index:
+        if name == self.process or name not in self._processes:
             return  # this process, or a name the graph does not have: nobody to track
         up = sample.kind == zenoh.SampleKind.PUT
         if not proven(self._token_key, token):

@@ -13,7 +13,7 @@ inputs would make the scheduler wait for it, or change the graph a recording or 
 - ``viewer_server.py``, ``protocol.py``: the address the run prints, the one socket that serves
   the Foxglove WebSocket protocol (``websockets``), with ``gate.py``'s checks on the upgrade
   request: the per-run token, ``Host`` and ``Origin`` with the operator pages' own rules
-  (``modules.webdoor``); nothing else listens;
+  (``connectors.access``); nothing else listens;
 - ``parameters.py``: the module parameters a viewer sees and may change (those declared
   tunable; ``runtime.tuning`` applies them between steps), and ``param_link.py``: how a change
   reaches a module of another process (the run's tuner, on ``P/_params/<process>``);

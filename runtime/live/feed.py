@@ -112,16 +112,22 @@ class ObservedFeed:
     def _on_sample(self, seen: Observed) -> None:
         if seen.kind != "sample" or seen.message is None:
             return
-        joined, self._on_joined = self._on_joined, None
-        if joined is not None and self._run is not None:  # the first sample: the run flows
-            run = self._run
-            threading.Thread(target=joined, args=(run,), name="umbra-fox-join", daemon=True).start()
+        if self._on_joined is not None:  # the first sample: the run flows
+            self._first_sample()
         module, _, port = seen.key[len(self._prefix) + 1 :].partition("/")
         topic = self._topics.get((module, port))
         if topic is None or module in self._skip:
             return
         self.samples += 1
         self._live.offer(topic, seen.message, seen.arrival)
+
+    def _first_sample(self) -> None:
+        """Call ``on_joined`` once, on a thread of its own (it opens a session: never on
+        zenoh's callback thread)."""
+        joined, self._on_joined = self._on_joined, None
+        if joined is not None and self._run is not None:
+            run = self._run
+            threading.Thread(target=joined, args=(run,), name="umbra-fox-join", daemon=True).start()
 
     def close(self) -> None:
         self._stop.set()

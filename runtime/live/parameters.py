@@ -3,9 +3,10 @@
 A viewer may read every parameter and change those a module declares tunable (never a safety
 one: ``runtime.tuning.tunable_problem``). A change is checked here first (the parameter may be
 tuned; the value passes the module's parameter model, as ``--set`` does), then handed to the
-process that runs the module: this process's :class:`runtime.tuning.Tuner` or, for a module of
-another process, the run's parameter link (``runtime.live.param_link``), where that process
-checks it again and applies it between two steps. A refusal goes back to the viewer as a
+process that runs the module: this process's :class:`runtime.tuning.Tuner`, which takes it as
+checked, or, for a module of another process, the run's parameter link
+(``runtime.live.param_link``), where that process checks what arrives from the network
+(``Tuner.request``). Either applies it between two steps. A refusal goes back to the viewer as a
 message and into the run's log.
 """
 
@@ -49,9 +50,9 @@ class ParameterTable:
         self._senders: dict[str, Sender] = {}  #: module -> where its changes go
 
     def serve_locally(self, tuner: Tuner, modules: list[str]) -> None:
-        """Changes of ``modules`` go to this process's ``tuner``."""
+        """Changes of ``modules`` go to this process's ``tuner``, checked here (once)."""
         for module in modules:
-            self._senders[module] = tuner.request
+            self._senders[module] = tuner.queue_checked
 
     def send_remotely(self, sender: Sender, modules: list[str]) -> None:
         """Changes of ``modules`` (run by other processes) go through ``sender``."""

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import logging
 import secrets
-import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from connectors.access.secret import is_loopback, resolve_token
 from connectors.errors import UserError
-from modules.webdoor.secret import is_loopback, resolve_token
 from runtime.links.acl import TUNER_USER
 from runtime.links.observe import local_config
-from runtime.links.session import open_session
+from runtime.links.session import open_session, wait_joined
 from runtime.live.feed import ObservedFeed, serve_local
 from runtime.live.gate import DEFAULT_ORIGINS
 from runtime.live.param_link import ParamSender
@@ -133,16 +132,13 @@ class LiveRun:
         except Exception as exc:  # the run goes on, read only: say why
             self.log.warning("foxglove: cannot send parameter changes: %s", exc)
             return
-        deadline = time.monotonic() + TUNER_PATIENCE
-        while len(list(session.info.transports())) < len(run.processes):
-            if time.monotonic() > deadline:  # processes started by hand know no tuner
-                session.close()
-                self.log.warning(
-                    "foxglove: parameters of other processes cannot be changed: their "
-                    "credentials do not let this process send changes (a run started by hand)"
-                )
-                return
-            time.sleep(0.05)
+        if wait_joined(session, len(run.processes), TUNER_PATIENCE) < len(run.processes):
+            session.close()  # processes started by hand know no tuner
+            self.log.warning(
+                "foxglove: parameters of other processes cannot be changed: their "
+                "credentials do not let this process send changes (a run started by hand)"
+            )
+            return
         sender = ParamSender(session, self.plan)
         self._sender = sender
         remote = [m for m in self.plan.modules if m not in self._local_modules]
@@ -163,6 +159,7 @@ class LiveRun:
         found["viewers_refused"] = self.gate.refused
         found["viewers"] = self.gate.passed
         found["viewer_backlog_dropped"] = self.gate.dropped
+        found["viewers_cut_off"] = self.gate.cut_off
         if self._feed is not None:
             found["observed"] = self._feed.samples
         return found

@@ -11,8 +11,10 @@ and the channels, subscribes, and receives message data (:mod:`runtime.live.prot
   such as ``/tf_static`` stays). Each viewer has a
   sender task of its own: a slow or stalled viewer holds only its own backlog.
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
-  sends, ``MAX_PAGE_BAD_MESSAGES`` malformed ones, ``MAX_VIEWER_BACKLOG`` answers waiting for a
-  viewer that asks and does not read (then its socket is closed, 1008); the whole request within
+  sends, the operator pages' message budget for what a viewer sends
+  (:class:`~connectors.access.rate.MessageBudget`: rate, burst, malformed messages),
+  ``MAX_VIEWER_BACKLOG`` answers waiting for a viewer that asks and does not read (beyond any of
+  these its socket is closed, 1008, with the reason); the whole request within
   ``MAX_PAGE_REQUEST_S``.
 - **Parameters** are answered by a :class:`ParameterHandler` (get and set), whose refusals go to
   the asking viewer as ``status`` messages.
@@ -34,16 +36,16 @@ from typing import Any, Protocol
 from websockets.asyncio.server import Request, Response, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
+from connectors.access.hosts import allowed_hosts
+from connectors.access.rate import MessageBudget
+from connectors.access.secret import TOKEN_QUERY
 from connectors.limits import (
-    MAX_PAGE_BAD_MESSAGES,
     MAX_PAGE_REQUEST_S,
     MAX_VIEWER_BACKLOG,
     MAX_VIEWER_BACKLOG_BYTES,
     MAX_VIEWER_MESSAGE_BYTES,
     MAX_VIEWERS,
 )
-from modules.webdoor.hosts import allowed_hosts
-from modules.webdoor.secret import TOKEN_QUERY
 from runtime.live import protocol
 from runtime.live.gate import origin_netlocs, refusal
 
@@ -80,7 +82,7 @@ class _Viewer:
         self.control: deque[str] = deque()
         self.wake = asyncio.Event()
         self.dropped = 0
-        self.bad = 0
+        self.budget = MessageBudget()
 
     def push_control(self, text: str) -> None:
         self.control.append(text)
@@ -141,6 +143,7 @@ class ViewerServer:
         self.refused = 0
         self.passed = 0
         self.dropped = 0
+        self.cut_off = 0  #: viewers closed over their message budget (rate, burst, malformed)
         self._loop = asyncio.new_event_loop()
         self._server = self._loop.run_until_complete(self._start(port))
         self.port = self._server.sockets[0].getsockname()[1]
@@ -250,8 +253,11 @@ class ViewerServer:
         sender = asyncio.create_task(self._send(viewer))
         try:
             async for message in conn:
-                if not self._handle(viewer, message):
-                    await conn.close(1008, "too many malformed messages")
+                why = viewer.budget.spend(time.monotonic()) or self._handle(viewer, message)
+                if why:
+                    self.cut_off += 1
+                    self._log.warning("foxglove: closed viewer %s: %s", viewer.label, why)
+                    await conn.close(1008, why[:120])
                     break
                 if len(viewer.control) > MAX_VIEWER_BACKLOG:  # asks, never reads the answers
                     await conn.close(1008, "too many answers waiting to be read")
@@ -273,18 +279,19 @@ class ViewerServer:
                 while viewer.control or viewer.data:
                     await viewer.conn.send(viewer.pop())
 
-    def _handle(self, viewer: _Viewer, message: str | bytes) -> bool:
-        """Answer one message; False when the viewer has sent too many malformed ones."""
+    def _handle(self, viewer: _Viewer, message: str | bytes) -> str:
+        """Answer one message; "" or why the viewer's socket must close (too many malformed)."""
         try:
             if isinstance(message, bytes):
                 raise ValueError("expected a JSON text message (this server takes no data)")
             request = protocol.read_request(message)
             self._answer(viewer, request)
         except ValueError as exc:
-            viewer.bad += 1
-            viewer.push_control(protocol.status(protocol.ERROR, str(exc)))
-            return viewer.bad < MAX_PAGE_BAD_MESSAGES
-        return True
+            why = viewer.budget.spoiled()
+            if not why:
+                viewer.push_control(protocol.status(protocol.ERROR, str(exc)))
+            return why
+        return ""
 
     def _answer(self, viewer: _Viewer, request: dict[str, Any]) -> None:
         op = request["op"]

@@ -191,7 +191,7 @@ def test_images_on_one_host_are_read_in_place_from_the_frame_pool() -> None:
         for frame, msg in zip(FRAMES, got, strict=False):
             np.testing.assert_array_equal(msg.pixels, frame)
             assert not msg.pixels.flags.writeable  # a read-only view on the shared slot
-        pool = pair.producer._pools[link.key]
+        pool = pair.producer._handoff.pools[link.key]
         assert pool.busy == 3  # the consumer still holds the three frames
         (pub,) = pair.producer.stats()["publish"]
         (sub,) = pair.consumer.stats()["subscribe"]
@@ -299,7 +299,7 @@ def test_a_relayed_frame_is_passed_on_in_place_without_a_copy() -> None:
             assert (msg.seq, msg.stamp, msg.frame) == (i, float(i), "wrist")
         (relay_pub,) = relay.stats()["publish"]
         assert relay_pub["forwarded"] == 3 and relay_pub["bytes"] < 3 * 1000  # no pixels sent
-        pool = cam._pools[first.key]
+        pool = cam._handoff.pools[first.key]
         del got
         relayed.clear()  # the relay lets go; ops still holds the three frames
         assert pool.busy == 3

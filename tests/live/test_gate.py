@@ -4,14 +4,26 @@ byte of the run is sent; a client gets nothing it could command the run with."""
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import socket
+import time
 from collections.abc import Iterator
 
 import pytest
 import websockets.sync.client as ws_client
+from websockets.exceptions import ConnectionClosed
 
+from connectors.limits import (
+    MAX_PAGE_BAD_MESSAGES,
+)
+from connectors.limits import (
+    MAX_PAGE_MESSAGE_BURST as BURST,
+)
+from connectors.limits import (
+    MAX_PAGE_MESSAGES_PER_S as RATE,
+)
 from connectors.messages import Scalar
 from runtime.live.parameters import ParameterTable
 from runtime.live.server import LiveServer
@@ -120,21 +132,88 @@ def test_a_client_is_offered_nothing_that_acts_on_the_run(gate: ViewerServer) ->
 
 
 def test_a_client_that_asks_and_never_reads_is_closed(gate: ViewerServer) -> None:
-    import socket as sockets
-    import time
-
-    sock = sockets.create_connection(("127.0.0.1", gate.port))
-    sock.setsockopt(sockets.SOL_SOCKET, sockets.SO_RCVBUF, 4096)
+    sock = socket.create_connection(("127.0.0.1", gate.port))
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     conn = ws_client.connect(
         gate.url, sock=sock, subprotocols=["foxglove.websocket.v1"], max_queue=1
     )
     try:
         ask = json.dumps({"op": "getParameters", "parameterNames": [], "id": "again"})
-        for _ in range(500):  # each answer holds every parameter; none is read
-            conn.send(ask)
+        for n in range(2000):  # each answer holds every parameter; none is read
+            if not gate.viewers:
+                break
+            with contextlib.suppress(ConnectionClosed):
+                conn.send(ask)
+            if n >= BURST // 2:  # within the message budget: closed for its backlog
+                time.sleep(2.0 / RATE)
         deadline = time.monotonic() + 10
         while gate.viewers and time.monotonic() < deadline:
             time.sleep(0.05)
         assert gate.viewers == 0  # closed by the server (1008), its answers dropped
+        assert gate.cut_off == 0  # for the answers it left unread, not for its rate
     finally:
         conn.close()
+
+
+def _welcomed(url: str) -> ws_client.ClientConnection:
+    """A viewer's connection, past its serverInfo and advertise."""
+    conn = ws_client.connect(url, subprotocols=["foxglove.websocket.v1"], open_timeout=10)
+    assert json.loads(conn.recv(timeout=10))["op"] == "serverInfo"
+    assert json.loads(conn.recv(timeout=10))["op"] == "advertise"
+    return conn
+
+
+def _parameter_answer(conn: ws_client.ClientConnection, request_id: str) -> dict:
+    conn.send(json.dumps({"op": "getParameters", "parameterNames": [], "id": request_id}))
+    while True:
+        msg = json.loads(conn.recv(timeout=10))
+        if msg.get("op") == "parameterValues" and msg.get("id") == request_id:
+            return {p["name"]: p["value"] for p in msg["parameters"]}
+
+
+def test_a_flood_of_client_messages_is_cut_off_while_the_others_are_served(
+    gate: ViewerServer,
+) -> None:
+    """A viewer sending as fast as it can (answer-less unsubscribes: nothing waits to be read) is
+    closed for its rate, with the reason; another viewer connected meanwhile is still answered,
+    and a new one still gets in. Load: the flood is 20 times the budget's burst sent in a loop;
+    it stays above the budget's rate unless one send takes longer than 1/RATE s."""
+    calm = _welcomed(gate.url)
+    flood = _welcomed(gate.url)
+    try:
+        quiet = json.dumps({"op": "unsubscribe", "subscriptionIds": []})
+        sent = 0
+        with contextlib.suppress(ConnectionClosed):
+            for sent in range(1, 20 * BURST + 1):  # noqa: B007 (counted for the assert)
+                flood.send(quiet)
+        with pytest.raises(ConnectionClosed) as closed:
+            while True:
+                flood.recv(timeout=10)
+        assert closed.value.rcvd is not None and closed.value.rcvd.code == 1008
+        assert "messages per second" in closed.value.rcvd.reason
+        assert sent > BURST  # the budget's burst went through before the cut
+        assert gate.cut_off == 1
+        assert _parameter_answer(calm, "after")["servo.gain"] == 0.5
+        with _welcomed(gate.url) as late:
+            assert _parameter_answer(late, "late")["guard.timeout"] == 0.2
+            deadline = time.monotonic() + 10
+            while gate.viewers != 2 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            assert gate.viewers == 2  # the calm one and the late one; the flood is gone
+    finally:
+        calm.close()
+        flood.close()
+
+
+def test_malformed_messages_beyond_the_budget_close_the_viewer(gate: ViewerServer) -> None:
+    with _welcomed(gate.url) as conn:
+        for n in range(MAX_PAGE_BAD_MESSAGES):
+            conn.send("not json")
+            status = json.loads(conn.recv(timeout=10))
+            assert status["op"] == "status" and status["level"] == 2, (n, status)
+        conn.send("not json")
+        with pytest.raises(ConnectionClosed) as closed:
+            conn.recv(timeout=10)
+        assert closed.value.rcvd is not None and closed.value.rcvd.code == 1008
+        assert "malformed" in closed.value.rcvd.reason
+        assert gate.cut_off == 1

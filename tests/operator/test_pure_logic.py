@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from connectors.access.secret import is_loopback, resolve_token, token_matches
 from connectors.messages import JointState, Status
 from modules.geometry.transforms import twist_tool_from_camera
 from modules.operator.actions import (
@@ -22,7 +23,6 @@ from modules.operator.jog import DeadMan, JogLimits, jog_twist
 from modules.operator.protocol import MessageChecker, ProtocolError
 from modules.operator.view_state import joints_view, overlay, servo_view, zero_banner
 from modules.vision.sanity import SanityLimits
-from modules.webdoor.secret import is_loopback, resolve_token, token_matches
 from tests.operator.helpers import rectangle_contour
 
 

@@ -77,14 +77,15 @@ def test_lost_console_halts_smoothly_and_stale_commands_are_refused(path):
     with ModuleHarness(VcrPlayer, {"max_command_age": 0.5}) as h:
         arm = _Arm(h)
         h.push("path", path)
+        h.module.command.set_link_alive(True)  # the runtime sees the console's process
         arm.tick()
         _command(h, "play")
         arm.tick(150)
-        h.module.command.link_alive = False  # the console's process is gone
+        h.module.command.set_link_alive(False)  # the console's process is gone
         arm.tick(40)
         state = h.output("state")
         assert state.mode == "halted" and state.reason == "console lost" and state.s_dot == 0.0
-        h.module.command.link_alive = True
+        h.module.command.set_link_alive(True)
         h.push("command", VcrCommand(action="play", path_id="p1", stamp=h.now - 2.0))
         arm.tick(20)
         state = h.output("state")
@@ -201,3 +202,17 @@ def test_a_new_path_is_refused_while_playing_and_a_start_off_the_path_is_refused
         state = h.output("state")
         assert state.mode == "paused"
         assert "play refused: the arm is 6.0 deg off path p1" in state.reason
+
+
+def test_a_console_not_yet_known_alive_does_not_halt_the_path(path):
+    """At start a command may arrive before its producer's liveliness token: the console is not
+    yet known, not lost (``Register.link_gone``), and the path plays on."""
+    with ModuleHarness(VcrPlayer, {"max_command_age": 0.5}) as h:
+        arm = _Arm(h)
+        h.push("path", path)
+        h.module.command.set_link_alive(False)  # in another process, its token not yet seen
+        arm.tick()
+        _command(h, "play")
+        arm.tick(40)
+        state = h.output("state")
+        assert state.mode == "playing" and state.s > 0.0

@@ -3,9 +3,13 @@ verdict is published (and re-sent) but the run goes on until the person stops it
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
+import pytest
 
 from connectors.messages import Contour, JointState
+from connectors.module import ModuleContext
 from modules.arm.arm_params import ArmParams
 from modules.world.operator_sim import OperatorSim
 from modules.world.world import SimWorld
@@ -102,3 +106,28 @@ def test_world_waits_past_its_timeout_in_an_attended_run() -> None:
             h.push("joint_state", JointState(names=NAMES, position=Q0, gripper=1.0))
             h.step(dt=DT)
         assert h.stop_request is not None and "no grasp within 0.5 s" in h.stop_request[0]
+
+
+def test_a_verdict_ends_the_run_only_when_nobody_attends_it(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """``ModuleContext.end_run``, the one rule every judge ends a run by (the world's grasp, the
+    sketch world's macros): unattended it asks the run to stop with the exit status; attended it
+    asks nothing and says so once, however often a judge comes back to it."""
+    asked: list[tuple[str, int]] = []
+    log = logging.getLogger("umbra.test_attended")
+    alone = ModuleContext(request_stop=lambda why, code: asked.append((why, code)), log=log)
+    assert alone.end_run("grasped: 1.2 mm", 0) is True
+    assert asked == [("grasped: 1.2 mm", 0)]
+    person = ModuleContext(
+        request_stop=lambda why, code: asked.append((why, code)), log=log, attended=True
+    )
+    with caplog.at_level(logging.INFO, logger=log.name):
+        assert person.end_run("timeout: not succeeded: open_door", 1) is False
+        assert person.end_run("timeout: not succeeded: open_door", 1) is False
+    assert asked == [("grasped: 1.2 mm", 0)]
+    said = [r.getMessage() for r in caplog.records if "attended run" in r.getMessage()]
+    assert said == [
+        "attended run: timeout: not succeeded: open_door; the run goes on until its operator "
+        "stops it (Ctrl-C)"
+    ]

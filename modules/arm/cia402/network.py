@@ -23,6 +23,9 @@
   PRE-OPERATIONAL, release the bus.
 
 Units at this interface: rad, rad/s, seconds; the drives see counts and counts/s.
+
+Beside it: `bus.py` opens and releases the bus, `drive_setup.py` brings one drive up,
+`rpdo.py` fills and sends its RPDOs, `supervision.py` holds the callbacks, monitor and trips.
 """
 
 from __future__ import annotations
@@ -40,46 +43,21 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from modules.arm.cia402 import bring_up
-from modules.arm.cia402 import objects as obj
 from modules.arm.cia402.bring_up import DriveStartError
-from modules.arm.cia402.config import BusSpecError, Cia402ArmConfig, JointDrive
+from modules.arm.cia402.bus import open_bus, release_bus
+from modules.arm.cia402.config import Cia402ArmConfig, JointDrive
+from modules.arm.cia402.drive_setup import set_up_drive, wait_until
+from modules.arm.cia402.rpdo import write_rpdo
 from modules.arm.cia402.state_machine import (
     Command,
     State,
     controlword_for,
 )
 from modules.arm.cia402.status import ArmState, ArmStatus, DriveTrip, JointFeedback, TripCause
-from modules.arm.cia402.supervision import (
-    NMT_OPERATIONAL,
-    ArmSupervision,
-    DriveRegisters,
-    state_or_none,
-)
+from modules.arm.cia402.supervision import ArmSupervision, DriveRegisters, state_or_none
 from modules.arm.cia402.units import counts_s_to_rates, counts_to_angles, rates_to_counts_s
 
 logger = logging.getLogger(__name__)
-
-RECEIVE_POLL_S = 0.05  # receive thread's wait per poll: bounds how long closing the bus takes
-
-
-class _BusWatch(can.Listener):
-    """Sees error frames and the death of the receive thread."""
-
-    def __init__(
-        self, on_error_frame: Callable[[can.Message], None], on_dead: Callable[[Exception], None]
-    ):
-        self._on_error_frame = on_error_frame
-        self._on_dead = on_dead
-
-    def on_message_received(self, msg: can.Message) -> None:
-        if msg.is_error_frame:
-            self._on_error_frame(msg)
-
-    def on_error(self, exc: Exception) -> None:
-        self._on_dead(exc)
-
-    def stop(self) -> None:
-        pass
 
 
 class Cia402Arm(ArmSupervision):
@@ -123,7 +101,7 @@ class Cia402Arm(ArmSupervision):
         try:
             self._drives = [self._add_drive(network, joint) for joint in self.config.joints]
             for drive in self._drives:
-                self._bring_up(drive)
+                set_up_drive(drive, self.config, self._lock, self._wait_for, self._on_tpdo)
             self._go_running(network)
         except BaseException:
             self._abort_start()
@@ -216,16 +194,7 @@ class Cia402Arm(ArmSupervision):
     # -- bring-up (blocking) ---------------------------------------------------------
 
     def _open_bus(self) -> canopen.Network:
-        spec = self.config.bus
-        network = canopen.Network()
-        network.NOTIFIER_CYCLE = RECEIVE_POLL_S
-        network.listeners.append(_BusWatch(self._on_error_frame, self._on_receive_dead))
-        try:
-            network.connect(interface=spec.interface, channel=spec.channel, bitrate=spec.bitrate)
-        except Exception as exc:  # python-can raises many types here; all mean "no such bus"
-            raise BusSpecError(
-                f"cannot open CAN bus {spec.describe()}: {type(exc).__name__}: {exc}"
-            ) from exc
+        network = open_bus(self.config.bus, self._on_error_frame, self._on_receive_dead)
         self._network = network
         return network
 
@@ -237,54 +206,6 @@ class Cia402Arm(ArmSupervision):
         node.nmt.add_heartbeat_callback(partial(self._on_heartbeat, drive))
         node.emcy.add_callback(partial(self._on_emcy, drive))
         return drive
-
-    def _bring_up(self, drive: DriveRegisters) -> None:
-        cfg, node, label = self.config, drive.node, drive.label
-        node.nmt.state = "PRE-OPERATIONAL"
-        bring_up.check_identity(node, label)
-        heartbeat_ms = round(cfg.heartbeat_period_s * 1000)
-        bring_up.write_parameter(node, label, obj.PRODUCER_HEARTBEAT_TIME, heartbeat_ms)
-        if cfg.drive_heartbeat_timeout_s is not None:
-            bring_up.configure_master_watch(
-                node,
-                label,
-                cfg.master_node_id,
-                cfg.drive_heartbeat_timeout_s,
-                cfg.abort_connection_option,
-            )
-        self._wait_for(
-            lambda: drive.heartbeat_time is not None,
-            cfg.heartbeat_timeout_s,
-            f"{label}: no heartbeat within {cfg.heartbeat_timeout_s} s after setting its "
-            f"producer heartbeat time (0x1017) to {heartbeat_ms} ms",
-        )
-        if cfg.configure_pdos:
-            layout = bring_up.configure_pdos(node, label)
-        else:
-            layout = bring_up.read_pdos(node, label)
-        for pdo_map in layout.tpdos:
-            pdo_map.add_callback(partial(self._on_tpdo, drive))
-        with self._lock:
-            drive.layout = layout
-        cpr = abs(drive.joint.counts_per_rad)
-        od = node.object_dictionary
-        if cfg.acceleration_rad_s2 is not None:
-            counts = max(1, round(cfg.acceleration_rad_s2 * cpr))
-            for index in (obj.PROFILE_ACCELERATION, obj.PROFILE_DECELERATION):
-                if index in od:
-                    bring_up.write_parameter(node, label, index, counts)
-        if cfg.quick_stop_deceleration_rad_s2 is not None and obj.QUICK_STOP_DECELERATION in od:
-            counts = max(1, round(cfg.quick_stop_deceleration_rad_s2 * cpr))
-            bring_up.write_parameter(node, label, obj.QUICK_STOP_DECELERATION, counts)
-        bring_up.set_profile_velocity_mode(node, label)
-        node.nmt.state = "OPERATIONAL"
-        self._wait_for(
-            lambda: drive.nmt_state == NMT_OPERATIONAL,
-            cfg.heartbeat_timeout_s + cfg.heartbeat_period_s,
-            f"{label}: its heartbeat did not report NMT OPERATIONAL after the start command",
-        )
-        bring_up.enable_operation(node, label, cfg.enable_timeout_s)
-        bring_up.check_mode_display(node, label)
 
     def _abort_start(self) -> None:
         """Start failed: quick stop (by SDO) the drives already set up, best effort."""
@@ -300,16 +221,7 @@ class Cia402Arm(ArmSupervision):
         self, predicate: Callable[[], bool], timeout_s: float, message: str | Callable[[], str]
     ) -> None:
         """Poll `predicate` under the lock; DriveStartError(message) after `timeout_s`."""
-        deadline = time.monotonic() + timeout_s
-        while True:
-            with self._lock:
-                if predicate():
-                    return
-            if time.monotonic() > deadline:
-                with self._lock:
-                    text = message if isinstance(message, str) else message()
-                raise DriveStartError(text)
-            time.sleep(min(0.005, self.config.monitor_period_s))
+        wait_until(self._lock, predicate, timeout_s, message, self.config.monitor_period_s)
 
     def _go_running(self, network: canopen.Network) -> None:
         enable = controlword_for(Command.ENABLE_OPERATION)
@@ -363,37 +275,14 @@ class Cia402Arm(ArmSupervision):
             self._monitor.join(timeout=1.0)
         self._monitor = None
         network, self._network = self._network, None
-        if network is None:
-            return
-        try:
-            network.sync.stop()
-            if network.bus is not None:
-                for drive in self._drives:
-                    drive.node.nmt.state = "PRE-OPERATIONAL"
-        except (can.CanError, OSError, RuntimeError) as exc:
-            logger.warning("could not release the drives cleanly: %s", exc)
-        try:
-            network.disconnect()
-        except (can.CanError, OSError, RuntimeError) as exc:
-            logger.warning("closing the CAN bus: %s", exc)
+        if network is not None:
+            release_bus(network, self._drives)
 
     # -- RPDO ------------------------------------------------------------------------
 
     def _write_rpdo(self, drive: DriveRegisters, controlword: int, target_counts_s: int) -> None:
         """Fill and send the drive's RPDOs (caller holds the lock)."""
-        if drive.layout is None:
-            return
-        for pdo_map in drive.layout.rpdos:
-            for var in pdo_map.map:
-                if not var.length:
-                    continue
-                if var.index == obj.CONTROLWORD:
-                    var.raw = controlword
-                elif var.index == obj.TARGET_VELOCITY:
-                    var.raw = target_counts_s
-                elif var.index == obj.MODES_OF_OPERATION:
-                    var.raw = obj.PROFILE_VELOCITY_MODE
-            pdo_map.transmit()
+        write_rpdo(drive, controlword, target_counts_s)
 
     def _quick_stop_all_locked(self) -> None:
         quick_stop = controlword_for(Command.QUICK_STOP)

@@ -1,9 +1,10 @@
-"""The per-run access token of the operator's pages (every page, route and socket needs it).
+"""The per-run access token of a run's servers (every page, route and socket needs it).
 
-A token is a random URL-safe string made at start (or read from a file the operator keeps); the
-page is opened as ``http://HOST:PORT/?token=...`` and the server exchanges it for a cookie
-(:mod:`modules.webdoor.gate`). Loopback is no exception: another user of the same machine, or a
-page open in the operator's browser, reaches 127.0.0.1 too.
+A token is a random URL-safe string made at start (or read from a file the operator keeps); a
+page is opened as ``http://HOST:PORT/?token=...`` and the page server exchanges it for a cookie
+(the web door's gate); the live server checks it on each upgrade. Loopback is no exception:
+another user of the same machine, or a page open in the operator's browser, reaches 127.0.0.1
+too.
 """
 
 from __future__ import annotations
