@@ -71,7 +71,7 @@ class ModuleContext:
         if not self._attended_said:
             self._attended_said = True
             self.log.info(
-                "attended run: %s; the run goes on until its operator stops it (Stop run, or Ctrl-C)", verdict
+                "attended run: %s; the run goes on until its operator stops it (Ctrl-C)", verdict
             )
         return False
 
