@@ -129,7 +129,8 @@ def test_the_npm_client_decodes_every_channel_of_a_running_pickup(
 def test_a_split_pickup_is_served_from_every_process_it_runs(client: Path, tmp_path: Path) -> None:
     """Three processes (vision `umbra`, the operator's page `ui`, the servo side `smart`): the
     live server in the `umbra` command observes each on zenoh (--publish-all) and serves them."""
-    run = LiveRun(str(GRAPH), tmp_path / "run", "--duration", "40")
+    # the grasp's verdict would end the run ~15 s in, perhaps while the client still reads
+    run = LiveRun(str(GRAPH), tmp_path / "run", "--duration", "40", "--set", "world.end_run=false")
     try:
         wait_joined(run)  # the processes up, linked, and their samples reaching the live server
         time.sleep(1.0)
@@ -143,9 +144,6 @@ def test_a_split_pickup_is_served_from_every_process_it_runs(client: Path, tmp_p
     assert {"/camera/image", "/camera/truth/annotations"} <= seen
     assert {"/joints/joint_state", "/kinematics/link_poses", "/register/twist"} <= seen
     assert "/console/presence" in report["channels"]
-    # a stream from the servo side (100 Hz there); the live server sends the newest sample and
-    # drops the rest when it falls behind, so on a loaded machine fewer than 600 arrive in 6 s
-    # (the rate is bench_live's figure, not this test's)
-    assert topics["/joints/joint_state"]["count"] >= 20
+    assert topics["/joints/joint_state"]["count"] > 100  # 100 Hz from the servo side
     joints = topics["/joints/joint_state"]["first"]["joints"]
     assert [j["name"] for j in joints][-1] == "gripper"
