@@ -15,7 +15,10 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-#: The project's top-level packages and what each may import of them.
+#: The package the layers are installed under (``runtime/`` is ``umbra.runtime``, setup.py).
+PACKAGE = "umbra"
+
+#: The project's layers (folders, installed as ``umbra.<layer>``) and what each may import of them.
 LAYERS: dict[str, set[str]] = {
     "connectors": {"connectors"},  # the base layer: message types, ports, module base class
     "modules": {"connectors", "modules"},  # domains: modules and their plain math
@@ -57,7 +60,7 @@ EXCEPTIONS: dict[str, tuple[str, str]] = {
         "the Recorder module takes the runtime's image choices and run-folder rule",
     ),
     "modules/world/trial_runner.py": (
-        "runtime",
+        "umbra.runtime",
         "`umbra trials` runs whole graphs: an application on top of the runtime",
     ),
 }
@@ -84,15 +87,21 @@ class Rules:
 
 
 def module_files(root: Path, layers: Iterable[str]) -> dict[str, Path]:
-    """Module name -> file for every ``.py`` file of the ``layers`` packages under ``root``."""
+    """Module name (``umbra.<layer>...``) -> file for every ``.py`` file of the ``layers``
+    folders under ``root``."""
     found = {}
     for top in layers:
         for path in sorted((root / top).rglob("*.py")):
             parts = path.relative_to(root).with_suffix("").parts
             if parts[-1] == "__init__":
                 parts = parts[:-1]
-            found[".".join(parts)] = path
+            found[".".join((PACKAGE, *parts))] = path
     return found
+
+
+def _layer(module: str) -> str:
+    """``umbra.runtime.scheduler`` -> ``runtime``."""
+    return module.split(".")[1]
 
 
 def imports_of(path: Path, module: str) -> list[tuple[int, str]]:
@@ -115,7 +124,7 @@ def imports_of(path: Path, module: str) -> list[tuple[int, str]]:
 
 def _domain(module: str) -> str:
     parts = module.split(".")
-    return parts[1] if parts[0] == "modules" and len(parts) > 2 else ""
+    return parts[2] if parts[1] == "modules" and len(parts) > 3 else ""
 
 
 def _resolve(name: str, files: Mapping[str, Path]) -> str:
@@ -127,7 +136,7 @@ def _resolve(name: str, files: Mapping[str, Path]) -> str:
 
 def judge(module: str, target: str, rules: Rules) -> str:
     """Why ``module`` may not import ``target`` (both project modules); "" when it may."""
-    top, target_top = module.split(".")[0], target.split(".")[0]
+    top, target_top = _layer(module), _layer(target)
     if target_top not in rules.layers.get(top, {target_top}):
         return f"`{top}` may import only {', '.join(sorted(rules.layers[top]))}"
     src, dst = _domain(module), _domain(target)
@@ -137,7 +146,7 @@ def judge(module: str, target: str, rules: Rules) -> str:
         return ""
     if src not in rules.domains:
         return f"domain `{src}` is not declared in DOMAIN_ARROWS"
-    if target.split(".")[2] == VOCABULARY or dst in rules.domains[src]:
+    if target.split(".")[3] == VOCABULARY or dst in rules.domains[src]:
         return ""
     allowed = ", ".join(sorted(rules.domains[src])) or "no other domain"
     return f"domain `{src}` may import {allowed} (and any domain's `{VOCABULARY}`)"
@@ -158,6 +167,24 @@ def violations(root: Path, rules: Rules | None = None) -> list[str]:
             why = judge(module, target, rules)
             if why:
                 found.append(f"{rel}:{line}: imports {target}: {why}")
+    return old_name_imports(root, rules.layers, rules) + found
+
+
+def old_name_imports(root: Path, folders: Iterable[str], rules: Rules | None = None) -> list[str]:
+    """``FILE:LINE: imports NAME: ...`` for every import of a layer by its old top-level name
+    (``runtime``, not ``umbra.runtime``) in the ``.py`` files under ``folders``: the old
+    names are deprecated aliases (``umbra/legacy_names.py``), and from a checkout they would load
+    a second copy of the folder's modules."""
+    rules = rules or Rules()
+    found = []
+    for folder in folders:
+        for path in sorted((root / folder).rglob("*.py")):
+            parts = path.relative_to(root).with_suffix("").parts
+            parts = parts[:-1] if parts[-1] == "__init__" else parts
+            for line, name in imports_of(path, ".".join((PACKAGE, *parts))):
+                if name.split(".")[0] in rules.layers:
+                    rel = path.relative_to(root).as_posix()
+                    found.append(f"{rel}:{line}: imports {name}: import {PACKAGE}.{name}")
     return found
 
 

@@ -18,6 +18,7 @@ from tests.import_rules import (
     Rules,
     cycles,
     new_cycles,
+    old_name_imports,
     violations,
 )
 
@@ -31,6 +32,17 @@ def test_every_import_runs_the_declared_way() -> None:
 
 def test_no_new_import_cycle_between_files() -> None:
     assert new_cycles(REPO) == []
+
+
+def test_no_file_imports_a_layer_by_its_old_top_level_name() -> None:
+    folders = ("connectors", "modules", "runtime", "umbra", "tests", "benchmarks")
+    assert old_name_imports(REPO, folders) == []
+
+
+def test_the_checker_names_an_import_by_an_old_top_level_name(tmp_path: Path) -> None:
+    old = "runtime" + ".scheduler"  # in parts: rename_imports.py rewrites old names in strings
+    root = _tree(tmp_path, {"runtime/scheduler.py": "", "modules/arm/reg.py": f"import {old}\n"})
+    assert violations(root, RULES) == [f"modules/arm/reg.py:1: imports {old}: import umbra.{old}"]
 
 
 def test_the_declared_domain_arrows_have_no_cycle_and_name_real_domains() -> None:
@@ -99,7 +111,10 @@ def test_the_checker_names_an_import_against_the_direction(
         "connectors/messages.py": "",
         "runtime/scheduler.py": "from connectors.ports import Input\n",
         "modules/geometry/frames.py": "import numpy as np\n",
-        "modules/arm/reg.py": "import connectors.ports\nimport modules.geometry.frames\n",
+        "modules/arm/reg.py": (
+            "import connectors.ports\n"  # the base layer
+            "import modules.geometry.frames\n"  # a declared arrow: arm -> geometry
+        ),
         "modules/sketch/plan.py": "from modules.arm.reg import X\n",
         "modules/sketch/messages.py": "from connectors.messages import Message\n",
     }
