@@ -2,7 +2,7 @@
 
 The shipped pick-up's 720p wrist camera (``graphs/tool_pickup.yaml``: 1280x720, fx 800,
 photograph on the table, noise 3 grey levels) renders the scene from two true arm poses, with
-and without the arm's faces (:mod:`modules.vision.arm_view`; on the wrist camera only the
+and without the arm's faces (:mod:`umbra.modules.vision.arm_view`; on the wrist camera only the
 fingers are in front of the lens): the start (camera 35 cm above the table) and near the grasp
 (tool point 2 cm above the patch, fingers open). The Active Sketch camera (640x480) renders the
 nominal scene with and without the arm. Frames alternate with and without, ``--frames`` each
@@ -27,17 +27,17 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import table, write_results  # noqa: E402
-from modules.arm.arm_params import ArmParams  # noqa: E402
-from modules.arm.arm_solids import arm_frames  # noqa: E402
-from modules.geometry.transforms import rot_x  # noqa: E402
-from modules.vision.arm_view import arm_in, arm_occluders, with_arm  # noqa: E402
-from modules.vision.lighting import Lighting, Sensor  # noqa: E402
-from modules.vision.scene import Scene  # noqa: E402
-from modules.vision.sim_camera import CameraSpec, SimulatedCamera  # noqa: E402
-from modules.vision.sketch_render import render_scene  # noqa: E402
-from modules.world.ik import solve_ik  # noqa: E402
-from modules.world.scene_objects import SketchScene  # noqa: E402
-from modules.world.world import T_table_patch_of  # noqa: E402
+from umbra.modules.arm.arm_params import ArmParams  # noqa: E402
+from umbra.modules.arm.arm_solids import arm_frames  # noqa: E402
+from umbra.modules.geometry.transforms import rot_x  # noqa: E402
+from umbra.modules.vision.arm_view import arm_in, arm_occluders, with_arm  # noqa: E402
+from umbra.modules.vision.lighting import Lighting, Sensor  # noqa: E402
+from umbra.modules.vision.scene import Scene  # noqa: E402
+from umbra.modules.vision.sim_camera import CameraSpec, SimulatedCamera  # noqa: E402
+from umbra.modules.vision.sketch_render import render_scene  # noqa: E402
+from umbra.modules.world.ik import solve_ik  # noqa: E402
+from umbra.modules.world.scene_objects import SketchScene  # noqa: E402
+from umbra.modules.world.world import T_table_patch_of  # noqa: E402
 
 DOCS = ROOT / "docs" / "images"
 #: graphs/tool_pickup.yaml: frames, start joints, tool
@@ -67,7 +67,7 @@ def time_wrist(q: np.ndarray, frames: int, name: str) -> dict[str, float]:
     T_table_flange = T_TABLE_BASE @ table.fk(q)
     T_world_camera = T_table_flange @ T_FLANGE_TOOL @ T_TOOL_CAMERA
     matrices, children = arm_frames(table, q, T_FLANGE_TOOL, 1.0, T_TABLE_BASE)
-    from connectors.messages import Poses
+    from umbra.connectors.messages import Poses
 
     poses = Poses(matrices=matrices, children=children, frame="table")
     camera, lighting, rng = SimulatedCamera(), Lighting(noise_sigma=3.0), np.random.default_rng(1)
@@ -96,7 +96,7 @@ def time_sketch(frames: int) -> dict[str, float]:
     objects = scene.message()
     q = np.radians([0.0, 45.6, -182.7, 0.0, -42.9, 0.0])
     matrices, children = arm_frames(table, q, T_FLANGE_TOOL, 1.0)
-    from connectors.messages import Poses
+    from umbra.connectors.messages import Poses
 
     poses = Poses(matrices=matrices, children=children, frame="base")
     K = np.array([[700.0, 0, 320], [0, 700.0, 240], [0, 0, 1]])

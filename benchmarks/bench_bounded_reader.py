@@ -2,9 +2,9 @@
 
 The same recording is read through by both (every record, every CRC checked): baseline, the
 ``mcap`` library's ``StreamReader``, which inflates a whole chunk whatever its header says;
-measured, :func:`runtime.recording.reader.read_records`, which checks each chunk's declared size
-before inflating it and stops at it (:mod:`runtime.recording.chunks`). Two recordings of a
-camera at 640x480 (raw pixels, incompressible) with a 600 Hz scalar beside it: one in LZ4 chunks,
+measured, :func:`umbra.runtime.recording.reader.read_records`, which checks each chunk's declared
+size before inflating it and stops at it (:mod:`umbra.runtime.recording.chunks`). Two recordings of
+a camera at 640x480 (raw pixels, incompressible) with a 600 Hz scalar beside it: one in LZ4 chunks,
 one stored. Best wall time of ``--repeats`` reads, the two readers interleaved.
 
     python benchmarks/bench_bounded_reader.py [--quick]
@@ -28,8 +28,8 @@ from benchmarks.common import table, write_results  # noqa: E402
 
 def recording(path: Path, compress: bool, frames: int) -> Path:
     """``frames`` raw camera images and 20 scalars per frame, recorded by the recorder."""
-    from connectors.messages import Image, Scalar
-    from runtime.recording.writer import RecordingFile
+    from umbra.connectors.messages import Image, Scalar
+    from umbra.runtime.recording.writer import RecordingFile
 
     rec = RecordingFile(path, blocking=True, compress=compress)
     pixels = np.random.default_rng(0).integers(0, 255, (480, 640, 3), dtype=np.uint8)
@@ -46,7 +46,7 @@ def best_reads(path: Path, repeats: int) -> dict[str, float]:
     """Best wall time [ms] of each reader over ``repeats`` interleaved reads."""
     from mcap.stream_reader import StreamReader
 
-    from runtime.recording.reader import read_records
+    from umbra.runtime.recording.reader import read_records
 
     def library() -> int:
         with open(path, "rb") as f:

@@ -1,6 +1,6 @@
 """Calibration math against OpenCV, all on the same noisy synthetic data, in one run.
 
-1. Camera calibration from a 3-D rig: DLT + refinement (``modules.calib.refine.calibrate``)
+1. Camera calibration from a 3-D rig: DLT + refinement (``umbra.modules.calib.refine.calibrate``)
    against ``cv2.calibrateCamera`` (one view of a non-planar rig, CALIB_USE_INTRINSIC_GUESS,
    CALIB_FIX_K3). Fit RMS, error of held-out projections against the true camera, parameter
    errors, time. Goal: at least as accurate as OpenCV.
@@ -32,22 +32,22 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import table, write_results
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.distortion import distort_points, undistort_points
-from modules.calib.dlt import rms
-from modules.calib.npnp import View, solve_npnp
-from modules.calib.refine import calibrate
-from modules.calib.rotations import rotation_from_vector, vector_from_rotation
-from modules.calib.synthetic import (
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.distortion import distort_points, undistort_points
+from umbra.modules.calib.dlt import rms
+from umbra.modules.calib.npnp import View, solve_npnp
+from umbra.modules.calib.refine import calibrate
+from umbra.modules.calib.rotations import rotation_from_vector, vector_from_rotation
+from umbra.modules.calib.synthetic import (
     TYPICAL_DISTORTION,
     TYPICAL_INTRINSICS,
     panel_rig,
     random_pose,
     ring_of_cameras,
 )
-from modules.calib.zoom_interp import leave_one_out
-from modules.calib.zoom_io import load_zoom_table
-from modules.geometry.rays import triangulate_pixels
+from umbra.modules.calib.zoom_interp import leave_one_out
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.modules.geometry.rays import triangulate_pixels
 
 REPORT_FILE = Path(__file__).resolve().parent.parent / "modules" / "calib" / "data" / "zoom_cam.xml"
 

@@ -39,8 +39,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.common import POLICIES, start_graph, table, write_results
 from benchmarks.station_page import watch_station
-from runtime.cli.cmd_bench import missed_goals
 from tests.browser import CHROMIUM
+from umbra.runtime.cli.cmd_bench import missed_goals
 
 #: the page's size (CSS px): an operator's desktop, the 3-D panel beside the video
 VIEWPORT = (1600, 1000)

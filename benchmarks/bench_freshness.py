@@ -40,11 +40,11 @@ import zenoh
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import percentiles, table, write_results
-from modules.world.trial_faults import MAX_STALE_TRAVEL_MM, Overload
-from modules.world.trial_runner import CONSOLE_URL
-from modules.world.trials import stale_travel
-from runtime.links.clock_sync import Offset, on_our_clock
-from runtime.links.config import free_loopback_ports
+from umbra.modules.world.trial_faults import MAX_STALE_TRAVEL_MM, Overload
+from umbra.modules.world.trial_runner import CONSOLE_URL
+from umbra.modules.world.trials import stale_travel
+from umbra.runtime.links.clock_sync import Offset, on_our_clock
+from umbra.runtime.links.config import free_loopback_ports
 
 GRAPH = Path(__file__).resolve().parent.parent / "graphs" / "tool_pickup.yaml"
 #: Goals of issue #28.
@@ -55,7 +55,15 @@ STAMP_COST_RATIO = 1.03
 def run_pickup(split: bool, factor: int, page: bool, duration: float) -> dict[str, Any]:
     """One pick-up run; REG_VEL's and World's figures from its summaries."""
     out = Path(tempfile.mkdtemp(prefix="bench-freshness-"))
-    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(GRAPH), "--duration", str(duration)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "umbra.runtime.cli.main",
+        "run",
+        str(GRAPH),
+        "--duration",
+        str(duration),
+    ]
     cmd += ["--out", str(out), "--quiet"]
     if not split:
         cmd += ["--single-process", "--clock", "real"]

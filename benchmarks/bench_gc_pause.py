@@ -3,7 +3,7 @@
 The process holds what a pick-up process holds once its modules are built: the runtime, zenoh,
 numpy, scipy and OpenCV, and every module of ``graphs/tool_pickup.yaml``, started. Baseline: a
 full collection (``gc.collect()``) as CPython runs one now and then, walking every tracked object.
-Measured: the same after :class:`runtime.gc_pause.HeapFreeze` froze the heap, as the scheduler
+Measured: the same after :class:`umbra.runtime.gc_pause.HeapFreeze` froze the heap, as the scheduler
 does on the real clock before its run starts, and a second pick-up was then built and run, so
 that a whole graph's modules and what their ``start`` made stay unfrozen (more than a real run
 leaves: an upper bound). Pause p50 / max over ``--repeats`` collections.
@@ -34,8 +34,8 @@ def built_pickup() -> object:
     """The pick-up's modules, built and started in this process (kept alive by the result)."""
     import zenoh  # noqa: F401 - what a linked process holds
 
-    from runtime.graph.check import load_graph
-    from runtime.scheduler import Scheduler, SchedulerOptions
+    from umbra.runtime.graph.check import load_graph
+    from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
     out = Path(tempfile.mkdtemp(prefix="bench_gc_"))
     plan = load_graph(ROOT / "graphs" / "tool_pickup.yaml")
@@ -60,7 +60,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=0, help="collections per row")
     args = parser.parse_args()
     repeats = args.repeats or (10 if args.quick else 50)
-    from runtime.gc_pause import HeapFreeze
+    from umbra.runtime.gc_pause import HeapFreeze
 
     keep = built_pickup()
     tracked = len(gc.get_objects())

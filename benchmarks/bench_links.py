@@ -36,9 +36,9 @@ reported too.
 
 Two host conditions, each measured in every pass (their order rotated too): the host ``as-is``,
 and ``tuned`` for real time — this process holds every CPU's wake-up latency at 0 through
-``/dev/cpu_dma_latency`` (``runtime.realtime``, what ``umbra run --cpu-latency-us 0`` does) while
-every method of the pass runs, baselines alike, so no hop starts on a CPU waking from a halt. The
-tuned condition needs root; without it, it is skipped with the reason.
+``/dev/cpu_dma_latency`` (``umbra.runtime.realtime``, what ``umbra run --cpu-latency-us 0`` does)
+while every method of the pass runs, baselines alike, so no hop starts on a CPU waking from a halt.
+The tuned condition needs root; without it, it is skipped with the reason.
 
     python benchmarks/bench_links.py [--quick] [--host both|as-is|tuned]
 
@@ -72,9 +72,9 @@ REPO = HERE.parent
 sys.path.insert(0, str(REPO))
 
 from benchmarks.common import write_results  # noqa: E402
-from connectors import Input, Module, Output, Parameters, param  # noqa: E402
-from connectors.messages import Image, Twist  # noqa: E402
-from runtime.realtime import CpuLatencyHold  # noqa: E402
+from umbra.connectors import Input, Module, Output, Parameters, param  # noqa: E402
+from umbra.connectors.messages import Image, Twist  # noqa: E402
+from umbra.runtime.realtime import CpuLatencyHold  # noqa: E402
 
 SMALL = 48
 #: Seconds a raw ping-pong run may take before it is given up (a lost best-effort frame).
@@ -228,7 +228,7 @@ def _umbra(tmp: Path, graph: str, name: str, *extra: str) -> Path:
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "run",
             str(path),
             "--out",
@@ -271,7 +271,7 @@ def umbra_throughput(tmp: Path, seconds: float) -> tuple[float, float]:
 def _zenoh_session(listen: list[str], connect: list[str]) -> Any:
     import zenoh
 
-    from runtime.links.config import Endpoints, build_config
+    from umbra.runtime.links.config import Endpoints, build_config
 
     return zenoh.open(build_config(Endpoints(listen, connect)))
 
@@ -335,7 +335,7 @@ def _pingpong(
 ) -> np.ndarray:
     """Round trips [s] against the pong started as ``role``: ``exchange(pub, sub)`` puts one
     ping and waits for its pong; the first ``warmup`` are not kept."""
-    from runtime.links.config import free_loopback_ports
+    from umbra.runtime.links.config import free_loopback_ports
 
     endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
     pong = _child(*role, "--endpoint", endpoint)
@@ -390,7 +390,7 @@ def zenoh_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
 
 def _twist_codec() -> tuple[Callable[[bytes], Twist | None], Callable[[Twist], bytes]]:
     """Umbra's compact reader and writer of twists, as a link uses them."""
-    from connectors.codec import Codec
+    from umbra.connectors.codec import Codec
 
     codec = Codec()
     read = codec.compact_reader(Twist)
@@ -436,7 +436,7 @@ def codec_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
 
 
 def zenoh_throughput(seconds: float) -> float:
-    from runtime.links.config import free_loopback_ports
+    from umbra.runtime.links.config import free_loopback_ports
 
     endpoint = f"tcp/127.0.0.1:{free_loopback_ports(1)[0]}"
     sink = _child("--role", "zenoh-sink", "--endpoint", endpoint)
@@ -488,7 +488,7 @@ def role_tcp_pong(port: int) -> None:
 
 
 def tcp_rtt(kind: str, rounds: int, warmup: int) -> np.ndarray:
-    from runtime.links.config import free_loopback_ports
+    from umbra.runtime.links.config import free_loopback_ports
 
     (port,) = free_loopback_ports(1)
     pong = _child("--role", "tcp-pong", "--port", str(port))

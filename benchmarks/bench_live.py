@@ -91,7 +91,7 @@ def one_run(
 ) -> dict[str, float]:
     """One pick-up; the servo lateness, and with a client its fps and latencies."""
     log_path = out.with_suffix(".log")
-    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph)]
+    cmd = [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph)]
     cmd += [] if split else ["--single-process"]
     cmd += ["--clock", "real", "--duration", str(duration), "--out", str(out), "--quiet"]
     cmd += ["--foxglove", "--foxglove-port", "0", *VGA]

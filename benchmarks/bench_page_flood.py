@@ -37,9 +37,9 @@ from websockets.exceptions import ConnectionClosed
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.common import start_graph, table, write_results
-from runtime.recording.samples import iter_samples
 from tests.operator.helpers import Page
 from tests.security.console_rig import flood
+from umbra.runtime.recording.samples import iter_samples
 
 REPO = Path(__file__).resolve().parents[1]
 FLOODS = ("none", "junk", "big", "connections")

@@ -24,7 +24,7 @@ GRAPH = str(Path(__file__).resolve().parent.parent / "graphs" / "tool_pickup.yam
 
 
 def trials(*args: str) -> dict:
-    cmd = [sys.executable, "-m", "runtime.cli.main", "trials", GRAPH, "--json", *args]
+    cmd = [sys.executable, "-m", "umbra.runtime.cli.main", "trials", GRAPH, "--json", *args]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode not in (0, 1):
         raise SystemExit(f"trials failed ({proc.returncode}): {proc.stderr[-2000:]}")

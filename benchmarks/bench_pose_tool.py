@@ -1,8 +1,8 @@
 """The camera-pose tool: an unknown camera mount on a PTU head from simulated operator clicks.
 
 Each trial draws a mount error (rotation up to 5 deg about a random axis, translation up to
-5 cm), picks six of the calibration points of ``modules.calib.pose_tool_synthetic`` (0.6 to 1.7 m
-from the camera), takes three snapshots at PTU poses 6 deg apart (pan/tilt known) and clicks
+5 cm), picks six of the calibration points of ``umbra.modules.calib.pose_tool_synthetic`` (0.6 to
+1.7 m from the camera), takes three snapshots at PTU poses 6 deg apart (pan/tilt known) and clicks
 every visible point with 1 px Gaussian noise per axis. The mount is then recovered
 
 * by the pose tool from all three snapshots at once (nPnP through the known PTU kinematics),
@@ -30,11 +30,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import table, write_results
-from modules.calib.errors import CalibrationError
-from modules.calib.pose_tool import MountSnapshot, pose_error, solve_mount
-from modules.calib.pose_tool_synthetic import click_snapshots, random_case
-from modules.calib.rotations import invert_transform, rotation_from_vector, transform
-from modules.geometry.transforms import transform_points
+from umbra.modules.calib.errors import CalibrationError
+from umbra.modules.calib.pose_tool import MountSnapshot, pose_error, solve_mount
+from umbra.modules.calib.pose_tool_synthetic import click_snapshots, random_case
+from umbra.modules.calib.rotations import invert_transform, rotation_from_vector, transform
+from umbra.modules.geometry.transforms import transform_points
 
 
 def cv2_mount(snapshot: MountSnapshot) -> np.ndarray | None:

@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import table, write_results  # noqa: E402
-from connectors import safe_yaml  # noqa: E402
+from umbra.connectors import safe_yaml  # noqa: E402
 
 VISION = ("DigiCam", "vsSnake", "vsServo")
 LATENESS_GOAL = 0.10
@@ -52,7 +52,15 @@ FULL = "replay with the full pick-up re-run (sim)"
 
 def run_split(graph: Path, out: Path, duration: float, record: bool) -> dict[str, float]:
     """One split run; the servo lateness p99 [ms], vision frame time [ms], recording size."""
-    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--duration", str(duration)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "umbra.runtime.cli.main",
+        "run",
+        str(graph),
+        "--duration",
+        str(duration),
+    ]
     cmd += ["--out", str(out), "--quiet"] + (["--record"] if record else [])
     subprocess.run(cmd, cwd=ROOT, capture_output=True, timeout=duration + 120, check=False)
     smart = json.loads((out / "summary-smart.json").read_text())
@@ -133,12 +141,12 @@ def time_reads(
     """(wall, CPU) seconds of each way of reading ``path``, and its recorded duration [s]."""
     from mcap.reader import make_reader
 
-    from runtime.graph.check import load_graph
-    from runtime.recording.reader import read_records
-    from runtime.recording.replay import plan_replay
-    from runtime.recording.samples import iter_samples_parallel
-    from runtime.run import run_process
-    from runtime.scheduler import SchedulerOptions
+    from umbra.runtime.graph.check import load_graph
+    from umbra.runtime.recording.reader import read_records
+    from umbra.runtime.recording.replay import plan_replay
+    from umbra.runtime.recording.samples import iter_samples_parallel
+    from umbra.runtime.run import run_process
+    from umbra.runtime.scheduler import SchedulerOptions
 
     tmp.mkdir(parents=True, exist_ok=True)
     with open(path, "rb") as f:
@@ -185,7 +193,7 @@ def time_reads(
 
 def raw_recording(graph: Path, out: Path, duration: float) -> Path:
     """The pick-up in one process on the sim clock, recorded with raw images."""
-    cmd = [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--single-process"]
+    cmd = [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph), "--single-process"]
     cmd += ["--clock", "sim", "--duration", str(duration), "--record", "--record-images", "raw"]
     cmd += ["--out", str(out), "--quiet"]
     subprocess.run(cmd, cwd=ROOT, capture_output=True, check=False)

@@ -21,11 +21,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import percentiles, table, write_results
-from connectors import Input, Module, Output
-from connectors.messages import Scalar
-from runtime.graph.check import check_text
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.connectors import Input, Module, Output
+from umbra.connectors.messages import Scalar
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class Source(Module):

@@ -28,22 +28,22 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import write_results  # noqa: E402
-from connectors.messages import Contour, JointState, Twist  # noqa: E402
-from connectors.module import ModuleContext  # noqa: E402
-from modules.arm.dh import puma560  # noqa: E402
-from modules.arm.dls import DLSSettings, solve_dls  # noqa: E402
-from modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base  # noqa: E402
-from modules.arm.reg_vel import RegVel  # noqa: E402
-from modules.arm.rotate_kin import RotateKin  # noqa: E402
-from modules.arm.sim_joints import SimJoints  # noqa: E402
-from modules.arm.velocity_register import VelocityRegister  # noqa: E402
-from modules.arm.wolverine_jnts import WolverineJnts  # noqa: E402
-from modules.arm.wolverine_kin import WolverineKin  # noqa: E402
-from modules.geometry.transforms import (  # noqa: E402
+from umbra.connectors.messages import Contour, JointState, Twist  # noqa: E402
+from umbra.connectors.module import ModuleContext  # noqa: E402
+from umbra.modules.arm.dh import puma560  # noqa: E402
+from umbra.modules.arm.dls import DLSSettings, solve_dls  # noqa: E402
+from umbra.modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base  # noqa: E402
+from umbra.modules.arm.reg_vel import RegVel  # noqa: E402
+from umbra.modules.arm.rotate_kin import RotateKin  # noqa: E402
+from umbra.modules.arm.sim_joints import SimJoints  # noqa: E402
+from umbra.modules.arm.velocity_register import VelocityRegister  # noqa: E402
+from umbra.modules.arm.wolverine_jnts import WolverineJnts  # noqa: E402
+from umbra.modules.arm.wolverine_kin import WolverineKin  # noqa: E402
+from umbra.modules.geometry.transforms import (  # noqa: E402
     transform_from_xyz_rpy_deg,
     twist_tool_from_camera,
 )
-from modules.servo.vsservo import VsServo  # noqa: E402
+from umbra.modules.servo.vsservo import VsServo  # noqa: E402
 
 GOAL_US = 200.0
 DT = 0.002  # 500 Hz servo tick

@@ -21,11 +21,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import percentiles, table, write_results
-from modules.sketch.rig import default_rig
-from modules.sketch.session import SketchSession
-from modules.sketch.stereo import StereoNoise, StereoPair
-from modules.trajectory.player import PathPlayer
-from modules.world.scene_objects import SketchScene
+from umbra.modules.sketch.rig import default_rig
+from umbra.modules.sketch.session import SketchSession
+from umbra.modules.sketch.stereo import StereoNoise, StereoPair
+from umbra.modules.trajectory.player import PathPlayer
+from umbra.modules.world.scene_objects import SketchScene
 
 CLICK_PX = 0.5
 MACROS = ("grab_pipe", "move_around_axis", "surface_scan", "follow_perimeter", "place_device")

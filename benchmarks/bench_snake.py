@@ -29,7 +29,7 @@ Two sweeps:
    at the seed click on that frame, as it is used.
 
 3. *Photographs* (:mod:`benchmarks.snake_heldout`): at 1920x1080, a patch under perspective
-   on the scikit-image photographs of :mod:`modules.vision.photo_scene`, tuning and held-out
+   on the scikit-image photographs of :mod:`umbra.modules.vision.photo_scene`, tuning and held-out
    sets apart: area bias p50 / |bias| p95, IoU min, tracking time per frame, beside the HS
    threshold on the same frames.
 
@@ -57,13 +57,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks.common import table, write_results
 from benchmarks.snake_heldout import bench_heldout, print_heldout
 from benchmarks.snake_heldout import goals as heldout_goals
-from modules.vision import snake as sn
-from modules.vision.lighting import Lighting
-from modules.vision.metrics import polygon_iou, polygon_mask
-from modules.vision.polygon import circle, signed_area
-from modules.vision.projection import CameraIntrinsics, Distortion
-from modules.vision.scene import RenderedFrame, Scene, SceneRenderer, camera_looking_down, pose
-from modules.vision.tracker import SnakeTracker
+from umbra.modules.vision import snake as sn
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.metrics import polygon_iou, polygon_mask
+from umbra.modules.vision.polygon import circle, signed_area
+from umbra.modules.vision.projection import CameraIntrinsics, Distortion
+from umbra.modules.vision.scene import (
+    RenderedFrame,
+    Scene,
+    SceneRenderer,
+    camera_looking_down,
+    pose,
+)
+from umbra.modules.vision.tracker import SnakeTracker
 
 SIZES = ((640, 480), (1280, 720), (1920, 1080))
 T_WORLD_CAMERA = camera_looking_down((0.0, 0.0, 0.03), 0.22)

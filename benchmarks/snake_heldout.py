@@ -1,6 +1,6 @@
 """Section 3 of ``bench_snake.py``: the snake on photographs it was never tuned on, 1920x1080.
 
-Frames from :mod:`modules.vision.photo_scene` (patch under perspective on scikit-image
+Frames from :mod:`umbra.modules.vision.photo_scene` (patch under perspective on scikit-image
 photographs, lens and motion blur, gain 0.55-1.45, colour casts, shot and read noise, JPEG on
 half the frames), scored separately on the tuning photographs and on the held-out ones. For
 every frame, in this run:
@@ -22,10 +22,10 @@ import time
 import numpy as np
 
 from benchmarks.common import table
-from modules.vision import photo_scene as ps
-from modules.vision.metrics import polygon_iou
-from modules.vision.polygon import signed_area
-from modules.vision.tracker import SnakeTracker
+from umbra.modules.vision import photo_scene as ps
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.polygon import signed_area
+from umbra.modules.vision.tracker import SnakeTracker
 
 SETS = {"tuning": ps.TUNING_PHOTOS, "held-out": ps.HELD_OUT_PHOTOS}
 

@@ -2,15 +2,15 @@
 
 Everything a module author needs::
 
-    from connectors import Module, Parameters, param, Input, Output, from_param, UserError
-    from connectors.messages import Twist, Image
+    from umbra.connectors import Module, Parameters, param, Input, Output, from_param, UserError
+    from umbra.connectors.messages import Twist, Image
 """
 
-from connectors.errors import UserError
-from connectors.frames import FrameTree
-from connectors.module import Module, ModuleContext
-from connectors.params import Parameters, ParamProblem, param
-from connectors.ports import Input, Output, Register, from_param
+from umbra.connectors.errors import UserError
+from umbra.connectors.frames import FrameTree
+from umbra.connectors.module import Module, ModuleContext
+from umbra.connectors.params import Parameters, ParamProblem, param
+from umbra.connectors.ports import Input, Output, Register, from_param
 
 __all__ = [
     "FrameTree",

@@ -6,8 +6,8 @@ import json
 import sys
 from typing import Any
 
-from connectors import safe_yaml
-from connectors.errors import UserError
+from umbra.connectors import safe_yaml
+from umbra.connectors.errors import UserError
 
 #: Longest ``--set`` value [characters].
 MAX_VALUE_CHARS = 10_000

@@ -7,7 +7,7 @@ Two layouts, both read by ``Codec.decode``; no pickle, ever, and only plain nume
   is a msgpack extension holding dtype, shape and the raw buffer. Used for recordings.
 * version 3, ``encode_compact`` (links, small samples): ``[MAGIC, 3, type_tag, values]``, fields
   by position and each array ``[dtype, shape, bytes]``, read and written by msgspec in C; the tag
-  is the type name and a fingerprint of its field layout (``connectors.compact``). A type it
+  is the type name and a fingerprint of its field layout (``umbra.connectors.compact``). A type it
   cannot mirror is written as version 1.
 * version 2, ``encode_framed`` (links, samples holding at least ``FRAMED_MIN_BYTES`` of arrays):
   ``b"UMB\\x02"``, the header length (u32 little-endian), the msgpack header
@@ -28,8 +28,8 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors.compact import COMPACT_VERSION, CompactType, compact_type
-from connectors.messages import Message, message_types
+from umbra.connectors.compact import COMPACT_VERSION, CompactType, compact_type
+from umbra.connectors.messages import Message, message_types
 
 MAGIC = "umbra"
 VERSION = 1

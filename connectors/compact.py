@@ -29,7 +29,7 @@ from typing import Annotated, Any
 import msgspec
 import numpy as np
 
-from connectors.messages import Message
+from umbra.connectors.messages import Message
 
 COMPACT_VERSION = 3
 _NUMERIC_KINDS = "biufc"  # bool, signed, unsigned, float, complex: nothing that runs code or points

@@ -12,7 +12,7 @@ be its IHDR, as libpng requires. Anything else is refused: no other format reach
 
 from __future__ import annotations
 
-from connectors.limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX
+from umbra.connectors.limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX
 
 _PNG = b"\x89PNG\r\n\x1a\n"
 #: Start-of-frame markers of every coding process (baseline ... lossless, arithmetic).
@@ -92,7 +92,8 @@ def _next_marker(data: bytes, i: int) -> tuple[int | None, int]:
 
 def check_image_size(data: bytes, max_pixels: int = MAX_IMAGE_PIXELS) -> tuple[int, int]:
     """``(width, height)`` of a PNG/JPEG; ValueError when a side is 0 or above
-    :data:`~connectors.limits.MAX_IMAGE_SIDE_PX`, or the pixels are more than ``max_pixels``."""
+    :data:`~umbra.connectors.limits.MAX_IMAGE_SIDE_PX`, or the pixels are more than
+    ``max_pixels``."""
     w, h = image_size(data)
     if w == 0 or h == 0 or w > MAX_IMAGE_SIDE_PX or h > MAX_IMAGE_SIDE_PX or w * h > max_pixels:
         raise ValueError(

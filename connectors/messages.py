@@ -3,9 +3,9 @@
 Every sample carries ``stamp`` (seconds on the run's clock: the time the data describes, e.g. the
 instant a frame was exposed), ``seq`` (per-output sequence number, filled in by the output port)
 and ``origin`` (seconds, same clock: the capture time of the oldest sensor data the sample was
-derived from; the output port fills it in, see ``connectors.ports``). A command computed now from
-a 30-second-old image has a fresh ``stamp`` and an ``origin`` 30 s old: guards judge the origin.
-Units are SI: metres, radians, seconds. Arrays are numpy arrays; treat them as read-only.
+derived from; the output port fills it in, see ``umbra.connectors.ports``). A command computed now
+from a 30-second-old image has a fresh ``stamp`` and an ``origin`` 30 s old: guards judge the
+origin. Units are SI: metres, radians, seconds. Arrays are numpy arrays; treat them as read-only.
 
 Frame-bearing types say so with ``FRAME_KIND``: a ``Twist`` is expressed in one frame (``frame``);
 a ``Pose`` relates a parent and a child frame. Joint vectors carry joint ``names`` so that the
@@ -23,7 +23,7 @@ import msgspec
 import numpy as np
 
 #: Entry-point group through which a package adds message types: each entry point names a
-#: module (``[project.entry-points."umbra.messages"]`` ``sketch = "modules.sketch.messages"``)
+#: module (``[project.entry-points."umbra.messages"]`` ``sketch = "umbra.modules.sketch.messages"``)
 #: whose :class:`Message` subclasses every process then knows by class name.
 MESSAGE_GROUP = "umbra.messages"
 

@@ -31,9 +31,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from connectors.frames import FrameTree
-from connectors.params import Parameters, is_tunable
-from connectors.ports import Input, OriginTrack, Output, OutputPort, Register
+from umbra.connectors.frames import FrameTree
+from umbra.connectors.params import Parameters, is_tunable
+from umbra.connectors.ports import Input, OriginTrack, Output, OutputPort, Register
 
 
 @dataclass

@@ -38,7 +38,7 @@ from typing import Annotated, Any, Literal, Union, get_args, get_origin
 import pydantic
 from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo
 
-from connectors.user_files import run_file_problem
+from umbra.connectors.user_files import run_file_problem
 
 
 class Parameters(pydantic.BaseModel):

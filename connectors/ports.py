@@ -34,7 +34,7 @@ from typing import Any, Generic, TypeVar
 
 import msgspec
 
-from connectors.messages import Message
+from umbra.connectors.messages import Message
 
 M = TypeVar("M", bound=Message)
 

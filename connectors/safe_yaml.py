@@ -19,7 +19,7 @@ from typing import Any
 
 import yaml
 
-from connectors.errors import UserError
+from umbra.connectors.errors import UserError
 
 MAX_DEPTH = 64
 MAX_NODES = 100_000

@@ -17,8 +17,8 @@ import os
 import stat
 from pathlib import Path, PurePosixPath
 
-from connectors.errors import UserError
-from connectors.limits import MAX_TEXT_FILE_BYTES as MAX_TEXT_BYTES
+from umbra.connectors.errors import UserError
+from umbra.connectors.limits import MAX_TEXT_FILE_BYTES as MAX_TEXT_BYTES
 
 _BOMS = (
     (codecs.BOM_UTF32_LE, "utf-32"),

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from runtime.graph.plan import GraphPlan
-from runtime.links.config import Endpoints
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.config import Endpoints
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """A small public harness to unit-test a module the way the scheduler runs it.
 
-    from runtime.harness import ModuleHarness
-    from connectors.messages import Scalar
+    from umbra.runtime.harness import ModuleHarness
+    from umbra.connectors.messages import Scalar
 
     with ModuleHarness("Gain", {"gain": 3.0}) as h:      # type name or class
         h.push("input", Scalar(value=2.0))
@@ -22,13 +22,13 @@ import msgspec
 import numpy as np
 import pydantic
 
-from connectors.errors import UserError
-from connectors.frames import FrameTree
-from connectors.messages import Message
-from connectors.module import Module, ModuleContext
-from connectors.params import validation_problems
-from runtime.clock import SimClock
-from runtime.registry import Registry
+from umbra.connectors.errors import UserError
+from umbra.connectors.frames import FrameTree
+from umbra.connectors.messages import Message
+from umbra.connectors.module import Module, ModuleContext
+from umbra.connectors.params import validation_problems
+from umbra.runtime.clock import SimClock
+from umbra.runtime.registry import Registry
 
 
 class ModuleHarness:

@@ -4,7 +4,7 @@ Every process of the graph runs as ``umbra run GRAPH --process NAME`` in a child
 launcher gives each a free loopback endpoint (process i listens on its own port and connects to
 the processes before it: peers do not route for each other; ``tls/`` endpoints when the zenoh
 configuration sets up TLS, e.g. a folder written by ``umbra keys``), per-run credentials and the
-graph's access rules (``runtime.links.auth``; not with ``--insecure``), prefixes their output
+graph's access rules (``umbra.runtime.links.auth``; not with ``--insecure``), prefixes their output
 lines with ``[NAME]``, and supervises them:
 
 * a process that ends normally (its duration, or a module asked to stop with status 0) ends the
@@ -20,7 +20,7 @@ SIGKILL. Each process writes ``summary-NAME.json`` (the launcher writes it for a
 without one) and the launcher writes ``summary.json`` for the whole run.
 
 When a child ends, the ``/dev/shm`` files it left (its frame pools, its host marker, zenoh's
-segments it mapped) are removed at once (``runtime.links.shm_sweep``).
+segments it mapped) are removed at once (``umbra.runtime.links.shm_sweep``).
 
 Clock: sim time cannot be shared between processes, so a split graph runs on the real clock; a
 graph that declares ``clock: sim`` runs on the real clock with a notice, and ``--clock sim`` with a
@@ -39,29 +39,29 @@ import time
 from pathlib import Path
 from typing import IO, Any
 
-from connectors.errors import UserError
-from runtime.child_summaries import Child, cause_of, reason_of, write_summaries
-from runtime.graph.plan import GraphPlan
-from runtime.link_settings import checked_endpoints, graph_links_origin, zenoh_config_file
-from runtime.links.auth import RunCredentials
-from runtime.links.config import (
+from umbra.connectors.errors import UserError
+from umbra.runtime.child_summaries import Child, cause_of, reason_of, write_summaries
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.link_settings import checked_endpoints, graph_links_origin, zenoh_config_file
+from umbra.runtime.links.auth import RunCredentials
+from umbra.runtime.links.config import (
     Endpoints,
     check_config_file,
     free_loopback_ports,
     loopback_mesh,
 )
-from runtime.links.config_facts import config_facts
-from runtime.links.exposure import check_exposure, config_for
-from runtime.links.shm_sweep import mapped_segments, remove_orphans
-from runtime.run_one import run_one
-from runtime.scheduler import INTERRUPTED
+from umbra.runtime.links.config_facts import config_facts
+from umbra.runtime.links.exposure import check_exposure, config_for
+from umbra.runtime.links.shm_sweep import mapped_segments, remove_orphans
+from umbra.runtime.run_one import run_one
+from umbra.runtime.scheduler import INTERRUPTED
 
 #: Seconds a process has to stop once told (abort), before SIGTERM; SIGKILL after as long again.
 STOP_GRACE = 5.0
 #: Extra seconds given to a process told to ``finish`` (it drains its inputs first).
 FINISH_EXTRA = 6.0
 _POLL = 0.02
-#: Seconds between looks at the shared memory each child maps (``runtime.links.shm_sweep``):
+#: Seconds between looks at the shared memory each child maps (``umbra.runtime.links.shm_sweep``):
 #: a segment mapped less than this before a child dies may be missed (a look costs ~1.5 ms).
 SHM_LOOK_PERIOD = 0.5
 
@@ -143,7 +143,7 @@ class Supervisor:
         cmd = [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "run",
             str(args.graph),
             "--process",
@@ -181,7 +181,7 @@ class Supervisor:
             cmd += ["--cpu-latency-us", str(args.cpu_latency_us)]
         if args.quiet:
             cmd.append("--quiet")
-        if plan.spec.record.enabled:  # each process records its part (runtime.recording)
+        if plan.spec.record.enabled:  # each process records its part (umbra.runtime.recording)
             cmd.append("--record")
             if getattr(args, "record_images", None):
                 cmd += ["--record-images", args.record_images]
@@ -309,7 +309,7 @@ class Supervisor:
                 signal.signal(s, handler)
         write_summaries(self.plan, self.out, self.children, code, reason, started)
         if self.plan.spec.record.enabled:
-            from runtime.recording.merge import merge_run
+            from umbra.runtime.recording.merge import merge_run
 
             self.say(merge_run(self.plan, self.out, [c.name for c in self.children]))
         self.say(reason if code in (0, INTERRUPTED) else f"failed: {reason}")

@@ -13,8 +13,8 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
-from connectors.messages import Message
-from connectors.ports import Register
+from umbra.connectors.messages import Message
+from umbra.connectors.ports import Register
 
 Inbox = deque[tuple[Register[Any], Message, bool]]
 

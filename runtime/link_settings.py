@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from runtime.graph.plan import GraphPlan
-from runtime.links.config import check_endpoint
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.config import check_endpoint
 
 
 def zenoh_config_file(plan: GraphPlan, args: argparse.Namespace) -> str | None:

@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
-from connectors.messages import Message
-from connectors.ports import Sink
-from runtime.graph.plan import LinkPlan
+from umbra.connectors.messages import Message
+from umbra.connectors.ports import Sink
+from umbra.runtime.graph.plan import LinkPlan
 
 
 class LinkTransport(Protocol):
@@ -45,7 +45,8 @@ class LinkTransport(Protocol):
 
     def clock_error(self, link: LinkPlan) -> float:
         """The bound [s] on the error of ``link``'s stamps and origins once on this process's
-        clock (``runtime.links.clock_sync``); infinite until the producer's clock is measured."""
+        clock (``umbra.runtime.links.clock_sync``); infinite until the producer's clock is
+        measured."""
         ...
 
     def stats(self) -> dict[str, object]:

@@ -1,16 +1,16 @@
 """What a process holds while its loop runs, and gives back after: the CPU's wake-up latency
-(``runtime.realtime``), a real-time priority or a lower one for a process that gives way
-(``runtime.rt_priority``), and a frozen heap (``runtime.gc_pause``). Each is for the real clock
-only: on the sim clock nothing waits for a CPU."""
+(``umbra.runtime.realtime``), a real-time priority or a lower one for a process that gives way
+(``umbra.runtime.rt_priority``), and a frozen heap (``umbra.runtime.gc_pause``). Each is for the
+real clock only: on the sim clock nothing waits for a CPU."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from runtime.gc_pause import HeapFreeze
-from runtime.graph.plan import GraphPlan
-from runtime.realtime import CpuLatencyHold
-from runtime.rt_priority import GiveWay, RealtimePriority, priority_for
+from umbra.runtime.gc_pause import HeapFreeze
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.realtime import CpuLatencyHold
+from umbra.runtime.rt_priority import GiveWay, RealtimePriority, priority_for
 
 #: Why a sim-clock run holds no CPU latency it was asked for (what its summary says).
 SIM_CLOCK_NO_LATENCY = "sim clock: nothing waits for a CPU to wake"

@@ -18,9 +18,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from importlib.metadata import EntryPoint, entry_points
 
-from connectors.errors import UserError
-from connectors.module import Module
-from runtime.hints import did_you_mean
+from umbra.connectors.errors import UserError
+from umbra.connectors.module import Module
+from umbra.runtime.hints import did_you_mean
 
 GROUP = "umbra.modules"
 

@@ -23,7 +23,7 @@ import logging
 import os
 from typing import Any
 
-from connectors.threads import BACKGROUND_POLICIES, background
+from umbra.connectors.threads import BACKGROUND_POLICIES, background
 
 __all__ = ["BACKGROUND_POLICIES", "RealtimePriority", "background", "priority_for"]
 

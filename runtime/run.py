@@ -7,10 +7,10 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from runtime.graph.plan import GraphPlan
-from runtime.links_api import LinkTransport
-from runtime.scheduler import Scheduler, SchedulerOptions
-from runtime.stats import RunResult
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links_api import LinkTransport
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.runtime.stats import RunResult
 
 
 def default_output_dir(plan: GraphPlan) -> Path:

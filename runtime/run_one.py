@@ -1,5 +1,5 @@
 """``umbra run GRAPH --process NAME``: one process of a split graph with its links, started by
-hand or by the launcher (``runtime.launcher``)."""
+hand or by the launcher (``umbra.runtime.launcher``)."""
 
 from __future__ import annotations
 
@@ -7,16 +7,16 @@ import argparse
 import sys
 from pathlib import Path
 
-from connectors.errors import UserError
-from runtime.graph.plan import GraphPlan
-from runtime.hints import did_you_mean
-from runtime.link_settings import checked_endpoints, graph_links_origin, zenoh_config_file
-from runtime.links.config import Endpoints, default_mesh
-from runtime.links.config_facts import config_facts
-from runtime.links.exposure import check_exposure, config_for
-from runtime.links.host_auth import host_credentials
-from runtime.links.stats import link_lines
-from runtime.realtime import latency_limit
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.hints import did_you_mean
+from umbra.runtime.link_settings import checked_endpoints, graph_links_origin, zenoh_config_file
+from umbra.runtime.links.config import Endpoints, default_mesh
+from umbra.runtime.links.config_facts import config_facts
+from umbra.runtime.links.exposure import check_exposure, config_for
+from umbra.runtime.links.host_auth import host_credentials
+from umbra.runtime.links.stats import link_lines
+from umbra.runtime.realtime import latency_limit
 
 #: Seconds a supervised process waits for its consumers before it gives up.
 READY_TIMEOUT = 30.0
@@ -34,11 +34,11 @@ def run_one(
 
     Credentials: the launcher's (``--link-auth``), else those of the zenoh configuration file when
     it authenticates on its own (TLS, a password), else, unless ``--insecure``, those derived
-    from this user's secret (``runtime.links.host_auth``), shared by every process of the graph
-    this user starts by hand on this host."""
+    from this user's secret (``umbra.runtime.links.host_auth``), shared by every process of the
+    graph this user starts by hand on this host."""
     import logging
 
-    from runtime.links.process import ProcessOptions, run_linked_process
+    from umbra.runtime.links.process import ProcessOptions, run_linked_process
 
     name = args.process
     have = plan.populated_processes

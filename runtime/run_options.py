@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from connectors.errors import UserError
+from umbra.connectors.errors import UserError
 
 #: Exit status of a run stopped by Ctrl-C or a signal.
 INTERRUPTED = 130
@@ -32,11 +32,12 @@ class SchedulerOptions:
     max_ticks: int | None = None
     log: Any = None
     #: "inline": a link sample arriving while the loop is idle is handled at once on the thread
-    #: that received it; "loop": always on the loop's thread (``runtime.scheduler``).
+    #: that received it; "loop": always on the loop's thread (``umbra.runtime.scheduler``).
     dispatch: str = "inline"
-    #: the CPU wake-up latency [µs] held while the loop runs (``runtime.realtime``); None: none
+    #: the CPU wake-up latency [µs] held while the loop runs (``umbra.runtime.realtime``); None:
+    #: none
     cpu_latency_us: int | None = None
-    #: record every output of this process (``runtime.recording.tap``); None:
+    #: record every output of this process (``umbra.runtime.recording.tap``); None:
     #: as the graph's ``record:`` says
     record: Any = None
     #: a person runs this run (``ModuleContext.attended``): modules read it; the run ends when

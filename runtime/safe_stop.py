@@ -15,10 +15,10 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors.messages import Message
-from connectors.module import Module
-from connectors.ports import OriginTrack, Register
-from runtime.stats import ModuleStats
+from umbra.connectors.messages import Message
+from umbra.connectors.module import Module
+from umbra.connectors.ports import OriginTrack, Register
+from umbra.runtime.stats import ModuleStats
 
 
 @dataclass

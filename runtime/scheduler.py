@@ -4,10 +4,10 @@ Every tick, in the graph's data order, a module runs when its rate makes it due 
 trigger inputs received a new sample earlier in the same tick — so a sample crosses a chain in one
 tick. Delayed connections (``~>``) are written after the tick, so their consumers read the previous
 tick's value. Link samples from other processes are written into registers at the start of a tick
-(``runtime.link_inbox``: events one per register per tick, in order; state the newest).
+(``umbra.runtime.link_inbox``: events one per register per tick, in order; state the newest).
 
-Before each step the module's :class:`~connectors.ports.OriginTrack` is reset, so what it sends
-takes the oldest origin among the inputs it reads in that step.
+Before each step the module's :class:`~umbra.connectors.ports.OriginTrack` is reset, so what it
+sends takes the oldest origin among the inputs it reads in that step.
 
 Reacting to a link sample (``dispatch: inline``, the default on the real clock): when a sample
 arrives while the loop is idle, waiting for its next due time, the tick runs at once on the thread
@@ -18,8 +18,8 @@ of its tick, as with ``dispatch: loop``, which always hands samples to the loop'
 when a module must run on one thread, or steps that block would hold zenoh's receive thread).
 
 When the loop ends, for any reason, the runtime first puts outputs in a safe state
-(``runtime.safe_stop``), then stops the modules. While it runs the process holds what
-``runtime.process_holds`` takes (CPU latency, priority, a frozen heap).
+(``umbra.runtime.safe_stop``), then stops the modules. While it runs the process holds what
+``umbra.runtime.process_holds`` takes (CPU latency, priority, a frozen heap).
 """
 
 from __future__ import annotations
@@ -34,19 +34,19 @@ from typing import Any
 
 import numpy as np
 
-from connectors.errors import ModuleFailed, UserError
-from connectors.messages import Message
-from connectors.module import Module, ModuleContext
-from connectors.ports import Register
-from runtime.clock import make_clock
-from runtime.graph.plan import GraphPlan
-from runtime.link_inbox import drain
-from runtime.links_api import LinkTransport
-from runtime.process_holds import ProcessHolds
-from runtime.run_options import INTERRUPTED, SchedulerOptions, StopRequest
-from runtime.safe_stop import Slot, safe_stop
-from runtime.stats import ModuleStats, RunResult
-from runtime.stop_signals import install_stop_signals, restore_signals
+from umbra.connectors.errors import ModuleFailed, UserError
+from umbra.connectors.messages import Message
+from umbra.connectors.module import Module, ModuleContext
+from umbra.connectors.ports import Register
+from umbra.runtime.clock import make_clock
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.link_inbox import drain
+from umbra.runtime.links_api import LinkTransport
+from umbra.runtime.process_holds import ProcessHolds
+from umbra.runtime.run_options import INTERRUPTED, SchedulerOptions, StopRequest
+from umbra.runtime.safe_stop import Slot, safe_stop
+from umbra.runtime.stats import ModuleStats, RunResult
+from umbra.runtime.stop_signals import install_stop_signals, restore_signals
 
 #: At most this many ticks in a row on a link's thread before the rest is left to the loop.
 REACT_ROUNDS = 16
@@ -117,7 +117,7 @@ class Scheduler:
         self.recorder: Any = None
         record = self.options.record or getattr(self.plan.spec, "record", None)
         if record is not None and record.enabled:
-            from runtime.recording.tap import RunRecorder
+            from umbra.runtime.recording.tap import RunRecorder
 
             self.recorder = RunRecorder(
                 self.plan,
@@ -129,7 +129,7 @@ class Scheduler:
                 now=self.clock.now(),
                 log=self.options.log,
             )
-        from runtime.tuning import CHANGES_TOPIC, Tuner
+        from umbra.runtime.tuning import CHANGES_TOPIC, Tuner
 
         #: live changes of tunable parameters, applied at the start of a tick
         self.tuner = Tuner(self.modules, log)

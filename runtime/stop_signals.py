@@ -1,6 +1,6 @@
 """Ctrl-C, SIGTERM and Ctrl-Z stop a run safely: the loop ends after its tick, outputs are
-zeroed (``runtime.safe_stop``) and every module stops. Ctrl-Z stops too, since a suspended loop
-cannot watch the arm."""
+zeroed (``umbra.runtime.safe_stop``) and every module stops. Ctrl-Z stops too, since a suspended
+loop cannot watch the arm."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from runtime.run_options import INTERRUPTED
+from umbra.runtime.run_options import INTERRUPTED
 
 
 def install_stop_signals(request_stop: Callable[[str, int], None]) -> dict[int, Any]:

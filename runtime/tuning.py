@@ -1,11 +1,11 @@
 """Tunable parameters changed while a process runs: checked on arrival, applied between steps.
 
-A change (``connectors.messages.ParamChange``: module, parameter, JSON value, who asked) reaches
-the process that runs the module, from its own live server or over the run's parameter link
-(``runtime.live.param_link``). It is checked once, where it comes in (:func:`checked`: the
+A change (``umbra.connectors.messages.ParamChange``: module, parameter, JSON value, who asked)
+reaches the process that runs the module, from its own live server or over the run's parameter link
+(``umbra.runtime.live.param_link``). It is checked once, where it comes in (:func:`checked`: the
 parameter is declared tunable, the value passes the module's parameter model exactly as ``--set``
-does: :func:`connectors.params.with_change`): by :meth:`Tuner.request` for a change from another
-process, by the live server's table for a viewer's change to a module of this process (which
+does: :func:`umbra.connectors.params.with_change`): by :meth:`Tuner.request` for a change from
+another process, by the live server's table for a viewer's change to a module of this process (which
 hands it on with :meth:`Tuner.queue_checked`). The scheduler calls :meth:`apply` at the start of
 a tick, before any module steps, so a step never sees its parameters change under it. Applied,
 the value is set into the parameters of that moment (the model builds them: a change to another
@@ -24,11 +24,11 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from connectors.cli_support import parse_value
-from connectors.errors import UserError
-from connectors.messages import ParamChange
-from connectors.module import Module
-from connectors.params import Parameters, is_safety, is_tunable, with_change
+from umbra.connectors.cli_support import parse_value
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import ParamChange
+from umbra.connectors.module import Module
+from umbra.connectors.params import Parameters, is_safety, is_tunable, with_change
 
 #: The recording's topic of applied changes.
 CHANGES_TOPIC = "/umbra/param_changes"

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from modules.world.trial_faults import CHROMIUM as CHROMIUM_PATH
-from modules.world.trial_faults import CHROMIUM_FLAGS
+from umbra.modules.world.trial_faults import CHROMIUM as CHROMIUM_PATH
+from umbra.modules.world.trial_faults import CHROMIUM_FLAGS
 
 #: Debian's package ``chromium`` (``apt-get install -y chromium``), headless and with no calls
 #: home (this machine has no network but the package registries): the same flags the overload
-#: trials open the operator's page with, declared once in ``modules.world.trial_faults``.
+#: trials open the operator's page with, declared once in ``umbra.modules.world.trial_faults``.
 CHROMIUM = Path(CHROMIUM_PATH)
 CHROMIUM_ARGS = list(CHROMIUM_FLAGS)
 

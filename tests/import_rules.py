@@ -45,18 +45,19 @@ DOMAIN_ARROWS: dict[str, set[str]] = {
 }
 
 #: A domain's vocabulary: ``modules/<domain>/messages.py`` imports only ``connectors`` and may
-#: be imported by every domain (its types travel between them, as ``connectors.messages``'s do).
+#: be imported by every domain (its types travel between them, as ``umbra.connectors.messages``'s
+#: do).
 VOCABULARY = "messages"
 
 #: Declared exceptions, file -> (imported package prefix, why). Each is a debt named here so
 #: that no new one comes in unseen.
 EXCEPTIONS: dict[str, tuple[str, str]] = {
     "modules/generic/recording.py": (
-        "runtime.recording",
+        "umbra.runtime.recording",
         "the Recorder module writes and reads the runtime's recording format",
     ),
     "modules/generic/recorder.py": (
-        "runtime.recording",
+        "umbra.runtime.recording",
         "the Recorder module takes the runtime's image choices and run-folder rule",
     ),
     "modules/world/trial_runner.py": (
@@ -68,10 +69,10 @@ EXCEPTIONS: dict[str, tuple[str, str]] = {
 #: Import cycles between files that are known and declared (each a set of module names).
 KNOWN_CYCLES: list[set[str]] = [
     {  # helpers split from the client take it as their owner; typed under TYPE_CHECKING
-        "modules.calib.visca.client",
-        "modules.calib.visca.client_moves",
-        "modules.calib.visca.client_startup",
-        "modules.calib.visca.client_wire",
+        "umbra.modules.calib.visca.client",
+        "umbra.modules.calib.visca.client_moves",
+        "umbra.modules.calib.visca.client_startup",
+        "umbra.modules.calib.visca.client_wire",
     },
 ]
 

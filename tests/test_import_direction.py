@@ -83,22 +83,26 @@ RULES = Rules(
 @pytest.mark.parametrize(
     ("rel", "text", "message"),
     [
-        ("connectors/ports.py", "import runtime.scheduler\n", "`connectors` may import only"),
+        ("connectors/ports.py", "import umbra.runtime.scheduler\n", "`connectors` may import only"),
         (
             "runtime/scheduler.py",
-            "def f():\n    from modules.arm.reg import RegVel\n",
+            "def f():\n    from umbra.modules.arm.reg import RegVel\n",
             "`runtime` may import only connectors, runtime",
         ),
-        ("modules/arm/reg.py", "from runtime import scheduler\n", "`modules` may import only"),
+        (
+            "modules/arm/reg.py",
+            "from umbra.runtime import scheduler\n",
+            "`modules` may import only",
+        ),
         (
             "modules/geometry/frames.py",
-            "import typing\nif typing.TYPE_CHECKING:\n    from modules.arm.reg import X\n",
+            "import typing\nif typing.TYPE_CHECKING:\n    from umbra.modules.arm.reg import X\n",
             "domain `geometry` may import no other domain",
         ),
         ("modules/arm/reg.py", "from ..sketch import plan\n", "domain `arm` may import geometry"),
         (
             "modules/sketch/messages.py",
-            "from modules.arm.reg import X\n",
+            "from umbra.modules.arm.reg import X\n",
             "a domain's `messages` module imports only connectors",
         ),
     ],
@@ -107,16 +111,16 @@ def test_the_checker_names_an_import_against_the_direction(
     tmp_path: Path, rel: str, text: str, message: str
 ) -> None:
     base = {
-        "connectors/ports.py": "import numpy\nfrom connectors import messages\n",
+        "connectors/ports.py": "import numpy\nfrom umbra.connectors import messages\n",
         "connectors/messages.py": "",
-        "runtime/scheduler.py": "from connectors.ports import Input\n",
+        "runtime/scheduler.py": "from umbra.connectors.ports import Input\n",
         "modules/geometry/frames.py": "import numpy as np\n",
         "modules/arm/reg.py": (
-            "import connectors.ports\n"  # the base layer
-            "import modules.geometry.frames\n"  # a declared arrow: arm -> geometry
+            "import umbra.connectors.ports\n"  # the base layer
+            "import umbra.modules.geometry.frames\n"  # a declared arrow: arm -> geometry
         ),
-        "modules/sketch/plan.py": "from modules.arm.reg import X\n",
-        "modules/sketch/messages.py": "from connectors.messages import Message\n",
+        "modules/sketch/plan.py": "from umbra.modules.arm.reg import X\n",
+        "modules/sketch/messages.py": "from umbra.connectors.messages import Message\n",
     }
     root = _tree(tmp_path, base)
     assert violations(root, RULES) == []  # the tree as written follows the rules
@@ -132,8 +136,8 @@ def test_any_domain_may_import_another_domains_vocabulary(tmp_path: Path) -> Non
         tmp_path,
         {
             "connectors/messages.py": "",
-            "modules/sketch/messages.py": "from connectors.messages import Message\n",
-            "modules/arm/reg.py": "from modules.sketch.messages import ToolPath\n",
+            "modules/sketch/messages.py": "from umbra.connectors.messages import Message\n",
+            "modules/arm/reg.py": "from umbra.modules.sketch.messages import ToolPath\n",
         },
     )
     assert violations(root, RULES) == []
@@ -143,11 +147,11 @@ def test_the_checker_finds_a_cycle_through_a_lazy_import(tmp_path: Path) -> None
     root = _tree(
         tmp_path,
         {
-            "runtime/scheduler.py": "from runtime.recording import tap\n",
-            "runtime/recording/tap.py": "def f():\n    import runtime.scheduler\n",
+            "runtime/scheduler.py": "from umbra.runtime.recording import tap\n",
+            "runtime/recording/tap.py": "def f():\n    import umbra.runtime.scheduler\n",
         },
     )
-    assert new_cycles(root, RULES) == [{"runtime.scheduler", "runtime.recording.tap"}]
+    assert new_cycles(root, RULES) == [{"umbra.runtime.scheduler", "umbra.runtime.recording.tap"}]
 
 
 def test_a_bad_import_in_a_copy_of_the_project_fails_the_check(tmp_path: Path) -> None:
@@ -157,12 +161,16 @@ def test_a_bad_import_in_a_copy_of_the_project_fails_the_check(tmp_path: Path) -
     assert violations(copy) == [] and new_cycles(copy) == []
     transforms = copy / "modules" / "geometry" / "transforms.py"
     text = transforms.read_text()
-    transforms.write_text(text + "\n\ndef _bad():\n    from runtime.scheduler import Scheduler\n")
+    transforms.write_text(
+        text + "\n\ndef _bad():\n    from umbra.runtime.scheduler import Scheduler\n"
+    )
     line = len(transforms.read_text().splitlines())
     assert violations(copy) == [
-        f"modules/geometry/transforms.py:{line}: imports runtime.scheduler: "
+        f"modules/geometry/transforms.py:{line}: imports umbra.runtime.scheduler: "
         "`modules` may import only connectors, modules"
     ]
     tap = copy / "runtime" / "recording" / "tap.py"
-    tap.write_text(tap.read_text() + "\n\ndef _back():\n    import runtime.scheduler\n")
-    assert any({"runtime.scheduler", "runtime.recording.tap"} <= c for c in new_cycles(copy))
+    tap.write_text(tap.read_text() + "\n\ndef _back():\n    import umbra.runtime.scheduler\n")
+    assert any(
+        {"umbra.runtime.scheduler", "umbra.runtime.recording.tap"} <= c for c in new_cycles(copy)
+    )

@@ -8,5 +8,5 @@ shares (the operator's page servers in ``modules/webdoor``, the live server in `
 - ``rate.py``: a socket's budget of incoming messages (rate, burst, malformed messages).
 
 Pure rules, below both the runtime and the modules; every size and time limit is declared once,
-in :mod:`connectors.limits`.
+in :mod:`umbra.connectors.limits`.
 """

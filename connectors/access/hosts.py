@@ -12,7 +12,7 @@ from __future__ import annotations
 import socket
 from urllib.parse import urlsplit
 
-from connectors.access.secret import is_loopback
+from umbra.connectors.access.secret import is_loopback
 
 WILDCARDS = ("0.0.0.0", "::", "")
 

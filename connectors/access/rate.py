@@ -1,16 +1,16 @@
 """A page socket's message budget: a token bucket and a count of bad messages (pure).
 
 A page sends a few dozen small messages a second (jog keep-alives every 40 ms, a painted report
-per frame); a socket beyond :data:`~connectors.limits.MAX_PAGE_MESSAGES_PER_S` sustained or
-:data:`~connectors.limits.MAX_PAGE_MESSAGE_BURST` at once, or with more than
-:data:`~connectors.limits.MAX_PAGE_BAD_MESSAGES` malformed ones, is not a page: it is closed.
+per frame); a socket beyond :data:`~umbra.connectors.limits.MAX_PAGE_MESSAGES_PER_S` sustained or
+:data:`~umbra.connectors.limits.MAX_PAGE_MESSAGE_BURST` at once, or with more than
+:data:`~umbra.connectors.limits.MAX_PAGE_BAD_MESSAGES` malformed ones, is not a page: it is closed.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from connectors.limits import (
+from umbra.connectors.limits import (
     MAX_PAGE_BAD_MESSAGES,
     MAX_PAGE_MESSAGE_BURST,
     MAX_PAGE_MESSAGES_PER_S,

@@ -14,7 +14,7 @@ import ipaddress
 import secrets
 from pathlib import Path
 
-from connectors.errors import UserError
+from umbra.connectors.errors import UserError
 
 TOKEN_COOKIE = "umbra_token"
 TOKEN_QUERY = "token"

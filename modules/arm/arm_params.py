@@ -11,9 +11,9 @@ from typing import Literal
 
 from pydantic import PrivateAttr, field_validator, model_validator
 
-from connectors import Parameters, param
-from modules.arm.dh import DHError, DHTable, puma560
-from modules.arm.dh_yaml import load_dh_table
+from umbra.connectors import Parameters, param
+from umbra.modules.arm.dh import DHError, DHTable, puma560
+from umbra.modules.arm.dh_yaml import load_dh_table
 
 BUILT_IN_ARMS = {"puma560": puma560}
 

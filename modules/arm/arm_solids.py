@@ -1,9 +1,9 @@
 """The arm as a few boxes, for the simulated cameras to draw where the arm really is.
 
 :func:`arm_frames` (the plant's side: the TRUE joints) gives the frames a renderer needs, as one
-:class:`~connectors.messages.Poses`: every DH link frame (``link1`` ... ``flange``), the ``tool``
-frame, and one frame per gripper finger (``finger_a``, ``finger_b``: the finger's centre, moved
-along the tool's y axis by the gripper opening). :func:`arm_boxes` (the renderer's side) turns
+:class:`~umbra.connectors.messages.Poses`: every DH link frame (``link1`` ... ``flange``), the
+``tool`` frame, and one frame per gripper finger (``finger_a``, ``finger_b``: the finger's centre,
+moved along the tool's y axis by the gripper opening). :func:`arm_boxes` (the renderer's side) turns
 those frames into boxes ``(T_frame_box, size)``: a bone between consecutive link origins (links
 of a spherical wrist share one: no bone), the wrist body on the flange along the tool's approach
 axis, and the two fingers. One home for the sizes, so what is published and what is drawn agree.
@@ -19,7 +19,7 @@ import itertools
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.dh import DHTable
+from umbra.modules.arm.dh import DHTable
 
 FloatArray = NDArray[np.float64]
 

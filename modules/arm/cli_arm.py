@@ -7,12 +7,12 @@ import json
 
 import numpy as np
 
-from connectors.errors import UserError
-from modules.arm.arm_params import BUILT_IN_ARMS, load_arm
-from modules.arm.dh import DHError, DHTable
-from modules.arm.dls import DLSSettings
-from modules.arm.jacobian import jacobian_and_pose, manipulability
-from modules.geometry.transforms import xyz_rpy_deg_from_transform
+from umbra.connectors.errors import UserError
+from umbra.modules.arm.arm_params import BUILT_IN_ARMS, load_arm
+from umbra.modules.arm.dh import DHError, DHTable
+from umbra.modules.arm.dls import DLSSettings
+from umbra.modules.arm.jacobian import jacobian_and_pose, manipulability
+from umbra.modules.geometry.transforms import xyz_rpy_deg_from_transform
 
 NAME = "arm"
 HELP = "print an arm's flange pose and geometric Jacobian at joint values"

@@ -24,10 +24,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from connectors import safe_yaml, user_files
-from connectors.errors import UserError
-from connectors.yaml_lines import node_lines as _node_lines
-from modules.arm.dh import DHError, DHJoint, DHTable
+from umbra.connectors import safe_yaml, user_files
+from umbra.connectors.errors import UserError
+from umbra.connectors.yaml_lines import node_lines as _node_lines
+from umbra.modules.arm.dh import DHError, DHJoint, DHTable
 
 _JOINT_KEYS = {
     "name",

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.dh import DHTable
-from modules.geometry.transforms import cross3
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.geometry.transforms import cross3
 
 FloatArray = NDArray[np.float64]
 

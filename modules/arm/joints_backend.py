@@ -24,14 +24,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.dh import DHTable
-from modules.arm.sim_joints import SimJoints, SimJointSettings
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.sim_joints import SimJoints, SimJointSettings
 
 FloatArray = NDArray[np.float64]
 
 BACKENDS: dict[str, str] = {
-    "sim": "modules.arm.joints_backend:SimJointsBackend",
-    "canopen": "modules.arm.cia402.backend:Cia402Backend",
+    "sim": "umbra.modules.arm.joints_backend:SimJointsBackend",
+    "canopen": "umbra.modules.arm.cia402.backend:Cia402Backend",
 }
 
 
@@ -110,7 +110,7 @@ def backend_class(name: str) -> type[JointsBackend]:
 
 
 class SimJointsBackend(JointsBackend):
-    """Simulated joints (:class:`modules.arm.sim_joints.SimJoints`) on the run's clock.
+    """Simulated joints (:class:`umbra.modules.arm.sim_joints.SimJoints`) on the run's clock.
 
     The held command is integrated from the previous ``read`` to ``now`` in sub-steps of at
     most ``max_substep`` seconds, so results do not depend much on the module's rate. The first

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, from_param, param
-from connectors.limits import (
+from umbra.connectors import Input, Module, Output, Parameters, from_param, param
+from umbra.connectors.limits import (
     MAX_COMMAND_AGE_S,
     MAX_ORIGIN_AGE_S,
     MAX_TOOL_ANGULAR_RAD_S,
     MAX_TOOL_SPEED_M_S,
 )
-from connectors.messages import Status, Text, Twist
-from modules.arm.velocity_register import RegisterOutput, RegisterSettings, VelocityRegister
+from umbra.connectors.messages import Status, Text, Twist
+from umbra.modules.arm.velocity_register import RegisterOutput, RegisterSettings, VelocityRegister
 
 
 class RegVel(Module):

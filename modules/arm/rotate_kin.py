@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import model_validator
 
-from connectors import (
+from umbra.connectors import (
     Input,
     Module,
     Output,
@@ -15,8 +15,8 @@ from connectors import (
     from_param,
     param,
 )
-from connectors.messages import Twist
-from modules.geometry.transforms import (
+from umbra.connectors.messages import Twist
+from umbra.modules.geometry.transforms import (
     is_rigid,
     transform_from_xyz_rpy_deg,
     twist_tool_from_camera,

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.dh import DHTable
+from umbra.modules.arm.dh import DHTable
 
 FloatArray = NDArray[np.float64]
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.transforms import clamp_twist
+from umbra.modules.geometry.transforms import clamp_twist
 
 FloatArray = NDArray[np.float64]
 

@@ -8,13 +8,13 @@ import numpy as np
 from msgspec.structs import replace
 from pydantic import model_validator
 
-from connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
-from connectors.limits import MAX_COMMAND_AGE_S, MAX_JOINT_ACCEL_RAD_S2
-from connectors.messages import JointRates, JointState, Status, Text
-from modules.arm.arm_params import ArmParams
-from modules.arm.dh import DHTable
-from modules.arm.joints_backend import BackendError, JointsBackend, backend_class
-from modules.arm.sim_joints import GRIPPER_COMMANDS
+from umbra.connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
+from umbra.connectors.limits import MAX_COMMAND_AGE_S, MAX_JOINT_ACCEL_RAD_S2
+from umbra.connectors.messages import JointRates, JointState, Status, Text
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.joints_backend import BackendError, JointsBackend, backend_class
+from umbra.modules.arm.sim_joints import GRIPPER_COMMANDS
 
 
 class WolverineJnts(Module):
@@ -200,8 +200,8 @@ class WolverineJnts(Module):
 def _check_canopen_config(path: str, table: DHTable) -> None:
     """ParamProblem unless ``path`` is a CANopen settings file that drives ``table``'s joints
     (what the canopen backend would refuse when the run starts)."""
-    from modules.arm.cia402.backend import order_like_table
-    from modules.arm.cia402.config_yaml import load_canopen_settings
+    from umbra.modules.arm.cia402.backend import order_like_table
+    from umbra.modules.arm.cia402.config_yaml import load_canopen_settings
 
     if not path:
         raise ParamProblem(

@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Output, from_param, param
-from connectors.limits import MAX_COMMAND_AGE_S
-from connectors.messages import JointRates, JointState, Pose, Poses, Status, Twist
-from connectors.module import Module
-from modules.arm.arm_params import ArmParams
-from modules.arm.dls import DLSSettings, solve_dls
-from modules.arm.jacobian import (
+from umbra.connectors import Input, Output, from_param, param
+from umbra.connectors.limits import MAX_COMMAND_AGE_S
+from umbra.connectors.messages import JointRates, JointState, Pose, Poses, Status, Twist
+from umbra.connectors.module import Module
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.arm.dls import DLSSettings, solve_dls
+from umbra.modules.arm.jacobian import (
     jacobian_and_pose_at_frames,
     manipulability,
     tool_twist_in_base,
 )
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 
 class WolverineKin(Module):

@@ -11,12 +11,12 @@ import math
 from pathlib import Path
 from typing import Any
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.limits import MAX_IMAGE_SIDE_PX
-from connectors.messages import CameraModel, ZoomState
-from modules.calib.camera_message import camera_message
-from modules.calib.zoom_io import load_zoom_table
-from modules.calib.zoom_table import ZoomTable
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.limits import MAX_IMAGE_SIDE_PX
+from umbra.connectors.messages import CameraModel, ZoomState
+from umbra.modules.calib.camera_message import camera_message
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.modules.calib.zoom_table import ZoomTable
 
 #: The report's own calibration file, shipped with the project.
 REPORT_FILE = Path(__file__).resolve().parent / "data" / "zoom_cam.xml"
@@ -27,7 +27,7 @@ class CamCalib(Module):
 
     Reads the zoom calibration file at start (Appendix D XML, or its YAML form); on each new zoom
     sample whose zoom differs from the last one used by more than ``zoom_tolerance`` it
-    interpolates the table linearly (the report's rule, :mod:`modules.calib.zoom_interp`) and
+    interpolates the table linearly (the report's rule, :mod:`umbra.modules.calib.zoom_interp`) and
     publishes a ``CameraModel``. Zooms outside the tabulated range are clamped to it (and
     counted); samples without a known zoom (NaN) are ignored.
     """

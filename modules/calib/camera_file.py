@@ -24,13 +24,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from connectors.errors import UserError
-from modules.calib import yaml_nodes as yn
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import invert_transform
-from modules.calib.yaml_nodes import SpotError
-from modules.calib.zoom_io import load_zoom_table
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.connectors.errors import UserError
+from umbra.modules.calib import yaml_nodes as yn
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.rotations import invert_transform
+from umbra.modules.calib.yaml_nodes import SpotError
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 INTRINSIC_REQUIRED = ("fx", "fy", "u0", "v0")
 INTRINSIC_OPTIONAL = ("skew", "k1", "k2", "p1", "p2", "k3")

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from connectors.messages import CameraModel
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import invert_transform
+from umbra.connectors.messages import CameraModel
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.rotations import invert_transform
 
 
 def camera_message(

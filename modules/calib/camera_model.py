@@ -3,7 +3,7 @@
 A world point ``X`` (metres, in the camera's reference frame: the workcell, the PTU mount, ...)
 goes to camera coordinates ``X_cam = R X + d`` (camera frame: x right, y down, z along the optic
 axis), to normalized coordinates ``(x, y) = (X_cam[0] / X_cam[2], X_cam[1] / X_cam[2])``, through
-the distortion model of :mod:`modules.calib.distortion` to ``(x_d, y_d)``, and to the pixel
+the distortion model of :mod:`umbra.modules.calib.distortion` to ``(x_d, y_d)``, and to the pixel
 ``u = fx x_d + skew y_d + u0``, ``v = fy y_d + v0``. Without distortion this is the camera matrix
 ``P = K [R | d]`` of Appendix A/B of the Sandia report with
 ``K = [[fx, skew, u0], [0, fy, v0], [0, 0, 1]]`` (the report's ``fxy`` is ``skew``).
@@ -16,8 +16,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.distortion import distort_normalized, undistort_normalized
-from modules.calib.rotations import rotation_from_vector, transform, vector_from_rotation
+from umbra.modules.calib.distortion import distort_normalized, undistort_normalized
+from umbra.modules.calib.rotations import rotation_from_vector, transform, vector_from_rotation
 
 FloatArray = NDArray[np.float64]
 

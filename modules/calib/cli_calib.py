@@ -17,24 +17,24 @@ from pathlib import Path
 
 import numpy as np
 
-from connectors.cli_support import print_json
-from connectors.errors import UserError
-from modules.calib.camera_file import load_cameras
-from modules.calib.camera_model import PinholeCamera
-from modules.calib.correspondences import load_correspondences
-from modules.calib.errors import CalibrationError
-from modules.calib.model_choice import calibrate_choosing_distortion
-from modules.calib.npnp import View, solve_npnp
-from modules.calib.refine import calibrate
-from modules.calib.rotations import xyz_from_rotation
-from modules.calib.targeting import triangulate_measured
-from modules.calib.zoom_io import (
+from umbra.connectors.cli_support import print_json
+from umbra.connectors.errors import UserError
+from umbra.modules.calib.camera_file import load_cameras
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.calib.correspondences import load_correspondences
+from umbra.modules.calib.errors import CalibrationError
+from umbra.modules.calib.model_choice import calibrate_choosing_distortion
+from umbra.modules.calib.npnp import View, solve_npnp
+from umbra.modules.calib.refine import calibrate
+from umbra.modules.calib.rotations import xyz_from_rotation
+from umbra.modules.calib.targeting import triangulate_measured
+from umbra.modules.calib.zoom_io import (
     check_writable,
     load_zoom_file,
     load_zoom_table,
     save_zoom_file,
 )
-from modules.calib.zoom_table import (
+from umbra.modules.calib.zoom_table import (
     EXTRINSIC_KEYS,
     INTRINSIC_KEYS,
     ZoomFile,
@@ -42,8 +42,8 @@ from modules.calib.zoom_table import (
     ZoomTable,
     table_from_samples,
 )
-from modules.geometry.rays import RayGeometryError
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.geometry.rays import RayGeometryError
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 NAME = "calib"
 HELP = "camera calibration: fit a camera, interpolate a zoom file, solve a pose, triangulate"

@@ -1,6 +1,6 @@
 """``umbra pose-tool SESSION.yaml``: solve a camera mount from clicked calibration points.
 
-The session file (see :mod:`modules.calib.pose_tool_file`; the 3-D view's pose tool writes the
+The session file (see :mod:`umbra.modules.calib.pose_tool_file`; the 3-D view's pose tool writes the
 same file) names the unknown mount ``parent->child``, the camera intrinsics, the calibration
 points (world, metres) and, per snapshot, the known chain on both sides of the mount and the
 clicked pixels. Prints the solved mount, the reprojection residual of every click (before, at
@@ -16,13 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from connectors.cli_support import print_json
-from connectors.errors import UserError
-from modules.calib import yaml_nodes as yn
-from modules.calib.errors import CalibrationError
-from modules.calib.pose_tool import pose_error, solve_mount
-from modules.calib.pose_tool_file import frames_text, load_session, update_graph_frame
-from modules.geometry.transforms import xyz_rpy_deg_from_transform
+from umbra.connectors.cli_support import print_json
+from umbra.connectors.errors import UserError
+from umbra.modules.calib import yaml_nodes as yn
+from umbra.modules.calib.errors import CalibrationError
+from umbra.modules.calib.pose_tool import pose_error, solve_mount
+from umbra.modules.calib.pose_tool_file import frames_text, load_session, update_graph_frame
+from umbra.modules.geometry.transforms import xyz_rpy_deg_from_transform
 
 NAME = "pose-tool"
 HELP = "camera-pose tool: solve a camera mount from clicked points over snapshots (nPnP)"

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.errors import UserError
-from modules.calib import yaml_nodes as yn
+from umbra.connectors.errors import UserError
+from umbra.modules.calib import yaml_nodes as yn
 
 NUMERIC = ("x", "y", "z", "u", "v")
 #: Most correspondences a file may hold (a calibration uses tens to thousands).

@@ -11,7 +11,7 @@ Conventions (they make the decomposition unique):
 * ``R`` and ``d`` take world points into the camera frame (``X_cam = R X + d``; x right, y down,
   z forward), so the camera centre is ``-R^T d`` and a point in front of the camera has
   ``r3 . X + dz > 0``. Points behind a decomposed camera mean the data came from a mirrored
-  (left-handed) fit; :func:`modules.calib.dlt.dlt_camera_matrix` rejects those.
+  (left-handed) fit; :func:`umbra.modules.calib.dlt.dlt_camera_matrix` rejects those.
 
 The computation is the report's Gram-Schmidt on the rows of ``M`` (equivalent to an RQ
 factorization): ``v0 = m2.r3``, ``fy = |m2 - v0 r3|``, ``r2 = (m2 - v0 r3)/fy``, ``u0 = m1.r3``,
@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.camera_model import Intrinsics
-from modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.camera_model import Intrinsics
+from umbra.modules.calib.errors import DegenerateGeometryError
 
 FloatArray = NDArray[np.float64]
 

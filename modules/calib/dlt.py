@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.decompose import normalize_camera_matrix
-from modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.decompose import normalize_camera_matrix
+from umbra.modules.calib.errors import DegenerateGeometryError
 
 FloatArray = NDArray[np.float64]
 
@@ -90,7 +90,7 @@ def dlt_camera_matrix(points: ArrayLike, pixels: ArrayLike) -> FloatArray:
     """Camera matrix from ``n >= 6`` non-coplanar points (metres) and their ideal pixels.
 
     Returns:
-        ``P`` (3x4) scaled as :func:`modules.calib.decompose.normalize_camera_matrix` does
+        ``P`` (3x4) scaled as :func:`umbra.modules.calib.decompose.normalize_camera_matrix` does
         (``|m3| = 1``, ``det M > 0``), so ``P @ (X, 1)`` has the point's depth as third entry.
 
     Raises:

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.refine import CalibrationResult, calibrate
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.refine import CalibrationResult, calibrate
 
 #: candidate models: name -> number of distortion terms (OpenCV's order k1 k2 p1 p2)
 CANDIDATES = {"none": 0, "k1k2": 2, "k1k2p1p2": 4}

@@ -38,10 +38,10 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.camera_model import PinholeCamera
-from modules.calib.errors import DegenerateGeometryError, NotConvergedError
-from modules.calib.npnp_warnings import GIVEN, pose_warnings
-from modules.calib.rotations import nearest_rotation, rotation_from_vector, skew, transform
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.calib.errors import DegenerateGeometryError, NotConvergedError
+from umbra.modules.calib.npnp_warnings import GIVEN, pose_warnings
+from umbra.modules.calib.rotations import nearest_rotation, rotation_from_vector, skew, transform
 
 FloatArray = NDArray[np.float64]
 

@@ -1,6 +1,6 @@
 """What an nPnP solution must say: a bad given start, a rival minimum, residuals above noise.
 
-``found`` holds the converged starts of :func:`modules.calib.npnp.solve_npnp`, best first, as
+``found`` holds the converged starts of :func:`umbra.modules.calib.npnp.solve_npnp`, best first, as
 ``(start name, R, d, residuals (px, flat), iterations)``; ``failed`` the starts that did not
 converge, with the reason.
 """
@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2
 
-from modules.calib.rotations import vector_from_rotation
+from umbra.modules.calib.rotations import vector_from_rotation
 
 FloatArray = NDArray[np.float64]
 

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import CameraModel, Pose, Vector
-from modules.calib.camera_message import pinhole_from_message
+from umbra.connectors import Input, Module, Output, Parameters, UserError, param
+from umbra.connectors.messages import CameraModel, Pose, Vector
+from umbra.modules.calib.camera_message import pinhole_from_message
 
 
 class SimMarks(Module):

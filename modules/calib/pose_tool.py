@@ -15,7 +15,7 @@ centimetres off); everything else is known for every snapshot::
 
 The operator clicks calibration points in the images (pixels) and picks the same points in the
 3-D model (world coordinates, metres). With three or more pairs over one or several snapshots
-the mount is solved by :func:`modules.calib.npnp.solve_npnp`: its input frame is the parent
+the mount is solved by :func:`umbra.modules.calib.npnp.solve_npnp`: its input frame is the parent
 (``x = T_parent_world(i) X``), its unknown ``(R, d)`` is ``T_child_parent``, and each view's
 camera extrinsics are ``T_camera_child(i)``.
 """
@@ -28,11 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.camera_model import PinholeCamera
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.npnp import View, solve_npnp
-from modules.calib.rotations import invert_transform, vector_from_rotation
-from modules.geometry.transforms import transform_points
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.npnp import View, solve_npnp
+from umbra.modules.calib.rotations import invert_transform, vector_from_rotation
+from umbra.modules.geometry.transforms import transform_points
 
 FloatArray = NDArray[np.float64]
 

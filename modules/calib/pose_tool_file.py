@@ -31,13 +31,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from connectors.errors import UserError
-from connectors.frames import frame_name_problem
-from modules.calib import yaml_nodes as yn
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.pose_tool import MountSnapshot
-from modules.calib.yaml_nodes import SpotError
-from modules.geometry.transforms import transform_from_xyz_rpy_deg, xyz_rpy_deg_from_transform
+from umbra.connectors.errors import UserError
+from umbra.connectors.frames import frame_name_problem
+from umbra.modules.calib import yaml_nodes as yn
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.pose_tool import MountSnapshot
+from umbra.modules.calib.yaml_nodes import SpotError
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg, xyz_rpy_deg_from_transform
 
 CAMERA_REQUIRED = ("fx", "fy", "u0", "v0")
 CAMERA_OPTIONAL = ("skew", "k1", "k2", "p1", "p2", "k3")

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.pose_tool import MountSnapshot
-from modules.calib.synthetic import random_pose
-from modules.geometry.mount_offset import offset_mount
-from modules.geometry.transforms import (
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.pose_tool import MountSnapshot
+from umbra.modules.calib.synthetic import random_pose
+from umbra.modules.geometry.mount_offset import offset_mount
+from umbra.modules.geometry.transforms import (
     compose,
     rot_y,
     rot_z,

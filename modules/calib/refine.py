@@ -14,11 +14,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from modules.calib.camera_model import DISTORTION_NAMES, Intrinsics, PinholeCamera
-from modules.calib.decompose import decompose_camera_matrix
-from modules.calib.dlt import check_correspondences, dlt_camera_matrix, rms
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.rotations import rotation_from_vector
+from umbra.modules.calib.camera_model import DISTORTION_NAMES, Intrinsics, PinholeCamera
+from umbra.modules.calib.decompose import decompose_camera_matrix
+from umbra.modules.calib.dlt import check_correspondences, dlt_camera_matrix, rms
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.rotations import rotation_from_vector
 
 FloatArray = NDArray[np.float64]
 

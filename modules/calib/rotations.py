@@ -10,8 +10,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 # The project's transform helpers; re-exported here for the calibration code.
-from modules.geometry.transforms import invert_transform, skew
-from modules.geometry.transforms import transform_from_rotation_translation as transform
+from umbra.modules.geometry.transforms import invert_transform, skew
+from umbra.modules.geometry.transforms import transform_from_rotation_translation as transform
 
 __all__ = [
     "invert_transform",

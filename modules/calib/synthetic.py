@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import rotation_from_vector
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.rotations import rotation_from_vector
 
 FloatArray = NDArray[np.float64]
 

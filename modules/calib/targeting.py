@@ -13,11 +13,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import CameraModel, Pose, Scalar, Status, Vector
-from modules.calib.camera_message import pinhole_from_message
-from modules.calib.camera_model import PinholeCamera
-from modules.geometry.rays import RayGeometryError, Triangulation, triangulate_pixels
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import CameraModel, Pose, Scalar, Status, Vector
+from umbra.modules.calib.camera_message import pinhole_from_message
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.geometry.rays import RayGeometryError, Triangulation, triangulate_pixels
 
 
 def triangulate_measured(

@@ -28,10 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.camera_model import PinholeCamera
-from modules.calib.npnp import PoseResult, View, solve_npnp
-from modules.calib.rotations import invert_transform
-from modules.geometry.transforms import transform_points
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.calib.npnp import PoseResult, View, solve_npnp
+from umbra.modules.calib.rotations import invert_transform
+from umbra.modules.geometry.transforms import transform_points
 
 FloatArray = NDArray[np.float64]
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import yaml
 
-from connectors import safe_yaml, user_files
+from umbra.connectors import safe_yaml, user_files
 
 
 class SpotError(Exception):
@@ -29,13 +29,13 @@ class SpotError(Exception):
 
 def compose(text: str, source: str) -> yaml.Node | None:
     """The node tree of YAML ``text`` (bounded depth and aliases, no duplicate keys); every
-    problem becomes ``UserError`` with the line (``connectors.safe_yaml``)."""
+    problem becomes ``UserError`` with the line (``umbra.connectors.safe_yaml``)."""
     return safe_yaml.compose(text, source)
 
 
 def read_text(path: str | Path, what: str) -> str:
     """A user's text file (a regular file of bounded size, UTF-8), or ``UserError`` saying why it
-    cannot be read (``connectors.user_files``)."""
+    cannot be read (``umbra.connectors.user_files``)."""
     return user_files.read_text(path, what)
 
 

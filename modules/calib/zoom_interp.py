@@ -4,7 +4,7 @@ Every parameter (intrinsics, distortion, extrinsics) is linear between the two n
 tabulated zooms, as the Sandia report does (section 5.6); ``zoom`` must lie in
 ``[zooms[0], zooms[-1]]`` (no extrapolation). CamCalib, ``umbra calib zoom``, the cameras file of
 ``umbra calib pose`` and the Active Sketch rig all interpolate through :func:`interpolate`
-(via :meth:`modules.calib.zoom_table.ZoomTable.sample`).
+(via :meth:`umbra.modules.calib.zoom_table.ZoomTable.sample`).
 
 Other laws for the focal length (geometric in the zoom, a monotone cubic through ``log f``) predict
 the report's own interior zooms better when each is left out (``benchmarks/bench_calib.py``:

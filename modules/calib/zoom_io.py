@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from connectors.errors import UserError
-from modules.calib.zoom_table import ZoomFile, ZoomTable
-from modules.calib.zoom_xml import read_zoom_xml, write_zoom_xml
-from modules.calib.zoom_yaml import read_zoom_yaml, write_zoom_yaml
+from umbra.connectors.errors import UserError
+from umbra.modules.calib.zoom_table import ZoomFile, ZoomTable
+from umbra.modules.calib.zoom_xml import read_zoom_xml, write_zoom_xml
+from umbra.modules.calib.zoom_yaml import read_zoom_yaml, write_zoom_yaml
 
 XML_SUFFIXES = (".xml",)
 YAML_SUFFIXES = (".yaml", ".yml")

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import rotation_from_xyz
-from modules.calib.zoom_interp import check_zooms, interpolate
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.rotations import rotation_from_xyz
+from umbra.modules.calib.zoom_interp import check_zooms, interpolate
 
 FloatArray = NDArray[np.float64]
 

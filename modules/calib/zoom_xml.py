@@ -14,9 +14,9 @@ The format puts values in the text *before* child elements and lists in braces::
     </SR_cam>
     </SR_world>
 
-Units: see :mod:`modules.calib.zoom_table` (pixels; metres and radians for the extrinsics).
+Units: see :mod:`umbra.modules.calib.zoom_table` (pixels; metres and radians for the extrinsics).
 Zooms must lie in 0..1 and increase down the file. Every problem is reported as a
-:class:`connectors.errors.UserError` reading ``FILE:LINE: error: message``; the parser is
+:class:`umbra.connectors.errors.UserError` reading ``FILE:LINE: error: message``; the parser is
 expat (standard library), which gives the line of every element and text run. DOCTYPE
 declarations (and so entity definitions) are refused.
 """
@@ -31,9 +31,9 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
-from connectors.errors import UserError
-from connectors.user_files import read_bytes
-from modules.calib.zoom_table import ZoomFile, ZoomTable
+from umbra.connectors.errors import UserError
+from umbra.connectors.user_files import read_bytes
+from umbra.modules.calib.zoom_table import ZoomFile, ZoomTable
 
 INTRINSIC_LABEL = "{fx fy fxy u0 v0 k1 k2 p1 p2}"
 EXTRINSIC_LABEL = "{dx dy dz thetax thetay thetaz}"

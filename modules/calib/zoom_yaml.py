@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from connectors.errors import UserError
-from modules.calib import yaml_nodes as yn
-from modules.calib.yaml_nodes import SpotError
-from modules.calib.zoom_table import EXTRINSIC_KEYS, INTRINSIC_KEYS, ZoomFile, ZoomTable
+from umbra.connectors.errors import UserError
+from umbra.modules.calib import yaml_nodes as yn
+from umbra.modules.calib.yaml_nodes import SpotError
+from umbra.modules.calib.zoom_table import EXTRINSIC_KEYS, INTRINSIC_KEYS, ZoomFile, ZoomTable
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Module, Output, Parameters, from_param, param
-from connectors.messages import Scalar, Twist
+from umbra.connectors import Module, Output, Parameters, from_param, param
+from umbra.connectors.messages import Scalar, Twist
 
 
 class Constant(Module):

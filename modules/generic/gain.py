@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Scalar
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import Scalar
 
 
 class Gain(Module):

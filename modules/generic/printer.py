@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Parameters, param
-from connectors.messages import Message
+from umbra.connectors import Input, Module, Parameters, param
+from umbra.connectors.messages import Message
 
 
 def format_sample(sample: Message, precision: int = 4) -> str:

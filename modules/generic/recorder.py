@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pydantic import field_validator
 
-from connectors import Input, Module, Parameters, param
-from connectors.messages import Message
-from modules.generic.recording import RecordingWriter
-from runtime.recording.settings import IMAGE_CHOICES, inside_run_folder
+from umbra.connectors import Input, Module, Parameters, param
+from umbra.connectors.messages import Message
+from umbra.modules.generic.recording import RecordingWriter
+from umbra.runtime.recording.settings import IMAGE_CHOICES, inside_run_folder
 
 
 class Recorder(Module):
@@ -15,10 +15,10 @@ class Recorder(Module):
 
     The inputs are named by the ``channels`` parameter (``channels: [twist, status]`` gives inputs
     ``twist`` and ``status``, each accepting any message type). Samples are encoded for viewers
-    (``runtime.recording``) and written from the recorder's own thread: on the real clock a full
-    queue drops (and counts) samples rather than holding the tick. The file is finished when the
-    run stops for any reason, so a stopped run keeps its recording. To record every connection of
-    a run, use ``umbra run --record`` instead.
+    (``umbra.runtime.recording``) and written from the recorder's own thread: on the real clock a
+    full queue drops (and counts) samples rather than holding the tick. The file is finished when
+    the run stops for any reason, so a stopped run keeps its recording. To record every connection
+    of a run, use ``umbra run --record`` instead.
     """
 
     class Params(Parameters):

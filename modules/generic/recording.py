@@ -1,8 +1,8 @@
 """Recordings made by the ``Recorder`` module: samples written to an MCAP file, and read back.
 
 Each recorded input is a topic named as the recorder's channel; samples are encoded as every
-recording of the project is (``runtime.recording``: Foxglove's well-known schemas for images and
-poses, JSON with a JSON schema for the rest), with log time = the tick time at which the sample
+recording of the project is (``umbra.runtime.recording``: Foxglove's well-known schemas for images
+and poses, JSON with a JSON schema for the rest), with log time = the tick time at which the sample
 arrived [ns] and publish time its stamp. ``read_recording`` gives the samples back as messages.
 """
 
@@ -11,9 +11,9 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
-from connectors.messages import Message
-from runtime.recording.samples import iter_samples
-from runtime.recording.writer import RecordingFile
+from umbra.connectors.messages import Message
+from umbra.runtime.recording.samples import iter_samples
+from umbra.runtime.recording.writer import RecordingFile
 
 
 class RecordingWriter:

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from collections import defaultdict
 
-from connectors import Input, Module, Parameters, param
-from connectors.messages import Status
-from connectors.params import RunFile
+from umbra.connectors import Input, Module, Parameters, param
+from umbra.connectors.messages import Status
+from umbra.connectors.params import RunFile
 
 
 class StatusPlot(Module):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from connectors import Module, Output, Parameters, param
-from connectors.messages import Scalar
+from umbra.connectors import Module, Output, Parameters, param
+from umbra.connectors.messages import Scalar
 
 #: Periodic waveforms as functions of the angle 2π f t + phase [rad]; values in [-1, 1].
 PERIODIC = {

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 FloatArray = NDArray[np.float64]
 

@@ -1,6 +1,6 @@
 """Rays through pixels, triangulation of two or more rays, and epipolar lines.
 
-Conventions (shared with :mod:`modules.calib`):
+Conventions (shared with :mod:`umbra.modules.calib`):
 
 * A camera is given by its 3x4 camera matrix ``P = K [R | d]`` mapping a homogeneous world point
   ``(x, y, z, 1)`` in metres (world frame) to a homogeneous pixel ``(U, V, t)``, pixel
@@ -8,7 +8,7 @@ Conventions (shared with :mod:`modules.calib`):
   (``X_cam = R X_world + d``); the camera looks along its +z axis, x right, y down. Any nonzero
   scale of ``P`` (including a negative one) describes the same camera.
 * Pixels must be ideal pin-hole pixels: undistort them first
-  (:func:`modules.calib.distortion.undistort_points`).
+  (:func:`umbra.modules.calib.distortion.undistort_points`).
 * A ray is an origin (metres, world frame) and a unit direction pointing away from the camera into
   the scene.
 
@@ -35,7 +35,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.transforms import skew
+from umbra.modules.geometry.transforms import skew
 
 FloatArray = NDArray[np.float64]
 

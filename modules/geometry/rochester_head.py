@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.aim_solver import AimSolveError, aim_pixel
-from modules.geometry.transforms import compose, rot_x, rot_y, translation
+from umbra.modules.geometry.aim_solver import AimSolveError, aim_pixel
+from umbra.modules.geometry.transforms import compose, rot_x, rot_y, translation
 
 FloatArray = NDArray[np.float64]
 
@@ -143,7 +143,8 @@ def aim_camera_model_at_point(
     The section-10 solution puts the point on CamPos's Z axis; a calibrated camera sits in CamPos
     with its own rotation and offset (``project_campos``: pixels of a point given in CamPos, the
     whole camera model, distortion included). Starting from section 10, Newton's method on the
-    projected pixel error (:func:`modules.geometry.aim_solver.aim_pixel`) corrects both angles.
+    projected pixel error (:func:`umbra.modules.geometry.aim_solver.aim_pixel`) corrects both
+    angles.
 
     Raises:
         AimError: the point is too close to the altitude axis, or cannot be brought to ``pixel``.

@@ -14,7 +14,7 @@ Stereo:
 * :func:`stereo_duda_hart` — section 12: unit rays ``u = (x, y/s, f)/|.|`` from each lens
   centre, baseline ``b = CamPosL^-1 CamPosR (0,0,0,1)``, the right ray rotated into the left
   camera frame, and the midpoint of the closest points of the two rays. The closed form is
-  :func:`modules.geometry.rays.triangulate_midpoint` (the generic implementation); this file
+  :func:`umbra.modules.geometry.rays.triangulate_midpoint` (the generic implementation); this file
   only builds the Rochester rays.
 """
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.rays import Triangulation, triangulate_midpoint
-from modules.geometry.transforms import invert_transform
+from umbra.modules.geometry.rays import Triangulation, triangulate_midpoint
+from umbra.modules.geometry.transforms import invert_transform
 
 FloatArray = NDArray[np.float64]
 

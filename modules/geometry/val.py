@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from modules.geometry.transforms import transform_from_rotation_translation
+from umbra.modules.geometry.transforms import transform_from_rotation_translation
 
 FloatArray = NDArray[np.float64]
 

@@ -10,7 +10,7 @@ import collections
 import math
 from dataclasses import dataclass
 
-from connectors.messages import Contour
+from umbra.connectors.messages import Contour
 
 MIN_BOX_PX = 4.0
 

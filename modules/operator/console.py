@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, UserError, from_param, param
-from connectors.access.secret import resolve_token
-from connectors.messages import (
+from umbra.connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from umbra.connectors.access.secret import resolve_token
+from umbra.connectors.messages import (
     Contour,
     Image,
     JointState,
@@ -24,24 +24,24 @@ from connectors.messages import (
     Twist,
     Vector,
 )
-from modules.arm.arm_params import load_arm
-from modules.operator import view_state
-from modules.operator.actions import FrameHistory, ShownFrame
-from modules.operator.console_events import ConsoleEvents
-from modules.operator.console_view import ConsoleView
-from modules.operator.control import ControlArbiter
-from modules.operator.cpu import process_cpu_s
-from modules.operator.jog import DeadMan, JogLimits, jog_twist
-from modules.operator.jog_labels import jog_labels
-from modules.operator.mailbox import Lanes
-from modules.operator.message_board import MessageBoard
-from modules.operator.plain_words import plain_reason
-from modules.operator.web_figures import cpu_figures, web_figures
-from modules.vision.sanity import SanityLimits
+from umbra.modules.arm.arm_params import load_arm
+from umbra.modules.operator import view_state
+from umbra.modules.operator.actions import FrameHistory, ShownFrame
+from umbra.modules.operator.console_events import ConsoleEvents
+from umbra.modules.operator.console_view import ConsoleView
+from umbra.modules.operator.control import ControlArbiter
+from umbra.modules.operator.cpu import process_cpu_s
+from umbra.modules.operator.jog import DeadMan, JogLimits, jog_twist
+from umbra.modules.operator.jog_labels import jog_labels
+from umbra.modules.operator.mailbox import Lanes
+from umbra.modules.operator.message_board import MessageBoard
+from umbra.modules.operator.plain_words import plain_reason
+from umbra.modules.operator.web_figures import cpu_figures, web_figures
+from umbra.modules.vision.sanity import SanityLimits
 
 if TYPE_CHECKING:  # the web side is imported only when the console serves (not in batch trials)
-    from modules.operator.console_app import ConsoleApp, Event
-    from modules.operator.web_server import WebServer
+    from umbra.modules.operator.console_app import ConsoleApp, Event
+    from umbra.modules.operator.web_server import WebServer
 
 #: the plots' longest window [s] and the spacing of their points [s]
 PLOT_WINDOW_S = 120.0
@@ -61,8 +61,8 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
 
     Many pages may watch; one holds control, and only its commands pass (the others are refused
     and counted). Every page, route and socket needs the per-run access token (``token_file``, or
-    a random one printed in the address at start), loopback too (:mod:`modules.webdoor`). A seed
-    from the simulated operator (``sim_seed``) is passed on only while no person has taken
+    a random one printed in the address at start), loopback too (:mod:`umbra.modules.webdoor`). A
+    seed from the simulated operator (``sim_seed``) is passed on only while no person has taken
     control. The address is logged at start. ``serve: false`` runs
     without a web server (batch trials): only the simulated operator's seed is passed on.
     """
@@ -208,8 +208,8 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._zoom = dict.fromkeys(p.zoom_names, 0.0)  #: commanded zoom per camera
         self._person_zoomed = False
         if p.serve:
-            from modules.operator.console_app import ConsoleApp
-            from modules.operator.web_server import acquire_server
+            from umbra.modules.operator.console_app import ConsoleApp
+            from umbra.modules.operator.web_server import acquire_server
 
             token = resolve_token(p.token_file, self.name)
             self._server = acquire_server(self.context, p.host, p.port, token)
@@ -237,7 +237,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         if self._app is not None:
             self._app.close()
         if self._server is not None:
-            from modules.operator.web_server import release_server
+            from umbra.modules.operator.web_server import release_server
 
             release_server(self._server)
             self._server = None

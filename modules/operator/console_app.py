@@ -1,13 +1,14 @@
 """The console's web side: its page, its websocket, and the frame pump (runs in the web thread).
 
 Nothing here touches the graph: the module hands over frames and a state snapshot through
-:class:`~modules.operator.mailbox.Latest`, and takes back checked messages through
-:class:`~modules.operator.mailbox.Lanes` that its ``step`` drains: a page's arrival and departure
-and the holder's commands never wait behind anything another page sends.
+:class:`~umbra.modules.operator.mailbox.Latest`, and takes back checked messages through
+:class:`~umbra.modules.operator.mailbox.Lanes` that its ``step`` drains: a page's arrival and
+departure and the holder's commands never wait behind anything another page sends.
 
-Each socket has a message budget (:class:`~connectors.access.rate.MessageBudget`): beyond its rate,
-its burst or its malformed messages it is closed (1008, with the reason); a message larger than
-:data:`~connectors.limits.MAX_PAGE_MESSAGE_BYTES` is refused by the websocket protocol itself
+Each socket has a message budget (:class:`~umbra.connectors.access.rate.MessageBudget`): beyond its
+rate, its burst or its malformed messages it is closed (1008, with the reason); a message larger
+than
+:data:`~umbra.connectors.limits.MAX_PAGE_MESSAGE_BYTES` is refused by the websocket protocol itself
 (1009) before it is read whole. Malformed messages are answered on their socket and counted,
 never queued for ``step``.
 
@@ -37,11 +38,11 @@ import numpy as np
 from fastapi import WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, Response
 
-from connectors.access.rate import MessageBudget
-from modules.operator.mailbox import Lanes, Latest
-from modules.operator.protocol import MessageChecker, ProtocolError
-from modules.operator.web_server import WebServer
-from modules.webdoor.viewer import VIEWER_SCOPE
+from umbra.connectors.access.rate import MessageBudget
+from umbra.modules.operator.mailbox import Lanes, Latest
+from umbra.modules.operator.protocol import MessageChecker, ProtocolError
+from umbra.modules.operator.web_server import WebServer
+from umbra.modules.webdoor.viewer import VIEWER_SCOPE
 
 _LOG = logging.getLogger("umbra.operator")
 
@@ -64,7 +65,7 @@ class RawFrame:
 class Event:
     """From the web thread to ``step``: ``kind`` join / leave / msg, the session, a
     payload, the wall time it arrived (monotonic seconds), and the page's browser key
-    (:func:`~modules.operator.access.viewer_key`; "" unknown)."""
+    (:func:`~umbra.modules.operator.access.viewer_key`; "" unknown)."""
 
     kind: str
     session: str
@@ -98,12 +99,12 @@ _MEDIA = {".js": "text/javascript", ".css": "text/css"}
 
 
 def _static(name: str) -> str:
-    return resources.files("modules.operator").joinpath("static", name).read_text("utf-8")
+    return resources.files("umbra.modules.operator").joinpath("static", name).read_text("utf-8")
 
 
 def _station_files() -> dict[str, tuple[str, str]]:
     """``name -> (text, media type)`` of every file the station page loads (read once)."""
-    root = resources.files("modules.operator").joinpath("static")
+    root = resources.files("umbra.modules.operator").joinpath("static")
     files: dict[str, tuple[str, str]] = {"station.css": (_static("station.css"), "text/css")}
     for folder in ("panels", "vendor"):
         for entry in root.joinpath(folder).iterdir():

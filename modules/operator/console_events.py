@@ -1,5 +1,5 @@
 """The console's handling of what its pages send: control, seeds, grab commands, zoom and the
-dead-man jog (a mixin of :class:`~modules.operator.console.OperatorConsole`; every action ends
+dead-man jog (a mixin of :class:`~umbra.modules.operator.console.OperatorConsole`; every action ends
 as one of its typed outputs or as a refusal with the reason, told to the page that sent it)."""
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from connectors.messages import Scalar, Text, Vector
-from modules.operator.actions import Refused, box_seed, check_snake_healthy, point_seed
-from modules.servo.stages import ACTIVE_STAGES
+from umbra.connectors.messages import Scalar, Text, Vector
+from umbra.modules.operator.actions import Refused, box_seed, check_snake_healthy, point_seed
+from umbra.modules.servo.stages import ACTIVE_STAGES
 
 if TYPE_CHECKING:
-    from modules.operator.console_app import Event
+    from umbra.modules.operator.console_app import Event
 
 #: vsServo's stages in which the arm moves by itself (a jog pauses the grab first)
 

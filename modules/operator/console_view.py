@@ -1,5 +1,5 @@
 """What the console's page shows: the state snapshot built from the console's inputs (read by
-:class:`~modules.operator.console.OperatorConsole`'s ``step``, handed to the web side)."""
+:class:`~umbra.modules.operator.console.OperatorConsole`'s ``step``, handed to the web side)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import itertools
 import math
 from typing import Any
 
-from modules.operator import view_state
-from modules.operator.scene_view import scene_view
-from modules.operator.state_line import commands_available, phase_of, state_line
+from umbra.modules.operator import view_state
+from umbra.modules.operator.scene_view import scene_view
+from umbra.modules.operator.state_line import commands_available, phase_of, state_line
 
 #: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
 CLOCK_SYNC_BOUND_S = 0.005
@@ -21,7 +21,7 @@ BANNER_HOLD_S = 0.15
 
 
 class ConsoleView:
-    """The page state of an :class:`~modules.operator.console.OperatorConsole` (a mixin: it
+    """The page state of an :class:`~umbra.modules.operator.console.OperatorConsole` (a mixin: it
     reads the console's inputs, control table, notices and counters)."""
 
     def _links(self) -> tuple[tuple[str, Any], ...]:

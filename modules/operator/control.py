@@ -6,7 +6,7 @@ holder releases it, or disconnects). Commands from a session without control are
 counted. Pure: no threads, no clock.
 
 One operator is one browser: a session may name the browser it comes from (a key derived from
-the server's viewer cookie, :func:`modules.operator.access.viewer_key`), and every session of
+the server's viewer cookie, :func:`umbra.modules.operator.access.viewer_key`), and every session of
 the browser that holds control holds it too, so control taken on the console is control on the
 sketch page of the same browser, and the other way round. A session without a browser key
 ("") is an operator on its own. The holder recorded is the browser's first *leading* session

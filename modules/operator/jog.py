@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.geometry.transforms import twist_camera_from_tool
+from umbra.modules.geometry.transforms import twist_camera_from_tool
 
 FloatArray = NDArray[np.float64]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from modules.operator.plain_words import plain_reason
+from umbra.modules.operator.plain_words import plain_reason
 
 
 @dataclass

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from connectors.limits import MAX_PAGE_MESSAGE_BYTES
+from umbra.connectors.limits import MAX_PAGE_MESSAGE_BYTES
 
 MAX_MESSAGE_BYTES = MAX_PAGE_MESSAGE_BYTES  #: (the websocket protocol refuses larger ones first)
 ACTIONS = ("start", "pause", "resume", "abort", "stop")  #: stop: end the run (the judge ends it)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from connectors.messages import Pose, Poses
+from umbra.connectors.messages import Pose, Poses
 
 
 def _rows(T: np.ndarray) -> list[float]:

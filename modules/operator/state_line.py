@@ -15,9 +15,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from connectors.messages import Status
-from modules.operator.plain_words import plain_reason
-from modules.servo.stages import ABORTED, ACTIVE_STAGES, ASSIST, DONE, PAUSED
+from umbra.connectors.messages import Status
+from umbra.modules.operator.plain_words import plain_reason
+from umbra.modules.servo.stages import ABORTED, ACTIVE_STAGES, ASSIST, DONE, PAUSED
 
 STARTING, RUNNING, ENDED = "starting", "running", "ended"
 #: the world's status stages that carry the run's verdict (stopped: by the operator, no grasp)

@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from connectors.messages import Contour, JointState, Status
-from modules.vision.features import polygon_features
-from modules.vision.sanity import SanityLimits, bounding_shapes
+from umbra.connectors.messages import Contour, JointState, Status
+from umbra.modules.vision.features import polygon_features
+from umbra.modules.vision.sanity import SanityLimits, bounding_shapes
 
 #: servo error names -> (label, scale to page units, unit)
 ERRORS = {

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from modules.operator.cpu import process_cpu_s, thread_cpu_s
+from umbra.modules.operator.cpu import process_cpu_s, thread_cpu_s
 
 
 def web_figures(stats: Any, seed_sent_wall: list[tuple[float, float]]) -> dict[str, object]:

@@ -3,12 +3,12 @@
 The console starts it; another module of the same process (the Active Sketch page, say) adds
 its own routes to the same server, so the operator has one address. The server is a FastAPI
 app served by uvicorn in its own thread (the scheduler owns the main thread); a module's
-``step`` never talks to it directly, only through :mod:`modules.operator.mailbox` objects.
+``step`` never talks to it directly, only through :mod:`umbra.modules.operator.mailbox` objects.
 
 Example, in another module of the same process::
 
     from fastapi.responses import HTMLResponse
-    from modules.operator.web_server import acquire_server, release_server
+    from umbra.modules.operator.web_server import acquire_server, release_server
 
     class SketchPage(Module):
         def start(self) -> None:
@@ -23,10 +23,10 @@ Example, in another module of the same process::
             release_server(self._server)
 
 Routes added after the server started are served at once. Every route, page and websocket
-alike, is behind the door (:mod:`modules.webdoor`): the per-run access token, the Host names the
-server was started for, its own pages' Origin, bounded bodies, messages and connections; the
+alike, is behind the door (:mod:`umbra.modules.webdoor`): the per-run access token, the Host names
+the server was started for, its own pages' Origin, bounded bodies, messages and connections; the
 gate also gives each browser its viewer cookie. The server holds the control table of all its pages
-(``server.control``, a :class:`~modules.operator.control.ControlArbiter`): the operator who
+(``server.control``, a :class:`~umbra.modules.operator.control.ControlArbiter`): the operator who
 holds control on one page holds it on every page of the server, and commands from everyone
 else are refused. The server stops when the last module holding it releases it.
 """
@@ -41,17 +41,18 @@ from typing import Any
 import uvicorn
 from fastapi import FastAPI
 
-from connectors.access.hosts import allowed_hosts
-from connectors.access.secret import TOKEN_QUERY
-from connectors.errors import UserError
-from modules.operator.control import ControlArbiter
-from modules.webdoor.gate import Gate
-from modules.webdoor.transport import Connections, uvicorn_options
+from umbra.connectors.access.hosts import allowed_hosts
+from umbra.connectors.access.secret import TOKEN_QUERY
+from umbra.connectors.errors import UserError
+from umbra.modules.operator.control import ControlArbiter
+from umbra.modules.webdoor.gate import Gate
+from umbra.modules.webdoor.transport import Connections, uvicorn_options
 
 
 class WebServer:
     """A FastAPI app served by uvicorn in a daemon thread, on ``host``:``port`` (0: a free one),
-    behind the door (:mod:`modules.webdoor`) with the access ``token`` (required, loopback too).
+    behind the door (:mod:`umbra.modules.webdoor`) with the access ``token`` (required, loopback
+    too).
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, token: str = "") -> None:
@@ -99,7 +100,8 @@ class WebServer:
     @property
     def url(self) -> str:
         """The address to open on this machine, with the token (bound to every interface:
-        the loopback one; the server answers to the names :mod:`connectors.access.hosts` says)."""
+        the loopback one; the server answers to the names :mod:`umbra.connectors.access.hosts`
+        says)."""
         host = {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(self.host, self.host)
         host = f"[{host}]" if ":" in host else host
         return f"http://{host}:{self.port}/?{TOKEN_QUERY}={self.token}"

@@ -1,7 +1,7 @@
 """Kinematics of a pan-tilt unit (PTU) carrying a camera, and aiming it at a 3-D point.
 
-The unit is modelled with the Rochester head's chain (``modules.geometry.rochester_head``): its
-base frame ``ptu`` is the guide's FLANGE (Z forward out of the unit at zero angles, Y down,
+The unit is modelled with the Rochester head's chain (``umbra.modules.geometry.rochester_head``):
+its base frame ``ptu`` is the guide's FLANGE (Z forward out of the unit at zero angles, Y down,
 X right); tilt is the altitude ``phi`` (``Rot_x``, positive tilts the axis up), pan is the
 azimuth ``theta`` (``Rot_y`` on the tilt stage, positive turns right); ``tilt_offset`` is the
 guide's ALT_OFFSET and ``nodal_offset`` its AZ_OFFSET. The camera's mount frame is the guide's
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.camera_model import PinholeCamera
-from modules.geometry.rochester_head import (
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.geometry.rochester_head import (
     AimError,
     HeadGeometry,
     T_flange_campos,

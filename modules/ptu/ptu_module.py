@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import CameraModel, Pose
-from modules.calib.camera_message import pinhole_from_message
-from modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
-from modules.ptu.sim_ptu import SimPtu
-from modules.sketch.messages import PtuCommand, PtuState
+from umbra.connectors import Input, Module, Output, Parameters, UserError, param
+from umbra.connectors.messages import CameraModel, Pose
+from umbra.modules.calib.camera_message import pinhole_from_message
+from umbra.modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
+from umbra.modules.ptu.sim_ptu import SimPtu
+from umbra.modules.sketch.messages import PtuCommand, PtuState
 
 
 class Ptu(Module):

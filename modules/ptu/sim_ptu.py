@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.ptu.ptu_model import PtuGeometry
+from umbra.modules.ptu.ptu_model import PtuGeometry
 
 
 class SimPtu:

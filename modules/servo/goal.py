@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from modules.servo.features import FeatureError, Intrinsics, MomentFeatures
+from umbra.modules.servo.features import FeatureError, Intrinsics, MomentFeatures
 
 
 def goal_from_pixels(

@@ -1,6 +1,6 @@
 """The 4-DOF image-moment servo law: camera twist from feature errors.
 
-Features ``s = (x_n, y_n, a_n, alpha)`` (see :mod:`modules.servo.features`) are driven by the
+Features ``s = (x_n, y_n, a_n, alpha)`` (see :mod:`umbra.modules.servo.features`) are driven by the
 camera velocity ``u = (vx, vy, vz, wz)`` (camera frame: x right, y down, z along the optical
 axis) through ``ds/dt = L u`` with, for a planar patch parallel to the image plane,
 (Tahri and Chaumette 2005, restricted to these four degrees of freedom)::
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.geometry.transforms import clamp_twist
-from modules.servo.features import MomentFeatures, wrap_roll_error
+from umbra.modules.geometry.transforms import clamp_twist
+from umbra.modules.servo.features import MomentFeatures, wrap_roll_error
 
 FloatArray = NDArray[np.float64]
 

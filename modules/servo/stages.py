@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.servo.features import MomentFeatures
-from modules.servo.law import ServoGains, servo_twist
+from umbra.modules.servo.features import MomentFeatures
+from umbra.modules.servo.law import ServoGains, servo_twist
 
 FloatArray = NDArray[np.float64]
 

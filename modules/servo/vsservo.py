@@ -7,20 +7,20 @@ from typing import Literal
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, UserError, from_param, param
-from connectors.limits import MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
-from connectors.messages import CameraModel, Contour, Status, Text, Twist
-from modules.calib.distortion import undistort_points
-from modules.servo.error_text import error_figure
-from modules.servo.features import (
+from umbra.connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from umbra.connectors.limits import MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
+from umbra.connectors.messages import CameraModel, Contour, Status, Text, Twist
+from umbra.modules.calib.distortion import undistort_points
+from umbra.modules.servo.error_text import error_figure
+from umbra.modules.servo.features import (
     FeatureError,
     Intrinsics,
     MomentFeatures,
     features_from_normalized_contour,
 )
-from modules.servo.goal import goal_from_pixels, goal_from_standoff
-from modules.servo.law import ServoGains
-from modules.servo.stages import (
+from umbra.modules.servo.goal import goal_from_pixels, goal_from_standoff
+from umbra.modules.servo.law import ServoGains
+from umbra.modules.servo.stages import (
     OPERATOR_COMMANDS,
     Observation,
     ServoOutput,

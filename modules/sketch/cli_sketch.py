@@ -24,16 +24,16 @@ from typing import Any
 import cv2
 import numpy as np
 
-from connectors.cli_support import print_json
-from connectors.errors import UserError
-from modules.sketch.macros import MacroError, check_options
-from modules.sketch.primitives import KINDS, PrimitiveError
-from modules.sketch.session import SessionError, SketchSession
-from modules.sketch.session_file import load_session_state
-from modules.sketch.stereo import StereoPair
-from modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
-from modules.trajectory.vcr import VcrError
-from modules.world.scene_objects import targets_from_objects
+from umbra.connectors.cli_support import print_json
+from umbra.connectors.errors import UserError
+from umbra.modules.sketch.macros import MacroError, check_options
+from umbra.modules.sketch.primitives import KINDS, PrimitiveError
+from umbra.modules.sketch.session import SessionError, SketchSession
+from umbra.modules.sketch.session_file import load_session_state
+from umbra.modules.sketch.stereo import StereoPair
+from umbra.modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
+from umbra.modules.trajectory.vcr import VcrError
+from umbra.modules.world.scene_objects import targets_from_objects
 
 NAME = "sketch"
 HELP = "Active Sketch on the simulated cell: snapshot, place primitives, macros, plan, play"

@@ -20,10 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from connectors import UserError
-from modules.sketch.primitives import KINDS
-from modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
-from modules.trajectory.vcr import ARGUMENT, VcrError, check_command
+from umbra.connectors import UserError
+from umbra.modules.sketch.primitives import KINDS
+from umbra.modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
+from umbra.modules.trajectory.vcr import ARGUMENT, VcrError, check_command
 
 VERBS = ("aim", "zoom", "snapshot", "place", "plan", "vcr")
 

@@ -2,8 +2,8 @@
 
 A macro turns a primitive (or nothing) and the arm's current tool pose into key poses
 ``T_base_tool`` with a gripper opening at each (1 open, 0 closed), or into joint targets for the
-canned motions. :mod:`modules.sketch.path_check` then samples, solves and checks the path.
-Conventions of :mod:`modules.sketch.tool_poses` (tool z = approach, x = across the fingers).
+canned motions. :mod:`umbra.modules.sketch.path_check` then samples, solves and checks the path.
+Conventions of :mod:`umbra.modules.sketch.tool_poses` (tool z = approach, x = across the fingers).
 Options (``MacroRequest.options``) override the defaults named in each description.
 """
 
@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.sketch.messages import SketchPrimitive
-from modules.sketch.primitives import line_axis, plane_rect, point_of
-from modules.sketch.tool_poses import DOWN, arc, rotate_about_axis, tool_pose
+from umbra.modules.sketch.messages import SketchPrimitive
+from umbra.modules.sketch.primitives import line_axis, plane_rect, point_of
+from umbra.modules.sketch.tool_poses import DOWN, arc, rotate_about_axis, tool_pose
 
 FloatArray = NDArray[np.float64]
 

@@ -1,9 +1,9 @@
 """Message types of Active Sketch (LDRD report section 3): snapshots, primitives, paths, VCR.
 
-All are :class:`connectors.messages.Message` subclasses of the Active Sketch domain, registered
-as a plug-in's would be: the entry point ``sketch`` of the group ``umbra.messages`` (in
+All are :class:`umbra.connectors.messages.Message` subclasses of the Active Sketch domain,
+registered as a plug-in's would be: the entry point ``sketch`` of the group ``umbra.messages`` (in
 ``pyproject.toml``) names this module, so the codec, the graph checker and a recording's reader
-know them by class name in any process (``connectors.messages.message_types``), while the
+know them by class name in any process (``umbra.connectors.messages.message_types``), while the
 framework's base layer never imports them.
 Units are SI (metres, radians, seconds); poses are 4 x 4 homogeneous transforms named
 ``T_<parent>_<child>``; 3-D points are in the frame named by ``frame`` (``base`` in the shipped
@@ -25,7 +25,7 @@ from typing import ClassVar
 import msgspec
 import numpy as np
 
-from connectors.messages import CameraModel, Message
+from umbra.connectors.messages import CameraModel, Message
 
 _EMPTY = np.zeros(0)
 _F8 = "float64"
@@ -43,7 +43,7 @@ class StereoSnapshot(Message, frozen=True, kw_only=True):
     instant (PTU angles included), so ``P = K [R | d]`` with ``[R | d]`` its inverse's top rows.
     ``snapshot_id`` names the pair; primitives placed on it carry the same id. The models are
     kept flat (not nested messages) so the compact link codec can carry them;
-    :meth:`camera_model` rebuilds a :class:`~connectors.messages.CameraModel`.
+    :meth:`camera_model` rebuilds a :class:`~umbra.connectors.messages.CameraModel`.
     """
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.

@@ -7,20 +7,20 @@ import math
 import numpy as np
 from pydantic import field_validator
 
-from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import Status, Text
-from modules.sketch.command_text import VERBS, parse
-from modules.sketch.messages import (
+from umbra.connectors import Input, Module, Output, Parameters, UserError, param
+from umbra.connectors.messages import Status, Text
+from umbra.modules.sketch.command_text import VERBS, parse
+from umbra.modules.sketch.messages import (
     PtuState,
     SceneObjects,
     SketchPrimitive,
     StereoSnapshot,
     VcrState,
 )
-from modules.sketch.primitives import KINDS
-from modules.sketch.stereo import StereoPair
-from modules.trajectory.vcr import MODES
-from modules.world.scene_objects import targets_from_objects
+from umbra.modules.sketch.primitives import KINDS
+from umbra.modules.sketch.stereo import StereoPair
+from umbra.modules.trajectory.vcr import MODES
+from umbra.modules.world.scene_objects import targets_from_objects
 
 _OWN = ("wait", "settle", "wait_vcr")
 #: Longest ``wait S`` step [s].
@@ -75,7 +75,7 @@ class SketchOperatorSim(Module):
     """Plays an operator's script against the Sketch module, one step at a time.
 
     Steps are Sketch commands (``modules/sketch/command_text.py``) in which ``@name`` stands for a
-    true scene feature (``modules.world.scene_objects.targets_from_objects``: ``@pipe``,
+    true scene feature (``umbra.modules.world.scene_objects.targets_from_objects``: ``@pipe``,
     ``@handle``, ``@hinge``, ``@surface``, ``@package_edge``, ``@pipe_center``, ...) and
     ``@last`` for the last placed primitive; ``place KIND @feature`` clicks the feature's true
     image points in the last snapshot with ``click_noise_px`` of noise (the right-hand clicks

@@ -1,8 +1,8 @@
 """From a macro's key poses to a checked joint path (:class:`ToolPath`), before anything moves.
 
-The key poses are sampled densely (:func:`modules.sketch.tool_poses.interpolate`), each sample
+The key poses are sampled densely (:func:`umbra.modules.sketch.tool_poses.interpolate`), each sample
 is solved for the joints starting from the previous one (damped Gauss-Newton,
-:func:`modules.world.ik.solve_ik`), and the path is refused, with the reason, when:
+:func:`umbra.modules.world.ik.solve_ik`), and the path is refused, with the reason, when:
 
 * reach: a sample has no IK solution (or the solution jumps to another branch: a joint step
   larger than ``max_joint_step`` between neighbouring samples);
@@ -13,7 +13,7 @@ is solved for the joints starting from the previous one (damped Gauss-Newton,
   ``min_rate``.
 
 When the straight Cartesian way to the macro's first key pose is refused, a joint-space transit
-there is tried (:mod:`modules.sketch.transit`); its samples are checked for what matters for a
+there is tried (:mod:`umbra.modules.sketch.transit`); its samples are checked for what matters for a
 joint motion (limits, and that the twist interface can command it) instead of the Jacobian's
 smallest singular value; the segments after the first key stay straight tool lines.
 
@@ -30,13 +30,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from modules.arm.dh import DHTable
-from modules.arm.jacobian import jacobian_and_pose
-from modules.sketch.macros import MacroKeys
-from modules.sketch.messages import ToolPath
-from modules.sketch.tool_poses import interpolate
-from modules.sketch.transit import goal_candidates, transit_options, transit_problem
-from modules.world.ik import IKFailed, solve_ik
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.jacobian import jacobian_and_pose
+from umbra.modules.sketch.macros import MacroKeys
+from umbra.modules.sketch.messages import ToolPath
+from umbra.modules.sketch.tool_poses import interpolate
+from umbra.modules.sketch.transit import goal_candidates, transit_options, transit_problem
+from umbra.modules.world.ik import IKFailed, solve_ik
 
 FloatArray = NDArray[np.float64]
 

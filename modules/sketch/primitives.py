@@ -2,8 +2,8 @@
 
 A primitive is placed by its vertices in both images of a snapshot. Each right-hand vertex is
 moved onto the epipolar line of its left-hand mate (the report's constraint), then each vertex
-pair is triangulated with its covariance (:mod:`modules.sketch.stereo`). The result is a
-:class:`modules.sketch.messages.SketchPrimitive`; the helpers below read its geometry
+pair is triangulated with its covariance (:mod:`umbra.modules.sketch.stereo`). The result is a
+:class:`umbra.modules.sketch.messages.SketchPrimitive`; the helpers below read its geometry
 (a line's axis, a plane's rectangle, a triad's box) in metres in the base frame.
 """
 
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.sketch.messages import SketchBox, SketchPrimitive
-from modules.sketch.stereo import StereoNoise, StereoPair
+from umbra.modules.sketch.messages import SketchBox, SketchPrimitive
+from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 
 FloatArray = NDArray[np.float64]
 

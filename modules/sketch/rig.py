@@ -13,13 +13,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from connectors.messages import CameraModel
-from modules.calib.camcalib import REPORT_FILE
-from modules.calib.camera_message import camera_message, pinhole_from_message
-from modules.calib.zoom_io import load_zoom_table
-from modules.calib.zoom_table import ZoomTable
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.ptu.ptu_model import PtuGeometry, aim_in_base
+from umbra.connectors.messages import CameraModel
+from umbra.modules.calib.camcalib import REPORT_FILE
+from umbra.modules.calib.camera_message import camera_message, pinhole_from_message
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.modules.calib.zoom_table import ZoomTable
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.ptu.ptu_model import PtuGeometry, aim_in_base
 
 FloatArray = NDArray[np.float64]
 

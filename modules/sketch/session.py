@@ -1,8 +1,8 @@
 """Active Sketch as a Python API on a simulated cell (no graph, no browser).
 
-:class:`SketchSession` holds a randomizable scene (:mod:`modules.world.scene_objects`), the two
-zoom cameras on their PTUs (:mod:`modules.sketch.rig`), a simulated Puma 560 with its gripper,
-and runs the same pieces as the graph: snapshot -> primitives placed by pixels (epipolar
+:class:`SketchSession` holds a randomizable scene (:mod:`umbra.modules.world.scene_objects`), the
+two zoom cameras on their PTUs (:mod:`umbra.modules.sketch.rig`), a simulated Puma 560 with its
+gripper, and runs the same pieces as the graph: snapshot -> primitives placed by pixels (epipolar
 constraint, triangulation with covariance) -> macro menu -> checked plan -> the VCR player
 whose twist goes through the velocity register (REG_VEL's logic) and the resolved-rate
 kinematics (WOLVERINE_KIN's) to the simulated joints; the world's judge gives the verdicts.
@@ -18,24 +18,24 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.dh import puma560
-from modules.arm.dls import DLSSettings, solve_dls
-from modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
-from modules.arm.sim_joints import SimJoints, SimJointSettings
-from modules.arm.velocity_register import RegisterSettings, VelocityRegister
-from modules.geometry.transforms import translation
-from modules.ptu.sim_ptu import SimPtu
-from modules.sketch.macros import MacroError, macro_keys, menu_for
-from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
-from modules.sketch.path_check import PathLimits, plan_path
-from modules.sketch.primitives import place_primitive, triad_box
-from modules.sketch.rig import RigCamera, default_rig
-from modules.sketch.stereo import StereoNoise, StereoPair
-from modules.trajectory.player import PathPlayer
-from modules.trajectory.vcr import ARGUMENT, MOVING_MODES, VcrError, check_command
-from modules.vision.sketch_render import render_scene
-from modules.world.scene_objects import SketchScene
-from modules.world.sketch_judge import SketchJudge
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.dls import DLSSettings, solve_dls
+from umbra.modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
+from umbra.modules.arm.sim_joints import SimJoints, SimJointSettings
+from umbra.modules.arm.velocity_register import RegisterSettings, VelocityRegister
+from umbra.modules.geometry.transforms import translation
+from umbra.modules.ptu.sim_ptu import SimPtu
+from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
+from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
+from umbra.modules.sketch.path_check import PathLimits, plan_path
+from umbra.modules.sketch.primitives import place_primitive, triad_box
+from umbra.modules.sketch.rig import RigCamera, default_rig
+from umbra.modules.sketch.stereo import StereoNoise, StereoPair
+from umbra.modules.trajectory.player import PathPlayer
+from umbra.modules.trajectory.vcr import ARGUMENT, MOVING_MODES, VcrError, check_command
+from umbra.modules.vision.sketch_render import render_scene
+from umbra.modules.world.scene_objects import SketchScene
+from umbra.modules.world.sketch_judge import SketchJudge
 
 FloatArray = NDArray[np.float64]
 

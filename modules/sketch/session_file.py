@@ -1,12 +1,12 @@
 """``session.json`` of ``umbra sketch``, read against a typed schema before anything replays it.
 
 The file is the user's (it may be hand-edited): it is read bounded and decoded as UTF-8
-(:mod:`connectors.user_files`), then decoded by msgspec into :class:`SessionState`, whose
+(:mod:`umbra.connectors.user_files`), then decoded by msgspec into :class:`SessionState`, whose
 events are a union tagged by ``cmd`` with every field typed and ranged as the command line
 checks it (a seed is a whole number >= 0, a zoom 0..1, click noise 0..20 px, a play timeout
 0..3600 s, script steps ``[time >= 0, VCR action, number or null]``). Unknown commands, unknown or
 missing keys, wrong types, non-finite numbers and deep nesting are each one
-``FILE[:LINE]: error: ...`` (:class:`~connectors.errors.UserError`, exit status 2), never a
+``FILE[:LINE]: error: ...`` (:class:`~umbra.connectors.errors.UserError`, exit status 2), never a
 traceback.
 """
 
@@ -18,12 +18,12 @@ from typing import Annotated, Any, Literal
 
 import msgspec
 
-from connectors.errors import UserError
-from connectors.limits import MAX_SKETCH_SESSION_BYTES as MAX_SESSION_BYTES
-from connectors.limits import MAX_SKETCH_SESSION_EVENTS as MAX_SESSION_EVENTS
-from connectors.user_files import decode_text, read_bytes
-from modules.sketch.primitives import KINDS
-from modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
+from umbra.connectors.errors import UserError
+from umbra.connectors.limits import MAX_SKETCH_SESSION_BYTES as MAX_SESSION_BYTES
+from umbra.connectors.limits import MAX_SKETCH_SESSION_EVENTS as MAX_SESSION_EVENTS
+from umbra.connectors.user_files import decode_text, read_bytes
+from umbra.modules.sketch.primitives import KINDS
+from umbra.modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
 
 #: Largest coordinate or option value kept in a session (a bound, not physics: finite numbers).
 _BIG = 1e9

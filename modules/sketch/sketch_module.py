@@ -5,13 +5,13 @@ from __future__ import annotations
 import msgspec
 import numpy as np
 
-from connectors import Input, Module, Output, UserError, param
-from connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
-from modules.arm.arm_params import ArmParams
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.command_text import Command, parse
-from modules.sketch.macros import MacroError, macro_keys, menu_for
-from modules.sketch.messages import (
+from umbra.connectors import Input, Module, Output, UserError, param
+from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.command_text import Command, parse
+from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
+from umbra.modules.sketch.messages import (
     PtuCommand,
     PtuState,
     SketchBox,
@@ -21,11 +21,11 @@ from modules.sketch.messages import (
     VcrCommand,
     VcrState,
 )
-from modules.sketch.path_check import PathLimits, plan_path
-from modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
-from modules.sketch.session import Q_READY, Q_STOW
-from modules.sketch.stereo import StereoNoise, StereoPair
-from modules.trajectory.player import BUSY_MODES
+from umbra.modules.sketch.path_check import PathLimits, plan_path
+from umbra.modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
+from umbra.modules.sketch.session import Q_READY, Q_STOW
+from umbra.modules.sketch.stereo import StereoNoise, StereoPair
+from umbra.modules.trajectory.player import BUSY_MODES
 
 
 class _SnapshotRefused(UserError):

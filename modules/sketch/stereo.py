@@ -4,7 +4,7 @@ covariance.
 Frames: the world is the snapshot's ``frame`` (``base``); each camera looks along +z, x right,
 y down. Pixels handed in and out are the pixels the images show (distorted by each camera's
 lens); the geometry is done on ideal pin-hole pixels (undistorted with
-:func:`modules.calib.distortion.undistort_points`) and converted back.
+:func:`umbra.modules.calib.distortion.undistort_points`) and converted back.
 
 Uncertainty (:class:`StereoNoise`) is first order: the Jacobian of the triangulated point with
 respect to the four pixel coordinates and to each camera's calibration (rotation, translation,
@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from modules.calib.distortion import distort_points, undistort_points
-from modules.geometry.rays import epipolar_line, line_distance, triangulate_pixels
-from modules.sketch.messages import StereoSnapshot
+from umbra.modules.calib.distortion import distort_points, undistort_points
+from umbra.modules.geometry.rays import epipolar_line, line_distance, triangulate_pixels
+from umbra.modules.sketch.messages import StereoSnapshot
 
 FloatArray = NDArray[np.float64]
 

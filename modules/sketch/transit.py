@@ -21,10 +21,10 @@ import itertools
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.arm.dh import DHTable
-from modules.arm.dls import DLSSettings, solve_dls
-from modules.arm.jacobian import jacobian_and_pose
-from modules.world.ik import IKFailed, solve_ik
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.dls import DLSSettings, solve_dls
+from umbra.modules.arm.jacobian import jacobian_and_pose
+from umbra.modules.world.ik import IKFailed, solve_ik
 
 FloatArray = NDArray[np.float64]
 

@@ -1,6 +1,7 @@
 """The /sketch page's control, decided in ``step``: which browsers are on the page, who holds
 control (the server's table, shared with the console), each request's decision, and the pause
-of a path whose page went silent (a mixin of :class:`~modules.sketch_page.sketch_page.SketchPage`).
+of a path whose page went silent (a mixin of
+:class:`~umbra.modules.sketch_page.sketch_page.SketchPage`).
 """
 
 from __future__ import annotations
@@ -9,12 +10,12 @@ import math
 import secrets
 from typing import Any
 
-from connectors.messages import Text
-from modules.operator.control import Decision
-from modules.sketch.command_text import parse
-from modules.sketch.messages import VcrState
-from modules.sketch_page.page_web import PageRequest
-from modules.trajectory.vcr import STARTS
+from umbra.connectors.messages import Text
+from umbra.modules.operator.control import Decision
+from umbra.modules.sketch.command_text import parse
+from umbra.modules.sketch.messages import VcrState
+from umbra.modules.sketch_page.page_web import PageRequest
+from umbra.modules.trajectory.vcr import STARTS
 
 
 class PageControl:

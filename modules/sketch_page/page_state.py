@@ -3,7 +3,7 @@
 The page draws in image pixels (u right, v down) of the snapshot's images. It gets the
 fundamental matrix ``F`` (``x_b^T F x_a = 0``, ideal pixels; the page's fallback until the
 epipolar curve of a vertex, distortion included, comes from ``/sketch/epipolar``, computed by
-:meth:`modules.sketch.stereo.StereoPair.epipolar_curve_b`), each image's size, the camera
+:meth:`umbra.modules.sketch.stereo.StereoPair.epipolar_curve_b`), each image's size, the camera
 matrices for the test tools, every primitive with its vertices reprojected from 3-D, its
 centroid (m, base: where the cameras aim) and largest sigma (mm), the macro menu of each kind of
 primitive, and the planned tool path projected into both images, and the last macro's verdict
@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from connectors.messages import Status
-from modules.geometry.rays import fundamental_matrix
-from modules.sketch.macros import MENU, macro_label, menu_for
-from modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
-from modules.sketch.stereo import StereoPair
+from umbra.connectors.messages import Status
+from umbra.modules.geometry.rays import fundamental_matrix
+from umbra.modules.sketch.macros import MENU, macro_label, menu_for
+from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
+from umbra.modules.sketch.stereo import StereoPair
 
 
 def _r(values: Any, digits: int = 3) -> Any:

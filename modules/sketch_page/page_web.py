@@ -1,6 +1,6 @@
 """The /sketch page's web side: its routes run on the web server's thread, read the latest
-state through :class:`~modules.operator.mailbox.Latest` and queue requests for ``step`` (a mixin
-of :class:`~modules.sketch_page.sketch_page.SketchPage`); they never touch the graph.
+state through :class:`~umbra.modules.operator.mailbox.Latest` and queue requests for ``step`` (a
+mixin of :class:`~umbra.modules.sketch_page.sketch_page.SketchPage`); they never touch the graph.
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ import cv2
 from fastapi import Request
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
-from connectors.limits import MAX_PAGE_CONNECTIONS
-from modules.sketch.command_text import parse
-from modules.webdoor.viewer import VIEWER_SCOPE
+from umbra.connectors.limits import MAX_PAGE_CONNECTIONS
+from umbra.modules.sketch.command_text import parse
+from umbra.modules.webdoor.viewer import VIEWER_SCOPE
 
 MAX_COMMAND_CHARS = 2000
 #: the web side waits at most this long for ``step`` to decide on a request [s]
@@ -30,7 +30,7 @@ REPLY_TIMEOUT_S = 5.0
 
 def static_text(name: str) -> str:
     """A file of the page (``static/NAME``), served from the package."""
-    return resources.files("modules.sketch_page").joinpath("static", name).read_text("utf-8")
+    return resources.files("umbra.modules.sketch_page").joinpath("static", name).read_text("utf-8")
 
 
 @dataclass(frozen=True)

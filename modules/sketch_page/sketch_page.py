@@ -12,17 +12,17 @@ from typing import Any
 
 import cv2
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.access.secret import resolve_token
-from connectors.messages import Image, Status, Text
-from modules.operator.mailbox import Lanes, Latest
-from modules.operator.web_server import acquire_server, release_server
-from modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
-from modules.sketch.stereo import StereoPair
-from modules.sketch_page.page_control import PageControl
-from modules.sketch_page.page_state import page_state
-from modules.sketch_page.page_web import PageRequest, PageWeb
-from modules.webdoor.gate import Refusals
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.access.secret import resolve_token
+from umbra.connectors.messages import Image, Status, Text
+from umbra.modules.operator.mailbox import Lanes, Latest
+from umbra.modules.operator.web_server import acquire_server, release_server
+from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
+from umbra.modules.sketch.stereo import StereoPair
+from umbra.modules.sketch_page.page_control import PageControl
+from umbra.modules.sketch_page.page_state import page_state
+from umbra.modules.sketch_page.page_web import PageRequest, PageWeb
+from umbra.modules.webdoor.gate import Refusals
 
 
 class SketchPage(PageControl, PageWeb, Module):
@@ -34,9 +34,9 @@ class SketchPage(PageControl, PageWeb, Module):
     actions come back as Sketch text commands (``modules/sketch/command_text.py``), checked here
     before they are queued; the module sends them on ``command`` (wire it to Sketch.console).
     The web side never touches the graph: it reads the latest messages through
-    :class:`~modules.operator.mailbox.Latest` and queues requests in
-    :class:`~modules.operator.mailbox.Lanes` (one per browser; the holder's first) that ``step``
-    drains and answers.
+    :class:`~umbra.modules.operator.mailbox.Latest` and queues requests in
+    :class:`~umbra.modules.operator.mailbox.Lanes` (one per browser; the holder's first) that
+    ``step`` drains and answers.
 
     Several viewers, one operator, as on the console and with the same holder: the page uses
     the control table of its web server (``server.control``), so control taken on the console

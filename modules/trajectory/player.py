@@ -1,7 +1,7 @@
 """Playing a checked :class:`ToolPath` on the arm: the VCR's path parameter, joint tracking
 and the gripper events on the way.
 
-Each tick the player advances the VCR (:mod:`modules.trajectory.vcr`), reads the desired
+Each tick the player advances the VCR (:mod:`umbra.modules.trajectory.vcr`), reads the desired
 joints ``q(s)`` and the feed-forward joint rates ``dq/ds * s_dot`` from the path's spline, adds
 a proportional correction ``gain * (q(s) - q_measured)``, and turns the joint rates into the
 tool twist they produce at the measured joints (``J(q) qd``, re-expressed in the tool frame).
@@ -29,11 +29,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.dh import DHTable
-from modules.arm.jacobian import jacobian_and_pose
-from modules.sketch.messages import ToolPath
-from modules.trajectory.joint_path import JointPath
-from modules.trajectory.vcr import MOVING_MODES, STARTS, Vcr, VcrError, VcrLimits
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.jacobian import jacobian_and_pose
+from umbra.modules.sketch.messages import ToolPath
+from umbra.modules.trajectory.joint_path import JointPath
+from umbra.modules.trajectory.vcr import MOVING_MODES, STARTS, Vcr, VcrError, VcrLimits
 
 FloatArray = NDArray[np.float64]
 

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, from_param, param
-from connectors.limits import MAX_PATH_AGE_S
-from connectors.messages import JointState, Status, Text, Twist
-from modules.arm.arm_params import ArmParams
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import ToolPath, VcrCommand, VcrState
-from modules.trajectory.player import PathPlayer, PlayerOutput
-from modules.trajectory.vcr import ARGUMENT, MOVING_MODES, STARTS, VcrError
+from umbra.connectors import Input, Module, Output, from_param, param
+from umbra.connectors.limits import MAX_PATH_AGE_S
+from umbra.connectors.messages import JointState, Status, Text, Twist
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.messages import ToolPath, VcrCommand, VcrState
+from umbra.modules.trajectory.player import PathPlayer, PlayerOutput
+from umbra.modules.trajectory.vcr import ARGUMENT, MOVING_MODES, STARTS, VcrError
 
 
 class VcrPlayer(Module):

@@ -15,9 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from connectors.messages import CameraModel
-from modules.arm.dh import DHTable
-from modules.geometry.transforms import is_orthonormal_transform
+from umbra.connectors.messages import CameraModel
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.geometry.transforms import is_orthonormal_transform
 
 FloatArray = NDArray[np.float64]
 

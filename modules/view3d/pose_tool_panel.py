@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.errors import CalibrationError
-from modules.calib.pose_tool import MountResult, MountSnapshot, pose_error, solve_mount
-from modules.calib.pose_tool_file import frames_text, session_text
-from modules.geometry.transforms import invert_transform
-from modules.view3d.geometry import pixel_of_ray_on_image, ray_hit
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.errors import CalibrationError
+from umbra.modules.calib.pose_tool import MountResult, MountSnapshot, pose_error, solve_mount
+from umbra.modules.calib.pose_tool_file import frames_text, session_text
+from umbra.modules.geometry.transforms import invert_transform
+from umbra.modules.view3d.geometry import pixel_of_ray_on_image, ray_hit
 
 
 @dataclass

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from modules.calib.errors import CalibrationError
-from modules.view3d.pose_tool_panel import PoseTool
-from modules.view3d.viewer import ViewerPage
-from modules.view3d.viewer_video import SNAPSHOT_SCALE
+from umbra.modules.calib.errors import CalibrationError
+from umbra.modules.view3d.pose_tool_panel import PoseTool
+from umbra.modules.view3d.viewer import ViewerPage
+from umbra.modules.view3d.viewer_video import SNAPSHOT_SCALE
 
 
 class PoseToolWidgets:

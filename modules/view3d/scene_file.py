@@ -26,8 +26,8 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.errors import UserError
-from modules.geometry.transforms import is_rigid
+from umbra.connectors.errors import UserError
+from umbra.modules.geometry.transforms import is_rigid
 
 FORMAT = "umbra-scene"
 VERSION = 1

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
-from modules.view3d.scene_file import PRIMITIVE_KINDS, SceneBox, ScenePrimitive, SceneSnapshot
+from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.modules.view3d.scene_file import PRIMITIVE_KINDS, SceneBox, ScenePrimitive, SceneSnapshot
 
 
 def snapshot_items(snapshot: StereoSnapshot, T_world_frame: np.ndarray) -> list[SceneSnapshot]:

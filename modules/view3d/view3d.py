@@ -7,20 +7,20 @@ from pathlib import Path
 
 import numpy as np
 
-from connectors import Input, Module, Output, UserError, from_param, param
-from connectors.messages import CameraModel, Image, JointState, Pose, Status
-from modules.arm.arm_params import ArmParams
-from modules.sketch.messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
-from modules.view3d.geometry import (
+from umbra.connectors import Input, Module, Output, UserError, from_param, param
+from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.sketch.messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.modules.view3d.geometry import (
     viewer_pose_looking_at,
 )
-from modules.view3d.pose_tool_panel import PoseTool
-from modules.view3d.pose_tool_widgets import PoseToolWidgets, snapshot_image_depth
-from modules.view3d.scene_file import Scene, load_scene
-from modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
-from modules.view3d.view3d_push import CAMERAS, ViewPush
-from modules.view3d.viewer import ViewerPage
-from modules.webdoor.secret import resolve_token
+from umbra.modules.view3d.pose_tool_panel import PoseTool
+from umbra.modules.view3d.pose_tool_widgets import PoseToolWidgets, snapshot_image_depth
+from umbra.modules.view3d.scene_file import Scene, load_scene
+from umbra.modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
+from umbra.modules.view3d.view3d_push import CAMERAS, ViewPush
+from umbra.modules.view3d.viewer import ViewerPage
+from umbra.modules.webdoor.secret import resolve_token
 
 
 class View3DParams(ArmParams):

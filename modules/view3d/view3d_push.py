@@ -1,6 +1,6 @@
 """View3D's sender: a thread of its own that sends the newest samples to the page at most
 ``max_fps`` times a second (nothing while no browser is connected), each part on its own; and
-the scene file (a mixin of :class:`~modules.view3d.view3d.View3D`)."""
+the scene file (a mixin of :class:`~umbra.modules.view3d.view3d.View3D`)."""
 
 from __future__ import annotations
 
@@ -11,17 +11,17 @@ from typing import Any
 
 import numpy as np
 
-from connectors import UserError
-from connectors.messages import CameraModel, Image, JointState, Pose, Status
-from modules.sketch.messages import SceneObjects
-from modules.view3d.geometry import (
+from umbra.connectors import UserError
+from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
+from umbra.modules.sketch.messages import SceneObjects
+from umbra.modules.view3d.geometry import (
     Frustum,
     arm_joint_points,
     arm_link_segments,
     frustum_from_model,
 )
-from modules.view3d.scene_file import save_scene
-from modules.view3d.viewer_video import FRUSTUM_SCALES
+from umbra.modules.view3d.scene_file import save_scene
+from umbra.modules.view3d.viewer_video import FRUSTUM_SCALES
 
 CAMERAS = ("wrist", "left", "right")
 
@@ -73,7 +73,7 @@ class ViewPush:
             self._stopping.wait(max(0.0, period - (time.perf_counter() - started)))
 
     def _add_items(self, items: list[object]) -> None:
-        from modules.view3d.scene_file import SceneBox, ScenePrimitive, SceneSnapshot
+        from umbra.modules.view3d.scene_file import SceneBox, ScenePrimitive, SceneSnapshot
 
         for item in items:
             if isinstance(item, SceneSnapshot):

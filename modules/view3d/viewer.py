@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import viser
 
-from modules.view3d.geometry import (
+from umbra.modules.view3d.geometry import (
     Frustum,
     Mesh,
     ViewerPose,
@@ -34,17 +34,17 @@ from modules.view3d.geometry import (
     solid_pose,
     wxyz_from_matrix,
 )
-from modules.view3d.scene_file import SceneSnapshot
-from modules.view3d.viewer_moves import ViewerMoves
-from modules.view3d.viewer_sketch import ViewerSketch
-from modules.view3d.viewer_video import (
+from umbra.modules.view3d.scene_file import SceneSnapshot
+from umbra.modules.view3d.viewer_moves import ViewerMoves
+from umbra.modules.view3d.viewer_sketch import ViewerSketch
+from umbra.modules.view3d.viewer_video import (
     CAMERA_COLORS,
     FRUSTUM_SCALES,
     node_name,
     video_rgba,
 )
-from modules.view3d.viser_door import guard_viser
-from modules.webdoor.secret import TOKEN_QUERY
+from umbra.modules.view3d.viser_door import guard_viser
+from umbra.modules.webdoor.secret import TOKEN_QUERY
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """Where each browser's viewer looks: set it, fly it to a pose, into a live camera's view (and
 ride along as that camera moves), into a snapshot's (a mixin of
-:class:`~modules.view3d.viewer.ViewerPage`, which holds the server and the cameras)."""
+:class:`~umbra.modules.view3d.viewer.ViewerPage`, which holds the server and the cameras)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import viser
 
-from modules.view3d.geometry import ViewerPose, interpolate_viewer, viewer_pose_from_camera
+from umbra.modules.view3d.geometry import ViewerPose, interpolate_viewer, viewer_pose_from_camera
 
 
 class ViewerMoves:
@@ -37,7 +37,7 @@ class ViewerMoves:
 
     def current_viewer(self, client: viser.ClientHandle) -> ViewerPose:
         cam = client.camera
-        from modules.view3d.geometry import matrix_from_wxyz
+        from umbra.modules.view3d.geometry import matrix_from_wxyz
 
         R = matrix_from_wxyz(cam.wxyz)
         return ViewerPose(

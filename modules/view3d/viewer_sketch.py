@@ -1,5 +1,5 @@
 """Snapshots and sketched geometry in the 3-D view: a snapshot's frustum with its image, boxes
-and primitives (a mixin of :class:`~modules.view3d.viewer.ViewerPage`)."""
+and primitives (a mixin of :class:`~umbra.modules.view3d.viewer.ViewerPage`)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from modules.view3d.geometry import Frustum, wxyz_from_matrix
-from modules.view3d.scene_file import SceneBox, ScenePrimitive, SceneSnapshot
-from modules.view3d.viewer_video import SNAPSHOT_SCALE, node_name, video_rgba
+from umbra.modules.view3d.geometry import Frustum, wxyz_from_matrix
+from umbra.modules.view3d.scene_file import SceneBox, ScenePrimitive, SceneSnapshot
+from umbra.modules.view3d.viewer_video import SNAPSHOT_SCALE, node_name, video_rgba
 
 
 class ViewerSketch:

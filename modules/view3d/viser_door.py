@@ -1,9 +1,9 @@
-"""The door of the viser 3-D view: the operator pages' rules (:mod:`modules.webdoor`) on viser's
-own server, which has no hook for them.
+"""The door of the viser 3-D view: the operator pages' rules (:mod:`umbra.modules.webdoor`) on
+viser's own server, which has no hook for them.
 
 viser serves its page and its websocket from one ``websockets`` server. Before the first browser
 can connect, :func:`guard_viser` puts :class:`ViserDoor` in front of that server's handshake
-(its ``process_request``): the same :class:`~modules.webdoor.gate.Gate` checks as every other
+(its ``process_request``): the same :class:`~umbra.modules.webdoor.gate.Gate` checks as every other
 page of a run (``Host`` named for this server, the page's own ``Origin``, the per-run token from
 the address or its cookie), the address's token traded for an HttpOnly cookie by a redirect, and
 everything else passed to viser. The cookie is named for the port (a browser sends a host's
@@ -21,9 +21,9 @@ from websockets.asyncio.server import Server, ServerConnection
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
 
-from modules.webdoor.gate import Gate
-from modules.webdoor.hosts import allowed_hosts
-from modules.webdoor.secret import TOKEN_COOKIE, TOKEN_QUERY
+from umbra.modules.webdoor.gate import Gate
+from umbra.modules.webdoor.hosts import allowed_hosts
+from umbra.modules.webdoor.secret import TOKEN_COOKIE, TOKEN_QUERY
 
 
 class ViserDoor:

@@ -1,8 +1,8 @@
-"""The arm as the simulated cameras see it: its boxes (:mod:`modules.arm.arm_solids`) as the
+"""The arm as the simulated cameras see it: its boxes (:mod:`umbra.modules.arm.arm_solids`) as the
 faces a camera sees, back to front.
 
-For the wrist camera's renderer (:class:`~modules.vision.scene.SceneRenderer`) the faces are
-world :class:`~modules.vision.scene.Occluder` s, drawn in front of the table, the tool and the
+For the wrist camera's renderer (:class:`~umbra.modules.vision.scene.SceneRenderer`) the faces are
+world :class:`~umbra.modules.vision.scene.Occluder` s, drawn in front of the table, the tool and the
 patch (the arm is above them), shaded by how squarely they face the camera; the renderer clips
 what lies behind the camera. For the Active Sketch cameras they are solids added to the scene's
 objects (:func:`with_arm`), which that renderer sorts by depth itself.
@@ -14,10 +14,10 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.messages import Poses
-from modules.arm.arm_solids import arm_boxes, box_corners
-from modules.sketch.messages import SceneObjects
-from modules.vision.scene import RGB, Occluder
+from umbra.connectors.messages import Poses
+from umbra.modules.arm.arm_solids import arm_boxes, box_corners
+from umbra.modules.sketch.messages import SceneObjects
+from umbra.modules.vision.scene import RGB, Occluder
 
 FloatArray = NDArray[np.float64]
 

@@ -7,11 +7,11 @@ grabber does); a video file or an image sequence keeps every frame, in order, in
 so that playback delivers each frame once. At the end of a file the reader loops, or stops and
 says so; a file that cannot be read again from its start ends there. A still image is decoded
 once and needs no thread (:attr:`CaptureReader.still`). What a source names and why it cannot
-be opened is :mod:`modules.vision.capture_source`.
+be opened is :mod:`umbra.modules.vision.capture_source`.
 
 A device's or stream's frame carries its capture time [s, ``time.monotonic()``]: the driver's
 buffer stamp where the backend gives one on that clock, else the moment ``grab()`` dequeued it,
-before decoding (:mod:`modules.vision.capture_time`).
+before decoding (:mod:`umbra.modules.vision.capture_time`).
 """
 
 from __future__ import annotations
@@ -26,13 +26,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.vision.capture_source import (
+from umbra.modules.vision.capture_source import (
     CaptureError,
     CaptureSource,
     probe_stream,
     source_problem,
 )
-from modules.vision.capture_time import capture_time
+from umbra.modules.vision.capture_time import capture_time
 
 __all__ = ["CaptureError", "CaptureReader", "CaptureSource", "LiveFrame"]
 

@@ -27,7 +27,7 @@ from urllib.parse import urlsplit
 
 from pydantic import AfterValidator, BeforeValidator
 
-from connectors.safe_yaml import boolean_hint
+from umbra.connectors.safe_yaml import boolean_hint
 
 SourceKind = Literal["device", "file", "sequence", "image", "url"]
 

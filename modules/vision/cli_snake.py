@@ -18,12 +18,12 @@ import argparse
 import cv2
 import numpy as np
 
-from connectors.cli_support import parse_set, print_json
-from connectors.errors import UserError
-from modules.vision.image_file import read_image
-from modules.vision.overlay import draw_overlay
-from modules.vision.snake_config import SettingsError, settings_from
-from modules.vision.tracker import SnakeTracker
+from umbra.connectors.cli_support import parse_set, print_json
+from umbra.connectors.errors import UserError
+from umbra.modules.vision.image_file import read_image
+from umbra.modules.vision.overlay import draw_overlay
+from umbra.modules.vision.snake_config import SettingsError, settings_from
+from umbra.modules.vision.tracker import SnakeTracker
 
 NAME = "snake"
 HELP = "run the snake on one image until it converges"
@@ -58,7 +58,8 @@ def _seed(text: str, shape: tuple[int, ...]) -> tuple[float, float]:
 
 
 def _load(path: str) -> np.ndarray:
-    """The image (bounded in bytes and pixels, decoded as BGR): ``modules.vision.image_file``."""
+    """The image (bounded in bytes and pixels, decoded as BGR):
+    ``umbra.modules.vision.image_file``."""
     return read_image(path)
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from connectors.messages import Contour
-from modules.vision.features import PolygonFeatures
+from umbra.connectors.messages import Contour
+from umbra.modules.vision.features import PolygonFeatures
 
 
 def contour_message(

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.vision.polygon import following, with_positive_area
+from umbra.modules.vision.polygon import following, with_positive_area
 
 FloatArray = NDArray[np.float64]
 

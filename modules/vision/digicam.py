@@ -8,7 +8,7 @@ from typing import Literal
 import numpy as np
 from pydantic import model_validator
 
-from connectors import (
+from umbra.connectors import (
     Input,
     Module,
     Output,
@@ -18,12 +18,12 @@ from connectors import (
     from_param,
     param,
 )
-from connectors.limits import MAX_IMAGE_SIDE_PX
-from connectors.messages import CameraModel, Contour, Image, Pose, Poses
-from modules.vision.capture import CaptureError, CaptureReader, CaptureSource
-from modules.vision.capture_source import CameraSource
-from modules.vision.digicam_sim import SimCameraSide
-from modules.vision.sim_camera import SceneFault, SimulatedCamera
+from umbra.connectors.limits import MAX_IMAGE_SIDE_PX
+from umbra.connectors.messages import CameraModel, Contour, Image, Pose, Poses
+from umbra.modules.vision.capture import CaptureError, CaptureReader, CaptureSource
+from umbra.modules.vision.capture_source import CameraSource
+from umbra.modules.vision.digicam_sim import SimCameraSide
+from umbra.modules.vision.sim_camera import SceneFault, SimulatedCamera
 
 
 class DigiCam(SimCameraSide, Module):

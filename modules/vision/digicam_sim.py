@@ -1,6 +1,6 @@
 """DigiCam's simulated wrist camera: the scene rendered from the poses the world sends (the
 camera's, the patch's, and the arm's, drawn over the rest), the scheduled faults, and the
-ground truth (a mixin of :class:`~modules.vision.digicam.DigiCam`)."""
+ground truth (a mixin of :class:`~umbra.modules.vision.digicam.DigiCam`)."""
 
 from __future__ import annotations
 
@@ -12,14 +12,14 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors import UserError
-from connectors.messages import Contour, Image, Pose
-from modules.vision.arm_view import arm_in, arm_occluders
-from modules.vision.contour_message import contour_message
-from modules.vision.features import polygon_features
-from modules.vision.lighting import Lighting
-from modules.vision.scene import Scene, camera_looking_down, pose
-from modules.vision.sim_camera import CameraSpec, SceneFault, SimulatedCamera
+from umbra.connectors import UserError
+from umbra.connectors.messages import Contour, Image, Pose
+from umbra.modules.vision.arm_view import arm_in, arm_occluders
+from umbra.modules.vision.contour_message import contour_message
+from umbra.modules.vision.features import polygon_features
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.scene import Scene, camera_looking_down, pose
+from umbra.modules.vision.sim_camera import CameraSpec, SceneFault, SimulatedCamera
 
 #: ``lag`` fault: the speed [1] at which a lagging camera's frames follow the scene.
 LAG_PLAYBACK = 0.2

@@ -48,8 +48,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.vision.color import ColorModel, is_target
-from modules.vision.polygon import following
+from umbra.modules.vision.color import ColorModel, is_target
+from umbra.modules.vision.polygon import following
 
 FloatArray = NDArray[np.float64]
 

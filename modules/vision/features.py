@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.polygon import as_polygon, following
+from umbra.modules.vision.polygon import as_polygon, following
 
 FloatArray = NDArray[np.float64]
 

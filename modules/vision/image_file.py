@@ -4,8 +4,8 @@ The file must be a regular file of at most ``MAX_IMAGE_BYTES``; its header is re
 (Pillow reads only the header) and an image larger than ``MAX_IMAGE_SIDE_PX`` on a side or
 ``MAX_IMAGE_PIXELS`` in all is refused before it is decoded, so a small "decompression bomb" file
 cannot exhaust memory. A PNG or JPEG is also sized as its decoder (libpng, libjpeg) will read it
-(:mod:`connectors.image_header`): a frame header hidden behind JPEG fill bytes cannot pass as a
-small image. Grayscale and palette images come back as 3-channel BGR like colour ones.
+(:mod:`umbra.connectors.image_header`): a frame header hidden behind JPEG fill bytes cannot pass as
+a small image. Grayscale and palette images come back as 3-channel BGR like colour ones.
 """
 
 from __future__ import annotations
@@ -18,12 +18,12 @@ import cv2
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from connectors.errors import UserError
-from connectors.image_header import image_size
-from connectors.limits import MAX_IMAGE_FILE_BYTES as MAX_IMAGE_BYTES
-from connectors.limits import MAX_IMAGE_SIDE_PX
-from connectors.limits import MAX_PHOTO_PIXELS as MAX_IMAGE_PIXELS
-from connectors.user_files import read_bytes
+from umbra.connectors.errors import UserError
+from umbra.connectors.image_header import image_size
+from umbra.connectors.limits import MAX_IMAGE_FILE_BYTES as MAX_IMAGE_BYTES
+from umbra.connectors.limits import MAX_IMAGE_SIDE_PX
+from umbra.connectors.limits import MAX_PHOTO_PIXELS as MAX_IMAGE_PIXELS
+from umbra.connectors.user_files import read_bytes
 
 
 def read_image(path: str | Path) -> np.ndarray:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import Pose
-from modules.geometry.mount_offset import offset_mount, offset_transform
+from umbra.connectors import Input, Module, Output, Parameters, UserError, param
+from umbra.connectors.messages import Pose
+from umbra.modules.geometry.mount_offset import offset_mount, offset_transform
 
 
 class MountOffset(Module):

@@ -12,8 +12,8 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.features import PolygonFeatures
-from modules.vision.sanity import OrientedBox, SanityResult
+from umbra.modules.vision.features import PolygonFeatures
+from umbra.modules.vision.sanity import OrientedBox, SanityResult
 
 _SHIFT = 4
 CONTOUR_BGR = (0, 255, 255)

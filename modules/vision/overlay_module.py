@@ -8,15 +8,15 @@ from typing import Annotated
 import numpy as np
 from pydantic import AfterValidator
 
-from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import Contour, Image, Status
-from connectors.params import RunFile
-from modules.servo.error_text import error_figure
-from modules.vision.features import polygon_features
-from modules.vision.overlay import draw_overlay
-from modules.vision.sanity import SanityLimits, bounding_shapes
-from modules.vision.video import VideoFileError
-from modules.vision.video_thread import ThreadedVideoWriter
+from umbra.connectors import Input, Module, Output, Parameters, UserError, param
+from umbra.connectors.messages import Contour, Image, Status
+from umbra.connectors.params import RunFile
+from umbra.modules.servo.error_text import error_figure
+from umbra.modules.vision.features import polygon_features
+from umbra.modules.vision.overlay import draw_overlay
+from umbra.modules.vision.sanity import SanityLimits, bounding_shapes
+from umbra.modules.vision.video import VideoFileError
+from umbra.modules.vision.video_thread import ThreadedVideoWriter
 
 #: Containers the operator's video can be written in.
 VIDEO_SUFFIXES = (".avi", ".mp4")

@@ -1,7 +1,7 @@
 """A second, independent scene generator for the snake: a coloured patch on real photographs.
 
-The project's own renderer (:mod:`modules.vision.scene`) draws one photograph (``coffee``) under
-a camera looking straight down, with motion blur and additive noise; a snake tuned on it can
+The project's own renderer (:mod:`umbra.modules.vision.scene`) draws one photograph (``coffee``)
+under a camera looking straight down, with motion blur and additive noise; a snake tuned on it can
 fit that renderer rather than cameras. This generator makes the same *class* of image by other
 means, so that tuning and scoring can be split:
 
@@ -231,7 +231,7 @@ def render(
     scene = cv2.GaussianBlur(scene, (0, 0), lens_sigma)
     motion = rng.uniform(0.0, 2.0) if rng.random() < 0.5 else 0.0
     if motion >= 0.5:
-        from modules.vision.lighting import motion_blur_kernel
+        from umbra.modules.vision.lighting import motion_blur_kernel
 
         kernel = motion_blur_kernel(motion, rng.uniform(0.0, np.pi))
         scene = cv2.filter2D(scene, -1, kernel, borderType=cv2.BORDER_REFLECT)

@@ -4,7 +4,8 @@ Each vertex reads a window of ``2 r + 1`` cells on the grid of every σ-th pixel
 grid scale, 1 at full resolution), as a ``(2 r + 2)²`` block with area weights on its first and
 last rows and columns (a box filter followed by bilinear interpolation, so the pressure is
 continuous in the vertex position). Each pixel votes target when it passes the colour gate of
-:func:`modules.vision.color.gate_test`; ``p = 2 f - 1`` with ``f`` the weighted share of votes.
+:func:`umbra.modules.vision.color.gate_test`; ``p = 2 f - 1`` with ``f`` the weighted share of
+votes.
 
 :class:`PressureField` holds what does not change between the iterations of one frame (the
 image viewed as rows of pixels, the gate's constants, index steps), so an iteration costs a few
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.vision.color import ColorModel, offset_matrix
+from umbra.modules.vision.color import ColorModel, offset_matrix
 
 FloatArray = NDArray[np.float64]
 

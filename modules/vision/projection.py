@@ -8,8 +8,8 @@ camera frame [m] projects to normalized (a, b) = (x/z, y/z), is distorted with O
     b_d = b radial + p1 (r² + 2 b²) + 2 p2 a b
 
 and mapped to pixels u = fx a_d + skew b_d + u0, v = fy b_d + v0 (tested against
-``cv2.projectPoints``). The distortion model itself is :mod:`modules.calib.distortion`'s; points
-change frames with :func:`modules.geometry.transforms.transform_points`.
+``cv2.projectPoints``). The distortion model itself is :mod:`umbra.modules.calib.distortion`'s;
+points change frames with :func:`umbra.modules.geometry.transforms.transform_points`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.calib.distortion import distort_normalized
+from umbra.modules.calib.distortion import distort_normalized
 
 FloatArray = NDArray[np.float64]
 
@@ -81,8 +81,8 @@ def project_camera_points(
 def undistort_normalized(
     ab_distorted: FloatArray, distortion: Distortion, iterations: int = 30
 ) -> FloatArray:
-    """Invert :func:`~modules.calib.distortion.distort_normalized` by fixed-point iteration, as
-    OpenCV's undistortPoints. Unlike :func:`modules.calib.distortion.undistort_normalized`
+    """Invert :func:`~umbra.modules.calib.distortion.distort_normalized` by fixed-point iteration,
+    as OpenCV's undistortPoints. Unlike :func:`umbra.modules.calib.distortion.undistort_normalized`
     (Newton, NaN where the lens folds over) it gives finite, if meaningless, values beyond the
     fold, which the renderer's margin and remap tables can take."""
     a_d, b_d = ab_distorted[:, 0], ab_distorted[:, 1]

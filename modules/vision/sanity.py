@@ -3,8 +3,8 @@
 A snake that tracks a rectangular patch looks like a rounded rectangle. It must lie inside a
 slightly larger rectangle and outside a slightly smaller ellipse, both built from the
 contour's own moments: the rectangle with the same second moments as the contour (sides
-``sqrt(12 eigenvalue)``, see :func:`modules.vision.features.equivalent_rectangle_sides`), scaled
-up by ``1 + rectangle_margin``; and the ellipse inscribed in that same equivalent rectangle,
+``sqrt(12 eigenvalue)``, see :func:`umbra.modules.vision.features.equivalent_rectangle_sides`),
+scaled up by ``1 + rectangle_margin``; and the ellipse inscribed in that same equivalent rectangle,
 scaled down by ``ellipse_scale``. On top of that the area and the aspect ratio must stay within
 bounds, and so must the rates of change from the previous frame (centroid jump, relative area
 change, rotation, relative aspect change) and the drift of the aspect ratio from the contour
@@ -21,13 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.features import (
+from umbra.modules.vision.features import (
     PolygonFeatures,
     angle_difference,
     equivalent_rectangle_sides,
     polygon_features,
 )
-from modules.vision.polygon import as_polygon
+from umbra.modules.vision.polygon import as_polygon
 
 FloatArray = NDArray[np.float64]
 

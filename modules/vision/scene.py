@@ -23,11 +23,11 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.transforms import transform_points
-from modules.vision.coverage import convex_coverage
-from modules.vision.lighting import Lighting, Sensor
-from modules.vision.polygon import inset_convex, is_convex, signed_area
-from modules.vision.projection import (
+from umbra.modules.geometry.transforms import transform_points
+from umbra.modules.vision.coverage import convex_coverage
+from umbra.modules.vision.lighting import Lighting, Sensor
+from umbra.modules.vision.polygon import inset_convex, is_convex, signed_area
+from umbra.modules.vision.projection import (
     CameraIntrinsics,
     Distortion,
     ideal_pixels_of_distorted_grid,
@@ -357,7 +357,7 @@ class SceneRenderer:
     def _fill_exact(self, canvases, polygon_px: FloatArray, color_bgr, label: int) -> None:
         """Fill a polygon with its exact pixel coverage, so its edges are where the ground truth
         says (for the patch, distractors and occluders): a convex polygon's coverage is computed
-        analytically (:mod:`modules.vision.coverage`, area exact to ~0.01 %); another is
+        analytically (:mod:`umbra.modules.vision.coverage`, area exact to ~0.01 %); another is
         rasterized on a grid ``_SUPERSAMPLE`` times finer over its bounding box and averaged
         down. Blended by coverage; labels where the coverage is at least one half."""
         if len(polygon_px) < 3:

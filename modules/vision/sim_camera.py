@@ -1,14 +1,14 @@
 """The simulated wrist camera as a device: renders the patch scene for a camera model and pose,
 and the scheduled faults of the failure-injection trials.
 
-Keeps one :class:`~modules.vision.scene.SceneRenderer` per camera model (building one solves
+Keeps one :class:`~umbra.modules.vision.scene.SceneRenderer` per camera model (building one solves
 the distortion maps, about a tenth of a second at 640x480), so a camera whose model changes
 (a zoom) costs that each time its intrinsics change.
 
 A :class:`SceneFault` changes the scene from a time on: an occluder slides over the patch, the
 patch disappears, or a second patch of the same color appears against it. (A frozen frame
 grabber is the camera module's business: it stops rendering.) Frames and units as in
-:mod:`modules.vision.scene`: metres, seconds, the patch's own frame for the fault geometry.
+:mod:`umbra.modules.vision.scene`: metres, seconds, the patch's own frame for the fault geometry.
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.geometry.transforms import transform_points
-from modules.vision.lighting import Lighting
-from modules.vision.polygon import signed_area
-from modules.vision.projection import CameraIntrinsics, Distortion
-from modules.vision.scene import (
+from umbra.modules.geometry.transforms import transform_points
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.polygon import signed_area
+from umbra.modules.vision.projection import CameraIntrinsics, Distortion
+from umbra.modules.vision.scene import (
     RGB,
     SIDE_AXES,
     Occluder,

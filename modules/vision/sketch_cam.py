@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import CameraModel, Image, Pose, Poses
-from modules.sketch.messages import SceneObjects
-from modules.vision.arm_view import arm_in, with_arm
-from modules.vision.lighting import Sensor
-from modules.vision.sketch_render import render_scene
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import CameraModel, Image, Pose, Poses
+from umbra.modules.sketch.messages import SceneObjects
+from umbra.modules.vision.arm_view import arm_in, with_arm
+from umbra.modules.vision.lighting import Sensor
+from umbra.modules.vision.sketch_render import render_scene
 
 
 class SketchCam(Module):

@@ -13,9 +13,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.calib.distortion import distort_points
-from modules.sketch.messages import SceneObjects
-from modules.vision.lighting import Lighting, Sensor
+from umbra.modules.calib.distortion import distort_points
+from umbra.modules.sketch.messages import SceneObjects
+from umbra.modules.vision.lighting import Lighting, Sensor
 
 FloatArray = NDArray[np.float64]
 _LIGHT = np.array([0.3, -0.4, 0.87]) / np.linalg.norm([0.3, -0.4, 0.87])
@@ -73,7 +73,7 @@ def render_scene(
         K: 3 x 3 intrinsics (px); ``dist``: OpenCV distortion or None.
         T_base_camera: the camera's pose (4 x 4, m) in the objects' frame.
         noise_sigma: Gaussian pixel noise (grey levels) drawn from ``rng`` by the simulated
-            cameras' one sensor model (:class:`~modules.vision.lighting.Sensor`); pass one as
+            cameras' one sensor model (:class:`~umbra.modules.vision.lighting.Sensor`); pass one as
             ``sensor`` to reuse its buffers and noise bank from frame to frame.
     """
     T_camera_base = np.linalg.inv(np.asarray(T_base_camera, dtype=float))

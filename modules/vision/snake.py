@@ -8,7 +8,7 @@ neighbours by *tension*:
 
 The pressure comes from the color statistics of a small window of pixels around the vertex:
 each pixel in the window votes "target" when its chromaticity lies within ``k_sigma``
-Mahalanobis of the target model (see :mod:`modules.vision.color`), and ``p_i = 2 f - 1`` where
+Mahalanobis of the target model (see :mod:`umbra.modules.vision.color`), and ``p_i = 2 f - 1`` where
 ``f`` is the area-weighted fraction of target pixels. Deep inside the target ``p = +1`` (the
 snake pushes out), in the background ``p = -1`` (it pulls in), and across an edge ``p`` falls
 linearly over the window's width, so a vertex comes to rest where half its window is target:
@@ -28,8 +28,8 @@ proportional to the number of vertices: only a (2r+2)² block of pixels around e
 read, straight from the caller's image (a view, never a converted, blurred or copied frame), so
 the cost does not depend on the image size.
 
-When the iterations end, the contour is *measured* (:mod:`modules.vision.edge_fit`): each vertex
-is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
+When the iterations end, the contour is *measured* (:mod:`umbra.modules.vision.edge_fit`): each
+vertex is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
 profile, and the sharp convex corners the even vertices cut off are put back. That measured
 outline (:attr:`SnakeResult.contour`) is what the tracker reports; the snake's own vertices
 (:attr:`SnakeResult.vertices`) stay where the pressure put them, to start the next frame from.
@@ -42,9 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision.color import ColorModel
-from modules.vision.edge_fit import EdgeFitParams, complete_corners, fit_edges
-from modules.vision.polygon import (
+from umbra.modules.vision.color import ColorModel
+from umbra.modules.vision.edge_fit import EdgeFitParams, complete_corners, fit_edges
+from umbra.modules.vision.polygon import (
     as_polygon,
     circle,
     following,
@@ -53,7 +53,7 @@ from modules.vision.polygon import (
     signed_area,
     with_positive_area,
 )
-from modules.vision.pressure import PressureField
+from umbra.modules.vision.pressure import PressureField
 
 FloatArray = NDArray[np.float64]
 
@@ -91,7 +91,7 @@ class SnakeParams:
       (r = g = 1/3) cannot be told from a gray scene: failed (unitless).
     - ``max_unconverged_frames``: this many frames in a row without settling while tracking
       mean the snake has lost its footing: failed (acquisition must settle at once); see
-      :func:`modules.vision.tracker.settled`.
+      :func:`umbra.modules.vision.tracker.settled`.
     """
 
     k_sigma: float = 3.0
@@ -226,7 +226,8 @@ def pressure(
     scale: int = 1,
 ) -> FloatArray:
     """Pressure in [-1, 1] at each vertex: 2 x (weighted fraction of target pixels) - 1, over a
-    window of ``2 r + 1`` grid cells of ``scale`` pixels (see :mod:`modules.vision.pressure`)."""
+    window of ``2 r + 1`` grid cells of ``scale`` pixels (see
+    :mod:`umbra.modules.vision.pressure`)."""
     return _field(image, model, params, scale)(vertices)
 
 
@@ -375,7 +376,7 @@ def measure_contour(
     scale: int = 1,
 ) -> tuple[FloatArray, float]:
     """The outline on the fitted colour edge with its corners put back, and the share of
-    vertices that found an edge (see :mod:`modules.vision.edge_fit`). With the edge fit off,
+    vertices that found an edge (see :mod:`umbra.modules.vision.edge_fit`). With the edge fit off,
     the vertices as they are and 1."""
     if params.edge_half_length_px <= 0.0:
         return vertices, 1.0

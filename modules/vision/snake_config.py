@@ -1,7 +1,7 @@
 """User-facing snake settings: one flat set of names for the vsSnake module and ``umbra snake``.
 
-The names are those of :class:`~modules.vision.snake.SnakeParams` and
-:class:`~modules.vision.sanity.SanityLimits`, except that angles a user types are in degrees
+The names are those of :class:`~umbra.modules.vision.snake.SnakeParams` and
+:class:`~umbra.modules.vision.sanity.SanityLimits`, except that angles a user types are in degrees
 and say so (``max_rotation_deg``). :func:`settings_from` validates and converts once.
 """
 
@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from modules.vision.sanity import SanityLimits
-from modules.vision.snake import SnakeParams
+from umbra.modules.vision.sanity import SanityLimits
+from umbra.modules.vision.snake import SnakeParams
 
 #: User-facing limit names that differ from the SanityLimits field, with their conversion.
 _DEGREE_LIMITS = {"max_rotation_deg": "max_rotation_rad"}

@@ -8,9 +8,9 @@ first reason until the next seed), because the servo must not resume on its own 
 snake has been seen to go wrong. While tracking is sane, the color model adapts from pixels
 just inside the contour.
 
-Besides the shape checks of :mod:`modules.vision.sanity`, the snake itself fails when it cannot
-be on a target: its colour model is gray (a grayscale or colourless image: ``min_chroma``), no
-colour edge lies under most of its vertices (a featureless image: ``min_edge_fraction``), it
+Besides the shape checks of :mod:`umbra.modules.vision.sanity`, the snake itself fails when it
+cannot be on a target: its colour model is gray (a grayscale or colourless image: ``min_chroma``),
+no colour edge lies under most of its vertices (a featureless image: ``min_edge_fraction``), it
 reaches the image border (the target is cut by the frame, its features are not the target's),
 it collapsed, or it did not converge (at acquisition, or ``max_unconverged_frames`` frames in a
 row while tracking).
@@ -24,11 +24,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.vision import color
-from modules.vision.color import ColorModel
-from modules.vision.features import PolygonFeatures
-from modules.vision.sanity import FAILED, SanityLimits, SanityResult, check_contour
-from modules.vision.snake import (
+from umbra.modules.vision import color
+from umbra.modules.vision.color import ColorModel
+from umbra.modules.vision.features import PolygonFeatures
+from umbra.modules.vision.sanity import FAILED, SanityLimits, SanityResult, check_contour
+from umbra.modules.vision.snake import (
     SnakeParams,
     SnakeResult,
     evolve,

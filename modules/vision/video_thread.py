@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from connectors.threads import background
-from modules.vision.video import VideoWriter
+from umbra.connectors.threads import background
+from umbra.modules.vision.video import VideoWriter
 
 _CLOSE = None
 

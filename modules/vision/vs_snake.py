@@ -6,15 +6,15 @@ from typing import Literal
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, UserError, param
-from connectors.messages import Contour, Image, Vector
-from modules.vision import color
-from modules.vision.contour_message import contour_message
-from modules.vision.polygon import rectangle
-from modules.vision.sanity import FAILED, SanityLimits
-from modules.vision.snake import SnakeParams, seed_samples
-from modules.vision.snake_config import SettingsError, setting_defaults, settings_from
-from modules.vision.tracker import IDLE, SnakeTracker
+from umbra.connectors import Input, Module, Output, Parameters, UserError, param
+from umbra.connectors.messages import Contour, Image, Vector
+from umbra.modules.vision import color
+from umbra.modules.vision.contour_message import contour_message
+from umbra.modules.vision.polygon import rectangle
+from umbra.modules.vision.sanity import FAILED, SanityLimits
+from umbra.modules.vision.snake import SnakeParams, seed_samples
+from umbra.modules.vision.snake_config import SettingsError, setting_defaults, settings_from
+from umbra.modules.vision.tracker import IDLE, SnakeTracker
 
 _DEFAULTS = setting_defaults()
 

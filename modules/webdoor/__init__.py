@@ -1,9 +1,9 @@
 """The door of the operator's web pages: who gets in, and how much anyone can make them hold.
 
 Every page server of a graph (the console's and the Active Sketch page's: one
-:class:`~modules.operator.web_server.WebServer` per process) serves behind this door:
+:class:`~umbra.modules.operator.web_server.WebServer` per process) serves behind this door:
 
-- the access rules it shares with the live server (:mod:`connectors.access`): the per-run
+- the access rules it shares with the live server (:mod:`umbra.connectors.access`): the per-run
   access token, the ``Host`` names the server was started for and the ``Origin`` of its own
   pages, a page socket's message budget;
 - ``gate.py``: the ASGI middleware in front of every route and socket: Host, Origin, token (the
@@ -14,5 +14,5 @@ Every page server of a graph (the console's and the Active Sketch page's: one
   and a deadline on a request head that never completes;
 - ``viewer.py``: the viewer cookie that makes one browser one operator.
 
-Every size and time limit is declared once, in :mod:`connectors.limits`.
+Every size and time limit is declared once, in :mod:`umbra.connectors.limits`.
 """

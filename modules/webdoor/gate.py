@@ -2,8 +2,8 @@
 
 In this order, for HTTP requests and websockets alike:
 
-1. ``Host`` must name this server (:mod:`connectors.access.hosts`), else 421: a DNS-rebinding page
-   sends its own name.
+1. ``Host`` must name this server (:mod:`umbra.connectors.access.hosts`), else 421: a DNS-rebinding
+   page sends its own name.
 2. ``Origin``, when present, must be one of this server's own pages, else 403: another site open
    in the operator's browser gets nothing.
 3. The access token: in the cookie, or in the address (``?token=``). A GET whose address carries
@@ -11,11 +11,11 @@ In this order, for HTTP requests and websockets alike:
    without it, so it leaves the address bar and the history. State-changing requests (POST...)
    need the cookie *and* either the page's own ``Origin`` or the :data:`CSRF_HEADER` (a header
    another site's page cannot send without a CORS grant, which this server never gives).
-4. A request body is refused past :data:`~connectors.limits.MAX_PAGE_BODY_BYTES` before it is
+4. A request body is refused past :data:`~umbra.connectors.limits.MAX_PAGE_BODY_BYTES` before it is
    read (``Content-Length``, then counting a streamed body), and must arrive whole within
-   :data:`~connectors.limits.MAX_PAGE_REQUEST_S`; the route then gets it from memory.
+   :data:`~umbra.connectors.limits.MAX_PAGE_REQUEST_S`; the route then gets it from memory.
 
-It also gives each browser its viewer cookie (:mod:`modules.webdoor.viewer`) and leaves the
+It also gives each browser its viewer cookie (:mod:`umbra.modules.webdoor.viewer`) and leaves the
 request's viewer key in ``scope[VIEWER_SCOPE]``. Refusals are counted; the log says each kind
 at most once a second (a flood of refusals is not a flood of log lines).
 """
@@ -29,10 +29,10 @@ from collections import Counter
 from typing import Any
 from urllib.parse import parse_qsl, urlencode
 
-from connectors.access.hosts import host_allowed, origin_allowed
-from connectors.access.secret import CSRF_HEADER, TOKEN_COOKIE, TOKEN_QUERY, token_matches
-from connectors.limits import MAX_PAGE_BODY_BYTES, MAX_PAGE_REQUEST_S
-from modules.webdoor.viewer import VIEWER_COOKIE, VIEWER_SCOPE, new_viewer_id, viewer_key
+from umbra.connectors.access.hosts import host_allowed, origin_allowed
+from umbra.connectors.access.secret import CSRF_HEADER, TOKEN_COOKIE, TOKEN_QUERY, token_matches
+from umbra.connectors.limits import MAX_PAGE_BODY_BYTES, MAX_PAGE_REQUEST_S
+from umbra.modules.webdoor.viewer import VIEWER_COOKIE, VIEWER_SCOPE, new_viewer_id, viewer_key
 
 _LOG = logging.getLogger("umbra.webdoor")
 _SAFE_METHODS = ("GET", "HEAD", "OPTIONS")

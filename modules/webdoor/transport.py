@@ -1,11 +1,11 @@
 """uvicorn's protocols with the door's connection rules, below HTTP and websockets.
 
-- A connection limit per server (:data:`~connectors.limits.MAX_PAGE_CONNECTIONS`) and per client
-  address (:data:`~connectors.limits.MAX_PAGE_CONNECTIONS_PER_CLIENT`), held for a connection's
-  whole life whatever it becomes (a request, keep-alive, a websocket): one over is closed at
-  once, before it costs a parser or a task. uvicorn's own ``limit_concurrency`` answers 503 to
-  HTTP requests only; a websocket upgrade passes it.
-- A request head must arrive whole within :data:`~connectors.limits.MAX_PAGE_REQUEST_S`: a
+- A connection limit per server (:data:`~umbra.connectors.limits.MAX_PAGE_CONNECTIONS`) and per
+  client address (:data:`~umbra.connectors.limits.MAX_PAGE_CONNECTIONS_PER_CLIENT`), held for a
+  connection's whole life whatever it becomes (a request, keep-alive, a websocket): one over is
+  closed at once, before it costs a parser or a task. uvicorn's own ``limit_concurrency`` answers
+  503 to HTTP requests only; a websocket upgrade passes it.
+- A request head must arrive whole within :data:`~umbra.connectors.limits.MAX_PAGE_REQUEST_S`: a
   half-open request (slowloris) is closed. uvicorn's ``timeout_keep_alive`` closes a connection
   idle between requests, ``h11_max_incomplete_event_size`` bounds the head, ``ws_max_size`` a
   websocket message; :func:`uvicorn_options` sets them from the same limits.
@@ -25,7 +25,7 @@ from typing import Any
 from uvicorn.protocols.http.h11_impl import H11Protocol
 from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
 
-from connectors.limits import (
+from umbra.connectors.limits import (
     MAX_PAGE_CONNECTIONS,
     MAX_PAGE_CONNECTIONS_PER_CLIENT,
     MAX_PAGE_HEAD_BYTES,

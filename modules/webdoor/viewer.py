@@ -1,8 +1,8 @@
 """One browser, one operator: the viewer cookie the server gives each browser (pure).
 
 Every browser gets a random viewer id in a cookie on its first request; every page of the server
-it opens then speaks for the same operator (:mod:`modules.operator.control`). Pages are told only
-names, never another browser's id; the id is kept as a hash (:func:`viewer_key`).
+it opens then speaks for the same operator (:mod:`umbra.modules.operator.control`). Pages are told
+only names, never another browser's id; the id is kept as a hash (:func:`viewer_key`).
 """
 
 from __future__ import annotations

@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from connectors.cli_support import print_json
-from connectors.errors import UserError
-from modules.world.trial_faults import MAX_STALE_TRAVEL_MM
-from modules.world.trial_runner import TrialGraph, run_single, run_split
-from modules.world.trials import (
+from umbra.connectors.cli_support import print_json
+from umbra.connectors.errors import UserError
+from umbra.modules.world.trial_faults import MAX_STALE_TRAVEL_MM
+from umbra.modules.world.trial_runner import TrialGraph, run_single, run_split
+from umbra.modules.world.trials import (
     FAULTS,
     FRESHNESS_FAULTS,
     TrialResult,
@@ -77,7 +77,7 @@ def _workers(args: argparse.Namespace, n: int, out: Path) -> list[dict[str, Any]
         cmd = [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "trials",
             args.graph,
             "-n",

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.servo.features import wrap_roll_error
+from umbra.modules.servo.features import wrap_roll_error
 
 FloatArray = NDArray[np.float64]
 

@@ -11,8 +11,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from modules.arm.dh import DHTable
-from modules.arm.jacobian import jacobian_and_pose
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.jacobian import jacobian_and_pose
 
 FloatArray = NDArray[np.float64]
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Contour, Status, Vector
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import Contour, Status, Vector
 
 
 class OperatorSim(Module):

@@ -12,10 +12,10 @@ from collections import deque
 
 import numpy as np
 
-from connectors import Input, Module, UserError, param
-from connectors.messages import JointRates, JointState
-from modules.arm.arm_params import ArmParams
-from modules.world.trials import STILL_SPEED
+from umbra.connectors import Input, Module, UserError, param
+from umbra.connectors.messages import JointRates, JointState
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.world.trials import STILL_SPEED
 
 
 class SafetyMonitorParams(ArmParams):

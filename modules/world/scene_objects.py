@@ -3,8 +3,8 @@ on and around the table in front of the arm (LDRD report section 3), with random
 
 All in the arm's ``base`` frame (metres, radians; z up, the Puma's base on the floor), the
 table top ``table_z`` above it. Each object knows its true geometry; the world judges macros
-against it (:mod:`modules.world.sketch_world`), the renderer draws it
-(:mod:`modules.vision.sketch_render`) from :meth:`SketchScene.solids`.
+against it (:mod:`umbra.modules.world.sketch_world`), the renderer draws it
+(:mod:`umbra.modules.vision.sketch_render`) from :meth:`SketchScene.solids`.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.geometry.transforms import rot_z
-from modules.sketch.messages import SceneObjects
+from umbra.modules.geometry.transforms import rot_z
+from umbra.modules.sketch.messages import SceneObjects
 
 FloatArray = NDArray[np.float64]
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from modules.world.scene_objects import SketchScene
+from umbra.modules.world.scene_objects import SketchScene
 
 FloatArray = NDArray[np.float64]
 

@@ -1,6 +1,6 @@
 """The end of a macro in words an operator reads: success or miss, with the judge's numbers.
 
-:func:`macro_verdict` turns the :class:`~modules.world.sketch_judge.Verdicts` measured while a
+:func:`macro_verdict` turns the :class:`~umbra.modules.world.sketch_judge.Verdicts` measured while a
 macro played into ``(outcome, text, figures)``: ``outcome`` is ``"succeeded"``, ``"missed"`` or
 ``"done"`` (a macro the world does not judge: ready, stow, move_to, ...), ``text`` says what
 happened with the numbers (mm, deg, %), ``figures`` holds them (mm, deg, 1). Criteria are the
@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from modules.world.sketch_judge import (
+from umbra.modules.world.sketch_judge import (
     COVERAGE_GOAL,
     DEVICE_TOLERANCE_M,
     DOOR_GOAL_RAD,

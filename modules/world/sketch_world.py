@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, param
-from connectors.messages import JointState, Poses, Status
-from modules.arm.arm_params import ArmParams
-from modules.arm.arm_solids import arm_frames
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import SceneObjects, ToolPath, VcrState
-from modules.world.scene_objects import SketchScene
-from modules.world.sketch_judge import SketchJudge
-from modules.world.sketch_verdict import GRASP_MACROS, RELEASE_MACROS, macro_verdict
+from umbra.connectors import Input, Module, Output, param
+from umbra.connectors.messages import JointState, Poses, Status
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.arm.arm_solids import arm_frames
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.messages import SceneObjects, ToolPath, VcrState
+from umbra.modules.world.scene_objects import SketchScene
+from umbra.modules.world.sketch_judge import SketchJudge
+from umbra.modules.world.sketch_verdict import GRASP_MACROS, RELEASE_MACROS, macro_verdict
 
 
 class SketchWorld(Module):
@@ -29,7 +29,7 @@ class SketchWorld(Module):
     Every macro played ends with one ``verdict`` (``stage`` = macro, ``message`` = what
     happened with the numbers, "grasped: 2.1 mm off the pipe axis, 0.4 deg off it" or "missed:
     gripper closed 11.0 mm off the pipe axis, ..."; ``values``: the figures and ``success`` 1/0;
-    :mod:`modules.world.sketch_verdict`): a grasp macro when the gripper closes, placing a
+    :mod:`umbra.modules.world.sketch_verdict`): a grasp macro when the gripper closes, placing a
     device when it opens, any other when the player reports the path ``done``. Logged, and
     listed in the summary (``macro_verdicts``).
     """

@@ -20,14 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from modules.world.grasp import GraspError
-from modules.world.trial_faults import (
+from umbra.modules.world.grasp import GraspError
+from umbra.modules.world.trial_faults import (
     VISION_LAG_S,
     VISION_LAG_WINDOW_S,
     Overload,
     stop_and_continue,
 )
-from modules.world.trials import (
+from umbra.modules.world.trials import (
     STILL_SPEED,
     Nominal,
     TrialResult,
@@ -36,11 +36,11 @@ from modules.world.trials import (
     stale_travel,
     stop_figures,
 )
-from runtime.graph.check import load_graph
-from runtime.graph.plan import GraphPlan
-from runtime.links.config import free_loopback_ports
-from runtime.run import run_process
-from runtime.scheduler import SchedulerOptions
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.config import free_loopback_ports
+from umbra.runtime.run import run_process
+from umbra.runtime.scheduler import SchedulerOptions
 
 #: Types whose instances a trial configures.
 ROLES = {
@@ -71,7 +71,7 @@ class TrialGraph:
                 self.names[role] = name
         missing = [r for r in ("world", "camera", "joints", "servo") if r not in self.names]
         if missing:
-            from connectors.errors import UserError
+            from umbra.connectors.errors import UserError
 
             raise UserError(
                 f"{self.path}: a pick-up graph needs modules of types World, "
@@ -222,7 +222,7 @@ def run_split(
     base = [
         sys.executable,
         "-m",
-        "runtime.cli.main",
+        "umbra.runtime.cli.main",
         "run",
         graph.path,
         "--clock",

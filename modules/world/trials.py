@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from modules.arm.dh import DHTable
-from modules.world.grasp import R_PATCH_TOOL_GRASP, GraspError, grasp_error
-from modules.world.ik import IKFailed, solve_ik
-from modules.world.world import T_table_patch_of
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.world.grasp import R_PATCH_TOOL_GRASP, GraspError, grasp_error
+from umbra.modules.world.ik import IKFailed, solve_ik
+from umbra.modules.world.world import T_table_patch_of
 
 #: A joint slower than this is still [rad/s] (SafetyMonitor's default, and the standstill test's).
 STILL_SPEED = 1e-3

@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, UserError, param
-from connectors.messages import JointState, Pose, Poses, Status, Text
-from modules.arm.arm_params import ArmParams
-from modules.arm.arm_solids import TRUE_PREFIX, arm_frames
-from modules.world.grasp import grasp_error
+from umbra.connectors import Input, Module, Output, UserError, param
+from umbra.connectors.messages import JointState, Pose, Poses, Status, Text
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.arm.arm_solids import TRUE_PREFIX, arm_frames
+from umbra.modules.world.grasp import grasp_error
 
 
 def T_table_patch_of(

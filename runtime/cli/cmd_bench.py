@@ -26,8 +26,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import runtime
-from connectors.errors import UserError
+import umbra.runtime
+from umbra.connectors.errors import UserError
 
 NAME = "bench"
 HELP = "run the benchmarks (each against a baseline measured in the same run) and summarise them"
@@ -128,7 +128,7 @@ def benchmarks_dir(option: str | None) -> Path:
     if option:
         candidates = [Path(option)]
     else:
-        checkout = Path(runtime.__file__).resolve().parents[1]
+        checkout = Path(umbra.runtime.__file__).resolve().parents[1]
         candidates = [checkout / "benchmarks", Path("benchmarks")]
     for folder in candidates:
         if any(folder.glob("bench_*.py")):

@@ -5,11 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from connectors.errors import CheckFailed
-from runtime.graph.check import load_graph
-from runtime.graph.origin_age import bounded_inputs
-from runtime.graph.spec import GraphSpec
-from runtime.registry import Registry
+from umbra.connectors.errors import CheckFailed
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.origin_age import bounded_inputs
+from umbra.runtime.graph.spec import GraphSpec
+from umbra.runtime.registry import Registry
 
 NAME = "check"
 HELP = "check graph files: report every problem as FILE:LINE:COL, list links"

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import inspect
 
-from connectors.params import describe_params, is_safety, is_tunable
-from runtime.registry import Registry
+from umbra.connectors.params import describe_params, is_safety, is_tunable
+from umbra.runtime.registry import Registry
 
 NAME = "describe"
 HELP = "print a module type's ports and parameters"

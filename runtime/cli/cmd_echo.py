@@ -8,9 +8,14 @@ import math
 import queue
 import sys
 
-from connectors.errors import UserError
-from runtime.cli.observing import add_observer_args, full_key, message_fields, open_observation
-from runtime.links.observe import Observed
+from umbra.connectors.errors import UserError
+from umbra.runtime.cli.observing import (
+    add_observer_args,
+    full_key,
+    message_fields,
+    open_observation,
+)
+from umbra.runtime.links.observe import Observed
 
 NAME = "echo"
 HELP = "print the samples of an output of a running graph (KEY or MODULE/PORT), decoded"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from runtime.graph.check import load_graph
-from runtime.graph.plan import GraphPlan
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.plan import GraphPlan
 
 NAME = "graph"
 HELP = "print a graph as Graphviz dot or Mermaid"

@@ -11,9 +11,9 @@ from collections import deque
 
 import numpy as np
 
-from connectors.errors import UserError
-from runtime.cli.observing import add_observer_args, full_key, open_observation
-from runtime.links.observe import Observed
+from umbra.connectors.errors import UserError
+from umbra.runtime.cli.observing import add_observer_args, full_key, open_observation
+from umbra.runtime.links.observe import Observed
 
 NAME = "hz"
 HELP = "print the rate of an output of a running graph (KEY or MODULE/PORT) every second"

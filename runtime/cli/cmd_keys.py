@@ -7,10 +7,10 @@ import re
 import sys
 from pathlib import Path
 
-from connectors.errors import UserError
-from runtime.graph.check import load_graph
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import output_keys
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import output_keys
 
 NAME = "keys"
 HELP = "make a CA, a certificate per process and the graph's zenoh access rules (mutual TLS)"
@@ -82,7 +82,7 @@ def _observers(items: list[str], plan: GraphPlan) -> dict[str, list[str]]:
 
 
 def main(args: argparse.Namespace) -> int:
-    from runtime.links.tls import write_keys
+    from umbra.runtime.links.tls import write_keys
 
     if not 1 <= args.days <= 3650:
         raise UserError(f"--days must be from 1 to 3650, found {args.days}")

@@ -6,7 +6,7 @@ import argparse
 import re
 import textwrap
 
-from runtime.registry import Registry
+from umbra.runtime.registry import Registry
 
 NAME = "modules"
 HELP = "list module types (from the umbra.modules entry points)"
@@ -24,7 +24,7 @@ def main(args: argparse.Namespace) -> int:
         doc = first_sentence(cls.__doc__ or "") if cls else ""
         rows.append((name, doc if cls else f"(failed to load: {registry.broken.get(name)})"))
     if args.json:
-        from runtime.cli.common import print_json
+        from umbra.runtime.cli.common import print_json
 
         print_json({name: doc for name, doc in rows})
         return 0

@@ -14,7 +14,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from runtime.recording.info import format_info, info_json, recording_info
+    from umbra.runtime.recording.info import format_info, info_json, recording_info
 
     info = recording_info(args.recording)
     print(info_json(info) if args.json else format_info(info))

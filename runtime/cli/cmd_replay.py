@@ -8,8 +8,8 @@ import sys
 import time
 from pathlib import Path
 
-from connectors.errors import UserError
-from runtime.cli.common import parse_module_set
+from umbra.connectors.errors import UserError
+from umbra.runtime.cli.common import parse_module_set
 
 NAME = "replay"
 #: Past the recording's last sample [s]: less than any tick period, more than the scheduler's
@@ -63,11 +63,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from runtime.cli.cmd_run import enable_recording
-    from runtime.graph.check import load_graph
-    from runtime.recording.replay import plan_replay
-    from runtime.run import run_process
-    from runtime.scheduler import SchedulerOptions
+    from umbra.runtime.cli.cmd_run import enable_recording
+    from umbra.runtime.graph.check import load_graph
+    from umbra.runtime.recording.replay import plan_replay
+    from umbra.runtime.run import run_process
+    from umbra.runtime.scheduler import SchedulerOptions
 
     if args.duration is not None and not args.duration > 0:
         raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")

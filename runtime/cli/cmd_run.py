@@ -9,14 +9,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from connectors.errors import UserError
-from runtime.cli.common import parse_module_set
-from runtime.graph.check import load_graph
-from runtime.graph.names import endpoint_problem
-from runtime.graph.plan import GraphPlan
-from runtime.realtime import NO_CONSTRAINT_US, is_latency_us, latency_limit
-from runtime.run import default_output_dir, run_process
-from runtime.scheduler import SchedulerOptions
+from umbra.connectors.errors import UserError
+from umbra.runtime.cli.common import parse_module_set
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.names import endpoint_problem
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.realtime import NO_CONSTRAINT_US, is_latency_us, latency_limit
+from umbra.runtime.run import default_output_dir, run_process
+from umbra.runtime.scheduler import SchedulerOptions
 
 NAME = "run"
 HELP = "run a graph (all its processes, --process NAME, or --single-process)"
@@ -124,7 +124,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def add_foxglove_args(parser: argparse.ArgumentParser) -> None:
-    """``--foxglove`` and its settings (``runtime.live``)."""
+    """``--foxglove`` and its settings (``umbra.runtime.live``)."""
     parser.add_argument(
         "--foxglove",
         action="store_true",
@@ -159,7 +159,7 @@ def start_live(plan: GraphPlan, args: argparse.Namespace, clock: Any) -> Any:
     """The live server of ``--foxglove`` (None without it); prints the address to open."""
     if not getattr(args, "foxglove", False):
         return None
-    from runtime.live.session import LiveOptions, LiveRun
+    from umbra.runtime.live.session import LiveOptions, LiveRun
 
     options = LiveOptions(
         host=args.foxglove_host,
@@ -260,8 +260,8 @@ def main(args: argparse.Namespace) -> int:
                     file=sys.stderr,
                 )
         return result.exit_code
-    from runtime import launcher
-    from runtime.clock import RealClock
+    from umbra.runtime import launcher
+    from umbra.runtime.clock import RealClock
 
     if getattr(args, "foxglove", False):
         args.publish_all = True  # every process's outputs, for the live server to observe

@@ -10,9 +10,9 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from connectors.errors import UserError
-from runtime.cli.observing import add_observer_args, open_observation
-from runtime.links.observe import Observed
+from umbra.connectors.errors import UserError
+from umbra.runtime.cli.observing import add_observer_args, open_observation
+from umbra.runtime.links.observe import Observed
 
 NAME = "topics"
 HELP = "list the outputs of a running graph: key, type, producer, rate, age, drops"

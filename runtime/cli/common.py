@@ -1,6 +1,6 @@
-"""Re-export of the CLI helpers (they live in ``connectors.cli_support`` so that domain commands
-in ``modules`` can use them without importing the runtime)."""
+"""Re-export of the CLI helpers (they live in ``umbra.connectors.cli_support`` so that domain
+commands in ``modules`` can use them without importing the runtime)."""
 
-from connectors.cli_support import parse_module_set, parse_set, parse_value, print_json
+from umbra.connectors.cli_support import parse_module_set, parse_set, parse_value, print_json
 
 __all__ = ["parse_module_set", "parse_set", "parse_value", "print_json"]

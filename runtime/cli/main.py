@@ -14,7 +14,7 @@ from importlib.metadata import entry_points
 from types import ModuleType
 from typing import Any
 
-from connectors.errors import UserError
+from umbra.connectors.errors import UserError
 
 #: The runtime's own sub-commands, in the order ``umbra --help`` lists them. Domain commands
 #: (``snake``, ``arm``, ``calib``, ``trials``...) come from the ``umbra.commands`` entry-point
@@ -55,7 +55,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _load_commands() -> list[ModuleType]:
-    found = [importlib.import_module(f"runtime.cli.{name}") for name in COMMANDS]
+    found = [importlib.import_module(f"umbra.runtime.cli.{name}") for name in COMMANDS]
     for ep in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
         try:
             found.append(ep.load())

@@ -1,5 +1,5 @@
 """Options and helpers shared by ``umbra topics``, ``echo`` and ``hz``: joining a run as an
-observer (``runtime.links.observe``) and naming a key."""
+observer (``umbra.runtime.links.observe``) and naming a key."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors.errors import UserError
-from connectors.messages import Message
-from runtime.links.observe import Observation
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Message
+from umbra.runtime.links.observe import Observation
 
 #: Arrays with more elements than this are summarised (dtype, shape, range) when printed.
 MAX_LISTED = 64

@@ -3,7 +3,7 @@
 Beyond types, this holds contracts that other frameworks leave to run time: frames on
 frame-bearing types, joint names on joint vectors, the largest sample age an input accepts, safety
 guards on the command path to a joint driver, and the oldest sensor data a guard accepts
-(``runtime.graph.origin_age``).
+(``umbra.runtime.graph.origin_age``).
 """
 
 from __future__ import annotations
@@ -14,19 +14,19 @@ from typing import Any
 
 import pydantic
 
-from connectors.errors import CheckFailed, Diagnostic, Location, UserError
-from connectors.frames import FrameTree
-from connectors.params import ParamProblem
-from connectors.ports import Input
-from runtime.graph.names import key_prefix_problem
-from runtime.graph.order import find_cycle, topological_order
-from runtime.graph.origin_age import check_origin_ages
-from runtime.graph.parse import ShapeProblems, parse_graph_file, parse_graph_text
-from runtime.graph.plan import GraphPlan, LinkPlan, ModulePlan, PortInfo
-from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
-from runtime.hints import did_you_mean
-from runtime.recording.settings import check_record_ports
-from runtime.registry import Registry
+from umbra.connectors.errors import CheckFailed, Diagnostic, Location, UserError
+from umbra.connectors.frames import FrameTree
+from umbra.connectors.params import ParamProblem
+from umbra.connectors.ports import Input
+from umbra.runtime.graph.names import key_prefix_problem
+from umbra.runtime.graph.order import find_cycle, topological_order
+from umbra.runtime.graph.origin_age import check_origin_ages
+from umbra.runtime.graph.parse import ShapeProblems, parse_graph_file, parse_graph_text
+from umbra.runtime.graph.plan import GraphPlan, LinkPlan, ModulePlan, PortInfo
+from umbra.runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
+from umbra.runtime.hints import did_you_mean
+from umbra.runtime.recording.settings import check_record_ports
+from umbra.runtime.registry import Registry
 
 #: Frames every graph knows without declaring them.
 WELL_KNOWN_FRAMES = ("base", "world", "lab", "tool", "flange", "camera")
@@ -395,8 +395,8 @@ class _Checker:
         links = self.spec.links
         if not links.zenoh_config:
             return
-        from runtime.links.config import check_config_file
-        from runtime.links.exposure import config_for
+        from umbra.runtime.links.config import check_config_file
+        from umbra.runtime.links.exposure import config_for
 
         path = Path(links.zenoh_config)
         if not path.is_absolute():

@@ -2,7 +2,7 @@
 
 Guards against hostile input: files over ``MAX_BYTES``, bytes that are not UTF-8, nesting deeper
 than ``MAX_DEPTH``, and alias ("billion laughs") expansion beyond ``MAX_NODES``. Every failure is a
-:class:`~connectors.errors.CheckFailed` with ``FILE:LINE:COL``; nothing else escapes.
+:class:`~umbra.connectors.errors.CheckFailed` with ``FILE:LINE:COL``; nothing else escapes.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from typing import Any
 
 import yaml
 
-from connectors.errors import CheckFailed, Diagnostic, Location
-from connectors.safe_yaml import BoundedLoader, Refused, check_tree
+from umbra.connectors.errors import CheckFailed, Diagnostic, Location
+from umbra.connectors.safe_yaml import BoundedLoader, Refused, check_tree
 
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64

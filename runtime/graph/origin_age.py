@@ -1,6 +1,6 @@
 """The worst origin age a graph's rates allow on every input that bounds it (``max_origin_age``).
 
-An output's origin is the oldest origin of what its module read (``connectors.ports``), so the
+An output's origin is the oldest origin of what its module read (``umbra.connectors.ports``), so the
 age of the data behind a sample grows along a path by what each hop may add:
 
 * a measured output (a sensor, the plant) starts anew: its sample is as old as the time since it
@@ -24,9 +24,9 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from connectors.errors import Location
-from runtime.graph.plan import ModulePlan
-from runtime.graph.spec import ConnectionSpec
+from umbra.connectors.errors import Location
+from umbra.runtime.graph.plan import ModulePlan
+from umbra.runtime.graph.spec import ConnectionSpec
 
 #: What a link between processes adds to an origin's age at the least, on loopback [s].
 LINK_LATENCY_S = 0.002

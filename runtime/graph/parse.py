@@ -5,8 +5,9 @@ Format (see README "Graphs")::
     graph: counter_chain          # name, also the default zenoh key prefix
     seed: 0                       # sim runs are reproducible for a seed
     clock: sim                    # default clock: sim | real
-    processes: {umbra: {}, smart: {cpu_latency_us: 0}}   # hold idle CPUs awake: runtime.realtime
-    # smart: {realtime_priority: 80}  # its threads under SCHED_FIFO: runtime.rt_priority
+    processes: {umbra: {}, smart: {cpu_latency_us: 0}}   # hold idle CPUs awake:
+    umbra.runtime.realtime
+    # smart: {realtime_priority: 80}  # its threads under SCHED_FIFO: umbra.runtime.rt_priority
     frames:
       tool->camera: {xyz: [0, 0.05, 0.1], rpy_deg: [0, 0, 90]}
     modules:
@@ -23,21 +24,21 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from connectors.errors import CheckFailed, Diagnostic, Location, UserError
-from connectors.frames import NAME_RE  # one rule for every graph name
-from connectors.user_files import read_bytes
-from runtime.graph.located_yaml import MAX_BYTES, YMap, load_located
-from runtime.graph.names import (
+from umbra.connectors.errors import CheckFailed, Diagnostic, Location, UserError
+from umbra.connectors.frames import NAME_RE  # one rule for every graph name
+from umbra.connectors.user_files import read_bytes
+from umbra.runtime.graph.located_yaml import MAX_BYTES, YMap, load_located
+from umbra.runtime.graph.names import (
     MAX_NAME_CHARS,
 )
-from runtime.graph.parse_base import _kind
-from runtime.graph.parse_links import LinksParser
-from runtime.graph.parse_modules import ModulesParser
-from runtime.graph.parse_processes import ProcessesParser
-from runtime.graph.spec import (
+from umbra.runtime.graph.parse_base import _kind
+from umbra.runtime.graph.parse_links import LinksParser
+from umbra.runtime.graph.parse_modules import ModulesParser
+from umbra.runtime.graph.parse_processes import ProcessesParser
+from umbra.runtime.graph.spec import (
     GraphSpec,
 )
-from runtime.recording.settings import parse_record
+from umbra.runtime.recording.settings import parse_record
 
 TOP_KEYS = (
     "graph",
@@ -55,7 +56,7 @@ TOP_KEYS = (
 
 
 class _Parser(ProcessesParser, ModulesParser, LinksParser):
-    """The whole file: its top-level keys, then each section (``runtime.graph.parse_*``)."""
+    """The whole file: its top-level keys, then each section (``umbra.runtime.graph.parse_*``)."""
 
     def parse(self, doc: Any) -> GraphSpec | None:
         if not isinstance(doc, YMap):

@@ -6,11 +6,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from connectors.errors import Diagnostic, Location
-from connectors.limits import MAX_RATE_HZ, MIN_RATE_HZ
-from connectors.safe_yaml import boolean_hint
-from runtime.graph.located_yaml import YMap
-from runtime.hints import did_you_mean
+from umbra.connectors.errors import Diagnostic, Location
+from umbra.connectors.limits import MAX_RATE_HZ, MIN_RATE_HZ
+from umbra.connectors.safe_yaml import boolean_hint
+from umbra.runtime.graph.located_yaml import YMap
+from umbra.runtime.hints import did_you_mean
 
 
 def _kind(value: Any) -> str:

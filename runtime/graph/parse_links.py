@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from runtime.graph.located_yaml import YMap
-from runtime.graph.names import (
+from umbra.runtime.graph.located_yaml import YMap
+from umbra.runtime.graph.names import (
     endpoint_problem,
     key_prefix_problem,
     plain_beyond_host,
 )
-from runtime.graph.parse_base import ParserBase, _kind
-from runtime.graph.spec import (
+from umbra.runtime.graph.parse_base import ParserBase, _kind
+from umbra.runtime.graph.spec import (
     LinkSettings,
 )
 

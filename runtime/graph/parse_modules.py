@@ -5,18 +5,18 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from connectors.errors import Location
-from connectors.frames import NAME_RE  # one rule for every graph name
-from connectors.safe_yaml import boolean_hint
-from runtime.graph.located_yaml import YList, YMap
-from runtime.graph.parse_base import ParserBase, _kind, _plain
-from runtime.graph.spec import (
+from umbra.connectors.errors import Location
+from umbra.connectors.frames import NAME_RE  # one rule for every graph name
+from umbra.connectors.safe_yaml import boolean_hint
+from umbra.runtime.graph.located_yaml import YList, YMap
+from umbra.runtime.graph.parse_base import ParserBase, _kind, _plain
+from umbra.runtime.graph.spec import (
     DEFAULT_PROCESS,
     ConnectionSpec,
     Endpoint,
     ModuleSpec,
 )
-from runtime.hints import did_you_mean
+from umbra.runtime.hints import did_you_mean
 
 MODULE_KEYS = ("type", "process", "rate", "trigger", "params", "description")
 CONNECTION_RE = re.compile(

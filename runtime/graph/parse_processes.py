@@ -6,16 +6,16 @@ import math
 
 import numpy as np
 
-from connectors.errors import Location
-from connectors.frames import NAME_RE, transform_from_xyz_rpy  # one rule for every graph name
-from runtime.graph.located_yaml import YList, YMap
-from runtime.graph.parse_base import ParserBase, _kind
-from runtime.graph.spec import (
+from umbra.connectors.errors import Location
+from umbra.connectors.frames import NAME_RE, transform_from_xyz_rpy  # one rule for every graph name
+from umbra.runtime.graph.located_yaml import YList, YMap
+from umbra.runtime.graph.parse_base import ParserBase, _kind
+from umbra.runtime.graph.spec import (
     GraphSpec,
     StaticFrameSpec,
 )
-from runtime.realtime import NO_CONSTRAINT_US, is_latency_us
-from runtime.rt_priority import MAX_NICE, MAX_PRIORITY, MIN_PRIORITY, is_nice, is_priority
+from umbra.runtime.realtime import NO_CONSTRAINT_US, is_latency_us
+from umbra.runtime.rt_priority import MAX_NICE, MAX_PRIORITY, MIN_PRIORITY, is_nice, is_priority
 
 PROCESS_KEYS = ("cpu_latency_us", "realtime_priority", "nice")
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from connectors.frames import FrameTree
-from connectors.module import Module
-from connectors.params import Parameters
-from runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
+from umbra.connectors.frames import FrameTree
+from umbra.connectors.module import Module
+from umbra.connectors.params import Parameters
+from umbra.runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
 
 
 @dataclass

@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from connectors.errors import Location
-from runtime.recording.settings import RecordSettings
+from umbra.connectors.errors import Location
+from umbra.runtime.recording.settings import RecordSettings
 
 DEFAULT_PROCESS = "main"
 
@@ -78,7 +78,7 @@ class LinkSettings:
     connect: list[str] = field(default_factory=list)
     zenoh_config: str = ""
     #: "inline": a link sample arriving while a process is idle is handled on zenoh's thread at
-    #: once; "loop": always handed to the process's loop thread (see ``runtime.scheduler``).
+    #: once; "loop": always handed to the process's loop thread (see ``umbra.runtime.scheduler``).
     dispatch: str = "inline"
     loc: Location | None = None
     zenoh_config_loc: Location | None = None
@@ -95,9 +95,9 @@ class GraphSpec:
     clock: str = "sim"
     duration: float | None = None
     processes: dict[str, Location] = field(default_factory=dict)
-    #: process -> the CPU wake-up latency [µs] it holds while running (``runtime.realtime``)
+    #: process -> the CPU wake-up latency [µs] it holds while running (``umbra.runtime.realtime``)
     cpu_latency_us: dict[str, int] = field(default_factory=dict)
-    #: process -> the SCHED_FIFO priority its threads run at (``runtime.rt_priority``)
+    #: process -> the SCHED_FIFO priority its threads run at (``umbra.runtime.rt_priority``)
     realtime_priority: dict[str, int] = field(default_factory=dict)
     #: per process: ``nice`` (0..19) for a process that gives way (SCHED_BATCH), e.g. the pages
     nice: dict[str, int] = field(default_factory=dict)
@@ -105,7 +105,7 @@ class GraphSpec:
     connections: list[ConnectionSpec] = field(default_factory=list)
     frames: list[StaticFrameSpec] = field(default_factory=list)
     links: LinkSettings = field(default_factory=LinkSettings)
-    #: ``record:``: whether and how the run records its connections (``runtime.recording``)
+    #: ``record:``: whether and how the run records its connections (``umbra.runtime.recording``)
     record: RecordSettings = field(default_factory=RecordSettings)
     loc: Location | None = None
     #: modules whose declaration was broken (already reported); later checks stay quiet on them

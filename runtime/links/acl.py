@@ -33,9 +33,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from runtime.graph.plan import GraphPlan
-from runtime.links.clock_sync import CLOCK
-from runtime.links.identity import ALIVE
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.clock_sync import CLOCK
+from umbra.runtime.links.identity import ALIVE
 
 #: Subject of a process: the zenoh subject fields naming it (user or certificate names, zenoh
 #: ids), or a list of such subjects of which any one names it.
@@ -161,7 +161,7 @@ def zenoh_acl(
                 [f"{prefix}/{ALIVE}/{process}/**"],
             ),
             rule(f"{process}: tokens to it", ["liveliness_token"], ["egress"], [alive_all]),
-            rule(  # the graph's one time base (runtime.links.clock_sync): replies are checked
+            rule(  # the graph's one time base (umbra.runtime.links.clock_sync): replies are checked
                 f"{process}: clocks",  # against the replier's proven session
                 ["declare_queryable", "query", "reply"],
                 ["ingress", "egress"],

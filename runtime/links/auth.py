@@ -7,15 +7,16 @@ user could read it. Each child's zenoh configuration then carries:
 
 * zenoh's ``usrpwd`` transport authentication: a session that cannot show one of the run's
   passwords is refused when it opens a link, so a stranger on this host cannot even connect;
-* the access-control rules derived from the graph (``runtime.links.acl``) with the user names as
-  subjects: a process may publish only its own outputs and declare only its own liveliness token;
+* the access-control rules derived from the graph (``umbra.runtime.links.acl``) with the user names
+  as subjects: a process may publish only its own outputs and declare only its own liveliness token;
 * a key shared by the run's processes that proves their liveliness tokens
-  (``runtime.links.identity``);
+  (``umbra.runtime.links.identity``);
 * the run's observer password (user ``observer@umbra``, also in the dictionary), which each
-  process writes into its run file (``runtime.links.runs``) for ``umbra topics`` of this user;
+  process writes into its run file (``umbra.runtime.links.runs``) for ``umbra topics`` of this user;
   the rules let the observer read every output key and the tokens, nothing else.
 
-Processes started by hand derive the same from a secret of the user (``runtime.links.host_auth``).
+Processes started by hand derive the same from a secret of the user
+(``umbra.runtime.links.host_auth``).
 
 Cost: the password exchange happens once per link, when it opens; the rules are checked by zenoh
 on each message (measured by ``benchmarks/bench_links.py``). The folder is removed when the run
@@ -38,10 +39,10 @@ from typing import Any
 
 import zenoh
 
-from connectors.errors import UserError
-from connectors.user_files import read_text
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import (
+from umbra.connectors.errors import UserError
+from umbra.connectors.user_files import read_text
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import (
     OBSERVER_USER,
     TUNER_USER,
     by_username,
@@ -62,12 +63,12 @@ class RunCredentials:
     one that listens — so a listening process knows its peers by user name, and a connecting
     process knows the process it connected to (on the port the launcher gave it) by the zenoh id
     the launcher assigned it. Process i of the mesh listens for the processes after it and
-    connects to those before it (``runtime.links.config.loopback_mesh``).
+    connects to those before it (``umbra.runtime.links.config.loopback_mesh``).
     """
 
     def __init__(self, plan: GraphPlan, tuner_password: str | None = None) -> None:
         """``tuner_password``: the live server's, when the run is served live (its process
-        may then send parameter changes: ``runtime.links.acl``)."""
+        may then send parameter changes: ``umbra.runtime.links.acl``)."""
         self.folder = Path(tempfile.mkdtemp(prefix="umbra-auth-"))  # mode 0700
         processes = plan.populated_processes
         passwords = {p: secrets.token_hex(24) for p in [*processes, OBSERVER_USER]}

@@ -21,7 +21,7 @@ clock is measured; a sample still undated then goes on with origin ``-inf``, whi
 treats as old (a status sent once at start would otherwise stay undatable for good).
 
 A reply counts only from the zenoh session the producer's proven liveliness token names
-(``runtime.links.identity``), so nobody but the producer can move its clock.
+(``umbra.runtime.links.identity``), so nobody but the producer can move its clock.
 """
 
 from __future__ import annotations

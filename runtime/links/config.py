@@ -11,7 +11,7 @@ Every configuration built here:
   without restarting anything) and uses a short lease, so a silent peer is declared gone within
   about a second (``LEASE_MS``);
 * keeps zenoh's shared-memory transport on, so large samples between processes on one host travel
-  as shared-memory references (see ``runtime.links.shm``).
+  as shared-memory references (see ``umbra.runtime.links.shm``).
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ from typing import Any
 
 import zenoh
 
-from connectors.errors import UserError
-from connectors.user_files import read_text
-from runtime.links.auth import apply_auth
+from umbra.connectors.errors import UserError
+from umbra.connectors.user_files import read_text
+from umbra.runtime.links.auth import apply_auth
 
 #: Lease of a zenoh link [ms]: a peer that sends nothing for this long is declared gone.
 LEASE_MS = 1000
@@ -132,7 +132,7 @@ def _parser_error(path: str, text: str) -> str:
 def check_config_file(path: str, parsed: zenoh.Config | None = None) -> None:
     """UserError when ``path`` cannot be a zenoh configuration (missing, unreadable, not JSON5,
     a setting zenoh refuses), before anything starts. ``parsed``: ``path`` already parsed
-    (``runtime.links.config_facts``), completed here instead of parsing it again."""
+    (``umbra.runtime.links.config_facts``), completed here instead of parsing it again."""
     build_config(Endpoints(), path, parsed=parsed)
 
 
@@ -164,9 +164,9 @@ def build_config(
 ) -> zenoh.Config:
     """A zenoh configuration for one process: ``config_file`` (JSON5, for TLS, access control,
     routers) when given, then our safety settings and exactly ``endpoints``; ``auth`` (the
-    launcher's per-run credentials, ``runtime.links.auth``) adds password authentication and the
-    graph's access-control rules. ``parsed``: ``config_file`` already parsed
-    (``runtime.links.config_facts``), completed here in place instead of parsing it again."""
+    launcher's per-run credentials, ``umbra.runtime.links.auth``) adds password authentication and
+    the graph's access-control rules. ``parsed``: ``config_file`` already parsed
+    (``umbra.runtime.links.config_facts``), completed here in place instead of parsing it again."""
     stock = zenoh.Config()
     if parsed is not None:
         cfg = parsed

@@ -2,9 +2,9 @@
 
 ``umbra run --zenoh-config FILE`` lets the file set TLS, a password, a mode (peer, client,
 router), zenoh access-control rules and endpoints; the launcher chooses credentials, endpoints
-and rules by them. :func:`config_facts` parses the file once (``runtime.links.config``: bounded,
-errors as ``FILE:LINE:COL: error:``) and keeps the parsed configuration, which
-:func:`runtime.links.config.build_config` then completes instead of parsing the file again.
+and rules by them. :func:`config_facts` parses the file once (``umbra.runtime.links.config``:
+bounded, errors as ``FILE:LINE:COL: error:``) and keeps the parsed configuration, which
+:func:`umbra.runtime.links.config.build_config` then completes instead of parsing the file again.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 
 import zenoh
 
-from runtime.links.config import Endpoints, read_user_config
+from umbra.runtime.links.config import Endpoints, read_user_config
 
 
 def setting(cfg: zenoh.Config, key: str) -> Any:

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from connectors.errors import UserError
-from runtime.graph.names import plain_beyond_host
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.names import plain_beyond_host
 
 HOW_TO_TLS = (
     "make a CA, a certificate per process and the graph's access rules with "

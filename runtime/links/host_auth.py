@@ -3,17 +3,17 @@
 ``umbra run GRAPH --process NAME`` started by hand (not by the launcher) on this host, without
 ``--insecure`` and without a zenoh configuration that authenticates on its own (TLS, a password):
 every process of the graph reads one secret of this user, kept in a private folder, and derives
-from it what the launcher hands its children (``runtime.links.auth``):
+from it what the launcher hands its children (``umbra.runtime.links.auth``):
 
 * a password per process, and the dictionary of all of them: zenoh's ``usrpwd`` authentication
   refuses a session that cannot show one, so a stranger on this host cannot even connect;
 * a zenoh id per process, by which a process that connects knows the one it connected to (that
   side of a link shows no password: ``usrpwd`` goes one way);
-* the access-control rules derived from the graph (``runtime.links.acl``): each process publishes
-  only its outputs, subscribes only to its inputs, declares only its own liveliness token;
+* the access-control rules derived from the graph (``umbra.runtime.links.acl``): each process
+  publishes only its outputs, subscribes only to its inputs, declares only its own liveliness token;
 * an observer password (user ``observer@umbra``): ``umbra topics``, ``echo`` and ``hz`` of this
   user join the graph with it, allowed to read every output key and the liveliness tokens and
-  nothing else (``runtime.links.acl.Observer``).
+  nothing else (``umbra.runtime.links.acl.Observer``).
 
 The folder is ``$XDG_RUNTIME_DIR/umbra/`` (emptied when the user logs out) or else
 ``~/.cache/umbra/``, mode 0700; the secret is one file per graph name and key prefix, mode 0600,
@@ -41,10 +41,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from connectors.errors import UserError
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import OBSERVER_USER, local_observer, zenoh_acl
-from runtime.links.auth import credentials, dictionary_text, write_private
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import OBSERVER_USER, local_observer, zenoh_acl
+from umbra.runtime.links.auth import credentials, dictionary_text, write_private
 
 #: Bytes of the secret (written as hex digits).
 SECRET_BYTES = 32
@@ -173,7 +173,7 @@ class HostSecret:
         return format(bits >> 1 | 1 << 126, "x")
 
     def token_key(self) -> str:
-        """Key proving liveliness tokens (``runtime.links.identity``), as hex."""
+        """Key proving liveliness tokens (``umbra.runtime.links.identity``), as hex."""
         return _derive(self.secret, "token").hex()
 
     def subject(self, process: str) -> list[dict[str, list[str]]]:
@@ -183,7 +183,7 @@ class HostSecret:
 
 
 def host_credentials(plan: GraphPlan, process: str, folder: Path | None = None) -> dict[str, Any]:
-    """Credentials of ``process`` of ``plan`` in the form ``runtime.links.auth.load_auth``
+    """Credentials of ``process`` of ``plan`` in the form ``umbra.runtime.links.auth.load_auth``
     gives (plus ``secret_file``, and ``observer``: the observer's user name and password);
     UserError when the secret's folder or file is not private."""
     secret, file = load_secret(plan.spec.name, plan.key_prefix, folder)

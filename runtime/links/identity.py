@@ -16,8 +16,8 @@ from the live session of the process the graph names as the link's producer:
 On its own a session id is a claim (a peer can copy it); what makes it an identity is that zenoh
 authenticates the sessions (per-run user names under the launcher, user names derived from the
 user's secret by hand, certificates across hosts) and the access-control rules derived from the
-graph (``runtime.links.acl``) let each process publish only its own outputs and declare only its
-own token. With credentials, ``proof`` is a keyed hash of the token's other chunks (``sign``,
+graph (``umbra.runtime.links.acl``) let each process publish only its own outputs and declare only
+its own token. With credentials, ``proof`` is a keyed hash of the token's other chunks (``sign``,
 the key comes with the credentials): a token without a valid one is counted and ignored, so a
 peer that gets past zenoh's checks on its own claim (the side of a link that shows no password
 is known by the zenoh id it says it has) still cannot make a process of the graph appear.

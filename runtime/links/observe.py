@@ -1,14 +1,14 @@
 """Observing a running graph: a read-only zenoh session that subscribes to ``P/**`` and decodes.
 
-``Observation.open`` joins a graph as an observer (``runtime.links.acl.Observer``):
+``Observation.open`` joins a graph as an observer (``umbra.runtime.links.acl.Observer``):
 
-* on this host, with no setup: the run files of this user's processes (``runtime.links.runs``)
+* on this host, with no setup: the run files of this user's processes (``umbra.runtime.links.runs``)
   give the prefix, the endpoints to connect to and the run's observer credentials;
 * elsewhere: a zenoh configuration (``umbra keys GRAPH --observer NAME`` writes one: mutual TLS
   with an observer certificate) and the endpoints to connect to.
 
 ``subscribe(on_sample)`` calls ``on_sample(Observed)`` on zenoh's threads for every sample and end
-of stream under the key expression (``P/**`` by default), decoded with ``connectors.codec``;
+of stream under the key expression (``P/**`` by default), decoded with ``umbra.connectors.codec``;
 ``producers()`` maps each live process to its session (the liveliness tokens, section 2 of
 ``docs/wire-format.md``). Other tools (a Foxglove bridge) use this; the ``umbra topics``,
 ``echo`` and ``hz`` commands too.
@@ -28,15 +28,15 @@ from typing import Any
 
 import zenoh
 
-from connectors.codec import Codec
-from connectors.errors import UserError
-from connectors.messages import Message
-from runtime.links.config import Endpoints, build_config
-from runtime.links.identity import alive_pattern, parse_alive_key
-from runtime.links.pool import DESCRIPTOR_MAGIC, FORWARD_MAGIC
-from runtime.links.runs import RunFile, live_runs, observer_endpoint
-from runtime.links.session import open_session, wait_joined
-from runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
+from umbra.connectors.codec import Codec
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Message
+from umbra.runtime.links.config import Endpoints, build_config
+from umbra.runtime.links.identity import alive_pattern, parse_alive_key
+from umbra.runtime.links.pool import DESCRIPTOR_MAGIC, FORWARD_MAGIC
+from umbra.runtime.links.runs import RunFile, live_runs, observer_endpoint
+from umbra.runtime.links.session import open_session, wait_joined
+from umbra.runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
 
 #: Seconds to wait for the sessions of a run's processes when joining it.
 JOIN_TIMEOUT = 3.0
@@ -111,7 +111,7 @@ def choose_run(graph: str | None, folder: Path | None = None, run_id: str | None
 
 
 def _runs_folder_text(folder: Path | None) -> str:
-    from runtime.links.runs import runs_folder
+    from umbra.runtime.links.runs import runs_folder
 
     return str(runs_folder(folder))
 

@@ -2,11 +2,11 @@
 
 A best-effort output whose every consumer runs on this host (its liveliness marker names a
 ``/dev/shm`` file this process sees) and with no session but the graph's proven processes
-connected (``runtime.links.wire.only_graph_peers``: an observer or a foreign client would get a
-descriptor it cannot use, so it gets bytes) is sent as a small descriptor: the frame is written
-once into a slot of the pool (``runtime.links.pool``), each consumer reads it in place and clears
-its flag. A sample whose arrays all lie in one slot this process holds (a frame it received and
-passes on) is forwarded without a copy. The descriptor goes with congestion control BLOCK, so no
+connected (``umbra.runtime.links.wire.only_graph_peers``: an observer or a foreign client would get
+a descriptor it cannot use, so it gets bytes) is sent as a small descriptor: the frame is written
+once into a slot of the pool (``umbra.runtime.links.pool``), each consumer reads it in place and
+clears its flag. A sample whose arrays all lie in one slot this process holds (a frame it received
+and passes on) is forwarded without a copy. The descriptor goes with congestion control BLOCK, so no
 slot is orphaned; slots held by a process that died are reclaimed when the pool is full.
 """
 
@@ -18,12 +18,12 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import zenoh
 
-from connectors.codec import FRAMED_MIN_BYTES, Codec, array_bytes, array_fields
-from connectors.messages import Message
-from runtime.graph.plan import LinkPlan
-from runtime.links.pool import MAX_CONSUMERS, FramePool, HostMarker, PoolReader, pid_alive
-from runtime.links.stats import PublishStats
-from runtime.links.wire import only_graph_peers, pool_encoding
+from umbra.connectors.codec import FRAMED_MIN_BYTES, Codec, array_bytes, array_fields
+from umbra.connectors.messages import Message
+from umbra.runtime.graph.plan import LinkPlan
+from umbra.runtime.links.pool import MAX_CONSUMERS, FramePool, HostMarker, PoolReader, pid_alive
+from umbra.runtime.links.stats import PublishStats
+from umbra.runtime.links.wire import only_graph_peers, pool_encoding
 
 
 class PoolHandoff:

@@ -30,20 +30,20 @@ from typing import Any, TextIO
 
 import zenoh
 
-from connectors.errors import UserError
-from runtime.graph.plan import GraphPlan
-from runtime.links.auth import load_auth
-from runtime.links.bounds import inbound_limit
-from runtime.links.config import Endpoints, build_config, describe
-from runtime.links.config_facts import ConfigFacts, config_facts
-from runtime.links.publish_all import AllOutputs
-from runtime.links.runs import RunFile, describe_outputs, write_run_file
-from runtime.links.session import open_session
-from runtime.links.transport import ZenohTransport
-from runtime.live.param_link import ParamListener
-from runtime.run import write_summary
-from runtime.scheduler import INTERRUPTED, Scheduler, SchedulerOptions
-from runtime.stats import RunResult
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.auth import load_auth
+from umbra.runtime.links.bounds import inbound_limit
+from umbra.runtime.links.config import Endpoints, build_config, describe
+from umbra.runtime.links.config_facts import ConfigFacts, config_facts
+from umbra.runtime.links.publish_all import AllOutputs
+from umbra.runtime.links.runs import RunFile, describe_outputs, write_run_file
+from umbra.runtime.links.session import open_session
+from umbra.runtime.links.transport import ZenohTransport
+from umbra.runtime.live.param_link import ParamListener
+from umbra.runtime.run import write_summary
+from umbra.runtime.scheduler import INTERRUPTED, Scheduler, SchedulerOptions
+from umbra.runtime.stats import RunResult
 
 #: How long a process told to ``finish`` waits for its input streams to end [s].
 FINISH_GRACE = 5.0
@@ -65,19 +65,20 @@ class ProcessOptions:
     zenoh_config: str | None = None
     #: ``zenoh_config`` as the launcher already parsed it (None: parsed here)
     zenoh_facts: ConfigFacts | None = None
-    #: the launcher's per-run credentials file of this process (``runtime.links.auth``)
+    #: the launcher's per-run credentials file of this process (``umbra.runtime.links.auth``)
     link_auth: str | None = None
-    #: credentials of a process started by hand (``runtime.links.host_auth``), when no file
+    #: credentials of a process started by hand (``umbra.runtime.links.host_auth``), when no file
     auth: dict[str, Any] | None = None
     #: identity checks and size bounds on received samples (off only to measure their cost)
     link_checks: bool = True
     ready_timeout: float | None = None  # None: wait for consumers forever
     quiet: bool = False
-    #: the CPU wake-up latency [µs] held while running (``runtime.realtime``); None: none
+    #: the CPU wake-up latency [µs] held while running (``umbra.runtime.realtime``); None: none
     cpu_latency_us: int | None = None
-    #: publish every output of this process's modules for observers (``runtime.links.publish_all``)
+    #: publish every output of this process's modules for observers
+    #: (``umbra.runtime.links.publish_all``)
     publish_all: bool = False
-    #: write a run file for observers of this user (``runtime.links.runs``); off in tests that
+    #: write a run file for observers of this user (``umbra.runtime.links.runs``); off in tests that
     #: share no user folder
     run_file: bool = True
     #: a person runs this run (``SchedulerOptions.attended``)

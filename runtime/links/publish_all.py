@@ -17,13 +17,13 @@ from typing import Any
 
 import zenoh
 
-from connectors.codec import FRAME_MAGIC, FRAMED_MIN_BYTES, FRAMED_VERSION, Codec
-from connectors.compact import COMPACT_VERSION
-from connectors.messages import Message
-from connectors.module import Module
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import output_key
-from runtime.links.wire import sample_encoding
+from umbra.connectors.codec import FRAME_MAGIC, FRAMED_MIN_BYTES, FRAMED_VERSION, Codec
+from umbra.connectors.compact import COMPACT_VERSION
+from umbra.connectors.messages import Message
+from umbra.connectors.module import Module
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import output_key
+from umbra.runtime.links.wire import sample_encoding
 
 
 class _Watched:

@@ -6,8 +6,8 @@ publishes with congestion control BLOCK; state (images, contours, poses, joint s
 twists) is latest-only: DROP, so a congested link loses old samples rather than queueing them.
 Frames go at data priority, everything else above them; all are ``express`` (no batching
 delay). Large samples go through this process's frame pool when every consumer is on this host
-(``runtime.links.pool_handoff``), otherwise through zenoh's shared memory
-(``runtime.links.shm``), which zenoh turns into bytes for a consumer on another host. Every
+(``umbra.runtime.links.pool_handoff``), otherwise through zenoh's shared memory
+(``umbra.runtime.links.shm``), which zenoh turns into bytes for a consumer on another host. Every
 sample carries this session's id (zenoh ``source_info``): consumers trust nothing else.
 """
 
@@ -20,14 +20,14 @@ from typing import Any
 
 import zenoh
 
-from connectors.codec import FRAME_MAGIC, FRAMED_MIN_BYTES, FRAMED_VERSION, Codec
-from connectors.compact import COMPACT_VERSION
-from connectors.messages import Message
-from connectors.ports import Sink
-from runtime.graph.plan import LinkPlan
-from runtime.links.shm import ShmWriter
-from runtime.links.stats import PublishStats
-from runtime.links.wire import sample_encoding
+from umbra.connectors.codec import FRAME_MAGIC, FRAMED_MIN_BYTES, FRAMED_VERSION, Codec
+from umbra.connectors.compact import COMPACT_VERSION
+from umbra.connectors.messages import Message
+from umbra.connectors.ports import Sink
+from umbra.runtime.graph.plan import LinkPlan
+from umbra.runtime.links.shm import ShmWriter
+from umbra.runtime.links.stats import PublishStats
+from umbra.runtime.links.wire import sample_encoding
 
 
 def declare_publisher(session: zenoh.Session, link: LinkPlan) -> Any:

@@ -1,11 +1,11 @@
 """The consumer's end of one link: from a zenoh sample to a decoded, dated, in-order message.
 
-Per sample, in this order: trust (``runtime.links.trust``: only the producer's live session),
-the end of stream (a ``delete``), the size bound (``runtime.links.bounds``, before anything is
+Per sample, in this order: trust (``umbra.runtime.links.trust``: only the producer's live session),
+the end of stream (a ``delete``), the size bound (``umbra.runtime.links.bounds``, before anything is
 copied or decoded), the way it came (a frame-pool descriptor or forward read in place, else the
 compact reader, else the general decoder), a plausible sequence number (per producer session),
-then the producer's clock (``runtime.links.clock_sync``: dated on this process's clock) and the
-hand-over to every connection of the output. A sample that fails a check is counted in the
+then the producer's clock (``umbra.runtime.links.clock_sync``: dated on this process's clock) and
+the hand-over to every connection of the output. A sample that fails a check is counted in the
 link's ``SubscribeStats`` and dropped, with a rate-limited log line; the link keeps running.
 """
 
@@ -19,18 +19,18 @@ from typing import Any
 
 import zenoh
 
-from connectors.codec import Codec, DecodeError
-from connectors.messages import Message
-from runtime.links.log_limit import RateLimitedLog
-from runtime.links.pool import (
+from umbra.connectors.codec import Codec, DecodeError
+from umbra.connectors.messages import Message
+from umbra.runtime.links.log_limit import RateLimitedLog
+from umbra.runtime.links.pool import (
     DESCRIPTOR_MAGIC,
     FORWARD_MAGIC,
     PoolReader,
     is_descriptor,
     is_forward,
 )
-from runtime.links.stats import SubscribeStats
-from runtime.links.trust import ProducerGate
+from umbra.runtime.links.stats import SubscribeStats
+from umbra.runtime.links.trust import ProducerGate
 
 #: Largest sequence number a sample may carry (2**48: a century at 80 kHz).
 MAX_SEQ = 2**48

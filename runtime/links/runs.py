@@ -1,12 +1,12 @@
 """Run files: how an observer of this user finds the graphs running on this host, with no setup.
 
 Each process of a split graph writes, while it runs, one file into the user's private folder
-(``runtime.links.host_auth.secret_folder``, mode 0700; the file mode 0600): the graph's name and
-key prefix, the process's name and pid, the endpoints it listens on, the observer credentials of
-the run (``runtime.links.acl.Observer``: read every output key and the liveliness tokens, nothing
-else) and the outputs of its modules with their keys and types. ``umbra topics`` and the
-observer API (``runtime.links.observe``) read them; a file whose process is gone is ignored and
-removed. Only this user can read them: the observer password is as private as the secret.
+(``umbra.runtime.links.host_auth.secret_folder``, mode 0700; the file mode 0600): the graph's name
+and key prefix, the process's name and pid, the endpoints it listens on, the observer credentials of
+the run (``umbra.runtime.links.acl.Observer``: read every output key and the liveliness tokens,
+nothing else) and the outputs of its modules with their keys and types. ``umbra topics`` and the
+observer API (``umbra.runtime.links.observe``) read them; a file whose process is gone is ignored
+and removed. Only this user can read them: the observer password is as private as the secret.
 """
 
 from __future__ import annotations
@@ -19,10 +19,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import output_key
-from runtime.links.host_auth import private_folder, secret_folder, secret_name
-from runtime.links.pool import pid_alive
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import output_key
+from umbra.runtime.links.host_auth import private_folder, secret_folder, secret_name
+from umbra.runtime.links.pool import pid_alive
 
 RUNS = "runs"
 #: How a run lets observers in: its credentials (``observer`` holds them), anyone

@@ -7,8 +7,8 @@ import time
 
 import zenoh
 
-from connectors.errors import UserError
-from runtime.links.config import describe
+from umbra.connectors.errors import UserError
+from umbra.runtime.links.config import describe
 
 
 def open_session(config: zenoh.Config) -> zenoh.Session:

@@ -1,10 +1,10 @@
 """Shared-memory segments of a process that died: found while it lives, removed once it is dead.
 
 A process killed with SIGKILL cannot remove its ``/dev/shm`` files: this project's frame pools and
-host marker (named after the pid, ``runtime.links.pool``) and zenoh's own shared-memory segments
-(``/dev/shm/<number>.zenoh``, named without a pid). The launcher notes the segments each child has
-mapped while it runs (``mapped_segments``) and, as soon as the child has ended, removes those no
-living process maps any more (``remove_orphans``) — at once, not at the next start.
+host marker (named after the pid, ``umbra.runtime.links.pool``) and zenoh's own shared-memory
+segments (``/dev/shm/<number>.zenoh``, named without a pid). The launcher notes the segments each
+child has mapped while it runs (``mapped_segments``) and, as soon as the child has ended, removes
+those no living process maps any more (``remove_orphans``) — at once, not at the next start.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import contextlib
 import os
 from pathlib import Path
 
-from runtime.links.pool import SHM_DIR, sweep_stale
+from umbra.runtime.links.pool import SHM_DIR, sweep_stale
 
 
 def mapped_segments(pid: int) -> set[str]:

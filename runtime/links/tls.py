@@ -1,16 +1,16 @@
 """Certificates and per-process zenoh configurations for mutual TLS (``umbra keys``).
 
 For a graph, ``write_keys`` makes a certificate authority and, for each process, a key and a
-certificate whose common name names the process (``runtime.links.acl.common_name``), then a zenoh
-configuration per process (``PROCESS.json5``): mutual TLS with that certificate, and the
+certificate whose common name names the process (``umbra.runtime.links.acl.common_name``), then a
+zenoh configuration per process (``PROCESS.json5``): mutual TLS with that certificate, and the
 access-control rules derived from the graph with the certificates' common names as subjects.
 Nothing is written by hand.
 
 The CA's private key is not kept: to add or replace a process, make the folder again (every
 process then gets new certificates), so nobody can issue a certificate later from a copy of the
 folder. Keys are EC P-256; each private key file is mode 0600. Certificate paths in the
-configurations are relative to the folder (``runtime.links.config`` resolves them), so the folder
-can be copied to each host as it is.
+configurations are relative to the folder (``umbra.runtime.links.config`` resolves them), so the
+folder can be copied to each host as it is.
 
 Each certificate names ``localhost`` and ``127.0.0.1`` and any ``--host`` addresses given for its
 process. Zenoh's check of the listener's name on connect is off (``verify_name_on_connect``):
@@ -30,8 +30,8 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import (
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import (
     Observer,
     by_certificate,
     common_name,

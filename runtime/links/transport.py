@@ -10,13 +10,14 @@ Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overr
   producing process is gone. The marker names a file the process keeps in /dev/shm: a peer that
   sees the file shares this host's shared memory. ``session`` is the zenoh id of the process's
   session, which also stamps every sample it publishes; ``proof`` shows the token was made by a
-  holder of the run's credentials (``runtime.links.identity``).
+  holder of the run's credentials (``umbra.runtime.links.identity``).
 
-The parts: publishing (``runtime.links.publishing``, large samples through the frame pool:
-``runtime.links.pool_handoff``), receiving (``runtime.links.receiving``) behind the producer's
-trust (``runtime.links.trust``), counters (``runtime.links.stats``) and rate-limited log lines
-(``runtime.links.log_limit``). This class ties them to the process's liveliness: it tracks the
-graph's processes' tokens, declares its own, and waits for consumers before producing.
+The parts: publishing (``umbra.runtime.links.publishing``, large samples through the frame pool:
+``umbra.runtime.links.pool_handoff``), receiving (``umbra.runtime.links.receiving``) behind the
+producer's trust (``umbra.runtime.links.trust``), counters (``umbra.runtime.links.stats``) and
+rate-limited log lines (``umbra.runtime.links.log_limit``). This class ties them to the process's
+liveliness: it tracks the graph's processes' tokens, declares its own, and waits for consumers
+before producing.
 """
 
 from __future__ import annotations
@@ -31,13 +32,13 @@ from typing import Any
 
 import zenoh
 
-from connectors.codec import Codec
-from connectors.messages import Message
-from connectors.ports import Sink
-from runtime.graph.plan import GraphPlan, LinkPlan
-from runtime.links.bounds import max_sample_bytes
-from runtime.links.clock_sync import ClockSync
-from runtime.links.identity import (
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Message
+from umbra.connectors.ports import Sink
+from umbra.runtime.graph.plan import GraphPlan, LinkPlan
+from umbra.runtime.links.bounds import max_sample_bytes
+from umbra.runtime.links.clock_sync import ClockSync
+from umbra.runtime.links.identity import (
     ALIVE,
     Sessions,
     Token,
@@ -47,14 +48,14 @@ from runtime.links.identity import (
     proven,
     sign,
 )
-from runtime.links.log_limit import RateLimitedLog
-from runtime.links.pool import HostMarker, PoolReader, marker_pid
-from runtime.links.pool_handoff import PoolHandoff
-from runtime.links.publishing import declare_publisher, publish_sink
-from runtime.links.receiving import Decoders, Receiving, receiver
-from runtime.links.shm import ShmWriter
-from runtime.links.stats import PublishStats, SubscribeStats
-from runtime.links.trust import ProducerGate
+from umbra.runtime.links.log_limit import RateLimitedLog
+from umbra.runtime.links.pool import HostMarker, PoolReader, marker_pid
+from umbra.runtime.links.pool_handoff import PoolHandoff
+from umbra.runtime.links.publishing import declare_publisher, publish_sink
+from umbra.runtime.links.receiving import Decoders, Receiving, receiver
+from umbra.runtime.links.shm import ShmWriter
+from umbra.runtime.links.stats import PublishStats, SubscribeStats
+from umbra.runtime.links.trust import ProducerGate
 
 #: Seconds between the ends of stream and the withdrawal of the liveliness token at close.
 END_GRACE = 0.05

@@ -3,7 +3,7 @@ link's producer.
 
 Each subscribed link has one :class:`ProducerGate`. A sample is let in when zenoh's
 ``source_info`` names the producer's live session (the producer's liveliness token,
-``runtime.links.identity``); the source ids (its publishers' ``zenoh.EntityGlobalId``) already
+``umbra.runtime.links.identity``); the source ids (its publishers' ``zenoh.EntityGlobalId``) already
 matched are remembered, so the fast path is one set lookup. A sample that comes while no session
 of the producer is live (not up yet, or declared gone) is held, up to ``MAX_HELD`` samples and
 ``MAX_HOLD_S`` seconds, because a new session's first samples may overtake its token: when the
@@ -21,8 +21,8 @@ from typing import Any
 
 import zenoh
 
-from runtime.links.identity import Sessions, Token
-from runtime.links.stats import SubscribeStats
+from umbra.runtime.links.identity import Sessions, Token
+from umbra.runtime.links.stats import SubscribeStats
 
 #: Source ids (publishers) remembered per producer session: a producer has one or two per key.
 MAX_SOURCE_IDS = 8

@@ -3,16 +3,16 @@ be sent a frame-pool descriptor instead of the sample's bytes (``docs/wire-forma
 
 Encoding: every put names its format and message type, ``application/x-umbra;v=V;type=T``:
 ``V`` is the envelope version of the payload (3 compact, 2 framed, 1 general:
-``connectors.codec``), ``T`` the message type's name. A frame-pool descriptor, which only the
+``umbra.connectors.codec``), ``T`` the message type's name. A frame-pool descriptor, which only the
 graph's processes on this host can read, says ``application/x-umbra-pool;type=T``.
 
 Pool hand-off: a descriptor goes out only while every session connected to the publishing one is
-a process of the graph whose liveliness token proves it (``runtime.links.identity``) and names
-a marker file in this host's ``/dev/shm`` owned by this user (``runtime.links.pool.marker_pid``).
-Zenoh sends a put to every matching subscriber of every connected session, so a single other
-session — an observer, a recorder, a third-party client, a router that may forward to anyone —
-makes the producer send the sample's bytes instead: a subscriber that is not one of our processes
-always gets bytes it can decode.
+a process of the graph whose liveliness token proves it (``umbra.runtime.links.identity``) and names
+a marker file in this host's ``/dev/shm`` owned by this user
+(``umbra.runtime.links.pool.marker_pid``). Zenoh sends a put to every matching subscriber of every
+connected session, so a single other session — an observer, a recorder, a third-party client, a
+router that may forward to anyone — makes the producer send the sample's bytes instead: a subscriber
+that is not one of our processes always gets bytes it can decode.
 """
 
 from __future__ import annotations

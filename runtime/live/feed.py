@@ -3,9 +3,10 @@
 - :func:`serve_local`: the outputs of the modules of this process (every output, those that feed
   nothing too), each with one more port sink, as the recorder taps them;
 - :class:`ObservedFeed`: the outputs of the run's other processes, by subscribing on zenoh to
-  ``PREFIX/*/*`` as the run's observer (``runtime.links.observe``); the processes publish every
-  output for observers when run with ``--publish-all`` (which ``--foxglove`` turns on). A sample's
-  log time is its arrival on this host's monotonic clock (the clock real-time runs stamp with).
+  ``PREFIX/*/*`` as the run's observer (``umbra.runtime.links.observe``); the processes publish
+  every output for observers when run with ``--publish-all`` (which ``--foxglove`` turns on). A
+  sample's log time is its arrival on this host's monotonic clock (the clock real-time runs stamp
+  with).
 """
 
 from __future__ import annotations
@@ -15,15 +16,15 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from runtime.live.server import LiveServer
-from runtime.recording.tap import topic_of
+from umbra.runtime.live.server import LiveServer
+from umbra.runtime.recording.tap import topic_of
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from runtime.graph.plan import GraphPlan
-    from runtime.links.observe import Observation, Observed, Run
-    from runtime.scheduler import Scheduler
+    from umbra.runtime.graph.plan import GraphPlan
+    from umbra.runtime.links.observe import Observation, Observed, Run
+    from umbra.runtime.scheduler import Scheduler
 
 #: Seconds to keep trying to join the run as an observer (its processes start meanwhile).
 JOIN_PATIENCE = 20.0
@@ -82,8 +83,8 @@ class ObservedFeed:
         self._thread.start()
 
     def _join(self) -> None:
-        from connectors.errors import UserError
-        from runtime.links.observe import Observation, choose_run
+        from umbra.connectors.errors import UserError
+        from umbra.runtime.links.observe import Observation, choose_run
 
         # a peer hears only the processes it connects to: wait for every process's run file
         expected = len(self._plan.populated_processes)

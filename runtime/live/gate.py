@@ -9,7 +9,7 @@ A viewer's WebSocket upgrade request is answered ``101`` only when
   (``https://app.foxglove.dev`` and the ``--foxglove-origin`` ones);
 
 else it gets ``421`` (Host) or ``403`` and the connection closes. The rules are the operator pages'
-own (``connectors.access.secret`` and ``hosts``), not a second copy.
+own (``umbra.connectors.access.secret`` and ``hosts``), not a second copy.
 
 Why the protocol is served here and not by Foxglove's SDK behind a proxy: the SDK's server
 (``foxglove-sdk`` 0.30) has no hook that sees a connecting client's request, so it had to listen on
@@ -22,8 +22,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from urllib.parse import parse_qs, urlsplit
 
-from connectors.access.hosts import host_allowed, origin_allowed
-from connectors.access.secret import TOKEN_QUERY, token_matches
+from umbra.connectors.access.hosts import host_allowed, origin_allowed
+from umbra.connectors.access.secret import TOKEN_QUERY, token_matches
 
 #: Viewer pages allowed by default (Foxglove's web app).
 DEFAULT_ORIGINS = ("https://app.foxglove.dev",)

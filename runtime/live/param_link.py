@@ -2,16 +2,16 @@
 
 In a split run the live server lives in the launcher's process, and a module runs in one of the
 graph's processes. A change a viewer asks for, checked by the live server
-(``runtime.live.parameters``), travels as a ``ParamChange`` on ``P/_params/<process>``
-(``runtime.links.acl.param_key``):
+(``umbra.runtime.live.parameters``), travels as a ``ParamChange`` on ``P/_params/<process>``
+(``umbra.runtime.links.acl.param_key``):
 
 - the launcher's process sends it as the run's *tuner* (``TUNER_USER``), a password the launcher
   makes only for a run served live; the graph-derived access rules let the tuner put on those
-  keys and nothing else, and let nobody else put there (``runtime.links.acl``);
+  keys and nothing else, and let nobody else put there (``umbra.runtime.links.acl``);
 - each process subscribes to its own key only when its credentials say the run has a tuner
   (never with ``--insecure``, where anyone on the host could put), bounds what it decodes
   (``MAX_CHANGE_BYTES``, the ``ParamChange`` type), takes only changes of its own modules, and
-  checks the change again (``runtime.tuning.Tuner.request``) before applying it between steps.
+  checks the change again (``umbra.runtime.tuning.Tuner.request``) before applying it between steps.
 """
 
 from __future__ import annotations
@@ -22,15 +22,15 @@ import logging
 import time
 from typing import TYPE_CHECKING, Any
 
-from connectors.codec import Codec
-from connectors.messages import ParamChange
-from runtime.links.acl import param_key
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import ParamChange
+from umbra.runtime.links.acl import param_key
 
 if TYPE_CHECKING:
     import zenoh
 
-    from runtime.graph.plan import GraphPlan
-    from runtime.tuning import Tuner
+    from umbra.runtime.graph.plan import GraphPlan
+    from umbra.runtime.tuning import Tuner
 
 #: Largest parameter change a process decodes [bytes] (a value is at most a short list).
 MAX_CHANGE_BYTES = 16 * 1024

@@ -1,11 +1,11 @@
 """The run's module parameters as a viewer sees them: ``MODULE.PARAM`` → value.
 
 A viewer may read every parameter and change those a module declares tunable (never a safety
-one: ``runtime.tuning.tunable_problem``). A change is checked here first (the parameter may be
+one: ``umbra.runtime.tuning.tunable_problem``). A change is checked here first (the parameter may be
 tuned; the value passes the module's parameter model, as ``--set`` does), then handed to the
-process that runs the module: this process's :class:`runtime.tuning.Tuner`, which takes it as
+process that runs the module: this process's :class:`umbra.runtime.tuning.Tuner`, which takes it as
 checked, or, for a module of another process, the run's parameter link
-(``runtime.live.param_link``), where that process checks what arrives from the network
+(``umbra.runtime.live.param_link``), where that process checks what arrives from the network
 (``Tuner.request``). Either applies it between two steps. A refusal goes back to the viewer as a
 message and into the run's log.
 """
@@ -17,11 +17,11 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from runtime.tuning import as_json, checked
+from umbra.runtime.tuning import as_json, checked
 
 if TYPE_CHECKING:
-    from runtime.graph.plan import GraphPlan
-    from runtime.tuning import Tuner
+    from umbra.runtime.graph.plan import GraphPlan
+    from umbra.runtime.tuning import Tuner
 
 #: ``(module, param, value, by)`` → why refused (empty: taken).
 Sender = Callable[[str, str, Any, str], str]
@@ -40,7 +40,7 @@ def viewer_value(value: Any) -> Any:
 
 
 class ParameterTable:
-    """Every parameter of the run (``runtime.live.viewer_server.ParameterHandler``)."""
+    """Every parameter of the run (``umbra.runtime.live.viewer_server.ParameterHandler``)."""
 
     def __init__(self, plan: GraphPlan, log: logging.Logger | None = None) -> None:
         self._plan = plan

@@ -6,12 +6,12 @@ a bounded queue; a full queue drops the sample and counts it. Encoding (JPEG, pr
 the hand-over to the socket happen on the server's own threads at a lower CPU priority: one lane
 for images (a few frames deep: a late frame is worth less than the next one) and one for
 everything else, so joint states never wait behind a JPEG encoding. The socket
-(``runtime.live.viewer_server``) keeps a bounded backlog per viewer and drops the oldest for a
+(``umbra.runtime.live.viewer_server``) keeps a bounded backlog per viewer and drops the oldest for a
 viewer that does not read, so a slow or stalled viewer costs the run nothing but those threads'
 work.
 
 Viewers get no capability that acts on the run: no client publishing, no services. Module
-parameters are visible (``MODULE.PARAM`` names; ``runtime.live.parameters``).
+parameters are visible (``MODULE.PARAM`` names; ``umbra.runtime.live.parameters``).
 
 Times: every message's log time and the Foxglove messages' own timestamps are wall-clock time, the
 run's time plus one offset read when the server starts (as in a recording).
@@ -31,11 +31,11 @@ from typing import Any
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from connectors.messages import Image, Message
-from runtime.live.viewer_server import ViewerServer
-from runtime.recording.encoders import ChannelEncoding, channel_encodings
-from runtime.recording.foxglove_msgs import frame_transforms, time_ns
-from runtime.recording.writer import TF_STATIC
+from umbra.connectors.messages import Image, Message
+from umbra.runtime.live.viewer_server import ViewerServer
+from umbra.runtime.recording.encoders import ChannelEncoding, channel_encodings
+from umbra.runtime.recording.foxglove_msgs import frame_transforms, time_ns
+from umbra.runtime.recording.writer import TF_STATIC
 
 #: Nice value of the server's encoding thread (Linux): below the run's loop.
 ENCODER_NICE = 10

@@ -7,23 +7,23 @@ import secrets
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from connectors.access.secret import is_loopback, resolve_token
-from connectors.errors import UserError
-from runtime.links.acl import TUNER_USER
-from runtime.links.observe import local_config
-from runtime.links.session import open_session, wait_joined
-from runtime.live.feed import ObservedFeed, serve_local
-from runtime.live.gate import DEFAULT_ORIGINS
-from runtime.live.param_link import ParamSender
-from runtime.live.parameters import ParameterTable
-from runtime.live.server import LiveServer
-from runtime.live.viewer_server import ViewerServer
-from runtime.recording.foxglove_msgs import wall_offset
+from umbra.connectors.access.secret import is_loopback, resolve_token
+from umbra.connectors.errors import UserError
+from umbra.runtime.links.acl import TUNER_USER
+from umbra.runtime.links.observe import local_config
+from umbra.runtime.links.session import open_session, wait_joined
+from umbra.runtime.live.feed import ObservedFeed, serve_local
+from umbra.runtime.live.gate import DEFAULT_ORIGINS
+from umbra.runtime.live.param_link import ParamSender
+from umbra.runtime.live.parameters import ParameterTable
+from umbra.runtime.live.server import LiveServer
+from umbra.runtime.live.viewer_server import ViewerServer
+from umbra.runtime.recording.foxglove_msgs import wall_offset
 
 if TYPE_CHECKING:
-    from runtime.graph.plan import GraphPlan
-    from runtime.links.observe import Run
-    from runtime.scheduler import Scheduler
+    from umbra.runtime.graph.plan import GraphPlan
+    from umbra.runtime.links.observe import Run
+    from umbra.runtime.scheduler import Scheduler
 
 #: Seconds the tuner's session has to reach every process of the run.
 TUNER_PATIENCE = 5.0
@@ -96,7 +96,7 @@ class LiveRun:
         self._sender: ParamSender | None = None
         self._local_modules: set[str] = set()
         self.local: list[str] = []
-        #: the password the launcher gives the run's tuner (``runtime.links.auth``): only this
+        #: the password the launcher gives the run's tuner (``umbra.runtime.links.auth``): only this
         #: process may send parameter changes to the others
         self.tuner_password = secrets.token_hex(24)
 

@@ -1,8 +1,9 @@
 """The live server's one socket: the Foxglove WebSocket protocol behind the run's door.
 
 Served with ``websockets`` on a thread of its own (its own event loop): the upgrade request is
-checked by :mod:`runtime.live.gate` before anything is sent, then the viewer gets ``serverInfo``
-and the channels, subscribes, and receives message data (:mod:`runtime.live.protocol`).
+checked by :mod:`umbra.runtime.live.gate` before anything is sent, then the viewer gets
+``serverInfo`` and the channels, subscribes, and receives message data
+(:mod:`umbra.runtime.live.protocol`).
 
 - **Publishing never waits.** :meth:`ViewerServer.publish` is called from the encoding threads; it
   hands the frame to the server's loop, which appends it to each subscribed viewer's backlog
@@ -12,7 +13,7 @@ and the channels, subscribes, and receives message data (:mod:`runtime.live.prot
   sender task of its own: a slow or stalled viewer holds only its own backlog.
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
   sends, the operator pages' message budget for what a viewer sends
-  (:class:`~connectors.access.rate.MessageBudget`: rate, burst, malformed messages),
+  (:class:`~umbra.connectors.access.rate.MessageBudget`: rate, burst, malformed messages),
   ``MAX_VIEWER_BACKLOG`` answers waiting for a viewer that asks and does not read (beyond any of
   these its socket is closed, 1008, with the reason); the whole request within
   ``MAX_PAGE_REQUEST_S``.
@@ -36,18 +37,18 @@ from typing import Any, Protocol
 from websockets.asyncio.server import Request, Response, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
-from connectors.access.hosts import allowed_hosts
-from connectors.access.rate import MessageBudget
-from connectors.access.secret import TOKEN_QUERY
-from connectors.limits import (
+from umbra.connectors.access.hosts import allowed_hosts
+from umbra.connectors.access.rate import MessageBudget
+from umbra.connectors.access.secret import TOKEN_QUERY
+from umbra.connectors.limits import (
     MAX_PAGE_REQUEST_S,
     MAX_VIEWER_BACKLOG,
     MAX_VIEWER_BACKLOG_BYTES,
     MAX_VIEWER_MESSAGE_BYTES,
     MAX_VIEWERS,
 )
-from runtime.live import protocol
-from runtime.live.gate import origin_netlocs, refusal
+from umbra.runtime.live import protocol
+from umbra.runtime.live.gate import origin_netlocs, refusal
 
 #: Send buffer of a viewer's socket [bytes] (Linux doubles it): the kernel holds a few frames,
 #: not seconds of video, for a viewer that reads slowly.

@@ -2,7 +2,7 @@
 
 The ``mcap`` library inflates a whole chunk whatever it holds, so a 98 kB zstd chunk or a 13 MB
 LZ4 one can expand to gigabytes. Here a chunk whose header declares more than
-:data:`~connectors.limits.MAX_RECORDING_RECORD_BYTES` uncompressed is refused unread, and the
+:data:`~umbra.connectors.limits.MAX_RECORDING_RECORD_BYTES` uncompressed is refused unread, and the
 inflation itself stops one byte past the declared size: a chunk that inflates to more (or less)
 than its header says is refused too. Memory is bounded by the limit whatever the bytes are.
 
@@ -24,7 +24,7 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, McapRecord, Message, Schema
 from mcap.stream_reader import CRCValidationError
 
-from connectors.limits import MAX_RECORDING_RECORD_BYTES
+from umbra.connectors.limits import MAX_RECORDING_RECORD_BYTES
 
 #: Compressions a recording's chunks may use (the empty string: stored as is).
 COMPRESSIONS = ("", "lz4", "zstd")

@@ -24,7 +24,7 @@ CameraModel   JSON ``umbra.CameraModel``                   ``.../calibration``:
 any other     JSON ``umbra.<Type>`` with its JSON schema   —
 ============  ===========================================  =======================================
 
-One table for both the recorder and the live Foxglove server (``runtime.live``): the same
+One table for both the recorder and the live Foxglove server (``umbra.runtime.live``): the same
 schemas, topics and frames in a file and on a live connection.
 
 Frames: a camera's images, its calibration and the transform tree name one frame. A
@@ -36,10 +36,10 @@ child in chain order (the message's meaning); written as a chain, each child in 
 so a viewer draws the arm link by link rather than a star from its base. Read back, the chain is
 composed again (a star from older recordings reads back too).
 
-The messages are built by ``runtime.recording.foxglove_msgs``; protobuf classes and schemas come
-from ``foxglove-schemas-protobuf`` (the schema is the class's
+The messages are built by ``umbra.runtime.recording.foxglove_msgs``; protobuf classes and schemas
+come from ``foxglove-schemas-protobuf`` (the schema is the class's
 FileDescriptorSet, as ``mcap-protobuf-support`` builds it); JSON schemas from
-``runtime.recording.json_codec``. No channel has an empty schema.
+``umbra.runtime.recording.json_codec``. No channel has an empty schema.
 
 Time: every time written is wall-clock time, ``stamp + offset`` with one ``offset`` [s] (wall −
 the run's clock) taken when the recording (or live server) starts, so a viewer's time line shows
@@ -70,9 +70,9 @@ from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from connectors.image_header import check_image_size
-from connectors.messages import CameraModel, Contour, Image, JointState, Message, Pose, Poses
-from runtime.recording.foxglove_msgs import (
+from umbra.connectors.image_header import check_image_size
+from umbra.connectors.messages import CameraModel, Contour, Image, JointState, Message, Pose, Poses
+from umbra.runtime.recording.foxglove_msgs import (
     GRIPPER_JOINT,
     camera_calibration,
     camera_mount,
@@ -85,7 +85,7 @@ from runtime.recording.foxglove_msgs import (
     raw_image,
     seconds,
 )
-from runtime.recording.json_codec import decode_json, encode_json, json_schema
+from umbra.runtime.recording.json_codec import decode_json, encode_json, json_schema
 
 IMAGE_FORMATS = ("raw", "jpeg", "png")
 PROTOBUF = "protobuf"

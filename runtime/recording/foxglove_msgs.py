@@ -1,8 +1,8 @@
 """The Foxglove messages of one sample, built with the official classes (no channels, no I/O).
 
-The builders behind ``runtime.recording.encoders``' table, for the recorder and the live server
-alike: images, frame transforms (an arm's links as a chain), joint states, the snake drawn on its
-image, a camera's calibration and the transform from its mount, and the time line. Every time is
+The builders behind ``umbra.runtime.recording.encoders``' table, for the recorder and the live
+server alike: images, frame transforms (an arm's links as a chain), joint states, the snake drawn on
+its image, a camera's calibration and the transform from its mount, and the time line. Every time is
 ``stamp + offset`` [s]: the run's clock plus one wall-clock offset (:func:`wall_offset`), each
 rounded to whole nanoseconds on its own (:func:`time_ns`).
 """
@@ -29,7 +29,7 @@ from foxglove_schemas_protobuf.TextAnnotation_pb2 import TextAnnotation
 from google.protobuf.timestamp_pb2 import Timestamp
 from scipy.spatial.transform import Rotation
 
-from connectors.messages import CameraModel, Contour, Image, JointState, Message, Pose, Poses
+from umbra.connectors.messages import CameraModel, Contour, Image, JointState, Message, Pose, Poses
 
 #: The joint of a ``foxglove.JointStates`` message that carries ``JointState.gripper`` (0..1).
 GRIPPER_JOINT = "gripper"

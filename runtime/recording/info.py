@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from runtime.recording.reader import RecordingScan, read_records
-from runtime.recording.writer import META_ROLE, META_TYPE
+from umbra.runtime.recording.reader import RecordingScan, read_records
+from umbra.runtime.recording.writer import META_ROLE, META_TYPE
 
 #: An interval longer than this many times the channel's median interval is a gap.
 GAP_FACTOR = 3.0

@@ -25,7 +25,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors.messages import Message
+from umbra.connectors.messages import Message
 
 #: The schema name of a message type ``T`` recorded as JSON is ``umbra.T``.
 SCHEMA_PREFIX = "umbra."

@@ -1,8 +1,8 @@
 """One recording per run: the parts written by the processes of a split run, merged by log time.
 
-Each process of a split run records what it produced (``runtime.recording.tap``) into its part;
-when every process has ended the launcher merges the parts into the run's file: messages in log
-time order (the real clock is ``time.monotonic``, system-wide, so the processes' times compare),
+Each process of a split run records what it produced (``umbra.runtime.recording.tap``) into its
+part; when every process has ended the launcher merges the parts into the run's file: messages in
+log time order (the real clock is ``time.monotonic``, system-wide, so the processes' times compare),
 channels and schemas once each, the graph and frames once, and the recorders' counts summed;
 chunks are compressed as the parts' were. A part of a killed process reads to its last complete
 chunk. The parts are removed once the merged file is finished; when merging fails they stay, each
@@ -18,8 +18,8 @@ from pathlib import Path
 from mcap.records import Channel, Message, Schema
 from mcap.writer import CompressionType, Writer
 
-from runtime.recording.reader import RecordingScan, indexed_scan, read_records
-from runtime.recording.writer import PROFILE, TF_STATIC
+from umbra.runtime.recording.reader import RecordingScan, indexed_scan, read_records
+from umbra.runtime.recording.writer import PROFILE, TF_STATIC
 
 
 def _stream(
@@ -142,8 +142,8 @@ def _merged_metadata(writer: Writer, scans: list[RecordingScan]) -> None:
 
 def merge_run(plan: object, out: Path, processes: list[str]) -> str:
     """Merge the parts of a split run's processes in ``out``; what happened, in one line."""
-    from connectors.errors import UserError
-    from runtime.recording.tap import part_path
+    from umbra.connectors.errors import UserError
+    from umbra.runtime.recording.tap import part_path
 
     settings = plan.spec.record  # type: ignore[attr-defined]
     target = out / settings.file

@@ -7,9 +7,9 @@ decompress (corrupted) is refused with ``FILE: error: ...`` (a ``UserError``: ex
 traceback), saying what is wrong and where (byte offset).
 
 Nothing a file declares is allocated unchecked: a record longer than the file or than
-:data:`~connectors.limits.MAX_RECORDING_RECORD_BYTES` is refused before it is read, and a chunk is
-inflated by :mod:`runtime.recording.chunks`, which checks its declared size first and stops at it
-(a decompression bomb costs a header check, not gigabytes).
+:data:`~umbra.connectors.limits.MAX_RECORDING_RECORD_BYTES` is refused before it is read, and a
+chunk is inflated by :mod:`umbra.runtime.recording.chunks`, which checks its declared size first and
+stops at it (a decompression bomb costs a header check, not gigabytes).
 
 A finished recording can also be read through its summary section (:func:`indexed_scan`: channels,
 schemas, statistics, metadata and the chunk index, checked against the summary's CRC, without
@@ -47,9 +47,9 @@ from mcap.records import (
 )
 from mcap.stream_reader import CRCValidationError, StreamReader
 
-from connectors.errors import UserError
-from connectors.limits import MAX_RECORDING_RECORD_BYTES
-from runtime.recording.chunks import chunk_records
+from umbra.connectors.errors import UserError
+from umbra.connectors.limits import MAX_RECORDING_RECORD_BYTES
+from umbra.runtime.recording.chunks import chunk_records
 
 
 class _Counting:

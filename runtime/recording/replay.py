@@ -34,15 +34,15 @@ from typing import Any, ClassVar
 
 import msgspec
 
-from connectors.errors import CheckFailed, Diagnostic, Location, UserError
-from connectors.messages import Image, Message
-from connectors.module import Module
-from runtime.graph.plan import GraphPlan
-from runtime.hints import did_you_mean
-from runtime.recording.reader import RecordingScan, indexed_scan, read_records
-from runtime.recording.samples import Sample, channel_type, iter_samples_parallel
-from runtime.recording.tap import recorded_outputs, topic_of
-from runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT
+from umbra.connectors.errors import CheckFailed, Diagnostic, Location, UserError
+from umbra.connectors.messages import Image, Message
+from umbra.connectors.module import Module
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.hints import did_you_mean
+from umbra.runtime.recording.reader import RecordingScan, indexed_scan, read_records
+from umbra.runtime.recording.samples import Sample, channel_type, iter_samples_parallel
+from umbra.runtime.recording.tap import recorded_outputs, topic_of
+from umbra.runtime.recording.writer import META_FRAME, META_JOINTS, META_PORT
 
 #: Samples read and decoded ahead of the replay (720p raw: 2.8 MB each).
 PREFETCH = 32

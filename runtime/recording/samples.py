@@ -1,7 +1,7 @@
 """Recorded samples back as message objects: the primary channel of each recorded output.
 
-``iter_samples`` reads a recording (``runtime.recording.reader``) and decodes every message of a
-primary channel (channel metadata ``umbra.role: primary``, type in ``umbra.type``) with the
+``iter_samples`` reads a recording (``umbra.runtime.recording.reader``) and decodes every message of
+a primary channel (channel metadata ``umbra.role: primary``, type in ``umbra.type``) with the
 decoder of its schema; view channels (annotations, calibration, ``/tf_static``) and channels of
 other tools are skipped. A message that does not decode is a ``FILE: error:`` naming the channel,
 the message and its time.
@@ -19,11 +19,11 @@ from typing import Any
 
 from mcap.records import Channel
 
-from connectors.errors import UserError
-from connectors.messages import Image, Message, message_types
-from runtime.recording.encoders import decode_primary
-from runtime.recording.reader import RecordingScan, read_messages
-from runtime.recording.writer import META_ROLE, META_TYPE
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Image, Message, message_types
+from umbra.runtime.recording.encoders import decode_primary
+from umbra.runtime.recording.reader import RecordingScan, read_messages
+from umbra.runtime.recording.writer import META_ROLE, META_TYPE
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import PurePosixPath
 from typing import Any
 
-from connectors.errors import Location
+from umbra.connectors.errors import Location
 
 IMAGE_CHOICES = ("raw", "jpeg", "png")
 PORT_CHOICES = (*IMAGE_CHOICES, "off")

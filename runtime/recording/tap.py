@@ -11,7 +11,7 @@ it is recorded only when ``record.ports`` names it. The topic of output
 attachments, and the run, parameters, modules and versions as metadata; ``/tf_static`` holds the
 static frames (but those whose child a recorded pose moves: a frame has one parent in a viewer).
 A split run writes one part per process (``<file stem>-<process>.mcap``) that the launcher merges
-into the run's file when every process has ended (``runtime.recording.merge``).
+into the run's file when every process has ended (``umbra.runtime.recording.merge``).
 """
 
 from __future__ import annotations
@@ -24,10 +24,10 @@ from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from connectors.messages import Image, Pose
-from runtime.recording.foxglove_msgs import time_ns, wall_offset
-from runtime.recording.settings import RecordSettings
-from runtime.recording.writer import (
+from umbra.connectors.messages import Image, Pose
+from umbra.runtime.recording.foxglove_msgs import time_ns, wall_offset
+from umbra.runtime.recording.settings import RecordSettings
+from umbra.runtime.recording.writer import (
     META_FRAME,
     META_JOINTS,
     META_PORT,
@@ -38,8 +38,8 @@ from runtime.recording.writer import (
 if TYPE_CHECKING:
     import logging
 
-    from connectors.module import Module
-    from runtime.graph.plan import GraphPlan
+    from umbra.connectors.module import Module
+    from umbra.runtime.graph.plan import GraphPlan
 
 #: Distributions whose versions a recording names.
 VERSIONED = (
@@ -151,7 +151,7 @@ def run_metadata(plan: GraphPlan, clock: str, process: str | None) -> dict[str, 
 def check_file_clash(plan: GraphPlan, settings: RecordSettings) -> None:
     """CheckFailed when a module's parameter names the run's recording file (a Recorder left at
     its default ``recording.mcap``): two writers would share one file."""
-    from connectors.errors import CheckFailed, Diagnostic, Location
+    from umbra.connectors.errors import CheckFailed, Diagnostic, Location
 
     problems = []
     for name, mplan in plan.modules.items():

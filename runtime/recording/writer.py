@@ -11,14 +11,14 @@ The recorder's thread runs at a lower CPU priority (nice ``WRITER_NICE``), so th
 gets the CPU first when it wakes. The file is chunked (LZ4, or uncompressed with ``compress=False``:
 raw camera pixels do not compress, LZ4 only costs time on both sides) and
 flushed at least every ``flush_period`` seconds of wall time, so a
-run that is killed leaves a file whose complete chunks read back (``runtime.recording.reader``):
-it loses at most the last chunk. ``close`` writes the counts and drops as metadata
-``umbra.recording`` and finishes the file (index, summary, footer).
+run that is killed leaves a file whose complete chunks read back
+(``umbra.runtime.recording.reader``): it loses at most the last chunk. ``close`` writes the counts
+and drops as metadata ``umbra.recording`` and finishes the file (index, summary, footer).
 
 Message times are wall-clock time: ``log_time`` is the tick time at which the sample was sent,
 ``publish_time`` the sample's ``stamp`` (and the Foxglove messages' own timestamps too), each
 [ns] plus ``clock_offset`` (wall − the run's clock, read once when the recording starts: see
-``runtime.recording.encoders``); the run's clock is therefore ``publish_time - clock_offset``
+``umbra.runtime.recording.encoders``); the run's clock is therefore ``publish_time - clock_offset``
 for every message, and JSON messages keep their ``stamp`` as is. The MCAP ``sequence`` is the
 sample's ``seq``.
 """
@@ -37,11 +37,11 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
-from connectors.errors import UserError
-from connectors.messages import CameraModel, Image, Message, Pose, Poses
-from runtime.recording.encoders import ChannelEncoding, channel_encodings
-from runtime.recording.foxglove_msgs import frame_transforms, time_ns, view_frames
-from runtime.rt_priority import background
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import CameraModel, Image, Message, Pose, Poses
+from umbra.runtime.recording.encoders import ChannelEncoding, channel_encodings
+from umbra.runtime.recording.foxglove_msgs import frame_transforms, time_ns, view_frames
+from umbra.runtime.rt_priority import background
 
 #: Channel metadata keys (strings), read by record-info and replay.
 META_TYPE = "umbra.type"

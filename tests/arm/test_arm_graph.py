@@ -7,17 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modules.arm.dh import puma560
-from modules.arm.reg_vel import RegVel
-from modules.arm.rotate_kin import RotateKin
-from modules.arm.wolverine_jnts import WolverineJnts
-from modules.arm.wolverine_kin import WolverineKin
-from modules.generic.constant import TwistSource
-from modules.geometry.transforms import invert_transform, transform_from_xyz_rpy_deg
-from runtime.errors import CheckFailed
-from runtime.graph.check import check_text
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.reg_vel import RegVel
+from umbra.modules.arm.rotate_kin import RotateKin
+from umbra.modules.arm.wolverine_jnts import WolverineJnts
+from umbra.modules.arm.wolverine_kin import WolverineKin
+from umbra.modules.generic.constant import TwistSource
+from umbra.modules.geometry.transforms import invert_transform, transform_from_xyz_rpy_deg
+from umbra.runtime.errors import CheckFailed
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 T_TOOL_CAMERA = transform_from_xyz_rpy_deg([0.0, 0.06, 0.04], [0.0, 0.0, 90.0])
 

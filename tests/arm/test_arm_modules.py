@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from connectors.messages import JointRates, JointState, Status, Text, Twist
-from modules.arm.dh import puma560
-from modules.arm.jacobian import jacobian
-from modules.arm.reg_vel import RegVel
-from modules.arm.rotate_kin import RotateKin
-from modules.arm.wolverine_jnts import WolverineJnts
-from modules.arm.wolverine_kin import WolverineKin
-from modules.geometry.transforms import transform_from_xyz_rpy_deg, twist_tool_from_camera
-from runtime.harness import ModuleHarness
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import JointRates, JointState, Status, Text, Twist
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.jacobian import jacobian
+from umbra.modules.arm.reg_vel import RegVel
+from umbra.modules.arm.rotate_kin import RotateKin
+from umbra.modules.arm.wolverine_jnts import WolverineJnts
+from umbra.modules.arm.wolverine_kin import WolverineKin
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg, twist_tool_from_camera
+from umbra.runtime.harness import ModuleHarness
 
 PUMA = puma560()
 Q_NOMINAL = np.radians([0, 45, -180, 0, 45, 0])

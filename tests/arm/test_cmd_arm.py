@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from modules.arm.dh import puma560
-from modules.arm.jacobian import jacobian, manipulability
-from runtime.cli.main import main
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.jacobian import jacobian, manipulability
+from umbra.runtime.cli.main import main
 
 Q = [0.1, 0.7, -3.0, 0.2, 0.6, -0.4]
 

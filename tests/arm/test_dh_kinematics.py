@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.arm.dh import DHError, DHJoint, DHTable, puma560
-from modules.arm.jacobian import jacobian, jacobian_and_pose, manipulability
-from modules.geometry.transforms import rot_x, rot_z, translation
+from umbra.modules.arm.dh import DHError, DHJoint, DHTable, puma560
+from umbra.modules.arm.jacobian import jacobian, jacobian_and_pose, manipulability
+from umbra.modules.geometry.transforms import rot_x, rot_z, translation
 
 PUMA = puma560()
 

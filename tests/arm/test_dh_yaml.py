@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.arm.dh import DHError, puma560
-from modules.arm.dh_yaml import dh_table_from_dict, load_dh_table
+from umbra.modules.arm.dh import DHError, puma560
+from umbra.modules.arm.dh_yaml import dh_table_from_dict, load_dh_table
 
 PUMA_YAML = """\
 name: puma560

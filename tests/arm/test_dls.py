@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.arm.dh import puma560
-from modules.arm.dls import DLSSettings, adaptive_damping, scale_to_limits, solve_dls
-from modules.arm.jacobian import jacobian
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.dls import DLSSettings, adaptive_damping, scale_to_limits, solve_dls
+from umbra.modules.arm.jacobian import jacobian
 
 PUMA = puma560()
 UNLIMITED = np.full(6, np.inf)

@@ -81,7 +81,7 @@ def sigstop_travel(
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "run",
             str(graph),
             "--duration",

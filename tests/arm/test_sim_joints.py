@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.arm.dh import puma560
-from modules.arm.joints_backend import SimJointsBackend
-from modules.arm.sim_joints import SimJoints, SimJointSettings
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.joints_backend import SimJointsBackend
+from umbra.modules.arm.sim_joints import SimJoints, SimJointSettings
 
 PUMA = puma560()
 Q0 = np.radians([0, 45, -180, 0, 45, 0])
@@ -137,7 +137,7 @@ def test_regular_commands_are_obeyed_as_before():
 
 
 def test_a_rate_too_slow_for_the_drive_watchdog_is_a_graph_error():
-    from modules.arm.wolverine_jnts import WolverineJnts
+    from umbra.modules.arm.wolverine_jnts import WolverineJnts
 
     params = WolverineJnts.Params(drive_watchdog=0.1)
     assert params.rate_problem(100.0) == ""

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.arm.velocity_register import RegisterSettings, VelocityRegister
-from modules.geometry.transforms import clamp_twist
+from umbra.modules.arm.velocity_register import RegisterSettings, VelocityRegister
+from umbra.modules.geometry.transforms import clamp_twist
 
 SETTINGS = RegisterSettings(timeout=0.2, max_linear=0.1, max_angular=0.5)
 

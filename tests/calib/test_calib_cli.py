@@ -10,11 +10,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modules.calib.camcalib import REPORT_FILE
-from modules.calib.rotations import invert_transform, transform, xyz_from_rotation
-from modules.calib.synthetic import observe, panel_rig, random_pose, rig_camera, ring_of_cameras
-from modules.calib.zoom_io import load_zoom_table
-from runtime.cli.main import main
+from umbra.modules.calib.camcalib import REPORT_FILE
+from umbra.modules.calib.rotations import invert_transform, transform, xyz_from_rotation
+from umbra.modules.calib.synthetic import (
+    observe,
+    panel_rig,
+    random_pose,
+    rig_camera,
+    ring_of_cameras,
+)
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.runtime.cli.main import main
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -266,7 +272,7 @@ def test_umbra_calib_subprocess() -> None:
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "calib",
             "zoom",
             str(REPORT_FILE),
@@ -282,7 +288,16 @@ def test_umbra_calib_subprocess() -> None:
     assert completed.returncode == 0, completed.stderr
     assert json.loads(completed.stdout)["intrinsics"]["fx"] == 740.09
     failed = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "calib", "zoom", "missing.xml", "--at", "0"],
+        [
+            sys.executable,
+            "-m",
+            "umbra.runtime.cli.main",
+            "calib",
+            "zoom",
+            "missing.xml",
+            "--at",
+            "0",
+        ],
         capture_output=True,
         text=True,
         cwd=REPO,

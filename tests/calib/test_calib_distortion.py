@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.distortion import (
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.distortion import (
     distort_normalized,
     distort_points,
     undistort_image,
@@ -15,7 +15,7 @@ from modules.calib.distortion import (
     undistort_points,
     undistortion_maps,
 )
-from modules.calib.rotations import rotation_from_vector
+from umbra.modules.calib.rotations import rotation_from_vector
 
 K = np.array([[820.0, 0.0, 331.0], [0.0, 815.0, 244.0], [0.0, 0.0, 1.0]])
 DISTORTIONS = [

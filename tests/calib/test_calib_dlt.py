@@ -8,16 +8,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from modules.calib.camera_model import Intrinsics
-from modules.calib.decompose import (
+from umbra.modules.calib.camera_model import Intrinsics
+from umbra.modules.calib.decompose import (
     compose_camera_matrix,
     decompose_camera_matrix,
     normalize_camera_matrix,
 )
-from modules.calib.dlt import dlt_camera_matrix, project, reprojection_errors
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.rotations import rotation_from_vector
-from modules.calib.synthetic import panel_rig, rig_camera
+from umbra.modules.calib.dlt import dlt_camera_matrix, project, reprojection_errors
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.rotations import rotation_from_vector
+from umbra.modules.calib.synthetic import panel_rig, rig_camera
 
 TRUTH = Intrinsics(fx=820.0, fy=815.0, skew=-3.5, u0=331.0, v0=244.0)
 

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.model_choice import calibrate_choosing_distortion
-from modules.calib.refine import calibrate
-from modules.calib.rotations import rotation_from_vector
-from runtime.cli.main import main
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.model_choice import calibrate_choosing_distortion
+from umbra.modules.calib.refine import calibrate
+from umbra.modules.calib.rotations import rotation_from_vector
+from umbra.runtime.cli.main import main
 
 TRUTH = Intrinsics(800.0, 800.0, 0.0, 320.0, 240.0)
 

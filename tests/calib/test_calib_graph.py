@@ -7,16 +7,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.errors import UserError
-from connectors.messages import CameraModel, Vector, ZoomState
-from modules.calib.camcalib import REPORT_FILE, CamCalib
-from modules.calib.camera_message import pinhole_from_message
-from modules.calib.targeting import Targeting
-from modules.calib.zoom_io import load_zoom_table
-from runtime.graph.check import check_text
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import CameraModel, Vector, ZoomState
+from umbra.modules.calib.camcalib import REPORT_FILE, CamCalib
+from umbra.modules.calib.camera_message import pinhole_from_message
+from umbra.modules.calib.targeting import Targeting
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class ZoomSweep(Module):

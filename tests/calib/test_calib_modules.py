@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from connectors.messages import Pose, Vector, ZoomState
-from modules.calib.camcalib import REPORT_FILE, CamCalib
-from modules.calib.camera_message import camera_message, pinhole_from_message
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.rotations import invert_transform, rotation_from_vector, transform
-from modules.calib.targeting import Targeting
-from modules.calib.zoom_io import load_zoom_table
-from modules.calib.zoom_table import ZoomFile
-from modules.calib.zoom_yaml import write_zoom_yaml
-from runtime.harness import ModuleHarness
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Pose, Vector, ZoomState
+from umbra.modules.calib.camcalib import REPORT_FILE, CamCalib
+from umbra.modules.calib.camera_message import camera_message, pinhole_from_message
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.rotations import invert_transform, rotation_from_vector, transform
+from umbra.modules.calib.targeting import Targeting
+from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.modules.calib.zoom_table import ZoomFile
+from umbra.modules.calib.zoom_yaml import write_zoom_yaml
+from umbra.runtime.harness import ModuleHarness
 
 
 def test_camcalib_publishes_model_at_zoom_and_only_on_change() -> None:

@@ -6,17 +6,17 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.npnp import View, initial_pose, linear_generalized_pose, solve_npnp
-from modules.calib.rotations import (
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.npnp import View, initial_pose, linear_generalized_pose, solve_npnp
+from umbra.modules.calib.rotations import (
     invert_transform,
     rotation_from_vector,
     transform,
     vector_from_rotation,
 )
-from modules.calib.synthetic import TYPICAL_DISTORTION, random_pose, ring_of_cameras
-from modules.calib.transform_loop import (
+from umbra.modules.calib.synthetic import TYPICAL_DISTORTION, random_pose, ring_of_cameras
+from umbra.modules.calib.transform_loop import (
     Snapshot,
     project_loop,
     solve_device_pose,

@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.refine import calibrate, linear_camera, refine_camera
-from modules.calib.synthetic import TYPICAL_DISTORTION, observe, panel_rig, rig_camera
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.refine import calibrate, linear_camera, refine_camera
+from umbra.modules.calib.synthetic import TYPICAL_DISTORTION, observe, panel_rig, rig_camera
 
 
 @pytest.fixture

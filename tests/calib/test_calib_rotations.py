@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from modules.calib.rotations import (
+from umbra.modules.calib.rotations import (
     invert_transform,
     nearest_rotation,
     rotation_from_vector,

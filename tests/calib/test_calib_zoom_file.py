@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from modules.calib.zoom_io import load_zoom_file, load_zoom_table, save_zoom_file
-from modules.calib.zoom_xml import format_zoom_xml, parse_zoom_xml
-from modules.calib.zoom_yaml import parse_zoom_yaml
+from umbra.connectors.errors import UserError
+from umbra.modules.calib.zoom_io import load_zoom_file, load_zoom_table, save_zoom_file
+from umbra.modules.calib.zoom_xml import format_zoom_xml, parse_zoom_xml
+from umbra.modules.calib.zoom_yaml import parse_zoom_yaml
 
 REPO = Path(__file__).resolve().parents[2]
 REPORT_FILE = REPO / "modules" / "calib" / "data" / "zoom_cam.xml"

@@ -11,12 +11,12 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from modules.calib.pose_tool import pose_error, solve_mount
-from modules.calib.pose_tool_synthetic import PTU_INTRINSICS, click_snapshots, random_case
-from modules.calib.rotations import rotation_from_vector, transform
-from modules.calib.synthetic import random_pose, ring_of_cameras
-from runtime.cli.main import main
 from tests.calib.test_calib_cli import cameras_yaml
+from umbra.modules.calib.pose_tool import pose_error, solve_mount
+from umbra.modules.calib.pose_tool_synthetic import PTU_INTRINSICS, click_snapshots, random_case
+from umbra.modules.calib.rotations import rotation_from_vector, transform
+from umbra.modules.calib.synthetic import random_pose, ring_of_cameras
+from umbra.runtime.cli.main import main
 
 
 def _truth_rms(snapshots, T_head_camera) -> float:

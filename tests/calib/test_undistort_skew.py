@@ -11,9 +11,9 @@ import cv2
 import numpy as np
 from scipy.optimize import root
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.distortion import undistort_points
-from modules.sketch.stereo import StereoPair
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.distortion import undistort_points
+from umbra.modules.sketch.stereo import StereoPair
 
 K = np.array([[740.09, -4.58, 344.25], [0.0, 741.60, 212.84], [0.0, 0.0, 1.0]])
 DIST = np.array([-0.28, 0.11, 0.0012, -0.0009, -0.02])

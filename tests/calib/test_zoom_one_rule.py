@@ -13,12 +13,12 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from connectors.messages import ZoomState
-from modules.calib.camcalib import REPORT_FILE, CamCalib
-from modules.calib.camera_file import load_cameras
-from modules.sketch.rig import default_rig
-from runtime.cli.main import main
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import ZoomState
+from umbra.modules.calib.camcalib import REPORT_FILE, CamCalib
+from umbra.modules.calib.camera_file import load_cameras
+from umbra.modules.sketch.rig import default_rig
+from umbra.runtime.cli.main import main
+from umbra.runtime.harness import ModuleHarness
 
 ZOOMS = (0.01, 0.0375, 0.07, 0.125, 0.2, 0.35, 0.5, 0.77, 0.95)
 

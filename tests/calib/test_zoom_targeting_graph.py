@@ -16,16 +16,16 @@ import cv2
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from connectors.frames import transform_from_xyz_rpy
-from connectors.messages import CameraModel, Message
-from modules.calib.operator_marks import SimMarks
-from modules.generic.recording import read_recording
-from runtime.graph.check import load_graph
-from runtime.harness import ModuleHarness
-from runtime.registry import Registry
-from runtime.run import run_process
-from runtime.scheduler import SchedulerOptions
+from umbra.connectors.errors import UserError
+from umbra.connectors.frames import transform_from_xyz_rpy
+from umbra.connectors.messages import CameraModel, Message
+from umbra.modules.calib.operator_marks import SimMarks
+from umbra.modules.generic.recording import read_recording
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.harness import ModuleHarness
+from umbra.runtime.registry import Registry
+from umbra.runtime.run import run_process
+from umbra.runtime.scheduler import SchedulerOptions
 
 ROOT = Path(__file__).resolve().parents[2]
 GRAPH = ROOT / "graphs" / "zoom_targeting.yaml"
@@ -192,11 +192,11 @@ def test_umbra_run_from_the_command_line(tmp_path: Path) -> None:
     dist.mkdir(parents=True)
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: umbra-simmarks\nVersion: 0.0\n")
     (dist / "entry_points.txt").write_text(
-        "[umbra.modules]\nSimMarks = modules.calib.operator_marks:SimMarks\n"
+        "[umbra.modules]\nSimMarks = umbra.modules.calib.operator_marks:SimMarks\n"
     )
     env = {**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}"}
     out = tmp_path / "run"
-    command = [sys.executable, "-m", "runtime.cli.main"]
+    command = [sys.executable, "-m", "umbra.runtime.cli.main"]
     check = subprocess.run(
         [*command, "check", str(GRAPH)], capture_output=True, text=True, env=env, timeout=60
     )

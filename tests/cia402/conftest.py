@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from modules.arm.cia402 import BusSpec, Cia402Arm, Cia402ArmConfig, JointDrive, SimDrive
+from umbra.modules.arm.cia402 import BusSpec, Cia402Arm, Cia402ArmConfig, JointDrive, SimDrive
 
 COUNTS_PER_RAD = 10_000.0
 

@@ -9,8 +9,8 @@ import can
 import numpy as np
 import pytest
 
-from modules.arm.cia402 import ArmState, Cia402Arm, DriveStartError, SimDrive, TripCause
-from modules.arm.cia402.state_machine import State
+from umbra.modules.arm.cia402 import ArmState, Cia402Arm, DriveStartError, SimDrive, TripCause
+from umbra.modules.arm.cia402.state_machine import State
 
 from .conftest import COUNTS_PER_RAD, wait_until
 

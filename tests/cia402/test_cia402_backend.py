@@ -10,14 +10,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from connectors.messages import JointRates
-from modules.arm.cia402 import Cia402ConfigError
-from modules.arm.cia402.backend import Cia402Backend, guard_rates
-from modules.arm.cia402.config_yaml import load_canopen_settings
-from modules.arm.dh import puma560
-from modules.arm.joints_backend import BackendError
-from modules.arm.wolverine_jnts import WolverineJnts
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import JointRates
+from umbra.modules.arm.cia402 import Cia402ConfigError
+from umbra.modules.arm.cia402.backend import Cia402Backend, guard_rates
+from umbra.modules.arm.cia402.config_yaml import load_canopen_settings
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.joints_backend import BackendError
+from umbra.modules.arm.wolverine_jnts import WolverineJnts
+from umbra.runtime.harness import ModuleHarness
 
 from .conftest import wait_until
 

@@ -17,8 +17,8 @@ import pytest
 from canopen.pdo import PdoMap
 from canopen.profiles.p402 import BaseNode402
 
-from modules.arm.cia402 import SimDrive
-from modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402 import SimDrive
+from umbra.modules.arm.cia402 import objects as obj
 
 from .conftest import wait_until
 

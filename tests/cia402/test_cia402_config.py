@@ -6,8 +6,8 @@ import uuid
 
 import pytest
 
-from connectors.errors import UserError
-from modules.arm.cia402 import (
+from umbra.connectors.errors import UserError
+from umbra.modules.arm.cia402 import (
     BusSpec,
     BusSpecError,
     Cia402Arm,

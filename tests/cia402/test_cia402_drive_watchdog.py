@@ -23,7 +23,7 @@ import canopen
 import numpy as np
 import pytest
 
-from modules.arm.cia402 import (
+from umbra.modules.arm.cia402 import (
     ArmState,
     BusSpec,
     Cia402Arm,
@@ -33,10 +33,10 @@ from modules.arm.cia402 import (
     JointDrive,
     SimDrive,
 )
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.config_yaml import load_canopen_settings
-from modules.arm.cia402.drive_watchdog import consumer_entry
-from modules.arm.cia402.state_machine import State
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.config_yaml import load_canopen_settings
+from umbra.modules.arm.cia402.drive_watchdog import consumer_entry
+from umbra.modules.arm.cia402.state_machine import State
 
 from .conftest import COUNTS_PER_RAD, wait_until
 
@@ -131,7 +131,7 @@ def test_without_the_watchdog_a_frozen_master_leaves_the_drive_running(
 
 FREEZE_SCRIPT = """
 import json, sys, time
-from modules.arm.cia402 import BusSpec, Cia402Arm, Cia402ArmConfig, JointDrive, SimDrive
+from umbra.modules.arm.cia402 import BusSpec, Cia402Arm, Cia402ArmConfig, JointDrive, SimDrive
 channel, timeout_s, run_s = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
 drives = [SimDrive(n).connect(channel=channel) for n in (1, 2)]
 joints = (JointDrive("a", 1, 10000.0), JointDrive("b", 2, 10000.0))

@@ -11,7 +11,7 @@ from pathlib import Path
 import canopen
 import pytest
 
-from modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402 import objects as obj
 
 # CiA 306 [FileInfo] keys eds-utils insists on (it reports each one that is missing).
 FILE_INFO_KEYS = (

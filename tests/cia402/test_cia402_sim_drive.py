@@ -10,9 +10,9 @@ import pytest
 from canopen.nmt import NmtError
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
-from modules.arm.cia402 import SimDrive
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.state_machine import State, state_from_statusword
+from umbra.modules.arm.cia402 import SimDrive
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.state_machine import State, state_from_statusword
 
 from .conftest import wait_until
 

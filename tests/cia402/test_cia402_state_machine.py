@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from modules.arm.cia402.state_machine import (
+from umbra.modules.arm.cia402.state_machine import (
     Command,
     State,
     StatuswordError,

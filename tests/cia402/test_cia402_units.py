@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.arm.cia402.units import (
+from umbra.modules.arm.cia402.units import (
     INT32_MAX,
     INT32_MIN,
     angles_to_counts,

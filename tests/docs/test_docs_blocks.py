@@ -15,9 +15,9 @@ import pytest
 import tomllib
 import yaml
 
-from runtime.cli.main import build_parser
-from runtime.graph.check import check_text
 from tests.docs.blocks import NEVER_RUN, ROOT, RUN_LANGUAGES, Block, all_blocks, commands
+from umbra.runtime.cli.main import build_parser
+from umbra.runtime.graph.check import check_text
 
 BLOCKS = all_blocks()
 SHELL_BUILTINS = {".", "source", "cd", "export"}
@@ -106,7 +106,7 @@ def test_shell_commands_parse_and_their_graphs_check(command) -> None:
         assert args[:1] == ["-m"] and args[1] in (
             "venv",
             "pytest",
-            "modules.calib.visca.sim_camera",
+            "umbra.modules.calib.visca.sim_camera",
         ), f"{command.where}: unexpected python command {command.argv}"
         for target in args[2:]:
             if args[1] == "pytest" and not target.startswith("-") and "/" in target:

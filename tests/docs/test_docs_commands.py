@@ -31,7 +31,7 @@ def _argv(argv: list[str]) -> list[str] | None:
     assert program == "umbra", f"unexpected program {program!r}"
     if args and args[0] in ("run", "replay") and "--duration" not in args:
         args = [*args, *SHORT]
-    return [sys.executable, "-m", "runtime.cli.main", *args]
+    return [sys.executable, "-m", "umbra.runtime.cli.main", *args]
 
 
 @pytest.mark.timeout(900)

@@ -16,17 +16,17 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.calib.camcalib import REPORT_FILE
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.geometry.rochester_head import (
+from umbra.modules.calib.camcalib import REPORT_FILE
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.geometry.rochester_head import (
     ROCHESTER_HEAD,
     aim_camera_at_point,
     aim_camera_model_at_point,
 )
-from modules.ptu.ptu_module import Ptu
-from modules.sketch.messages import PtuCommand
-from modules.sketch.rig import default_rig
-from runtime.harness import ModuleHarness
+from umbra.modules.ptu.ptu_module import Ptu
+from umbra.modules.sketch.messages import PtuCommand
+from umbra.modules.sketch.rig import default_rig
+from umbra.runtime.harness import ModuleHarness
 
 ZOOMS = np.linspace(0.0, 1.0, 41)
 #: points the Active Sketch rig watches (m, base): the arm's workspace in front of the mast
@@ -88,7 +88,7 @@ def _ptu_mount(T_base_ptu, pan, tilt):
 
 
 def _ptu_head():
-    from modules.ptu.ptu_model import PtuGeometry
+    from umbra.modules.ptu.ptu_model import PtuGeometry
 
     return PtuGeometry().head
 

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.geometry.rays import (
+from umbra.modules.geometry.rays import (
     RayGeometryError,
     camera_centre,
     closest_ranges,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.geometry import rochester_head as head
-from modules.geometry.transforms import invert_transform, transform_points
+from umbra.modules.geometry import rochester_head as head
+from umbra.modules.geometry.transforms import invert_transform, transform_points
 
 
 def test_campos_at_zero_angles_is_the_sum_of_the_guide_offsets():

@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.geometry import rays
-from modules.geometry import rochester_head as head
-from modules.geometry import rochester_stereo as stereo
-from modules.geometry.transforms import invert_transform, transform_points
+from umbra.modules.geometry import rays
+from umbra.modules.geometry import rochester_head as head
+from umbra.modules.geometry import rochester_stereo as stereo
+from umbra.modules.geometry.transforms import invert_transform, transform_points
 
 CAMERA = stereo.ROCHESTER_CAMERA
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.geometry import transforms as tf
+from umbra.modules.geometry import transforms as tf
 
 
 def random_transform(rng: np.random.Generator, reach: float = 0.5) -> np.ndarray:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.geometry import val
-from modules.geometry.transforms import rot_x, rot_y, rot_z, translation
+from umbra.modules.geometry import val
+from umbra.modules.geometry.transforms import rot_x, rot_y, rot_z, translation
 
 LAB_X = np.array([1.0, 0.0, 0.0])
 LAB_Y = np.array([0.0, 1.0, 0.0])

@@ -1195,9 +1195,9 @@ def issue29() -> None:
     sys.path.insert(0, str(HERE.parents[2]))
     import numpy as np
 
-    from modules.calib.camera_model import Intrinsics, PinholeCamera
-    from modules.calib.pose_tool_file import session_text
     from tests.hostile.bombs import MAGIC, chunk_payload, crc, mcap_bytes
+    from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+    from umbra.modules.calib.pose_tool_file import session_text
 
     ok_event = '{"cmd": "aim", "xyz": [0.5, 0, 0.3], "at": null, "zoom": 0.2}'
     sessions = {

@@ -10,9 +10,9 @@ from pathlib import Path
 import pydantic
 import pytest
 
-from modules.calib.visca.sony import Sony
-from modules.sketch.operator_script import SketchOperatorSim
-from runtime.cli.main import main
+from umbra.modules.calib.visca.sony import Sony
+from umbra.modules.sketch.operator_script import SketchOperatorSim
+from umbra.runtime.cli.main import main
 
 REPO = Path(__file__).resolve().parents[2]
 SKETCH = (REPO / "graphs" / "active_sketch.yaml").read_text()

@@ -1,8 +1,8 @@
 """The hostile-input corpus (tests/hostile/corpus/manifest.yaml) through the real ``umbra`` CLI.
 
-Every case runs ``runtime.cli.main.main(ARGV)`` in the corpus folder and checks the exit status,
-that one stderr line matches the expected error, and that no traceback is printed. A few cases
-run as subprocesses, to prove that nothing but the error line reaches a user's terminal.
+Every case runs ``umbra.runtime.cli.main.main(ARGV)`` in the corpus folder and checks the exit
+status, that one stderr line matches the expected error, and that no traceback is printed. A few
+cases run as subprocesses, to prove that nothing but the error line reaches a user's terminal.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from connectors.safe_yaml import load
-from runtime.cli.main import main
+from umbra.connectors.safe_yaml import load
+from umbra.runtime.cli.main import main
 
 CORPUS = Path(__file__).parent / "corpus"
 REPO = Path(__file__).resolve().parents[2]
@@ -105,7 +105,7 @@ SUBPROCESS_CASES = [
 def test_no_traceback_reaches_the_terminal(case_id: str, tmp_path: Path) -> None:
     case = next(c for c in CASES if c["id"] == case_id)
     proc = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", *_argv(case, tmp_path)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", *_argv(case, tmp_path)],
         cwd=CORPUS,
         capture_output=True,
         text=True,

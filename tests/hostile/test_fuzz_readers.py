@@ -19,23 +19,23 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from connectors.cli_support import parse_value
-from connectors.errors import UserError
-from connectors.safe_yaml import load
-from connectors.user_files import decode_text
-from modules.arm.cia402.config_yaml import settings_from_yaml_text
-from modules.arm.dh import DHError
-from modules.arm.dh_yaml import dh_table_from_yaml_text
-from modules.calib.camera_file import parse_cameras
-from modules.calib.correspondences import parse_correspondences
-from modules.calib.pose_tool_file import parse_session
-from modules.calib.zoom_xml import parse_zoom_xml
-from modules.calib.zoom_yaml import parse_zoom_yaml
-from modules.vision.image_file import read_image
-from runtime.graph.check import check_text
-from runtime.graph.names import endpoint_problem, key_prefix_problem, plain_beyond_host
-from runtime.links.auth import load_auth
-from runtime.links.config import Endpoints, build_config
+from umbra.connectors.cli_support import parse_value
+from umbra.connectors.errors import UserError
+from umbra.connectors.safe_yaml import load
+from umbra.connectors.user_files import decode_text
+from umbra.modules.arm.cia402.config_yaml import settings_from_yaml_text
+from umbra.modules.arm.dh import DHError
+from umbra.modules.arm.dh_yaml import dh_table_from_yaml_text
+from umbra.modules.calib.camera_file import parse_cameras
+from umbra.modules.calib.correspondences import parse_correspondences
+from umbra.modules.calib.pose_tool_file import parse_session
+from umbra.modules.calib.zoom_xml import parse_zoom_xml
+from umbra.modules.calib.zoom_yaml import parse_zoom_yaml
+from umbra.modules.vision.image_file import read_image
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.graph.names import endpoint_problem, key_prefix_problem, plain_beyond_host
+from umbra.runtime.links.auth import load_auth
+from umbra.runtime.links.config import Endpoints, build_config
 
 CORPUS = Path(__file__).parent / "corpus"
 REPO = Path(__file__).resolve().parents[2]
@@ -314,8 +314,8 @@ def _recording_ok() -> bytes:
     """A small finished recording written by the recorder: Scalars, a JPEG camera image, a pose."""
     import numpy as np
 
-    from connectors.messages import Image, Pose, Scalar
-    from runtime.recording.writer import RecordingFile
+    from umbra.connectors.messages import Image, Pose, Scalar
+    from umbra.runtime.recording.writer import RecordingFile
 
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "ok.mcap"
@@ -337,9 +337,9 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 def _read_recording_every_way(path: Path) -> None:
     """Every reader of recordings: read through, indexed, decoded samples and record-info."""
-    from runtime.recording.info import recording_info
-    from runtime.recording.reader import indexed_scan, read_messages, read_records
-    from runtime.recording.samples import iter_samples
+    from umbra.runtime.recording.info import recording_info
+    from umbra.runtime.recording.reader import indexed_scan, read_messages, read_records
+    from umbra.runtime.recording.samples import iter_samples
 
     sum(1 for _ in read_records(path))
     scan = indexed_scan(path)
@@ -399,6 +399,6 @@ JSON_TOKENS += ['"script"', "3", "-1", "1e999", "NaN", "null", "true", '"\\u0000
     )
 )
 def test_sketch_session_reader(data: bytes) -> None:
-    from modules.sketch.session_file import parse_session_state
+    from umbra.modules.sketch.session_file import parse_session_state
 
     assert_user_error(lambda: parse_session_state(data, "session.json"), "session.json")

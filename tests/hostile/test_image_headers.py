@@ -20,9 +20,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from connectors.image_header import check_image_size, image_size
-from connectors.messages import Image
-from runtime.recording.encoders import compressed_image, decode_primary
+from umbra.connectors.image_header import check_image_size, image_size
+from umbra.connectors.messages import Image
+from umbra.runtime.recording.encoders import compressed_image, decode_primary
 
 #: Where a naive walk of segments lands after taking ``FF FF E1 00`` as a marker and its length.
 NAIVE_LANDING = 2 + 2 + 0xE100
@@ -103,7 +103,7 @@ def test_a_decoy_hiding_18000_squared_is_refused_before_decoding() -> None:
     assert len(data) < 70_000
     with pytest.raises(ValueError, match=r"image declares 18000 x 18000 pixels \(at most 8192"):
         check_image_size(data)
-    from runtime.recording.encoders import CompressedImage
+    from umbra.runtime.recording.encoders import CompressedImage
 
     msg = CompressedImage(data=data, format="jpeg", frame_id="camera").SerializeToString()
     with pytest.raises(ValueError, match="18000 x 18000"):
@@ -192,8 +192,8 @@ def test_a_size_read_from_a_mutated_jpeg_is_the_size_libjpeg_decodes(data: bytes
 def test_an_image_file_is_sized_as_its_decoder_reads_it(tmp_path: Path) -> None:
     """``read_image`` (photo backgrounds, snake test images): the decoy hiding 18000 x 18000 is
     refused before decoding; the same decoy hiding 160 x 120 decodes to 160 x 120."""
-    from connectors.errors import UserError
-    from modules.vision.image_file import read_image
+    from umbra.connectors.errors import UserError
+    from umbra.modules.vision.image_file import read_image
 
     bomb = tmp_path / "bomb.jpg"
     bomb.write_bytes(decoy_jpeg(real=(18000, 18000)))

@@ -14,15 +14,15 @@ import numpy as np
 import pydantic
 import pytest
 
-from connectors.errors import CheckFailed
-from connectors.limits import MAX_RATE_HZ
-from connectors.params import Parameters, RunFile, param
-from modules.arm.dh import puma560
-from modules.arm.jacobian import jacobian_and_pose
-from runtime.cli.cmd_describe import describe
-from runtime.cli.main import main
-from runtime.graph.check import check_text
-from runtime.registry import Registry
+from umbra.connectors.errors import CheckFailed
+from umbra.connectors.limits import MAX_RATE_HZ
+from umbra.connectors.params import Parameters, RunFile, param
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.jacobian import jacobian_and_pose
+from umbra.runtime.cli.cmd_describe import describe
+from umbra.runtime.cli.main import main
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.registry import Registry
 
 CORPUS = Path(__file__).parent / "corpus"
 ARM_GRAPH = (CORPUS / "graphs" / "set_base.yaml").read_text()

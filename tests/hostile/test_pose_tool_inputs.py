@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.calib.pose_tool_file import session_text
-from modules.calib.pose_tool_synthetic import (
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.calib.pose_tool_file import session_text
+from umbra.modules.calib.pose_tool_synthetic import (
     click_snapshots,
     random_case,
     table_points,
 )
-from runtime.cli.main import main
+from umbra.runtime.cli.main import main
 
 GRAPH = """graph: g  # keep me
 frames:
@@ -109,8 +109,8 @@ def test_collinear_points_are_refused(tmp_path: Path, capsys) -> None:
 def test_one_point_seen_from_several_parent_poses_is_not_one_point(tmp_path: Path) -> None:
     """The same world point from parent poses that differ is several points in the parent frame
     (as a PTU head sees one target while it turns): not refused as degenerate."""
-    from modules.calib.pose_tool_file import parse_session
-    from modules.geometry.transforms import transform_from_xyz_rpy_deg
+    from umbra.modules.calib.pose_tool_file import parse_session
+    from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
     poses = [transform_from_xyz_rpy_deg([0, 0, 0], [0, p, y]) for p, y in [(0, 0), (5, 0), (0, 5)]]
     text = session_text(
@@ -160,7 +160,7 @@ def test_what_graph_writes_passes_check(tmp_path: Path, capsys) -> None:
 @pytest.mark.parametrize("writer", ["session_text", "frames_text", "update_graph_frame"])
 def test_no_writer_writes_a_name_a_graph_refuses(writer: str) -> None:
     """The 3-D view's pose tool writes through the same functions: a bad name is refused there."""
-    from modules.calib import pose_tool_file as f
+    from umbra.modules.calib import pose_tool_file as f
 
     calls = {
         "session_text": lambda: f.session_text("&a x", "camera", CAMERA, {}, []),

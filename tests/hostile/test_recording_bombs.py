@@ -18,10 +18,6 @@ import lz4.frame
 import pytest
 import zstandard
 
-from connectors.errors import UserError
-from connectors.limits import MAX_RECORDING_RECORD_BYTES
-from runtime.recording.chunks import inflate
-from runtime.recording.reader import indexed_scan, read_messages, read_records
 from tests.hostile.bombs import (
     CAMERA,
     CAMERA_TRUTH,
@@ -34,6 +30,10 @@ from tests.hostile.bombs import (
     mcap_bytes,
     zstd_rle_frame,
 )
+from umbra.connectors.errors import UserError
+from umbra.connectors.limits import MAX_RECORDING_RECORD_BYTES
+from umbra.runtime.recording.chunks import inflate
+from umbra.runtime.recording.reader import indexed_scan, read_messages, read_records
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow
@@ -110,7 +110,7 @@ def _run_measured(argv: list[str], cwd: Path) -> tuple[int, str, int]:
     with open(err_path, "wb") as err:
         pid = os.posix_spawn(
             sys.executable,
-            [sys.executable, "-m", "runtime.cli.main", *argv],
+            [sys.executable, "-m", "umbra.runtime.cli.main", *argv],
             {**os.environ, "PYTHONPATH": str(REPO)},
             file_actions=[
                 (os.POSIX_SPAWN_OPEN, 0, "/dev/null", os.O_RDONLY, 0),
@@ -133,7 +133,7 @@ def _camera_frames(frames: int) -> bytes:
     from mcap.data_stream import RecordBuilder
     from mcap.records import Message
 
-    from runtime.recording.encoders import CompressedImage
+    from umbra.runtime.recording.encoders import CompressedImage
 
     pixels = np.random.default_rng(2).integers(0, 255, (480, 640, 3), dtype=np.uint8)
     jpeg = cv2.imencode(".jpg", pixels)[1].tobytes()
@@ -252,8 +252,8 @@ def test_replay_refuses_a_decoy_jpeg_before_decoding_it(
     from mcap.data_stream import RecordBuilder
     from mcap.records import Message
 
-    from runtime.recording.encoders import CompressedImage
     from tests.hostile.test_image_headers import decoy_jpeg
+    from umbra.runtime.recording.encoders import CompressedImage
 
     frame = CompressedImage(data=decoy_jpeg(real=(18000, 18000)), format="jpeg", frame_id="camera")
     b = RecordBuilder()

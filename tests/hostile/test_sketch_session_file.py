@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from connectors.errors import UserError
-from modules.sketch.session_file import MAX_SESSION_EVENTS, parse_session_state
-from runtime.cli.main import main
+from umbra.connectors.errors import UserError
+from umbra.modules.sketch.session_file import MAX_SESSION_EVENTS, parse_session_state
+from umbra.runtime.cli.main import main
 
 REPO = Path(__file__).resolve().parents[2]
 AIM = {"cmd": "aim", "xyz": [0.5, 0.0, 0.3], "at": None, "zoom": 0.2}
@@ -121,7 +121,7 @@ def test_no_traceback_reaches_the_terminal(tmp_path: Path) -> None:
     folder.mkdir()
     (folder / "session.json").write_bytes(next(c[1] for c in CASES if c[0] == "latin1"))
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "sketch", "snapshot", str(folder)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "sketch", "snapshot", str(folder)],
         capture_output=True,
         text=True,
         timeout=120,

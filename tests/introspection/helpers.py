@@ -7,8 +7,8 @@ import subprocess
 import time
 from pathlib import Path
 
-from runtime.links.observe import Run, local_runs
 from tests.links.conftest import REPO, Running, run_umbra
+from umbra.runtime.links.observe import Run, local_runs
 
 COUNTER = str(REPO / "graphs" / "counter_split.yaml")
 

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from runtime.links.observe import Observation
 from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli, user_folder
 from tests.links.conftest import Running
+from umbra.runtime.links.observe import Observation
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow

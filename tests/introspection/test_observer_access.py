@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 import zenoh
 
-from connectors.codec import Codec
-from connectors.messages import Twist
-from runtime.links.config import Endpoints, build_config
-from runtime.links.observe import Observation, Observed
-from runtime.links.runs import observer_endpoint
 from tests.introspection.helpers import running, user_folder
 from tests.links.conftest import Running, guarded_arm_graph
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Twist
+from umbra.runtime.links.config import Endpoints, build_config
+from umbra.runtime.links.observe import Observation, Observed
+from umbra.runtime.links.runs import observer_endpoint
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from runtime.links.config import free_loopback_ports
-from runtime.links.observe import Observation, Observed
 from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli
 from tests.links.conftest import Running
+from umbra.runtime.links.config import free_loopback_ports
+from umbra.runtime.links.observe import Observation, Observed
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow

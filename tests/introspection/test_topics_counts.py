@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from connectors.messages import Scalar
-from runtime.cli.cmd_topics import Seen, _row
-from runtime.links.observe import Observed
+from umbra.connectors.messages import Scalar
+from umbra.runtime.cli.cmd_topics import Seen, _row
+from umbra.runtime.links.observe import Observed
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow

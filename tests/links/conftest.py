@@ -146,7 +146,7 @@ def start_umbra(
 ) -> Running:
     """Start ``umbra ARGS...`` in ``cwd`` (optionally through a prefix command such as
     ``ip netns exec NS``), collecting its output lines as they come."""
-    cmd = [*prefix, sys.executable, "-m", "runtime.cli.main", *args]
+    cmd = [*prefix, sys.executable, "-m", "umbra.runtime.cli.main", *args]
     popen = subprocess.Popen(
         cmd,
         cwd=cwd,
@@ -191,7 +191,7 @@ def run_umbra(
 ) -> subprocess.CompletedProcess[str]:
     """Run ``umbra ARGS...`` to completion in ``cwd``."""
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", *args],
+        [sys.executable, "-m", "umbra.runtime.cli.main", *args],
         cwd=cwd,
         env=env,
         capture_output=True,

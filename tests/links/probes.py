@@ -11,8 +11,8 @@ import time
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import JointState, Scalar, Status, Twist, Vector
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import JointState, Scalar, Status, Twist, Vector
 
 #: Joint motion [rad] beyond which ArmWatch says the arm moved (far below a 0.1 mm step).
 MOVED_RAD = 1e-6

@@ -33,11 +33,11 @@ import numpy as np
 import pytest
 import zenoh
 
-from connectors.codec import Codec
-from connectors.messages import Twist
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
-from runtime.links.identity import alive_key
 from tests.links.conftest import Running, guarded_arm_graph, start_umbra, stop_all
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Twist
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
+from umbra.runtime.links.identity import alive_key
 
 pytestmark = pytest.mark.slow
 

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from connectors.errors import UserError
-from runtime.graph.check import load_graph
-from runtime.links.acl import by_username, link_keys, zenoh_acl
-from runtime.links.auth import RunCredentials, load_auth
 from tests.links.conftest import REPO, Running
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.links.acl import by_username, link_keys, zenoh_acl
+from umbra.runtime.links.auth import RunCredentials, load_auth
 
 COUNTER = str(REPO / "graphs" / "counter_split.yaml")
 KEY = "umbra/counter_split/counter/count"
@@ -93,7 +93,7 @@ def test_rules_let_each_process_publish_only_its_outputs() -> None:
 def test_the_launcher_runs_every_process_over_mutual_tls_with_the_keys(
     umbra: Callable[..., Running], tmp_path: Path
 ) -> None:
-    from runtime.cli.main import main
+    from umbra.runtime.cli.main import main
 
     assert main(["keys", COUNTER, "--out", str(tmp_path / "keys")]) == 0
     run = umbra("run", COUNTER, "--zenoh-config", "keys/", "--out", "out")

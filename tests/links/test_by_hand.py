@@ -4,7 +4,7 @@ liveliness and foreign peers.
 Two runs of the same graph, each serving several tests:
 
 * by default (no flag): both processes derive their credentials from this user's secret
-  (``runtime.links.host_auth``; the tests' ``XDG_RUNTIME_DIR`` is a private temporary folder).
+  (``umbra.runtime.links.host_auth``; the tests' ``XDG_RUNTIME_DIR`` is a private temporary folder).
   A foreign zenoh peer without credentials connects to both endpoints, once as itself and once
   claiming the producer's zenoh id (so every sample it puts carries the producer's session id as
   its source): it is let in by neither, overhears nothing and delivers nothing;
@@ -32,10 +32,10 @@ import numpy as np
 import pytest
 import zenoh
 
-from connectors.codec import Codec
-from connectors.messages import Scalar, Text
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
 from tests.links.conftest import Running, start_umbra, stop_all, watched_counter_graph
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Scalar, Text
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
 
 GRAPH = watched_counter_graph("byhand")
 PREFIX = "umbra/byhand"

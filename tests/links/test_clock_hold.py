@@ -9,8 +9,8 @@ import math
 
 import zenoh
 
-from connectors.messages import Scalar
-from runtime.links.clock_sync import HOLD_UNDATED_S, ClockSync
+from umbra.connectors.messages import Scalar
+from umbra.runtime.links.clock_sync import HOLD_UNDATED_S, ClockSync
 
 
 def _session() -> zenoh.Session:

@@ -9,8 +9,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from connectors.errors import UserError
-from runtime.links.config import (
+from tests.links.conftest import REPO, run_umbra
+from umbra.connectors.errors import UserError
+from umbra.runtime.links.config import (
     LEASE_MS,
     Endpoints,
     build_config,
@@ -19,9 +20,8 @@ from runtime.links.config import (
     free_loopback_ports,
     loopback_mesh,
 )
-from runtime.links.config_facts import config_facts
-from runtime.links.session import open_session
-from tests.links.conftest import REPO, run_umbra
+from umbra.runtime.links.config_facts import config_facts
+from umbra.runtime.links.session import open_session
 
 
 def _get(cfg: zenoh.Config, key: str) -> object:

@@ -11,24 +11,24 @@ from pathlib import Path
 
 import pytest
 
-from connectors.errors import UserError
-from runtime.graph.check import load_graph
-from runtime.links.auth import load_auth
-from runtime.links.config import free_loopback_ports
-from runtime.links.config_facts import config_facts
-from runtime.links.host_auth import (
-    HostSecret,
-    host_credentials,
-    load_secret,
-    secret_folder,
-    secret_name,
-)
 from tests.links.conftest import (
     REPO,
     run_umbra,
     start_umbra,
     stop_all,
     watched_counter_graph,
+)
+from umbra.connectors.errors import UserError
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.links.auth import load_auth
+from umbra.runtime.links.config import free_loopback_ports
+from umbra.runtime.links.config_facts import config_facts
+from umbra.runtime.links.host_auth import (
+    HostSecret,
+    host_credentials,
+    load_secret,
+    secret_folder,
+    secret_name,
 )
 
 COUNTER = str(REPO / "graphs" / "counter_split.yaml")

@@ -19,19 +19,19 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from connectors.codec import Codec
-from connectors.errors import UserError
-from connectors.messages import Message, Scalar
-from runtime.cli.main import main as umbra_main
-from runtime.graph.check import load_graph
-from runtime.graph.plan import GraphPlan
-from runtime.links.acl import common_name
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
-from runtime.links.exposure import check_exposure, config_for
-from runtime.links.identity import alive_key
-from runtime.links.tls import write_keys
-from runtime.links.transport import ZenohTransport
 from tests.links.conftest import REPO
+from umbra.connectors.codec import Codec
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Message, Scalar
+from umbra.runtime.cli.main import main as umbra_main
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.links.acl import common_name
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
+from umbra.runtime.links.exposure import check_exposure, config_for
+from umbra.runtime.links.identity import alive_key
+from umbra.runtime.links.tls import write_keys
+from umbra.runtime.links.transport import ZenohTransport
 
 TRIO = """
 graph: trio

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import logging
 
-from runtime.links import log_limit
-from runtime.links.log_limit import RateLimitedLog
+from umbra.runtime.links import log_limit
+from umbra.runtime.links.log_limit import RateLimitedLog
 
 
 def test_one_line_per_key_and_period_with_the_held_back_count(monkeypatch, caplog) -> None:

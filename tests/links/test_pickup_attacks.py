@@ -22,9 +22,6 @@ import numpy as np
 import pytest
 import zenoh
 
-from connectors.codec import Codec
-from connectors.messages import Twist
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
 from tests.links.conftest import Running, start_umbra, stop_all
 from tests.links.pickup import (
     PERIOD,
@@ -36,6 +33,9 @@ from tests.links.pickup import (
     summary,
 )
 from tests.links.test_attacks import _realtime, _until
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Twist
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
 
 pytestmark = pytest.mark.slow
 

@@ -9,9 +9,9 @@ import struct
 import numpy as np
 import pytest
 
-from connectors.codec import Codec
-from connectors.messages import Image
-from runtime.links.pool import (
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Image
+from umbra.runtime.links.pool import (
     PID_NS,
     SHM_DIR,
     FramePool,

@@ -9,16 +9,16 @@ from pathlib import Path
 
 import numpy as np
 
-from connectors import Input, Module, Output
-from connectors.messages import Image, Message, Scalar
-from connectors.ports import Sink
-from modules.generic.recording import read_recording
-from runtime.graph.check import check_spec
-from runtime.graph.parse import parse_graph_text
-from runtime.graph.plan import GraphPlan, LinkPlan
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
 from tests.links.probes import ProbeGuard
+from umbra.connectors import Input, Module, Output
+from umbra.connectors.messages import Image, Message, Scalar
+from umbra.connectors.ports import Sink
+from umbra.modules.generic.recording import read_recording
+from umbra.runtime.graph.check import check_spec
+from umbra.runtime.graph.parse import parse_graph_text
+from umbra.runtime.graph.plan import GraphPlan, LinkPlan
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class Frames(Module):
@@ -211,8 +211,8 @@ def test_stop_zeroes_safety_guards_and_calls_safe_stop_hooks(tmp_path: Path) -> 
 
 
 def test_zeroing_touches_float_arrays_only() -> None:
-    from connectors.messages import Text, Twist
-    from runtime.safe_stop import zeroed as _zeroed
+    from umbra.connectors.messages import Text, Twist
+    from umbra.runtime.safe_stop import zeroed as _zeroed
 
     twist = Twist(vector=np.arange(1.0, 7.0), frame="tool", stamp=3.0, seq=4)
     zero = _zeroed(twist)

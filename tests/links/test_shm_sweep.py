@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from runtime.links.shm_sweep import mapped_segments, remove_orphans
+from umbra.runtime.links.shm_sweep import mapped_segments, remove_orphans
 
 HOLDER = """
 import mmap, os, sys, time

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from modules.generic.recording import read_recording
 from tests.links.conftest import REPO, run_umbra
+from umbra.modules.generic.recording import read_recording
 
 GRAPH = str(REPO / "graphs" / "counter_split.yaml")
 
@@ -105,7 +105,7 @@ def test_split_and_single_process_give_the_same_outputs(
 def test_the_cpu_latency_asked_on_the_command_line_is_held_by_every_process(
     plugin_env: dict[str, str], tmp_path: Path
 ) -> None:
-    from runtime.realtime import PM_QOS_FILE
+    from umbra.runtime.realtime import PM_QOS_FILE
 
     done = run_umbra(
         plugin_env,

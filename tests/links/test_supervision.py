@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modules.generic.recording import read_recording
 from tests.links.conftest import Running
+from umbra.modules.generic.recording import read_recording
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from runtime.links.config import free_loopback_ports
 from tests.links.conftest import start_umbra, stop_all
+from umbra.runtime.links.config import free_loopback_ports
 
 #: How far the producer's monotonic clock is ahead of the consumer's [s] (whole seconds).
 SKEW_S = 5

@@ -11,15 +11,15 @@ import numpy as np
 import pytest
 import zenoh
 
-from connectors import Module, Output
-from connectors.messages import Image, Message, Scalar
-from runtime.graph.check import check_spec, load_graph
-from runtime.graph.parse import parse_graph_text
-from runtime.graph.plan import GraphPlan, LinkPlan
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
-from runtime.links.transport import ZenohTransport
-from runtime.registry import Registry
 from tests.links.conftest import REPO
+from umbra.connectors import Module, Output
+from umbra.connectors.messages import Image, Message, Scalar
+from umbra.runtime.graph.check import check_spec, load_graph
+from umbra.runtime.graph.parse import parse_graph_text
+from umbra.runtime.graph.plan import GraphPlan, LinkPlan
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
+from umbra.runtime.links.transport import ZenohTransport
+from umbra.runtime.registry import Registry
 
 
 class Camera(Module):
@@ -29,7 +29,7 @@ class Camera(Module):
 
 
 class Viewer(Module):
-    from connectors import Input
+    from umbra.connectors import Input
 
     image = Input(Image, trigger=True, doc="frames")
 
@@ -240,7 +240,7 @@ def test_images_without_the_pool_travel_through_zenoh_shared_memory() -> None:
 class Relay(Module):
     """Passes each frame on unchanged (a republisher)."""
 
-    from connectors import Input
+    from umbra.connectors import Input
 
     image_in = Input(Image, trigger=True, doc="frames")
     image_out = Output(Image, doc="the same frames")

@@ -20,17 +20,6 @@ from collections.abc import Callable, Iterator
 import pytest
 import zenoh
 
-from connectors.codec import Codec
-from connectors.messages import Image, Message, Scalar, Twist
-from runtime.graph.check import check_spec, load_graph
-from runtime.graph.parse import parse_graph_text
-from runtime.graph.plan import GraphPlan, LinkPlan
-from runtime.links import trust
-from runtime.links.bounds import ENVELOPE_BYTES, max_sample_bytes
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
-from runtime.links.identity import alive_key, parse_alive_key, sign
-from runtime.links.transport import ZenohTransport
-from runtime.registry import Registry
 from tests.links.conftest import REPO
 from tests.links.test_transport import (
     IMAGE_GRAPH,
@@ -41,6 +30,17 @@ from tests.links.test_transport import (
     _ready,
     _until,
 )
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Image, Message, Scalar, Twist
+from umbra.runtime.graph.check import check_spec, load_graph
+from umbra.runtime.graph.parse import parse_graph_text
+from umbra.runtime.graph.plan import GraphPlan, LinkPlan
+from umbra.runtime.links import trust
+from umbra.runtime.links.bounds import ENVELOPE_BYTES, max_sample_bytes
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
+from umbra.runtime.links.identity import alive_key, parse_alive_key, sign
+from umbra.runtime.links.transport import ZenohTransport
+from umbra.runtime.registry import Registry
 
 
 class Attacker:
@@ -219,7 +219,7 @@ def test_a_restarted_producer_starts_a_new_count(counter_plan: GraphPlan, pair: 
 
 
 def test_a_process_accepts_no_zenoh_message_larger_than_its_links_need() -> None:
-    from runtime.links.bounds import MIN_INBOUND_BYTES, inbound_limit
+    from umbra.runtime.links.bounds import MIN_INBOUND_BYTES, inbound_limit
 
     plan = load_graph(str(REPO / "graphs" / "tool_pickup.yaml"))
     # the servo side receives twists, statuses and commands: zenoh's own floor

@@ -35,8 +35,8 @@ CLICK_DELAY = 25.0
 ATTACKER = """
 import json, sys, time, zenoh
 import numpy as np
-from connectors.codec import Codec
-from connectors.messages import Twist
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import Twist
 endpoint, tls, key, alive = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3], sys.argv[4]
 cfg = zenoh.Config()
 cfg.insert_json5("mode", '"peer"')

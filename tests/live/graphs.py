@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from runtime.graph.check import check_text
-from runtime.graph.plan import GraphPlan
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.graph.plan import GraphPlan
 
 #: A scalar scaled by a Gain (tunable gain and bias) and a twist through REG_VEL (a safety
 #: guard: none of its parameters is tunable), all in one process.

@@ -73,7 +73,7 @@ class LiveRun:
     def __init__(self, graph: str, out: Path, *extra: str) -> None:
         self.log_path = out.parent / f"{out.name}.log"
         self._log = open(self.log_path, "w")  # noqa: SIM115 — closed by stop()
-        cmd = [sys.executable, "-m", "runtime.cli.main", "run", graph, "--foxglove"]
+        cmd = [sys.executable, "-m", "umbra.runtime.cli.main", "run", graph, "--foxglove"]
         cmd += ["--foxglove-port", "0", "--out", str(out), "--quiet", *extra]
         self.proc = subprocess.Popen(
             cmd, cwd=REPO, stdout=self._log, stderr=subprocess.STDOUT, env=dict(os.environ)

@@ -15,20 +15,20 @@ import pytest
 import websockets.sync.client as ws_client
 from websockets.exceptions import ConnectionClosed
 
-from connectors.limits import (
+from tests.live.graphs import small_plan
+from umbra.connectors.limits import (
     MAX_PAGE_BAD_MESSAGES,
 )
-from connectors.limits import (
+from umbra.connectors.limits import (
     MAX_PAGE_MESSAGE_BURST as BURST,
 )
-from connectors.limits import (
+from umbra.connectors.limits import (
     MAX_PAGE_MESSAGES_PER_S as RATE,
 )
-from connectors.messages import Scalar
-from runtime.live.parameters import ParameterTable
-from runtime.live.server import LiveServer
-from runtime.live.viewer_server import ViewerServer
-from tests.live.graphs import small_plan
+from umbra.connectors.messages import Scalar
+from umbra.runtime.live.parameters import ParameterTable
+from umbra.runtime.live.server import LiveServer
+from umbra.runtime.live.viewer_server import ViewerServer
 
 TOKEN = "t0ken-of-this-run-0123456789"
 VIEWER = "http://127.0.0.1:8080"

@@ -87,7 +87,7 @@ PANEL_IMAGE = (975, 80, 1395, 710)
 
 def test_a_zoom_targeting_recording_shows_its_images_placed_in_3d(tmp_path: Path) -> None:
     out = tmp_path / "zoom"
-    cmd = [sys.executable, "-m", "runtime.cli.main", "run", "graphs/zoom_targeting.yaml"]
+    cmd = [sys.executable, "-m", "umbra.runtime.cli.main", "run", "graphs/zoom_targeting.yaml"]
     cmd += ["--record", "--out", str(out), "--quiet"]
     subprocess.run(cmd, cwd=REPO, check=True, timeout=180, capture_output=True)
     root = unpack(tmp_path / "app")

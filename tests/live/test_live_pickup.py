@@ -10,9 +10,6 @@ from pathlib import Path
 
 import pytest
 
-from runtime.graph.check import load_graph
-from runtime.recording.encoders import channel_encodings
-from runtime.recording.tap import topic_of
 from tests.live.helpers import (
     REPO,
     LiveRun,
@@ -22,6 +19,9 @@ from tests.live.helpers import (
     run_tune,
     wait_joined,
 )
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.recording.encoders import channel_encodings
+from umbra.runtime.recording.tap import topic_of
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
 pytestmark = pytest.mark.slow

@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from connectors.codec import Codec
-from connectors.messages import ParamChange
-from runtime.links.acl import param_key
-from runtime.links.observe import Observation
-from runtime.tuning import CHANGES_TOPIC
 from tests.live.helpers import REPO, LiveRun, install_client, needs_node, run_tune, wait_joined
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import ParamChange
+from umbra.runtime.links.acl import param_key
+from umbra.runtime.links.observe import Observation
+from umbra.runtime.tuning import CHANGES_TOPIC
 
 pytestmark = pytest.mark.slow
 

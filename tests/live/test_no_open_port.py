@@ -12,13 +12,13 @@ from pathlib import Path
 
 import pytest
 
-from connectors.messages import Scalar
-from runtime.live.parameters import ParameterTable
-from runtime.live.server import LiveServer
-from runtime.live.viewer_server import ViewerServer
 from tests.live.graphs import small_plan
 from tests.live.helpers import REPO, LiveRun, wait_joined
 from tests.live.ports import descendants, listening_ports, viewer_gets
+from umbra.connectors.messages import Scalar
+from umbra.runtime.live.parameters import ParameterTable
+from umbra.runtime.live.server import LiveServer
+from umbra.runtime.live.viewer_server import ViewerServer
 
 TOKEN = "t0ken-of-this-run-0123456789"
 

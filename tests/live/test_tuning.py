@@ -10,14 +10,14 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from connectors.messages import Message
-from connectors.module import Module
-from connectors.params import Parameters, param
-from runtime.live.parameters import ParameterTable
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
-from runtime.tuning import CHANGES_TOPIC, tunable_problem
 from tests.live.graphs import small_plan
+from umbra.connectors.messages import Message
+from umbra.connectors.module import Module
+from umbra.connectors.params import Parameters, param
+from umbra.runtime.live.parameters import ParameterTable
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.runtime.tuning import CHANGES_TOPIC, tunable_problem
 
 
 def test_a_safety_parameter_cannot_be_declared_tunable() -> None:
@@ -145,7 +145,13 @@ def test_a_viewer_s_change_is_taken_as_set_reads_it() -> None:
 
 
 def test_only_the_tuner_may_put_parameter_changes_and_each_process_reads_its_own() -> None:
-    from runtime.links.acl import TUNER_USER, by_username, local_observer, param_key, zenoh_acl
+    from umbra.runtime.links.acl import (
+        TUNER_USER,
+        by_username,
+        local_observer,
+        param_key,
+        zenoh_acl,
+    )
 
     plan = small_plan()
     acl = zenoh_acl(plan, by_username, [local_observer(plan)], by_username(TUNER_USER))

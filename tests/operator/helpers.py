@@ -9,9 +9,9 @@ import httpx
 import numpy as np
 from websockets.sync.client import ClientConnection, connect
 
-from connectors.messages import Contour, Image
-from modules.vision.contour_message import contour_message
-from modules.vision.features import polygon_features
+from umbra.connectors.messages import Contour, Image
+from umbra.modules.vision.contour_message import contour_message
+from umbra.modules.vision.features import polygon_features
 
 
 def image(width: int = 640, height: int = 480) -> Image:

@@ -13,9 +13,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from connectors.messages import Message
-from modules.operator.console import OperatorConsole
-from runtime.harness import ModuleHarness
 from tests.operator.browser import (
     chromium,
     click_image,
@@ -25,6 +22,9 @@ from tests.operator.browser import (
     take_control,
 )
 from tests.operator.helpers import image, rectangle_contour
+from umbra.connectors.messages import Message
+from umbra.modules.operator.console import OperatorConsole
+from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, needs_chromium]
 

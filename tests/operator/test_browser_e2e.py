@@ -265,7 +265,7 @@ def _hold(page: Any, label: str) -> None:
 
 
 def test_the_jog_pad_moves_the_arm_only_while_held(tmp_path: Path) -> None:
-    from runtime.recording.samples import iter_samples
+    from umbra.runtime.recording.samples import iter_samples
 
     graph = _graph_recording_the_jog(tmp_path)
     run = GraphRun([str(graph), *NO_SIM_CLICK, "--duration", "40"], tmp_path / "run")

@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from connectors.messages import Message, Status
-from modules.operator.console import OperatorConsole
-from modules.world.world import SimWorld
-from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, click_image, needs_chromium, take_control
 from tests.operator.helpers import image, rectangle_contour
 from tests.world.test_attended import FRAMES
+from umbra.connectors.messages import Message, Status
+from umbra.modules.operator.console import OperatorConsole
+from umbra.modules.world.world import SimWorld
+from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 
@@ -255,8 +255,8 @@ def test_active_sketch_is_a_panel_of_the_station_behind_the_same_door() -> None:
     """With a SketchPage on the console's server, the station offers the Active Sketch panel:
     the /sketch page in a same-origin frame, which knows this browser as the holder of control
     taken on the station."""
-    from modules.sketch_page.sketch_page import SketchPage
     from tests.sketch.test_sketch_page import Stepper as Steppers
+    from umbra.modules.sketch_page.sketch_page import SketchPage
 
     with (
         ModuleHarness(OperatorConsole, {}) as console,
@@ -309,7 +309,7 @@ def test_the_3d_panel_switches_between_the_overview_and_the_graphs_camera() -> N
     """The 3-D panel offers the view from the graph's camera only once the graph has one; seen
     from the camera 20 cm above the patch, the patch fills a large part of the view (in the
     overview, 2 m away, a few pixels), and the eye is at the camera's pose."""
-    from connectors.messages import Pose, Poses
+    from umbra.connectors.messages import Pose, Poses
 
     frames = {"base->table": _pose((0.0, 0.0, 0.25))}
     h = ModuleHarness(OperatorConsole, {}, frames=frames)

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from connectors.messages import Image, Status
-from modules.operator.console import OperatorConsole
-from modules.operator.console_view import BANNER_HOLD_S
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import Image, Status
+from umbra.modules.operator.console import OperatorConsole
+from umbra.modules.operator.console_view import BANNER_HOLD_S
+from umbra.runtime.harness import ModuleHarness
 
 
 def _image(stamp: float, origin: float) -> Image:

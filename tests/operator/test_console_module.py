@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from websockets.exceptions import InvalidStatus
 
-from connectors.errors import UserError
-from connectors.messages import Status, Vector
-from modules.operator.console import OperatorConsole
-from runtime.harness import ModuleHarness
 from tests.operator.helpers import Page, client, image, rectangle_contour
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Status, Vector
+from umbra.modules.operator.console import OperatorConsole
+from umbra.runtime.harness import ModuleHarness
 
 T_TOOL_CAMERA = np.eye(4)
 T_TOOL_CAMERA[:3, 3] = [0.0, 0.0, -0.12]
@@ -313,7 +313,7 @@ def test_a_short_token_file_is_a_user_error(tmp_path: Path) -> None:
 def test_another_module_serves_its_page_on_the_consoles_server() -> None:
     from fastapi.responses import HTMLResponse
 
-    from modules.operator.web_server import acquire_server, release_server
+    from umbra.modules.operator.web_server import acquire_server, release_server
 
     async def sketch() -> HTMLResponse:
         return HTMLResponse("<h1>sketch</h1>")
@@ -341,7 +341,7 @@ def test_another_module_serves_its_page_on_the_consoles_server() -> None:
 
 
 def test_zoom_sliders_drive_the_cameras_and_the_scripted_zoom_steps_aside() -> None:
-    from connectors.messages import Scalar
+    from umbra.connectors.messages import Scalar
 
     with _harness(zoom_names=["left", "right"]) as h:
         h.push("zoom_auto", Scalar(value=0.2))

@@ -4,12 +4,12 @@ real console and world modules in the harness)."""
 
 from __future__ import annotations
 
-from connectors.messages import JointState, Text
-from modules.world.world import SimWorld
-from runtime.harness import ModuleHarness
 from tests.operator.helpers import Page
 from tests.operator.test_console_module import _harness, _operator, _pump, _state
 from tests.world.test_attended import DT, FRAMES, NAMES, Q0, _close_gripper
+from umbra.connectors.messages import JointState, Text
+from umbra.modules.world.world import SimWorld
+from umbra.runtime.harness import ModuleHarness
 
 
 def _stops(h: ModuleHarness) -> list[str]:

@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from connectors.messages import Status, Twist
-from modules.arm.reg_vel import RegVel
-from modules.servo.features import MomentFeatures
-from modules.servo.stages import ABORTED, ACQUIRE, PAUSED, ServoStages
-from runtime.graph.check import load_graph
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import Status, Twist
+from umbra.modules.arm.reg_vel import RegVel
+from umbra.modules.servo.features import MomentFeatures
+from umbra.modules.servo.stages import ABORTED, ACQUIRE, PAUSED, ServoStages
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.harness import ModuleHarness
 
 PARAMS = {"timeout": 0.1, "max_linear": 0.05, "max_angular": 0.3}
 

@@ -7,10 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from connectors.access.secret import is_loopback, resolve_token, token_matches
-from connectors.messages import JointState, Status
-from modules.geometry.transforms import twist_tool_from_camera
-from modules.operator.actions import (
+from tests.operator.helpers import rectangle_contour
+from umbra.connectors.access.secret import is_loopback, resolve_token, token_matches
+from umbra.connectors.messages import JointState, Status
+from umbra.modules.geometry.transforms import twist_tool_from_camera
+from umbra.modules.operator.actions import (
     FrameHistory,
     Refused,
     ShownFrame,
@@ -18,12 +19,11 @@ from modules.operator.actions import (
     check_snake_healthy,
     point_seed,
 )
-from modules.operator.control import ControlArbiter
-from modules.operator.jog import DeadMan, JogLimits, jog_twist
-from modules.operator.protocol import MessageChecker, ProtocolError
-from modules.operator.view_state import joints_view, overlay, servo_view, zero_banner
-from modules.vision.sanity import SanityLimits
-from tests.operator.helpers import rectangle_contour
+from umbra.modules.operator.control import ControlArbiter
+from umbra.modules.operator.jog import DeadMan, JogLimits, jog_twist
+from umbra.modules.operator.protocol import MessageChecker, ProtocolError
+from umbra.modules.operator.view_state import joints_view, overlay, servo_view, zero_banner
+from umbra.modules.vision.sanity import SanityLimits
 
 
 def _msg(**fields: object) -> str:

@@ -5,8 +5,8 @@ on either is held on both; a viewer in another browser is refused and counted.""
 
 from __future__ import annotations
 
-from modules.operator.control import ControlArbiter
-from modules.webdoor.viewer import viewer_key
+from umbra.modules.operator.control import ControlArbiter
+from umbra.modules.webdoor.viewer import viewer_key
 
 
 def test_control_taken_on_one_page_is_held_on_every_page_of_the_browser() -> None:

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from connectors.messages import Status
-from modules.world.operator_sim import OperatorSim
-from runtime.harness import ModuleHarness
 from tests.operator.helpers import rectangle_contour
+from umbra.connectors.messages import Status
+from umbra.modules.world.operator_sim import OperatorSim
+from umbra.runtime.harness import ModuleHarness
 
 
 def test_the_simulated_operator_clicks_only_while_no_person_acted() -> None:

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors.messages import Pose, Poses, Status
-from modules.operator.jog_labels import jog_labels
-from modules.operator.message_board import MessageBoard
-from modules.operator.plain_words import plain_reason
-from modules.operator.scene_view import scene_view
-from modules.operator.state_line import (
+from tests.operator.helpers import Page, image
+from tests.operator.test_console_module import _harness, _operator, _pump, _state
+from umbra.connectors.messages import Pose, Poses, Status
+from umbra.modules.operator.jog_labels import jog_labels
+from umbra.modules.operator.message_board import MessageBoard
+from umbra.modules.operator.plain_words import plain_reason
+from umbra.modules.operator.scene_view import scene_view
+from umbra.modules.operator.state_line import (
     ENDED,
     RUNNING,
     STARTING,
@@ -18,8 +20,6 @@ from modules.operator.state_line import (
     phase_of,
     state_line,
 )
-from tests.operator.helpers import Page, image
-from tests.operator.test_console_module import _harness, _operator, _pump, _state
 
 #: the reason the issue found shown five times, as vsSnake gives it
 SNAKE_REASON = (

@@ -9,10 +9,10 @@ from typing import Any
 
 import pytest
 
-from runtime.graph.check import load_graph
-from runtime.graph.plan import GraphPlan
-from runtime.scheduler import Scheduler, SchedulerOptions
-from runtime.stats import RunResult
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.runtime.stats import RunResult
 
 GRAPH = Path(__file__).with_name("pickup_small.yaml")
 #: Long enough for the click, the snake's lock and some approach; short enough to stay fast.

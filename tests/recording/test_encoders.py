@@ -19,7 +19,7 @@ from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 from google.protobuf.descriptor_pb2 import FileDescriptorSet
 from scipy.spatial.transform import Rotation
 
-from connectors.messages import (
+from umbra.connectors.messages import (
     CameraModel,
     Contour,
     Image,
@@ -35,8 +35,8 @@ from connectors.messages import (
     ZoomState,
     message_types,
 )
-from runtime.recording.encoders import channel_encodings, decode_primary
-from runtime.recording.json_codec import decode_json, encode_json, json_schema
+from umbra.runtime.recording.encoders import channel_encodings, decode_primary
+from umbra.runtime.recording.json_codec import decode_json, encode_json, json_schema
 
 RNG = np.random.default_rng(7)
 
@@ -207,7 +207,7 @@ def test_pose_is_a_frame_transform_with_the_same_rotation_and_translation() -> N
 
 
 def _link_poses() -> Poses:
-    from modules.arm.dh import puma560
+    from umbra.modules.arm.dh import puma560
 
     T = puma560().frames([0.1, -0.4, 0.3, 0.2, -0.5, 0.7])[1:]
     names = ("link1", "link2", "link3", "link4", "link5", "flange")

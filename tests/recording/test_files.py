@@ -13,17 +13,17 @@ from pathlib import Path
 import pytest
 from mcap.stream_reader import StreamReader
 
-from runtime.cli.main import main
-from runtime.recording.reader import RecordingScan, read_records
-from runtime.recording.samples import iter_samples
 from tests.recording.conftest import GRAPH, Run
+from umbra.runtime.cli.main import main
+from umbra.runtime.recording.reader import RecordingScan, read_records
+from umbra.runtime.recording.samples import iter_samples
 
 REPO = Path(__file__).resolve().parents[2]
 
 
 def _umbra(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", *args],
+        [sys.executable, "-m", "umbra.runtime.cli.main", *args],
         capture_output=True,
         text=True,
         timeout=60,
@@ -36,7 +36,14 @@ def test_a_killed_run_leaves_a_file_that_reads_back(tmp_path: Path) -> None:
     out = tmp_path / "run"
     proc = subprocess.Popen(
         [
-            *(sys.executable, "-m", "runtime.cli.main", "run", str(GRAPH), "--single-process"),
+            *(
+                sys.executable,
+                "-m",
+                "umbra.runtime.cli.main",
+                "run",
+                str(GRAPH),
+                "--single-process",
+            ),
             *("--clock", "real", "--duration", "60", "--record", "--out", str(out), "--quiet"),
         ],
         stdout=subprocess.DEVNULL,
@@ -153,8 +160,8 @@ def test_record_info_lists_channels_rates_gaps_drops_and_duration(
 
 
 def test_record_info_counts_a_gap(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from connectors.messages import Scalar
-    from runtime.recording.writer import RecordingFile
+    from umbra.connectors.messages import Scalar
+    from umbra.runtime.recording.writer import RecordingFile
 
     rec = RecordingFile(tmp_path / "gap.mcap", blocking=True)
     times = [i * 0.01 for i in range(50)] + [1.0 + i * 0.01 for i in range(50)]  # 0.5 s hole

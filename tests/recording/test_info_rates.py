@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from connectors.messages import Scalar
-from runtime.cli.main import main
-from runtime.recording.info import MIN_RATE_MESSAGES
-from runtime.recording.writer import RecordingFile
+from umbra.connectors.messages import Scalar
+from umbra.runtime.cli.main import main
+from umbra.runtime.recording.info import MIN_RATE_MESSAGES
+from umbra.runtime.recording.writer import RecordingFile
 
 
 def _record(path: Path, channels: dict[str, list[float]]) -> None:

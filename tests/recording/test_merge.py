@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from connectors.errors import UserError
-from connectors.messages import Image, Scalar, Status, Twist
-from runtime.recording.merge import merge_parts
-from runtime.recording.reader import RecordingScan
-from runtime.recording.samples import iter_samples
-from runtime.recording.writer import RecordingFile
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Image, Scalar, Status, Twist
+from umbra.runtime.recording.merge import merge_parts
+from umbra.runtime.recording.reader import RecordingScan
+from umbra.runtime.recording.samples import iter_samples
+from umbra.runtime.recording.writer import RecordingFile
 
 
 def _part(
@@ -154,6 +154,6 @@ def test_samples_of_unknown_channels_are_skipped_not_guessed(tmp_path: Path) -> 
         w.finish()
     assert list(iter_samples(path)) == []
     with pytest.raises(UserError, match="holds no umbra samples to replay"):
-        from runtime.recording.replay import RecordingIndex
+        from umbra.runtime.recording.replay import RecordingIndex
 
         RecordingIndex.read(path)

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from connectors.errors import UserError
-from connectors.messages import Scalar
-from runtime.recording.reader import indexed_scan, read_messages, read_records
-from runtime.recording.replay import RecordingIndex
-from runtime.recording.writer import RecordingFile
 from tests.recording.conftest import Run
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Scalar
+from umbra.runtime.recording.reader import indexed_scan, read_messages, read_records
+from umbra.runtime.recording.replay import RecordingIndex
+from umbra.runtime.recording.writer import RecordingFile
 
 
 def test_a_finished_recording_is_indexed_from_its_summary(pickup_run: Run) -> None:

@@ -152,7 +152,7 @@ def test_the_arm_link_frames_are_frame_transforms_at_the_measured_joints(
 ) -> None:
     """What Foxglove's 3-D panel draws as the arm: a chain of DH frames, each in the one before,
     composing to the Puma 560's forward kinematics at the joint state the kinematics used."""
-    from modules.arm.dh import puma560
+    from umbra.modules.arm.dh import puma560
 
     arm = puma560()
     sent = pickup_run.sent["kinematics.link_poses"]
@@ -212,8 +212,8 @@ def test_each_image_output_is_recorded_as_its_link_asks(tmp_path: Path) -> None:
     truth not at all; what is not named follows `record.images` (raw here: none left)."""
     import cv2
 
-    from runtime.graph.check import load_graph
     from tests.recording.conftest import run_graph
+    from umbra.runtime.graph.check import load_graph
 
     graph = tmp_path / "views.yaml"
     graph.write_text(
@@ -252,8 +252,8 @@ def test_outputs_nobody_reads_are_recorded_but_images_only_when_named(tmp_path: 
     """As `ros2 bag record --all`: an output that feeds nothing is recorded (the camera's truth
     contour here); an image that feeds nothing (the drawn view) costs an encoding per frame and
     is recorded only when `record.ports` names it."""
-    from runtime.graph.check import load_graph
     from tests.recording.conftest import run_graph
+    from umbra.runtime.graph.check import load_graph
 
     def topics(record: str) -> set[str]:
         graph = tmp_path / f"{len(record)}.yaml"

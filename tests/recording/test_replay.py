@@ -9,13 +9,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from connectors.errors import CheckFailed, UserError
-from connectors.messages import Scalar
-from runtime.cli.main import main
-from runtime.graph.check import load_graph
-from runtime.recording.replay import plan_replay
-from runtime.recording.writer import RecordingFile
 from tests.recording.conftest import GRAPH, Run, run_graph
+from umbra.connectors.errors import CheckFailed, UserError
+from umbra.connectors.messages import Scalar
+from umbra.runtime.cli.main import main
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.recording.replay import plan_replay
+from umbra.runtime.recording.writer import RecordingFile
 
 COMMANDS = ["servo.twist", "register.twist", "kinematics.joint_rates", "snake.contour"]
 
@@ -204,7 +204,7 @@ def test_replay_of_a_counter_sends_the_recorded_values_at_their_times(tmp_path: 
 
 
 def test_replay_on_the_real_clock_keeps_the_recorded_pace(tmp_path: Path) -> None:
-    from runtime.scheduler import Scheduler, SchedulerOptions
+    from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
     graph = tmp_path / "counter.yaml"
     graph.write_text(
@@ -228,7 +228,7 @@ def test_replay_on_the_real_clock_keeps_the_recorded_pace(tmp_path: Path) -> Non
 def test_the_replay_command_runs_and_records_the_replay(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from runtime.recording.samples import iter_samples
+    from umbra.runtime.recording.samples import iter_samples
 
     graph = tmp_path / "counter.yaml"
     graph.write_text(

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from runtime.cli.main import main
+from umbra.runtime.cli.main import main
 
 GRAPH = """graph: g
 clock: sim

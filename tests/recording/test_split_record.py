@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from runtime.recording.samples import iter_samples
 from tests.recording.conftest import GRAPH
 from tests.recording.frame_tree import assert_one_tree
+from umbra.runtime.recording.samples import iter_samples
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -22,7 +22,7 @@ def test_a_split_run_records_both_processes_into_one_file(tmp_path: Path) -> Non
     out = tmp_path / "run"
     proc = subprocess.run(
         [
-            *(sys.executable, "-m", "runtime.cli.main", "run", str(GRAPH), "--duration", "4"),
+            *(sys.executable, "-m", "umbra.runtime.cli.main", "run", str(GRAPH), "--duration", "4"),
             *("--record", "--out", str(out), "--quiet"),
         ],
         capture_output=True,

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 from mcap.reader import make_reader
 
-from connectors.messages import Image
-from runtime.recording.samples import iter_samples
-from runtime.recording.writer import RecordingFile
+from umbra.connectors.messages import Image
+from umbra.runtime.recording.samples import iter_samples
+from umbra.runtime.recording.writer import RecordingFile
 
 FRAME = np.zeros((120, 160, 3), np.uint8)  # 58 kB
 
@@ -48,7 +48,7 @@ def test_a_frame_given_a_second_parent_is_said_once(tmp_path: Path, caplog) -> N
     """A viewer keeps one parent per frame: the recorder says which frame got two, and where."""
     import logging
 
-    from connectors.messages import Pose, Poses
+    from umbra.connectors.messages import Pose, Poses
 
     rec = RecordingFile(tmp_path / "tree.mcap", blocking=True)
     rec.write_static_frames([("base", "table", np.eye(4)), ("link2", "link3", np.eye(4))], 0.0)

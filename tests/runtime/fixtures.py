@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, from_param, param
-from connectors.messages import JointRates, JointState, Scalar, Twist
-from runtime.registry import Registry
+from umbra.connectors import Input, Module, Output, Parameters, from_param, param
+from umbra.connectors.messages import JointRates, JointState, Scalar, Twist
+from umbra.runtime.registry import Registry
 
 
 class TwistSink(Module):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from runtime.cli.main import main
+from umbra.runtime.cli.main import main
 
 GRAPH = """graph: demo
 modules:
@@ -32,7 +32,7 @@ def graph(tmp_path: Path) -> Path:
 
 def umbra(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", *args],
+        [sys.executable, "-m", "umbra.runtime.cli.main", *args],
         capture_output=True,
         text=True,
         timeout=120,
@@ -58,7 +58,7 @@ def test_run_check_graph_describe_modules(graph: Path, tmp_path: Path, capsys) -
 
 
 def test_set_overrides_a_parameter(graph: Path, tmp_path: Path) -> None:
-    from modules.generic.recording import read_recording
+    from umbra.modules.generic.recording import read_recording
 
     out = tmp_path / "o"
     assert main(["run", str(graph), "--out", str(out), "--quiet", "--set", "g.gain=5"]) == 0
@@ -96,8 +96,8 @@ def test_bad_command_lines_exit_2_without_traceback(
 
 def test_help_on_every_command(capsys: pytest.CaptureFixture[str]) -> None:
     """Every command's --help, through the parser the console script builds (in this process),
-    and the whole list from `python -m runtime.cli.main --help` in a process of its own."""
-    from runtime.cli.main import _load_commands
+    and the whole list from `python -m umbra.runtime.cli.main --help` in a process of its own."""
+    from umbra.runtime.cli.main import _load_commands
 
     for cmd in _load_commands():
         with pytest.raises(SystemExit) as stop:
@@ -133,8 +133,8 @@ def test_third_party_package_adds_a_module_type(tmp_path: Path) -> None:
     )
     (site / "acme_filters.py").write_text(
         textwrap.dedent('''
-        from connectors import Input, Module, Output
-        from connectors.messages import Scalar
+        from umbra.connectors import Input, Module, Output
+        from umbra.connectors.messages import Scalar
 
         class AcmeDouble(Module):
             """Doubles a scalar (a third-party module)."""
@@ -155,7 +155,7 @@ def test_third_party_package_adds_a_module_type(tmp_path: Path) -> None:
     )
     env = {"PYTHONPATH": f"{site}:{Path.cwd()}", "PATH": "/usr/bin:/bin"}
     proc = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "modules", "--json"],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "modules", "--json"],
         capture_output=True,
         text=True,
         env=env,
@@ -163,7 +163,15 @@ def test_third_party_package_adds_a_module_type(tmp_path: Path) -> None:
     )
     assert json.loads(proc.stdout)["AcmeDouble"] == "Doubles a scalar (a third-party module)."
     proc = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--out", str(tmp_path / "o")],
+        [
+            sys.executable,
+            "-m",
+            "umbra.runtime.cli.main",
+            "run",
+            str(graph),
+            "--out",
+            str(tmp_path / "o"),
+        ],
         capture_output=True,
         text=True,
         env=env,

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from runtime.cli.cmd_bench import ORDER, available, benchmarks_dir
+from umbra.runtime.cli.cmd_bench import ORDER, available, benchmarks_dir
 
 FAKE = '''"""A fake benchmark: {what}."""
 import json, sys, pathlib
@@ -31,7 +31,7 @@ def _fake(folder: Path, name: str, body: str, what: str = "measures nothing") ->
 
 def _bench(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "bench", *args],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "bench", *args],
         capture_output=True,
         text=True,
         timeout=timeout,
@@ -90,7 +90,7 @@ def test_ctrl_c_stops_and_still_prints_what_ran(tmp_path: Path) -> None:
         "except KeyboardInterrupt:\n    sys.exit(130)",
     )
     _fake(tmp_path, "third", "pass")
-    argv = [sys.executable, "-m", "runtime.cli.main", "bench", "first", "second", "third"]
+    argv = [sys.executable, "-m", "umbra.runtime.cli.main", "bench", "first", "second", "third"]
     proc = subprocess.Popen(
         [*argv, "--dir", str(tmp_path)],
         stdout=subprocess.PIPE,

@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError
-from connectors.messages import Contour, Image, JointRates, Scalar, Text, Twist, Vector
+from umbra.connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError
+from umbra.connectors.messages import Contour, Image, JointRates, Scalar, Text, Twist, Vector
 
 SAMPLES = [
     Scalar(value=2.5, stamp=1.25, seq=3),

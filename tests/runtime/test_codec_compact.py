@@ -8,10 +8,10 @@ import msgspec
 import numpy as np
 import pytest
 
-from connectors.codec import FRAMED_MIN_BYTES, MAGIC, Codec, DecodeError
-from connectors.compact import COMPACT_VERSION, compact_type, layout_tag
-from connectors.messages import Twist, Vector, message_types
 from tests.runtime.test_codec import SAMPLES, _same
+from umbra.connectors.codec import FRAMED_MIN_BYTES, MAGIC, Codec, DecodeError
+from umbra.connectors.compact import COMPACT_VERSION, compact_type, layout_tag
+from umbra.connectors.messages import Twist, Vector, message_types
 
 
 def _envelope(data: bytes) -> list:

@@ -28,7 +28,7 @@ def check(tmp_path: Path, **values: str) -> subprocess.CompletedProcess:
     graph = tmp_path / "files.yaml"
     graph.write_text(GRAPH.format(**fields))
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "check", str(graph)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "check", str(graph)],
         capture_output=True,
         text=True,
         cwd=tmp_path,

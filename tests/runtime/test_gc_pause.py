@@ -5,9 +5,9 @@ from __future__ import annotations
 import gc
 from pathlib import Path
 
-from runtime.gc_pause import HeapFreeze
-from runtime.graph.check import check_text
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.runtime.gc_pause import HeapFreeze
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 def test_freezing_moves_what_exists_out_of_the_collector_and_release_gives_it_back() -> None:

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from connectors.messages import Image, JointState, Scalar, Status, Twist
-from modules.generic.recording import read_recording
-from runtime.harness import ModuleHarness
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Image, JointState, Scalar, Status, Twist
+from umbra.modules.generic.recording import read_recording
+from umbra.runtime.harness import ModuleHarness
 
 
 def test_gain_scales_each_new_input() -> None:
@@ -127,8 +127,8 @@ def test_reading_a_non_recording_is_a_user_error(tmp_path: Path) -> None:
 
 
 def test_required_parameters_are_described_and_named_when_missing() -> None:
-    from connectors import Module, Parameters, param
-    from runtime.cli.cmd_describe import describe
+    from umbra.connectors import Module, Parameters, param
+    from umbra.runtime.cli.cmd_describe import describe
 
     class Needs(Module):
         """Needs a gain."""
@@ -150,7 +150,7 @@ def test_required_parameters_are_described_and_named_when_missing() -> None:
 
 
 def test_umbra_modules_prints_whole_first_sentences() -> None:
-    from runtime.cli.cmd_modules import first_sentence
+    from umbra.runtime.cli.cmd_modules import first_sentence
 
     assert first_sentence("Moves a pose: ``T = T_a . T_b``.\n\nMore.") == (
         "Moves a pose: ``T = T_a . T_b``."

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from connectors.errors import CheckFailed, UserError
-from runtime.graph.check import check_text
 from tests.runtime.fixtures import make_registry
+from umbra.connectors.errors import CheckFailed, UserError
+from umbra.runtime.graph.check import check_text
 
 OK_HEAD = "graph: g\nmodules:\n"
 

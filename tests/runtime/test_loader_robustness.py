@@ -11,8 +11,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from connectors.errors import CheckFailed, UserError
-from runtime.graph.check import check_text, load_graph
+from umbra.connectors.errors import CheckFailed, UserError
+from umbra.runtime.graph.check import check_text, load_graph
 
 LIMITS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -122,7 +122,7 @@ def test_binary_garbage_file_via_cli(tmp_path: Path) -> None:
     junk = tmp_path / "junk.yaml"
     junk.write_bytes(bytes(range(256)) * 10)
     proc = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "check", str(junk)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "check", str(junk)],
         capture_output=True,
         text=True,
         timeout=60,

@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.errors import CheckFailed
-from connectors.messages import Scalar, Text
-from runtime.graph.check import check_text
-from runtime.graph.origin_age import bounded_inputs
-from runtime.harness import ModuleHarness
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.errors import CheckFailed
+from umbra.connectors.messages import Scalar, Text
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.graph.origin_age import bounded_inputs
+from umbra.runtime.harness import ModuleHarness
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class Mix(Module):

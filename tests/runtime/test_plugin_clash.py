@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-PLUGIN = '''from connectors import Module, Output
-from connectors.messages import Scalar
+PLUGIN = '''from umbra.connectors import Module, Output
+from umbra.connectors.messages import Scalar
 
 
 class ThirdPartyGain(Module):
@@ -54,7 +54,7 @@ def _pip_install(wheel: Path, target: Path) -> None:
 def _umbra(site: Path, *args: str) -> subprocess.CompletedProcess[str]:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.getcwd()]))
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", *args],
+        [sys.executable, "-m", "umbra.runtime.cli.main", *args],
         capture_output=True,
         text=True,
         timeout=120,
@@ -73,7 +73,7 @@ def test_a_plugin_type_named_like_a_built_in_is_an_error_naming_both(
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert "module type `Gain` is registered by" in done.stderr
     assert "gain-plugin 1.0 (gain_plugin:ThirdPartyGain)" in done.stderr
-    assert "umbra-smart" in done.stderr and "(modules.generic.gain:Gain)" in done.stderr
+    assert "umbra-smart" in done.stderr and "(umbra.modules.generic.gain:Gain)" in done.stderr
     assert '[project.entry-points."umbra.modules"]' in done.stderr and "MyGain" in done.stderr
 
 
@@ -84,4 +84,4 @@ def test_a_renamed_plugin_type_is_found_beside_the_built_in(tmp_path: Path) -> N
     assert mine.returncode == 0, mine.stderr
     assert "A third-party gain, from the gain-plugin distribution." in mine.stdout
     ours = _umbra(site, "describe", "Gain")
-    assert ours.returncode == 0 and "modules.generic.gain.Gain" in ours.stdout
+    assert ours.returncode == 0 and "umbra.modules.generic.gain.Gain" in ours.stdout

@@ -9,16 +9,16 @@ from pathlib import Path
 
 import pytest
 
-from runtime.graph.check import check_text
-from runtime.realtime import (
+from tests.runtime.fixtures import make_registry
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.realtime import (
     NO_CONSTRAINT_US,
     PM_QOS_FILE,
     CpuLatencyHold,
     current_cpu_latency_us,
     latency_limit,
 )
-from runtime.scheduler import Scheduler, SchedulerOptions
-from tests.runtime.fixtures import make_registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 KERNEL_QOS = os.access(PM_QOS_FILE, os.R_OK | os.W_OK)
 
@@ -117,7 +117,7 @@ def test_the_run_summary_says_whether_the_latency_was_held(clock: str, tmp_path:
 
 
 def test_check_shows_the_latency_each_process_holds(tmp_path: Path, capsys) -> None:
-    from runtime.cli.main import main
+    from umbra.runtime.cli.main import main
 
     path = tmp_path / "rt.yaml"
     path.write_text(GRAPH.format(clock="real"))
@@ -130,11 +130,13 @@ def test_a_run_on_a_host_that_refuses_goes_on_and_its_summary_says_why(
 ) -> None:
     import functools
 
-    import runtime.process_holds
+    import umbra.runtime.process_holds
 
     absent = tmp_path / "absent" / "qos"
     monkeypatch.setattr(
-        runtime.process_holds, "CpuLatencyHold", functools.partial(CpuLatencyHold, path=absent)
+        umbra.runtime.process_holds,
+        "CpuLatencyHold",
+        functools.partial(CpuLatencyHold, path=absent),
     )
     plan = check_text(GRAPH.format(clock="real"), "rt.yaml", make_registry())
     options = SchedulerOptions(clock="real", duration=0.05, output_dir=tmp_path, cpu_latency_us=0)

@@ -12,12 +12,12 @@ from pathlib import Path
 
 import pytest
 
-from connectors import Input, Module
-from connectors.messages import Scalar
-from runtime.graph.check import check_text
-from runtime.rt_priority import RealtimePriority, priority_for
-from runtime.scheduler import Scheduler, SchedulerOptions
 from tests.runtime.fixtures import make_registry
+from umbra.connectors import Input, Module
+from umbra.connectors.messages import Scalar
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.rt_priority import RealtimePriority, priority_for
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 ROOT = os.geteuid() == 0
 needs_root = pytest.mark.skipif(not ROOT, reason="SCHED_FIFO needs root or CAP_SYS_NICE")
@@ -141,7 +141,7 @@ def test_the_servo_process_steps_under_sched_fifo_on_the_real_clock(
 def test_a_host_that_refuses_runs_anyway_and_says_why() -> None:
     code = (
         "import json, os;"
-        "from runtime.rt_priority import RealtimePriority;"
+        "from umbra.runtime.rt_priority import RealtimePriority;"
         "os.setuid(65534);"  # nobody: no CAP_SYS_NICE, no rtprio limit
         "p = RealtimePriority(10); p.acquire();"
         "print(json.dumps([p.summary(), os.sched_getscheduler(0)]))"

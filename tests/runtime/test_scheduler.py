@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Scalar
-from modules.generic.recording import read_recording
-from runtime.graph.check import check_text
-from runtime.run import run_process
-from runtime.scheduler import Scheduler, SchedulerOptions
 from tests.runtime.fixtures import StopLog, make_registry
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import Scalar
+from umbra.modules.generic.recording import read_recording
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.run import run_process
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class Probe(Module):
@@ -181,8 +181,8 @@ modules:
 
 
 def test_max_age_violations_are_counted_and_not_delivered(tmp_path: Path) -> None:
-    from runtime.harness import ModuleHarness
     from tests.runtime.fixtures import Fresh
+    from umbra.runtime.harness import ModuleHarness
 
     with ModuleHarness(Fresh) as h:
         h.push("value", Scalar(value=1.0))
@@ -202,7 +202,7 @@ def test_sigint_stops_with_130_and_writes_summary(tmp_path: Path) -> None:
     )
     out = tmp_path / "out"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--out", str(out)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph), "--out", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from connectors.errors import CheckFailed
-from connectors.safe_yaml import YamlError, load
-from runtime.graph.check import check_text
 from tests.runtime.fixtures import make_registry
+from umbra.connectors.errors import CheckFailed
+from umbra.connectors.safe_yaml import YamlError, load
+from umbra.runtime.graph.check import check_text
 
 
 @pytest.mark.parametrize(("word", "value"), [("off", "false"), ("yes", "true"), ("On", "true")])

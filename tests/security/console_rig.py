@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from modules.operator.console import OperatorConsole
-from runtime.harness import ModuleHarness
 from tests.operator.helpers import Page
+from umbra.modules.operator.console import OperatorConsole
+from umbra.runtime.harness import ModuleHarness
 
 REPO = Path(__file__).resolve().parents[2]
 T_TOOL_CAMERA = np.eye(4)

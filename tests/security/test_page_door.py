@@ -19,16 +19,16 @@ import httpx
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from connectors.limits import (
+from tests.operator.helpers import Page
+from tests.security.console_rig import T_TOOL_CAMERA
+from umbra.connectors.limits import (
     MAX_PAGE_BODY_BYTES,
     MAX_PAGE_CONNECTIONS_PER_CLIENT,
     MAX_PAGE_MESSAGE_BYTES,
     MAX_PAGE_REQUEST_S,
 )
-from modules.operator.console import OperatorConsole
-from runtime.harness import ModuleHarness
-from tests.operator.helpers import Page
-from tests.security.console_rig import T_TOOL_CAMERA
+from umbra.modules.operator.console import OperatorConsole
+from umbra.runtime.harness import ModuleHarness
 
 PROBE = Path(__file__).resolve().parent / "probe.py"
 

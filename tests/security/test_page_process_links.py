@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors.codec import Codec
-from modules.sketch.messages import StereoSnapshot
-from runtime.graph.check import load_graph
-from runtime.links.bounds import max_sample_bytes
+from umbra.connectors.codec import Codec
+from umbra.modules.sketch.messages import StereoSnapshot
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.links.bounds import max_sample_bytes
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.geometry.transforms import integrate_body_twist, transform_from_xyz_rpy_deg
-from modules.servo.features import Intrinsics, MomentFeatures, features_from_contour
+from umbra.modules.geometry.transforms import integrate_body_twist, transform_from_xyz_rpy_deg
+from umbra.modules.servo.features import Intrinsics, MomentFeatures, features_from_contour
 
 INTRINSICS = Intrinsics(fx=600.0, fy=610.0, u0=320.0, v0=240.0)
 PATCH_SIZE = (0.08, 0.05)  # metres: a rectangle, long side along world x

@@ -7,16 +7,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors.messages import Contour
-from modules.arm.dh import puma560
-from modules.arm.reg_vel import RegVel
-from modules.arm.rotate_kin import RotateKin
-from modules.arm.wolverine_jnts import WolverineJnts
-from modules.arm.wolverine_kin import WolverineKin
-from modules.geometry.transforms import invert_transform, transform_from_xyz_rpy_deg
-from modules.servo.vsservo import VsServo
-from runtime.harness import ModuleHarness
 from tests.servo.servo_scene import SCENE_PARAMS, camera_above, patch_corners, project
+from umbra.connectors.messages import Contour
+from umbra.modules.arm.dh import puma560
+from umbra.modules.arm.reg_vel import RegVel
+from umbra.modules.arm.rotate_kin import RotateKin
+from umbra.modules.arm.wolverine_jnts import WolverineJnts
+from umbra.modules.arm.wolverine_kin import WolverineKin
+from umbra.modules.geometry.transforms import invert_transform, transform_from_xyz_rpy_deg
+from umbra.modules.servo.vsservo import VsServo
+from umbra.runtime.harness import ModuleHarness
 
 PUMA = puma560()
 Q0_DEG = [10.0, 50.0, -170.0, 5.0, 40.0, 15.0]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.servo.goal import goal_area_px, goal_from_pixels, goal_from_standoff
-from modules.servo.law import ServoGains, feature_error, servo_twist
 from tests.servo.servo_scene import INTRINSICS, PATCH_AREA, camera_above, features_seen, move
+from umbra.modules.servo.goal import goal_area_px, goal_from_pixels, goal_from_standoff
+from umbra.modules.servo.law import ServoGains, feature_error, servo_twist
 
 TOLERANCE = np.array([0.001, 0.001, 0.001, np.radians(0.5)])
 DT = 0.02

@@ -6,14 +6,6 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.servo.features import (
-    FeatureError,
-    Intrinsics,
-    features_from_contour,
-    polygon_moments,
-    wrap_roll_error,
-)
-from modules.servo.law import interaction_matrix
 from tests.servo.servo_scene import (
     INTRINSICS,
     PATCH_AREA,
@@ -22,6 +14,14 @@ from tests.servo.servo_scene import (
     move,
     patch_corners,
 )
+from umbra.modules.servo.features import (
+    FeatureError,
+    Intrinsics,
+    features_from_contour,
+    polygon_moments,
+    wrap_roll_error,
+)
+from umbra.modules.servo.law import interaction_matrix
 
 
 def test_polygon_moments_match_opencv():

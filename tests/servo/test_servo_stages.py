@@ -7,8 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from modules.servo.goal import goal_from_standoff
-from modules.servo.stages import (
+from tests.servo.servo_scene import INTRINSICS, camera_above, features_seen, move
+from umbra.modules.servo.goal import goal_from_standoff
+from umbra.modules.servo.stages import (
     ABORTED,
     ACQUIRE,
     APPROACH,
@@ -19,7 +20,6 @@ from modules.servo.stages import (
     ServoStages,
     StageSettings,
 )
-from tests.servo.servo_scene import INTRINSICS, camera_above, features_seen, move
 
 DT = 0.02
 GOAL = goal_from_standoff(0.2, INTRINSICS)

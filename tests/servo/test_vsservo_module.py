@@ -6,10 +6,6 @@ import cv2
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from connectors.messages import CameraModel, Contour, Text
-from modules.servo.vsservo import VsServo
-from runtime.harness import ModuleHarness
 from tests.servo.servo_scene import (
     INTRINSICS,
     SCENE_PARAMS,
@@ -18,6 +14,10 @@ from tests.servo.servo_scene import (
     patch_corners,
     project,
 )
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import CameraModel, Contour, Text
+from umbra.modules.servo.vsservo import VsServo
+from umbra.runtime.harness import ModuleHarness
 
 PARAMS = {
     **SCENE_PARAMS,

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from scipy.optimize import root
 
-from connectors.messages import CameraModel, Contour
-from modules.servo.vsservo import VsServo
-from runtime.harness import ModuleHarness
 from tests.servo.servo_scene import SCENE_PARAMS, camera_above, patch_corners
+from umbra.connectors.messages import CameraModel, Contour
+from umbra.modules.servo.vsservo import VsServo
+from umbra.runtime.harness import ModuleHarness
 
 #: the report's zoom camera at zoom 0 (skew -4.58 px) with a strong lens
 FX, FY, SKEW, U0, V0 = 740.09, 741.60, -4.58, 344.25, 212.84

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modules.world.scene_objects import SketchScene
 from tests.browser import launch, needs_chromium
+from umbra.modules.world.scene_objects import SketchScene
 
 GRAPH = str(Path(__file__).resolve().parents[2] / "graphs" / "active_sketch_page.yaml")
 #: the README's pictures of the page, taken by these tests
@@ -83,7 +83,7 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "run",
             GRAPH,
             "--out",

@@ -10,12 +10,12 @@ from pathlib import Path
 import cv2
 import pytest
 
-from runtime.cli.main import main as umbra_main
+from umbra.runtime.cli.main import main as umbra_main
 
 
 def _umbra(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "sketch", *args],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "sketch", *args],
         capture_output=True,
         text=True,
         timeout=120,

@@ -11,8 +11,8 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.ptu.aim import look_at
-from modules.sketch.stereo import StereoPair
+from umbra.modules.ptu.aim import look_at
+from umbra.modules.sketch.stereo import StereoPair
 
 TARGET = np.array([1.5, 0.0, 0.3])
 T_A = look_at(np.array([0.0, 0.35, 1.0]), TARGET)

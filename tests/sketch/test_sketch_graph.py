@@ -29,7 +29,7 @@ def _module(summaries: list[dict], name: str) -> dict:
 
 def test_graph_checks():
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "check", GRAPH],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "check", GRAPH],
         capture_output=True,
         text=True,
         timeout=60,
@@ -46,7 +46,7 @@ def test_the_players_twist_must_go_through_the_guard(tmp_path: Path):
     ).replace("  - register.twist -> kinematics.tool_twist\n", "")
     (tmp_path / "bypass.yaml").write_text(bypass)
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "check", str(tmp_path / "bypass.yaml")],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "check", str(tmp_path / "bypass.yaml")],
         capture_output=True,
         text=True,
         timeout=60,
@@ -62,7 +62,7 @@ def test_single_process_sim_clock_grabs_the_pipe_and_opens_the_door(tmp_path: Pa
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "run",
             GRAPH,
             "--single-process",
@@ -92,7 +92,7 @@ def test_single_process_sim_clock_grabs_the_pipe_and_opens_the_door(tmp_path: Pa
 @pytest.mark.timeout(400)
 def test_split_over_zenoh_grabs_the_pipe_and_opens_the_door(tmp_path: Path):
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "run", GRAPH, "--out", str(tmp_path)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "run", GRAPH, "--out", str(tmp_path)],
         capture_output=True,
         text=True,
         timeout=300,

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.sketch.macros import MENU, MacroError, check_options
-from modules.sketch.session import Q_READY, Q_STOW, SessionError, SketchSession
-from modules.sketch.stereo import StereoPair
-from modules.world.scene_objects import SketchScene
+from umbra.modules.sketch.macros import MENU, MacroError, check_options
+from umbra.modules.sketch.session import Q_READY, Q_STOW, SessionError, SketchSession
+from umbra.modules.sketch.stereo import StereoPair
+from umbra.modules.world.scene_objects import SketchScene
 
 
 def _session() -> SketchSession:

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors.messages import Image, JointState, Pose, Text
-from modules.arm.dh import puma560
-from modules.sketch.messages import PtuState
-from modules.sketch.session import Q_READY, SketchSession
-from modules.sketch.sketch_module import Sketch
-from modules.sketch.stereo import StereoPair
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import Image, JointState, Pose, Text
+from umbra.modules.arm.dh import puma560
+from umbra.modules.sketch.messages import PtuState
+from umbra.modules.sketch.session import Q_READY, SketchSession
+from umbra.modules.sketch.sketch_module import Sketch
+from umbra.modules.sketch.stereo import StereoPair
+from umbra.runtime.harness import ModuleHarness
 
 
 def _feed(h: ModuleHarness, session: SketchSession, moving: bool = False) -> None:
@@ -102,7 +102,7 @@ def test_snapshot_place_plan_and_vcr():
 
 
 def test_refused_plans_are_shown_not_sent_and_no_plan_while_the_arm_moves():
-    from modules.sketch.messages import VcrState
+    from umbra.modules.sketch.messages import VcrState
 
     session = SketchSession(seed=2)
     session.aim(session.scene.pipe.center, zoom=0.1)

@@ -25,13 +25,13 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
-from connectors.messages import Image, Status
-from modules.operator.console import OperatorConsole
-from modules.sketch.messages import SketchPrimitive, VcrState
-from modules.sketch_page import page_web
-from modules.sketch_page.sketch_page import SketchPage
-from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, needs_chromium
+from umbra.connectors.messages import Image, Status
+from umbra.modules.operator.console import OperatorConsole
+from umbra.modules.sketch.messages import SketchPrimitive, VcrState
+from umbra.modules.sketch_page import page_web
+from umbra.modules.sketch_page.sketch_page import SketchPage
+from umbra.runtime.harness import ModuleHarness
 
 
 class Stepper(threading.Thread):

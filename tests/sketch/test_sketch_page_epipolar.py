@@ -11,10 +11,6 @@ import httpx
 import numpy as np
 import pytest
 
-from connectors.messages import CameraModel
-from modules.sketch.messages import StereoSnapshot
-from modules.sketch_page.sketch_page import SketchPage
-from runtime.harness import ModuleHarness
 from tests.operator.browser import chromium, needs_chromium
 from tests.sketch.test_sketch_epipolar_curve import (
     DIST,
@@ -25,6 +21,10 @@ from tests.sketch.test_sketch_epipolar_curve import (
     reference_curve,
 )
 from tests.sketch.test_sketch_page import Browser, Stepper
+from umbra.connectors.messages import CameraModel
+from umbra.modules.sketch.messages import StereoSnapshot
+from umbra.modules.sketch_page.sketch_page import SketchPage
+from umbra.runtime.harness import ModuleHarness
 
 WIDTH, HEIGHT = 1280, 720
 

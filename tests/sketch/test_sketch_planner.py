@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.arm.dh import puma560
-from modules.geometry.transforms import translation
-from modules.sketch.macros import MacroError, macro_keys, menu_for
-from modules.sketch.messages import SketchPrimitive
-from modules.sketch.path_check import PathLimits, plan_path
-from modules.sketch.session import Q_READY
-from modules.world.scene_objects import SketchScene
+from umbra.modules.arm.dh import puma560
+from umbra.modules.geometry.transforms import translation
+from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
+from umbra.modules.sketch.messages import SketchPrimitive
+from umbra.modules.sketch.path_check import PathLimits, plan_path
+from umbra.modules.sketch.session import Q_READY
+from umbra.modules.world.scene_objects import SketchScene
 
 TABLE = puma560()
 T_FT = translation(0, 0, 0.14)
@@ -104,7 +104,7 @@ def test_move_around_axis_sweeps_about_the_line_by_the_right_hand_rule():
 
 
 def test_a_wrist_that_must_turn_over_gets_a_joint_transit_the_kinematics_can_follow():
-    from modules.sketch.transit import twist_round_trip_error
+    from umbra.modules.sketch.transit import twist_round_trip_error
 
     pipe = SketchScene.nominal().pipe
     path = _plan("approach_side", _line(pipe.ends))

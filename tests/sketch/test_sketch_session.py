@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.sketch.session import SessionError, SketchSession
-from modules.sketch.stereo import StereoPair
+from umbra.modules.sketch.session import SessionError, SketchSession
+from umbra.modules.sketch.stereo import StereoPair
 
 
 def _line_on(session: SketchSession, ends, rng, sigma=0.5):

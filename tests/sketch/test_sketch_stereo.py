@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.ptu.aim import look_at
-from modules.sketch.messages import StereoSnapshot
-from modules.sketch.primitives import (
+from umbra.modules.ptu.aim import look_at
+from umbra.modules.sketch.messages import StereoSnapshot
+from umbra.modules.sketch.primitives import (
     PrimitiveError,
     line_axis,
     place_primitive,
     plane_rect,
     triad_box,
 )
-from modules.sketch.stereo import StereoNoise, StereoPair
+from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 
 K = np.array([[900.0, 0.0, 320.0], [0.0, 900.0, 240.0], [0.0, 0.0, 1.0]])
 TARGET = np.array([0.6, 0.1, 0.3])

@@ -16,14 +16,14 @@ import pytest
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from modules.ptu.aim import look_at
-from modules.sketch.primitives import (
+from umbra.modules.ptu.aim import look_at
+from umbra.modules.sketch.primitives import (
     line_direction_covariance,
     place_primitive,
     triad_box,
     vertex_covariance,
 )
-from modules.sketch.stereo import StereoNoise, StereoPair
+from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 
 NOISE = StereoNoise(pixel_px=0.5, rotation_rad=3e-4, translation_m=3e-4, focal_rel=2e-3)
 K = np.array([[1500.0, 0.0, 330.0], [0.0, 1490.0, 235.0], [0.0, 0.0, 1.0]])

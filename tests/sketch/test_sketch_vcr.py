@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.trajectory.joint_path import JointPath
-from modules.trajectory.vcr import Vcr, VcrError, VcrLimits
+from umbra.modules.trajectory.joint_path import JointPath
+from umbra.modules.trajectory.vcr import Vcr, VcrError, VcrLimits
 
 DT = 0.002
 LIMITS = VcrLimits.for_stop_time(rate=0.5, stop_time_s=0.25)

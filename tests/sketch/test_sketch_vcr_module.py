@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.messages import JointState, Status
-from modules.arm.dh import puma560
-from modules.geometry.transforms import translation
-from modules.sketch.macros import macro_keys
-from modules.sketch.messages import SketchPrimitive, VcrCommand
-from modules.sketch.path_check import PathLimits, plan_path
-from modules.sketch.session import Q_READY
-from modules.trajectory.vcr_module import VcrPlayer
-from modules.world.scene_objects import SketchScene
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import JointState, Status
+from umbra.modules.arm.dh import puma560
+from umbra.modules.geometry.transforms import translation
+from umbra.modules.sketch.macros import macro_keys
+from umbra.modules.sketch.messages import SketchPrimitive, VcrCommand
+from umbra.modules.sketch.path_check import PathLimits, plan_path
+from umbra.modules.sketch.session import Q_READY
+from umbra.modules.trajectory.vcr_module import VcrPlayer
+from umbra.modules.world.scene_objects import SketchScene
+from umbra.runtime.harness import ModuleHarness
 
 TABLE = puma560()
 DT = 0.01
@@ -115,8 +115,8 @@ def test_refused_path_and_commands_for_another_path(path):
 def test_paths_the_servo_side_cannot_trust_are_refused(path):
     import msgspec
 
-    from modules.trajectory.player import PathPlayer
-    from modules.trajectory.vcr import VcrError
+    from umbra.modules.trajectory.player import PathPlayer
+    from umbra.modules.trajectory.vcr import VcrError
 
     T_ft = translation(0, 0, 0.14)
     bad_joints = np.array(path.joints)

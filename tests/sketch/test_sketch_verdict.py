@@ -6,17 +6,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.messages import JointState
-from modules.arm.arm_params import ArmParams
-from modules.geometry.transforms import rot_z
-from modules.sketch.messages import ToolPath, VcrState
-from modules.sketch.tool_poses import DOWN, tool_pose
-from modules.world.ik import solve_ik
-from modules.world.scene_objects import SketchScene
-from modules.world.sketch_judge import SketchJudge
-from modules.world.sketch_verdict import macro_verdict
-from modules.world.sketch_world import SketchWorld
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import JointState
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.geometry.transforms import rot_z
+from umbra.modules.sketch.messages import ToolPath, VcrState
+from umbra.modules.sketch.tool_poses import DOWN, tool_pose
+from umbra.modules.world.ik import solve_ik
+from umbra.modules.world.scene_objects import SketchScene
+from umbra.modules.world.sketch_judge import SketchJudge
+from umbra.modules.world.sketch_verdict import macro_verdict
+from umbra.modules.world.sketch_world import SketchWorld
+from umbra.runtime.harness import ModuleHarness
 
 DT = 0.01
 READY_DEG = [0.0, 45.6, -182.7, 0.0, -42.9, 0.0]

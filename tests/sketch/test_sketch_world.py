@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.geometry.transforms import rot_z
-from modules.sketch.session import SketchSession
-from modules.sketch.tool_poses import DOWN, tool_pose
-from modules.world.scene_objects import SketchScene, targets_from_objects
-from modules.world.sketch_judge import SketchJudge
+from umbra.modules.geometry.transforms import rot_z
+from umbra.modules.sketch.session import SketchSession
+from umbra.modules.sketch.tool_poses import DOWN, tool_pose
+from umbra.modules.world.scene_objects import SketchScene, targets_from_objects
+from umbra.modules.world.sketch_judge import SketchJudge
 
 
 def test_rendered_pipe_is_where_the_camera_model_projects_it():

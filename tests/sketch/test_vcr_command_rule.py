@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from connectors import UserError
-from modules.sketch.command_text import parse
-from modules.sketch.session import SessionError, _check_step
-from modules.trajectory.vcr import ARGUMENT, Vcr, VcrError, VcrLimits
+from umbra.connectors import UserError
+from umbra.modules.sketch.command_text import parse
+from umbra.modules.sketch.session import SessionError, _check_step
+from umbra.modules.trajectory.vcr import ARGUMENT, Vcr, VcrError, VcrLimits
 
 LENGTH = 2.0
 LIMITS = VcrLimits.for_stop_time(rate=0.5, stop_time_s=0.25)

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from modules.view3d.geometry import matrix_from_wxyz
 from tests.browser import launch, needs_chromium  # noqa: F401 - re-exported for the tests
+from umbra.modules.view3d.geometry import matrix_from_wxyz
 
 
 def wait_for(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:

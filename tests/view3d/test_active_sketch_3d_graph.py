@@ -31,7 +31,7 @@ def test_ptu_cameras_solids_and_sketch_items_in_the_3d_view(tmp_path: Path) -> N
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "run",
             "graphs/active_sketch_3d.yaml",
             "--set",

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.messages import CameraModel
-from modules.arm.dh import puma560
-from modules.calib.camera_model import Intrinsics, PinholeCamera
-from modules.geometry.transforms import transform_from_xyz_rpy_deg, transform_points
-from modules.view3d.geometry import (
+from umbra.connectors.messages import CameraModel
+from umbra.modules.arm.dh import puma560
+from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg, transform_points
+from umbra.modules.view3d.geometry import (
     arm_joint_points,
     arm_link_segments,
     box_mesh,
@@ -23,7 +23,7 @@ from modules.view3d.geometry import (
     viewer_pose_looking_at,
     wxyz_from_matrix,
 )
-from modules.view3d.viewer_video import video_rgba
+from umbra.modules.view3d.viewer_video import video_rgba
 
 T_WORLD_MOUNT = transform_from_xyz_rpy_deg([0.6, -0.3, 1.5], [180.0, -5.0, 10.0])
 T_MOUNT_CAMERA = transform_from_xyz_rpy_deg([0.01, 0.02, 0.03], [1.0, -2.0, 3.0])
@@ -169,7 +169,7 @@ def test_video_rgba_alpha_follows_the_opacity() -> None:
 
 
 def test_ray_hits_a_cylinder_on_its_side_and_its_cap() -> None:
-    from modules.view3d.geometry import cylinder_mesh
+    from umbra.modules.view3d.geometry import cylinder_mesh
 
     T = transform_from_xyz_rpy_deg([0.5, 0.0, 0.3], [90, 0, 0])  # axis along world -y
     pipe = cylinder_mesh("pipe", T, 0.04, 0.6, segments=64)

@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modules.calib.camera_model import PinholeCamera
-from modules.calib.errors import DegenerateGeometryError
-from modules.calib.pose_tool import MountSnapshot, pose_error, solve_mount
-from modules.calib.pose_tool_file import parse_session, session_text, update_graph_frame
-from modules.calib.pose_tool_synthetic import (
+from umbra.modules.calib.camera_model import PinholeCamera
+from umbra.modules.calib.errors import DegenerateGeometryError
+from umbra.modules.calib.pose_tool import MountSnapshot, pose_error, solve_mount
+from umbra.modules.calib.pose_tool_file import parse_session, session_text, update_graph_frame
+from umbra.modules.calib.pose_tool_synthetic import (
     PTU_INTRINSICS,
     T_WORLD_PTU_BASE,
     T_base_head,
@@ -23,9 +23,9 @@ from modules.calib.pose_tool_synthetic import (
     random_case,
     table_points,
 )
-from modules.geometry.mount_offset import offset_mount, offset_transform
-from modules.geometry.transforms import transform_from_xyz_rpy_deg, xyz_rpy_deg_from_transform
-from runtime.cli.main import main
+from umbra.modules.geometry.mount_offset import offset_mount, offset_transform
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg, xyz_rpy_deg_from_transform
+from umbra.runtime.cli.main import main
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -91,9 +91,9 @@ def test_too_few_clicks_is_refused() -> None:
 
 
 def test_mount_offset_module_moves_the_pose_in_its_own_axes() -> None:
-    from connectors.messages import Pose
-    from modules.vision.mount_offset_module import MountOffset
-    from runtime.harness import ModuleHarness
+    from umbra.connectors.messages import Pose
+    from umbra.modules.vision.mount_offset_module import MountOffset
+    from umbra.runtime.harness import ModuleHarness
 
     T = transform_from_xyz_rpy_deg([0.3, 0.0, 0.5], [180.0, 0.0, 0.0])
     with ModuleHarness(MountOffset, {"xyz_m": [0.0, 0.0, 0.02], "rpy_deg": [0, 3.0, 0]}) as h:
@@ -214,7 +214,7 @@ def test_cli_subprocess_bad_file_exit_2(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text("mount: a->b\ncamera: {fx: 800, fy: 800, u0: 320, v0: 240}\npoints: {}\n")
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "pose-tool", str(path)],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "pose-tool", str(path)],
         capture_output=True,
         text=True,
         cwd=REPO,

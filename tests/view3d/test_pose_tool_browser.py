@@ -19,21 +19,6 @@ import numpy as np
 import pytest
 import yaml
 
-from connectors.messages import CameraModel, Image, Pose
-from modules.calib.pose_tool import pose_error
-from modules.calib.pose_tool_synthetic import T_WORLD_PTU_BASE, T_base_head, aim
-from modules.geometry.mount_offset import offset_transform
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import SceneObjects
-from modules.view3d.geometry import (
-    frustum_from_model,
-    ray_hit,
-    viewer_pose_from_camera,
-    viewer_pose_looking_at,
-)
-from modules.view3d.view3d import View3D
-from modules.view3d.viewer_video import SNAPSHOT_SCALE
-from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (
     block_outside_loopback,
     canvas_box,
@@ -43,6 +28,21 @@ from tests.view3d.browser_support import (
     wait_for,
     wait_value,
 )
+from umbra.connectors.messages import CameraModel, Image, Pose
+from umbra.modules.calib.pose_tool import pose_error
+from umbra.modules.calib.pose_tool_synthetic import T_WORLD_PTU_BASE, T_base_head, aim
+from umbra.modules.geometry.mount_offset import offset_transform
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.messages import SceneObjects
+from umbra.modules.view3d.geometry import (
+    frustum_from_model,
+    ray_hit,
+    viewer_pose_from_camera,
+    viewer_pose_looking_at,
+)
+from umbra.modules.view3d.view3d import View3D
+from umbra.modules.view3d.viewer_video import SNAPSHOT_SCALE
+from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 

@@ -10,20 +10,20 @@ import numpy as np
 import pytest
 import yaml
 
-from connectors.messages import CameraModel
-from modules.calib.errors import CalibrationError
-from modules.calib.pose_tool import pose_error
-from modules.geometry.mount_offset import offset_transform
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.view3d.geometry import (
+from umbra.connectors.messages import CameraModel
+from umbra.modules.calib.errors import CalibrationError
+from umbra.modules.calib.pose_tool import pose_error
+from umbra.modules.geometry.mount_offset import offset_transform
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.view3d.geometry import (
     box_mesh,
     frustum_from_model,
     matrix_from_wxyz,
     viewer_pose_looking_at,
 )
-from modules.view3d.pose_tool_panel import PoseTool
-from modules.view3d.scene_file import SceneSnapshot
-from runtime.cli.main import main
+from umbra.modules.view3d.pose_tool_panel import PoseTool
+from umbra.modules.view3d.scene_file import SceneSnapshot
+from umbra.runtime.cli.main import main
 
 MODEL = CameraModel(fx=700.0, fy=700.0, u0=320.0, v0=240.0, width=640, height=480)
 #: a principal point off the image centre (the page draws the image centred on the frustum)
@@ -80,7 +80,7 @@ def _seen(T_world_camera: np.ndarray, X: np.ndarray, model: CameraModel = MODEL)
         return False
     eye = T_world_camera[:3, 3]
     hit = box_mesh("b", BOX, BOX_SIZE)
-    from modules.view3d.geometry import ray_hit
+    from umbra.modules.view3d.geometry import ray_hit
 
     first = ray_hit(eye, X - eye, [hit])
     return first is not None and np.linalg.norm(first.point - X) < 1e-9
@@ -184,7 +184,7 @@ def test_a_ptu_base_in_the_static_frames_is_solved_over_ptu_poses(tmp_path: Path
     with the pan-tilt kinematics between snapshots, so the rays of different snapshots do not
     meet (the non-perspective case); the clicks give the base's true pose, and the saved session
     solves to it again."""
-    from modules.calib.pose_tool_synthetic import T_base_head, nominal_T_head_camera
+    from umbra.modules.calib.pose_tool_synthetic import T_base_head, nominal_T_head_camera
 
     T_base_nominal = transform_from_xyz_rpy_deg([0.6, -0.9, 0.7], [0, 0, 90])
     T_base_true = T_base_nominal @ ERROR

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
-from modules.view3d.scene_file import (
+from umbra.connectors.errors import UserError
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.modules.view3d.scene_file import (
     Scene,
     SceneBox,
     ScenePrimitive,
@@ -20,7 +20,7 @@ from modules.view3d.scene_file import (
     load_scene,
     save_scene,
 )
-from modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
+from umbra.modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
 
 
 def sample_scene() -> Scene:

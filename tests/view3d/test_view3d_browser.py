@@ -11,19 +11,6 @@ import msgspec
 import numpy as np
 import pytest
 
-from connectors.messages import CameraModel, Image, Pose
-from modules.calib.rotations import vector_from_rotation
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import SketchBox
-from modules.view3d.geometry import (
-    frustum_from_model,
-    matrix_from_wxyz,
-    viewer_pose_from_camera,
-    viewer_pose_looking_at,
-)
-from modules.view3d.view3d import View3D
-from modules.view3d.viewer_video import FRUSTUM_SCALES
-from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import (
     block_outside_loopback,
     canvas_box,
@@ -35,6 +22,19 @@ from tests.view3d.browser_support import (
     wait_for,
     wait_value,
 )
+from umbra.connectors.messages import CameraModel, Image, Pose
+from umbra.modules.calib.rotations import vector_from_rotation
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.messages import SketchBox
+from umbra.modules.view3d.geometry import (
+    frustum_from_model,
+    matrix_from_wxyz,
+    viewer_pose_from_camera,
+    viewer_pose_looking_at,
+)
+from umbra.modules.view3d.view3d import View3D
+from umbra.modules.view3d.viewer_video import FRUSTUM_SCALES
+from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, needs_chromium]
 

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from connectors.errors import UserError
-from modules.geometry.transforms import transform_from_xyz_rpy_deg
-from modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
-from modules.view3d.scene_file import load_scene
-from modules.view3d.view3d import View3D
-from runtime.harness import ModuleHarness
 from tests.view3d.browser_support import wait_for
+from umbra.connectors.errors import UserError
+from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
+from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.modules.view3d.scene_file import load_scene
+from umbra.modules.view3d.view3d import View3D
+from umbra.runtime.harness import ModuleHarness
 
 FRAMES = {"base->table": transform_from_xyz_rpy_deg([0, 0, 0.25], [0, 0, 0])}
 
@@ -110,8 +110,12 @@ def test_bad_parameters_and_scene_files_are_user_errors(tmp_path: Path) -> None:
 
 
 def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> None:
-    from connectors.messages import CameraModel, Image
-    from modules.view3d.geometry import frustum_from_model, matrix_from_wxyz, viewer_pose_looking_at
+    from umbra.connectors.messages import CameraModel, Image
+    from umbra.modules.view3d.geometry import (
+        frustum_from_model,
+        matrix_from_wxyz,
+        viewer_pose_looking_at,
+    )
 
     look = viewer_pose_looking_at([0.6, -0.8, 1.2], [0.6, 0.0, 0.25], 0.8)
     T_cam = np.eye(4)
@@ -163,7 +167,7 @@ def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> No
 
 
 def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
-    from modules.sketch.messages import SceneObjects
+    from umbra.modules.sketch.messages import SceneObjects
 
     poses = np.stack(
         [
@@ -184,7 +188,7 @@ def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
         h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
         meshes = h.module.page.meshes
         assert {"/objects/pipe", "/objects/package"} <= set(meshes)
-        from modules.view3d.geometry import ray_hit
+        from umbra.modules.view3d.geometry import ray_hit
 
         hit = ray_hit([0.6, 0.0, 1.0], [0, 0, -1.0], list(meshes.values()))
         assert hit.name == "/objects/pipe" and hit.point[2] == pytest.approx(0.34, abs=1e-3)
@@ -194,9 +198,9 @@ def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
     """A door whose axes are a reflection (as a world may send) is the same box and is drawn;
     a scaled pose is not drawn; the other solids and the cameras are drawn in the same
     update."""
-    from connectors.messages import CameraModel, Pose
-    from modules.sketch.messages import SceneObjects
-    from modules.view3d.geometry import ray_hit
+    from umbra.connectors.messages import CameraModel, Pose
+    from umbra.modules.sketch.messages import SceneObjects
+    from umbra.modules.view3d.geometry import ray_hit
 
     mirrored = np.eye(4)
     mirrored[:3, :3] = np.column_stack([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
@@ -233,8 +237,8 @@ def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
 def test_only_fed_cameras_are_offered_frames_are_named_and_the_stage_is_shown(
     tmp_path: Path,
 ) -> None:
-    from connectors.messages import CameraModel, JointState, Pose, Status
-    from modules.view3d.view3d_push import stage_line
+    from umbra.connectors.messages import CameraModel, JointState, Pose, Status
+    from umbra.modules.view3d.view3d_push import stage_line
 
     model = CameraModel(fx=600.0, fy=600.0, u0=320.0, v0=240.0, width=640, height=480)
     frames = {**FRAMES, "flange->tool": transform_from_xyz_rpy_deg([0, 0, 0.14], [0, 0, 0])}

@@ -11,9 +11,9 @@ import pytest
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
-from modules.view3d.view3d import View3D
-from runtime.harness import ModuleHarness
 from tests.view3d.test_view3d_module import FRAMES
+from umbra.modules.view3d.view3d import View3D
+from umbra.runtime.harness import ModuleHarness
 
 TOKEN = "a-token-of-this-run-0123456789"
 

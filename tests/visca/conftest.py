@@ -9,8 +9,8 @@ from typing import TypeVar
 import pytest
 import serial
 
-from modules.calib.visca.client import ViscaSettings, ViscaZoomClient
-from modules.calib.visca.sim_camera import SimFcbCamera
+from umbra.modules.calib.visca.client import ViscaSettings, ViscaZoomClient
+from umbra.modules.calib.visca.sim_camera import SimFcbCamera
 
 T = TypeVar("T")
 

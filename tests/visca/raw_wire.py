@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import serial
 
-from modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca import protocol as vp
 
 
 def h(text: str) -> bytes:

@@ -7,10 +7,10 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from connectors.errors import UserError
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.client import LinkStatus, ViscaSettings, ViscaZoomClient, ZoomReading
-from modules.calib.visca.sim_camera import Fault, SimFcbCamera
+from umbra.connectors.errors import UserError
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.client import LinkStatus, ViscaSettings, ViscaZoomClient, ZoomReading
+from umbra.modules.calib.visca.sim_camera import Fault, SimFcbCamera
 
 MakeClient = Callable[..., ViscaZoomClient]
 Wait = Callable[..., ZoomReading]
@@ -209,7 +209,7 @@ def test_bad_settings_are_user_errors(overrides: dict, words: str) -> None:
 def test_hold_and_stop_drive_a_continuous_zoom_and_a_lost_stop_is_sent_again(
     sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
 ) -> None:
-    from modules.calib.visca.commands import ZoomDirection
+    from umbra.modules.calib.visca.commands import ZoomDirection
 
     client = client_on(sim)
     assert client.wait_ready(3.0)
@@ -232,7 +232,7 @@ def test_hold_and_stop_drive_a_continuous_zoom_and_a_lost_stop_is_sent_again(
 def test_start_powers_a_camera_in_standby_on_and_reads_its_version(
     client_on: MakeClient,
 ) -> None:
-    from modules.calib.visca.commands import SONY_VENDOR_ID, Version
+    from umbra.modules.calib.visca.commands import SONY_VENDOR_ID, Version
 
     with SimFcbCamera(full_range_s=1.0, power_on_s=0.4) as camera:
         camera.logic.powered = False  # found in standby, as after a power cut

@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
 from tests.visca.raw_wire import h
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
 
 # -- encoding ---------------------------------------------------------------------------------
 

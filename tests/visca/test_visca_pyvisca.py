@@ -11,8 +11,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from modules.calib.visca.sim_camera import SimFcbCamera
-from modules.calib.visca.zoom_motion import ZoomSpeeds
+from umbra.modules.calib.visca.sim_camera import SimFcbCamera
+from umbra.modules.calib.visca.zoom_motion import ZoomSpeeds
 
 pyvisca = pytest.importorskip("pyvisca.visca", reason="pyvisca is in the [test] extra")
 

@@ -9,9 +9,9 @@ import time
 import pytest
 import serial
 
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.sim_camera import Fault, SimFcbCamera
 from tests.visca.raw_wire import h, read_packet
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.sim_camera import Fault, SimFcbCamera
 
 
 def test_address_set_and_if_clear_answer_as_the_manual_says(wire: serial.Serial) -> None:
@@ -128,7 +128,7 @@ def test_garble_fault_sends_bytes_nobody_can_decode(sim: SimFcbCamera, wire: ser
 
 def test_standalone_process_prints_a_pty_path_that_answers() -> None:
     process = subprocess.Popen(
-        [sys.executable, "-m", "modules.calib.visca.sim_camera", "--full-range-s", "0.5"],
+        [sys.executable, "-m", "umbra.modules.calib.visca.sim_camera", "--full-range-s", "0.5"],
         stdout=subprocess.PIPE,
         text=True,
     )

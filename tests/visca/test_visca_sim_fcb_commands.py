@@ -9,11 +9,11 @@ import time
 import pytest
 import serial
 
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.sim_camera import SimFcbCamera
-from modules.calib.visca.zoom_motion import ZoomSpeeds
 from tests.visca.raw_wire import h, position, read_packet
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.sim_camera import SimFcbCamera
+from umbra.modules.calib.visca.zoom_motion import ZoomSpeeds
 
 
 def test_standard_tele_acks_completes_at_once_and_moves_until_stop(

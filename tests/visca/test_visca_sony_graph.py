@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from connectors import Input, Module
-from connectors.messages import ZoomState
-from modules.calib.visca.sony import Sony
-from modules.generic.constant import Constant
-from runtime.graph.check import check_text
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.connectors import Input, Module
+from umbra.connectors.messages import ZoomState
+from umbra.modules.calib.visca.sony import Sony
+from umbra.modules.generic.constant import Constant
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 
 class ZoomProbe(Module):

@@ -8,12 +8,12 @@ from collections.abc import Callable
 
 import pytest
 
-from connectors.errors import UserError
-from connectors.messages import Scalar, ZoomState
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.sim_camera import SimFcbCamera
-from modules.calib.visca.sony import Sony
-from runtime.harness import ModuleHarness
+from umbra.connectors.errors import UserError
+from umbra.connectors.messages import Scalar, ZoomState
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.sim_camera import SimFcbCamera
+from umbra.modules.calib.visca.sony import Sony
+from umbra.runtime.harness import ModuleHarness
 
 FAST = {
     "poll_rate_hz": 20.0,
@@ -167,7 +167,7 @@ def test_hold_wide_stops_by_itself_when_its_samples_stop_coming() -> None:
     [(1.0, ("tele", 7)), (0.125, ("tele", 0)), (-0.5, ("wide", 3)), (-7.0, ("wide", 7))],
 )
 def test_hold_values_map_to_direction_and_speed(value: float, move: tuple[str, int]) -> None:
-    from modules.calib.visca.sony import hold_move
+    from umbra.modules.calib.visca.sony import hold_move
 
     direction, speed = hold_move(value)  # type: ignore[misc]
     assert (direction.value, speed) == move

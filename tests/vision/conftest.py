@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.vision.projection import CameraIntrinsics, Distortion
-from modules.vision.scene import SceneRenderer, camera_looking_down
+from umbra.modules.vision.projection import CameraIntrinsics, Distortion
+from umbra.modules.vision.scene import SceneRenderer, camera_looking_down
 
 INTRINSICS = CameraIntrinsics(fx=600.0, fy=600.0, skew=0.0, u0=320.0, v0=240.0)
 DISTORTION = Distortion(k1=-0.12, k2=0.03, p1=0.001, p2=-0.0007, k3=0.0)

@@ -7,15 +7,15 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from connectors.messages import CameraModel, Pose, Poses
-from modules.arm.arm_params import ArmParams
-from modules.arm.arm_solids import FINGERS, arm_boxes, arm_frames, box_corners, finger_offsets
-from modules.vision.arm_view import arm_in, with_arm
-from modules.vision.digicam import DigiCam
-from modules.vision.scene import camera_looking_down
-from modules.vision.sketch_render import render_scene
-from modules.world.scene_objects import SketchScene
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import CameraModel, Pose, Poses
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.arm.arm_solids import FINGERS, arm_boxes, arm_frames, box_corners, finger_offsets
+from umbra.modules.vision.arm_view import arm_in, with_arm
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.scene import camera_looking_down
+from umbra.modules.vision.sketch_render import render_scene
+from umbra.modules.world.scene_objects import SketchScene
+from umbra.runtime.harness import ModuleHarness
 
 #: the shipped pick-up's 720p wrist camera (graphs/tool_pickup.yaml)
 W, H = 1280, 720

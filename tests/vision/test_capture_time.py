@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision import capture as capture_module
-from modules.vision.capture import CaptureReader, CaptureSource
-from modules.vision.capture_time import MAX_DRIVER_LAG_S, capture_time
+from umbra.modules.vision import capture as capture_module
+from umbra.modules.vision.capture import CaptureReader, CaptureSource
+from umbra.modules.vision.capture_time import MAX_DRIVER_LAG_S, capture_time
 
 
 def test_a_driver_stamp_on_our_clock_is_the_capture_time() -> None:

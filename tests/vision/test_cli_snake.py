@@ -8,12 +8,12 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision.features import polygon_features
-from modules.vision.lighting import Lighting
-from modules.vision.metrics import polygon_iou
-from modules.vision.projection import CameraIntrinsics
-from modules.vision.scene import Scene, SceneRenderer, pose
-from runtime.cli.main import main
+from umbra.modules.vision.features import polygon_features
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.projection import CameraIntrinsics
+from umbra.modules.vision.scene import Scene, SceneRenderer, pose
+from umbra.runtime.cli.main import main
 
 from .conftest import DISTORTION, T_WORLD_CAMERA
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.vision import color
+from umbra.modules.vision import color
 
 
 def test_chromaticity_is_invariant_to_a_lighting_gain() -> None:

@@ -9,13 +9,13 @@ import cv2
 import numpy as np
 import pytest
 
-from connectors import UserError
-from connectors.messages import CameraModel, Pose
-from modules.geometry.transforms import transform_points
-from modules.vision.digicam import DigiCam
-from modules.vision.scene import camera_looking_down, patch_outline, pose
-from modules.vision.video import VideoWriter
-from runtime.harness import ModuleHarness
+from umbra.connectors import UserError
+from umbra.connectors.messages import CameraModel, Pose
+from umbra.modules.geometry.transforms import transform_points
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.scene import camera_looking_down, patch_outline, pose
+from umbra.modules.vision.video import VideoWriter
+from umbra.runtime.harness import ModuleHarness
 
 FRAMES = 6
 

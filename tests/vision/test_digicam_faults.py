@@ -18,16 +18,16 @@ import cv2
 import numpy as np
 import pytest
 
-from connectors import UserError
-from connectors.messages import Image, Pose
-from modules.vision.digicam import DigiCam
-from modules.vision.scene import camera_looking_down
-from modules.vision.sim_camera import OCCLUDER_GAP_M, OCCLUDER_LIFT_M, SceneFault
-from modules.vision.vs_snake import VsSnake
-from runtime.graph.check import check_text
-from runtime.harness import ModuleHarness
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.connectors import UserError
+from umbra.connectors.messages import Image, Pose
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.scene import camera_looking_down
+from umbra.modules.vision.sim_camera import OCCLUDER_GAP_M, OCCLUDER_LIFT_M, SceneFault
+from umbra.modules.vision.vs_snake import VsSnake
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.harness import ModuleHarness
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -293,7 +293,7 @@ def test_fault_in_a_graph_split_over_two_processes(tmp_path) -> None:
     path = os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     env = dict(os.environ, PYTHONPATH=path, PYTHONUNBUFFERED="1")
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "run", "fault.yaml", "--out", "out"],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "run", "fault.yaml", "--out", "out"],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
         stdin=subprocess.DEVNULL,
     )  # fmt: skip

@@ -16,10 +16,10 @@ import cv2
 import numpy as np
 import pytest
 
-from connectors import UserError
-from modules.vision.capture_source import CaptureSource, probe_stream
-from modules.vision.digicam import DigiCam
-from runtime.harness import ModuleHarness
+from umbra.connectors import UserError
+from umbra.modules.vision.capture_source import CaptureSource, probe_stream
+from umbra.modules.vision.digicam import DigiCam
+from umbra.runtime.harness import ModuleHarness
 
 
 def level(sample) -> int:
@@ -58,7 +58,7 @@ def run_graph(tmp_path: Path, source: str, *extra: str, timeout: float = 90):
     started = time.monotonic()
     out = str(tmp_path / "o")
     done = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "run", str(graph), "--out", out, *extra],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph), "--out", out, *extra],
         capture_output=True,
         text=True,
         timeout=timeout,
@@ -155,7 +155,7 @@ def test_a_device_index_written_as_a_yaml_integer_is_a_device(tmp_path: Path) ->
     assert "valid string" not in done.stderr
     assert "cannot open camera device 7" in done.stderr  # no camera 7 here: refused at start
     checked = subprocess.run(
-        [sys.executable, "-m", "runtime.cli.main", "check", str(tmp_path / "cam.yaml")],
+        [sys.executable, "-m", "umbra.runtime.cli.main", "check", str(tmp_path / "cam.yaml")],
         capture_output=True,
         text=True,
         timeout=60,

@@ -9,14 +9,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Contour, Pose
-from modules.vision.digicam import DigiCam
-from modules.vision.scene import camera_looking_down, pose
-from runtime.graph.check import check_text
-from runtime.harness import ModuleHarness
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import Contour, Pose
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.scene import camera_looking_down, pose
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.harness import ModuleHarness
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 #: Where the patch really is [m], away from where the camera's stand-in pose would put it.
 T_WORLD_PATCH = pose((0.05, -0.03, 0.0), 0.4)

@@ -8,13 +8,13 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision import color
-from modules.vision import snake as sn
-from modules.vision.edge_fit import complete_corners, fit_edges, sample_bilinear
-from modules.vision.lighting import Lighting
-from modules.vision.metrics import polygon_iou
-from modules.vision.polygon import circle, resample_uniform, signed_area
-from modules.vision.scene import Scene, pose
+from umbra.modules.vision import color
+from umbra.modules.vision import snake as sn
+from umbra.modules.vision.edge_fit import complete_corners, fit_edges, sample_bilinear
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.polygon import circle, resample_uniform, signed_area
+from umbra.modules.vision.scene import Scene, pose
 
 from .conftest import T_WORLD_CAMERA
 

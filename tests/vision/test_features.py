@@ -6,13 +6,13 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision.features import (
+from umbra.modules.vision.features import (
     angle_difference,
     equivalent_rectangle_sides,
     polygon_features,
     raw_moments,
 )
-from modules.vision.polygon import (
+from umbra.modules.vision.polygon import (
     circle,
     rectangle,
     resample_uniform,

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import cv2
 
-from modules.vision.digicam import DigiCam
-from modules.vision.overlay_module import Overlay
-from modules.vision.vs_snake import VsSnake
-from runtime.graph.check import check_text
-from runtime.registry import Registry
-from runtime.scheduler import Scheduler, SchedulerOptions
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.overlay_module import Overlay
+from umbra.modules.vision.vs_snake import VsSnake
+from umbra.runtime.graph.check import check_text
+from umbra.runtime.registry import Registry
+from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 
 GRAPH = """\
 graph: vision

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision.overlay import (
+from umbra.modules.vision.overlay import (
     AXIS_BGR,
     CONTOUR_BGR,
     ELLIPSE_BGR,
@@ -15,9 +15,9 @@ from modules.vision.overlay import (
     VERTEX_BGR,
     draw_overlay,
 )
-from modules.vision.polygon import rectangle, resample_uniform
-from modules.vision.sanity import SanityLimits, check_contour
-from modules.vision.video import VideoFileError, VideoWriter
+from umbra.modules.vision.polygon import rectangle, resample_uniform
+from umbra.modules.vision.sanity import SanityLimits, check_contour
+from umbra.modules.vision.video import VideoFileError, VideoWriter
 
 
 def color_near(image: np.ndarray, uv, bgr, radius: int = 2) -> bool:

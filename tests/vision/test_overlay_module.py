@@ -6,13 +6,13 @@ import cv2
 import numpy as np
 import pytest
 
-from connectors import UserError
-from connectors.messages import Contour, Image, Status
-from modules.vision.digicam import DigiCam
-from modules.vision.overlay import CONTOUR_BGR, RECTANGLE_BGR
-from modules.vision.overlay_module import Overlay
-from modules.vision.vs_snake import VsSnake
-from runtime.harness import ModuleHarness
+from umbra.connectors import UserError
+from umbra.connectors.messages import Contour, Image, Status
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.overlay import CONTOUR_BGR, RECTANGLE_BGR
+from umbra.modules.vision.overlay_module import Overlay
+from umbra.modules.vision.vs_snake import VsSnake
+from umbra.runtime.harness import ModuleHarness
 
 
 def snake_frames(count: int) -> list[tuple[Image, Contour]]:

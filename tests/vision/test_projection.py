@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision.projection import (
+from umbra.modules.vision.projection import (
     CameraIntrinsics,
     Distortion,
     ideal_pixels_of_distorted_grid,

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.vision.features import polygon_features
-from modules.vision.polygon import rectangle, resample_uniform
-from modules.vision.sanity import FAILED, TRACKING, SanityLimits, check_contour
+from umbra.modules.vision.features import polygon_features
+from umbra.modules.vision.polygon import rectangle, resample_uniform
+from umbra.modules.vision.sanity import FAILED, TRACKING, SanityLimits, check_contour
 
 LIMITS = SanityLimits()
 

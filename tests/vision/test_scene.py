@@ -6,12 +6,12 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.geometry.transforms import transform_points
-from modules.vision.features import polygon_features
-from modules.vision.lighting import Lighting, apply_lighting, motion_blur_kernel
-from modules.vision.metrics import polygon_iou, polygon_mask
-from modules.vision.polygon import signed_area
-from modules.vision.scene import (
+from umbra.modules.geometry.transforms import transform_points
+from umbra.modules.vision.features import polygon_features
+from umbra.modules.vision.lighting import Lighting, apply_lighting, motion_blur_kernel
+from umbra.modules.vision.metrics import polygon_iou, polygon_mask
+from umbra.modules.vision.polygon import signed_area
+from umbra.modules.vision.scene import (
     LABEL_DISTRACTOR,
     LABEL_OCCLUDER,
     LABEL_PATCH,

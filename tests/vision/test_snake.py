@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.vision import color
-from modules.vision import snake as sn
-from modules.vision.lighting import Lighting
-from modules.vision.metrics import polygon_iou
-from modules.vision.polygon import rectangle, segment_lengths
-from modules.vision.scene import Scene, pose
+from umbra.modules.vision import color
+from umbra.modules.vision import snake as sn
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.polygon import rectangle, segment_lengths
+from umbra.modules.vision.scene import Scene, pose
 
 from .conftest import METRES_PER_PIXEL, T_WORLD_CAMERA
 

@@ -6,10 +6,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from modules.vision.lighting import Lighting
-from modules.vision.scene import Scene, pose
-from modules.vision.snake import SnakeParams
-from modules.vision.tracker import SnakeTracker
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.scene import Scene, pose
+from umbra.modules.vision.snake import SnakeParams
+from umbra.modules.vision.tracker import SnakeTracker
 
 from .conftest import METRES_PER_PIXEL, T_WORLD_CAMERA
 

@@ -1,6 +1,6 @@
 """The snake's area and outline on photographs it was never tuned on, at 1920 x 1080.
 
-Frames come from :mod:`modules.vision.photo_scene` (another generator than the project's
+Frames come from :mod:`umbra.modules.vision.photo_scene` (another generator than the project's
 renderer): a coloured patch under perspective on the held-out scikit-image photographs, with
 lens and motion blur, lighting gain 0.55-1.45, colour casts, shot and read noise and JPEG. The
 truth is the patch's quadrilateral. The snake learns the colour at the seed click on the frame
@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.vision import photo_scene as ps
-from modules.vision.metrics import polygon_iou
-from modules.vision.polygon import signed_area
-from modules.vision.tracker import SnakeTracker
+from umbra.modules.vision import photo_scene as ps
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.polygon import signed_area
+from umbra.modules.vision.tracker import SnakeTracker
 
 #: The held-out frames scored here (frames of ``photo_scene`` seed 2031).
 FIRST, FRAMES = 6, 6

@@ -9,10 +9,10 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from modules.geometry.transforms import transform_points
-from modules.vision.lighting import Lighting
-from modules.vision.metrics import polygon_iou
-from modules.vision.scene import (
+from umbra.modules.geometry.transforms import transform_points
+from umbra.modules.vision.lighting import Lighting
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.scene import (
     Occluder,
     RenderedFrame,
     Scene,
@@ -20,7 +20,7 @@ from modules.vision.scene import (
     distractor_touching,
     pose,
 )
-from modules.vision.tracker import SnakeTracker
+from umbra.modules.vision.tracker import SnakeTracker
 
 from .conftest import METRES_PER_PIXEL, T_WORLD_CAMERA
 

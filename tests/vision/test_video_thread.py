@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from modules.vision.video import VideoFileError, VideoWriter
-from modules.vision.video_thread import ThreadedVideoWriter
+from umbra.modules.vision.video import VideoFileError, VideoWriter
+from umbra.modules.vision.video_thread import ThreadedVideoWriter
 
 
 def _frame(i: int) -> np.ndarray:

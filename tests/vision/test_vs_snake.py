@@ -7,13 +7,13 @@ import logging
 import numpy as np
 import pytest
 
-from connectors import UserError
-from connectors.messages import Image, Pose, Vector
-from modules.vision.digicam import DigiCam
-from modules.vision.metrics import polygon_iou
-from modules.vision.scene import pose
-from modules.vision.vs_snake import VsSnake
-from runtime.harness import ModuleHarness
+from umbra.connectors import UserError
+from umbra.connectors.messages import Image, Pose, Vector
+from umbra.modules.vision.digicam import DigiCam
+from umbra.modules.vision.metrics import polygon_iou
+from umbra.modules.vision.scene import pose
+from umbra.modules.vision.vs_snake import VsSnake
+from umbra.runtime.harness import ModuleHarness
 
 
 def camera(**params) -> ModuleHarness:

@@ -7,7 +7,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from connectors.messages import Message, registered_message_types
+from umbra.connectors.messages import Message, registered_message_types
 
 #: Fields holding images: big enough that the sample is framed (envelope version 2).
 IMAGE_FIELDS = {"pixels", "image_a", "image_b"}
@@ -38,7 +38,7 @@ def _value(name: str, typ: Any, i: int) -> Any:
 
 
 def every_type() -> dict[str, type[Message]]:
-    """The shipped message types (``connectors.messages`` and the ``umbra.messages`` entry
+    """The shipped message types (``umbra.connectors.messages`` and the ``umbra.messages`` entry
     points), by name."""
     return registered_message_types()
 

@@ -11,13 +11,13 @@ from types import SimpleNamespace
 import numpy as np
 import zenoh
 
-from connectors.messages import Image
-from runtime.graph.plan import LinkPlan
-from runtime.links.config import Endpoints, build_config, free_loopback_ports
-from runtime.links.transport import ZenohTransport
-from runtime.links.wire_spec import DOC
 from tests.wire import spec_decoder
 from tests.wire.samples import every_type, example, same
+from umbra.connectors.messages import Image
+from umbra.runtime.graph.plan import LinkPlan
+from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
+from umbra.runtime.links.transport import ZenohTransport
+from umbra.runtime.links.wire_spec import DOC
 
 PREFIX = "wiretest"
 

@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[2]
 PLUGIN = '''
 import numpy as np
 from typing import ClassVar
-from connectors.messages import Message
+from umbra.connectors.messages import Message
 
 class WidgetReading(Message, frozen=True, kw_only=True):
     """A third party's message type."""
@@ -25,10 +25,10 @@ class WidgetReading(Message, frozen=True, kw_only=True):
 
 PROBE = """
 import json, sys
-from connectors.codec import Codec
-from connectors.messages import message_types, registered_message_types
+from umbra.connectors.codec import Codec
+from umbra.connectors.messages import message_types, registered_message_types
 import numpy as np
-before = sorted(m for m in sys.modules if m in ("widget_msgs", "modules.sketch.messages"))
+before = sorted(m for m in sys.modules if m in ("widget_msgs", "umbra.modules.sketch.messages"))
 types = message_types()
 codec = Codec()
 sample = types["WidgetReading"](level=2.5, trace=np.arange(3.0), seq=4)
@@ -67,14 +67,14 @@ def test_an_entry_point_adds_message_types_every_process_knows(tmp_path: Path) -
     assert out["before"] == []  # importing the base layer imports no domain's types
     assert out["module"] == "widget_msgs"
     assert out["level"] == 2.5 and out["trace"] == [0.0, 1.0, 2.0] and out["seq"] == 4
-    assert out["path"] == ["modules.sketch.messages", "p"]  # the sketch domain, the same way
+    assert out["path"] == ["umbra.modules.sketch.messages", "p"]  # the sketch domain, the same way
     assert {"WidgetReading", "ToolPath", "Twist"} <= set(out["registered"])
 
 
 def test_a_broken_plugin_is_named_and_the_others_still_load(tmp_path: Path) -> None:
     _plugin_tree(tmp_path, body="raise ImportError('no widgets today')\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(REPO)]))
-    code = "from connectors.messages import message_types; print(sorted(message_types()))"
+    code = "from umbra.connectors.messages import message_types; print(sorted(message_types()))"
     done = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60
     )

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from connectors.codec import Codec
-from runtime.links.wire_spec import DOC, missing_notes, render
 from tests.wire import spec_decoder
 from tests.wire.samples import every_type, example, same
+from umbra.connectors.codec import Codec
+from umbra.runtime.links.wire_spec import DOC, missing_notes, render
 
 
 def test_the_field_tables_are_those_of_the_message_types() -> None:
@@ -16,7 +16,7 @@ def test_the_field_tables_are_those_of_the_message_types() -> None:
     assert len(types) >= 23
     assert missing_notes(types) == [], "document the new fields in their type's FIELD_NOTES"
     text = DOC.read_text()
-    assert render(text, types) == text, "run `python -m runtime.links.wire_spec --write`"
+    assert render(text, types) == text, "run `python -m umbra.runtime.links.wire_spec --write`"
 
 
 def test_the_spec_names_every_field_in_wire_order() -> None:

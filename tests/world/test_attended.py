@@ -8,12 +8,12 @@ import logging
 import numpy as np
 import pytest
 
-from connectors.messages import Contour, JointState
-from connectors.module import ModuleContext
-from modules.arm.arm_params import ArmParams
-from modules.world.operator_sim import OperatorSim
-from modules.world.world import SimWorld
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import Contour, JointState
+from umbra.connectors.module import ModuleContext
+from umbra.modules.arm.arm_params import ArmParams
+from umbra.modules.world.operator_sim import OperatorSim
+from umbra.modules.world.world import SimWorld
+from umbra.runtime.harness import ModuleHarness
 
 DT = 0.05
 #: the shipped pick-up's start: camera 35 cm above the table

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from modules.world.trial_faults import MAX_STALE_TRAVEL_MM
-from modules.world.trial_runner import TrialGraph, run_single, run_split
-from modules.world.trials import TrialResult, draw_trial
+from umbra.modules.world.trial_faults import MAX_STALE_TRAVEL_MM
+from umbra.modules.world.trial_runner import TrialGraph, run_single, run_split
+from umbra.modules.world.trials import TrialResult, draw_trial
 
 GRAPH = str(Path(__file__).resolve().parents[2] / "graphs" / "tool_pickup.yaml")
 

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from modules.arm.dh import puma560
-from modules.servo.features import wrap_roll_error
-from modules.world.grasp import R_PATCH_TOOL_GRASP, grasp_error
-from modules.world.ik import IKFailed, solve_ik
-from modules.world.trials import (
+from umbra.modules.arm.dh import puma560
+from umbra.modules.servo.features import wrap_roll_error
+from umbra.modules.world.grasp import R_PATCH_TOOL_GRASP, grasp_error
+from umbra.modules.world.ik import IKFailed, solve_ik
+from umbra.modules.world.trials import (
     TrialResult,
     aggregate,
     draw_trial,

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from connectors.messages import Contour
-from modules.world.operator_sim import OperatorSim
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import Contour
+from umbra.modules.world.operator_sim import OperatorSim
+from umbra.runtime.harness import ModuleHarness
 
 DT = 0.05
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from modules.world.trial_runner import TrialGraph, run_single, run_split
-from modules.world.trials import draw_trial
+from umbra.modules.world.trial_runner import TrialGraph, run_single, run_split
+from umbra.modules.world.trials import draw_trial
 
 GRAPH = str(Path(__file__).resolve().parents[2] / "graphs" / "tool_pickup.yaml")
 
@@ -71,7 +71,7 @@ def test_trials_command_json(tmp_path: Path) -> None:
         [
             sys.executable,
             "-m",
-            "runtime.cli.main",
+            "umbra.runtime.cli.main",
             "trials",
             GRAPH,
             "-n",

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modules.world.scene_objects import SketchScene, targets_from_objects
+from umbra.modules.world.scene_objects import SketchScene, targets_from_objects
 
 
 def _scenes() -> list[SketchScene]:

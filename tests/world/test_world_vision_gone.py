@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from connectors.messages import JointState, Status
-from modules.world.world import SimWorld
-from runtime.harness import ModuleHarness
+from umbra.connectors.messages import JointState, Status
+from umbra.modules.world.world import SimWorld
+from umbra.runtime.harness import ModuleHarness
 
 FRAMES = {
     "base->table": np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.25], [0, 0, 0, 1.0]]),

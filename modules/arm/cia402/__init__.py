@@ -4,17 +4,17 @@
 tests and hardware-free runs; `cia402_drive.eds` the minimal object dictionary both use.
 """
 
-from modules.arm.cia402.bring_up import DriveStartError
-from modules.arm.cia402.config import (
+from umbra.modules.arm.cia402.bring_up import DriveStartError
+from umbra.modules.arm.cia402.config import (
     BusSpec,
     BusSpecError,
     Cia402ArmConfig,
     Cia402ConfigError,
     JointDrive,
 )
-from modules.arm.cia402.network import Cia402Arm
-from modules.arm.cia402.sim_drive import SimDrive
-from modules.arm.cia402.status import ArmState, ArmStatus, DriveTrip, JointFeedback, TripCause
+from umbra.modules.arm.cia402.network import Cia402Arm
+from umbra.modules.arm.cia402.sim_drive import SimDrive
+from umbra.modules.arm.cia402.status import ArmState, ArmStatus, DriveTrip, JointFeedback, TripCause
 
 __all__ = [
     "ArmState",

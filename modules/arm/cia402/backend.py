@@ -21,14 +21,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modules.arm.cia402.config import Cia402ArmConfig, Cia402ConfigError
-from modules.arm.cia402.config_yaml import CanopenSettings, load_canopen_settings
-from modules.arm.cia402.network import Cia402Arm
-from modules.arm.cia402.sim_drive import SimDrive
-from modules.arm.cia402.status import ArmState
-from modules.arm.cia402.units import angles_to_counts
-from modules.arm.dh import DHTable
-from modules.arm.joints_backend import BackendError, JointReading, JointsBackend
+from umbra.modules.arm.cia402.config import Cia402ArmConfig, Cia402ConfigError
+from umbra.modules.arm.cia402.config_yaml import CanopenSettings, load_canopen_settings
+from umbra.modules.arm.cia402.network import Cia402Arm
+from umbra.modules.arm.cia402.sim_drive import SimDrive
+from umbra.modules.arm.cia402.status import ArmState
+from umbra.modules.arm.cia402.units import angles_to_counts
+from umbra.modules.arm.dh import DHTable
+from umbra.modules.arm.joints_backend import BackendError, JointReading, JointsBackend
 
 logger = logging.getLogger(__name__)
 

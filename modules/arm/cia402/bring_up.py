@@ -25,9 +25,9 @@ import canopen
 from canopen.pdo import PdoMap
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.drive_watchdog import consumer_entry
-from modules.arm.cia402.state_machine import (
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.drive_watchdog import consumer_entry
+from umbra.modules.arm.cia402.state_machine import (
     Command,
     State,
     StatuswordError,
@@ -35,7 +35,7 @@ from modules.arm.cia402.state_machine import (
     controlword_for,
     state_from_statusword,
 )
-from modules.arm.cia402.status import describe_error_code
+from umbra.modules.arm.cia402.status import describe_error_code
 
 T = TypeVar("T")
 

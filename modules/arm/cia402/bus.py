@@ -13,8 +13,8 @@ from collections.abc import Callable, Iterable
 import can
 import canopen
 
-from modules.arm.cia402.config import BusSpec, BusSpecError
-from modules.arm.cia402.supervision import DriveRegisters
+from umbra.modules.arm.cia402.config import BusSpec, BusSpecError
+from umbra.modules.arm.cia402.supervision import DriveRegisters
 
 logger = logging.getLogger(__name__)
 

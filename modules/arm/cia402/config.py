@@ -13,10 +13,10 @@ from pathlib import Path
 
 import can
 
-from connectors.errors import UserError
-from connectors.limits import MAX_COMMAND_AGE_S
-from modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, ABORT_NO_ACTION
-from modules.arm.cia402.objects import EDS_PATH
+from umbra.connectors.errors import UserError
+from umbra.connectors.limits import MAX_COMMAND_AGE_S
+from umbra.modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, ABORT_NO_ACTION
+from umbra.modules.arm.cia402.objects import EDS_PATH
 
 # Bit rates of the CiA 301 / CiA 102 table (bit/s).
 CANOPEN_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000)

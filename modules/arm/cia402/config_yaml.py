@@ -37,16 +37,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from connectors import safe_yaml, user_files
-from connectors.errors import UserError
-from connectors.yaml_lines import node_lines as _node_lines
-from modules.arm.cia402.config import (
+from umbra.connectors import safe_yaml, user_files
+from umbra.connectors.errors import UserError
+from umbra.connectors.yaml_lines import node_lines as _node_lines
+from umbra.modules.arm.cia402.config import (
     BusSpec,
     Cia402ArmConfig,
     Cia402ConfigError,
     JointDrive,
 )
-from modules.arm.cia402.objects import EDS_PATH
+from umbra.modules.arm.cia402.objects import EDS_PATH
 
 KeyPath = tuple[str | int, ...]
 

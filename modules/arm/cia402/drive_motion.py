@@ -5,7 +5,7 @@ Drive units: counts/s, counts/s^2, seconds.
 
 from __future__ import annotations
 
-from modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402 import objects as obj
 
 #: Quick stop option code (0x605A) -> the deceleration object it brakes with (None: at once).
 #: 3 / 7 (current limit) and 4 / 8 (voltage limit): the simulation has no motor model, it

@@ -17,11 +17,11 @@ from functools import partial
 
 from canopen.pdo import PdoMap
 
-from modules.arm.cia402 import bring_up
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.bring_up import DriveStartError
-from modules.arm.cia402.config import Cia402ArmConfig
-from modules.arm.cia402.supervision import NMT_OPERATIONAL, DriveRegisters
+from umbra.modules.arm.cia402 import bring_up
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.bring_up import DriveStartError
+from umbra.modules.arm.cia402.config import Cia402ArmConfig
+from umbra.modules.arm.cia402.supervision import NMT_OPERATIONAL, DriveRegisters
 
 #: `wait(predicate, timeout_s, message)`: see `wait_until`.
 Wait = Callable[[Callable[[], bool], float, "str | Callable[[], str]"], None]

@@ -42,20 +42,20 @@ import canopen
 import numpy as np
 from numpy.typing import ArrayLike
 
-from modules.arm.cia402 import bring_up
-from modules.arm.cia402.bring_up import DriveStartError
-from modules.arm.cia402.bus import open_bus, release_bus
-from modules.arm.cia402.config import Cia402ArmConfig, JointDrive
-from modules.arm.cia402.drive_setup import set_up_drive, wait_until
-from modules.arm.cia402.rpdo import write_rpdo
-from modules.arm.cia402.state_machine import (
+from umbra.modules.arm.cia402 import bring_up
+from umbra.modules.arm.cia402.bring_up import DriveStartError
+from umbra.modules.arm.cia402.bus import open_bus, release_bus
+from umbra.modules.arm.cia402.config import Cia402ArmConfig, JointDrive
+from umbra.modules.arm.cia402.drive_setup import set_up_drive, wait_until
+from umbra.modules.arm.cia402.rpdo import write_rpdo
+from umbra.modules.arm.cia402.state_machine import (
     Command,
     State,
     controlword_for,
 )
-from modules.arm.cia402.status import ArmState, ArmStatus, DriveTrip, JointFeedback, TripCause
-from modules.arm.cia402.supervision import ArmSupervision, DriveRegisters, state_or_none
-from modules.arm.cia402.units import counts_s_to_rates, counts_to_angles, rates_to_counts_s
+from umbra.modules.arm.cia402.status import ArmState, ArmStatus, DriveTrip, JointFeedback, TripCause
+from umbra.modules.arm.cia402.supervision import ArmSupervision, DriveRegisters, state_or_none
+from umbra.modules.arm.cia402.units import counts_s_to_rates, counts_to_angles, rates_to_counts_s
 
 logger = logging.getLogger(__name__)
 

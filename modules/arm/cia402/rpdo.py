@@ -7,8 +7,8 @@ thread's callbacks).
 
 from __future__ import annotations
 
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.supervision import DriveRegisters
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.supervision import DriveRegisters
 
 
 def write_rpdo(drive: DriveRegisters, controlword: int, target_counts_s: int) -> None:

@@ -43,15 +43,15 @@ from canopen.objectdictionary import ODVariable
 from canopen.pdo import PdoMap, PdoMaps
 from canopen.sdo import SdoAbortedError
 
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.drive_motion import (
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.drive_motion import (
     QUICK_STOP_DECELERATION,
     QUICK_STOP_TO_DISABLED,
     ramp,
 )
-from modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, MasterWatch
-from modules.arm.cia402.sim_drive_watch import ERROR_REGISTER_GENERIC, MasterWatchMixin
-from modules.arm.cia402.state_machine import (
+from umbra.modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, MasterWatch
+from umbra.modules.arm.cia402.sim_drive_watch import ERROR_REGISTER_GENERIC, MasterWatchMixin
+from umbra.modules.arm.cia402.state_machine import (
     Command,
     State,
     command_from_controlword,

@@ -14,8 +14,8 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.drive_watchdog import (
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.drive_watchdog import (
     ABORT_CONNECTION_OPTIONS,
     ABORT_DISABLE_VOLTAGE,
     ABORT_FAULT,
@@ -26,7 +26,7 @@ from modules.arm.cia402.drive_watchdog import (
     MasterWatch,
     parse_consumer_entry,
 )
-from modules.arm.cia402.state_machine import Command, State, next_state
+from umbra.modules.arm.cia402.state_machine import Command, State, next_state
 
 if TYPE_CHECKING:
     import canopen

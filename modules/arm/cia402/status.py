@@ -12,7 +12,7 @@ import numpy as np
 from canopen.emcy import EmcyError
 from numpy.typing import NDArray
 
-from modules.arm.cia402.state_machine import State
+from umbra.modules.arm.cia402.state_machine import State
 
 
 class ArmState(enum.Enum):

@@ -18,10 +18,10 @@ import canopen
 from canopen.emcy import EmcyError
 from canopen.pdo import PdoMap
 
-from modules.arm.cia402 import objects as obj
-from modules.arm.cia402.bring_up import PdoLayout
-from modules.arm.cia402.config import Cia402ArmConfig, JointDrive
-from modules.arm.cia402.state_machine import (
+from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.bring_up import PdoLayout
+from umbra.modules.arm.cia402.config import Cia402ArmConfig, JointDrive
+from umbra.modules.arm.cia402.state_machine import (
     SW_FAULT,
     Command,
     State,
@@ -29,7 +29,7 @@ from modules.arm.cia402.state_machine import (
     controlword_for,
     state_from_statusword,
 )
-from modules.arm.cia402.status import ArmState, DriveTrip, TripCause, describe_error_code
+from umbra.modules.arm.cia402.status import ArmState, DriveTrip, TripCause, describe_error_code
 
 logger = logging.getLogger(__name__)
 

@@ -22,7 +22,7 @@ sent again up to ``retries`` times; what went wrong is kept in the reading's ``s
 A problem clears as soon as the request that had it succeeds. After ``reinit_after_failures``
 consecutive failed requests the client sets the address and clears the interface again (a
 camera that lost power forgets its address). Only :meth:`ViscaZoomClient.start` raises:
-:class:`connectors.errors.UserError` when the port cannot be opened.
+:class:`umbra.connectors.errors.UserError` when the port cannot be opened.
 """
 
 from __future__ import annotations
@@ -34,12 +34,12 @@ from dataclasses import dataclass, field
 
 import serial
 
-from connectors.errors import UserError
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.client_moves import Move, MoveSteps
-from modules.calib.visca.client_startup import StartupSteps
-from modules.calib.visca.client_types import (
+from umbra.connectors.errors import UserError
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.client_moves import Move, MoveSteps
+from umbra.modules.calib.visca.client_startup import StartupSteps
+from umbra.modules.calib.visca.client_types import (
     LinkStatus,
     Problem,
     RequestFailedError,
@@ -49,7 +49,7 @@ from modules.calib.visca.client_types import (
     is_position_reply,
     status_text,
 )
-from modules.calib.visca.client_wire import WireRequests
+from umbra.modules.calib.visca.client_wire import WireRequests
 
 __all__ = ["LinkStatus", "ViscaCounters", "ViscaSettings", "ViscaZoomClient", "ZoomReading"]
 

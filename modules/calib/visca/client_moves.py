@@ -1,19 +1,19 @@
 """Continuous zoom (tele / wide at a speed, stop) for the VISCA zoom client: the caller's
 requests and the device thread's sending (a part of
-:class:`~modules.calib.visca.client.ViscaZoomClient`)."""
+:class:`~umbra.modules.calib.visca.client.ViscaZoomClient`)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.client_types import (
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.client_types import (
     RequestFailedError,
 )
 
 if TYPE_CHECKING:
-    from modules.calib.visca.client import ViscaZoomClient
+    from umbra.modules.calib.visca.client import ViscaZoomClient
 
     _Base = ViscaZoomClient
 else:

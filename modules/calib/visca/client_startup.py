@@ -1,14 +1,14 @@
 """Start-up of the VISCA zoom client's device thread: address set, IF_Clear, power and version
-(a part of :class:`~modules.calib.visca.client.ViscaZoomClient`, as a mixin)."""
+(a part of :class:`~umbra.modules.calib.visca.client.ViscaZoomClient`, as a mixin)."""
 
 from __future__ import annotations
 
 import time
 from typing import TYPE_CHECKING
 
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.client_types import (
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.client_types import (
     LinkStatus,
     RequestFailedError,
     is_empty_completion,
@@ -16,7 +16,7 @@ from modules.calib.visca.client_types import (
 )
 
 if TYPE_CHECKING:
-    from modules.calib.visca.client import ViscaZoomClient
+    from umbra.modules.calib.visca.client import ViscaZoomClient
 
     _Base = ViscaZoomClient
 else:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from connectors.errors import UserError
-from modules.calib.visca import protocol as vp
+from umbra.connectors.errors import UserError
+from umbra.modules.calib.visca import protocol as vp
 
 
 class LinkStatus(enum.Enum):

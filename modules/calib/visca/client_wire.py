@@ -1,5 +1,5 @@
 """Requests on the VISCA line: send, wait for the answer among unsolicited replies, retry, and
-say what went wrong (a part of :class:`~modules.calib.visca.client.ViscaZoomClient`)."""
+say what went wrong (a part of :class:`~umbra.modules.calib.visca.client.ViscaZoomClient`)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,14 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.client_types import (
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.client_types import (
     LinkStatus,
     RequestFailedError,
 )
 
 if TYPE_CHECKING:
-    from modules.calib.visca.client import ViscaZoomClient
+    from umbra.modules.calib.visca.client import ViscaZoomClient
 
     _Base = ViscaZoomClient
 else:

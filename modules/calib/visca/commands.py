@@ -1,5 +1,6 @@
 """The FCB command set a controller sends (controller -> camera): encoders and the decoder the
-simulated camera uses. Framing, replies and zoom scaling are in :mod:`modules.calib.visca.protocol`.
+simulated camera uses. Framing, replies and zoom scaling are in
+:mod:`umbra.modules.calib.visca.protocol`.
 
 ==========================  ==================================  ===============================
 command                     controller -> camera                camera -> controller
@@ -29,7 +30,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca import protocol as vp
 
 SONY_VENDOR_ID = 0x0020
 SOCKETS = 2

@@ -17,7 +17,7 @@ Network change                                                  ``y0 38 FF``
 ==========================  ==================================  ===========================
 
 The rest of the FCB command set a controller sends (zoom tele/wide/stop, power, version, cancel)
-and the decoding of controller packets are in :mod:`modules.calib.visca.commands`.
+and the decoding of controller packets are in :mod:`umbra.modules.calib.visca.commands`.
 
 ``x`` is the camera address (1..7), ``y = x + 8`` (so camera 1 answers with ``90``), ``z`` the
 socket number (1 or 2 for commands, 0 for inquiries and interface commands), ``pqrs`` a 16-bit

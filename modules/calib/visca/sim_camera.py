@@ -2,21 +2,21 @@
 
 The simulator owns the master side of a pty (``os.openpty``); a client opens the slave side
 (:attr:`SimFcbCamera.path`, e.g. ``/dev/pts/7``) with pyserial exactly as it would open
-``/dev/ttyUSB0``. It answers the FCB command set of :mod:`modules.calib.visca.commands`: address
-set, IF_Clear (broadcast: echoed; addressed: ``y0 50 FF``, stops the lens and empties the command
-buffer), command cancel, power on/off and CAM_PowerInq, CAM_VersionInq, zoom tele/wide at the
-standard and the eight variable speeds, zoom stop, zoom direct and CAM_ZoomPosInq. What each
+``/dev/ttyUSB0``. It answers the FCB command set of :mod:`umbra.modules.calib.visca.commands`:
+address set, IF_Clear (broadcast: echoed; addressed: ``y0 50 FF``, stops the lens and empties the
+command buffer), command cancel, power on/off and CAM_PowerInq, CAM_VersionInq, zoom tele/wide at
+the standard and the eight variable speeds, zoom stop, zoom direct and CAM_ZoomPosInq. What each
 command does to sockets, power and lens, and which error it gets, is
-:mod:`modules.calib.visca.sim_logic`; how fast the lens moves is
-:mod:`modules.calib.visca.zoom_motion` (zoom direct: ``full_range_s`` wide to tele, 2.4 s by
+:mod:`umbra.modules.calib.visca.sim_logic`; how fast the lens moves is
+:mod:`umbra.modules.calib.visca.zoom_motion` (zoom direct: ``full_range_s`` wide to tele, 2.4 s by
 default).
 
 Like the camera, the simulator executes at most one packet per video field (``v_cycle_s``, 1/60 s)
 and holds two packets waiting; a third that arrives meanwhile is answered "command buffer full"
 (``y0 60 03 FF``) at once. Replies leave after ``reply_delay_s`` plus their time on a 9600 baud
 line. Faults can be injected at any time (:meth:`SimFcbCamera.inject`): garbled replies, silence,
-or an error reply to every request. Run ``python -m modules.calib.visca.sim_camera`` to serve one
-on its own; it prints the pty path.
+or an error reply to every request. Run ``python -m umbra.modules.calib.visca.sim_camera`` to serve
+one on its own; it prints the pty path.
 """
 
 from __future__ import annotations
@@ -34,10 +34,10 @@ import tty
 from collections import deque
 from dataclasses import dataclass
 
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.sim_logic import FcbLogic
-from modules.calib.visca.zoom_motion import ZoomSpeeds
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.sim_logic import FcbLogic
+from umbra.modules.calib.visca.zoom_motion import ZoomSpeeds
 
 BUFFERED_PACKETS = 2
 """Packets a camera holds waiting for execution; one more is refused as "buffer full"."""
@@ -68,8 +68,8 @@ class SimFcbCamera:
     ``address`` is the camera's address until an address set arrives. ``full_range_s`` [s] is the
     zoom-direct travel time from raw 0 to ``max_raw`` (default the optical tele end, 0x4000);
     commands beyond ``max_raw`` stop there (digital zoom off). ``speeds`` overrides the travel
-    times of every speed (default: the model of :mod:`~modules.calib.visca.zoom_motion` scaled to
-    ``full_range_s``). ``power_on_s`` [s]: how long power-on runs before its completion;
+    times of every speed (default: the model of :mod:`~umbra.modules.calib.visca.zoom_motion` scaled
+    to ``full_range_s``). ``power_on_s`` [s]: how long power-on runs before its completion;
     ``v_cycle_s`` [s]: one packet executed per cycle. ``seed`` makes the garbling reproducible.
     """
 
@@ -322,7 +322,7 @@ class SimFcbCamera:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m modules.calib.visca.sim_camera",
+        prog="python -m umbra.modules.calib.visca.sim_camera",
         description="Serve a simulated Sony FCB zoom camera (VISCA) on a pseudo-terminal.",
     )
     parser.add_argument("--full-range-s", type=float, default=2.4, help="wide to tele time [s]")

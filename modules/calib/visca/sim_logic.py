@@ -3,7 +3,7 @@
 Pure state, no I/O and no threads: :class:`FcbLogic` takes decoded commands with the time they are
 executed and returns the reply packets; :meth:`FcbLogic.due` returns the completions that fall due
 (a zoom direct arriving, power-on finished). Times are ``time.monotonic()`` seconds. The wire,
-the command buffer and injected faults are :mod:`modules.calib.visca.sim_camera`'s.
+the command buffer and injected faults are :mod:`umbra.modules.calib.visca.sim_camera`'s.
 
 Sockets: a command that runs on after its ACK (zoom direct until the lens arrives, power on while
 the camera starts) holds socket 1 or 2 until its completion. Zoom tele/wide/stop and power off
@@ -19,9 +19,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from modules.calib.visca import commands as vc
-from modules.calib.visca import protocol as vp
-from modules.calib.visca.zoom_motion import Motion, ZoomSpeeds
+from umbra.modules.calib.visca import commands as vc
+from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.zoom_motion import Motion, ZoomSpeeds
 
 
 @dataclass

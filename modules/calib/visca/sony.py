@@ -19,11 +19,11 @@ from typing import Any, Literal
 
 from pydantic import field_validator
 
-from connectors import Input, Module, Output, Parameters, param
-from connectors.messages import Scalar, ZoomState
-from modules.calib.visca.client import ViscaSettings, ViscaZoomClient, ZoomReading
-from modules.calib.visca.commands import MAX_ZOOM_SPEED, ZoomDirection
-from modules.calib.visca.sim_camera import Fault, SimFcbCamera
+from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.messages import Scalar, ZoomState
+from umbra.modules.calib.visca.client import ViscaSettings, ViscaZoomClient, ZoomReading
+from umbra.modules.calib.visca.commands import MAX_ZOOM_SPEED, ZoomDirection
+from umbra.modules.calib.visca.sim_camera import Fault, SimFcbCamera
 
 #: A serial device the module may open: an absolute device path (``/dev/ttyUSB0``,
 #: ``/dev/serial/by-id/usb-FTDI_...-if00-port0``) or a Windows ``COM3``; no spaces, no shell or

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from modules.calib.visca.commands import MAX_ZOOM_SPEED
+from umbra.modules.calib.visca.commands import MAX_ZOOM_SPEED
 
 STANDARD_SPEED = 3
 """Variable speed that the standard-speed tele/wide commands (``02``/``03``) move at (model)."""
