@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, from_param, param
+from umbra.connectors.access.secret import resolve_token
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.sketch.messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
@@ -20,7 +21,6 @@ from umbra.modules.view3d.scene_file import Scene, load_scene
 from umbra.modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
 from umbra.modules.view3d.view3d_push import CAMERAS, ViewPush
 from umbra.modules.view3d.viewer import ViewerPage
-from umbra.modules.webdoor.secret import resolve_token
 
 
 class View3DParams(ArmParams):

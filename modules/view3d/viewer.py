@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import viser
 
+from umbra.connectors.access.secret import TOKEN_QUERY
 from umbra.modules.view3d.geometry import (
     Frustum,
     Mesh,
@@ -44,7 +45,6 @@ from umbra.modules.view3d.viewer_video import (
     video_rgba,
 )
 from umbra.modules.view3d.viser_door import guard_viser
-from umbra.modules.webdoor.secret import TOKEN_QUERY
 
 
 @dataclass

@@ -21,9 +21,9 @@ from websockets.asyncio.server import Server, ServerConnection
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
 
+from umbra.connectors.access.hosts import allowed_hosts
+from umbra.connectors.access.secret import TOKEN_COOKIE, TOKEN_QUERY
 from umbra.modules.webdoor.gate import Gate
-from umbra.modules.webdoor.hosts import allowed_hosts
-from umbra.modules.webdoor.secret import TOKEN_COOKIE, TOKEN_QUERY
 
 
 class ViserDoor:
