@@ -38,7 +38,7 @@ DOMAIN_ARROWS: dict[str, set[str]] = {
     "trajectory": {"arm", "geometry"},
     "vision": {"arm", "calib", "geometry", "servo"},
     "world": {"arm", "geometry", "servo"},
-    "view3d": {"arm", "calib", "geometry"},
+    "view3d": {"arm", "calib", "geometry", "webdoor"},
     "operator": {"arm", "geometry", "servo", "vision", "webdoor"},
     "sketch": {"arm", "calib", "geometry", "ptu", "trajectory", "vision", "world"},
     "sketch_page": {"geometry", "operator", "sketch", "trajectory", "webdoor"},

@@ -14,7 +14,7 @@ import pytest
 
 from benchmarks.bench_page_flood import attempts
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]
 
 
 def test_the_abort_stops_the_arm_under_a_junk_flood(tmp_path: Path) -> None:

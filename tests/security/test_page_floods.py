@@ -33,6 +33,7 @@ def _aborts(rig, page: Page) -> list[float]:
 
 
 @pytest.mark.slow
+@pytest.mark.heavy
 def test_the_holders_abort_lands_under_every_flood() -> None:
     with console_rig() as rig:
         page = rig.operator()
@@ -67,6 +68,7 @@ def test_the_holders_abort_lands_under_every_flood() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.heavy
 def test_a_holders_page_closed_mid_flood_gives_control_back() -> None:
     with console_rig() as rig:
         page = rig.operator()

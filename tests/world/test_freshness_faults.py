@@ -34,6 +34,7 @@ def _safe(result: TrialResult) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.heavy
 @pytest.mark.timeout(600)
 def test_frames_of_the_past_stop_the_arm_however_fresh_the_commands(
     graph: TrialGraph, tmp_path: Path
@@ -49,6 +50,7 @@ def test_frames_of_the_past_stop_the_arm_however_fresh_the_commands(
 
 
 @pytest.mark.slow
+@pytest.mark.heavy
 @pytest.mark.timeout(600)
 def test_a_stopped_and_continued_vision_process_never_moves_the_arm_on_what_it_saw_before(
     graph: TrialGraph, tmp_path: Path
@@ -62,6 +64,7 @@ def test_a_stopped_and_continued_vision_process_never_moves_the_arm_on_what_it_s
 
 
 @pytest.mark.slow
+@pytest.mark.heavy
 @pytest.mark.timeout(600)
 def test_an_overloaded_machine_with_the_page_open_grasps_or_stops(
     graph: TrialGraph, tmp_path: Path

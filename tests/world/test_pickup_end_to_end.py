@@ -65,6 +65,7 @@ def test_killing_the_vision_process_stops_the_servo_side_within_its_watchdog(
 
 
 @pytest.mark.slow  # two sim pick-ups in a subprocess: 27 s quiet, ~2 min at load 10
+@pytest.mark.heavy
 @pytest.mark.timeout(330)
 def test_trials_command_json(tmp_path: Path) -> None:
     proc = subprocess.run(
