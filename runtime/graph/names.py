@@ -9,6 +9,8 @@ from __future__ import annotations
 import ipaddress
 import re
 
+from umbra.connectors.access.secret import is_loopback
+
 #: Longest graph, process or module name [characters].
 MAX_NAME_CHARS = 64
 #: Longest zenoh key prefix [characters].
@@ -78,16 +80,6 @@ def endpoint_host(endpoint: str) -> tuple[str, str]:
     if address.startswith("["):  # [v6]:port
         return protocol, address[1 : address.find("]")]
     return protocol, address.rsplit(":", 1)[0]
-
-
-def is_loopback(host: str) -> bool:
-    """Whether ``host`` names this host only."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False  # a host name: it may resolve anywhere
 
 
 def plain_beyond_host(endpoint: str) -> bool:
