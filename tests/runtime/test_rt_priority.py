@@ -159,3 +159,45 @@ def test_a_host_that_refuses_runs_anyway_and_says_why() -> None:
     assert summary["reason"].startswith("cannot set SCHED_FIFO")
     assert policy == os.SCHED_OTHER  # nothing half-moved
     assert "realtime_priority 10 not held" in proc.stderr
+
+
+@needs_root
+def test_helpers_that_ask_for_the_background_keep_the_loops_class_in_a_realtime_process() -> None:
+    """A recorder's writer shares the loop's GIL: in the background behind other work it would
+    stall the loop whenever it holds the GIL (bench_record: servo lateness p50 5 ms). So one that
+    asked for the background before the process went real-time is moved with it, and one started
+    meanwhile keeps SCHED_FIFO when it asks."""
+    from umbra.connectors.threads import background
+
+    asked = threading.Event()
+    stop = threading.Event()
+
+    def writer() -> None:  # a recorder's writer, started before the loop
+        background(10)
+        asked.set()
+        stop.wait(5)
+
+    early = threading.Thread(target=writer, daemon=True)
+    early.start()
+    asked.wait(5)
+    assert (
+        os.sched_getscheduler(early.native_id) == os.SCHED_BATCH
+    )  # no real-time yet: it gives way
+    priority = RealtimePriority(5)
+    priority.acquire()
+    try:
+        assert os.sched_getscheduler(early.native_id) == os.SCHED_FIFO
+        late: list[int] = []
+
+        def late_writer() -> None:
+            background(10)
+            late.append(os.sched_getscheduler(0))
+
+        thread = threading.Thread(target=late_writer)
+        thread.start()
+        thread.join()
+        assert late == [os.SCHED_FIFO]
+    finally:
+        priority.release()
+        stop.set()
+        early.join()
