@@ -21,16 +21,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import sys
 from typing import Any
 
 from umbra.connectors.threads import BACKGROUND_POLICIES, background
 
 __all__ = ["BACKGROUND_POLICIES", "RealtimePriority", "background", "priority_for"]
 
-#: The GIL switch interval of a real-time process [s]: the longest a helper thread running
-#: Python keeps the loop waiting for the GIL (``sys.setswitchinterval``).
-GIL_SWITCH_INTERVAL_S = 0.0005
 #: The priorities ``SCHED_FIFO`` takes on Linux (higher runs first).
 MIN_PRIORITY = 1
 MAX_PRIORITY = 99
@@ -68,7 +64,6 @@ class RealtimePriority:
         self.reason = unneeded
         self._log = log or logging.getLogger("umbra")
         self._before: dict[int, tuple[int, int]] = {}  # thread -> its policy and priority
-        self._switch_before = sys.getswitchinterval()  # [s]
 
     def acquire(self) -> None:
         """Put every thread of the process under ``SCHED_FIFO`` (all or none)."""
@@ -79,8 +74,8 @@ class RealtimePriority:
             for tid in _threads():
                 try:
                     before = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
-                    # a helper that asked for the background (a recorder) comes too: it shares
-                    # the loop's GIL (connectors/threads.py)
+                    if before[0] in BACKGROUND_POLICIES:
+                        continue  # it asked for the background (a recorder): it stays there
                     os.sched_setscheduler(tid, os.SCHED_FIFO, param)
                 except ProcessLookupError:
                     continue  # the thread ended meanwhile
@@ -96,10 +91,6 @@ class RealtimePriority:
             )
             return
         self.held = True
-        # a helper holding the GIL gives it up within this when the loop waits for it
-        # (CPython's default is 5 ms, half a servo period)
-        self._switch_before = sys.getswitchinterval()
-        sys.setswitchinterval(min(self._switch_before, GIL_SWITCH_INTERVAL_S))
         self._log.info(
             "running %d threads under SCHED_FIFO priority %d", len(self._before), self.priority
         )
@@ -109,7 +100,6 @@ class RealtimePriority:
         (they inherited the real-time policy) to the default one."""
         if not self._before:
             return
-        sys.setswitchinterval(self._switch_before)
         for tid in {*self._before, *_threads()}:
             policy, priority = self._before.get(tid, (os.SCHED_OTHER, 0))
             try:
