@@ -144,6 +144,9 @@ def test_a_split_pickup_is_served_from_every_process_it_runs(client: Path, tmp_p
     assert {"/camera/image", "/camera/truth/annotations"} <= seen
     assert {"/joints/joint_state", "/kinematics/link_poses", "/register/twist"} <= seen
     assert "/console/presence" in report["channels"]
-    assert topics["/joints/joint_state"]["count"] > 100  # 100 Hz from the servo side
+    # a stream from the servo side (100 Hz there): the live server sends the newest sample and
+    # drops the rest when it falls behind, so a loaded machine delivers fewer than 600 in 6 s
+    # (15 a second measured under a browser test's load; the rate is bench_live's figure)
+    assert topics["/joints/joint_state"]["count"] >= 20
     joints = topics["/joints/joint_state"]["first"]["joints"]
     assert [j["name"] for j in joints][-1] == "gripper"

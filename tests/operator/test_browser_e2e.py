@@ -144,7 +144,11 @@ class Operator:
             return stage  # hidden, or still changing
         if page.is_visible("#assist-hide"):
             page.click("#assist-hide")
-        _click_patch(page)
+        try:
+            _click_patch(page)
+        except AssertionError:  # every click refused as stale (a loaded machine): look again
+            self.counts.clear()
+            return stage
         page.wait_for_timeout(600)
         if page.evaluate("window.umbra.state.overlay?.status") == "tracking":
             page.click("#commands button[data-action=resume]")
