@@ -77,9 +77,13 @@ def _client(connection: ServerConnection) -> str:
 def guard_viser(port: int, token: str, host: str) -> ViserDoor:
     """Put a :class:`ViserDoor` in front of the started viser server listening on ``port``
     (found among the live ``websockets`` servers of this process). Call it right after the
-    ``ViserServer`` is made, before its address is given to anyone."""
+    ``ViserServer`` is made, before its address is given to anyone.
+
+    The live objects are told apart by ``type()``, never ``isinstance``: that asks an object for
+    its ``__class__``, and some objects of other libraries raise on any attribute (canopen's
+    placeholder network does)."""
     for obj in gc.get_objects():
-        if isinstance(obj, Server) and any(
+        if issubclass(type(obj), Server) and any(
             sock.getsockname()[1] == port for sock in obj.server.sockets or ()
         ):
             door = ViserDoor(token, host, port, obj.process_request)

@@ -59,3 +59,20 @@ def test_the_3d_view_refuses_requests_and_sockets_without_the_token(tmp_path: Pa
         summary = h.module.summary()
         assert summary["refused_requests"] >= 7
         assert TOKEN not in json.dumps(summary)  # summaries are files
+
+
+class _RaisesOnEveryAttribute:
+    """Like canopen's placeholder network: any attribute, ``__class__`` too, raises."""
+
+    def __getattribute__(self, name: str) -> object:
+        raise RuntimeError("no attribute of me may be read")
+
+
+def test_the_door_is_put_up_beside_objects_that_raise_on_any_attribute(tmp_path: Path) -> None:
+    # the door finds viser's server among the live objects; one that refuses to say its class
+    # (canopen's, after any canopen test in the same worker) once broke the 3-D view's start
+    hostile = [_RaisesOnEveryAttribute() for _ in range(3)]
+    with ModuleHarness(View3D, {"port": 0}, frames=FRAMES, output_dir=tmp_path) as h:
+        base = h.module.address.split("?")[0]
+        assert httpx.get(base).status_code == 403
+    assert len(hostile) == 3
