@@ -36,7 +36,9 @@ from umbra.modules.operator.jog_labels import jog_labels
 from umbra.modules.operator.mailbox import Lanes
 from umbra.modules.operator.message_board import MessageBoard
 from umbra.modules.operator.plain_words import plain_reason
+from umbra.modules.operator.sketch_scene import SketchItems
 from umbra.modules.operator.web_figures import cpu_figures, web_figures
+from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from umbra.modules.vision.sanity import SanityLimits
 
 if TYPE_CHECKING:  # the web side is imported only when the console serves (not in batch trials)
@@ -95,7 +97,11 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
             [], "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2)"
         )
         view_fov_deg: float = param(
-            77.3, "3-D panel: the wrist camera's horizontal field of view", unit="deg", gt=1, lt=179
+            77.3,
+            "3-D panel: the camera's horizontal field of view",
+            unit="deg",
+            gt=1,
+            lt=179,
         )
         patch_size_m: list[float] = param(
             [0.06, 0.04], "3-D panel: the patch's sides drawn at patch_pose", unit="m"
@@ -117,6 +123,12 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
     )
     patch_pose = Input(
         Pose, required=False, feedback=True, doc="3-D panel: the tool's patch (T_table_patch)"
+    )
+    snapshot = Input(StereoSnapshot, required=False, doc="3-D panel: Active Sketch's snapshots")
+    primitive = Input(SketchPrimitive, required=False, doc="3-D panel: placed primitives")
+    path = Input(ToolPath, required=False, doc="3-D panel: the path loaded into the player")
+    vcr_state = Input(
+        VcrState, required=False, feedback=True, doc="3-D panel: the player's place on the path"
     )
     sim_seed = Input(Vector, required=False, doc="the simulated operator's click")
     zoom_auto = Input(
@@ -172,6 +184,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self.lanes: Lanes[Event] = Lanes()
         self._logged_refusal: dict[str, tuple[float, int]] = {}  #: session -> (wall, count)
         self.board = MessageBoard()
+        self.sketch_items = SketchItems()  #: Active Sketch's items for the 3-D panel
         self._phase_ended = False  #: set by stop(): the page shows the run's end
         self._jogging = False
         self._keepalive = False  #: a held jog's keep-alive arrived since the last step
@@ -249,6 +262,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._last_now = now
         wall = time.monotonic()
         self._video(now)
+        self._sketch_items(now)
         for event in self.lanes.drain():
             self._handle(event, now)
         self.lanes.set_holders(frozenset(s for s in self.arbiter.sessions if self.arbiter.holds(s)))
@@ -279,6 +293,15 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
             self._app.frames.put(
                 self._app.raw_frame(pixels, image.seq, time.time(), now - image.stamp)
             )
+
+    def _sketch_items(self, now: float) -> None:
+        items = self.sketch_items
+        if self.snapshot.fresh and (snap := self.snapshot.get(now)) is not None:
+            items.add_snapshot(snap)
+        if self.primitive.fresh and (prim := self.primitive.get(now)) is not None:
+            items.add_primitive(prim)
+        if self.path.fresh and (path := self.path.get(now)) is not None:
+            items.path = path
 
     # -- periodic -----------------------------------------------------------------------------
     def _jog_step(self, wall: float) -> None:

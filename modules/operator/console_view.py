@@ -119,7 +119,7 @@ class ConsoleView:
             r.get(now) for r in (self.link_poses, self.camera_pose, self.patch_pose)
         )
         base = links.frame if links is not None else ""
-        return scene_view(
+        scene = scene_view(
             links,
             camera,
             patch,
@@ -129,6 +129,11 @@ class ConsoleView:
             aspect,
             (p.patch_size_m[0], p.patch_size_m[1]),
         )
+        if scene is not None and self.sketch_items:
+            scene["sketch"] = self.sketch_items.view(
+                lambda frame: self._static_pose(base, frame), self.vcr_state.get(now)
+            )
+        return scene
 
     def _static_pose(self, parent: str, child: str) -> Any:
         """T_parent_child from the graph's static frames, looked up once (None: not tied)."""

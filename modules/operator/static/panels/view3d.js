@@ -1,5 +1,7 @@
 // 3-D panel (three.js, vendored): the arm's link frames as a chain, the wrist camera's frustum
-// with the live video on it, the tool's patch, each frame's name and the task's stage; drag to
+// with the live video on it, the tool's patch, Active Sketch's items (the snapshots' frusta, the
+// placed primitives, the path being played and the arm's place on it), each frame's name and the
+// task's stage; drag to
 // orbit, wheel to zoom. "view from" switches between that overview and the view from the
 // graph's camera pose (its field of view; offered only when the graph has a camera). Drawn only while the panel is shown, at most 5 times a second (a
 // software-rendered WebGL must not take the live video's frames). three.js is loaded the first
@@ -29,7 +31,8 @@ function make() {
   const chain = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0x66ccff }));
   const frames = new THREE.Group(), camera = new THREE.Group(), patch = new THREE.Group();
   for (const g of [camera, patch]) g.matrixAutoUpdate = false;
-  scene.add(chain, frames, camera, patch);
+  const sketch = new THREE.Group();
+  scene.add(chain, frames, camera, patch, sketch);
   // the frustum's lines, and the live image on its far plane (drawn from the video canvas)
   const lines = new THREE.BufferGeometry();  // 8 segments, updated in place at each draw
   lines.setAttribute("position", new THREE.Float32BufferAttribute(new Float32Array(48), 3));
@@ -42,7 +45,7 @@ function make() {
   // the view from the graph's camera: its pose (z forward, y down) turned to three.js's (-z, y up)
   const lens = new THREE.PerspectiveCamera(60, 1, 0.005, 20);
   lens.matrixAutoUpdate = false;
-  return { renderer, scene, eye, lens, controls, chain, frames, camera, patch, video: null, size: "", screen, painted: -1, last: 0 };
+  return { renderer, scene, eye, lens, controls, chain, frames, camera, patch, sketch, sketchKey: "", video: null, size: "", screen, painted: -1, last: 0 };
 }
 
 function videoTexture() {  // the live image as a texture, made again when the image's size changes
@@ -68,13 +71,79 @@ function videoTexture() {  // the live image as a texture, made again when the i
   }
 }
 
+// names of frames and items; a name that would cover one already placed moves down a line
+const LINE_PX = 14;
 function label(text, where) {
   const p = where.clone().project(view.active), w = box.clientWidth, h = box.clientHeight;
   if (p.z > 1) return;
+  const x = (p.x + 1) / 2 * w, width = 7 * text.length;
+  let y = (1 - p.y) / 2 * h;
+  while (view.placed.some((r) => Math.abs(r.y - y) < LINE_PX && x < r.x + r.width && r.x < x + width)) y += LINE_PX;
+  view.placed.push({ x, y, width });
   const div = document.createElement("div");
   div.className = "frame-name"; div.textContent = text;
-  div.style.left = `${((p.x + 1) / 2 * w).toFixed(0)}px`; div.style.top = `${((1 - p.y) / 2 * h).toFixed(0)}px`;
+  div.style.left = `${x.toFixed(0)}px`; div.style.top = `${y.toFixed(0)}px`;
   $("view3d-labels").append(div);
+}
+
+function segments(points, color) {  // a LineSegments from flat [x, y, z, x, y, z, ...] in base
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute("position", new THREE.Float32BufferAttribute(points, 3));
+  return new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color }));
+}
+
+const SNAPSHOT_DEPTH_M = 0.12;  // how far out a snapshot's frustum is drawn
+function buildSketch(k) {  // Active Sketch's items, made again only when they change
+  const g = view.sketch;
+  g.children.forEach((o) => { o.geometry.dispose(); o.material.dispose(); });
+  g.clear();
+  for (const snap of k.snapshots) snap.cameras.forEach((c, i) => {
+    const d = SNAPSHOT_DEPTH_M, x = d * c.tan_half_fov_x, y = x / c.aspect;
+    const corners = [[x, y, d], [-x, y, d], [-x, -y, d], [x, -y, d]], seg = [];
+    corners.forEach((p, j) => seg.push(0, 0, 0, ...p, ...p, ...corners[(j + 1) % 4]));
+    const f = segments(seg, 0xff8c00);
+    f.matrixAutoUpdate = false; f.matrix.copy(matrix(c.T));
+    f.userData.label = i === 0 ? `snapshot ${snap.id}` : "";
+    g.add(f);
+  });
+  for (const p of k.primitives) {
+    const seg = [];
+    if (p.edges.length) p.edges.forEach(([a, b]) => seg.push(...p.points[a], ...p.points[b]));
+    else p.points.forEach(([x, y, z]) => seg.push(x - 0.01, y, z, x + 0.01, y, z, x, y - 0.01, z, x, y + 0.01, z));
+    const line = segments(seg, 0xff44ff);
+    line.userData.label = `${p.kind} ${p.id}`; line.userData.at = p.points[0];
+    g.add(line);
+  }
+  if (k.path) {
+    const points = k.path.points.map((q) => new THREE.Vector3(...q));
+    const all = new THREE.Line(new THREE.BufferGeometry().setFromPoints(points), new THREE.LineBasicMaterial({ color: 0xbbbbbb }));
+    const played = new THREE.Line(new THREE.BufferGeometry().setFromPoints(points), new THREE.LineBasicMaterial({ color: 0x33dd55 }));
+    all.userData.label = `path ${k.path.macro}`; all.userData.at = k.path.points[0];
+    played.name = "played";
+    const marker = new THREE.Mesh(new THREE.SphereGeometry(0.012, 12, 8), new THREE.MeshBasicMaterial({ color: 0x33dd55 }));
+    marker.name = "marker";
+    g.add(all, played, marker);
+  }
+}
+
+function drawSketch(k) {
+  if (!k) { view.sketch.visible = false; return null; }
+  view.sketch.visible = true;
+  const key = JSON.stringify([k.snapshots, k.primitives, k.path && [k.path.id, k.path.points]]);
+  if (key !== view.sketchKey) { view.sketchKey = key; buildSketch(k); }
+  for (const o of view.sketch.children) {
+    if (!o.userData.label) continue;
+    const at = o.userData.at ? new THREE.Vector3(...o.userData.at) : new THREE.Vector3().setFromMatrixPosition(o.matrix);
+    label(o.userData.label, at);
+  }
+  const played = view.sketch.getObjectByName("played"), marker = view.sketch.getObjectByName("marker");
+  const path = k.path, n = path ? path.points.length : 0;
+  if (played) played.geometry.setDrawRange(0, path.progress === null ? 0 : 1 + Math.round(path.progress * (n - 1)));
+  if (marker) {
+    marker.visible = !!(path && path.at);
+    if (marker.visible) { marker.position.set(...path.at); label(`${path.mode} ${Math.round(path.progress * 100)} %`, marker.position); }
+  }
+  return { snapshots: k.snapshots.length, primitives: k.primitives.length, path: n, at: path ? path.at : null, progress: path ? path.progress : null };
 }
 
 function draw() {
@@ -88,7 +157,7 @@ function draw() {
   view.active = fromCamera ? view.lens : view.eye;
   view.controls.enabled = !fromCamera;
   $("view3d-hint").hidden = fromCamera;
-  $("view3d-labels").innerHTML = "";
+  $("view3d-labels").innerHTML = ""; view.placed = [];
   const points = [new THREE.Vector3(0, 0, 0)];
   s.links.forEach((l, i) => {  // one triad per link frame, made once and moved after
     const T = matrix(l.T);
@@ -137,11 +206,13 @@ function draw() {
     view.patch.children[0].scale.set(s.patch.size[0], s.patch.size[1], 1);
     label(s.patch.name, new THREE.Vector3().setFromMatrixPosition(view.patch.matrix));
   }
+  const sketch = drawSketch(s.sketch);
   $("view3d-stage").textContent = `stage: ${umbra.state.line.stage} · ${umbra.state.line.doing}`;
   view.renderer.render(view.scene, view.active);
   const at = new THREE.Vector3().setFromMatrixPosition(view.active.matrixWorld);
   umbra.view3d = { drawn: (umbra.view3d ? umbra.view3d.drawn : 0) + 1, links: s.links.length,
-    from: fromCamera ? "camera" : "overview", eye: at.toArray() };
+    from: fromCamera ? "camera" : "overview", eye: at.toArray(), sketch,
+    labels: $("view3d-labels").children.length };
 }
 
 // "view from": the overview, and the graph's camera when it has one (no camera it lacks)
