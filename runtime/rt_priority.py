@@ -21,11 +21,16 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import sys
 from typing import Any
 
-from umbra.connectors.threads import BACKGROUND_POLICIES, background
+from umbra.connectors.threads import BACKGROUND_POLICIES, background, lowered
 
-__all__ = ["BACKGROUND_POLICIES", "RealtimePriority", "background", "priority_for"]
+__all__ = ["BACKGROUND_POLICIES", "RealtimePriority", "background", "lowered", "priority_for"]
+
+#: Longest a thread holds the GIL while another waits for it, in a real-time process [s]
+#: (Python's default is 5 ms: a whole servo period at 200 Hz).
+GIL_SWITCH_S = 0.0005
 
 #: The priorities ``SCHED_FIFO`` takes on Linux (higher runs first).
 MIN_PRIORITY = 1
@@ -64,6 +69,7 @@ class RealtimePriority:
         self.reason = unneeded
         self._log = log or logging.getLogger("umbra")
         self._before: dict[int, tuple[int, int]] = {}  # thread -> its policy and priority
+        self._switch_before: float | None = None  #: the GIL switch interval before [s]
 
     def acquire(self) -> None:
         """Put every thread of the process under ``SCHED_FIFO`` (all or none)."""
@@ -91,6 +97,10 @@ class RealtimePriority:
             )
             return
         self.held = True
+        # a thread beside the loop (a recording's writer) holds the GIL at most this long while
+        # the loop waits for it; it runs under SCHED_FIFO too, so it is never off the CPU then
+        self._switch_before = sys.getswitchinterval()
+        sys.setswitchinterval(GIL_SWITCH_S)
         self._log.info(
             "running %d threads under SCHED_FIFO priority %d", len(self._before), self.priority
         )
@@ -98,6 +108,9 @@ class RealtimePriority:
     def release(self) -> None:
         """Every thread that was moved back to the policy it had; threads started meanwhile
         (they inherited the real-time policy) to the default one."""
+        if self._switch_before is not None:
+            sys.setswitchinterval(self._switch_before)
+            self._switch_before = None
         if not self._before:
             return
         for tid in {*self._before, *_threads()}:

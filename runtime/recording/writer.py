@@ -8,7 +8,9 @@ holds a tick back; on the sim clock time is virtual, so the tick waits for room 
 recording is complete.
 
 The recorder's thread runs at a lower CPU priority (nice ``WRITER_NICE``), so the loop's thread
-gets the CPU first when it wakes. The file is chunked (LZ4, or uncompressed with ``compress=False``:
+gets the CPU first when it wakes; in a real-time process it follows the loop into ``SCHED_FIFO``
+(:func:`umbra.connectors.threads.lowered`: it holds the GIL too often to wait for a CPU). The
+file is chunked (LZ4, or uncompressed with ``compress=False``:
 raw camera pixels do not compress, LZ4 only costs time on both sides) and
 flushed at least every ``flush_period`` seconds of wall time, so a
 run that is killed leaves a file whose complete chunks read back
@@ -41,7 +43,7 @@ from umbra.connectors.errors import UserError
 from umbra.connectors.messages import CameraModel, Image, Message, Pose, Poses
 from umbra.runtime.recording.encoders import ChannelEncoding, channel_encodings
 from umbra.runtime.recording.foxglove_msgs import frame_transforms, time_ns, view_frames
-from umbra.runtime.rt_priority import background
+from umbra.runtime.rt_priority import lowered
 
 #: Channel metadata keys (strings), read by record-info and replay.
 META_TYPE = "umbra.type"
@@ -284,7 +286,7 @@ class RecordingFile:
             self._static(item[1], item[2])
 
     def _run(self) -> None:
-        background(WRITER_NICE)  # under starvation the recorder gives way, never the loop
+        lowered(WRITER_NICE)  # the recorder gives way, and never keeps the GIL from the loop
         last_flush = time.monotonic()
         dirty = False
         while True:
