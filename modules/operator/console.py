@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from umbra.connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from umbra.connectors import Input, Module, Output, UserError, from_param
 from umbra.connectors.access.secret import resolve_token
 from umbra.connectors.messages import (
     Contour,
@@ -28,6 +28,7 @@ from umbra.modules.arm.arm_params import load_arm
 from umbra.modules.operator import view_state
 from umbra.modules.operator.actions import FrameHistory, ShownFrame
 from umbra.modules.operator.console_events import ConsoleEvents
+from umbra.modules.operator.console_params import ConsoleParams
 from umbra.modules.operator.console_view import ConsoleView
 from umbra.modules.operator.control import ControlArbiter
 from umbra.modules.operator.cpu import process_cpu_s
@@ -71,43 +72,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
 
     TYPE = "OperatorConsole"
 
-    class Params(Parameters):
-        serve: bool = param(True, "serve the page (false: no web server, for batch trials)")
-        host: str = param("127.0.0.1", "address to listen on (the access token is always needed)")
-        port: int = param(0, "TCP port (0: a free one, printed at start)", ge=0, le=65535)
-        token_file: str = param("", "file whose first line is the access token (else a random one)")
-        stale_page_s: float = param(
-            0.5, "actions on an image older than this are refused", unit="s", gt=0
-        )
-        max_contour_age: float = param(
-            0.5, "resume/start need a contour at most this old", unit="s", gt=0
-        )
-        deadman_s: float = param(
-            0.15, "jog stops when no keep-alive came this long", unit="s", gt=0, le=1.0
-        )
-        jog_linear: float = param(0.02, "full-speed jog, linear", unit="m/s", gt=0, le=0.25)
-        jog_angular: float = param(0.2, "full-speed jog, roll", unit="rad/s", gt=0, le=1.0)
-        camera_frame: str = param("camera", "frame of the jog output (REG_VEL's frame)")
-        tool_frame: str = param("tool", "frame of tool-frame jogs")
-        jpeg_quality: int = param(80, "JPEG quality of the video", ge=10, le=100)
-        state_rate_hz: float = param(10.0, "page updates per second", unit="Hz", gt=0, le=60)
-        robot: str = param("puma560", "built-in arm whose joint limits are shown")
-        dh_file: str = param("", "YAML DH table for the joint limits (overrides robot)")
-        zoom_names: list[str] = param(
-            [], "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2)"
-        )
-        view_fov_deg: float = param(
-            77.3,
-            "3-D panel: the camera's horizontal field of view",
-            unit="deg",
-            gt=1,
-            lt=179,
-        )
-        patch_size_m: list[float] = param(
-            [0.06, 0.04], "3-D panel: the patch's sides drawn at patch_pose", unit="m"
-        )
-        rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
-        ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
+    Params = ConsoleParams
 
     image = Input(Image, trigger=True, doc="camera frames (BGR)")
     contour = Input(Contour, required=False, doc="snake contour, drawn over the image")

@@ -414,6 +414,8 @@ def test_the_station_through_a_whole_run_at_1280x800_and_1920x1080(tmp_path: Pat
                 page.wait_for_function("window.umbra.ended", timeout=10000)
                 assert "grasped" in page.inner_text("#ended"), page.inner_text("#ended")
                 assert page.is_disabled("#commands button[data-action=abort]")
+            viewer.wait_for_timeout(300)
+            viewer.screenshot(path=str(images / "station-ended.png"))
         assert code == 0, run.text()[-3000:]
     finally:
         run.kill()
