@@ -37,7 +37,14 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.common import POLICIES, start_graph, table, write_results
+from benchmarks.common import (
+    POLICIES,
+    SIM_ARM_SMART,
+    SIM_ARM_SMART_WIRES,
+    start_graph,
+    table,
+    write_results,
+)
 from benchmarks.station_page import watch_station
 from tests.browser import CHROMIUM
 from umbra.runtime.cli.cmd_bench import missed_goals
@@ -65,19 +72,7 @@ modules:
     rate: 30
     params: {{source: "{video}", at_end: loop}}
   console: {{type: OperatorConsole, process: umbra, rate: 100}}
-  command:
-    type: TwistSource
-    process: smart
-    rate: 100
-    params: {{twist: [0.001, 0, 0, 0, 0, 0]}}
-  register: {{type: REG_VEL, process: smart, rate: 100, params: {{timeout: 0.1}}}}
-  rotate: {{type: ROTATE_KIN, process: smart}}
-  kinematics: {{type: WOLVERINE_KIN, process: smart, params: {{tool_xyz: [0, 0, 0.14]}}}}
-  joints:
-    type: WOLVERINE_JNTS
-    process: smart
-    rate: 100
-    params: {{backend: sim, initial_q_deg: [14.482, 45.603, -182.743, 0.0, -42.86, -165.518]}}
+{sim_arm}
   world:
     type: World
     process: smart
@@ -85,11 +80,7 @@ modules:
     params: {{tool_xy_m: [0.63, -0.04], tool_yaw_deg: 20, end_run: false, timeout_s: 600}}
 connections:
   - camera.image -> console.image
-  - command.twist -> register.command
-  - register.twist -> rotate.camera_twist
-  - rotate.tool_twist -> kinematics.tool_twist
-  - kinematics.joint_rates -> joints.rates
-  - joints.joint_state ~> kinematics.joint_state
+{sim_arm_wires}
   - joints.true_joint_state ~> world.joint_state
   - joints.joint_state -> console.joints
   - kinematics.link_poses -> console.link_poses   # the station's 3-D panel: the arm,
@@ -117,13 +108,18 @@ def _video(folder: Path, w: int, h: int, frames: int = 90) -> Path:
     return path
 
 
-#: The servo process's scheduling: as the shipped graphs run it (SCHED_FIFO priority 50, which
-#: needs root), and the default policy, where it shares the CPUs with the browser.
 def _graph(folder: Path, w: int, h: int, policy: str) -> Path:
     path = folder / f"bench_console_{w}x{h}_{policy}.yaml"
     clip = folder / f"clip_{w}x{h}.avi"
     video = clip if clip.exists() else _video(folder, w, h)
-    path.write_text(GRAPH.format(video=video, smart=POLICIES[policy]))
+    path.write_text(
+        GRAPH.format(
+            video=video,
+            smart=POLICIES[policy],
+            sim_arm=SIM_ARM_SMART,
+            sim_arm_wires=SIM_ARM_SMART_WIRES,
+        )
+    )
     return path
 
 

@@ -33,7 +33,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
-from benchmarks.common import POLICIES, start_graph, table, write_results
+from benchmarks.common import (
+    POLICIES,
+    SIM_ARM_SMART,
+    SIM_ARM_SMART_WIRES,
+    start_graph,
+    table,
+    write_results,
+)
 from tests.browser import CHROMIUM, launch
 
 #: a websocket message that carries a video frame names viser's image property
@@ -55,26 +62,10 @@ modules:
     rate: 30
     params: {{source: sim, width: 1280, height: 720, fx: 800, fy: 800, u0: 640, v0: 360,
              noise_sigma: 2.0}}
-  command:
-    type: TwistSource
-    process: smart
-    rate: 100
-    params: {{twist: [0.001, 0, 0, 0, 0, 0]}}
-  register: {{type: REG_VEL, process: smart, rate: 100, params: {{timeout: 0.1}}}}
-  rotate: {{type: ROTATE_KIN, process: smart}}
-  kinematics: {{type: WOLVERINE_KIN, process: smart, params: {{tool_xyz: [0, 0, 0.14]}}}}
-  joints:
-    type: WOLVERINE_JNTS
-    process: smart
-    rate: 100
-    params: {{backend: sim, initial_q_deg: [14.482, 45.603, -182.743, 0.0, -42.86, -165.518]}}
+{sim_arm}
 {view}
 connections:
-  - command.twist -> register.command
-  - register.twist -> rotate.camera_twist
-  - rotate.tool_twist -> kinematics.tool_twist
-  - kinematics.joint_rates -> joints.rates
-  - joints.joint_state ~> kinematics.joint_state
+{sim_arm_wires}
 {wire}
 """
 #: the phases with a page open, and its size (CSS px)
@@ -83,13 +74,15 @@ VIEW = "  view: {type: View3D, process: umbra, rate: 30, params: {port: 0, max_f
 WIRE = "  - camera.image -> view.wrist_image\n  - joints.joint_state -> view.joint_state"
 
 
-#: The servo process's scheduling: as the shipped graphs run it (SCHED_FIFO priority 50, which
-#: needs root), and the default policy, where it shares the CPUs with the browser.
 def _graph(folder: Path, with_view: bool, policy: str) -> Path:
     path = folder / f"bench_view3d_{'view' if with_view else 'none'}_{policy}.yaml"
     path.write_text(
         GRAPH.format(
-            view=VIEW if with_view else "", wire=WIRE if with_view else "", smart=POLICIES[policy]
+            view=VIEW if with_view else "",
+            wire=WIRE if with_view else "",
+            smart=POLICIES[policy],
+            sim_arm=SIM_ARM_SMART,
+            sim_arm_wires=SIM_ARM_SMART_WIRES,
         )
     )
     return path

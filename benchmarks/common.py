@@ -70,6 +70,34 @@ def write_results(name: str, data: dict[str, Any], *, quick: bool) -> Path:
 #: `processes.smart` entry for SCHED_FIFO (as the shipped graphs ask) and for the default policy.
 POLICIES = {"fifo": "{realtime_priority: 50}", "default": "{}"}
 
+#: The simulated arm in the `smart` process, as the benchmarks with a page beside a servo loop
+#: run it: `modules:` entries of a graph's YAML (a value for ``str.format``, not a template): a
+#: constant 1 mm/s camera twist at 100 Hz through REG_VEL, ROTATE_KIN and WOLVERINE_KIN to the
+#: simulated joints (WOLVERINE_JNTS, ``sim``), which start at the ready pose above the tool.
+SIM_ARM_SMART = """
+  command:
+    type: TwistSource
+    process: smart
+    rate: 100
+    params: {twist: [0.001, 0, 0, 0, 0, 0]}
+  register: {type: REG_VEL, process: smart, rate: 100, params: {timeout: 0.1}}
+  rotate: {type: ROTATE_KIN, process: smart}
+  kinematics: {type: WOLVERINE_KIN, process: smart, params: {tool_xyz: [0, 0, 0.14]}}
+  joints:
+    type: WOLVERINE_JNTS
+    process: smart
+    rate: 100
+    params: {backend: sim, initial_q_deg: [14.482, 45.603, -182.743, 0.0, -42.86, -165.518]}
+""".strip("\n")
+#: the connections of :data:`SIM_ARM_SMART` (`connections:` entries of the same graph)
+SIM_ARM_SMART_WIRES = """
+  - command.twist -> register.command
+  - register.twist -> rotate.camera_twist
+  - rotate.tool_twist -> kinematics.tool_twist
+  - kinematics.joint_rates -> joints.rates
+  - joints.joint_state ~> kinematics.joint_state
+""".strip("\n")
+
 
 def start_graph(
     graph: Path, out: Path, duration: float, address_after: str | None

@@ -10,6 +10,7 @@ from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import arm_frames
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 from umbra.modules.sketch.messages import SceneObjects, ToolPath, VcrState
+from umbra.modules.world.operator_stop import STOPPED_BY_OPERATOR, OperatorStop, operator_input
 from umbra.modules.world.scene_objects import SketchScene
 from umbra.modules.world.sketch_judge import SketchJudge
 from umbra.modules.world.sketch_verdict import GRASP_MACROS, RELEASE_MACROS, macro_verdict
@@ -32,6 +33,11 @@ class SketchWorld(Module):
     :mod:`umbra.modules.world.sketch_verdict`): a grasp macro when the gripper closes, placing a
     device when it opens, any other when the player reports the path ``done``. Logged, and
     listed in the summary (``macro_verdicts``).
+
+    The console's *Stop* (``stop`` on the ``operator`` input; wire ``console.stop_run`` here)
+    ends any run, attended or not, as a normal stop (exit 0), its verdict "stopped by the
+    operator" with the macros that had succeeded; the summary's ``stopped`` says it ("" while
+    no one stopped the run). :mod:`umbra.modules.world.operator_stop` holds the rule.
     """
 
     TYPE = "SketchWorld"
@@ -53,6 +59,7 @@ class SketchWorld(Module):
         feedback=True,
         doc="the player's state: a path played to its end (done) ends its macro",
     )
+    operator = operator_input()
     objects = Output(SceneObjects, measured=True, doc="the true solids of the scene")
     status = Output(Status, measured=True, doc="the measures of the macro being played")
     arm_poses = Output(
@@ -87,6 +94,8 @@ class SketchWorld(Module):
         self._judged = True  #: the current macro has had its verdict (none before a path)
         self._macro_verdicts: list[dict[str, object]] = []
         self._arm: tuple[np.ndarray, float, float] | None = None  #: true q, gripper, stamp
+        self._operator = OperatorStop()
+        self._stopped = ""  #: the verdict of the operator's Stop ("" before it)
 
     def step(self, now: float) -> None:
         if self._started is None:
@@ -114,7 +123,20 @@ class SketchWorld(Module):
                 self.arm_poses.send(
                     Poses(matrices=matrices, children=children, frame="base", stamp=stamp)
                 )
+        self._operator_command(now)  # before end_after: the person's Stop wins the tick
         self._maybe_end(now)
+
+    def _operator_command(self, now: float) -> None:
+        """The console's *Stop*: the run ends now as a normal stop (exit 0), whatever the macros'
+        verdicts, the verdict naming the macros that had succeeded."""
+        if not self._operator.requested(self.operator, now):
+            return
+        done = ", ".join(self._verdicts)
+        self._stopped = f"{STOPPED_BY_OPERATOR}; " + (
+            f"succeeded: {done}" if done else "no macro succeeded"
+        )
+        self.log.info(self._stopped)
+        self.context.request_stop(self._stopped, 0)
 
     def _report(self, now: float, v) -> None:
         ok = bool(self._macro) and v.success(self._macro)
@@ -181,4 +203,5 @@ class SketchWorld(Module):
             "grasp_distance_mm": float(v.grasp_distance_m * 1e3),
             "events": list(v.events),
             "macro_verdicts": list(self._macro_verdicts),
+            "stopped": self._stopped,
         }

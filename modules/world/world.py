@@ -25,10 +25,11 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, param
-from umbra.connectors.messages import JointState, Pose, Poses, Status, Text
+from umbra.connectors.messages import JointState, Pose, Poses, Status
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import TRUE_PREFIX, arm_frames
 from umbra.modules.world.grasp import grasp_error
+from umbra.modules.world.operator_stop import STOPPED_BY_OPERATOR, OperatorStop, operator_input
 
 
 def T_table_patch_of(
@@ -85,8 +86,6 @@ class WorldParams(ArmParams):
 
 
 TRUE_FLANGE, TRUE_TOOL = TRUE_PREFIX + "flange", TRUE_PREFIX + "tool"
-#: the verdict of a run its operator ended with the console's *Stop*
-STOPPED_BY_OPERATOR = "stopped by the operator"
 
 
 class SimWorld(Module):
@@ -116,13 +115,7 @@ class SimWorld(Module):
         doc="the safety register's status (REG_VEL): a run that ends while it holds the arm for "
         "old data says 'stopped: data too old'",
     )
-    operator = Input(
-        Text,
-        required=False,
-        feedback=True,
-        doc="the operator console's run command: `stop` ends the run (verdict 'stopped by the "
-        "operator')",
-    )
+    operator = operator_input()
     camera_pose = Output(Pose, frame="table->camera", measured=True, doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", measured=True, doc="true T_table_patch")
     status = Output(
@@ -159,7 +152,7 @@ class SimWorld(Module):
         self._stop_reason = ""
         self._status = Status(stage="running", message="no grasp yet")
         self._status_due = -np.inf
-        self._operator_stopped = False
+        self._operator = OperatorStop()
 
     def step(self, now: float) -> None:
         if self.t0 is None:
@@ -202,12 +195,8 @@ class SimWorld(Module):
     def _operator_command(self, now: float) -> None:
         """The console's *Stop*: the run ends now as a normal stop, its verdict 'stopped by the
         operator' (after the grasp's verdict, when one was judged: exit 1 only for a miss)."""
-        command = self.operator.get(now)
-        if command is None or not self.operator.fresh or command.text != "stop":
+        if not self._operator.requested(self.operator, now):
             return
-        if self._operator_stopped:
-            return
-        self._operator_stopped = True
         if self._judged:
             verdict = f"{self.result['verdict']}; {STOPPED_BY_OPERATOR}"
             self._finish(now, bool(self.result["grasped"]), verdict, self._status.stage)
@@ -291,7 +280,7 @@ class SimWorld(Module):
         self._send_status(now)
         self.log.info(verdict)
         code = 1 if self._status.stage == "missed" else 0
-        if self._operator_stopped:
+        if self._operator.stopped:
             self.context.request_stop(verdict, code)
         elif self.params.end_run:
             self.context.end_run(verdict, code)
