@@ -317,6 +317,7 @@ class OutputPort:
         "_dated_by",
         "_seq",
         "_track",
+        "connected",
         "events",
         "last",
         "msg_type",
@@ -339,6 +340,10 @@ class OutputPort:
         self.name = name
         self.msg_type = msg_type
         self.sinks: list[Sink] = []
+        #: True when the graph wires this output to an input (set by the runtime as it wires the
+        #: graph; by the harness, whose test stands in for the consumers). A recording or a live
+        #: viewer adds sinks too, but is nobody the module may count on to act.
+        self.connected = False
         self.last: Message | None = None
         self.events = events
         self._seq = 0

@@ -81,6 +81,7 @@ class ModuleHarness:
         self._sent: dict[str, list[Message]] = {n: [] for n in self.module.outputs}
         for out_name, port in self.module.outputs.items():
             port.sinks.append(self._keeper(out_name))
+            port.connected = True  # the test stands in for the graph's consumers
         self._seq: dict[str, int] = {}
         self.started = False
 

@@ -162,7 +162,7 @@ class Scheduler:
                 out = self.modules[conn.src.module].outputs[conn.src.port]
                 reg = self.modules[conn.dst.module].registers[conn.dst.port]
                 reg.events = out.events
-                reg.connected = True
+                reg.connected = out.connected = True
                 if conn.delayed:
                     out.sinks.append(self._delayed_writer(reg))
                 else:
@@ -170,6 +170,7 @@ class Scheduler:
             elif link is not None and self.transport is not None:
                 if src_here:
                     out = self.modules[conn.src.module].outputs[conn.src.port]
+                    out.connected = True
                     out.sinks.append(self.transport.publisher(link))
                 if dst_here:
                     reg = self.modules[conn.dst.module].registers[conn.dst.port]

@@ -130,7 +130,7 @@ class ConsoleEvents:
 
     def _stop_run(self) -> None:
         """*Stop*: ask the run's judge (the world) to end the run; it says the verdict."""
-        if not self.stop_run.sinks:
+        if not self.stop_run.connected:
             raise Refused(
                 "stop refused: expected a judge of the run (the world's `operator` input) "
                 "connected to the console's `stop_run`, found none (Ctrl-C ends this run)"

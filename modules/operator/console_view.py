@@ -100,9 +100,9 @@ class ConsoleView:
         links = self._server.links if self._server is not None else {}
         return {
             "video": True,
-            "controls": bool(self.operator.sinks) or bool(self.seed.sinks),
+            "controls": self.operator.connected or self.seed.connected,
             "plot": self.servo.value is not None,
-            "jog": bool(self.jog.sinks),
+            "jog": self.jog.connected,
             "health": True,
             "messages": True,
             "zoom": bool(self._zoom),
@@ -156,7 +156,7 @@ class ConsoleView:
             "t": self._run_time(),
             "phase": phase,
             "line": line.for_page(),
-            "commands": commands_available(phase, line.stage, bool(self.stop_run.sinks)),
+            "commands": commands_available(phase, line.stage, self.stop_run.connected),
             "panels": self._panels(),
             "overlay": view_state.overlay(self.contour.get(now), self._limits),
             "scene": self._scene(now),

@@ -58,10 +58,19 @@ def test_no_limit_asks_nothing(tmp_path: Path) -> None:
 
 @pytest.mark.skipif(not KERNEL_QOS, reason=f"{PM_QOS_FILE} needs root (read and write)")
 def test_the_kernel_enforces_the_request_only_while_it_is_held() -> None:
-    before = current_cpu_latency_us()
     with CpuLatencyHold(0):
         assert current_cpu_latency_us() == 0
-    assert current_cpu_latency_us() == before
+        assert _holding_qos()
+    assert not _holding_qos()
+
+
+def _holding_qos() -> bool:
+    """Whether this process holds a request open (another process, a test beside this one on
+    another worker, may hold one of its own: the kernel's figure is the smallest of them)."""
+    fds = Path("/proc/self/fd")
+    return any(
+        os.path.realpath(fds / fd) == str(PM_QOS_FILE) for fd in os.listdir(fds) if fd.isdigit()
+    )
 
 
 def test_which_limit_a_process_holds() -> None:
@@ -100,7 +109,6 @@ def test_the_run_summary_says_whether_the_latency_was_held(clock: str, tmp_path:
     options = SchedulerOptions(
         clock=clock, duration=0.05, output_dir=tmp_path, cpu_latency_us=limit
     )
-    before = current_cpu_latency_us() if KERNEL_QOS else None
     result = Scheduler(plan, options).run()
     realtime = result.as_dict()["realtime"]
     assert realtime["cpu_latency_us"] == 0
@@ -113,7 +121,7 @@ def test_the_run_summary_says_whether_the_latency_was_held(clock: str, tmp_path:
     else:
         assert realtime["held"] is KERNEL_QOS
     if KERNEL_QOS:
-        assert current_cpu_latency_us() == before  # released when the run ended
+        assert not _holding_qos()  # released when the run ended
 
 
 def test_check_shows_the_latency_each_process_holds(tmp_path: Path, capsys) -> None:
