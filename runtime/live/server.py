@@ -1,11 +1,12 @@
 """The Foxglove WebSocket server of a run: channels from the recording's encoding table.
 
 ``LiveServer.offer(topic, sample, now)`` is what a tick pays: a dictionary look-up, one look-up
-per channel of whether a viewer subscribes (none: nothing else happens) and a non-blocking put on
-a bounded queue; a full queue drops the sample and counts it. Encoding (JPEG, protobuf, JSON) and
-the hand-over to the socket happen on the server's own threads at a lower CPU priority: one lane
-for images (a few frames deep: a late frame is worth less than the next one) and one for
-everything else, so joint states never wait behind a JPEG encoding. The socket
+per channel of whether a viewer subscribes (none: nothing else happens) and a put that never
+waits into a lane holding the newest sample of each topic (:mod:`umbra.runtime.live.latest_lane`:
+a sample replaced before it was encoded is dropped and counted, and every topic gets its turn).
+Encoding (JPEG, protobuf, JSON) and the hand-over to the socket happen on the server's own
+threads at a lower CPU priority: one lane for images and one for everything else, so joint
+states never wait behind a JPEG encoding. The socket
 (``umbra.runtime.live.viewer_server``) keeps a bounded backlog per viewer and drops the oldest for a
 viewer that does not read, so a slow or stalled viewer costs the run nothing but those threads'
 work.
@@ -22,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import queue
 import threading
 import time
 from dataclasses import dataclass, field
@@ -32,6 +32,7 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from umbra.connectors.messages import Image, Message
+from umbra.runtime.live.latest_lane import CLOSED, LatestLane
 from umbra.runtime.live.viewer_server import ViewerServer
 from umbra.runtime.recording.encoders import ChannelEncoding, channel_encodings
 from umbra.runtime.recording.foxglove_msgs import frame_transforms, time_ns
@@ -39,11 +40,8 @@ from umbra.runtime.recording.writer import TF_STATIC
 
 #: Nice value of the server's encoding thread (Linux): below the run's loop.
 ENCODER_NICE = 10
-#: Images waiting to be encoded at most (more: the newest is dropped and counted).
-IMAGE_QUEUE = 4
 #: Seconds between two sends of the static frames (a viewer that joins gets them this soon).
 STATIC_PERIOD = 1.0
-_STOP = object()
 
 
 @dataclass
@@ -62,7 +60,8 @@ class LiveChannel:
 
 @dataclass
 class LiveStats:
-    """What the server did: samples offered while watched, sent, dropped (queue full)."""
+    """What the server did: samples offered while watched, sent, dropped (replaced by a newer
+    one of their topic before they were encoded)."""
 
     offered: int = 0
     sent: int = 0
@@ -80,7 +79,6 @@ class LiveServer:
         clock_offset: float,
         images: str = "jpeg",
         jpeg_quality: int = 80,
-        max_items: int = 256,
         log: logging.Logger | None = None,
     ) -> None:
         self.clock_offset = clock_offset  #: wall-clock time minus the run's clock [s]
@@ -88,10 +86,7 @@ class LiveServer:
         self._log = log or logging.getLogger("umbra.foxglove")
         self._socket = socket
         self._channels: dict[str, LiveChannel] = {}
-        self._lanes = {
-            False: queue.Queue(maxsize=max_items),  # small messages
-            True: queue.Queue(maxsize=IMAGE_QUEUE),  # images
-        }
+        self._lanes = {False: LatestLane(), True: LatestLane()}  # small messages, images
         self.stats = LiveStats()
         self._static: tuple[list[tuple[str, str, Any]], Any, int] | None = None
         self._threads = [
@@ -161,10 +156,8 @@ class LiveServer:
         if live is None or not any(watched(ch) for ch in live.channels):
             return
         self.stats.offered += 1
-        try:
-            self._lanes[live.bulk].put_nowait((live, sample, now))
-        except queue.Full:
-            live.dropped += 1
+        if not self._lanes[live.bulk].put(topic, (live, sample, now)):
+            live.dropped += 1  # replaced by this newer one before it was encoded
             self.stats.dropped += 1
 
     def sink(self, topic: str) -> Any:
@@ -194,16 +187,13 @@ class LiveServer:
         live.sent += 1
         self.stats.sent += 1
 
-    def _run(self, lane: queue.Queue[Any], statics: bool) -> None:
+    def _run(self, lane: LatestLane, statics: bool) -> None:
         with contextlib.suppress(AttributeError, OSError):
             os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), ENCODER_NICE)
         next_static = time.monotonic()
         while True:
-            try:
-                item = lane.get(timeout=STATIC_PERIOD)
-            except queue.Empty:
-                item = None
-            if item is _STOP:
+            item = lane.get(timeout=STATIC_PERIOD)
+            if item is CLOSED:
                 return
             try:
                 if item is not None:
@@ -217,8 +207,7 @@ class LiveServer:
     def close(self) -> None:
         """Stop encoding: the threads end (the socket is closed by its owner)."""
         for lane in self._lanes.values():
-            with contextlib.suppress(queue.Full):
-                lane.put(_STOP, timeout=1.0)
+            lane.close()
         for thread in self._threads:
             thread.join(timeout=2.0)
 

@@ -81,23 +81,41 @@ def _refused_click(page: Any, u: float, v: float, tries: int = 3) -> None:
     raise AssertionError(f"no refusal naming the holder; notices: {notices[-5:]}")
 
 
+#: Wraps the page's event hub: while ``__hold`` is set, states are not drawn, and the overlay
+#: last drawn is kept in ``__drawn`` (the test's own script, not the page's).
+_HOLD_STATES = """(() => {
+  if (window.__holdable) return;
+  window.__holdable = true;
+  const emit = umbra.emit;
+  umbra.emit = (kind, data) => {
+    if (kind === "state") {
+      if (window.__hold) return;
+      window.__drawn = data.overlay ? data.overlay.points : [];
+    }
+    emit(kind, data);
+  };
+})()"""
+
+
 def _overlay_green_on_snake(page: Any) -> tuple[int, int]:
     """(hits, probes): vertices of the drawn snake whose screen pixels (within 4 px) have the
-    overlay's green, read from one screenshot. The snake moves while the screenshot is taken (a
-    state comes every 0.1 s), so a vertex counts where the snake was just before or just after."""
+    overlay's green, read from one screenshot. The page draws no new state meanwhile (a state
+    comes every 0.1 s, and a screenshot under load takes longer), so the overlay on the screen
+    is the one whose vertices are read."""
     from PIL import Image as PILImage
 
-    read = "window.umbra.state.overlay ? window.umbra.state.overlay.points : []"
-    before = page.evaluate(read)
-    shot = np.asarray(PILImage.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
-    after = page.evaluate(read)
-    if len(before) != len(after):
-        return 0, 0  # a snake of another shape came meanwhile
-    step = max(1, len(before) // 12)
-    hits = 0
-    for was, now in zip(before[::step], after[::step], strict=True):
-        hits += any(_stroke_near(page, shot, u, v) for u, v in (was, now))
-    return hits, len(before[::step])
+    page.evaluate(_HOLD_STATES)
+    page.wait_for_function("window.__drawn !== undefined")
+    page.evaluate("window.__hold = true")
+    try:
+        page.wait_for_timeout(100)  # a state being drawn as the hold began is on the screen
+        drawn = page.evaluate("window.__drawn")
+        shot = np.asarray(PILImage.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+    finally:
+        page.evaluate("window.__hold = false")
+    step = max(1, len(drawn) // 12)
+    hits = sum(_stroke_near(page, shot, u, v) for u, v in drawn[::step])
+    return hits, len(drawn[::step])
 
 
 def _stroke_near(page: Any, shot: np.ndarray, u: float, v: float) -> bool:

@@ -10,13 +10,14 @@
     if (!o) return;
     const g = el("g", { class: "snake", fill: "none", "stroke-width": 2, "vector-effect": "non-scaling-stroke" });
     const color = o.status === "failed" ? "#ff3030" : "#00ff40";
-    g.append(el("polygon", { points: o.points.map((p) => p.join(",")).join(" "), stroke: color, "stroke-width": 3, id: svg.id + "-snake" }));
+    // the snake's guides first, the snake over them (the inner ellipse may touch it), the marks on top
     if (o.rectangle) g.append(el("polygon", { points: o.rectangle.map((p) => p.join(",")).join(" "), stroke: "#ffd000" }));
     if (o.ellipse) {
       const e = o.ellipse;
       g.append(el("ellipse", { cx: e.cx, cy: e.cy, rx: e.rx, ry: e.ry, stroke: "#00c8ff", transform: `rotate(${e.angle_deg} ${e.cx} ${e.cy})` }));
     }
     if (o.axis) g.append(el("line", { x1: o.axis[0][0], y1: o.axis[0][1], x2: o.axis[1][0], y2: o.axis[1][1], stroke: "#ff00ff" }));
+    g.append(el("polygon", { points: o.points.map((p) => p.join(",")).join(" "), stroke: color, "stroke-width": 3, id: svg.id + "-snake" }));
     if (o.centroid) g.append(el("circle", { cx: o.centroid[0], cy: o.centroid[1], r: 4, fill: "#ff00ff" }));
     for (const i of o.offending) g.append(el("circle", { cx: o.points[i][0], cy: o.points[i][1], r: 5, fill: "#ff3030", class: "offending" }));
     svg.append(g);
