@@ -140,23 +140,23 @@ class SketchItems:
     def view(self, lookup: FrameLookup, vcr: VcrState | None) -> dict[str, Any]:
         """The panel's Active Sketch items in the base frame; items whose frame ``lookup``
         cannot tie to the base are counted in ``untied``, not drawn."""
-        out: dict[str, Any] = {"snapshots": [], "primitives": [], "path": None, "untied": 0}
-        for snap in self.snapshots.values():
-            T = lookup(snap.frame)
-            if T is None:
-                out["untied"] += 1
-            else:
-                out["snapshots"].append(snapshot_view(snap, T))
-        for prim in self.primitives.values():
-            T = lookup(prim.frame)
-            if T is None:
-                out["untied"] += 1
-            else:
-                out["primitives"].append(primitive_view(prim, T))
-        if self.path is not None:
-            T = lookup(self.path.frame)
-            if T is None:
-                out["untied"] += 1
-            else:
-                out["path"] = path_view(self.path, T, vcr)
-        return out
+        untied = 0
+
+        def placed(items: Any, view_of: Callable[[Any, np.ndarray], Any]) -> list[Any]:
+            nonlocal untied
+            drawn = []
+            for item in items:
+                T = lookup(item.frame)
+                if T is None:
+                    untied += 1
+                else:
+                    drawn.append(view_of(item, T))
+            return drawn
+
+        paths = placed([] if self.path is None else [self.path], lambda p, T: path_view(p, T, vcr))
+        return {
+            "snapshots": placed(self.snapshots.values(), snapshot_view),
+            "primitives": placed(self.primitives.values(), primitive_view),
+            "path": paths[0] if paths else None,
+            "untied": untied,
+        }
