@@ -87,16 +87,16 @@ def _without_plugin_warnings(err: str) -> str:
 
 SUBPROCESS_CASES = [
     pytest.param("graph-alias_bomb"),
-    pytest.param("set-timeout_1e999", marks=[pytest.mark.slow, pytest.mark.light]),
-    pytest.param("graph-seed_5000_digits", marks=[pytest.mark.slow, pytest.mark.light]),
-    pytest.param("dh-latin1", marks=[pytest.mark.slow, pytest.mark.light]),
-    pytest.param("dh-fifo", marks=[pytest.mark.slow, pytest.mark.light]),
-    pytest.param("image-bomb_png", marks=[pytest.mark.slow, pytest.mark.light]),
-    pytest.param("zoom-xml-billion_laughs", marks=[pytest.mark.slow, pytest.mark.light]),
-    pytest.param("pose-collinear", marks=[pytest.mark.slow, pytest.mark.light]),
+    pytest.param("set-timeout_1e999", marks=pytest.mark.slow),
+    pytest.param("graph-seed_5000_digits", marks=pytest.mark.slow),
+    pytest.param("dh-latin1", marks=pytest.mark.slow),
+    pytest.param("dh-fifo", marks=pytest.mark.slow),
+    pytest.param("image-bomb_png", marks=pytest.mark.slow),
+    pytest.param("zoom-xml-billion_laughs", marks=pytest.mark.slow),
+    pytest.param("pose-collinear", marks=pytest.mark.slow),
     pytest.param("sketch-latin1"),
     pytest.param("record-long_record"),
-    pytest.param("posetool-max_rms_nan", marks=[pytest.mark.slow, pytest.mark.light]),
+    pytest.param("posetool-max_rms_nan", marks=pytest.mark.slow),
 ]
 
 

@@ -23,7 +23,7 @@ from umbra.runtime.links.observe import Observation, Observed
 from umbra.runtime.links.runs import observer_endpoint
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
-pytestmark = [pytest.mark.slow, pytest.mark.light]
+pytestmark = pytest.mark.slow
 
 KEY = "umbra/observed/source/twist"
 

@@ -10,7 +10,7 @@ from umbra.runtime.cli.cmd_topics import Seen, _row
 from umbra.runtime.links.observe import Observed
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
-pytestmark = [pytest.mark.slow, pytest.mark.light]
+pytestmark = pytest.mark.slow
 
 
 def _sample(seq: int, at: float) -> Observed:

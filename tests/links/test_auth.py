@@ -90,7 +90,6 @@ def test_rules_let_each_process_publish_only_its_outputs() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.light  # no pick-up, no browser, no timing judged: beside the others
 def test_the_launcher_runs_every_process_over_mutual_tls_with_the_keys(
     umbra: Callable[..., Running], tmp_path: Path
 ) -> None:

@@ -65,7 +65,6 @@ def band(runs: int, dof: int) -> tuple[float, float]:
 
 
 @pytest.mark.slow
-@pytest.mark.light  # no pick-up, no browser, no timing judged: beside the others
 @pytest.mark.timeout(900)
 def test_vertices_box_centre_and_line_direction_nees() -> None:
     rng = np.random.default_rng(2026)
