@@ -8,8 +8,9 @@ checked by :mod:`umbra.runtime.live.gate` before anything is sent, then the view
 - **Publishing never waits.** :meth:`ViewerServer.publish` is called from the encoding threads; it
   hands the frame to the server's loop, which appends it to each subscribed viewer's backlog
   (``MAX_VIEWER_BACKLOG`` frames and ``MAX_VIEWER_BACKLOG_BYTES``; full: the oldest frame of the
-  same channel is dropped and counted, so a video replaces its own old frames and a rare message
-  such as ``/tf_static`` stays). Each viewer has a
+  same channel is dropped and counted, else the oldest of the channel holding the most bytes, so a
+  video replaces its own old frames and every other channel keeps its newest: a rare message such
+  as ``/tf_static`` stays). Each viewer has a
   sender task of its own: a slow or stalled viewer holds only its own backlog.
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
   sends, the operator pages' message budget for what a viewer sends
@@ -91,7 +92,9 @@ class _Viewer:
 
     def push_data(self, channel_id: int, frame: bytes) -> None:
         """Hold ``frame``; when the backlog is full, drop the oldest frame of the same channel
-        (a stream replaces its own old samples), else the oldest of all."""
+        (a stream replaces its own old samples), else the oldest frame of the channel holding the
+        most bytes (the oldest of all would starve whichever channel happens to be in front:
+        under load a viewer got no contours while images flowed)."""
         while self.data and (
             len(self.data) >= MAX_VIEWER_BACKLOG
             or self.data_bytes + len(frame) > MAX_VIEWER_BACKLOG_BYTES
@@ -102,10 +105,13 @@ class _Viewer:
         self.wake.set()
 
     def _drop(self, channel_id: int) -> None:
-        same = next((i for i, (held, _f) in enumerate(self.data) if held == channel_id), 0)
-        frame = self.data[same][1]
-        del self.data[same]
-        self.data_bytes -= len(frame)
+        held_bytes: dict[int, int] = {}
+        for held, f in self.data:
+            held_bytes[held] = held_bytes.get(held, 0) + len(f)
+        victim = channel_id if channel_id in held_bytes else max(held_bytes, key=held_bytes.get)
+        at = next(i for i, (held, _f) in enumerate(self.data) if held == victim)
+        self.data_bytes -= len(self.data[at][1])
+        del self.data[at]
         self.dropped += 1
 
     def pop(self) -> str | bytes:
