@@ -30,7 +30,8 @@ def _stream(
 
 
 def _compression(parts: list[Path]) -> CompressionType:
-    """LZ4 unless a part was written uncompressed (raw images, ``writer.RecordingFile``)."""
+    """LZ4 unless a part was written uncompressed (raw images; a real-time process's part,
+    ``tap.RunRecorder``)."""
     for part in parts:
         scan = indexed_scan(part)
         if scan is not None and scan.chunk_indexes and not scan.chunk_indexes[0].compression:

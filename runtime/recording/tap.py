@@ -34,6 +34,7 @@ from umbra.runtime.recording.writer import (
     META_PROCESS,
     RecordingFile,
 )
+from umbra.runtime.rt_priority import priority_for
 
 if TYPE_CHECKING:
     import logging
@@ -197,11 +198,14 @@ class RunRecorder:
         # raw pixels do not compress: LZ4 would cost the recorder and every reader time for less
         # than a percent; JPEG/PNG images and the rest stay small either way
         raw_images = any(c == "raw" and issubclass(i.msg_type, Image) for _m, _p, c, i in outputs)
+        # nor in a real-time process: a chunk is compressed holding the GIL (1 MiB of LZ4: up to
+        # 3 ms), and the loop would wait for it (the merged file is written after the run)
+        realtime = priority_for(plan.spec.realtime_priority, process) is not None
         self.file = RecordingFile(
             self.path,
             blocking=self.clock == "sim",
             jpeg_quality=settings.jpeg_quality,
-            compress=not raw_images,
+            compress=not raw_images and not realtime,
             # one offset for the whole file: every time written is wall-clock time
             clock_offset=wall_offset(now),
             log=log,
