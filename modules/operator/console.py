@@ -266,7 +266,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         if self.primitive.fresh and (prim := self.primitive.get(now)) is not None:
             items.add_primitive(prim)
         if self.path.fresh and (path := self.path.get(now)) is not None:
-            items.path = path
+            items.set_path(path)
 
     # -- periodic -----------------------------------------------------------------------------
     def _jog_step(self, wall: float) -> None:

@@ -81,65 +81,95 @@ def primitive_view(prim: SketchPrimitive, T_base_frame: np.ndarray) -> dict[str,
     }
 
 
-def path_view(
-    path: ToolPath, T_base_frame: np.ndarray, vcr: VcrState | None
-) -> dict[str, Any] | None:
-    """The path being played: the tool's positions along it and, while the player holds this
-    path, where the arm is on it (``at``, interpolated at the player's ``s``), its ``progress``
-    (0..1) and the player's ``mode``. None: a path without tool poses (nothing to draw)."""
-    poses = np.asarray(path.T_base_tool, dtype=float).reshape(-1, 4, 4)
-    if len(poses) == 0:
+def path_line(path: ToolPath, T_base_frame: np.ndarray) -> dict[str, Any] | None:
+    """The path as drawn: its id, macro and the tool's positions along it (thinned to
+    ``MAX_PATH_POINTS``). None: a path without tool poses (nothing to draw)."""
+    positions = np.asarray(path.T_base_tool, dtype=float).reshape(-1, 4, 4)[:, :3, 3]
+    if len(positions) == 0:
         return None
-    positions = poses[:, :3, 3]
     keep = np.unique(np.linspace(0, len(positions) - 1, min(len(positions), MAX_PATH_POINTS)))
-    out: dict[str, Any] = {
+    return {
         "id": path.path_id,
         "macro": path.macro,
         "points": _points(T_base_frame, positions[keep.astype(int)]),
-        "at": None,
-        "progress": None,
-        "mode": "",
     }
-    if vcr is not None and vcr.path_id == path.path_id:
-        s = np.asarray(path.s, dtype=float)
-        at = (
-            [float(np.interp(vcr.s, s, positions[:, i])) for i in range(3)]
-            if len(s) == len(positions)
-            else positions[-1].tolist()
-        )
-        out["at"] = _points(T_base_frame, np.asarray(at))[0]
-        out["progress"] = round(min(max(float(vcr.progress), 0.0), 1.0), 4)
-        out["mode"] = vcr.mode
-    return out
+
+
+def arm_on_path(path: ToolPath, T_base_frame: np.ndarray, vcr: VcrState | None) -> dict[str, Any]:
+    """While the player holds ``path``: where the arm is on it (``at``, interpolated at the
+    player's ``s``), its ``progress`` (0..1) and the player's ``mode``; else nothing (None, "")."""
+    if vcr is None or vcr.path_id != path.path_id:
+        return {"at": None, "progress": None, "mode": ""}
+    positions = np.asarray(path.T_base_tool, dtype=float).reshape(-1, 4, 4)[:, :3, 3]
+    s = np.asarray(path.s, dtype=float)
+    at = (
+        np.array([np.interp(vcr.s, s, positions[:, i]) for i in range(3)])
+        if len(s) == len(positions)
+        else positions[-1]
+    )
+    return {
+        "at": _points(T_base_frame, at)[0],
+        "progress": round(min(max(float(vcr.progress), 0.0), 1.0), 4),
+        "mode": vcr.mode,
+    }
+
+
+def _keep_newest(items: dict[str, Any], key: str, item: Any, limit: int) -> None:
+    """``item`` under ``key`` as the newest of ``items`` (replacing an older one of that key),
+    the oldest dropped beyond ``limit``."""
+    items.pop(key, None)
+    items[key] = item
+    while len(items) > limit:
+        items.pop(next(iter(items)))
 
 
 class SketchItems:
     """What Active Sketch has made so far, for the panel: the latest snapshots and primitives
-    (by id, a newer one with the same id replaces the older), and the path last loaded."""
+    (by id, a newer one with the same id replaces the older), and the path last loaded.
+
+    :meth:`view` places them in the base frame once per change (the static frames do not
+    move); only the arm's place on the path is worked out at each call."""
 
     def __init__(self) -> None:
         self.snapshots: dict[str, StereoSnapshot] = {}
         self.primitives: dict[str, SketchPrimitive] = {}
         self.path: ToolPath | None = None
+        self._placed: dict[str, Any] | None = None  #: the items placed, until the next change
+        self._version = 0  #: changes so far (the page rebuilds its drawing when it changes)
+        self._T_base_path: np.ndarray | None = None
 
     def add_snapshot(self, snap: StereoSnapshot) -> None:
-        self.snapshots.pop(snap.snapshot_id, None)
-        self.snapshots[snap.snapshot_id] = snap
-        while len(self.snapshots) > MAX_SNAPSHOTS:
-            self.snapshots.pop(next(iter(self.snapshots)))
+        _keep_newest(self.snapshots, snap.snapshot_id, snap, MAX_SNAPSHOTS)
+        self._changed()
 
     def add_primitive(self, prim: SketchPrimitive) -> None:
-        self.primitives.pop(prim.primitive_id, None)
-        self.primitives[prim.primitive_id] = prim
-        while len(self.primitives) > MAX_PRIMITIVES:
-            self.primitives.pop(next(iter(self.primitives)))
+        _keep_newest(self.primitives, prim.primitive_id, prim, MAX_PRIMITIVES)
+        self._changed()
+
+    def set_path(self, path: ToolPath) -> None:
+        self.path = path
+        self._changed()
+
+    def _changed(self) -> None:
+        self._version += 1
+        self._placed = None
 
     def __bool__(self) -> bool:
         return bool(self.snapshots or self.primitives or self.path is not None)
 
     def view(self, lookup: FrameLookup, vcr: VcrState | None) -> dict[str, Any]:
         """The panel's Active Sketch items in the base frame; items whose frame ``lookup``
-        cannot tie to the base are counted in ``untied``, not drawn."""
+        cannot tie to the base are counted in ``untied``, not drawn. ``lookup`` must give the
+        same answers for the whole run (static frames)."""
+        if self._placed is None:
+            self._placed = self._place(lookup)
+        out = dict(self._placed)
+        line = out["path"]
+        if line is not None and self.path is not None and self._T_base_path is not None:
+            out["path"] = {**line, **arm_on_path(self.path, self._T_base_path, vcr)}
+        return out
+
+    def _place(self, lookup: FrameLookup) -> dict[str, Any]:
         untied = 0
 
         def placed(items: Any, view_of: Callable[[Any, np.ndarray], Any]) -> list[Any]:
@@ -153,10 +183,12 @@ class SketchItems:
                     drawn.append(view_of(item, T))
             return drawn
 
-        paths = placed([] if self.path is None else [self.path], lambda p, T: path_view(p, T, vcr))
+        self._T_base_path = None if self.path is None else lookup(self.path.frame)
+        lines = placed([] if self.path is None else [self.path], path_line)
         return {
             "snapshots": placed(self.snapshots.values(), snapshot_view),
             "primitives": placed(self.primitives.values(), primitive_view),
-            "path": paths[0] if paths else None,
+            "path": lines[0] if lines else None,
             "untied": untied,
+            "version": self._version,
         }

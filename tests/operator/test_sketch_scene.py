@@ -75,7 +75,7 @@ def test_items_are_placed_in_the_base_frame_and_the_arm_on_the_path() -> None:
             frame="table",
         )
     )
-    items.path = path()
+    items.set_path(path())
     vcr = VcrState(path_id="p1", mode="playing", s=0.25, progress=0.25)
     view = items.view(_lookup, vcr)
     cams = view["snapshots"][0]["cameras"]
@@ -106,7 +106,7 @@ def test_untied_frames_are_counted_not_drawn_and_the_lists_are_bounded() -> None
     assert len(items.snapshots) == MAX_SNAPSHOTS
     assert [s["id"] for s in view["snapshots"]] == ["s5", "s6", "s2"]
     assert view["untied"] == 1
-    items.path = path(5 * MAX_PATH_POINTS)
+    items.set_path(path(5 * MAX_PATH_POINTS))
     assert len(items.view(_lookup, None)["path"]["points"]) == MAX_PATH_POINTS
 
 

@@ -45,7 +45,7 @@ function make() {
   // the view from the graph's camera: its pose (z forward, y down) turned to three.js's (-z, y up)
   const lens = new THREE.PerspectiveCamera(60, 1, 0.005, 20);
   lens.matrixAutoUpdate = false;
-  return { renderer, scene, eye, lens, controls, chain, frames, camera, patch, sketch, sketchKey: "", video: null, size: "", screen, painted: -1, last: 0 };
+  return { renderer, scene, eye, lens, controls, chain, frames, camera, patch, sketch, sketchVersion: -1, video: null, size: "", screen, painted: -1, last: 0 };
 }
 
 function videoTexture() {  // the live image as a texture, made again when the image's size changes
@@ -129,8 +129,7 @@ function buildSketch(k) {  // Active Sketch's items, made again only when they c
 function drawSketch(k) {
   if (!k) { view.sketch.visible = false; return null; }
   view.sketch.visible = true;
-  const key = JSON.stringify([k.snapshots, k.primitives, k.path && [k.path.id, k.path.points]]);
-  if (key !== view.sketchKey) { view.sketchKey = key; buildSketch(k); }
+  if (k.version !== view.sketchVersion) { view.sketchVersion = k.version; buildSketch(k); }
   for (const o of view.sketch.children) {
     if (!o.userData.label) continue;
     const at = o.userData.at ? new THREE.Vector3(...o.userData.at) : new THREE.Vector3().setFromMatrixPosition(o.matrix);
