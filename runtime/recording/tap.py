@@ -198,8 +198,8 @@ class RunRecorder:
         # raw pixels do not compress: LZ4 would cost the recorder and every reader time for less
         # than a percent; JPEG/PNG images and the rest stay small either way
         raw_images = any(c == "raw" and issubclass(i.msg_type, Image) for _m, _p, c, i in outputs)
-        # nor in a real-time process: a chunk is compressed holding the GIL (1 MiB of LZ4: up to
-        # 3 ms), and the loop would wait for it (the merged file is written after the run)
+        # nor in a real-time process: a chunk is compressed holding the GIL (another thread waited
+        # up to 2.7 ms per MiB of LZ4), and the loop would wait for it (the merge comes after)
         realtime = priority_for(plan.spec.realtime_priority, process) is not None
         self.file = RecordingFile(
             self.path,

@@ -1,6 +1,6 @@
 """A real-time process writes its part of a recording uncompressed: LZ4 compresses a chunk
-holding the GIL (up to 3 ms per MiB), and the servo loop would wait for it. Other processes
-compress (real runs, the mcap library's reader on the file)."""
+holding the GIL (another thread waited up to 2.7 ms per MiB), and the servo loop would wait for
+it. Other processes compress (real runs, the mcap library's reader on the file)."""
 
 from __future__ import annotations
 
