@@ -49,8 +49,10 @@ if TYPE_CHECKING:  # the web side is imported only when the console serves (not 
 #: the plots' longest window [s] and the spacing of their points [s]
 PLOT_WINDOW_S = 120.0
 ERROR_PERIOD_S = 0.1
-#: how long [s] the stopping console waits for its pages to get the run's end
-END_FLUSH_S = 1.0
+#: how long [s] the stopping console waits, at most, for its pages to get the run's end (a
+#: page that misses it says "reconnecting" instead of the verdict; a loaded web thread has been
+#: seen to need more than 1 s)
+END_FLUSH_S = 3.0
 
 
 class OperatorConsole(ConsoleEvents, ConsoleView, Module):
