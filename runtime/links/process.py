@@ -12,9 +12,10 @@ Started by the launcher (``supervised``: commands arrive one per line on stdin) 
 5. end every output stream, withdraw the token, close the session; write ``summary-NAME.json``.
 
 Control commands (supervised): ``finish REASON`` — another process ended normally: keep running
-until every input stream has ended (or its producer is gone) and every received sample has been
-handled, then stop with status 0; ``abort REASON`` — the run failed elsewhere or was interrupted:
-stop now. End of input (the launcher is gone) aborts too.
+until every input stream from upstream has ended (or its producer is gone) and every received
+sample has been handled, then stop with status 0 (``umbra.runtime.links.finish_order``: streams
+of processes that this one also feeds are not waited for); ``abort REASON`` — the run failed
+elsewhere or was interrupted: stop now. End of input (the launcher is gone) aborts too.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from umbra.runtime.links.auth import load_auth
 from umbra.runtime.links.bounds import inbound_limit
 from umbra.runtime.links.config import Endpoints, build_config, describe
 from umbra.runtime.links.config_facts import ConfigFacts, config_facts
+from umbra.runtime.links.finish_order import mutual_peers
 from umbra.runtime.links.publish_all import AllOutputs
 from umbra.runtime.links.runs import RunFile, describe_outputs, write_run_file
 from umbra.runtime.links.session import open_session
@@ -96,9 +98,12 @@ class _Control:
         transport: ZenohTransport,
         stop: threading.Event,
         log: logging.Logger,
+        peers: frozenset[str] = frozenset(),
     ) -> None:
         self._stream, self._scheduler, self._transport = stream, scheduler, transport
         self._stop, self._log = stop, log
+        #: processes that feed this one and are fed by it: finishing, it does not wait for them
+        self._peers = peers
         self._thread = threading.Thread(target=self._read, name="umbra-control", daemon=True)
 
     def start(self) -> None:
@@ -122,7 +127,8 @@ class _Control:
     def _finish(self, reason: str) -> None:
         deadline = time.monotonic() + FINISH_GRACE
         while time.monotonic() < deadline and not self._stop.is_set():
-            if self._transport.inputs_ended() and self._scheduler.pending_link_samples == 0:
+            ended = self._transport.inputs_ended(besides=self._peers)
+            if ended and self._scheduler.pending_link_samples == 0:
                 break
             time.sleep(0.005)
         else:
@@ -253,7 +259,8 @@ def run_linked_process(
     try:
         transport.announce()
         if control is not None:
-            _Control(control, scheduler, transport, stop, log).start()
+            peers = mutual_peers(plan, options.process)
+            _Control(control, scheduler, transport, stop, log, peers).start()
         old = _interruptible(stop, scheduler)
         try:
             ready = transport.wait_ready(stop, options.ready_timeout)

@@ -365,12 +365,12 @@ class ZenohTransport:
         entry = self._subs.get(link.key)
         return entry[1].age(now) if entry else float("inf")
 
-    def inputs_ended(self) -> bool:
+    def inputs_ended(self, besides: frozenset[str] = frozenset()) -> bool:
         """True when no more samples will come: every subscribed stream ended or its producing
-        process is gone."""
+        process is gone (streams of the processes in ``besides`` not counted)."""
         alive = self.alive_processes()
         return all(
-            key in self._ended or stats.producer not in alive
+            key in self._ended or stats.producer not in alive or stats.producer in besides
             for key, (_s, stats, _d) in self._subs.items()
         )
 
