@@ -4,6 +4,7 @@ without the token; only the printed address, with its token, gives data."""
 
 from __future__ import annotations
 
+import concurrent.futures
 import os
 import threading
 import time
@@ -78,12 +79,16 @@ def test_no_port_of_a_split_run_serves_a_viewer_without_the_token(tmp_path: Path
         ports = {port: pid for pid in descendants(run.proc.pid) for port in listening_ports(pid)}
         assert printed in ports and ports[printed] == run.proc.pid
         assert len(ports) > 1  # zenoh's listeners, the console's page server
-        without = {port: viewer_gets(port, "", "/joints/joint_state") for port in ports}
-        # with the token: the printed port first (data within 20 s on a loaded machine)
-        with_token = {
-            port: viewer_gets(port, f"?token={token}", "/joints/joint_state", 20.0)
-            for port in sorted(ports, key=lambda port: port != printed)
-        }
+        # every port at once (a zenoh listener holds a viewer's handshake until its timeout);
+        # with the token, data within 20 s on a loaded machine
+        with concurrent.futures.ThreadPoolExecutor(2 * len(ports)) as pool:
+            tries = {
+                (port, query): pool.submit(viewer_gets, port, query, "/joints/joint_state", 20.0)
+                for port in ports
+                for query in ("", f"?token={token}")
+            }
+            without = {port: tries[port, ""].result() for port in ports}
+            with_token = {port: tries[port, f"?token={token}"].result() for port in ports}
     finally:
         run.stop()
     assert set(without.values()) == {"refused"}, without
