@@ -6,7 +6,7 @@ import re
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -45,11 +45,17 @@ def take_control(page: Any) -> None:
     )
 
 
-def image_to_screen(page: Any, u: float, v: float) -> tuple[float, float]:
-    """Screen coordinates of image pixel (u, v) on the live video."""
+def image_to_screen_map(page: Any) -> Callable[[float, float], tuple[float, float]]:
+    """The live video's image pixel (u, v) -> screen coordinates, as the page is laid out now
+    (read once: a state arriving later may move the video by a line)."""
     box = page.locator("#video").bounding_box()
     w, h = page.evaluate("window.umbra.size")
-    return box["x"] + u / w * box["width"], box["y"] + v / h * box["height"]
+    return lambda u, v: (box["x"] + u / w * box["width"], box["y"] + v / h * box["height"])
+
+
+def image_to_screen(page: Any, u: float, v: float) -> tuple[float, float]:
+    """Screen coordinates of image pixel (u, v) on the live video."""
+    return image_to_screen_map(page)(u, v)
 
 
 def click_image(page: Any, u: float, v: float) -> None:

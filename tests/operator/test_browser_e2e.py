@@ -18,7 +18,7 @@ from tests.operator.browser import (
     chromium,
     click_image,
     green_patch_centre,
-    image_to_screen,
+    image_to_screen_map,
     needs_chromium,
     open_console,
     take_control,
@@ -111,17 +111,18 @@ def _overlay_green_on_snake(page: Any) -> tuple[int, int]:
         page.wait_for_timeout(100)  # a state being drawn as the hold began is on the screen
         drawn = page.evaluate("window.__drawn")
         shot = np.asarray(PILImage.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+        to_screen = image_to_screen_map(page)  # the layout of the screenshot
     finally:
         page.evaluate("window.__hold = false")
     step = max(1, len(drawn) // 12)
-    hits = sum(_stroke_near(page, shot, u, v) for u, v in drawn[::step])
+    hits = sum(_stroke_near(shot, *to_screen(u, v)) for u, v in drawn[::step])
     return hits, len(drawn[::step])
 
 
-def _stroke_near(page: Any, shot: np.ndarray, u: float, v: float) -> bool:
+def _stroke_near(shot: np.ndarray, x_px: float, y_px: float) -> bool:
     """Whether the overlay's stroke green (0, 255, 64), which the lit patch (about 30, 170, 60)
-    never is, lies within 4 px of image pixel (u, v) on the screenshot."""
-    x, y = (round(c) for c in image_to_screen(page, u, v))
+    never is, lies within 4 px of screen point (x_px, y_px) on the screenshot."""
+    x, y = round(x_px), round(y_px)
     win = shot[max(0, y - 4) : y + 5, max(0, x - 4) : x + 5].reshape(-1, 3)
     return bool(np.any((win[:, 1] >= 240) & (win[:, 0] <= 40) & (win[:, 2] <= 110)))
 

@@ -34,10 +34,12 @@
       b.textContent = `verdict: ${l.verdict}`;
       $("line-verdict").append(b);
     }
-    $("banner").style.display = held ? "block" : "none";
-    $("banner").className = l.stage === "done" ? "calm" : "";  // held because the grab is done
+    // the banner's line is always there (a banner that came and went moved the live image, and
+    // a click, by a line): red while the arm is held, a dim "not held" otherwise
+    $("banner").className = !held ? "free" : l.stage === "done" ? "calm" : "";  // calm: held, grab done
     const why = s.assist && l.stage === "assist" ? "the grab asks for you (the request is below)" : l.stopped || s.banner;
-    $("banner").textContent = held ? `arm held at zero: ${why}` : "";
+    $("banner").textContent = held ? `arm held at zero: ${why}` : umbra.ended ? "" : "arm not held";
+    $("banner").title = $("banner").textContent;  // one line, cut at the page's edge: all of it
   }
   umbra.on("state", render);
   umbra.on("ended", (s) => {
