@@ -125,6 +125,7 @@ def test_a_name_missing_under_umbra_is_missing_under_the_old_name_too(tmp_path: 
 
 
 @pytest.mark.slow
+@pytest.mark.untimed
 def test_the_wheel_holds_one_top_level_package_and_the_pth_keeps_old_scripts_running(
     tmp_path: Path,
 ) -> None:

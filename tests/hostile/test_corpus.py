@@ -85,18 +85,20 @@ def _without_plugin_warnings(err: str) -> str:
     return "\n".join(line for line in err.splitlines() if not line.startswith("umbra: warning:"))
 
 
+#: slow, and judged by no clock: CI runs these two at a time (``untimed``)
+UNTIMED_SLOW = (pytest.mark.slow, pytest.mark.untimed)
 SUBPROCESS_CASES = [
     pytest.param("graph-alias_bomb"),
-    pytest.param("set-timeout_1e999", marks=pytest.mark.slow),
-    pytest.param("graph-seed_5000_digits", marks=pytest.mark.slow),
-    pytest.param("dh-latin1", marks=pytest.mark.slow),
-    pytest.param("dh-fifo", marks=pytest.mark.slow),
-    pytest.param("image-bomb_png", marks=pytest.mark.slow),
-    pytest.param("zoom-xml-billion_laughs", marks=pytest.mark.slow),
-    pytest.param("pose-collinear", marks=pytest.mark.slow),
+    pytest.param("set-timeout_1e999", marks=UNTIMED_SLOW),
+    pytest.param("graph-seed_5000_digits", marks=UNTIMED_SLOW),
+    pytest.param("dh-latin1", marks=UNTIMED_SLOW),
+    pytest.param("dh-fifo", marks=UNTIMED_SLOW),
+    pytest.param("image-bomb_png", marks=UNTIMED_SLOW),
+    pytest.param("zoom-xml-billion_laughs", marks=UNTIMED_SLOW),
+    pytest.param("pose-collinear", marks=UNTIMED_SLOW),
     pytest.param("sketch-latin1"),
     pytest.param("record-long_record"),
-    pytest.param("posetool-max_rms_nan", marks=pytest.mark.slow),
+    pytest.param("posetool-max_rms_nan", marks=UNTIMED_SLOW),
 ]
 
 

@@ -36,7 +36,7 @@ from umbra.runtime.recording.chunks import inflate
 from umbra.runtime.recording.reader import indexed_scan, read_messages, read_records
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.untimed]
 
 REPO = Path(__file__).resolve().parents[2]
 GRAPH = REPO / "tests" / "recording" / "pickup_small.yaml"

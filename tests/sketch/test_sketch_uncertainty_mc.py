@@ -65,6 +65,7 @@ def band(runs: int, dof: int) -> tuple[float, float]:
 
 
 @pytest.mark.slow
+@pytest.mark.untimed
 @pytest.mark.timeout(900)
 def test_vertices_box_centre_and_line_direction_nees() -> None:
     rng = np.random.default_rng(2026)

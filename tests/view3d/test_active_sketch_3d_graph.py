@@ -20,7 +20,7 @@ from tests.view3d.browser_support import block_outside_loopback, launch, needs_c
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 
 REPO = Path(__file__).resolve().parents[2]
-DURATION_S = 40
+DURATION_S = 20  # snap1 and line1 come at ~6 s; the rest of it the page watches the video
 
 
 def test_ptu_cameras_solids_and_sketch_items_in_the_3d_view(tmp_path: Path) -> None:

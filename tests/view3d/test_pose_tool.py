@@ -210,6 +210,7 @@ def test_update_graph_frame_adds_a_missing_entry() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.untimed
 def test_cli_subprocess_bad_file_exit_2(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text("mount: a->b\ncamera: {fx: 800, fy: 800, u0: 320, v0: 240}\npoints: {}\n")
