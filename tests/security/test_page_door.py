@@ -127,9 +127,13 @@ def test_bodies_are_refused_past_their_limit_before_they_are_read() -> None:
             try:
                 for _ in range(2 * MAX_PAGE_BODY_BYTES // 4096):
                     s.sendall(chunk)
-            except BrokenPipeError:
+            except (BrokenPipeError, ConnectionResetError):
                 pass  # refused and closed while these were still going: the answer is read next
-            assert s.recv(65536).startswith(b"HTTP/1.1 413")
+            try:
+                answer = s.recv(65536)
+            except ConnectionResetError:  # the kernel's reset (data still coming) beat the answer
+                answer = b"reset"
+            assert answer.startswith(b"HTTP/1.1 413") or answer == b"reset", answer[:200]
             sent, refused = 0, False
             try:  # the server reads no more: the connection is gone long before 64 MiB
                 while sent < 64 << 20:
