@@ -263,3 +263,32 @@ def test_zoom_sliders_in_chromium() -> None:
                 assert not stepper.outputs("zoom_2")
         finally:
             stepper.stop()
+
+
+def test_a_run_that_dies_without_a_word_is_not_shown_as_live() -> None:
+    """The console's web server goes away without the run's end being sent (a killed process):
+    the page disables its commands at once and, after a few seconds without an answer, says the
+    run ended or failed instead of "reconnecting" for ever."""
+    from umbra.modules.operator.web_server import release_server
+
+    with ModuleHarness(OperatorConsole, {}) as h:
+        stepper = Stepper(h)
+        stepper.start()
+        try:
+            with chromium() as browser:
+                page = open_console(browser, h.module.url)
+                take_control(page)
+                assert page.is_enabled("#release")
+                stepper.stop()  # the process stops stepping, then its server is gone
+                release_server(h.module._server)
+                h.module._server = None
+                page.wait_for_function("$('conn').textContent !== 'connected'")
+                assert page.is_disabled("#release")  # no control over a run that is not there
+                assert not page.evaluate("window.umbra.ended")  # nobody said the run ended
+                page.wait_for_function(
+                    "document.getElementById('conn').textContent.includes('ended or failed')",
+                    timeout=15000,
+                )
+                assert "no answer from the run for" in page.inner_text("#conn")
+        finally:
+            stepper.stop()

@@ -40,6 +40,7 @@
     const why = s.assist && l.stage === "assist" ? "the grab asks for you (the request is below)" : l.stopped || s.banner;
     $("banner").textContent = held ? `arm held at zero: ${why}` : umbra.ended ? "" : "arm not held";
     $("banner").title = $("banner").textContent;  // one line, cut at the page's edge: all of it
+    $("banner").hidden = umbra.ended;  // the ended page is no longer live: nothing moves under a click
   }
   umbra.on("state", render);
   umbra.on("ended", (s) => {

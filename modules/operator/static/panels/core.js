@@ -5,6 +5,7 @@ const $ = (id) => document.getElementById(id);
 const umbra = (window.umbra = { painted: 0, frame: 0, size: [640, 480], state: null, notices: [],
   session: "", name: "", latencies: [], ended: false, handlers: {} });
 let socket = null, seq = 0;
+const LOST_S = 5;  // how long [s] without an answer before the page says the run may be gone
 
 umbra.on = (kind, fn) => { (umbra.handlers[kind] = umbra.handlers[kind] || []).push(fn); };
 umbra.emit = (kind, data) => { for (const fn of umbra.handlers[kind] || []) fn(data); };
@@ -21,11 +22,18 @@ umbra.connect = () => {
               (token ? `?token=${encodeURIComponent(token)}` : "");
   socket = new WebSocket(url);
   socket.binaryType = "arraybuffer";
-  socket.onopen = () => umbra.emit("connection", "connected");
+  socket.onopen = () => { umbra.lostAt = 0; umbra.emit("connection", "connected"); };
   socket.onclose = () => {
+    const held = umbra.session !== "";
     umbra.session = ""; seq = 0;
     if (umbra.state && umbra.state.phase === "ended") { umbra.ended = true; umbra.emit("ended", umbra.state); return; }
-    umbra.emit("connection", "disconnected: reconnecting");
+    // a run that died without saying so: after LOST_S the page says what it knows, and the
+    // commands are shown disabled at once (the state drawn again without this page's session)
+    umbra.lostAt = umbra.lostAt || performance.now();
+    const s = Math.round((performance.now() - umbra.lostAt) / 1000);
+    umbra.emit("connection", s < LOST_S ? "disconnected: reconnecting" :
+      `no answer from the run for ${s} s: it ended or failed; reconnecting`);
+    if (held && umbra.state) umbra.emit("state", umbra.state);
     setTimeout(umbra.connect, 1000);
   };
   socket.onmessage = (ev) => {
