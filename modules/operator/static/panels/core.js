@@ -24,7 +24,7 @@ umbra.connect = () => {
   socket.binaryType = "arraybuffer";
   socket.onopen = () => { umbra.lostAt = 0; umbra.emit("connection", "connected"); };
   socket.onclose = () => {
-    const held = umbra.session !== "";
+    const hadSession = umbra.session !== "";
     umbra.session = ""; seq = 0;
     if (umbra.state && umbra.state.phase === "ended") { umbra.ended = true; umbra.emit("ended", umbra.state); return; }
     // a run that died without saying so: after LOST_S the page says what it knows, and the
@@ -33,7 +33,7 @@ umbra.connect = () => {
     const s = Math.round((performance.now() - umbra.lostAt) / 1000);
     umbra.emit("connection", s < LOST_S ? "disconnected: reconnecting" :
       `no answer from the run for ${s} s: it ended or failed; reconnecting`);
-    if (held && umbra.state) umbra.emit("state", umbra.state);
+    if (hadSession && umbra.state) umbra.emit("state", umbra.state);
     setTimeout(umbra.connect, 1000);
   };
   socket.onmessage = (ev) => {
