@@ -208,6 +208,7 @@ class Register(Generic[M]):
         "_track",
         "_value",
         "clock_error",
+        "clock_problem",
         "connected",
         "events",
         "fresh",
@@ -241,6 +242,9 @@ class Register(Generic[M]):
         #: bound [s] on the error of the samples' stamps and origins on this process's clock (0:
         #: the same process; a link's: its measured offset's, inf until it is measured)
         self.clock_error = 0.0
+        #: why the samples cannot be dated on this process's clock now (empty: they can, or the
+        #: producer is in this process): set by the runtime with ``clock_error``
+        self.clock_problem = ""
         self._max_age = max_age
         self._track = track
 

@@ -49,6 +49,11 @@ class LinkTransport(Protocol):
         measured."""
         ...
 
+    def clock_problem(self, link: LinkPlan) -> str:
+        """Why ``link``'s samples cannot be dated on this process's clock now (empty: they
+        can)."""
+        ...
+
     def stats(self) -> dict[str, object]:
         """Counters for the run summary (samples, decode errors...)."""
         ...

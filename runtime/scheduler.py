@@ -434,7 +434,12 @@ class Scheduler:
         version = transport.state_version
         self._link_state = -1 if version is None else version
         self._clocks_read_at = now
-        alive, error = transport.producer_alive, transport.clock_error
+        alive, error, problem = (
+            transport.producer_alive,
+            transport.clock_error,
+            transport.clock_problem,
+        )
         for reg, link in self._link_regs:
             reg.set_link_alive(alive(link))
             reg.clock_error = error(link)
+            reg.clock_problem = problem(link)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, from_param, param
@@ -138,6 +141,8 @@ class RegVel(Module):
         if halt is not None and halt.assist:
             halt_reason = f"halted by {halt.stage}: {halt.reason or halt.message}"
         out = self._register.output(now, self.command.link_alive, halt_reason)
+        if out.stale and not math.isfinite(out.origin_age) and self.command.clock_problem:
+            out = replace(out, zero_reason=f"{out.zero_reason}: {self.command.clock_problem}")
         jogging = self._jog_step(now) if self.jog.value is not None else None
         if jogging is not None:
             out = jogging

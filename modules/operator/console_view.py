@@ -57,6 +57,7 @@ class ConsoleView:
         values = guard.values if guard is not None else {}
         errors = [reg.clock_error for _n, reg in self._links() if reg.value is not None]
         worst = max(errors, default=0.0)
+        problems = [reg.clock_problem for _n, reg in self._links() if reg.clock_problem]
         return {
             "command_origin_ms": None
             if "origin_age" not in values or values["origin_age"] >= 1e8
@@ -64,6 +65,7 @@ class ConsoleView:
             "command_stale": bool(values.get("stale")),
             "clock_error_ms": None if not math.isfinite(worst) else round(worst * 1e3, 3),
             "clocks_synced": math.isfinite(worst) and worst <= CLOCK_SYNC_BOUND_S,
+            "clock_problem": problems[0] if problems else "",
         }
 
     def _held_banner(self, now: float, servo: Any, guard: Any) -> str:

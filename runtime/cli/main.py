@@ -7,12 +7,15 @@ Exit status: 0 success, 1 the run failed, 2 bad input (graph, parameters, files,
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
+import logging
+import os
 import re
 import sys
 from importlib.metadata import entry_points
 from types import ModuleType
-from typing import Any
+from typing import Any, NoReturn
 
 from umbra.connectors.errors import UserError
 
@@ -98,5 +101,25 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
 
+def entry() -> NoReturn:
+    """The ``umbra`` command: :func:`main`, then leave the process without finalizing the
+    interpreter.
+
+    Native threads (zenoh's runtime, the live server's) may still call into Python while an
+    interpreter finalizes; the interpreter then ends such a thread by unwinding it through their
+    frames, and glibc aborts the process ("FATAL: exception not rethrown", SIGABRT) after a run
+    that went well. Everything :func:`main` writes (summaries, recordings) is written and closed
+    before it returns; the exit handlers and logging are flushed here, then the process ends with
+    :func:`main`'s status."""
+    code = main()
+    try:
+        atexit._run_exitfuncs()  # what finalizing would run first (temporary files, ...)
+        logging.shutdown()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    finally:
+        os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -9,7 +9,8 @@ process's zenoh node, a peer of subject ``Y`` may:
 * declare subscribers only on the keys ``Y`` consumes;
 * declare a liveliness token only under ``P/_alive/Y/`` (its own identity), and watch or query the
   graph's tokens;
-* answer and ask clock queries under ``P/_clock/`` (the graph's time base; a reply counts only
+* declare a clock queryable and reply to clock queries only under ``P/_clock/Y/`` (its own clock:
+  nobody answers for another process's), and ask every clock of the graph (a reply counts only
   from the session the producer's proven token names);
 
 and is sent only what it consumes. Everything else is denied (``default_permission: deny``), so a
@@ -34,7 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from umbra.runtime.graph.plan import GraphPlan
-from umbra.runtime.links.clock_sync import CLOCK
+from umbra.runtime.links.clock_sync import CLOCK, clock_keys
 from umbra.runtime.links.identity import ALIVE
 
 #: Subject of a process: the zenoh subject fields naming it (user or certificate names, zenoh
@@ -125,6 +126,7 @@ def zenoh_acl(
     produces, consumes = link_keys(plan)
     prefix = plan.key_prefix
     alive_all = f"{prefix}/{ALIVE}/**"
+    clocks_all = f"{prefix}/{CLOCK}/**"
     rules: list[dict[str, Any]] = []
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
@@ -161,11 +163,23 @@ def zenoh_acl(
                 [f"{prefix}/{ALIVE}/{process}/**"],
             ),
             rule(f"{process}: tokens to it", ["liveliness_token"], ["egress"], [alive_all]),
-            rule(  # the graph's one time base (umbra.runtime.links.clock_sync): replies are checked
-                f"{process}: clocks",  # against the replier's proven session
-                ["declare_queryable", "query", "reply"],
-                ["ingress", "egress"],
-                [f"{prefix}/{CLOCK}/**"],
+            # the graph's one time base (umbra.runtime.links.clock_sync): only the clock's owner
+            # answers for it; anyone of the graph may ask and hear the answers
+            rule(
+                f"{process}: its clock",
+                ["declare_queryable", "reply"],
+                ["ingress"],
+                [clock_keys(prefix, process)],
+            ),
+            rule(
+                f"{process}: queries to its clock",
+                ["query"],
+                ["egress"],
+                [clock_keys(prefix, process)],
+            ),
+            rule(f"{process}: asks clocks", ["query"], ["ingress"], [clocks_all]),
+            rule(
+                f"{process}: clocks to it", ["declare_queryable", "reply"], ["egress"], [clocks_all]
             ),
         ]
         if produces[process]:

@@ -31,6 +31,13 @@ from umbra.runtime.links.auth import apply_auth
 
 #: Lease of a zenoh link [ms]: a peer that sends nothing for this long is declared gone.
 LEASE_MS = 1000
+#: Longest a connecting peer may take over zenoh's handshake [ms] (zenoh's default: 10 s). A
+#: handshake over loopback or a LAN takes milliseconds, with TLS tens; a peer that opens a
+#: connection and says nothing (or junk) holds a slot, and the session's close waits for it, no
+#: longer than this.
+ACCEPT_TIMEOUT_MS = 2000
+#: Handshakes under way at once (zenoh's default: 100): what half-open connections can hold.
+ACCEPT_PENDING = 16
 #: Keep-alive messages per lease period.
 KEEP_ALIVE = 4
 #: First base port of the default loopback mesh of ``umbra run GRAPH --process NAME``.
@@ -201,6 +208,10 @@ def build_config(
         cfg.insert_json5("transport/link/tx/lease", _json(LEASE_MS))
     if unchanged("transport/link/tx/keep_alive"):
         cfg.insert_json5("transport/link/tx/keep_alive", _json(KEEP_ALIVE))
+    if unchanged("transport/unicast/accept_timeout"):
+        cfg.insert_json5("transport/unicast/accept_timeout", _json(ACCEPT_TIMEOUT_MS))
+    if unchanged("transport/unicast/accept_pending"):
+        cfg.insert_json5("transport/unicast/accept_pending", _json(ACCEPT_PENDING))
     if unchanged("transport/shared_memory/enabled"):
         cfg.insert_json5("transport/shared_memory/enabled", "true")
     return cfg

@@ -3,6 +3,8 @@ to reach a run's processes."""
 
 from __future__ import annotations
 
+import logging
+import threading
 import time
 
 import zenoh
@@ -42,3 +44,34 @@ def wait_joined(session: zenoh.Session, count: int, timeout_s: float) -> int:
         if joined >= count or time.monotonic() > deadline:
             return joined
         time.sleep(JOIN_POLL_S)
+
+
+#: Longest a session's close is waited for [s]: a little over zenoh's handshake deadline
+#: (``config.ACCEPT_TIMEOUT_MS``), which a half-open connection from a stranger makes it wait.
+CLOSE_WAIT_S = 3.0
+
+
+def close_session(
+    session: zenoh.Session, log: logging.Logger, timeout_s: float = CLOSE_WAIT_S
+) -> bool:
+    """Close ``session``, waiting at most ``timeout_s`` [s] (in a thread of its own: a close that
+    hangs on a stranger's connection must not hold the process's exit); True when it closed."""
+    done = threading.Event()
+
+    def close() -> None:
+        try:
+            session.close()
+        except Exception as exc:  # already closed, or zenoh's runtime going down
+            log.debug("zenoh session close: %s", exc)
+        finally:
+            done.set()
+
+    threading.Thread(target=close, name="umbra-session-close", daemon=True).start()
+    if not done.wait(timeout_s):
+        log.warning(
+            "the zenoh session did not close within %.1f s (a peer's connection holds it): "
+            "leaving it behind",
+            timeout_s,
+        )
+        return False
+    return True

@@ -53,6 +53,7 @@ from umbra.runtime.links.pool import HostMarker, PoolReader, marker_pid
 from umbra.runtime.links.pool_handoff import PoolHandoff
 from umbra.runtime.links.publishing import declare_publisher, publish_sink
 from umbra.runtime.links.receiving import Decoders, Receiving, receiver
+from umbra.runtime.links.session import close_session
 from umbra.runtime.links.shm import ShmWriter
 from umbra.runtime.links.stats import PublishStats, SubscribeStats
 from umbra.runtime.links.trust import ProducerGate
@@ -360,6 +361,10 @@ class ZenohTransport:
         offset = self.clocks.offsets.get(self._producer_of.get(link.key, ""))
         return float("inf") if offset is None else offset.error
 
+    def clock_problem(self, link: LinkPlan) -> str:
+        """Why ``link``'s samples cannot be dated on this process's clock now (empty: they can)."""
+        return self.clocks.problem(self._producer_of.get(link.key, ""))
+
     def link_age(self, link: LinkPlan, now: float | None = None) -> float:
         """Seconds since the latest sample of ``link`` arrived (monotonic; inf when none)."""
         entry = self._subs.get(link.key)
@@ -407,7 +412,7 @@ class ZenohTransport:
             if self._token is not None:
                 self._token.undeclare()
         finally:
-            self._session.close()
+            close_session(self._session, self._log)
             self._handoff.close()
             if self._marker is not None:
                 self._marker.close()

@@ -43,6 +43,7 @@ from umbra.connectors.errors import UserError
 from umbra.connectors.messages import CameraModel, Image, Message, Pose, Poses
 from umbra.runtime.recording.encoders import ChannelEncoding, channel_encodings
 from umbra.runtime.recording.foxglove_msgs import frame_transforms, time_ns, view_frames
+from umbra.runtime.recording.ros2_channels import ros2_channel_encodings, static_frames_message
 from umbra.runtime.rt_priority import lowered
 
 #: Channel metadata keys (strings), read by record-info and replay.
@@ -53,6 +54,9 @@ META_JOINTS = "umbra.joints"
 META_ROLE = "umbra.role"  # "primary" or "view"
 META_PROCESS = "umbra.process"
 TF_STATIC = "/tf_static"
+#: Recording formats: Foxglove's schemas (protobuf, JSON) or ROS 2's (``ros2msg``/``cdr``,
+#: ``umbra.runtime.recording.ros2_channels``).
+RECORD_FORMATS = ("foxglove", "ros2")
 PROFILE = "umbra"
 #: Nice value of the recorder's thread (Linux): below the run's loop, which never waits for it.
 WRITER_NICE = 10
@@ -91,8 +95,14 @@ class RecordingFile:
         jpeg_quality: int = 90,
         compress: bool = True,
         clock_offset: float = 0.0,
+        record_format: str = "foxglove",
         log: logging.Logger | None = None,
     ) -> None:
+        if record_format not in RECORD_FORMATS:
+            raise ValueError(
+                f"expected a recording format among {RECORD_FORMATS}, found {record_format!r}"
+            )
+        self.record_format = record_format
         self.path = Path(path)
         self.clock_offset = clock_offset  #: wall-clock time minus the run's clock [s]
         try:
@@ -102,7 +112,8 @@ class RecordingFile:
             raise UserError(f"{path}: error: cannot write the recording: {exc.strerror}") from None
         compression = CompressionType.LZ4 if compress else CompressionType.NONE
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=compression)
-        self._writer.start(profile=PROFILE, library="umbra")
+        profile = "ros2" if record_format == "ros2" else PROFILE  # rosbag2 readers ask for it
+        self._writer.start(profile=profile, library="umbra")
         self._log = log or logging.getLogger("umbra.record")
         #: child frame -> (parent, topic) of its first transform (a viewer keeps one parent)
         self._parents: dict[str, tuple[str, str]] = {}
@@ -184,9 +195,8 @@ class RecordingFile:
 
     # -- the recorder's thread ------------------------------------------------------------------
     def _register(self, info: ChannelInfo) -> None:
-        info.encodings = channel_encodings(
-            info.msg_type, info.images, self._jpeg_quality, self.clock_offset
-        )
+        table = ros2_channel_encodings if self.record_format == "ros2" else channel_encodings
+        info.encodings = table(info.msg_type, info.images, self._jpeg_quality, self.clock_offset)
         for enc in info.encodings:
             key = (enc.schema_name, enc.schema_encoding)
             if key not in self._schemas:
@@ -248,6 +258,9 @@ class RecordingFile:
             )
 
     def _static(self, frames: list[tuple[str, str, Any]], now: float) -> None:
+        if self.record_format == "ros2":
+            self._static_ros2(frames, now)
+            return
         key = ("foxglove.FrameTransforms", "protobuf")
         if key not in self._schemas:
             self._schemas[key] = register_schema(self._writer, FrameTransforms)
@@ -261,6 +274,22 @@ class RecordingFile:
         for parent, child, _T in frames:
             self._one_parent(child, parent, TF_STATIC)
         data = frame_transforms(frames, now, self.clock_offset).SerializeToString()
+        self._writer.add_message(channel_id=cid, log_time=ns, publish_time=ns, data=data)
+
+    def _static_ros2(self, frames: list[tuple[str, str, Any]], now: float) -> None:
+        enc, data = static_frames_message(frames, now, self.clock_offset)
+        key = (enc.schema_name, enc.schema_encoding)
+        if key not in self._schemas:
+            self._schemas[key] = self._writer.register_schema(
+                name=enc.schema_name, encoding=enc.schema_encoding, data=enc.schema_data
+            )
+        cid = self._writer.register_channel(
+            topic=TF_STATIC,
+            message_encoding=enc.message_encoding,
+            schema_id=self._schemas[key],
+            metadata={META_ROLE: "view"},
+        )
+        ns = time_ns(now, self.clock_offset)
         self._writer.add_message(channel_id=cid, log_time=ns, publish_time=ns, data=data)
 
     def _handle(self, item: Any) -> None:

@@ -122,11 +122,16 @@ class ProbeTwist(Module):
 
     class Params(Parameters):
         vx: float = param(0.0, "speed along the camera's x axis", unit="m/s")
+        origin_lag: float = param(
+            0.0, "how old the sensor data behind each command is", unit="s", ge=0.0, le=10.0
+        )
 
     twist = Output(Twist, frame="camera", doc="constant twist")
 
     def step(self, now: float) -> None:
-        self.twist.send(Twist(vector=np.array([self.params.vx, 0, 0, 0, 0, 0.0]), frame="camera"))
+        vector = np.array([self.params.vx, 0, 0, 0, 0, 0.0])
+        lag = self.params.origin_lag
+        self.twist.send(Twist(vector=vector, frame="camera", origin=now - lag if lag else 0.0))
 
 
 class Ballast(Module):

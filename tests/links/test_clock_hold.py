@@ -10,7 +10,7 @@ import math
 import zenoh
 
 from umbra.connectors.messages import Scalar
-from umbra.runtime.links.clock_sync import HOLD_UNDATED_S, ClockSync
+from umbra.runtime.links.clock_sync import HOLD_UNDATED_S, ClockReply, ClockSync
 
 
 def _session() -> zenoh.Session:
@@ -27,7 +27,8 @@ def test_early_samples_wait_for_the_clock_then_go_in_order_dated() -> None:
         sync.date("umbra", Scalar(value=1.0, stamp=50.0, origin=49.0), got.append)
         sync.date("umbra", Scalar(value=2.0, stamp=50.1, origin=49.1), got.append)
         assert got == [] and sync.held_undated == 2  # no clock yet: held, not undatable
-        sync._record("umbra", 100.0, 105.0, 100.0002)  # the producer is 5 s ahead of us
+        reply = ClockReply(105.0, "another-host/time:[1]")  # the producer is 5 s ahead of us
+        sync._record("umbra", 100.0, reply, 100.0002)
         sync._release("umbra")
         assert [m.value for m in got] == [1.0, 2.0]  # in order
         # offset 4.9999 s (the reply in the middle of the 0.2 ms round trip), error 0.1 ms: the
@@ -50,9 +51,12 @@ def test_a_producer_whose_clock_never_answers_gets_its_samples_through_as_undata
         sync._release("umbra")
         assert got == []
         now[0] += HOLD_UNDATED_S
+        sync.exchange("umbra")  # nobody to ask: no proven session of `umbra`
         sync._release("umbra")
         assert len(got) == 1 and got[0].origin == -math.inf  # old: every guard refuses it
-        assert sync.summary()["undatable"] == 1
+        summary = sync.summary()
+        assert summary["undatable"] == 1
+        assert "no live session of process `umbra`" in summary["umbra"]["undatable_why"]
     finally:
         sync.close()
         session.close()

@@ -128,6 +128,9 @@ class FakeTransport:
     def producer_alive(self, link: LinkPlan) -> bool:
         return True
 
+    def clock_problem(self, link: LinkPlan) -> str:
+        return ""
+
     def clock_error(self, link: LinkPlan) -> float:
         return 0.0
 

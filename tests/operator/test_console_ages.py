@@ -55,6 +55,10 @@ def test_the_command_age_and_the_clocks_come_from_the_guard_and_the_links() -> N
         assert ages["clocks_synced"] is True and ages["clock_error_ms"] == 0.0  # one process
         h.module.image.clock_error = math.inf  # a link whose producer's clock is not measured
         assert h.module._state(h.now)["data_age"]["clocks_synced"] is False
+        assert h.module._state(h.now)["data_age"]["clock_problem"] == ""
+        why = "no clock reply from process `umbra` (session 1f) within 0.5 s"
+        h.module.image.clock_problem = why  # as the runtime sets it: the page says why
+        assert h.module._state(h.now)["data_age"]["clock_problem"] == why
 
 
 def test_the_banner_shows_a_late_command_only_once_it_holds_the_arm() -> None:

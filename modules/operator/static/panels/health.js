@@ -13,7 +13,10 @@ umbra.on("state", (s) => {
     "command: none passed yet" : `image → command at REG_VEL: <b class="${d.command_stale ? "bad" : ""}">` +
     `${d.command_origin_ms} ms</b>`) + " · " + (d.clocks_synced ?
     `<span class="ok">clocks in sync (±${d.clock_error_ms} ms)</span>` :
-    `<span class="${bad}">clocks not measured yet</span>`);
+    `<span class="${bad}" id="clock-problem"></span>`);
+  const why = $("clock-problem");
+  if (why) why.textContent = d.clock_problem ? `clocks cannot be dated: ${d.clock_problem}` :
+    "clocks not measured yet";
   $("smart").innerHTML = s.smart_alive === null ? "smart process: no data yet" :
     s.smart_alive ? '<span class="ok">smart process alive</span>' :
     ended ? '<span class="dim">smart process: ended with the run</span>' : '<span class="bad">smart process gone</span>';
