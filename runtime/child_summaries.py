@@ -62,7 +62,13 @@ def cause_of(out: Path, child: Child) -> str:
 
 
 def write_summaries(
-    plan: GraphPlan, out: Path, children: list[Child], code: int, reason: str, started: float
+    plan: GraphPlan,
+    out: Path,
+    children: list[Child],
+    code: int,
+    reason: str,
+    started: float,
+    run_id: str = "",
 ) -> None:
     processes = []
     for child in children:
@@ -89,6 +95,7 @@ def write_summaries(
         )
     whole = {
         "graph": plan.spec.name,
+        "run_id": run_id,
         "mode": "split",
         "exit_code": code,
         "reason": reason,

@@ -19,6 +19,11 @@ A process that does not stop within ``STOP_GRACE`` seconds of being told gets SI
 SIGKILL. Each process writes ``summary-NAME.json`` (the launcher writes it for a process that died
 without one) and the launcher writes ``summary.json`` for the whole run.
 
+Run ID: each run has one (:func:`run_identity`: ``--run-id``, else a new one), said on start and
+given to every process (``--run-id``), which writes it into its run file
+(``umbra.runtime.links.runs``): the run's live server and the observers (``umbra topics --run ID``)
+find this run's processes by it, never another run's of the same graph.
+
 When a child ends, the ``/dev/shm`` files it left (its frame pools, its host marker, zenoh's
 segments it mapped) are removed at once (``umbra.runtime.links.shm_sweep``).
 
@@ -52,6 +57,7 @@ from umbra.runtime.links.config import (
 )
 from umbra.runtime.links.config_facts import config_facts
 from umbra.runtime.links.exposure import check_exposure, config_for
+from umbra.runtime.links.runs import BY_HAND, checked_run_id, new_run_id
 from umbra.runtime.links.shm_sweep import mapped_segments, remove_orphans
 from umbra.runtime.run_one import run_one
 from umbra.runtime.scheduler import INTERRUPTED
@@ -94,6 +100,27 @@ def split_clock(plan: GraphPlan, args: argparse.Namespace, clock: str) -> str:
     return "real"
 
 
+def run_identity(plan: GraphPlan, args: argparse.Namespace) -> str:
+    """This run's ID: ``args.run_id`` (``--run-id``) when given and no live run of this user
+    holds it (else UserError), otherwise a new one (``umbra.runtime.links.runs.new_run_id``).
+    A process started by hand (``--process``) takes ``--run-id`` as it is (the other processes
+    of its run hold it too), else ``by-hand``."""
+    given = getattr(args, "run_id", None)
+    if getattr(args, "process", None):
+        return checked_run_id(given) if given else BY_HAND
+    if not given:
+        return new_run_id(plan.spec.name)
+    from umbra.runtime.links.observe import find_run
+
+    running = find_run(checked_run_id(given))
+    if running is not None:
+        raise UserError(
+            f"--run-id: expected an ID no live run holds, found `{given}` held by run "
+            f"{running.describe()}; give another, or leave --run-id out for a new one"
+        )
+    return given
+
+
 def servo_processes(plan: GraphPlan) -> set[str]:
     """Processes holding a safety guard or a drive that requires one: stopped first."""
     return {
@@ -116,6 +143,9 @@ class Supervisor:
         self._signals: list[str] = []
         self._pumps: list[threading.Thread] = []
         self.credentials: RunCredentials | None = None
+        #: this run's ID (:func:`run_identity`), given to every process
+        self.run_id = getattr(args, "run_id", None) or run_identity(plan, args)
+        self.started = time.time()  #: when the run started [s since the epoch]
 
     # -- output ------------------------------------------------------------------------------
     def say(self, text: str) -> None:
@@ -155,6 +185,10 @@ class Supervisor:
             str(self.out),
             "--prefix",
             plan.key_prefix,
+            "--run-id",
+            self.run_id,
+            "--run-started",
+            repr(self.started),
         ]
         if self.duration is not None:
             cmd += ["--duration", repr(float(self.duration))]
@@ -190,6 +224,7 @@ class Supervisor:
     def _start(self) -> None:
         plan, args = self.plan, self.args
         names = plan.populated_processes
+        self.say(f"run ID {self.run_id}")
         for p in plan.processes:
             if p not in names:
                 self.say(f"process `{p}` has no modules; not started")
@@ -307,7 +342,7 @@ class Supervisor:
                 self.credentials.close()
             for s, handler in old.items():
                 signal.signal(s, handler)
-        write_summaries(self.plan, self.out, self.children, code, reason, started)
+        write_summaries(self.plan, self.out, self.children, code, reason, started, self.run_id)
         if self.plan.spec.record.enabled:
             from umbra.runtime.recording.merge import merge_run
 

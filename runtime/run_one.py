@@ -15,6 +15,7 @@ from umbra.runtime.links.config import Endpoints, default_mesh
 from umbra.runtime.links.config_facts import config_facts
 from umbra.runtime.links.exposure import check_exposure, config_for
 from umbra.runtime.links.host_auth import host_credentials
+from umbra.runtime.links.runs import BY_HAND
 from umbra.runtime.links.stats import link_lines
 from umbra.runtime.realtime import latency_limit
 
@@ -106,6 +107,8 @@ def run_one(
         ),
         publish_all=bool(getattr(args, "publish_all", False)),
         attended=bool(getattr(args, "attended", False)),
+        run_id=getattr(args, "run_id", None) or BY_HAND,  # checked by ``launcher.run_identity``
+        run_started=getattr(args, "run_started", None) or 0.0,
     )
     result = run_linked_process(
         plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")

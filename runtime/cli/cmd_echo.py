@@ -7,6 +7,7 @@ import json
 import math
 import queue
 import sys
+import time
 
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.observing import (
@@ -14,6 +15,7 @@ from umbra.runtime.cli.observing import (
     full_key,
     message_fields,
     open_observation,
+    run_ended_text,
 )
 from umbra.runtime.links.observe import Observed
 
@@ -34,6 +36,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: Seconds between two looks at whether the run has ended while no sample comes.
+LOOK_PERIOD = 0.2
+
+
 def main(args: argparse.Namespace) -> int:
     if args.timeout is not None and not (args.timeout > 0 and math.isfinite(args.timeout)):
         raise UserError(f"--timeout must be a positive number of seconds, found {args.timeout}")
@@ -42,12 +48,19 @@ def main(args: argparse.Namespace) -> int:
         key = full_key(observation, args.key)
         samples: queue.Queue[Observed] = queue.Queue()
         observation.subscribe(samples.put, key)
+        last = time.monotonic()
         while True:
             try:
-                o = samples.get(timeout=args.timeout)
+                o = samples.get(timeout=LOOK_PERIOD)
             except queue.Empty:
-                print(f"umbra echo: no sample on {key} for {args.timeout:g} s", file=sys.stderr)
-                return 1
+                if observation.ended.is_set():
+                    print(f"umbra echo: {run_ended_text(observation)}", file=sys.stderr)
+                    return 1
+                if args.timeout is not None and time.monotonic() - last > args.timeout:
+                    print(f"umbra echo: no sample on {key} for {args.timeout:g} s", file=sys.stderr)
+                    return 1
+                continue
+            last = time.monotonic()
             if o.kind == "end":
                 print(f"umbra echo: {key}: the producer ended the stream", file=sys.stderr)
                 return 0

@@ -12,7 +12,12 @@ from collections import deque
 import numpy as np
 
 from umbra.connectors.errors import UserError
-from umbra.runtime.cli.observing import add_observer_args, full_key, open_observation
+from umbra.runtime.cli.observing import (
+    add_observer_args,
+    full_key,
+    open_observation,
+    run_ended_text,
+)
 from umbra.runtime.links.observe import Observed
 
 NAME = "hz"
@@ -63,6 +68,9 @@ def main(args: argparse.Namespace) -> int:
             if ended.is_set():
                 print(f"umbra hz: {key}: the producer ended the stream", file=sys.stderr)
                 return 0
+            if observation.ended.is_set():
+                print(f"umbra hz: {run_ended_text(observation)}", file=sys.stderr)
+                return 1
     finally:
         observation.close()
     return 0

@@ -113,10 +113,19 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "each on its key PREFIX/MODULE/PORT, for observers (`umbra topics`, viewers); links are "
         "always published",
     )
+    parser.add_argument(
+        "--run-id",
+        metavar="ID",
+        help="this run's ID, which observers name with --run ID (`umbra topics --run ID`) "
+        "when several runs of the graph are up (default: a new one, GRAPH-YYYYmmdd-HHMMSS-XXXX, "
+        "said on start; `by-hand` for a process started with --process)",
+    )
     add_foxglove_args(parser)
     parser.add_argument("--quiet", action="store_true", help="no summary table")
     # a process started by the launcher: commands on stdin, bounded wait for its consumers
     parser.add_argument("--supervised", action="store_true", help=argparse.SUPPRESS)
+    # when the launcher started the run [s since the epoch], for its run files
+    parser.add_argument("--run-started", type=float, help=argparse.SUPPRESS)
     # the launcher's per-run credentials file of this process (mode 0600)
     parser.add_argument("--link-auth", metavar="FILE", help=argparse.SUPPRESS)
     # benchmarks only: links without identity checks and size bounds (their cost is measured)
@@ -265,10 +274,11 @@ def main(args: argparse.Namespace) -> int:
 
     if getattr(args, "foxglove", False):
         args.publish_all = True  # every process's outputs, for the live server to observe
+    args.run_id = launcher.run_identity(plan, args)  # one for the run, its processes, its viewer
     live = start_live(plan, args, RealClock())
     if live is not None:
         args.tuner_password = live.tuner_password  # the launcher's credentials let it tune
-        live.observe()
+        live.observe(args.run_id)
     try:
         return launcher.main(plan, args, clock=clock, duration=duration, out=out)
     finally:

@@ -11,7 +11,7 @@ import time
 from dataclasses import dataclass, field
 
 from umbra.connectors.errors import UserError
-from umbra.runtime.cli.observing import add_observer_args, open_observation
+from umbra.runtime.cli.observing import add_observer_args, open_observation, run_ended_text
 from umbra.runtime.links.observe import Observed
 
 NAME = "topics"
@@ -68,7 +68,7 @@ class Seen:
 def main(args: argparse.Namespace) -> int:
     if not (args.window > 0 and math.isfinite(args.window)):
         raise UserError(f"--window must be a positive number of seconds, found {args.window}")
-    observation = open_observation(args)
+    observation = open_observation(args, list_runs=True)
     seen: dict[str, Seen] = {}
     lock = threading.Lock()
 
@@ -78,10 +78,13 @@ def main(args: argparse.Namespace) -> int:
 
     try:
         observation.subscribe(on_sample)
-        time.sleep(args.window)
-        producers = observation.producers()
+        observation.ended.wait(args.window)
+        ended = observation.ended.is_set()
+        producers = {} if ended else observation.producers()
     finally:
         observation.close()
+    if ended:
+        print(f"umbra topics: {run_ended_text(observation)} within the window", file=sys.stderr)
     now = time.monotonic()
     process_of = {session: name for name, session in producers.items()}
     rows = []

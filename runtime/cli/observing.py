@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from typing import Any
 
 import msgspec
@@ -12,7 +13,7 @@ import numpy as np
 
 from umbra.connectors.errors import UserError
 from umbra.connectors.messages import Message
-from umbra.runtime.links.observe import Observation
+from umbra.runtime.links.observe import Observation, runs_text, sibling_runs
 
 #: Arrays with more elements than this are summarised (dtype, shape, range) when printed.
 MAX_LISTED = 64
@@ -27,9 +28,9 @@ def add_observer_args(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--run",
-        metavar="RUN",
-        help="one of several runs of the graph "
-        "(launcher-PID or by-hand, as the error listing them says)",
+        metavar="ID",
+        help="the run to observe when several runs of the graph are up (its run ID, which "
+        "`umbra run` says on start and `umbra topics` lists; default: the newest)",
     )
     parser.add_argument(
         "--zenoh-config",
@@ -48,15 +49,44 @@ def add_observer_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--prefix", metavar="KEY", help="the run's key prefix (with --connect)")
 
 
-def open_observation(args: argparse.Namespace) -> Observation:
-    """Join the run the options name; UserError (exit 2) when none runs or access is refused."""
-    return Observation.open(
+def open_observation(args: argparse.Namespace, list_runs: bool = False) -> Observation:
+    """Join the run the options name and say on stderr, in one line, which run (and, when it
+    was taken as the newest of several, the others and how to choose); ``list_runs``: one
+    more line per run of the graph when several are up. UserError (exit 2) when none runs or
+    access is refused."""
+    observation = Observation.open(
         args.graph,
         prefix=args.prefix,
         zenoh_config=args.zenoh_config,
         connect=args.connect,
         run_id=args.run,
     )
+    run = observation.run
+    if run is None:
+        return observation
+    others = sibling_runs(run)
+    line = f"umbra {args.command}: attached to run {run.describe()}"
+    if others and args.run is None:
+        also = "listed below" if list_runs else f"also {runs_text(others)}"
+        line += (
+            f"; the newest of {len(others) + 1} runs of this graph ({also}): choose one with "
+            f"--run ID"
+        )
+    print(line, file=sys.stderr, flush=True)
+    if list_runs and others:
+        print(f"runs of graph `{run.graph}` on this host, newest first:", file=sys.stderr)
+        for each in sorted([run, *others], key=lambda r: r.started, reverse=True):
+            mark = "*" if each is run else " "
+            print(f" {mark} {each.describe()}", file=sys.stderr)
+        sys.stderr.flush()
+    return observation
+
+
+def run_ended_text(observation: Observation) -> str:
+    """What a tool says when the run it is attached to has ended."""
+    run = observation.run
+    name = run.run_id if run is not None else observation.prefix
+    return f"run {name} ended (none of its processes is running)"
 
 
 def full_key(observation: Observation, key: str) -> str:

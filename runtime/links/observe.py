@@ -1,14 +1,19 @@
-"""Observing a running graph: a read-only zenoh session that subscribes to ``P/**`` and decodes.
+"""Observing a running graph: a read-only zenoh session that subscribes to its outputs and decodes.
 
 ``Observation.open`` joins a graph as an observer (``umbra.runtime.links.acl.Observer``):
 
 * on this host, with no setup: the run files of this user's processes (``umbra.runtime.links.runs``)
-  give the prefix, the endpoints to connect to and the run's observer credentials;
+  give the run (its ID), the prefix, the endpoints to connect to and the run's observer
+  credentials. Several runs of one graph are told apart by their run ID: ``run_id`` names one,
+  else the newest is taken. An observation stays with its run: once every process of the run is
+  gone, :attr:`Observation.ended` is set and nothing more is delivered (zenoh would reconnect to
+  whatever listens on the same endpoints next);
 * elsewhere: a zenoh configuration (``umbra keys GRAPH --observer NAME`` writes one: mutual TLS
   with an observer certificate) and the endpoints to connect to.
 
 ``subscribe(on_sample)`` calls ``on_sample(Observed)`` on zenoh's threads for every sample and end
-of stream under the key expression (``P/**`` by default), decoded with ``umbra.connectors.codec``;
+of stream under the key expression (every output key it may read by default), decoded with
+``umbra.connectors.codec``;
 ``producers()`` maps each live process to its session (the liveliness tokens, section 2 of
 ``docs/wire-format.md``). Other tools (a Foxglove bridge) use this; the ``umbra topics``,
 ``echo`` and ``hz`` commands too.
@@ -18,7 +23,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import threading
 import time
 from collections.abc import Callable
@@ -33,13 +37,16 @@ from umbra.connectors.errors import UserError
 from umbra.connectors.messages import Message
 from umbra.runtime.links.config import Endpoints, build_config
 from umbra.runtime.links.identity import alive_pattern, parse_alive_key
-from umbra.runtime.links.pool import DESCRIPTOR_MAGIC, FORWARD_MAGIC
+from umbra.runtime.links.pool import DESCRIPTOR_MAGIC, FORWARD_MAGIC, pid_alive
 from umbra.runtime.links.runs import RunFile, live_runs, observer_endpoint
 from umbra.runtime.links.session import open_session, wait_joined
 from umbra.runtime.links.wire import POOL_MEDIA_TYPE, parse_encoding
 
-#: Seconds to wait for the sessions of a run's processes when joining it.
+#: Seconds to wait for the sessions of a run's processes when joining it (and for the run files
+#: of a run whose processes are still starting).
 JOIN_TIMEOUT = 3.0
+#: Seconds between two looks at whether the observed run's processes are still alive.
+WATCH_PERIOD = 0.2
 #: Beside an observer's zenoh configuration ``observer@NAME.json5``: its prefix and keys.
 KEYS_SUFFIX = ".keys.json"
 
@@ -73,41 +80,101 @@ class Run:
     def access(self) -> str:
         return self.processes[0].access if self.processes else "credentials"
 
+    @property
+    def started(self) -> float:
+        """When the launcher started the run, else its first process [s since the epoch]."""
+        return min((p.run_started or p.started for p in self.processes), default=0.0)
+
+    @property
+    def expected(self) -> int:
+        """How many processes the run has (as many as have run files when they do not say)."""
+        return max([len(self.processes)] + [p.run_processes for p in self.processes])
+
+    @property
+    def complete(self) -> bool:
+        """Every process of the run has written its run file."""
+        return len(self.processes) >= self.expected
+
+    def alive(self) -> bool:
+        """Some process of the run is alive."""
+        return any(pid_alive(p.pid) for p in self.processes)
+
+    def describe(self) -> str:
+        """``ID (graph NAME, launcher pid N, started YYYY-mm-dd HH:MM:SS, k of n processes)``."""
+        launcher = self.processes[0].launcher if self.processes else 0
+        pids = ", ".join(str(p.pid) for p in self.processes)
+        who = f"launcher pid {launcher}" if launcher else f"started by hand, pid {pids}"
+        when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(self.started))
+        return (
+            f"{self.run_id} (graph {self.graph}, {who}, started {when}, "
+            f"{len(self.processes)} of {self.expected} processes)"
+        )
+
 
 def local_runs(folder: Path | None = None) -> list[Run]:
-    """The graphs this user runs on this host now, by graph and prefix."""
+    """The runs of this user on this host now, by graph, prefix and run ID; oldest first."""
     runs: dict[tuple[str, str, str], Run] = {}
     for entry in live_runs(folder):
         at = (entry.graph, entry.prefix, entry.run_id)
         runs.setdefault(at, Run(*at)).processes.append(entry)
-    return list(runs.values())
+    return sorted(runs.values(), key=lambda r: r.started)
+
+
+def find_run(run_id: str, graph: str | None = None, folder: Path | None = None) -> Run | None:
+    """The local run ``run_id`` (of ``graph``, its name or prefix, when given); None when no
+    process of it has written its run file (yet, or any more)."""
+    for run in local_runs(folder):
+        if run.run_id == run_id and graph in (None, run.graph, run.prefix):
+            return run
+    return None
 
 
 def choose_run(graph: str | None, folder: Path | None = None, run_id: str | None = None) -> Run:
-    """The local run of ``graph`` (or the only one; ``run_id`` picks one of several runs);
-    UserError saying what runs otherwise."""
+    """The local run to observe: ``run_id`` when given, else the newest run of ``graph`` (its
+    name or prefix; of the only graph running when None). UserError saying what runs when there
+    is no such run, or several graphs run and none is named."""
     runs = local_runs(folder)
-    if graph is not None:
-        runs = [r for r in runs if graph in (r.graph, r.prefix)]
+    mine = [r for r in runs if graph in (None, r.graph, r.prefix)]
     if run_id is not None:
-        runs = [r for r in runs if r.run_id == run_id]
-    mine = [r for r in runs if r.run_id == f"launcher-{os.getpid()}"]
-    if mine:  # called in a launcher (a viewer it serves): its own run
-        runs = mine
-    if len(runs) == 1:
-        return runs[0]
-    if not runs:
+        found = [r for r in mine if r.run_id == run_id]
+        if len(found) == 1:
+            return found[0]
+        if not found:
+            of = f" of graph `{graph}`" if graph else ""
+            raise UserError(
+                f"--run: expected a run{of} on this host for this user, found no run "
+                f"`{run_id}`; runs: {runs_text(runs)}"
+            )
+        mine = found  # one ID in several graphs (processes started by hand): name the graph
+    if not mine:
         what = f"graph `{graph}`" if graph else "no graph"
         raise UserError(
             f"error: {what} runs on this host for this user (no live run file in "
             f"{_runs_folder_text(folder)}); start one with `umbra run GRAPH`, or observe a "
             f"run elsewhere with --zenoh-config OBSERVER.json5 --connect ENDPOINT"
         )
-    names = "; ".join(f"{r.graph} (prefix {r.prefix}, {r.run_id})" for r in runs)
-    raise UserError(
-        f"error: expected one graph running on this host, found {len(runs)}: {names}; name "
-        f"one with --graph NAME (or its prefix) or --run RUN"
-    )
+    graphs = sorted({f"{r.graph} (prefix {r.prefix})" for r in mine})
+    if len(graphs) > 1:
+        raise UserError(
+            f"error: expected one graph running on this host, found {len(graphs)}: "
+            f"{'; '.join(graphs)}; name one with --graph NAME (or its prefix); runs: "
+            f"{runs_text(mine)}"
+        )
+    return mine[-1]  # the newest
+
+
+def sibling_runs(run: Run, folder: Path | None = None) -> list[Run]:
+    """The other local runs of ``run``'s graph (same name and prefix), oldest first."""
+    return [
+        r
+        for r in local_runs(folder)
+        if (r.graph, r.prefix) == (run.graph, run.prefix) and r.run_id != run.run_id
+    ]
+
+
+def runs_text(runs: list[Run]) -> str:
+    """``runs`` named for a message (``none`` when empty)."""
+    return "; ".join(r.describe() for r in runs) or "none"
 
 
 def _runs_folder_text(folder: Path | None) -> str:
@@ -171,6 +238,14 @@ class Observation:
             )
         self._subs: list[Any] = []
         self._local = threading.local()
+        #: set once every process of the observed local run is gone: from then on nothing more
+        #: is delivered (the session may reach another run on the same endpoints: never)
+        self.ended = threading.Event()
+        self._on_end: Callable[[], None] | None = None
+        self._end_lock = threading.Lock()
+        self._closed = threading.Event()
+        if run is not None:
+            threading.Thread(target=self._watch, name="umbra-observe-run", daemon=True).start()
 
     @classmethod
     def open(
@@ -183,17 +258,13 @@ class Observation:
         folder: Path | None = None,
         run_id: str | None = None,
     ) -> Observation:
-        """Join a graph: a local run of this user (``graph`` names it when several run), or,
-        with ``zenoh_config`` and ``connect``, a run elsewhere (``prefix``, else
-        ``umbra/<graph>``). UserError when there is none or it cannot be joined."""
+        """Join a graph: a local run of this user (``run_id`` names it, else the newest run of
+        ``graph``, which names the graph when several run), or, with ``zenoh_config`` and
+        ``connect``, a run elsewhere (``prefix``, else ``umbra/<graph>``). UserError when there
+        is none or it cannot be joined."""
         if zenoh_config and not connect:  # a local run with TLS: its endpoints, a certificate
             run = choose_run(graph, folder, run_id)
-            readable = observer_keys(zenoh_config)
-            session = open_session(local_config(run, zenoh_config))
-            keys = readable[1] if readable is not None else None
-            observation = cls(session, run.prefix, run, keys=keys)
-            observation._wait_joined(len(run.processes))
-            return observation
+            return cls.join(run, zenoh_config, folder)
         if zenoh_config or connect:
             readable = observer_keys(zenoh_config) if zenoh_config else None
             if readable is not None:
@@ -206,11 +277,46 @@ class Observation:
             observation = cls(session, prefix or f"umbra/{graph}", keys=keys)
             observation._wait_joined(1)
             return observation
-        run = choose_run(graph, folder, run_id)
-        session = open_session(local_config(run))
-        observation = cls(session, run.prefix, run)
+        return cls.join(choose_run(graph, folder, run_id), folder=folder)
+
+    @classmethod
+    def join(
+        cls, run: Run, zenoh_config: str | None = None, folder: Path | None = None
+    ) -> Observation:
+        """Join the local ``run`` (with ``zenoh_config``, an observer certificate, for a run with
+        TLS), once its processes that are still starting have written their run files (at most
+        ``JOIN_TIMEOUT`` s). UserError when it cannot be joined."""
+        deadline = time.monotonic() + JOIN_TIMEOUT
+        while not run.complete and time.monotonic() < deadline:
+            time.sleep(WATCH_PERIOD)
+            run = find_run(run.run_id, run.prefix, folder) or run
+        readable = observer_keys(zenoh_config) if zenoh_config else None
+        session = open_session(local_config(run, zenoh_config))
+        keys = readable[1] if readable is not None else None
+        observation = cls(session, run.prefix, run, keys=keys)
         observation._wait_joined(len(run.processes))
         return observation
+
+    def when_ended(self, callback: Callable[[], None]) -> None:
+        """Call ``callback`` once the observed run has ended (on the observation's thread, or
+        now when it has ended already)."""
+        with self._end_lock:
+            self._on_end = callback
+            now = self.ended.is_set()
+        if now:
+            callback()
+
+    def _watch(self) -> None:
+        """Set :attr:`ended` once no process of the run is alive."""
+        assert self.run is not None
+        while not self._closed.wait(WATCH_PERIOD):
+            if not self.run.alive():
+                with self._end_lock:
+                    self.ended.set()
+                    callback = self._on_end
+                if callback is not None:
+                    callback()
+                return
 
     def _wait_joined(self, count: int) -> None:
         """Wait until a session is open to each of the run's ``count`` processes; UserError
@@ -263,10 +369,14 @@ class Observation:
         if key_expr and self.keys is not None and ("*" in key_expr or "$" in key_expr):
             wide = zenoh.KeyExpr(key_expr)  # one subscriber per readable key it holds
             exprs = [k for k in self.keys if wide.includes(zenoh.KeyExpr(k))]
+        ended = self.ended
+
+        def deliver(sample: zenoh.Sample) -> None:
+            if not ended.is_set():  # never a sample of another run on the same endpoints
+                on_sample(observed(sample))
+
         for expr in exprs:
-            self._subs.append(
-                self.session.declare_subscriber(expr, lambda s: on_sample(observed(s)))
-            )
+            self._subs.append(self.session.declare_subscriber(expr, deliver))
 
     def producers(self, timeout: float = 1.0) -> dict[str, str]:
         """Zenoh session id of each process of the graph whose liveliness token is up."""
@@ -279,6 +389,7 @@ class Observation:
         return found
 
     def close(self) -> None:
+        self._closed.set()
         for sub in self._subs:
             with contextlib.suppress(Exception):  # the session may be closing already
                 sub.undeclare()

@@ -39,7 +39,7 @@ from umbra.runtime.links.config import Endpoints, build_config, describe
 from umbra.runtime.links.config_facts import ConfigFacts, config_facts
 from umbra.runtime.links.finish_order import mutual_peers
 from umbra.runtime.links.publish_all import AllOutputs
-from umbra.runtime.links.runs import RunFile, describe_outputs, write_run_file
+from umbra.runtime.links.runs import BY_HAND, RunFile, describe_outputs, write_run_file
 from umbra.runtime.links.session import open_session
 from umbra.runtime.links.transport import ZenohTransport
 from umbra.runtime.live.param_link import ParamListener
@@ -85,6 +85,10 @@ class ProcessOptions:
     run_file: bool = True
     #: a person runs this run (``SchedulerOptions.attended``)
     attended: bool = False
+    #: the run this process belongs to, written in its run file (``umbra.runtime.links.runs``)
+    run_id: str = BY_HAND
+    #: when the launcher started the run [s since the epoch] (0: started by hand)
+    run_started: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -176,7 +180,10 @@ def _run_file(
         outputs=describe_outputs(plan, options.process),
         observer=auth.get("observer") if auth else None,  # TLS under the launcher: both
         started=time.time(),
-        run_id=f"launcher-{os.getppid()}" if supervised else "by-hand",
+        run_id=options.run_id,
+        launcher=os.getppid() if supervised else 0,
+        run_started=options.run_started,
+        run_processes=len(plan.populated_processes),
     )
     try:
         return write_run_file(entry)

@@ -3,10 +3,12 @@
 - :func:`serve_local`: the outputs of the modules of this process (every output, those that feed
   nothing too), each with one more port sink, as the recorder taps them;
 - :class:`ObservedFeed`: the outputs of the run's other processes, by subscribing on zenoh to
-  ``PREFIX/*/*`` as the run's observer (``umbra.runtime.links.observe``); the processes publish
-  every output for observers when run with ``--publish-all`` (which ``--foxglove`` turns on). A
-  sample's log time is its arrival on this host's monotonic clock (the clock real-time runs stamp
-  with).
+  each of their output keys as the run's observer (``umbra.runtime.links.observe``); the
+  processes publish every output for observers when run with ``--publish-all`` (which
+  ``--foxglove`` turns on). The run is the one its ID names (the launcher's, given to every process
+  it starts): the feed waits for the run files of that run's processes, never takes another run
+  of the same graph, and stops serving (saying so) once that run's processes are gone. A sample's
+  log time is its arrival on this host's monotonic clock (the clock real-time runs stamp with).
 """
 
 from __future__ import annotations
@@ -65,8 +67,11 @@ class ObservedFeed:
         skip: set[str] | None = None,
         log: logging.Logger | None = None,
         on_joined: Callable[[Run], None] | None = None,
+        *,
+        run_id: str,
     ) -> None:
         self._live = live
+        self._run_id = run_id  #: the run served (``umbra.runtime.links.runs``)
         self._plan = plan
         self._topics = declare_all(live, plan)
         self._skip = set(skip or ())  #: modules whose outputs are served locally
@@ -84,17 +89,21 @@ class ObservedFeed:
 
     def _join(self) -> None:
         from umbra.connectors.errors import UserError
-        from umbra.runtime.links.observe import Observation, choose_run
+        from umbra.runtime.links.observe import Observation, find_run
 
         # a peer hears only the processes it connects to: wait for every process's run file
         expected = len(self._plan.populated_processes)
         deadline = time.monotonic() + JOIN_PATIENCE
         while not self._stop.is_set():
+            run = find_run(self._run_id, self._prefix)
             try:
-                run = choose_run(self._prefix)
-                if len(run.processes) < expected:
-                    raise UserError(f"error: fewer than the run's {expected} processes are up")
-                observation = Observation.open(self._prefix)
+                if run is None or len(run.processes) < expected:
+                    up = len(run.processes) if run is not None else 0
+                    raise UserError(
+                        f"expected the run files of the {expected} processes of run "
+                        f"`{self._run_id}`, found {up}"
+                    )
+                observation = Observation.join(run)
             except UserError as exc:
                 if time.monotonic() > deadline:
                     self.error = str(exc)
@@ -107,8 +116,14 @@ class ObservedFeed:
                 return
             self._observation = observation
             self._run = run
+            self._log.info("foxglove: observing run %s", run.describe())
+            observation.when_ended(self._ended)
             observation.subscribe(self._on_sample, f"{self._prefix}/*/*")
             return
+
+    def _ended(self) -> None:
+        if not self._stop.is_set():
+            self._log.info("foxglove: run %s ended: no more samples of its processes", self._run_id)
 
     def _on_sample(self, seen: Observed) -> None:
         if seen.kind != "sample" or seen.message is None:

@@ -111,10 +111,13 @@ class LiveRun:
         self._local_modules = set(scheduler.modules)
         self.parameters.serve_locally(scheduler.tuner, list(scheduler.modules))
 
-    def observe(self, skip: set[str] | None = None) -> None:
-        """Serve the other processes' outputs, observed on zenoh (``--publish-all``); changes of
-        their tunable parameters go to them over the run's parameter link once they are up."""
-        self._feed = ObservedFeed(self.server, self.plan, skip, self.log, self._join_as_tuner)
+    def observe(self, run_id: str, skip: set[str] | None = None) -> None:
+        """Serve the outputs of the other processes of run ``run_id`` (this run's ID, which the
+        launcher gives its processes), observed on zenoh (``--publish-all``); changes of their
+        tunable parameters go to them over the run's parameter link once they are up."""
+        self._feed = ObservedFeed(
+            self.server, self.plan, skip, self.log, self._join_as_tuner, run_id=run_id
+        )
 
     def _join_as_tuner(self, run: Run) -> None:
         """Open the tuner's session to ``run``'s processes (a local run the launcher secures
@@ -135,8 +138,10 @@ class LiveRun:
         if wait_joined(session, len(run.processes), TUNER_PATIENCE) < len(run.processes):
             session.close()  # processes started by hand know no tuner
             self.log.warning(
-                "foxglove: parameters of other processes cannot be changed: their "
-                "credentials do not let this process send changes (a run started by hand)"
+                "foxglove: parameters of other processes cannot be changed: the credentials of "
+                "run %s do not let this process send changes (its processes were not started "
+                "by this launcher)",
+                run.run_id,
             )
             return
         sender = ParamSender(session, self.plan)

@@ -16,6 +16,7 @@ import pytest
 NODE_DIR = Path(__file__).resolve().parent / "node"
 REPO = Path(__file__).resolve().parents[2]
 _URL = re.compile(r"foxglove: open (ws://\S+)")
+_RUN_ID = re.compile(r"umbra run: run ID (\S+)")
 
 needs_node = pytest.mark.skipif(
     shutil.which("node") is None or shutil.which("npm") is None,
@@ -93,6 +94,13 @@ class LiveRun:
 
     def text(self) -> str:
         return self.log_path.read_text(errors="replace")
+
+    @property
+    def run_id(self) -> str:
+        """The run ID the launcher said on start."""
+        found = _RUN_ID.search(self.text())
+        assert found, f"no run ID said:\n{self.text()[-3000:]}"
+        return found.group(1)
 
     def wait(self, timeout: float = 120.0) -> int:
         try:

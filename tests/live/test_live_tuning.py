@@ -32,7 +32,7 @@ def tune_js(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _intrude(run: LiveRun) -> None:
     """The run's observer (any tool of this user) puts a change on the servo process's key:
     the graph's access rules let only the live server's process put there."""
-    observer = Observation.open("counter_split", run_id=f"launcher-{run.proc.pid}")
+    observer = Observation.open("counter_split", run_id=run.run_id)
     try:
         change = ParamChange(module="double", param="gain", value="7", by="intruder", seq=1)
         key = param_key(observer.prefix, "smart")
