@@ -60,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
     for index, residuals in enumerate(result.residuals):
         before = result.initial_residuals[index] if result.initial_residuals else None
         for k, name in enumerate(session.click_names[index]):
+            before_px = None if before is None else float(np.linalg.norm(before[k]))
             clicks.append(
                 {
                     "snapshot": index + 1,
@@ -67,7 +68,10 @@ def main(args: argparse.Namespace) -> int:
                     "line": session.click_lines[index][k],
                     "residual_px": float(np.linalg.norm(residuals[k])),
                     "residual_uv": residuals[k].tolist(),
-                    "before_px": None if before is None else float(np.linalg.norm(before[k])),
+                    # None also where the believed mount puts the point at the camera's centre
+                    "before_px": before_px
+                    if before_px is None or math.isfinite(before_px)
+                    else None,
                 }
             )
     change = None
@@ -87,6 +91,7 @@ def main(args: argparse.Namespace) -> int:
                 "max_px": result.max_px,
                 "iterations": result.iterations,
                 "change_from_initial": change,
+                "warnings": list(result.warnings),
                 "clicks": clicks,
                 "saved": saved,
             }
@@ -105,6 +110,8 @@ def main(args: argparse.Namespace) -> int:
             f"{1000 * change['offset_m']:.1f} mm"
         )
     print(f"  reprojection RMS {result.rms_px:.3f} px, worst {result.max_px:.3f} px")
+    for warning in result.warnings:
+        print(f"  warning: {warning}")
     print("  snapshot  point            line  residual px  (before px)")
     for c in clicks:
         before = "" if c["before_px"] is None else f"({c['before_px']:.2f})"

@@ -34,7 +34,6 @@ import contextlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -114,6 +113,15 @@ def _prepare(views: Sequence[View]) -> list[_Prepared]:
 def _residuals_and_jacobian(
     prepared: list[_Prepared], R: FloatArray, d: FloatArray, with_jacobian: bool = True
 ) -> tuple[FloatArray, FloatArray | None, float]:
+    """Residuals (px, flat), their Jacobian in ``(dtheta, dd)`` and the least depth [m]; a point
+    at depth 0 gives non-finite values (no warning: the callers test for them)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return _residuals_and_jacobian_raw(prepared, R, d, with_jacobian)
+
+
+def _residuals_and_jacobian_raw(
+    prepared: list[_Prepared], R: FloatArray, d: FloatArray, with_jacobian: bool
+) -> tuple[FloatArray, FloatArray | None, float]:
     residual_blocks, jacobian_blocks = [], []
     min_depth = np.inf
     for p in prepared:
@@ -182,9 +190,10 @@ def _initial_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
     return _linear_generalized_pose(prepared)
 
 
-def _single_view_pose(
-    p: _Prepared, flag: int = cv2.SOLVEPNP_SQPNP
-) -> tuple[FloatArray, FloatArray]:
+def _single_view_pose(p: _Prepared, flag: int | None = None) -> tuple[FloatArray, FloatArray]:
+    """Pose of the best view by OpenCV's PnP with ``flag`` (None: ``cv2.SOLVEPNP_SQPNP``)."""
+    import cv2
+
     normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
     try:
         ok, rvec, tvec = cv2.solvePnP(
@@ -192,7 +201,7 @@ def _single_view_pose(
             normalized.astype(np.float64),
             np.eye(3),
             None,
-            flags=flag,
+            flags=cv2.SOLVEPNP_SQPNP if flag is None else flag,
         )
     except cv2.error as error:  # SQPnP asserts on degenerate input
         message = str(error).strip().splitlines()[-1].rpartition("error: ")[2]
@@ -253,6 +262,12 @@ def _gauss_newton(
     """Gauss-Newton from ``(R, d)``: the minimum's ``R, d``, residuals and iteration count."""
     R = nearest_rotation(R)
     r, J, _ = _residuals_and_jacobian(prepared, R, d)
+    assert J is not None
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        raise NotConvergedError(
+            "the reprojection is not finite at this start (a point at a camera's centre, at "
+            "depth 0, or a focal length too small to divide by)"
+        )
     cost = float(r @ r)
     iterations = 0
     for iterations in range(1, max_iterations + 1):  # noqa: B007
@@ -303,7 +318,9 @@ def solve_npnp(
         initial: a starting pose, a 4x4 transform or ``(R, d)``, tried with the global starts.
         max_iterations: Gauss-Newton iterations before giving up, per start.
         step_tolerance: stop when the update is smaller than this (radians and metres).
-        pixel_sigma: the clicks' noise (px per coordinate), for the residual check.
+        pixel_sigma: the clicks' noise (px per coordinate), for the residual check; None: it is
+            estimated from the best residual. Either is floored at 0.01 px
+            (``npnp_warnings.MIN_PIXEL_SIGMA``), so noise-free clicks give a finite test.
 
     Raises:
         DegenerateGeometryError: too few pairs or a configuration that does not fix the pose
@@ -320,6 +337,8 @@ def solve_npnp(
             found.append((name, *_gauss_newton(prepared, R0, d0, max_iterations, step_tolerance)))
         except (DegenerateGeometryError, NotConvergedError) as error:
             failed[name] = str(error)
+        except np.linalg.LinAlgError as error:  # the linear algebra of this start broke down
+            failed[name] = f"numerical failure ({error})"
     if not found:
         reasons = "; ".join(f"{name}: {why}" for name, why in failed.items())
         if all("determine" in why for why in failed.values()):
@@ -343,6 +362,8 @@ def solve_npnp(
 def _starts(
     prepared: list[_Prepared], initial: ArrayLike | tuple[ArrayLike, ArrayLike] | None
 ) -> list[tuple[str, FloatArray, FloatArray]]:
+    import cv2
+
     starts: list[tuple[str, FloatArray, FloatArray]] = []
     if initial is not None:
         if isinstance(initial, tuple):

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2
 
 from umbra.modules.calib.rotations import vector_from_rotation
 
@@ -17,6 +16,11 @@ FloatArray = NDArray[np.float64]
 
 #: the name of the caller's own start
 GIVEN = "the given initial pose"
+#: Least click noise assumed [px per coordinate]: the noise estimated from the best residual (or
+#: a ``pixel_sigma`` of 0) is floored here, about the precision of the best sub-pixel corner
+#: detection. Noise-free clicks (a zero residual) then give a finite rival-minimum test: a rival
+#: pose counts as fitting "about as well" only if its extra cost is within what 0.01 px explains.
+MIN_PIXEL_SIGMA = 0.01
 
 
 def _angle_deg(R_a: FloatArray, R_b: FloatArray) -> float:
@@ -29,7 +33,14 @@ def pose_warnings(
     given: bool,
     pixel_sigma: float | None,
 ) -> tuple[str, ...]:
-    """Messages for the caller (empty: nothing to say), each naming what went wrong."""
+    """Messages for the caller (empty: nothing to say), each naming what went wrong.
+
+    The rival-minimum test divides by the click noise variance [px^2]: ``pixel_sigma`` squared
+    when given, else the best cost per degree of freedom; either is floored at
+    ``MIN_PIXEL_SIGMA`` squared, so a zero residual (noise-free clicks) gives a finite test.
+    """
+    from scipy.stats import chi2
+
     out = []
     name, R, _, r, _ = found[0]
     best_cost = float(r @ r)
@@ -52,6 +63,7 @@ def pose_warnings(
                 )
     # another minimum, clearly elsewhere, that fits within what the noise allows
     noise_var = best_cost / dof if pixel_sigma is None else pixel_sigma**2
+    noise_var = max(noise_var, MIN_PIXEL_SIGMA**2)
     for other in found[1:]:
         angle = _angle_deg(other[1], R)
         extra = (float(other[3] @ other[3]) - best_cost) / noise_var

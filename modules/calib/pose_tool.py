@@ -146,7 +146,8 @@ def solve_mount(
     if initial_T_parent_child is not None:
         T0 = _as_transform(initial_T_parent_child, "initial mount")
         initial = invert_transform(T0)
-        initial_residuals = [s.reprojection(T0) for s in snapshots]
+        with np.errstate(divide="ignore", invalid="ignore"):  # a point at depth 0: NaN
+            initial_residuals = [s.reprojection(T0) for s in snapshots]
     result = solve_npnp(views, initial, pixel_sigma=pixel_sigma)
     T_parent_child = invert_transform(result.T)
     residuals = [s.reprojection(T_parent_child) for s in snapshots]

@@ -11,6 +11,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from tests.visca.pyvisca_wire import replies
 from umbra.modules.calib.visca.sim_camera import SimFcbCamera
 from umbra.modules.calib.visca.zoom_motion import ZoomSpeeds
 
@@ -30,15 +31,6 @@ def ptz(camera: SimFcbCamera) -> Iterator[object]:
     driver = pyvisca.PTZ(output=camera.path)  # pyserial, 9600 8N1, as on a real FCB cable
     yield driver
     driver.close()
-
-
-def replies(ptz: object, count: int, timeout_s: float = 5.0) -> list[str]:
-    """The next ``count`` reply packets, read with pyvisca's own reader (hex text)."""
-    text, deadline = "", time.monotonic() + timeout_s
-    while text.count("ff") < count and time.monotonic() < deadline:
-        text += ptz.read()
-        time.sleep(0.01)
-    return [p + "ff" for p in text.split("ff") if p][:count]
 
 
 def test_address_set_and_if_clear(ptz: object) -> None:
@@ -117,5 +109,5 @@ def test_version_inquiry_and_socket_cancel(ptz: object) -> None:
     assert replies(ptz, 1) == ["906104ff"]
     ptz.comm("8122FF")
     assert replies(ptz, 1) == ["906205ff"]
-    ptz.comm("8101043802FF")  # a command the simulator does not have: syntax error
+    ptz.comm("8101043302FF")  # backlight on, a command the simulator does not have: syntax error
     assert replies(ptz, 1) == ["906002ff"]

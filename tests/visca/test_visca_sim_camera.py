@@ -83,7 +83,9 @@ def test_beyond_optical_tele_stops_at_tele(sim: SimFcbCamera, wire: serial.Seria
 
 
 def test_unknown_command_gets_syntax_error(wire: serial.Serial) -> None:
-    wire.write(h("81 01 04 38 02 FF"))  # focus auto: not simulated
+    wire.write(h("81 01 04 33 02 FF"))  # backlight on: not simulated
+    assert read_packet(wire) == h("90 60 02 FF")
+    wire.write(h("81 01 04 3F 01 06 FF"))  # memory set of memory 6: an FCB has 0..5
     assert read_packet(wire) == h("90 60 02 FF")
     wire.write(h("81 01 04 07 28 FF"))  # variable zoom speed 8: out of range
     assert read_packet(wire) == h("90 60 02 FF")

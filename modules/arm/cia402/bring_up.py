@@ -232,14 +232,9 @@ def configure_master_watch(
     node: canopen.RemoteNode, label: str, master_id: int, timeout_s: float, abort_option: int
 ) -> None:
     """The drive's watchdog on the master: heartbeat consumer entry 1 (0x1016) on the
-    master's heartbeat, and its reaction (0x6007) when that stops."""
+    master's heartbeat, and its reaction (0x6007, where the drive has it) when that stops.
+    The EDS has 0x1016 sub 1: the settings were refused without it (eds_needs.py)."""
     od = node.object_dictionary
-    if obj.CONSUMER_HEARTBEAT_TIME not in od:
-        raise DriveStartError(
-            f"{label}: its object dictionary has no heartbeat consumer (0x1016), so it cannot "
-            f"stop by itself when the master freezes; give the drive's EDS, or set "
-            f"drive_heartbeat_timeout: null to run without the drive's watchdog"
-        )
     entry = consumer_entry(master_id, timeout_s)
     sdo_step(
         label,

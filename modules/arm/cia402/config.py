@@ -16,6 +16,7 @@ import can
 from umbra.connectors.errors import UserError
 from umbra.connectors.limits import MAX_COMMAND_AGE_S
 from umbra.modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, ABORT_NO_ACTION
+from umbra.modules.arm.cia402.eds_needs import eds_file_problem
 from umbra.modules.arm.cia402.objects import EDS_PATH
 
 # Bit rates of the CiA 301 / CiA 102 table (bit/s).
@@ -204,6 +205,19 @@ class Cia402ArmConfig:
                 raise Cia402ConfigError(f"{name} must be positive or None, got {value!r}")
         if not self.eds.is_file():
             raise Cia402ConfigError(f"{self.eds}: error: object dictionary (EDS) file not found")
+        self.check_eds(simulated=False)
+
+    def check_eds(self, *, simulated: bool) -> None:
+        """``Cia402ConfigError`` unless the EDS has every object the master needs with these
+        settings, and the simulated drives too when ``simulated`` (eds_needs.py)."""
+        problem = eds_file_problem(
+            self.eds,
+            simulated=simulated,
+            configure_pdos=self.configure_pdos,
+            drive_watch=self.drive_heartbeat_timeout_s is not None,
+        )
+        if problem:
+            raise Cia402ConfigError(problem)
 
     def _check_master_watch(self, drive_ids: list[int]) -> None:
         master = self.master_node_id

@@ -4,7 +4,8 @@ Format (times in seconds, rates in rad/s; only `bus` and `joints` are required):
 
     bus: {interface: socketcan, channel: can0, bitrate: 500000}
     simulate: false          # true: simulated CiA 402 drives in this process (virtual bus)
-    eds: ""                  # drives' EDS, relative to this file; "" = the built-in minimal one
+    eds: ""                  # drives' EDS, relative to this file; "" = the built-in minimal one;
+                             # it must have the objects of eds_needs.py (checked at load)
     configure_pdos: true     # write the PDO mapping (true) or use the drives' own (false)
     sync_period: 0.01        # SYNC period = servo period of the drives
     heartbeat_period: 0.05   # written to each drive's 0x1017
@@ -46,6 +47,7 @@ from umbra.modules.arm.cia402.config import (
     Cia402ConfigError,
     JointDrive,
 )
+from umbra.modules.arm.cia402.eds_needs import eds_file_problem
 from umbra.modules.arm.cia402.objects import EDS_PATH
 
 KeyPath = tuple[str | int, ...]
@@ -222,6 +224,15 @@ def settings_from_yaml_text(text: str, source: str, base_dir: Path) -> CanopenSe
             ("simulate",),
             f"simulated drives need bus interface 'virtual', found {bus_spec.interface!r}",
         )
+    watch = settings.get("drive_heartbeat_timeout_s", Cia402ArmConfig.drive_heartbeat_timeout_s)
+    problem = eds_file_problem(
+        settings["eds"],
+        simulated=simulate,
+        configure_pdos=settings["configure_pdos"],
+        drive_watch=watch is not None,
+    )
+    if problem:
+        raise where.error(("eds",) if eds else ("simulate",), problem)
     try:
         arm = Cia402ArmConfig(**settings)
     except Cia402ConfigError as exc:

@@ -40,16 +40,19 @@ from typing import Any
 
 import canopen
 from canopen.objectdictionary import ODVariable
+from canopen.objectdictionary.datatypes import UNSIGNED_TYPES
 from canopen.pdo import PdoMap, PdoMaps
 from canopen.sdo import SdoAbortedError
 
 from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.config import Cia402ConfigError
 from umbra.modules.arm.cia402.drive_motion import (
     QUICK_STOP_DECELERATION,
     QUICK_STOP_TO_DISABLED,
     ramp,
 )
 from umbra.modules.arm.cia402.drive_watchdog import ABORT_CONNECTION_OPTIONS, MasterWatch
+from umbra.modules.arm.cia402.eds_needs import SIM, EdsUnreadableError, eds_problem, load_od
 from umbra.modules.arm.cia402.sim_drive_watch import ERROR_REGISTER_GENERIC, MasterWatchMixin
 from umbra.modules.arm.cia402.state_machine import (
     Command,
@@ -69,7 +72,8 @@ class SimDrive(MasterWatchMixin):
     """One simulated CiA 402 drive (node `node_id`) for tests and hardware-free runs.
 
     Use as a context manager or call `connect` / `close`. Thread-safe: the bus thread
-    (SDO, PDO, SYNC) and the caller (fault injection, inspection) share one lock.
+    (SDO, PDO, SYNC) and the caller (fault injection, inspection) share one lock. An `eds`
+    without the objects the drive needs (eds_needs.py) is a `Cia402ConfigError` naming them.
     """
 
     def __init__(
@@ -77,8 +81,17 @@ class SimDrive(MasterWatchMixin):
     ) -> None:
         if not 1 <= node_id <= 127:
             raise ValueError(f"node id must be 1..127, got {node_id}")
-        od = canopen.import_od(str(eds), node_id)
+        try:
+            od = load_od(Path(eds), node_id)
+        except EdsUnreadableError as exc:
+            raise Cia402ConfigError(str(exc)) from None
+        problem = eds_problem(od, Path(eds), frozenset({SIM}))
+        if problem:  # refused here, before a bus or watch thread could trip over it
+            raise Cia402ConfigError(problem)
         self.node = canopen.LocalNode(node_id, od)
+        loss = od.get(obj.COMMUNICATION_LOSS_COUNT)
+        # another vendor's EDS may use 0x2000 for something else: serve the count only as ours
+        self._serves_loss_count = isinstance(loss, ODVariable) and loss.data_type in UNSIGNED_TYPES
         self.network: canopen.Network | None = None
         self._lock = threading.RLock()
         self._state = State.NOT_READY_TO_SWITCH_ON
@@ -317,7 +330,7 @@ class SimDrive(MasterWatchMixin):
                 return self._mode
             if index == obj.TARGET_VELOCITY:
                 return self._target_velocity
-            if index == obj.COMMUNICATION_LOSS_COUNT:
+            if index == obj.COMMUNICATION_LOSS_COUNT and self._serves_loss_count:
                 return min(self._master_losses, 0xFFFF)
         return None
 

@@ -69,6 +69,9 @@ class _State:
     commanded_raw: int | None = None
     move_pending: Move | None = None
     move_active: Move | None = None
+    lens_started: bool = False
+    """A tele/wide was sent and no zoom stop or zoom direct has been acknowledged since: the
+    lens may still be moving, and :meth:`ViscaZoomClient.stop` stops it."""
     problems: dict[str, Problem] = field(default_factory=dict)
     ready: bool = False
 
@@ -107,15 +110,23 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
         self._thread.start()
 
     def stop(self) -> None:
-        """Stop the device thread and close the port (idempotent)."""
+        """Stop the device thread, stop a zoom this client started, close the port (idempotent).
+
+        A zoom still running (a tele/wide not yet stopped, or a zoom direct not yet complete) is
+        stopped with CAM_Zoom stop (``8x 01 04 07 00 FF``, waiting for its ACK with the usual
+        timeout and retries), so the camera does not zoom on after its controller is gone.
+        """
         self._stop.set()
         self._wake.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
         if self._serial is not None:
-            self._serial.close()
-            self._serial = None
+            try:
+                self._stop_started_zoom()
+            finally:
+                self._serial.close()
+                self._serial = None
 
     def __enter__(self) -> ViscaZoomClient:
         self.start()
@@ -241,6 +252,7 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
             self._state.inflight_raw = target
             self._state.inflight_since = time.monotonic()
             self._state.commanded_raw = target
+            self._state.lens_started = False  # the zoom direct replaced a tele/wide
         self._clear_problem("zoom")
 
     def _check_completion_timeout(self) -> None:

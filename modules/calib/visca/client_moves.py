@@ -6,11 +6,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import serial
+
 from umbra.modules.calib.visca import commands as vc
 from umbra.modules.calib.visca import protocol as vp
-from umbra.modules.calib.visca.client_types import (
-    RequestFailedError,
-)
+from umbra.modules.calib.visca.client_types import LinkStatus, RequestFailedError
 
 if TYPE_CHECKING:
     from umbra.modules.calib.visca.client import ViscaZoomClient
@@ -56,6 +56,8 @@ class MoveSteps(_Base):
             self._state.move_pending = None
             if move is not None:  # taken: the same request again while it is sent is no news
                 self._state.move_active = move
+                if move != STOP:  # the camera may take it even if its ACK is lost
+                    self._state.lens_started = True
             old_socket = self._state.inflight_socket
         if move is None:
             return
@@ -85,4 +87,54 @@ class MoveSteps(_Base):
                 if move == STOP and latest:
                     self._state.move_pending = STOP
             return
+        if move == STOP:
+            with self._lock:
+                self._state.lens_started = False
         self._clear_problem("zoom")
+
+    def _stop_started_zoom(self) -> None:
+        """At the client's stop (device thread ended, port open): send CAM_Zoom stop if a zoom
+        this client started may still run; its failure is counted, never raised."""
+        with self._lock:
+            running = self._state.lens_started or self._state.inflight_socket is not None
+        if not running:
+            return
+        address = self.settings.address
+        self.counters.end_stops += 1
+        acked: list[int] = []
+
+        def ack_then_completion(reply: vp.Reply) -> bool:
+            """The stop's ACK, then its completion: no reply of it is left on the line."""
+            if isinstance(reply, vp.Ack) and reply.address == address:
+                acked.append(reply.socket)
+                return False
+            return (
+                isinstance(reply, vp.Completion)
+                and reply.address == address
+                and bool(acked)
+                and reply.socket == acked[-1]
+            )
+
+        def refused(error: vp.ErrorReply) -> bool:  # not the cancel of a running zoom direct
+            return error.address == address and (
+                error.socket == 0 or error.code is vp.ErrorCode.NOT_EXECUTABLE
+            )
+
+        try:
+            self._request(
+                vc.encode_zoom_stop(address),
+                "zoom stop at the end",
+                ack_then_completion,
+                refused,
+                stoppable=False,
+            )
+        except (RequestFailedError, serial.SerialException, OSError) as failure:
+            link = (
+                failure.link if isinstance(failure, RequestFailedError) else LinkStatus.PORT_ERROR
+            )
+            self._set_problem("zoom", link, f"zoom stop at the end: {failure}")
+            self.counters.end_stop_failures += 1
+            return
+        with self._lock:
+            self._state.lens_started = False
+            self._state.inflight_socket = None

@@ -97,6 +97,10 @@ class ViscaCounters:
     polls: int = 0
     initialisations: int = 0
     foreign_replies: int = 0
+    end_stops: int = 0
+    """Zoom stops sent by ``stop()`` because a zoom this client started could still be running."""
+    end_stop_failures: int = 0
+    """Of those, the ones the camera did not acknowledge (it may still be zooming)."""
 
 
 @dataclass

@@ -3,6 +3,7 @@ say what went wrong (a part of :class:`~umbra.modules.calib.visca.client.ViscaZo
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -30,12 +31,16 @@ class WireRequests(_Base):
         what: str,
         accept: Callable[[vp.Reply], bool],
         error_filter: Callable[[vp.ErrorReply], bool] | None = None,
+        stoppable: bool = True,
     ) -> vp.Reply:
         """Send ``packet`` until a reply passes ``accept``; raise ``RequestFailedError`` if none.
 
         ``error_filter`` says which error replies answer this request (others are stale).
+        A ``stoppable`` request gives up as soon as the client is stopping; the last request of
+        a stopping client (its zoom stop) is not stoppable.
         """
         s = self.settings
+        stopping = self._stop if stoppable else threading.Event()
         tries = 1 + s.retries
         last: RequestFailedError | None = None
         for attempt in range(tries):
@@ -45,7 +50,7 @@ class WireRequests(_Base):
             self._write(packet)
             deadline = time.monotonic() + s.reply_timeout_s
             answer: vp.Reply | None = None
-            while answer is None and time.monotonic() < deadline and not self._stop.is_set():
+            while answer is None and time.monotonic() < deadline and not stopping.is_set():
                 for reply in self._read_replies():
                     if accept(reply):
                         answer = reply
@@ -64,7 +69,7 @@ class WireRequests(_Base):
                     f"{answer.description} (error {int(answer.code):02X}, socket {answer.socket})",
                 )
                 if answer.code is vp.ErrorCode.BUFFER_FULL:
-                    self._stop.wait(s.reply_timeout_s)
+                    stopping.wait(s.reply_timeout_s)
             elif self._garbled_total() > garbled_before:
                 self.counters.timeouts += 1
                 last = RequestFailedError(
@@ -78,7 +83,7 @@ class WireRequests(_Base):
                     f"no reply to {what} ({vp.hex_bytes(packet)}) on {s.port} "
                     f"within {s.reply_timeout_s:.2f} s",
                 )
-            if self._stop.is_set():
+            if stopping.is_set():
                 break
         assert last is not None
         last = RequestFailedError(last.link, f"{last.detail} ({tries} tries)")

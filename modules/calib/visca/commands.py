@@ -19,6 +19,9 @@ CAM_ZoomPosInq              ``8x 09 04 47 FF``                  ``y0 50 0p 0q 0r
 CAM_VersionInq              ``8x 09 00 02 FF``                  ``y0 50 00 20 mn pq rs tu vw FF``
 ==========================  ==================================  ===============================
 
+The focus and memory commands a PTZ panel sends are
+:mod:`umbra.modules.calib.visca.commands_panel`; :func:`decode_command` decodes them too.
+
 The tele/wide commands start a movement and complete at once (the lens keeps moving until a stop,
 another zoom command, or the end of the range); zoom direct completes when the lens arrives.
 The version reply carries the vendor (``0020``: Sony), the model code ``mnpq``, the ROM version
@@ -31,6 +34,12 @@ import enum
 from dataclasses import dataclass
 
 from umbra.modules.calib.visca import protocol as vp
+from umbra.modules.calib.visca.commands_panel import (
+    PanelCommand,
+    PanelInquiry,
+    PanelSocketCommand,
+    decode_panel,
+)
 
 SONY_VENDOR_ID = 0x0020
 SOCKETS = 2
@@ -225,10 +234,13 @@ Command = (
     | ZoomPositionInquiry
     | PowerInquiry
     | VersionInquiry
+    | PanelCommand
     | UnknownCommand
 )
-Inquiry = ZoomPositionInquiry | PowerInquiry | VersionInquiry
-SocketCommand = PowerCommand | ZoomStopCommand | ZoomMoveCommand | ZoomDirectCommand
+Inquiry = ZoomPositionInquiry | PowerInquiry | VersionInquiry | PanelInquiry
+SocketCommand = (
+    PowerCommand | ZoomStopCommand | ZoomMoveCommand | ZoomDirectCommand | PanelSocketCommand
+)
 """Commands that are executed in a socket (ACK ``y0 4z FF``, then completion or an error)."""
 
 _FIXED: dict[bytes, type] = {
@@ -277,7 +289,7 @@ def _decode_addressed(address: int, body: bytes) -> Command | None:
             return ZoomDirectCommand(address, vp.from_nibbles(body[3:]))
         except vp.ViscaDecodeError:
             return None
-    return None
+    return decode_panel(address, body)
 
 
 def _zoom_move(address: int, code: int) -> ZoomMoveCommand | None:

@@ -5,11 +5,14 @@ The simulator owns the master side of a pty (``os.openpty``); a client opens the
 ``/dev/ttyUSB0``. It answers the FCB command set of :mod:`umbra.modules.calib.visca.commands`:
 address set, IF_Clear (broadcast: echoed; addressed: ``y0 50 FF``, stops the lens and empties the
 command buffer), command cancel, power on/off and CAM_PowerInq, CAM_VersionInq, zoom tele/wide at
-the standard and the eight variable speeds, zoom stop, zoom direct and CAM_ZoomPosInq. What each
-command does to sockets, power and lens, and which error it gets, is
-:mod:`umbra.modules.calib.visca.sim_logic`; how fast the lens moves is
+the standard and the eight variable speeds, zoom stop, zoom direct and CAM_ZoomPosInq, and the
+focus and memory commands a PTZ panel sends (:mod:`umbra.modules.calib.visca.commands_panel`:
+focus far/near/stop, direct, auto/manual, one push, CAM_FocusPosInq, CAM_FocusModeInq, memory
+reset/set/recall). What each command does to sockets and power, and which error it gets, is
+:mod:`umbra.modules.calib.visca.sim_logic`; what it does to zoom, focus and memories is
+:mod:`umbra.modules.calib.visca.sim_lens`; how fast the lens moves is
 :mod:`umbra.modules.calib.visca.zoom_motion` (zoom direct: ``full_range_s`` wide to tele, 2.4 s by
-default).
+default; focus: the same times over the focus range).
 
 Like the camera, the simulator executes at most one packet per video field (``v_cycle_s``, 1/60 s)
 and holds two packets waiting; a third that arrives meanwhile is answered "command buffer full"
@@ -182,11 +185,21 @@ class SimFcbCamera:
     def target_raw(self) -> int:
         """Where the lens is heading (the range end during a tele/wide move)."""
         with self._lock:
-            return self.logic.motion.target_raw
+            return self.logic.lens.zoom.target_raw
 
     def moving(self) -> bool:
         with self._lock:
-            return self.logic.motion.moving(time.monotonic())
+            return self.logic.lens.zoom.moving(time.monotonic())
+
+    def focus_raw(self) -> int:
+        """True focus position now (raw FCB units, ``sim_lens.FOCUS_RAW_FAR`` at infinity)."""
+        with self._lock:
+            return self.logic.lens.focus.position(time.monotonic())
+
+    def focus_auto(self) -> bool:
+        """Whether the camera is in auto focus."""
+        with self._lock:
+            return self.logic.lens.focus_auto
 
     # -- serving -----------------------------------------------------------------------------
 
@@ -263,7 +276,7 @@ class SimFcbCamera:
 
     def _run_command(self, command: vc.Command, now: float) -> None:
         """Execute one command (lock held), through the injected fault."""
-        if isinstance(command, vc.ZoomPositionInquiry | vc.PowerInquiry | vc.VersionInquiry):
+        if isinstance(command, vc.Inquiry):
             self.counters.inquiries += 1
         elif not isinstance(command, vc.AddressSetCommand):
             self.counters.commands += 1

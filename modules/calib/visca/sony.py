@@ -51,8 +51,9 @@ class Sony(Module):
     ``zoom.status`` is "ok" or "<problem>: <detail>" with problem one of starting, no_reply,
     garbled, camera_error, port_error; ``zoom.zoom`` is NaN and ``zoom.raw`` -1 until the camera
     has reported a position. Device trouble never stops the run; a port that cannot be opened at
-    start is a user error. Give it a graph rate of about twice ``poll_rate_hz``: it publishes one
-    sample per poll and runs on new commands too.
+    start is a user error. At the run's end (however it ends) a zoom the module started and that
+    may still run is stopped (CAM_Zoom stop). Give it a graph rate of about twice
+    ``poll_rate_hz``: it publishes one sample per poll and runs on new commands too.
     """
 
     TYPE = "SONY"
@@ -229,6 +230,8 @@ class Sony(Module):
             "ignored_commands": self._ignored_commands,
             "zoom_moves": c.zoom_moves,
             "deadman_stops": self._deadman_stops,
+            "end_zoom_stops": c.end_stops,
+            "end_zoom_stop_failures": c.end_stop_failures,
         }
 
 
