@@ -45,19 +45,21 @@ MAX_IMAGE_FILE_BYTES = 64_000_000
 #: Most pixels of an image file decoded (a 6000 x 4000 photo has 24 million).
 MAX_PHOTO_PIXELS = 40_000_000
 
-# -- the operator's web pages (modules/webdoor, connectors/access): what one client may make a
-# page server hold --
-#: Largest request head (request line and headers) a page server reads [bytes].
+# -- the door of every web server of a run (connectors/access/door.py: the operator's pages in
+# modules/webdoor, the live server in runtime/live): what one client may make a server hold --
+#: Largest request head (request line and headers) a server reads (a page, an upgrade) [bytes].
 MAX_PAGE_HEAD_BYTES = 16 * 1024
 #: Largest request body a page server reads (a sketch command is at most 2000 characters) [bytes].
 MAX_PAGE_BODY_BYTES = 16 * 1024
 #: Largest websocket message a page may send (its commands are small JSON objects) [bytes].
 MAX_PAGE_MESSAGE_BYTES = 4096
-#: Open connections to one page server, every client together.
+#: Open connections to one server (a page server, the live server), every client together.
 MAX_PAGE_CONNECTIONS = 64
-#: Open connections to one page server from one client address (loopback: every local client).
+#: Open connections to one server from one client address (loopback: every local client).
 MAX_PAGE_CONNECTIONS_PER_CLIENT = 32
-#: Longest a request may take to arrive whole, head then body [s].
+#: Connections the kernel queues for a server until it accepts them, and that it accepts at once.
+MAX_PAGE_ACCEPT_BACKLOG = 128
+#: Longest a request may take to arrive whole, head then body [s] (a websocket upgrade: its head).
 MAX_PAGE_REQUEST_S = 5.0
 #: Messages a page may send on its socket per second, sustained (a held jog and the painted
 #: reports of 30 fps video are about 55) and in a burst; beyond either its socket is closed.

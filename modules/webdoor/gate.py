@@ -17,50 +17,27 @@ In this order, for HTTP requests and websockets alike:
 
 It also gives each browser its viewer cookie (:mod:`umbra.modules.webdoor.viewer`) and leaves the
 request's viewer key in ``scope[VIEWER_SCOPE]``. Refusals are counted; the log says each kind
-at most once a second (a flood of refusals is not a flood of log lines).
+at most once a second (the door's :class:`~umbra.connectors.access.door.Refusals`: a flood of
+refusals is not a flood of log lines).
 """
 
 from __future__ import annotations
 
 import asyncio
-import logging
 import time
-from collections import Counter
 from typing import Any
 from urllib.parse import parse_qsl, urlencode
 
+from umbra.connectors.access.door import Refusals
 from umbra.connectors.access.hosts import host_allowed, origin_allowed
 from umbra.connectors.access.secret import CSRF_HEADER, TOKEN_COOKIE, TOKEN_QUERY, token_matches
 from umbra.connectors.limits import MAX_PAGE_BODY_BYTES, MAX_PAGE_REQUEST_S
 from umbra.modules.webdoor.viewer import VIEWER_COOKIE, VIEWER_SCOPE, new_viewer_id, viewer_key
 
-_LOG = logging.getLogger("umbra.webdoor")
+__all__ = ["Gate", "Refusals"]
+
 _SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
 _COOKIE = "Path=/; HttpOnly; SameSite=Strict"
-
-
-class Refusals:
-    """Refused requests by reason; logs each reason at most once per ``period`` [s]."""
-
-    def __init__(self, period: float = 1.0) -> None:
-        self.counts: Counter[str] = Counter()
-        self.period = period
-        self._logged: dict[str, tuple[float, int]] = {}
-
-    @property
-    def total(self) -> int:
-        return sum(self.counts.values())
-
-    def add(self, reason: str, detail: str) -> None:
-        self.counts[reason] += 1
-        now = time.monotonic()
-        last, count = self._logged.get(reason, (-float("inf"), 0))
-        if now - last >= self.period:
-            more = self.counts[reason] - count - 1
-            _LOG.warning(
-                "page server: refused %s%s", detail, f" (and {more} more like it)" if more else ""
-            )
-            self._logged[reason] = (now, self.counts[reason])
 
 
 class Gate:

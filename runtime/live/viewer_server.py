@@ -12,12 +12,17 @@ checked by :mod:`umbra.runtime.live.gate` before anything is sent, then the view
   video replaces its own old frames and every other channel keeps its newest: a rare message such
   as ``/tf_static`` stays). Each viewer has a
   sender task of its own: a slow or stalled viewer holds only its own backlog.
+- **Behind the door of every web server of the run** (:mod:`umbra.connectors.access.door`, by
+  :mod:`umbra.runtime.live.door`): each TCP connection is admitted by the connection limits per
+  server and per client address before its handshake starts (one over is aborted at once), its
+  upgrade request must arrive whole within the door's deadline and size, and refusals of every
+  kind are counted and said at most once a second, never with a traceback. Then the upgrade
+  request is checked (:mod:`umbra.runtime.live.gate`).
 - **Bounded.** At most ``MAX_VIEWERS`` viewers, ``MAX_VIEWER_MESSAGE_BYTES`` per message a viewer
   sends, the operator pages' message budget for what a viewer sends
   (:class:`~umbra.connectors.access.rate.MessageBudget`: rate, burst, malformed messages),
   ``MAX_VIEWER_BACKLOG`` answers waiting for a viewer that asks and does not read (beyond any of
-  these its socket is closed, 1008, with the reason); the whole request within
-  ``MAX_PAGE_REQUEST_S``.
+  these its socket is closed, 1008, with the reason).
 - **Parameters** are answered by a :class:`ParameterHandler` (get and set), whose refusals go to
   the asking viewer as ``status`` messages.
 """
@@ -35,25 +40,55 @@ from collections import deque
 from collections.abc import Iterable
 from typing import Any, Protocol
 
-from websockets.asyncio.server import Request, Response, ServerConnection, serve
+from websockets.asyncio.server import Request, Response, ServerConnection
 from websockets.exceptions import ConnectionClosed
+from websockets.server import ServerProtocol
 
+from umbra.connectors.access.door import Connections, Refusals, peer_address
 from umbra.connectors.access.hosts import allowed_hosts
 from umbra.connectors.access.rate import MessageBudget
 from umbra.connectors.access.secret import TOKEN_QUERY
 from umbra.connectors.limits import (
-    MAX_PAGE_REQUEST_S,
     MAX_VIEWER_BACKLOG,
     MAX_VIEWER_BACKLOG_BYTES,
     MAX_VIEWER_MESSAGE_BYTES,
     MAX_VIEWERS,
 )
 from umbra.runtime.live import protocol
+from umbra.runtime.live.door import DoorListener, DoorServer, connection_class
 from umbra.runtime.live.gate import origin_netlocs, refusal
 
 #: Send buffer of a viewer's socket [bytes] (Linux doubles it): the kernel holds a few frames,
 #: not seconds of video, for a viewer that reads slowly.
 SOCKET_BUFFER = 128 * 1024
+
+
+class _Quiet(logging.LoggerAdapter):
+    """``websockets``' logger: its warnings and errors only (it says ``connection open`` and
+    ``connection rejected`` of every connection at INFO; the door counts those)."""
+
+    def isEnabledFor(self, level: int) -> bool:
+        return level >= logging.WARNING and self.logger.isEnabledFor(level)
+
+
+def _listening_socket(host: str, port: int, backlog: int) -> socket.socket:
+    """A non-blocking TCP socket listening on ``host``:``port`` (0: any free port) with a queue
+    of ``backlog`` connections."""
+    family, kind, proto, _name, address = socket.getaddrinfo(
+        host or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
+    )[0]
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if family == socket.AF_INET6:
+            sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+        sock.bind(address)
+        sock.listen(backlog)
+        sock.setblocking(False)
+    except OSError:
+        sock.close()
+        raise
+    return sock
 
 
 class ParameterHandler(Protocol):
@@ -136,7 +171,10 @@ class ViewerServer:
         origins: Iterable[str],
         parameters: ParameterHandler,
         log: logging.Logger | None = None,
+        connections: Connections | None = None,
     ) -> None:
+        """``connections``: the door's table (the declared limits when None; a test gives
+        smaller ones)."""
         self.name, self.host, self.token = name, host, token
         self._origins = origin_netlocs(origins)
         self._parameters = parameters
@@ -147,7 +185,10 @@ class ViewerServer:
         self._viewers: set[_Viewer] = set()
         self._numbers = itertools.count(1)
         self._watched: dict[int, int] = {}  #: channel id -> viewers subscribed
-        self.refused = 0
+        #: the door's connection table (shared rules: :mod:`umbra.connectors.access.door`) and
+        #: every refusal, counted and said at most once a second
+        self.connections = connections or Connections(Refusals(self._log, "foxglove"))
+        self.refusals = self.connections.refusals
         self.passed = 0
         self.dropped = 0
         self.cut_off = 0  #: viewers closed over their message budget (rate, burst, malformed)
@@ -159,20 +200,40 @@ class ViewerServer:
         self._thread.daemon = True
         self._thread.start()
 
-    async def _start(self, port: int) -> Any:
-        return await serve(
+    async def _start(self, port: int) -> DoorServer:
+        """Listen on ``host``:``port`` behind the door (:mod:`umbra.runtime.live.door`)."""
+        loop = asyncio.get_running_loop()
+        table = self.connections
+        logger = _Quiet(self._log.getChild("socket"), {})
+        server = DoorServer(
             self._serve,
-            self.host,
-            port,
-            subprotocols=list(protocol.SUBPROTOCOLS),  # type: ignore[arg-type]
             process_request=self._check,
-            compression=None,  # JPEG and protobuf: deflate would cost CPU for little
-            open_timeout=MAX_PAGE_REQUEST_S,
-            max_size=MAX_VIEWER_MESSAGE_BYTES,
-            max_queue=4,
-            close_timeout=2.0,  # a viewer that does not answer the closing handshake: cut off
             server_header=None,
+            # the door closes a request head late at table.head_s; this bounds the rest of the
+            # handshake (an answer that cannot be sent)
+            open_timeout=2 * table.head_s,
+            logger=logger,
         )
+        connection = connection_class(table)
+
+        def factory() -> ServerConnection:
+            # no extensions: JPEG and protobuf, deflate would cost CPU for little
+            sans_io = ServerProtocol(
+                subprotocols=list(protocol.SUBPROTOCOLS),  # type: ignore[arg-type]
+                max_size=MAX_VIEWER_MESSAGE_BYTES,
+                logger=logger,
+            )
+            # close_timeout: a viewer that does not answer the closing handshake is cut off
+            return connection(sans_io, server, max_queue=4, close_timeout=2.0)
+
+        sock = _listening_socket(self.host, port, table.backlog)
+        try:
+            server.wrap(await loop.create_server(factory, sock=sock, start_serving=False))
+        except BaseException:
+            sock.close()
+            raise
+        DoorListener(loop, sock, table, factory).start()
+        return server
 
     @property
     def url(self) -> str:
@@ -191,6 +252,12 @@ class ViewerServer:
         self._channels[info.id] = info
         self._loop.call_soon_threadsafe(self._broadcast, protocol.advertise([info]))
         return info.id
+
+    @property
+    def refused(self) -> int:
+        """Connections refused: over a limit, half-open, a broken handshake, or an upgrade the
+        gate refused (token, Host, Origin, too many viewers)."""
+        return self.refusals.total  # the connection table tells the same counts
 
     @property
     def viewers(self) -> int:
@@ -231,8 +298,8 @@ class ViewerServer:
             why = refusal(request.path, hosts[0], origin, self.token, hosts_ok, origins_ok)
         if why is None:
             return None
-        self.refused += 1
-        self._log.warning("foxglove: connection refused (%d): %s", *why)
+        client = peer_address(conn.transport)
+        self.refusals.add(str(why[0]), f"a viewer from {client} ({why[0]}): {why[1]}")
         return conn.respond(why[0], why[1] + "\n")
 
     def _broadcast(self, text: str) -> None:
