@@ -15,6 +15,9 @@
    and time.
 6. Zoom interpolation on the report's own table (Appendix D): leave-one-out error of the report's
    linear interpolation against geometric and log-PCHIP interpolation of the focal length.
+7-9. (:mod:`benchmarks.calib_bundle`) nPnP's time against a plain bundle (SQPnP + scipy) at the
+   same accuracy; planar targets (global minimum or a named rival); the coverage of the stated
+   95 % intervals of ``calib fit`` against ``cv2.calibrateCameraExtended``'s.
 
     python benchmarks/bench_calib.py [--quick]
 """
@@ -31,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from benchmarks.calib_bundle import bench_bundle, bench_coverage, bench_planar
 from benchmarks.common import table, write_results
 from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
 from umbra.modules.calib.distortion import distort_points, undistort_points
@@ -531,6 +535,9 @@ def main() -> None:
         "triangulation": bench_triangulation(2000 if quick else 20000, 0.5, seed=4),
         "undistortion": bench_undistort(5000 if quick else 50000, seed=5),
         "zoom_interpolation": bench_zoom(),
+        "npnp_against_bundle": bench_bundle(30 if quick else 300, seed=6),
+        "planar_targets": bench_planar(60 if quick else 600, seed=7),
+        "stated_error_coverage": bench_coverage(100 if quick else 800, seed=8),
     }
     path = write_results("calib", results, quick=quick)
     print(f"\nwrote {path}")

@@ -84,7 +84,7 @@ IMAGE = int(np.prod(IMAGE_SHAPE))
 
 
 # -- umbra modules (registered in the child processes through an entry point) --------------------
-class BenchPing(Module):
+class BenchPing(Module["BenchPing.Params"]):
     """Sends one sample, waits for it to come back, records the round trip [s]; resends a sample
     lost on a best-effort link after 1 s."""
 
@@ -131,7 +131,7 @@ class BenchPing(Module):
         path.write_text(json.dumps(self.rtts))
 
 
-class BenchPong(Module):
+class BenchPong(Module[Parameters]):
     """Sends every sample straight back."""
 
     twist_in = Input(Twist, frame="camera", trigger=True, required=False, doc="ping")
@@ -148,7 +148,7 @@ class BenchPong(Module):
             self.image_out.send(Image(pixels=i.pixels, stamp=i.stamp))
 
 
-class BenchSource(Module):
+class BenchSource(Module[Parameters]):
     """Sends an image every step (give it a rate it cannot keep: as fast as it goes)."""
 
     image = Output(Image, doc="frames")
@@ -160,7 +160,7 @@ class BenchSource(Module):
         self.image.send(Image(pixels=self._pixels))
 
 
-class BenchSink(Module):
+class BenchSink(Module["BenchSink.Params"]):
     """Counts the frames it handles; writes frames per second between its first and last."""
 
     class Params(Parameters):

@@ -57,11 +57,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks.common import table, write_results
 from benchmarks.snake_heldout import bench_heldout, print_heldout
 from benchmarks.snake_heldout import goals as heldout_goals
+from umbra.modules.calib.camera_model import Intrinsics
 from umbra.modules.vision import snake as sn
 from umbra.modules.vision.lighting import Lighting
 from umbra.modules.vision.metrics import polygon_iou, polygon_mask
 from umbra.modules.vision.polygon import circle, signed_area
-from umbra.modules.vision.projection import CameraIntrinsics, Distortion
 from umbra.modules.vision.scene import (
     RenderedFrame,
     Scene,
@@ -73,7 +73,7 @@ from umbra.modules.vision.tracker import SnakeTracker
 
 SIZES = ((640, 480), (1280, 720), (1920, 1080))
 T_WORLD_CAMERA = camera_looking_down((0.0, 0.0, 0.03), 0.22)
-DISTORTION = Distortion(k1=-0.12, k2=0.03, p1=0.001, p2=-0.0007, k3=0.0)
+DISTORTION = np.array([-0.12, 0.03, 0.001, -0.0007, 0.0])  # OpenCV's [k1, k2, p1, p2, k3]
 GAINS = (0.5, 1.0, 1.5)
 PARAMS = sn.SnakeParams()
 METHODS = ("ours", "HS threshold", "BGR inRange")
@@ -85,7 +85,7 @@ def renderer_for(size: tuple[int, int], same_patch: bool) -> SceneRenderer:
     width, height = size
     f = 600.0 if same_patch else 600.0 * width / 640.0
     return SceneRenderer(
-        CameraIntrinsics(f, f, 0.0, width / 2.0, height / 2.0, width, height), DISTORTION
+        Intrinsics(f, f, 0.0, width / 2.0, height / 2.0, width, height), DISTORTION
     )
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, TypeVar, overload
 
 import msgspec
 import numpy as np
@@ -37,6 +37,7 @@ FRAMED_VERSION = 2
 FRAME_MAGIC = b"UMB\x02"
 #: Samples whose arrays hold at least this many bytes are framed by ``encode_framed``.
 FRAMED_MIN_BYTES = 16 * 1024
+_M = TypeVar("_M", bound=Message)
 _EXT_NDARRAY = 1  # version 1: dtype, shape, buffer
 _EXT_NDARRAY_REF = 2  # version 2: dtype, shape, offset, length
 _FRAME_HEAD = struct.Struct("<4sI")
@@ -56,7 +57,7 @@ def _aligned(n: int) -> int:
 
 def _raw_view(arr: np.ndarray) -> memoryview:
     """The bytes of a C-contiguous array, without copying them."""
-    return memoryview(arr.reshape(-1).view(np.uint8))
+    return arr.reshape(-1).view(np.uint8).data
 
 
 def _contiguous(obj: np.ndarray) -> np.ndarray:
@@ -191,7 +192,9 @@ class Codec:
             name: msgspec.msgpack.Decoder(cls, ext_hook=self._ext_hook, dec_hook=_dec_hook)
             for name, cls in self._types.items()
         }
-        self._direct: dict[type[Message], msgspec.msgpack.Decoder] = {}
+        self._direct: dict[
+            type[Message], msgspec.msgpack.Decoder[tuple[str, int, str, Message]]
+        ] = {}
         self._compact: dict[type[Message], CompactType] = {}
         for cls in self._types.values():
             compact = compact_type(cls)
@@ -300,6 +303,10 @@ class Codec:
             raise DecodeError(f"bad array: {exc}") from None
         raise DecodeError(f"unknown extension code {code}")
 
+    @overload
+    def decode(self, data: bytes | memoryview, expected: type[_M]) -> _M: ...
+    @overload
+    def decode(self, data: bytes | memoryview, expected: None = None) -> Message: ...
     def decode(self, data: bytes | memoryview, expected: type[Message] | None = None) -> Message:
         """The message in ``data`` (either version); DecodeError when it is not one (or not of
         ``expected``)."""
@@ -353,7 +360,7 @@ class Codec:
         if compact is None or self._types.get(expected.__name__) is not expected:
             return None
         decode = msgspec.msgpack.Decoder(
-            tuple[str, int, str, compact.wire]  # type: ignore[name-defined]
+            tuple[str, int, str, compact.wire]  # type: ignore[name-defined]  # built at run time
         ).decode
         from_wire, tag_wanted = compact.from_wire, compact.tag
 
@@ -395,7 +402,7 @@ class Codec:
             if self._types.get(expected.__name__) is not expected:
                 return None
             decoder = self._direct[expected] = msgspec.msgpack.Decoder(
-                tuple[str, int, str, expected],  # type: ignore[valid-type]
+                tuple[str, int, str, expected],  # type: ignore[valid-type]  # a run-time type
                 ext_hook=self._ext_hook,
                 dec_hook=_dec_hook,
             )

@@ -3,7 +3,7 @@
 ``frames: {tool->camera: {xyz: [0, 0.05, 0.1], rpy_deg: [0, 0, 90]}}`` in a graph declares
 T_tool_camera, the pose of ``camera`` in ``tool``: translation ``xyz`` [m] and a rotation given as
 roll, pitch, yaw [deg] about the fixed x, y, z axes (R = Rz(yaw) Ry(pitch) Rx(roll), the ROS/URDF
-convention), converted once with scipy's ``Rotation``.
+convention), converted once.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ import re
 from collections import deque
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 #: What a graph may name a frame, a module or a process: an identifier.
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -30,9 +29,15 @@ def frame_name_problem(name: str) -> str:
 
 
 def transform_from_xyz_rpy(xyz: list[float], rpy_rad: list[float]) -> np.ndarray:
-    """4 x 4 transform from a translation [m] and fixed-axis roll, pitch, yaw [rad]."""
+    """4 x 4 transform from a translation [m] and fixed-axis roll, pitch, yaw [rad]:
+    R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy_rad), np.sin(rpy_rad)
     T = np.eye(4)
-    T[:3, :3] = Rotation.from_euler("xyz", rpy_rad).as_matrix()
+    T[:3, :3] = [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [0.0 - sp, cp * sr, cp * cr],  # 0.0 - sp: no negative zero
+    ]
     T[:3, 3] = xyz
     return T
 
@@ -62,7 +67,8 @@ class FrameTree:
         chain = self._chains.get((parent, child))
         if chain is None:
             chain = self._chains[(parent, child)] = self._chain(parent, child)
-        return chain.copy()
+        fresh: np.ndarray = chain.copy()
+        return fresh
 
     def _chain(self, parent: str, child: str) -> np.ndarray:
         if parent == child:

@@ -15,6 +15,7 @@ Jacobian, the velocity register and the joint driver agree on the arm's joints a
 from __future__ import annotations
 
 import functools
+import importlib
 import logging
 from importlib.metadata import entry_points
 from typing import ClassVar
@@ -22,10 +23,24 @@ from typing import ClassVar
 import msgspec
 import numpy as np
 
-#: Entry-point group through which a package adds message types: each entry point names a
-#: module (``[project.entry-points."umbra.messages"]`` ``sketch = "umbra.modules.sketch.messages"``)
-#: whose :class:`Message` subclasses every process then knows by class name.
+from umbra.connectors.tracking import SnakeCheck, TrackStatus
+
+#: Entry-point group through which another package adds message types: each entry point names a
+#: module (``[project.entry-points."umbra.messages"]`` ``widgets = "widget_msgs"``) whose
+#: :class:`Message` subclasses every process then knows by class name.
 MESSAGE_GROUP = "umbra.messages"
+#: The base layer's other modules of message types (typed states and commands; the vocabulary
+#: several domains speak: Active Sketch's, a planned path's, a PTU's, a simulated scene's),
+#: imported with this one by :func:`message_types`: every process knows their types as it knows
+#: these.
+CORE_MESSAGE_MODULES = (
+    "umbra.connectors.states",
+    "umbra.connectors.commands",
+    "umbra.connectors.sketch_messages",
+    "umbra.connectors.path_messages",
+    "umbra.connectors.ptu_messages",
+    "umbra.connectors.scene_messages",
+)
 
 _EMPTY = np.zeros(0)
 _F8 = "float64"
@@ -110,8 +125,9 @@ class Contour(Message, frozen=True, kw_only=True):
 
     ``vertices`` N x 2; ``centroid`` [u, v]; ``area`` [px²]; ``orientation`` [rad] principal-axis
     angle from the u axis; ``axes`` [major, minor] axis lengths [px]. ``status`` is "tracking",
-    "failed" or "idle"; ``reason`` says why it failed; ``offending`` are the indices of vertices
-    that broke a sanity check.
+    "failed" or "idle" (:class:`~umbra.connectors.tracking.TrackStatus`); ``checks`` are the codes
+    of the checks that failed and ``reason`` says why in exact words (figures included);
+    ``offending`` are the indices of vertices that broke a sanity check.
     """
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
@@ -122,8 +138,9 @@ class Contour(Message, frozen=True, kw_only=True):
         "orientation": "rad, principal axis from the u axis",
         "axes": f"{_F8} (2,), px [major, minor]",
         "status": '"tracking", "failed" or "idle"',
-        "reason": "why tracking failed",
+        "reason": "why tracking failed, in exact words",
         "offending": "int or float (K,), indices of vertices that broke a check",
+        "checks": "codes of the failed checks (SnakeCheck), in the order found",
     }
 
     vertices: np.ndarray
@@ -131,9 +148,10 @@ class Contour(Message, frozen=True, kw_only=True):
     area: float
     orientation: float
     axes: np.ndarray
-    status: str = "tracking"
+    status: TrackStatus = TrackStatus.TRACKING
     reason: str = ""
     offending: np.ndarray = _EMPTY
+    checks: tuple[SnakeCheck, ...] = ()
 
 
 class Twist(Message, frozen=True, kw_only=True):
@@ -291,10 +309,12 @@ class CameraModel(Message, frozen=True, kw_only=True):
 
 
 class Status(Message, frozen=True, kw_only=True):
-    """A module's state for the operator: ``stage``, a ``message``, and whether it asks for help.
+    """A module's state for a person: ``stage``, a ``message``, and whether it asks for help.
 
     ``assist`` is True when the operator's assistance is requested; ``reason`` says why.
-    ``values`` carries named figures (errors, counters) for display and logs.
+    ``values`` carries named figures (errors, counters) for display and logs. Free text, for
+    people and displays: a state other modules decide on is a typed one
+    (``umbra.connectors.states``).
     """
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
@@ -339,9 +359,12 @@ class ParamChange(Message, frozen=True, kw_only=True):
 
 @functools.cache
 def plugin_message_modules() -> tuple[str, ...]:
-    """Import the modules the ``umbra.messages`` entry points name (once per process) and return
-    their names; one that fails to import is left out with a warning (its types stay unknown,
-    and samples of them are refused as of an unknown type)."""
+    """Import the base layer's other message modules and those the ``umbra.messages`` entry
+    points name (once per process) and return the entry points' module names; one that fails to
+    import is left out with a warning (its types stay unknown, and samples of them are refused as
+    of an unknown type)."""
+    for name in CORE_MESSAGE_MODULES:
+        importlib.import_module(name)
     loaded = []
     for ep in sorted(entry_points(group=MESSAGE_GROUP), key=lambda e: e.name):
         try:
@@ -357,7 +380,7 @@ def plugin_message_modules() -> tuple[str, ...]:
 
 def message_types() -> dict[str, type[Message]]:
     """All message types by class name (the names used in YAML, ``describe`` and the wire):
-    those defined here, those of the ``umbra.messages`` entry points (imported here, so that a
+    those of the base layer, those of the ``umbra.messages`` entry points (imported here, so that a
     process that never imported them, a recording's reader or a relay, still knows them) and
     any other subclass imported so far."""
     plugin_message_modules()
@@ -372,7 +395,7 @@ def message_types() -> dict[str, type[Message]]:
 
 
 def registered_message_types() -> dict[str, type[Message]]:
-    """The message types that ship: those of this module and of the ``umbra.messages`` entry
+    """The message types that ship: those of the base layer and of the ``umbra.messages`` entry
     points (not a subclass a test or a script defines on its own), by class name."""
-    homes = {__name__, *plugin_message_modules()}
+    homes = {__name__, *CORE_MESSAGE_MODULES, *plugin_message_modules()}
     return {n: c for n, c in message_types().items() if c.__module__ in homes}

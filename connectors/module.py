@@ -3,7 +3,7 @@
 A module type is a subclass with a registered type name, typed ports, declared parameters and
 three methods. The declaration is the documentation: ``umbra describe TYPE`` prints it.
 
-    class Gain(Module):
+    class Gain(Module["Gain.Params"]):
         \"\"\"Scales a scalar.\"\"\"
 
         class Params(Parameters):
@@ -17,6 +17,10 @@ three methods. The declaration is the documentation: ``umbra describe TYPE`` pri
             if sample is not None:
                 self.output.send(Scalar(value=self.params.gain * sample.value))
 
+``Module`` is generic in its parameters: ``Module["Gain.Params"]`` names the class's own
+``Params``, so ``self.params`` has that type for the type checker (a module without parameters of
+its own writes ``Module[Parameters]``).
+
 ``step`` must never block: a device that blocks reads in its own thread and hands over its latest
 value. Time comes from the scheduler's clock (``now``, seconds), never from ``time.time()``.
 """
@@ -27,7 +31,7 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Generic, TypeVar
 
 import numpy as np
 
@@ -76,8 +80,13 @@ class ModuleContext:
         return False
 
 
-class Module:
-    """Base class of every module type. Subclasses declare ``Params``, ``Input``s, ``Output``s."""
+#: A module's own parameter class.
+P = TypeVar("P", bound=Parameters)
+
+
+class Module(Generic[P]):
+    """Base class of every module type. Subclasses declare ``Params``, ``Input``s, ``Output``s,
+    and name their ``Params`` as the base's argument: ``class Gain(Module["Gain.Params"])``."""
 
     #: Registered type name (as in graphs); defaults to the class name.
     TYPE: ClassVar[str] = ""
@@ -96,9 +105,9 @@ class Module:
                     "tunable (every parameter of a guard bounds what reaches the arm)"
                 )
 
-    def __init__(self, name: str, params: Parameters, context: ModuleContext | None = None):
+    def __init__(self, name: str, params: P, context: ModuleContext | None = None):
         self.name = name
-        self.params = params
+        self.params: P = params
         self.context = context or ModuleContext()
         self.log = self.context.log.getChild(name)
         self._registers: dict[str, Register[Any]] = {}
@@ -161,8 +170,8 @@ class Module:
         """Create this instance's input registers and output ports."""
         cls = type(self)
         track = self.origin_track
-        for name, decl in self.input_decls(self.params).items():
-            self._registers[name] = Register(name, decl.max_age, track)
+        for name, in_decl in self.input_decls(self.params).items():
+            self._registers[name] = Register(name, in_decl.max_age, track)
             if isinstance(getattr(cls, name, None), Input):
                 self.__dict__[name] = self._registers[name]  # plain lookup, no descriptor call
         for name, decl in self.output_decls().items():

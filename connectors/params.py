@@ -7,7 +7,13 @@ A module declares its parameters as a nested class::
         mode: Literal["grow", "collapse"] = param("grow", "how the snake is seeded")
 
 ``param`` takes the default, a one-line doc, an optional unit and pydantic's constraints
-(``ge``, ``gt``, ``le``, ``lt``, ``min_length``...). Choices are ``Literal`` types.
+(``ge``, ``gt``, ``le``, ``lt``, ``min_length``...). Choices are ``Literal`` types. A list whose
+every value is bounded takes a bounded element type (``list[NonNegative]``, ``list[Channel]``).
+
+The declaration is the whole rule: bounds, lengths, signs and checks across parameters live here
+(field constraints and model validators) and nowhere else. ``umbra check``, ``run``, ``--set``,
+live tuning and the station all validate through the model, and a module's ``start`` builds
+what it needs from validated values without judging them again.
 Degrees and millimetres appear only in parameters named so (``roll_tolerance_deg``).
 
 Every float is finite (``.inf``, ``nan``, ``1e999``, ``Infinity`` are rejected, in lists too)
@@ -36,9 +42,17 @@ from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 import pydantic
-from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo
+from pydantic import (
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    ValidatorFunctionWrapHandler,
+    WrapValidator,
+)
+from pydantic.config import JsonDict
+from pydantic.fields import FieldInfo
 
-from umbra.connectors.user_files import run_file_problem
+from umbra.connectors.user_files import OnCommandLine, run_file_problem
 
 
 class Parameters(pydantic.BaseModel):
@@ -78,15 +92,24 @@ class Parameters(pydantic.BaseModel):
         return ""
 
 
-def _inside_run_folder(path: str) -> str:
-    why = run_file_problem(path) if path else ""
-    if why:
+def _inside_run_folder(value: Any, handler: ValidatorFunctionWrapHandler) -> str:
+    path: str = handler(value)
+    why = run_file_problem(OnCommandLine(path) if isinstance(value, OnCommandLine) else path)
+    if path and why:
         raise ValueError(f"path {path!r} {why}")
     return path
 
 
-#: A file a module writes, relative to the run's output folder; empty: no file.
-RunFile = Annotated[str, AfterValidator(_inside_run_folder)]
+#: A file a module writes, relative to the run's output folder; empty: no file. A path the user
+#: typed on the command line may lie outside it (``umbra.connectors.user_files``).
+RunFile = Annotated[str, WrapValidator(_inside_run_folder)]
+
+#: Element types with bounds, for lists whose every value is bounded (``list[NonNegative]``):
+#: the declaration then holds the sign of each value, and ``umbra describe`` shows it.
+NonNegative = Annotated[float, Field(ge=0)]
+Positive = Annotated[float, Field(gt=0)]
+#: A color channel, 0..255.
+Channel = Annotated[int, Field(ge=0, le=255)]
 
 
 def _boolean_for_number(value: Any, annotation: Any) -> bool:
@@ -135,8 +158,8 @@ def param(
     """Declare a parameter: ``default``, one-line ``doc``, ``unit``, whether it may be changed
     while the graph runs (``tunable``) or bounds what reaches the arm (``safety``: never tunable),
     and pydantic constraints."""
-    marks = {"unit": unit, "tunable": tunable, "safety": safety}
-    extra = {k: v for k, v in marks.items() if v} or None
+    marks: JsonDict = {"unit": unit, "tunable": tunable, "safety": safety}
+    extra: JsonDict | None = {k: v for k, v in marks.items() if v} or None
     if isinstance(default, list | dict | set):
         frozen_default = default
         return Field(
@@ -200,7 +223,7 @@ def describe_params(params_cls: type[Parameters]) -> list[ParamInfo]:
         extra = field.json_schema_extra if isinstance(field.json_schema_extra, dict) else {}
         required = field.is_required()
         default = None if required else field.get_default(call_default_factory=True)
-        constraints = _bounds_text(field.metadata)
+        constraints = _bounds_text(field)
         out.append(
             ParamInfo(
                 name=name,
@@ -235,40 +258,106 @@ def validation_problems(params_cls: type[Parameters], exc: pydantic.ValidationEr
         elif cause is not None:
             problems.append(f"parameter `{name}`: {cause}")
         else:
-            problems.append(f"parameter `{name}`: {err['msg']}, found {err.get('input')!r}")
+            problems.append(
+                f"parameter `{name}`: {err['msg']}, found {short_repr(err.get('input'))}"
+            )
     return problems
 
 
-def _bounds_text(metadata: list[Any]) -> str:
-    """A field's bounds as ``umbra describe`` shows them: ``in (0, 1]``, ``>= 0``, ``length 3``."""
-    found: dict[str, Any] = {}
-    for meta in metadata:
-        for key in ("ge", "gt", "le", "lt", "min_length", "max_length"):
-            value = getattr(meta, key, None)
-            if value is not None:
-                found[key] = value
-    parts = []
-    low_key = "ge" if "ge" in found else "gt" if "gt" in found else ""
-    high_key = "le" if "le" in found else "lt" if "lt" in found else ""
-    if low_key and high_key:
-        left, right = "[" if low_key == "ge" else "(", "]" if high_key == "le" else ")"
-        parts.append(f"in {left}{found[low_key]:g}, {found[high_key]:g}{right}")
-    elif low_key:
-        parts.append(f"{'>=' if low_key == 'ge' else '>'} {found[low_key]:g}")
-    elif high_key:
-        parts.append(f"{'<=' if high_key == 'le' else '<'} {found[high_key]:g}")
-    lengths = (found.get("min_length"), found.get("max_length"))
-    if lengths[0] is not None and lengths[0] == lengths[1]:
-        parts.append(f"length {lengths[0]}")
-    elif lengths != (None, None):
-        parts.append(f"length {lengths[0] or 0}..{'' if lengths[1] is None else lengths[1]}")
-    return ", ".join(parts)
+def short_repr(value: Any) -> str:
+    """``repr(value)`` cut to 120 characters (a 5000-digit number is not printed whole)."""
+    try:
+        text = repr(value)
+    except ValueError:  # an int too long for repr
+        return "a number too long to print"
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The bounds a declaration puts on a value (``ge``, ``gt``, ``le``, ``lt``) and on a list's
+    length (``min_length``, ``max_length``); None: unbounded."""
+
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    lt: float | None = None
+    min_length: int | None = None
+    max_length: int | None = None
+
+    @classmethod
+    def of(cls, metadata: list[Any]) -> Bounds:
+        """The bounds found in pydantic metadata (a field's, or an ``Annotated`` type's)."""
+        found: dict[str, Any] = {}
+        flat: list[Any] = []
+        for meta in metadata:  # an element's ``Field(...)`` holds its bounds in its metadata
+            flat.extend(meta.metadata if isinstance(meta, FieldInfo) else [meta])
+        for meta in flat:
+            for key in ("ge", "gt", "le", "lt", "min_length", "max_length"):
+                value = getattr(meta, key, None)
+                if value is not None:
+                    found[key] = value
+        return cls(**found)
+
+    def text(self) -> str:
+        """As ``umbra describe`` shows them: ``in (0, 1]``, ``>= 0``, ``length 3``."""
+        parts = []
+        low = self.ge if self.ge is not None else self.gt
+        high = self.le if self.le is not None else self.lt
+        if low is not None and high is not None:
+            left, right = "[" if self.ge is not None else "(", "]" if self.le is not None else ")"
+            parts.append(f"in {left}{low:g}, {high:g}{right}")
+        elif low is not None:
+            parts.append(f"{'>=' if self.ge is not None else '>'} {low:g}")
+        elif high is not None:
+            parts.append(f"{'<=' if self.le is not None else '<'} {high:g}")
+        lengths = (self.min_length, self.max_length)
+        if lengths[0] is not None and lengths[0] == lengths[1]:
+            parts.append(f"length {lengths[0]}")
+        elif lengths != (None, None):
+            parts.append(f"length {lengths[0] or 0}..{'' if lengths[1] is None else lengths[1]}")
+        return ", ".join(parts)
+
+
+def element_bounds(annotation: Any) -> Bounds | None:
+    """The bounds on each element of a list or tuple declared ``list[Annotated[T, Field(...)]]``
+    (the aliases below); None when the annotation bounds no element."""
+    if get_origin(annotation) in (Union, types.UnionType):
+        found = [element_bounds(a) for a in get_args(annotation) if a is not type(None)]
+        return next((b for b in found if b is not None), None)
+    args = get_args(annotation)
+    if get_origin(annotation) not in (list, tuple) or not args:
+        return None
+    item = args[0]
+    if get_origin(item) is not Annotated:
+        return None
+    bounds = Bounds.of(list(get_args(item)[1:]))
+    return bounds if bounds != Bounds() else None
+
+
+def _bounds_text(field: FieldInfo) -> str:
+    """A field's bounds, and its elements' (``each in [0, 255]``), as ``umbra describe`` shows."""
+    parts = [Bounds.of(field.metadata).text()]
+    each = element_bounds(field.annotation)
+    if each is not None:
+        parts.append(f"each {each.text()}")
+    return ", ".join(p for p in parts if p)
 
 
 def _type_name(annotation: Any) -> str:
-    if get_origin(annotation) is Literal:
+    """A declaration's type as ``umbra describe`` shows it: ``list[float] | None``,
+    ``one of a|b`` (element bounds are shown with the bounds, not in the type)."""
+    origin = get_origin(annotation)
+    if origin is Annotated:
+        return _type_name(get_args(annotation)[0])
+    if origin is Literal:
         return "one of " + "|".join(str(a) for a in get_args(annotation))
-    if get_origin(annotation) is not None:
-        return repr(annotation).replace("typing.", "")
+    if origin in (Union, types.UnionType):
+        return " | ".join(_type_name(a) for a in get_args(annotation))
+    if origin is not None:
+        name = getattr(origin, "__name__", repr(origin))
+        return f"{name}[{', '.join(_type_name(a) for a in get_args(annotation))}]"
+    if annotation is type(None):
+        return "None"
     text = getattr(annotation, "__name__", None) or repr(annotation)
     return text.replace("typing.", "")

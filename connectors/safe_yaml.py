@@ -10,11 +10,22 @@ Every YAML file the project reads goes through :func:`compose` (node tree with l
 * values a tag cannot make (``!!float abc``, a 5000-digit integer, ``!!python/...`` tags);
 * a mapping key that YAML 1.1 reads as a boolean (an unquoted ``off``, ``on``, ``yes``, ``no``,
   ``true``, ``false``...): no key of the project's files is a boolean, so it is a name that must
-  be quoted. :func:`boolean_hint` says the same of a value found where a name was expected.
+  be quoted. :func:`boolean_hint` says the same of a value found where a name was expected;
+* a line end other than LF or CRLF (a lone CR, U+0085, U+2028, U+2029), which YAML counts as a
+  line and an editor may not, and a tab or an invisible space (no-break, em, ideographic,
+  zero-width...) where YAML expects an indentation of spaces (:func:`line_end_problem`,
+  :func:`odd_indent`). So a position is the same for the reader as for an editor: line N is
+  after the (N-1)th LF, column C is the C-th character of that line.
+
+Merge keys (``<<: *base``) are YAML 1.1's: the mapping's own keys override merged ones, and of a
+list of merged mappings (``<<: [*a, *b]``) an earlier one wins; a key written twice in the
+mapping itself is refused.
 """
 
 from __future__ import annotations
 
+import re
+import unicodedata
 from typing import Any
 
 import yaml
@@ -25,6 +36,12 @@ MAX_DEPTH = 64
 MAX_NODES = 100_000
 _MERGE_TAG = "tag:yaml.org,2002:merge"
 _BOOL_TAG = "tag:yaml.org,2002:bool"
+#: Line ends that YAML counts as a line and an editor may not: a CR without LF, NEL, LS, PS.
+_ODD_LINE_END = re.compile(r"\r(?!\n)|[\x85\u2028\u2029]")
+#: Characters that look like indentation and are not YAML's (a space): a tab, Unicode spaces,
+#: zero-width spaces and joiners, a byte-order mark inside the text.
+_ODD_SPACE = "\t\u00a0\u1680\u180e\u2000-\u200d\u202f\u205f\u2060\u3000\ufeff"
+_ODD_INDENT = re.compile(f"^ *([{_ODD_SPACE}])", re.MULTILINE)
 
 
 def boolean_hint(value: Any, text: str = "") -> str:
@@ -57,7 +74,7 @@ class Refused(Exception):
         self.line, self.message, self.column = line, message, column
 
 
-class BoundedLoader(yaml.SafeLoader):
+class BoundedLoader(yaml.SafeLoader):  # type: ignore[misc]  # PyYAML ships no type hints
     """A safe loader whose composer refuses nesting deeper than ``max_depth``."""
 
     def __init__(self, text: str, max_depth: int) -> None:
@@ -75,10 +92,65 @@ class BoundedLoader(yaml.SafeLoader):
             self.depth -= 1
 
 
+def char_name(char: str) -> str:
+    """``a no-break space (U+00A0)``: a character's Unicode name and code, for messages."""
+    controls = {"\t": "tab", "\r": "carriage return", "\x85": "next line"}
+    name = unicodedata.name(char, "").lower() or controls.get(char, "control character")
+    article = "an" if name[:1] in "aeiou" else "a"
+    return f"{article} {name} (U+{ord(char):04X})"
+
+
+def _position(text: str, index: int) -> tuple[int, int]:
+    """1-based ``(line, column)`` of ``text[index]``, lines counted by LF."""
+    line_start = text.rfind("\n", 0, index) + 1
+    return text.count("\n", 0, index) + 1, index - line_start + 1
+
+
+def line_end_problem(text: str) -> Refused | None:
+    """The first line end other than LF or CRLF, as a refusal at its position; None if none."""
+    found = _ODD_LINE_END.search(text)
+    if found is None:
+        return None
+    line, column = _position(text, found.start())
+    return Refused(
+        line,
+        f"{char_name(found.group())} ends a line here: YAML counts it as a line end and an "
+        "editor may not, so positions would disagree; save the file with LF or CRLF line ends",
+        column,
+    )
+
+
+def odd_indent(text: str, last_line: int) -> Refused | None:
+    """The last line up to ``last_line`` (1-based) whose indentation holds a tab or an invisible
+    space, as a refusal at that character; None if none. Called when YAML failed at
+    ``last_line``: such a character is not YAML indentation, so YAML reads it as text and fails
+    on a later line, where the mistake is not."""
+    found, line, counted = None, 1, 0
+    for match in _ODD_INDENT.finditer(text):
+        index = match.start(1)
+        line += text.count("\n", counted, index)
+        counted = index
+        if line > last_line:
+            break
+        found = index
+    if found is None:
+        return None
+    line, column = _position(text, found)
+    return Refused(line, _indent_message(text[found]), column)
+
+
+def _indent_message(char: str) -> str:
+    return f"{char_name(char)} where YAML expects indentation: YAML indents with spaces only"
+
+
 def compose(
     text: str, source: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES
 ) -> yaml.Node | None:
     """The node tree of one YAML document; :class:`YamlError` on any problem."""
+    text = text.removeprefix("\ufeff")  # a byte-order mark is no character of line 1
+    odd = line_end_problem(text)
+    if odd is not None:
+        raise YamlError(source, odd.line, odd.message)
     try:
         loader = BoundedLoader(text, max_depth)  # refuses unprintable characters at once
     except yaml.reader.ReaderError as exc:
@@ -93,6 +165,9 @@ def compose(
         raise YamlError(source, stop.line, stop.message) from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
+        indent = odd_indent(text, mark.line + 1 if mark else 1)
+        if indent is not None:
+            raise YamlError(source, indent.line, f"invalid YAML: {indent.message}") from None
         problem = exc.problem or exc.context or "not valid YAML"
         raise YamlError(source, mark.line + 1 if mark else 1, f"invalid YAML: {problem}") from None
     except yaml.YAMLError as exc:
@@ -110,6 +185,7 @@ def construct(node: yaml.Node | None, source: str) -> Any:
     """Plain Python values of a node tree from :func:`compose`; YamlError at the bad value."""
     if node is None:
         return None
+    resolve_merges(node, set())
     loader = yaml.SafeLoader("")
     try:
         return loader.construct_document(node)
@@ -120,6 +196,42 @@ def construct(node: yaml.Node | None, source: str) -> Any:
         loader.dispose()
 
 
+def resolve_merges(node: yaml.Node, done: set[int]) -> None:
+    """Replace the ``<<`` keys under ``node`` by the pairs they merge, as YAML 1.1 says: the
+    mapping's own keys win, then an earlier merged mapping over a later one (PyYAML's own
+    merge lets a later one win). A ``<<`` on something else than mappings is left for the
+    constructor to refuse."""
+    if id(node) in done:
+        return
+    done.add(id(node))
+    for kid in _children(node):
+        resolve_merges(kid, done)
+    if not isinstance(node, yaml.MappingNode):
+        return
+    sources: list[yaml.MappingNode] = []
+    for key, value in node.value:
+        if key.tag == _MERGE_TAG:
+            items = value.value if isinstance(value, yaml.SequenceNode) else [value]
+            if not all(isinstance(item, yaml.MappingNode) for item in items):
+                return
+            sources.extend(items)
+    if not sources:
+        return
+    own = [(key, value) for key, value in node.value if key.tag != _MERGE_TAG]
+    taken = {_key_ident(key) for key, _value in own}
+    merged = []
+    for source in sources:
+        for key, value in source.value:
+            if _key_ident(key) not in taken:
+                taken.add(_key_ident(key))
+                merged.append((key, value))
+    node.value = merged + own
+
+
+def _key_ident(key: yaml.Node) -> Any:
+    return (key.tag, key.value) if isinstance(key, yaml.ScalarNode) else id(key)
+
+
 def load(text: str, source: str, max_depth: int = MAX_DEPTH) -> tuple[yaml.Node | None, Any]:
     """``(node tree, plain values)`` of one YAML document."""
     node = compose(text, source, max_depth)
@@ -127,7 +239,8 @@ def load(text: str, source: str, max_depth: int = MAX_DEPTH) -> tuple[yaml.Node 
 
 
 def _line(node: yaml.Node) -> int:
-    return node.start_mark.line + 1
+    line: int = node.start_mark.line
+    return line + 1
 
 
 def _children(node: yaml.Node) -> list[yaml.Node]:
@@ -161,6 +274,8 @@ def check_tree(root: yaml.Node, max_depth: int, max_nodes: int) -> None:
                 raise Refused(_line(node), f"nesting deeper than {max_depth} levels (with aliases)")
             if isinstance(node, yaml.MappingNode):
                 _no_duplicate_keys(node)
+            elif isinstance(node, yaml.ScalarNode) and node.style is None:
+                _no_odd_start(node)
             continue
         if key in size:
             continue
@@ -171,8 +286,22 @@ def check_tree(root: yaml.Node, max_depth: int, max_nodes: int) -> None:
         stack.extend((kid, False) for kid in _children(node) if id(kid) not in size)
 
 
+def _no_odd_start(node: yaml.ScalarNode) -> None:
+    """A plain (unquoted) scalar that starts with an invisible space was meant to be indented."""
+    if node.value[:1] and re.match(f"[{_ODD_SPACE}]", node.value[:1]):
+        raise Refused(_line(node), _indent_message(node.value[0]), node.start_mark.column + 1)
+
+
 def _no_duplicate_keys(node: yaml.MappingNode) -> None:
     seen: dict[tuple[str, str], int] = {}
+    merges = [key for key, _value in node.value if key.tag == _MERGE_TAG]
+    if len(merges) > 1:
+        raise Refused(
+            _line(merges[1]),
+            f"duplicate merge key `<<` (first at line {_line(merges[0])}): merge several "
+            "mappings with one key, `<<: [*a, *b]`",
+            merges[1].start_mark.column + 1,
+        )
     for key, _value in node.value:
         if not isinstance(key, yaml.ScalarNode) or key.tag == _MERGE_TAG:
             continue

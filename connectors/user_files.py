@@ -6,8 +6,10 @@ expected are refused before anything is read (a FIFO is opened without blocking)
 is an error naming the line of the first bad byte. Every failure is a :class:`UserError` reading
 ``FILE: error: ...`` or ``FILE:LINE: error: ...``.
 
-Files a graph *writes* (a recording, a plot, a video) are named relative to the run folder and
-stay inside it: :func:`run_file_problem` refuses absolute paths and ``..``.
+Files a graph *writes* (a recording, a plot, a video, a scene) are named relative to the run
+folder and stay inside it: :func:`run_file_problem` refuses absolute paths and ``..``. A path the
+user types on the command line (``umbra run G --set rec.path=/data/pick.mcap``) arrives as
+:class:`OnCommandLine` and may name any place: the person running the graph chose it, not the file.
 """
 
 from __future__ import annotations
@@ -83,17 +85,33 @@ def read_text(path: str | Path, what: str, max_bytes: int = MAX_TEXT_BYTES) -> s
     return decode_text(read_bytes(path, what, max_bytes), str(path))
 
 
+class OnCommandLine(str):
+    """Text the user typed on the command line (a ``--set`` value): a file a module writes may
+    lie outside the run folder when the user names it there."""
+
+
+#: What a refusal of a path outside the run folder tells the user to do instead.
+_OUTSIDE_HINT = (
+    "files a graph writes stay in the run folder (the --out folder); give a relative path, or "
+    "name an outside file on the command line: umbra run GRAPH --set MODULE.PARAM=PATH"
+)
+
+
 def run_file_problem(path: str) -> str:
-    """Why ``path`` does not name a file inside the run folder; empty when it does."""
+    """Why ``path`` does not name a file a graph may write; empty when it may. A path inside the
+    run folder may; one outside it (absolute, or leaving it by ``..``) only when the user typed
+    it on the command line (:class:`OnCommandLine`)."""
     if not path.strip():
         return "is empty"
     if "\x00" in path:
         return "holds a NUL character"
+    if isinstance(path, OnCommandLine):
+        return ""
     posix = PurePosixPath(path.replace("\\", "/"))
     if posix.is_absolute() or (len(path) > 1 and path[1] == ":"):
-        return "is absolute; files a graph writes stay in the run folder (give a relative path)"
+        return f"is absolute; {_OUTSIDE_HINT}"
     if ".." in posix.parts:
-        return "leaves the run folder (`..`); files a graph writes stay in the run folder"
+        return f"leaves the run folder (`..`); {_OUTSIDE_HINT}"
     return ""
 
 

@@ -37,9 +37,10 @@ class Child:
 def read_summary(out: Path, child: Child) -> dict[str, Any] | None:
     path = out / f"summary-{child.name}.json"
     try:
-        return json.loads(path.read_text())
+        summary: dict[str, Any] = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
+    return summary
 
 
 def reason_of(out: Path, child: Child) -> str:

@@ -36,7 +36,7 @@ class ModuleHarness:
 
     def __init__(
         self,
-        module_type: str | type[Module],
+        module_type: str | type[Module[Any]],
         params: dict[str, Any] | None = None,
         *,
         name: str = "module",
@@ -107,11 +107,19 @@ class ModuleHarness:
         return self
 
     def push(self, input_name: str, sample: Message) -> Message:
-        """Write ``sample`` into input ``input_name`` as if a producer had sent it now."""
+        """Write ``sample`` into input ``input_name`` as if a producer had sent it now; a sample
+        of a type the input does not take is refused (TypeError), as ``umbra check`` refuses
+        such a connection."""
         if input_name not in self.module.registers:
             raise KeyError(
                 f"{self.module.type_name()} has no input `{input_name}` "
                 f"(inputs: {', '.join(self.module.registers)})"
+            )
+        wanted = type(self.module).input_decls(self.module.params)[input_name].msg_type
+        if not isinstance(sample, wanted):
+            raise TypeError(
+                f"{self.module.type_name()} input `{input_name}` takes {wanted.__name__}, "
+                f"found {type(sample).__name__}"
             )
         seq = self._seq.get(input_name, 0) + 1
         self._seq[input_name] = seq

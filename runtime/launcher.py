@@ -59,6 +59,7 @@ from umbra.runtime.links.config_facts import config_facts
 from umbra.runtime.links.exposure import check_exposure, config_for
 from umbra.runtime.links.runs import BY_HAND, checked_run_id, new_run_id
 from umbra.runtime.links.shm_sweep import mapped_segments, remove_orphans
+from umbra.runtime.ros2.run_args import child_args, ros2_options
 from umbra.runtime.run_one import run_one
 from umbra.runtime.scheduler import INTERRUPTED
 
@@ -105,7 +106,7 @@ def run_identity(plan: GraphPlan, args: argparse.Namespace) -> str:
     holds it (else UserError), otherwise a new one (``umbra.runtime.links.runs.new_run_id``).
     A process started by hand (``--process``) takes ``--run-id`` as it is (the other processes
     of its run hold it too), else ``by-hand``."""
-    given = getattr(args, "run_id", None)
+    given: str | None = getattr(args, "run_id", None)
     if getattr(args, "process", None):
         return checked_run_id(given) if given else BY_HAND
     if not given:
@@ -219,6 +220,9 @@ class Supervisor:
             cmd.append("--record")
             if getattr(args, "record_images", None):
                 cmd += ["--record-images", args.record_images]
+            if getattr(args, "record_format", None):
+                cmd += ["--record-format", args.record_format]
+        cmd += child_args(ros2_options(plan, args))  # each process's own ROS 2 node
         return cmd
 
     def _start(self) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from importlib.metadata import EntryPoint, entry_points
+from typing import Any
 
 from umbra.connectors.errors import UserError
 from umbra.connectors.module import Module
@@ -29,11 +30,11 @@ GROUP = "umbra.modules"
 class Registry:
     """Module classes by type name, loaded lazily from entry points (plus any added directly)."""
 
-    _types: dict[str, type[Module]] = field(default_factory=dict)
-    _entry_points: dict[str, object] | None = None
+    _types: dict[str, type[Module[Any]]] = field(default_factory=dict)
+    _entry_points: dict[str, EntryPoint] | None = None
     broken: dict[str, str] = field(default_factory=dict)
 
-    def _eps(self) -> dict[str, object]:
+    def _eps(self) -> dict[str, EntryPoint]:
         if self._entry_points is None:
             found: dict[str, list[EntryPoint]] = {}
             for ep in entry_points(group=GROUP):
@@ -46,7 +47,7 @@ class Registry:
             self._entry_points = {name: eps[0] for name, eps in found.items()}
         return self._entry_points
 
-    def add(self, cls: type[Module], name: str | None = None) -> None:
+    def add(self, cls: type[Module[Any]], name: str | None = None) -> None:
         """Register ``cls`` under ``name`` (default: its type name) — for tests and plug-ins."""
         self._types[name or cls.type_name()] = cls
 
@@ -54,7 +55,7 @@ class Registry:
         """All known type names, sorted."""
         return sorted(set(self._types) | set(self._eps()))
 
-    def get(self, name: str) -> type[Module] | None:
+    def get(self, name: str) -> type[Module[Any]] | None:
         """The class for ``name``, or None when unknown. Import failures are kept in ``broken``."""
         if name in self._types:
             return self._types[name]
@@ -62,7 +63,7 @@ class Registry:
         if ep is None:
             return None
         try:
-            cls = ep.load()  # type: ignore[attr-defined]
+            cls = ep.load()
         except Exception as exc:  # a broken plug-in must not take the CLI down
             self.broken[name] = f"{type(exc).__name__}: {exc}"
             return None
@@ -72,7 +73,7 @@ class Registry:
         self._types[name] = cls
         return cls
 
-    def require(self, name: str) -> type[Module]:
+    def require(self, name: str) -> type[Module[Any]]:
         """The class for ``name``; ``UserError`` when unknown or broken."""
         cls = self.get(name)
         if cls is None:

@@ -18,6 +18,8 @@ from umbra.runtime.links.host_auth import host_credentials
 from umbra.runtime.links.runs import BY_HAND
 from umbra.runtime.links.stats import link_lines
 from umbra.runtime.realtime import latency_limit
+from umbra.runtime.ros2.run_args import ros2_options
+from umbra.runtime.ros2.run_bridge import ros2_lines
 
 #: Seconds a supervised process waits for its consumers before it gives up.
 READY_TIMEOUT = 30.0
@@ -109,6 +111,7 @@ def run_one(
         attended=bool(getattr(args, "attended", False)),
         run_id=getattr(args, "run_id", None) or BY_HAND,  # checked by ``launcher.run_identity``
         run_started=getattr(args, "run_started", None) or 0.0,
+        ros2=ros2_options(plan, args),
     )
     result = run_linked_process(
         plan, options, control=sys.stdin if supervised else None, log=logging.getLogger("umbra")
@@ -116,6 +119,8 @@ def run_one(
     if not args.quiet:
         print(result.table(), file=sys.stderr)
         for line in link_lines(result.extra.get("links", {})):
+            print(line, file=sys.stderr)
+        for line in ros2_lines(result.extra.get("ros2")):
             print(line, file=sys.stderr)
         print(f"summary written to {out / f'summary-{name}.json'}", file=sys.stderr)
     return result.exit_code

@@ -43,6 +43,9 @@ class SchedulerOptions:
     #: a person runs this run (``ModuleContext.attended``): modules read it; the run ends when
     #: that person stops it, never by ``duration`` (which must then be None)
     attended: bool = False
+    #: ``--ros2``: the ROS 2 side of this process's mapped ports
+    #: (``umbra.runtime.ros2.run_bridge.Ros2RunOptions``); None: none
+    ros2: Any = None
 
     def __post_init__(self) -> None:
         if self.attended and self.duration is not None:

@@ -25,7 +25,7 @@ from umbra.runtime.stats import ModuleStats
 class Slot:
     """A module in the loop: its schedule (period and next due time [s]) and counters."""
 
-    module: Module
+    module: Module[Any]
     stats: ModuleStats
     period: float | None
     next_due: float

@@ -69,19 +69,18 @@ class Scheduler:
         self._tick_now = self.clock.now()
         self._pending: list[tuple[Register[Any], Message, float]] = []
         self._inbound: deque[tuple[Register[Any], Message, bool]] = deque()
-        self._wake = threading.Event() if transport is not None else None
+        outside = transport is not None or options.ros2 is not None  # samples from other threads
+        self._wake = threading.Event() if outside else None
         self._link_regs: list[tuple[Register[Any], Any]] = []
         self._link_state = -1  # the transport's state_version the link registers reflect
         self._clocks_read_at = -math.inf  # when the registers' clock_error was last set
         self._tick_lock = threading.Lock()  # one tick at a time, whichever thread runs it
-        self._inline = (
-            transport is not None and options.dispatch == "inline" and (options.clock == "real")
-        )
+        self._inline = outside and options.dispatch == "inline" and (options.clock == "real")
         self._running = False  # ticks may run (set and cleared under the tick lock)
         self._ticks = 0
         self._t0 = 0.0
         self._failure: ModuleFailed | None = None
-        self.modules: dict[str, Module] = {}
+        self.modules: dict[str, Module[Any]] = {}
         self._slots: list[Slot] = []
         self._build()
 
@@ -114,6 +113,11 @@ class Scheduler:
             module.bind_ports(self.tick_time)
             self.modules[name] = module
         self._wire()
+        self.ros2: Any = None  # the ROS 2 node of this process (``umbra.runtime.ros2.run_bridge``)
+        if self.options.ros2 is not None:
+            from umbra.runtime.ros2.run_bridge import attach_ros2
+
+            self.ros2 = attach_ros2(self, self.options.ros2)
         self.recorder: Any = None
         record = self.options.record or getattr(self.plan.spec, "record", None)
         if record is not None and record.enabled:
@@ -294,6 +298,8 @@ class Scheduler:
                         )
             holds.release()
             restore_signals(old_handlers)
+            if self.ros2 is not None:
+                self.ros2.close()  # after the safe stop: its zeros reach ROS 2 too
             if self.recorder is not None:
                 self.recorder.close()  # after the modules: the safe-stop zeros are recorded
         if user_error is not None:
@@ -317,6 +323,8 @@ class Scheduler:
                 str(link.connection): reg.superseded for reg, link in self._link_regs
             }
         extra.update(holds.summary())
+        if self.ros2 is not None:
+            extra["ros2"] = self.ros2.summary()
         if self.recorder is not None:
             extra["recording"] = self.recorder.summary()
         return RunResult(

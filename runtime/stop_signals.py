@@ -17,7 +17,7 @@ def install_stop_signals(request_stop: Callable[[str, int], None]) -> dict[int, 
     handlers they replace (nothing off the main thread, where Python cannot set them)."""
     if threading.current_thread() is not threading.main_thread():
         return {}
-    old = {}
+    old: dict[int, Any] = {}
 
     def on_signal(signum: int, frame: Any) -> None:
         name = signal.Signals(signum).name

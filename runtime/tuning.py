@@ -12,7 +12,9 @@ the value is set into the parameters of that moment (the model builds them: a ch
 parameter since may have made it inconsistent), the module's ``retune`` rebuilds what it
 derived, and the change is logged
 (``param snake.tension 0.1 -> 0.2 by foxglove viewer #1 (127.0.0.1)``) and recorded when the
-run records (``/umbra/param_changes``, ``ParamChange`` with ``old`` set).
+run records (``/umbra/param_changes``, ``ParamChange`` with ``old`` set). A module whose
+``retune`` raises all the same (a defect: its model took the value) keeps its old parameters,
+the log says why, and the run goes on.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ CHANGES_TOPIC = "/umbra/param_changes"
 MAX_PENDING = 64
 
 
-def tunable_problem(module_cls: type[Module], module: str, name: str) -> str:
+def tunable_problem(module_cls: type[Module[Any]], module: str, name: str) -> str:
     """Why ``module.name`` may not be changed live; empty when it may."""
     params = module_cls.Params
     if name not in params.model_fields:
@@ -58,7 +60,7 @@ def tunable_problem(module_cls: type[Module], module: str, name: str) -> str:
 
 
 def checked(
-    module_cls: type[Module], module: str, params: Parameters, name: str, value: Any
+    module_cls: type[Module[Any]], module: str, params: Parameters, name: str, value: Any
 ) -> tuple[Parameters, Any]:
     """``params`` of ``module`` with ``name`` = ``value``, and the value as read (text read as
     ``--set`` reads it); ``ValueError`` saying what was expected and what was found."""
@@ -82,7 +84,7 @@ class Tuner:
 
     def __init__(
         self,
-        modules: dict[str, Module],
+        modules: dict[str, Module[Any]],
         log: logging.Logger | None = None,
     ) -> None:
         self._modules = modules
@@ -139,7 +141,12 @@ class Tuner:
                 self._log.warning("param %s.%s by %s refused: %s", module, name, by, exc)
                 continue
             instance.params = new
-            instance.retune(old)
+            why = _retuned(instance, old, new)
+            if why:
+                self._log.error(
+                    "param %s.%s by %s refused and rolled back: %s", module, name, by, why
+                )
+                continue
             before, after = as_json(getattr(old, name)), as_json(getattr(new, name))
             self._log.info("param %s.%s %s -> %s by %s", module, name, before, after, by)
             change = ParamChange(
@@ -147,3 +154,20 @@ class Tuner:
             )
             if self.record is not None:
                 self.record(change, now)
+
+
+def _retuned(instance: Module[Any], old: Parameters, new: Parameters) -> str:
+    """Apply ``new`` (already in ``instance.params``) through the module's ``retune``; empty when
+    it took them. A module that fails on validated parameters is a defect of that module, never
+    a reason to end the run: its parameters go back to ``old`` and it is retuned to them."""
+    try:
+        instance.retune(old)
+        return ""
+    except Exception as exc:
+        why = f"{type(instance).type_name()} `{instance.name}` could not take it: {exc!r}"
+    instance.params = old
+    try:
+        instance.retune(new)
+    except Exception as exc:
+        why += f" (and failed again going back: {exc!r})"
+    return why

@@ -25,8 +25,9 @@ LAYERS: dict[str, set[str]] = {
     "runtime": {"connectors", "runtime"},  # runs graphs; finds modules by entry point only
 }
 
-#: Domain packages under ``modules/`` and the other domains each may import (beyond any
-#: domain's ``messages`` module, its public vocabulary, which every domain may import).
+#: Domain packages under ``modules/`` and the other domains each may import. Vocabulary that
+#: several domains speak (message types, their shared helpers) lives in ``connectors``, which every
+#: domain may import.
 DOMAIN_ARROWS: dict[str, set[str]] = {
     "geometry": set(),
     "generic": set(),
@@ -36,18 +37,13 @@ DOMAIN_ARROWS: dict[str, set[str]] = {
     "ptu": {"calib", "geometry"},
     "servo": {"calib", "geometry"},
     "trajectory": {"arm", "geometry"},
-    "vision": {"arm", "calib", "geometry", "servo"},
-    "world": {"arm", "geometry", "servo"},
+    "vision": {"arm", "calib", "geometry"},
+    "world": {"arm", "geometry"},
     "view3d": {"arm", "calib", "geometry", "webdoor"},
     "operator": {"arm", "geometry", "servo", "vision", "webdoor"},
     "sketch": {"arm", "calib", "geometry", "ptu", "trajectory", "vision", "world"},
     "sketch_page": {"geometry", "operator", "sketch", "trajectory", "webdoor"},
 }
-
-#: A domain's vocabulary: ``modules/<domain>/messages.py`` imports only ``connectors`` and may
-#: be imported by every domain (its types travel between them, as ``umbra.connectors.messages``'s
-#: do).
-VOCABULARY = "messages"
 
 #: Declared exceptions, file -> (imported package prefix, why). Each is a debt named here so
 #: that no new one comes in unseen.
@@ -141,16 +137,14 @@ def judge(module: str, target: str, rules: Rules) -> str:
     if target_top not in rules.layers.get(top, {target_top}):
         return f"`{top}` may import only {', '.join(sorted(rules.layers[top]))}"
     src, dst = _domain(module), _domain(target)
-    if module.endswith(f".{VOCABULARY}") and src and target_top != "connectors":
-        return f"a domain's `{VOCABULARY}` module imports only connectors"
     if not src or not dst or src == dst:
         return ""
     if src not in rules.domains:
         return f"domain `{src}` is not declared in DOMAIN_ARROWS"
-    if target.split(".")[3] == VOCABULARY or dst in rules.domains[src]:
+    if dst in rules.domains[src]:
         return ""
     allowed = ", ".join(sorted(rules.domains[src])) or "no other domain"
-    return f"domain `{src}` may import {allowed} (and any domain's `{VOCABULARY}`)"
+    return f"domain `{src}` may import {allowed}"
 
 
 def violations(root: Path, rules: Rules | None = None) -> list[str]:
@@ -173,9 +167,9 @@ def violations(root: Path, rules: Rules | None = None) -> list[str]:
 
 def old_name_imports(root: Path, folders: Iterable[str], rules: Rules | None = None) -> list[str]:
     """``FILE:LINE: imports NAME: ...`` for every import of a layer by its old top-level name
-    (``runtime``, not ``umbra.runtime``) in the ``.py`` files under ``folders``: the old
-    names are deprecated aliases (``umbra/legacy_names.py``), and from a checkout they would load
-    a second copy of the folder's modules."""
+    (``runtime``, not ``umbra.runtime``) in the ``.py`` files under ``folders``: the installed
+    package has no such names, and from a checkout they would load a second copy of the folder's
+    modules."""
     rules = rules or Rules()
     found = []
     for folder in folders:

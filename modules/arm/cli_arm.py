@@ -16,6 +16,7 @@ from umbra.modules.geometry.transforms import xyz_rpy_deg_from_transform
 
 NAME = "arm"
 HELP = "print an arm's flange pose and geometric Jacobian at joint values"
+GUIDE = "docs/guide/devices.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

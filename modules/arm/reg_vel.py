@@ -8,17 +8,19 @@ from dataclasses import replace
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, from_param, param
+from umbra.connectors.commands import GripperCommand
 from umbra.connectors.limits import (
     MAX_COMMAND_AGE_S,
     MAX_ORIGIN_AGE_S,
     MAX_TOOL_ANGULAR_RAD_S,
     MAX_TOOL_SPEED_M_S,
 )
-from umbra.connectors.messages import Status, Text, Twist
+from umbra.connectors.messages import Twist
+from umbra.connectors.states import NO_AGE_S, GuardReason, GuardStage, GuardState, ServoState
 from umbra.modules.arm.velocity_register import RegisterOutput, RegisterSettings, VelocityRegister
 
 
-class RegVel(Module):
+class RegVel(Module["RegVel.Params"]):
     """Velocity register with a watchdog: passes the latest twist command, or zero and why.
 
     A non-zero ``jog`` (the operator's dead-man teleoperation) replaces the command until a
@@ -82,15 +84,21 @@ class RegVel(Module):
         max_origin_age=from_param("max_origin_age"),
         doc="operator's dead-man jog; a non-zero jog replaces the command while fresh",
     )
-    gripper_in = Input(Text, required=False, doc="gripper command: open / close")
-    halt = Input(Status, required=False, doc="upstream status; assist=True forces zero")
+    gripper_in = Input(GripperCommand, required=False, doc="gripper command: open / close")
+    halt = Input(
+        ServoState,
+        required=False,
+        doc="the grab's state (vsServo): an assistance request forces zero",
+    )
     twist = Output(Twist, frame=from_param("frame"), doc="guarded, clamped twist")
-    gripper = Output(Text, events=True, doc="gripper command, passed while the link is healthy")
+    gripper = Output(
+        GripperCommand, events=True, doc="gripper command, passed while the link is healthy"
+    )
     status = Output(
-        Status,
+        GuardState,
         origin_from=("command",),  # as old as the command it judges (a held jog is old news)
-        doc="'passing' or 'zero' with the reason, the command's ages and the travel it let through "
-        "(on change, and at least every 0.1 s; every 0.02 s while it passes motion)",
+        doc="passing or zero, why (a code and the exact text), the command's ages and the travel "
+        "it let through (on change, and at least every 0.1 s; every 0.02 s while it passes motion)",
     )
 
     #: Longest time between two status samples [s]: a state stream, so a lost one is replaced.
@@ -138,9 +146,11 @@ class RegVel(Module):
                 )
         halt = self.halt.get(now)
         halt_reason = self._frame_problem if self._register.empty else ""
+        halt_code = GuardReason.WRONG_FRAME
         if halt is not None and halt.assist:
             halt_reason = f"halted by {halt.stage}: {halt.reason or halt.message}"
-        out = self._register.output(now, self.command.link_alive, halt_reason)
+            halt_code = GuardReason.HALTED
+        out = self._register.output(now, self.command.link_alive, halt_reason, halt_code)
         if out.stale and not math.isfinite(out.origin_age) and self.command.clock_problem:
             out = replace(out, zero_reason=f"{out.zero_reason}: {self.command.clock_problem}")
         jogging = self._jog_step(now) if self.jog.value is not None else None
@@ -150,11 +160,11 @@ class RegVel(Module):
         self.twist.send(
             Twist(vector=out.twist, frame=self.params.frame, origin=origin if out.passing else now)
         )
-        self._count(out, now)
+        self._count(out, now, jogging is not None)
         self._odometer(now, out.twist)
         gripper = self.gripper_in.get(now)
         if gripper is not None and self.gripper_in.fresh and out.passing:
-            self.gripper.send(Text(text=gripper.text, stamp=gripper.stamp))
+            self.gripper.send(GripperCommand(action=gripper.action, stamp=gripper.stamp))
         reason_key = out.zero_reason or ("passing jog" if jogging is not None else "")
         moving = bool(np.any(out.twist[:3]))
         period = self.MOVING_STATUS_PERIOD_S if moving else self.STATUS_PERIOD_S
@@ -164,18 +174,15 @@ class RegVel(Module):
             self._last_reason = reason_key
             self._status_at = now
             self.status.send(
-                Status(
-                    stage="zero" if out.zero_reason else "passing",
-                    message=out.zero_reason or reason_key or "passing commands",
+                GuardState(
+                    stage=GuardStage.PASSING if out.passing else GuardStage.ZERO,
+                    code=out.code,
                     reason=out.zero_reason,
-                    values={
-                        "age": float(min(out.age, 1e9)),
-                        "origin_age": float(min(out.origin_age, 1e9)),
-                        "stale": float(out.stale),
-                        "travel_x": float(self._travel[0]),
-                        "travel_y": float(self._travel[1]),
-                        "travel_z": float(self._travel[2]),
-                    },
+                    jog=jogging is not None,
+                    age_s=float(min(out.age, NO_AGE_S)),
+                    origin_age_s=float(min(out.origin_age, NO_AGE_S)),
+                    stale=out.stale,
+                    travel_m=self._travel.copy(),
                 )
             )
 
@@ -186,9 +193,10 @@ class RegVel(Module):
             self._travel += linear * max(now - then, 0.0)
         self._passed_at = (now, np.array(twist[:3], dtype=float))
 
-    def _count(self, out: RegisterOutput, now: float) -> None:
+    def _count(self, out: RegisterOutput, now: float, jog: bool = False) -> None:
         """Tally the tick for the summary: passed (and from how old data), clamped, zeroed and
-        why (old data, with when; a running command stream that paused past the watchdog)."""
+        why (old data, with when; a running command stream, not a jog, that paused past the
+        watchdog)."""
         self._clamped += out.clamped
         was_stale = self._last_out is not None and self._last_out.stale
         if out.stale and not was_stale and len(self._stale_episodes) < MAX_EPISODES:
@@ -206,7 +214,7 @@ class RegVel(Module):
                 self._refused_origin_ages.append(out.origin_age)
                 self._refused_arrival_ages.append(out.age)
             last = self._last_out
-            self._watchdog_zeroes += out.zero_reason.startswith("no new command") and (
+            self._watchdog_zeroes += (out.code == GuardReason.WATCHDOG and not jog) and (
                 last is not None and last.passing
             )
         self._last_out = out
@@ -233,7 +241,7 @@ class RegVel(Module):
         if out.passing:
             self._jog_ticks += 1
             return out
-        return RegisterOutput(out.twist, f"jog: {out.zero_reason}", False, out.age)
+        return RegisterOutput(out.twist, f"jog: {out.zero_reason}", False, out.age, code=out.code)
 
     def summary(self) -> dict[str, object]:
         return {

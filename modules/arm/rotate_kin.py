@@ -23,7 +23,7 @@ from umbra.modules.geometry.transforms import (
 )
 
 
-class RotateKin(Module):
+class RotateKin(Module["RotateKin.Params"]):
     """Transforms a twist from the camera frame into the tool frame (full rigid transform).
 
     ``w_tool = R w_cam`` and ``v_tool = R v_cam + w_tool x (p_tool - p_cam)``: when the camera
@@ -71,17 +71,7 @@ class RotateKin(Module):
 
     def start(self) -> None:
         p = self.params
-        if (p.mount_xyz is None) != (p.mount_rpy_deg is None):
-            raise UserError(
-                f"ROTATE_KIN `{self.name}`: give both mount_xyz and mount_rpy_deg, or neither "
-                "(then the graph's static frames are used)"
-            )
-        if p.mount_xyz is not None:
-            if len(p.mount_xyz) != 3 or len(p.mount_rpy_deg or ()) != 3:
-                raise UserError(
-                    f"ROTATE_KIN `{self.name}`: mount_xyz and mount_rpy_deg take 3 numbers each, "
-                    f"got {p.mount_xyz} and {p.mount_rpy_deg}"
-                )
+        if p.mount_xyz is not None and p.mount_rpy_deg is not None:  # both or neither: Params
             self.T_tool_camera = transform_from_xyz_rpy_deg(p.mount_xyz, p.mount_rpy_deg)
         else:
             try:

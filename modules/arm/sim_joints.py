@@ -33,11 +33,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.connectors.commands import GripperAction
 from umbra.modules.arm.dh import DHTable
 
 FloatArray = NDArray[np.float64]
 
-GRIPPER_COMMANDS = ("open", "close")
+GRIPPER_COMMANDS = tuple(GripperAction)
 
 #: Joint speed below which a joint coasting on the watchdog's zero command is at rest [rad/s].
 REST_SPEED = 1e-9
@@ -45,7 +46,8 @@ REST_SPEED = 1e-9
 
 @dataclass(frozen=True)
 class SimJointSettings:
-    """Drive model of the simulated joints.
+    """Drive model of the simulated joints, built from validated parameters (WOLVERINE_JNTS's
+    ``Params`` holds their bounds, the joint limits of the start and one offset per joint).
 
     Attributes:
         accel_max: acceleration limit per joint (rad/s^2), a scalar for all joints.
@@ -61,18 +63,6 @@ class SimJointSettings:
     gripper_travel_time: float = 0.5
     watchdog: float = 0.1
 
-    def __post_init__(self) -> None:
-        if not self.accel_max > 0:
-            raise ValueError(f"accel_max must be positive, got {self.accel_max}")
-        if self.lag_tau < 0:
-            raise ValueError(f"lag_tau must be >= 0, got {self.lag_tau}")
-        if not self.gripper_travel_time > 0:
-            raise ValueError(
-                f"gripper_travel_time must be positive, got {self.gripper_travel_time}"
-            )
-        if not self.watchdog > 0:
-            raise ValueError(f"watchdog must be positive, got {self.watchdog}")
-
 
 class SimJoints:
     """State of a simulated arm; call :meth:`step` with commanded rates each tick."""
@@ -87,15 +77,9 @@ class SimJoints:
         self.table = table
         self.settings = settings
         q = np.zeros(table.n) if q0 is None else table.check_q(q0)
-        if np.any(q < table.q_min) or np.any(q > table.q_max):
-            raise ValueError(f"initial joint values {q.tolist()} are outside the joint limits")
         error = np.asarray(settings.calibration_error, dtype=float)
         if error.size == 0:
             error = np.zeros(table.n)
-        if error.shape != (table.n,):
-            raise ValueError(
-                f"calibration_error needs {table.n} offsets (one per joint), got {error.size}"
-            )
         self._calibration_error = error
         self._q = q.copy()
         self._qd = np.zeros(table.n)
@@ -180,7 +164,7 @@ class SimJoints:
         """Start opening (``"open"``) or closing (``"close"``) the gripper."""
         if command not in GRIPPER_COMMANDS:
             raise ValueError(f"gripper command must be 'open' or 'close', got {command!r}")
-        self._gripper_target = 1.0 if command == "open" else 0.0
+        self._gripper_target = 1.0 if command == GripperAction.OPEN else 0.0
 
     def step(self, commanded_rates: ArrayLike, dt: float) -> None:
         """Advance the joints by ``dt`` seconds under ``commanded_rates`` (rad/s)."""

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.connectors.states import GuardReason
 from umbra.modules.geometry.transforms import clamp_twist
 
 FloatArray = NDArray[np.float64]
@@ -32,7 +33,8 @@ _ZERO.setflags(write=False)
 
 @dataclass(frozen=True)
 class RegisterSettings:
-    """Watchdog and clamps of the register.
+    """Watchdog and clamps of the register, built from validated parameters (REG_VEL's
+    ``Params`` holds their bounds), not checked again here.
 
     Attributes:
         timeout: largest accepted time since the command arrived (s).
@@ -46,23 +48,12 @@ class RegisterSettings:
     max_angular: float = 0.5
     max_origin_age: float = 0.25
 
-    def __post_init__(self) -> None:
-        if not (
-            self.timeout > 0
-            and self.max_linear >= 0
-            and self.max_angular >= 0
-            and self.max_origin_age > 0
-        ):
-            raise ValueError(
-                "register settings: timeout and max_origin_age must be > 0 and speed limits "
-                f">= 0, got timeout={self.timeout}, max_linear={self.max_linear}, "
-                f"max_angular={self.max_angular}, max_origin_age={self.max_origin_age}"
-            )
-
 
 @dataclass(frozen=True)
 class RegisterOutput:
-    """What the register emits: ``twist`` ``[v; w]``; ``zero_reason`` is empty when it passes.
+    """What the register emits: ``twist`` ``[v; w]``; ``zero_reason`` is empty when it passes,
+    else the exact reason, and ``code`` says why in a code (``GuardReason.PASSING`` when it
+    passes).
 
     ``clamped`` tells that a speed limit scaled the command; ``age`` is the time since the
     command arrived (s) and ``origin_age`` the age of the sensor data it was made from (s), both
@@ -76,11 +67,12 @@ class RegisterOutput:
     age: float
     origin_age: float = float("inf")
     stale: bool = False
+    code: GuardReason = GuardReason.PASSING
 
     @property
     def passing(self) -> bool:
         """True when the output is the (possibly clamped) command, not a forced zero."""
-        return not self.zero_reason
+        return self.code == GuardReason.PASSING
 
 
 class VelocityRegister:
@@ -123,34 +115,42 @@ class VelocityRegister:
         self._origin = -np.inf
         self._bad = ""
 
-    def output(self, now: float, producer_alive: bool = True, halt: str = "") -> RegisterOutput:
+    def output(
+        self,
+        now: float,
+        producer_alive: bool = True,
+        halt: str = "",
+        halt_code: GuardReason = GuardReason.HALTED,
+    ) -> RegisterOutput:
         """The twist to pass on at time ``now``, or zero with the reason.
 
         Args:
             now: current time (s), same clock as the stamps.
             producer_alive: False when the command's producer has disappeared.
-            halt: a non-empty reason forces zero (e.g. an upstream failure).
+            halt: a non-empty reason forces zero (e.g. an upstream failure), with ``halt_code``.
         """
         age = float(now - self._stamp)
         origin_age = float(now - self._origin)
         settings = self.settings
-        reason, stale = "", False
+        reason, stale, code = "", False, GuardReason.PASSING
         if halt:
-            reason = halt
+            reason, code = halt, halt_code
         elif not producer_alive:
-            reason = "command producer is gone"
+            reason, code = "command producer is gone", GuardReason.PRODUCER_GONE
         elif self._bad:
-            reason = self._bad
+            reason, code = self._bad, GuardReason.REJECTED
         elif self._twist is None:
-            reason = "no command received yet"
+            reason, code = "no command received yet", GuardReason.NO_COMMAND_YET
         elif origin_age > settings.max_origin_age:
             stale = True
             limit = settings.max_origin_age
             reason = f"command made from {_sensor_data(origin_age)} (limit {limit:.2f} s)"
+            code = GuardReason.STALE_DATA if np.isfinite(origin_age) else GuardReason.UNDATABLE
         elif age > settings.timeout:
             reason = f"no new command for {age:.3f} s (link watchdog {settings.timeout:.3f} s)"
+            code = GuardReason.WATCHDOG
         if reason:
-            return RegisterOutput(_ZERO, reason, False, age, origin_age, stale)
+            return RegisterOutput(_ZERO, reason, False, age, origin_age, stale, code)
         twist, clamped = clamp_twist(self._twist, settings.max_linear, settings.max_angular)
         return RegisterOutput(twist, "", clamped, age, origin_age)
 

@@ -9,15 +9,15 @@ from msgspec.structs import replace
 from pydantic import model_validator
 
 from umbra.connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
+from umbra.connectors.commands import GripperCommand
 from umbra.connectors.limits import MAX_COMMAND_AGE_S, MAX_JOINT_ACCEL_RAD_S2
-from umbra.connectors.messages import JointRates, JointState, Status, Text
+from umbra.connectors.messages import JointRates, JointState, Status
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.dh import DHTable
 from umbra.modules.arm.joints_backend import BackendError, JointsBackend, backend_class
-from umbra.modules.arm.sim_joints import GRIPPER_COMMANDS
 
 
-class WolverineJnts(Module):
+class WolverineJnts(Module["WolverineJnts.Params"]):
     """Joint driver: joint-rate commands in, joint state out, gripper commands.
 
     Backends: ``sim`` (integration with rate, acceleration and joint limits, a first-order lag,
@@ -86,6 +86,25 @@ class WolverineJnts(Module):
                     f"needs {n} angles, one per joint {list(self.table.names)}, "
                     f"found {len(self.initial_q_deg)}",
                 )
+            if self.initial_q_deg is not None:
+                q = np.radians(np.asarray(self.initial_q_deg, dtype=float))
+                outside = [
+                    f"{name} {deg:g}"
+                    for name, deg, value, low, high in zip(
+                        self.table.names,
+                        self.initial_q_deg,
+                        q,
+                        self.table.q_min,
+                        self.table.q_max,
+                        strict=True,
+                    )
+                    if not low <= value <= high
+                ]
+                if outside:
+                    raise ParamProblem(
+                        "initial_q_deg",
+                        f"has angles outside the joint limits: {', '.join(outside)} deg",
+                    )
             if self.calibration_error_deg and len(self.calibration_error_deg) != n:
                 raise ParamProblem(
                     "calibration_error_deg",
@@ -99,7 +118,9 @@ class WolverineJnts(Module):
     rates = Input(
         JointRates, joints=from_param("joint_names"), requires_guard=True, doc="joint rates"
     )
-    gripper_in = Input(Text, required=False, requires_guard=True, doc="gripper: open / close")
+    gripper_in = Input(
+        GripperCommand, required=False, requires_guard=True, doc="gripper: open / close"
+    )
     joint_state = Output(
         JointState, joints=from_param("joint_names"), measured=True, doc="reported joints"
     )
@@ -148,11 +169,7 @@ class WolverineJnts(Module):
         accepted = self.backend.command(rates, now)
         gripper = self.gripper_in.get(now)
         if gripper is not None and self.gripper_in.fresh:
-            command = gripper.text.strip().lower()
-            if command in GRIPPER_COMMANDS:
-                self.backend.command_gripper(command)
-            else:
-                self.log.warning("ignoring gripper command %r (expected open/close)", gripper.text)
+            self.backend.command_gripper(gripper.action)
         if not accepted and not problem:
             problem = "backend refused the command"
         if not reading.ok:

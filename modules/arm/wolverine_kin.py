@@ -18,7 +18,7 @@ from umbra.modules.arm.jacobian import (
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 
-class WolverineKin(Module):
+class WolverineKin(Module["WolverineKin.Params"]):
     """Resolved-rate kinematics of a DH arm (default: Puma 560).
 
     Each new tool twist (tool point, tool-frame coordinates) is re-expressed in the base frame

@@ -11,18 +11,20 @@ import math
 from pathlib import Path
 from typing import Any
 
-from umbra.connectors import Input, Module, Output, Parameters, param
+from pydantic import PrivateAttr, model_validator
+
+from umbra.connectors import Input, Module, Output, Parameters, ParamProblem, UserError, param
 from umbra.connectors.limits import MAX_IMAGE_SIDE_PX
 from umbra.connectors.messages import CameraModel, ZoomState
 from umbra.modules.calib.camera_message import camera_message
-from umbra.modules.calib.zoom_io import load_zoom_table
+from umbra.modules.calib.zoom_io import load_zoom_file
 from umbra.modules.calib.zoom_table import ZoomTable
 
 #: The report's own calibration file, shipped with the project.
 REPORT_FILE = Path(__file__).resolve().parent / "data" / "zoom_cam.xml"
 
 
-class CamCalib(Module):
+class CamCalib(Module["CamCalib.Params"]):
     """Camera model (intrinsics, distortion, extrinsics in its mount) at the current zoom.
 
     Reads the zoom calibration file at start (Appendix D XML, or its YAML form); on each new zoom
@@ -49,12 +51,33 @@ class CamCalib(Module):
             "camera", "frame name carried in the model (zoom-dependent, so not a static frame)"
         )
 
+        _table: ZoomTable = PrivateAttr()
+
+        @model_validator(mode="after")
+        def _load_table(self) -> CamCalib.Params:
+            """The file is read and its camera found when the parameters are validated, so a
+            missing file or camera is a parameter error ``umbra check`` reports."""
+            path = Path(self.calibration_file) if self.calibration_file else REPORT_FILE
+            try:
+                zoom_file = load_zoom_file(path)
+            except UserError as exc:
+                raise ParamProblem("calibration_file", f"cannot be used: {exc}") from None
+            try:
+                self._table = zoom_file.camera(self.camera or None)
+            except KeyError as exc:
+                raise ParamProblem("camera", f"is not in {path}: {exc.args[0]}") from None
+            return self
+
+        @property
+        def table(self) -> ZoomTable:
+            """The calibration table of the camera."""
+            return self._table
+
     zoom = Input(ZoomState, trigger=True, doc="normalized zoom 0 (wide) .. 1 (tele)")
     camera = Output(CameraModel, doc="camera model at the zoom (published when it changes)")
 
     def start(self) -> None:
-        path = Path(self.params.calibration_file) if self.params.calibration_file else REPORT_FILE
-        self.table: ZoomTable = load_zoom_table(path, self.params.camera or None)
+        self.table: ZoomTable = self.params.table
         self._range = (float(self.table.zooms[0]), float(self.table.zooms[-1]))
         self._last_zoom: float | None = None
         self._computed = 0

@@ -52,6 +52,5 @@ def pinhole_from_message(
     T_ref_camera = np.asarray(message.T_mount_camera, dtype=float)
     if T_ref_mount is not None:
         T_ref_camera = np.asarray(T_ref_mount, dtype=float) @ T_ref_camera
-    intrinsics = Intrinsics(message.fx, message.fy, message.skew, message.u0, message.v0)
-    camera = PinholeCamera(intrinsics, distortion=message.dist)
+    camera = PinholeCamera(Intrinsics.of_model(message), distortion=message.dist)
     return camera.with_extrinsic_matrix(invert_transform(T_ref_camera))

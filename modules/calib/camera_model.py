@@ -12,12 +12,16 @@ the distortion model of :mod:`umbra.modules.calib.distortion` to ``(x_d, y_d)``,
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.modules.calib.distortion import distort_normalized, undistort_normalized
+from umbra.modules.calib.distortion import distort_normalized, undistort_normalized_newton
 from umbra.modules.calib.rotations import rotation_from_vector, transform, vector_from_rotation
+
+if TYPE_CHECKING:
+    from umbra.connectors.messages import CameraModel
 
 FloatArray = NDArray[np.float64]
 
@@ -27,13 +31,22 @@ DISTORTION_NAMES = ("k1", "k2", "p1", "p2", "k3")
 
 @dataclass(frozen=True)
 class Intrinsics:
-    """Pin-hole intrinsics in pixels: focal lengths, skew (the report's fxy), principal point."""
+    """Pin-hole intrinsics in pixels, in the order of the ``CameraModel`` message's fields: focal
+    lengths ``fx``, ``fy``, ``skew`` (the report's fxy), principal point ``u0``, ``v0``, and the
+    image size ``width`` x ``height`` they hold for.
+
+    The one intrinsics type of the project: calibration, the servo's features and the simulated
+    cameras use it. Nothing is checked here (a fit passes through any values); a user of the
+    focal lengths that needs them positive says so where it divides by them.
+    """
 
     fx: float
     fy: float
     skew: float
     u0: float
     v0: float
+    width: int = 640
+    height: int = 480
 
     def matrix(self) -> FloatArray:
         """The 3x3 upper-triangular intrinsic matrix ``K``."""
@@ -42,18 +55,49 @@ class Intrinsics:
         )
 
     def as_array(self) -> FloatArray:
+        """``[fx, fy, skew, u0, v0]`` [px]."""
         return np.array([self.fx, self.fy, self.skew, self.u0, self.v0], dtype=float)
 
+    def normalized_from_pixels(self, pixels: ArrayLike) -> FloatArray:
+        """Normalized image coordinates ``(x, y)`` of pixels ``(u, v)`` (shape ``(..., 2)``):
+        ``y = (v - v0) / fy``, ``x = (u - u0 - skew y) / fx``."""
+        uv = np.asarray(pixels, dtype=float)
+        y = (uv[..., 1] - self.v0) / self.fy
+        x = (uv[..., 0] - self.u0 - self.skew * y) / self.fx
+        return np.stack([x, y], axis=-1)
+
+    def pixels_from_normalized(self, normalized: ArrayLike) -> FloatArray:
+        """Pixels ``(u, v)`` of normalized coordinates ``(x, y)`` (shape ``(..., 2)``)."""
+        xy = np.asarray(normalized, dtype=float)
+        u = self.fx * xy[..., 0] + self.skew * xy[..., 1] + self.u0
+        v = self.fy * xy[..., 1] + self.v0
+        return np.stack([u, v], axis=-1)
+
     @classmethod
-    def from_matrix(cls, K: ArrayLike) -> Intrinsics:
-        K = np.asarray(K, dtype=float)
-        K = K / K[2, 2]
-        return cls(float(K[0, 0]), float(K[1, 1]), float(K[0, 1]), float(K[0, 2]), float(K[1, 2]))
+    def from_matrix(cls, K: ArrayLike, width: int = 640, height: int = 480) -> Intrinsics:
+        """The intrinsics of a 3x3 ``K`` (any scale) for an image of ``width`` x ``height``."""
+        Km = np.asarray(K, dtype=float)
+        Km = Km / Km[2, 2]
+        return cls(
+            float(Km[0, 0]),
+            float(Km[1, 1]),
+            float(Km[0, 1]),
+            float(Km[0, 2]),
+            float(Km[1, 2]),
+            width,
+            height,
+        )
 
     @classmethod
     def from_array(cls, values: ArrayLike) -> Intrinsics:
+        """The intrinsics of ``[fx, fy, skew, u0, v0]`` [px] (the default image size)."""
         fx, fy, skew, u0, v0 = (float(v) for v in np.asarray(values, dtype=float))
         return cls(fx, fy, skew, u0, v0)
+
+    @classmethod
+    def of_model(cls, model: CameraModel) -> Intrinsics:
+        """The intrinsics a ``CameraModel`` message carries (its distortion and pose aside)."""
+        return cls(model.fx, model.fy, model.skew, model.u0, model.v0, model.width, model.height)
 
 
 def _zero_distortion() -> FloatArray:
@@ -99,7 +143,12 @@ class PinholeCamera:
         d: ArrayLike,
         distortion: ArrayLike = (),
     ) -> PinholeCamera:
-        return cls(intrinsics, rotation_from_vector(rotation_vector), np.asarray(d), distortion)
+        return cls(
+            intrinsics,
+            rotation_from_vector(rotation_vector),
+            np.asarray(d),
+            np.asarray(distortion, dtype=float),
+        )
 
     def camera_matrix(self) -> FloatArray:
         """``P = K [R | d]`` (ignores distortion)."""
@@ -133,21 +182,15 @@ class PinholeCamera:
 
     def pixels_from_normalized(self, normalized: ArrayLike) -> FloatArray:
         """Apply ``K`` to (distorted or ideal) normalized coordinates."""
-        xy = np.asarray(normalized, dtype=float)
-        f = self.intrinsics
-        u = f.fx * xy[..., 0] + f.skew * xy[..., 1] + f.u0
-        v = f.fy * xy[..., 1] + f.v0
-        return np.stack([u, v], axis=-1)
+        return self.intrinsics.pixels_from_normalized(normalized)
 
     def normalized_from_pixels(self, pixels: ArrayLike) -> FloatArray:
         """Inverse of :meth:`pixels_from_normalized`."""
-        uv = np.asarray(pixels, dtype=float)
-        f = self.intrinsics
-        y = (uv[..., 1] - f.v0) / f.fy
-        x = (uv[..., 0] - f.u0 - f.skew * y) / f.fx
-        return np.stack([x, y], axis=-1)
+        return self.intrinsics.normalized_from_pixels(pixels)
 
     def ideal_pixels(self, pixels: ArrayLike) -> FloatArray:
         """Measured (distorted) pixels to the pixels of the ideal pin-hole camera ``K [R | d]``."""
-        normalized = undistort_normalized(self.normalized_from_pixels(pixels), self.distortion)
+        normalized = undistort_normalized_newton(
+            self.normalized_from_pixels(pixels), self.distortion
+        )
         return self.pixels_from_normalized(normalized)

@@ -23,7 +23,7 @@ from umbra.modules.calib.camera_file import load_cameras
 from umbra.modules.calib.camera_model import PinholeCamera
 from umbra.modules.calib.correspondences import load_correspondences
 from umbra.modules.calib.errors import CalibrationError
-from umbra.modules.calib.model_choice import calibrate_choosing_distortion
+from umbra.modules.calib.model_choice import CANDIDATES, calibrate_choosing_distortion
 from umbra.modules.calib.npnp import View, solve_npnp
 from umbra.modules.calib.refine import calibrate
 from umbra.modules.calib.rotations import xyz_from_rotation
@@ -47,8 +47,9 @@ from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 
 NAME = "calib"
 HELP = "camera calibration: fit a camera, interpolate a zoom file, solve a pose, triangulate"
+GUIDE = "docs/guide/calibration.md"  # the guide page this command's --help points to
 
-DISTORTION_CHOICES = {"none": 0, "k1k2": 2, "k1k2p1p2": 4}
+DISTORTION_CHOICES = CANDIDATES
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -79,8 +80,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--distortion",
         choices=["auto", *sorted(DISTORTION_CHOICES)],
         default="auto",
-        help="distortion terms to fit; default auto: the model the data hold (lowest BIC among "
-        "none, k1k2 and k1k2p1p2, the report's)",
+        help="distortion terms to fit; default auto: tangential p1 p2 always, radial k1 k2 when "
+        "an F test of the residuals holds them (1 %%)",
     )
     fit.add_argument("--fix-skew", action="store_true", help="hold skew (fxy) at zero")
     fit.add_argument("--linear", action="store_true", help="DLT only, no refinement")
@@ -217,8 +218,12 @@ def _fit(args: argparse.Namespace) -> int:
                 "linear_rms_px": result.linear_rms_px,
                 "points": len(data.points),
                 **chosen,
-                "information_criterion": choice.bic if choice else {},
+                "radial_test": {"F": choice.radial_f, "p_value": choice.radial_p_value}
+                if choice
+                else {},
+                "rms_px_by_model": choice.rms_px if choice else {},
                 "standard_errors": result.standard_errors,
+                "interval_95": result.interval_95() if result.standard_errors else {},
             }
         )
         return 0
@@ -231,6 +236,8 @@ def _fit(args: argparse.Namespace) -> int:
     if result.standard_errors:
         print("  standard errors (1 sigma; px, unitless, rad about the fitted R, m):")
         print("    " + "  ".join(f"{k} {v:.4g}" for k, v in result.standard_errors.items()))
+        print("  95 % intervals (+-, Student's t at the residuals' degrees of freedom):")
+        print("    " + "  ".join(f"{k} {v:.4g}" for k, v in result.interval_95().items()))
     print("  camera matrix K [R | d]:")
     for row in P:
         print("    [" + "  ".join(f"{v:14.6g}" for v in row) + "]")

@@ -26,6 +26,7 @@ from umbra.modules.geometry.transforms import xyz_rpy_deg_from_transform
 
 NAME = "pose-tool"
 HELP = "camera-pose tool: solve a camera mount from clicked points over snapshots (nPnP)"
+GUIDE = "docs/guide/calibration.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -92,6 +93,9 @@ def main(args: argparse.Namespace) -> int:
                 "iterations": result.iterations,
                 "change_from_initial": change,
                 "warnings": list(result.warnings),
+                "standard_errors": result.standard_errors,
+                "interval_95": result.interval_95(),
+                "covariance": None if result.covariance is None else result.covariance.tolist(),
                 "clicks": clicks,
                 "saved": saved,
             }
@@ -110,6 +114,13 @@ def main(args: argparse.Namespace) -> int:
             f"{1000 * change['offset_m']:.1f} mm"
         )
     print(f"  reprojection RMS {result.rms_px:.3f} px, worst {result.max_px:.3f} px")
+    if result.covariance is not None:
+        half = result.interval_95()
+        print(
+            "  95 % intervals (click noise from the residuals): rotation about x y z +-"
+            f"[{', '.join(f'{np.degrees(half[k]):.3f}' for k in ('rx', 'ry', 'rz'))}] deg, "
+            f"xyz +-[{', '.join(f'{1000 * half[k]:.1f}' for k in ('x', 'y', 'z'))}] mm"
+        )
     for warning in result.warnings:
         print(f"  warning: {warning}")
     print("  snapshot  point            line  residual px  (before px)")

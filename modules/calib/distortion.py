@@ -9,14 +9,18 @@ with ``r^2 = x^2 + y^2`` and coefficients ``(k1, k2, p1, p2[, k3])``:
 the model of section 5.1 of the Sandia report (which uses OpenCV's) and of ``cv2.projectPoints``.
 Pixels are ``u = fx x + skew y + u0``, ``v = fy y + v0`` (``skew`` is 0 in OpenCV).
 
-Undistortion inverts the model by Newton's method to ``1e-14`` in normalized coordinates (OpenCV's
-``undistortPoints`` runs a fixed number of fixed-point iterations). A point with no inverse (beyond
-the fold of a strong barrel distortion, where the map stops being one-to-one) comes back as NaN.
+Two inversions of the model, for two uses:
+
+* :func:`undistort_normalized_newton` (measurements: points, calibration, the servo): Newton's
+  method to ``1e-14`` in normalized coordinates; a point with no inverse (beyond the fold of a
+  strong barrel distortion, where the map stops being one-to-one) comes back as NaN.
+* :func:`undistort_normalized_fixed_point` (images: the simulated camera's remap tables): OpenCV's
+  ``undistortPoints`` iteration, a fixed number of steps, finite everywhere, if meaningless beyond
+  the fold.
 """
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -56,12 +60,13 @@ def _jacobian(x: FloatArray, y: FloatArray, coefficients: tuple[float, ...]) -> 
     return dxx, dxy, dxy, dyy
 
 
-def undistort_normalized(
+def undistort_normalized_newton(
     distorted: ArrayLike, distortion: ArrayLike, tolerance: float = 1e-14, max_iterations: int = 50
 ) -> FloatArray:
     """Distorted normalized coordinates ``(..., 2)`` to ideal ones (Newton's method).
 
-    Points where Newton's method does not reach ``tolerance`` (no inverse) are NaN.
+    Exact to ``tolerance`` (the distorted residual, normalized coordinates); points where Newton's
+    method does not get there, or lands beyond the fold (no inverse), are NaN.
     """
     coefficients = _coefficients(distortion)
     target = np.asarray(distorted, dtype=float)
@@ -84,6 +89,33 @@ def undistort_normalized(
     unfolded = (a * d - b * c > 0) & (a + d > 0)
     xy[~((residual < 1e-9) & unfolded)] = np.nan
     return xy
+
+
+def undistort_normalized_fixed_point(
+    distorted: ArrayLike, distortion: ArrayLike, iterations: int = 30
+) -> FloatArray:
+    """Distorted normalized coordinates ``(..., 2)`` to ideal ones by ``iterations`` fixed-point
+    steps ``x <- (x_d - tangential(x)) / radial(x)``, as OpenCV's ``undistortPoints``.
+
+    Finite everywhere, also beyond the fold where no inverse exists (the renderer's margin and
+    remap tables take such values; :func:`undistort_normalized_newton` gives NaN there). Its
+    accuracy depends on the lens: over a 640 x 480 image at f = 600 px, 30 steps leave a distorted
+    residual below ``1e-15`` for ``k1 = -0.12, k2 = 0.03, p1 = 0.001, p2 = -0.0007`` and for
+    ``k1 = -0.3, k2 = 0.1`` (10 steps: ``2e-12`` and ``6e-8``); use the Newton one when the
+    answer must be exact.
+    """
+    k1, k2, p1, p2, k3 = _coefficients(distortion)
+    target = np.asarray(distorted, dtype=float)
+    x_d, y_d = target[..., 0], target[..., 1]
+    x, y = x_d.copy(), y_d.copy()
+    for _ in range(iterations):
+        r2 = x * x + y * y
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        delta_x = 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+        delta_y = p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+        x = (x_d - delta_x) / radial
+        y = (y_d - delta_y) / radial
+    return np.stack([x, y], axis=-1)
 
 
 def _normalized(pixels: FloatArray, K: FloatArray) -> FloatArray:
@@ -122,7 +154,7 @@ def undistort_points(
             does without its ``P`` argument).
     """
     K = np.asarray(K, dtype=float)
-    ideal = undistort_normalized(_normalized(np.asarray(pixels, dtype=float), K), distortion)
+    ideal = undistort_normalized_newton(_normalized(np.asarray(pixels, dtype=float), K), distortion)
     if normalized:
         return ideal
     return _pixels(ideal, K if new_K is None else np.asarray(new_K, dtype=float))
@@ -150,9 +182,14 @@ def undistort_image(
     K: ArrayLike,
     distortion: ArrayLike,
     new_K: ArrayLike | None = None,
-    interpolation: int = cv2.INTER_LINEAR,
+    interpolation: int | None = None,
 ) -> NDArray:
-    """Undistorted copy of ``image`` (any dtype and channel count), pixels outside set to 0."""
+    """Undistorted copy of ``image`` (any dtype and channel count), pixels outside set to 0;
+    ``interpolation`` is an OpenCV flag (``None``: ``cv2.INTER_LINEAR``)."""
+    import cv2  # lazy: tests/runtime/test_start_imports.py
+
     height, width = image.shape[:2]
     map_x, map_y = undistortion_maps(K, distortion, (width, height), new_K)
+    if interpolation is None:
+        interpolation = cv2.INTER_LINEAR
     return cv2.remap(image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT)

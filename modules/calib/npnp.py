@@ -20,12 +20,23 @@ than one centre), projected onto the rotations.
 
 Several starts, one answer: Gauss-Newton finds the minimum nearest its start, and a pose problem
 has others (a PnP case a few degrees from the truth and one 100 degrees away can both be
-minima). :func:`solve_npnp` runs from the given start and from global ones (SQPnP, EPnP and
-OpenCV's iterative PnP on every view with four points or more, the linear generalized-camera
-solution) and keeps the lowest cost. ``PoseResult.warnings`` says when the given start led
-elsewhere (a bad start), when another minimum fits the clicks about as well (geometry that does
-not decide), and, given the click noise ``pixel_sigma``, when even the best residual is more than
-the noise explains (a chi-square test at 99.9 %).
+minima; a planar target seen from afar has two, mirror images of each other about the line of
+sight). :func:`solve_npnp` runs from the given start and from global ones (SQPnP and EPnP on
+every view with four points or more, OpenCV's iterative PnP where SQPnP fails; on a view whose
+points are coplanar, both of IPPE's poses, one for each of the two planar minima; the linear
+generalized-camera solution, which needs points off one plane) and keeps the lowest cost. A start
+within ``SAME_BASIN_DEG`` of a minimum already found or of a start already run would end there
+and is not run (the cost of the extra starts is paid only where they lead somewhere new), nor is
+one other than the caller's that puts a point behind a camera.
+``PoseResult.warnings`` says when the given start led elsewhere (a bad start), when another
+minimum fits the clicks about as well (geometry that does not decide), and, given the click
+noise ``pixel_sigma``, when even the best residual is more than the noise explains (a
+chi-square test at 99.9 %).
+
+``PoseResult.covariance`` is the Gauss-Newton covariance ``s² (JᵀJ)⁻¹`` at the solution, in the
+solver's own parameters: a rotation vector ``dθ`` [rad] applied on the left of the fitted ``R``
+(``R <- exp([dθ]_x) R``, output frame) and the translation ``d`` [m], ``s`` the click noise
+(``pixel_sigma`` when given, else estimated from the residuals).
 """
 
 from __future__ import annotations
@@ -39,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbra.modules.calib.camera_model import PinholeCamera
 from umbra.modules.calib.errors import DegenerateGeometryError, NotConvergedError
-from umbra.modules.calib.npnp_warnings import GIVEN, pose_warnings
+from umbra.modules.calib.npnp_warnings import GIVEN, MIN_PIXEL_SIGMA, pose_warnings
 from umbra.modules.calib.rotations import nearest_rotation, rotation_from_vector, skew, transform
 
 FloatArray = NDArray[np.float64]
@@ -75,6 +86,8 @@ class PoseResult:
     #: which start the solution came from, and what went wrong on the way (empty: nothing)
     start: str = ""
     warnings: tuple[str, ...] = ()
+    #: 6x6 covariance of (dθ [rad] about the fitted R, output frame; d [m]); see the module doc
+    covariance: FloatArray | None = None
 
     @property
     def T(self) -> FloatArray:
@@ -215,6 +228,37 @@ def _single_view_pose(p: _Prepared, flag: int | None = None) -> tuple[FloatArray
     return R, d
 
 
+def _coplanar(points: FloatArray) -> bool:
+    """True when the points lie on one plane (across it within 1e-3 of their extent)."""
+    spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+    return bool(spread[-1] <= 1e-3 * spread[0])
+
+
+def _planar_poses(p: _Prepared) -> list[tuple[FloatArray, FloatArray]]:
+    """Both poses IPPE finds for a view of coplanar points (the two minima of a planar target
+    seen from afar, mirror images about the line of sight), in the output frame. IPPE wants the
+    plane at z = 0: the points are moved there and the poses moved back."""
+    import cv2
+
+    centre = p.points.mean(axis=0)
+    _, _, Vt = np.linalg.svd(p.points - centre)
+    B = Vt if np.linalg.det(Vt) > 0 else Vt * np.array([[1.0], [1.0], [-1.0]])
+    on_plane = (p.points - centre) @ B.T
+    on_plane[:, 2] = 0.0
+    normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
+    _, rvecs, tvecs, _ = cv2.solvePnPGeneric(
+        on_plane, normalized, np.eye(3), None, flags=cv2.SOLVEPNP_IPPE
+    )
+    poses = []
+    for rvec, tvec in zip(rvecs, tvecs, strict=True):
+        R_cam_plane = rotation_from_vector(np.asarray(rvec).ravel())
+        # camera <- plane <- input:  x_plane = B (x - centre)
+        R_cam_in = R_cam_plane @ B
+        t_cam_in = np.asarray(tvec).ravel() - R_cam_in @ centre
+        poses.append((p.A_R.T @ R_cam_in, p.A_R.T @ (t_cam_in - p.A_t)))
+    return poses
+
+
 def linear_generalized_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
     """Linear pose from rays of several centres: ``[w]_x (R x + d - o) = 0`` per ray.
 
@@ -261,7 +305,7 @@ def _gauss_newton(
 ) -> tuple[FloatArray, FloatArray, FloatArray, int]:
     """Gauss-Newton from ``(R, d)``: the minimum's ``R, d``, residuals and iteration count."""
     R = nearest_rotation(R)
-    r, J, _ = _residuals_and_jacobian(prepared, R, d)
+    r, J, min_depth = _residuals_and_jacobian(prepared, R, d)
     assert J is not None
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
         raise NotConvergedError(
@@ -271,37 +315,94 @@ def _gauss_newton(
     cost = float(r @ r)
     iterations = 0
     for iterations in range(1, max_iterations + 1):  # noqa: B007
-        singular = np.linalg.svd(J, compute_uv=False)
-        if singular[-1] <= 1e-12 * singular[0]:
-            raise DegenerateGeometryError(
-                "the observations do not determine all six pose parameters "
-                "(need >= 3 points not on one line, seen with enough parallax)"
-            )
-        step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        step = _gauss_newton_step(J, r)
         if np.max(np.abs(step)) < step_tolerance:
             break
+        predicted = J @ step
+        if -(2.0 * float(r @ predicted) + float(predicted @ predicted)) <= 1e-12 * cost:
+            break  # the step would lower the cost by less than 1e-12 of itself: at the minimum
         scale = 1.0
         for _ in range(20):
+            # The full step is taken nearly always: its Jacobian is computed with its residuals.
             R_new = rotation_from_vector(scale * step[:3]) @ R
             d_new = d + scale * step[3:]
-            r_new, _, _ = _residuals_and_jacobian(prepared, R_new, d_new, with_jacobian=False)
+            r_new, J_new, depth_new = _residuals_and_jacobian(
+                prepared, R_new, d_new, with_jacobian=scale == 1.0
+            )
             cost_new = float(r_new @ r_new)
             if cost_new <= cost * (1.0 + 1e-12) or not np.isfinite(cost):
                 break
             scale *= 0.5
         else:
             break  # no descent along the Gauss-Newton step: at a minimum to machine precision
-        R, d = R_new, d_new
-        r, J, _ = _residuals_and_jacobian(prepared, R, d)
+        R, d, min_depth = R_new, d_new, depth_new
+        if J_new is None:
+            r, J, _ = _residuals_and_jacobian(prepared, R, d)
+        else:
+            r, J = r_new, J_new
         previous, cost = cost, float(r @ r)
         if np.max(np.abs(scale * step)) < step_tolerance or previous - cost <= 1e-14 * previous:
             break
     else:
         raise NotConvergedError(f"nPnP did not converge in {max_iterations} iterations")
-    _, _, min_depth = _residuals_and_jacobian(prepared, R, d, with_jacobian=False)
     if not min_depth > 0:
         raise NotConvergedError("nPnP converged to a pose with points behind a camera")
     return R, d, r, iterations
+
+
+def _gauss_newton_step(J: FloatArray, r: FloatArray) -> FloatArray:
+    """The least-squares step ``J step = -r`` (6 unknowns), by the normal equations with the
+    columns scaled to unit length; DegenerateGeometryError when J does not have full rank."""
+    scale = np.sqrt(np.einsum("ij,ij->j", J, J))
+    if not np.all(scale > 0.0):
+        raise DegenerateGeometryError(_UNDETERMINED)
+    Js = J / scale
+    normal = Js.T @ Js
+    eigen = np.linalg.eigvalsh(normal)
+    if eigen[0] <= 1e-20 * eigen[-1]:  # singular values' ratio 1e-10
+        raise DegenerateGeometryError(_UNDETERMINED)
+    return np.linalg.solve(normal, -(Js.T @ r)) / scale
+
+
+_UNDETERMINED = (
+    "the observations do not determine all six pose parameters "
+    "(need >= 3 points not on one line, seen with enough parallax)"
+)
+#: A start within this angle [deg] of a minimum already found, or of a start already run, ends
+#: where that one did: it is not run. (The minima a pose problem has besides the best lie tens
+#: of degrees away: a planar target's mirror pose is twice its tilt from facing the camera.)
+SAME_BASIN_DEG = 3.0
+
+
+def _near(
+    R0: FloatArray, d0: FloatArray, poses: list[tuple[FloatArray, FloatArray]], centre: FloatArray
+) -> bool:
+    """True when the start ``(R0, d0)`` lies within ``SAME_BASIN_DEG`` of one of ``poses`` and
+    puts the points' ``centre`` (input frame, m) within 5 % of its distance of where that one
+    does."""
+    for R, d in poses:
+        cos = 0.5 * (float(np.trace(R.T @ R0)) - 1.0)
+        if cos > _SAME_BASIN_COS:
+            here = R @ centre + d
+            if np.linalg.norm(R0 @ centre + d0 - here) <= 0.05 * np.linalg.norm(here):
+                return True
+    return False
+
+
+def _behind(prepared: list[_Prepared], R: FloatArray, d: FloatArray) -> bool:
+    """True when the pose puts a point at or behind a camera's centre plane: Gauss-Newton,
+    which only ever lowers the cost, cannot cross the infinite residual at depth 0 to the
+    side the points are seen from."""
+    _, _, min_depth = _residuals_and_jacobian(prepared, nearest_rotation(R), d, False)
+    return not min_depth > 0
+
+
+#: Gauss-Newton iterations of a start other than the caller's: one that has not converged by
+#: then is far from any minimum the others do not reach (converging runs take under 20).
+EXTRA_START_ITERATIONS = 40
+
+
+_SAME_BASIN_COS = float(np.cos(np.deg2rad(SAME_BASIN_DEG)))
 
 
 def solve_npnp(
@@ -332,9 +433,19 @@ def solve_npnp(
     starts = _starts(prepared, initial)
     found: list[tuple[str, FloatArray, FloatArray, FloatArray, int]] = []
     failed: dict[str, str] = {}
+    tried: list[tuple[FloatArray, FloatArray]] = []
+    centre = np.vstack([p.points for p in prepared]).mean(axis=0)
     for name, R0, d0 in starts:
+        if _near(R0, d0, tried, centre):
+            continue
+        tried.append((R0, d0))
+        if name != GIVEN and _behind(prepared, R0, d0):
+            failed[name] = "it puts a point behind a camera"
+            continue
+        budget = max_iterations if name == GIVEN else min(max_iterations, EXTRA_START_ITERATIONS)
         try:
-            found.append((name, *_gauss_newton(prepared, R0, d0, max_iterations, step_tolerance)))
+            found.append((name, *_gauss_newton(prepared, R0, d0, budget, step_tolerance)))
+            tried.append((found[-1][1], found[-1][2]))
         except (DegenerateGeometryError, NotConvergedError) as error:
             failed[name] = str(error)
         except np.linalg.LinAlgError as error:  # the linear algebra of this start broke down
@@ -347,6 +458,7 @@ def solve_npnp(
     found.sort(key=lambda f: float(f[3] @ f[3]))
     name, R, d, r, iterations = found[0]
     _, J, _ = _residuals_and_jacobian(prepared, R, d)
+    assert J is not None
     singular = np.linalg.svd(J, compute_uv=False)
     if singular[-1] <= 1e-9 * singular[0]:
         raise DegenerateGeometryError(
@@ -356,7 +468,16 @@ def solve_npnp(
     warnings = pose_warnings(found, failed, initial is not None, pixel_sigma)
     blocks = np.split(r.reshape(-1, 2), np.cumsum([len(p.points) for p in prepared])[:-1])
     rms_px = float(np.sqrt(np.mean(np.sum(r.reshape(-1, 2) ** 2, axis=1))))
-    return PoseResult(R, d, rms_px, blocks, iterations, name, warnings)
+    covariance = _covariance(J, r, pixel_sigma)
+    return PoseResult(R, d, rms_px, blocks, iterations, name, warnings, covariance)
+
+
+def _covariance(J: FloatArray, r: FloatArray, pixel_sigma: float | None) -> FloatArray:
+    """``s² (JᵀJ)⁻¹`` at the solution: ``s`` the given click noise, else the residuals' own
+    (``r·r / (m - 6)``, ``m`` the pixel coordinates; the floor ``MIN_PIXEL_SIGMA`` either way)."""
+    estimated = float(r @ r) / max(r.size - 6, 1)
+    variance = max(estimated if pixel_sigma is None else pixel_sigma**2, MIN_PIXEL_SIGMA**2)
+    return variance * np.linalg.inv(J.T @ J)
 
 
 def _starts(
@@ -373,14 +494,25 @@ def _starts(
             R, d = T0[:3, :3], T0[:3, 3]
         starts.append((GIVEN, R, d))
     methods = (("SQPnP", cv2.SOLVEPNP_SQPNP), ("EPnP", cv2.SOLVEPNP_EPNP))
-    methods += (("iterative PnP", cv2.SOLVEPNP_ITERATIVE),)
     for i, p in enumerate(prepared):
         if len(p.points) < 4:
             continue
         for label, flag in methods:
             with contextlib.suppress(DegenerateGeometryError, cv2.error):
                 starts.append((f"{label} on view {i}", *_single_view_pose(p, flag)))
-    if len(prepared) > 1 or not starts:
+        if not any(name == f"SQPnP on view {i}" for name, _, _ in starts):
+            # OpenCV's iterative PnP, a local method, only where the global SQPnP failed
+            with contextlib.suppress(DegenerateGeometryError, cv2.error):
+                start = _single_view_pose(p, cv2.SOLVEPNP_ITERATIVE)
+                starts.append((f"iterative PnP on view {i}", *start))
+        if _coplanar(p.points):
+            with contextlib.suppress(cv2.error):
+                starts += [
+                    (f"IPPE pose {k + 1} on view {i}", R, d)
+                    for k, (R, d) in enumerate(_planar_poses(p))
+                ]
+    planar = _coplanar(np.vstack([p.points for p in prepared]))
+    if (len(prepared) > 1 and not planar) or not starts:
         with contextlib.suppress(DegenerateGeometryError, np.linalg.LinAlgError):
             starts.append(
                 ("the linear generalized-camera pose", *_linear_generalized_pose(prepared))

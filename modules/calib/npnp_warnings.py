@@ -7,10 +7,10 @@ converge, with the reason.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numpy.typing import NDArray
-
-from umbra.modules.calib.rotations import vector_from_rotation
 
 FloatArray = NDArray[np.float64]
 
@@ -24,7 +24,18 @@ MIN_PIXEL_SIGMA = 0.01
 
 
 def _angle_deg(R_a: FloatArray, R_b: FloatArray) -> float:
-    return float(np.degrees(np.linalg.norm(vector_from_rotation(R_a.T @ R_b))))
+    """The angle [deg] of the rotation between two rotation matrices (from the trace: exact
+    enough away from 0 and 180 deg, where these messages only need a rounded figure)."""
+    cos = 0.5 * (float(np.trace(R_a.T @ R_b)) - 1.0)
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+@lru_cache(maxsize=256)
+def _chi2_quantile(probability: float, dof: int) -> float:
+    """The chi-square quantile (cached: the same few are asked for on every solve)."""
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(probability, dof))
 
 
 def pose_warnings(
@@ -39,8 +50,6 @@ def pose_warnings(
     when given, else the best cost per degree of freedom; either is floored at
     ``MIN_PIXEL_SIGMA`` squared, so a zero residual (noise-free clicks) gives a finite test.
     """
-    from scipy.stats import chi2
-
     out = []
     name, R, _, r, _ = found[0]
     best_cost = float(r @ r)
@@ -67,7 +76,7 @@ def pose_warnings(
     for other in found[1:]:
         angle = _angle_deg(other[1], R)
         extra = (float(other[3] @ other[3]) - best_cost) / noise_var
-        if angle > 2.0 and extra < chi2.ppf(0.95, 6):
+        if angle > 2.0 and extra < _chi2_quantile(0.95, 6):
             other_rms = float(np.sqrt(float(other[3] @ other[3]) / (r.size / 2)))
             out.append(
                 f"degenerate geometry: another pose {angle:.1f} deg away ({other[0]}) fits the "
@@ -76,7 +85,7 @@ def pose_warnings(
             )
             break
     if pixel_sigma is not None and pixel_sigma > 0:
-        limit = chi2.ppf(0.999, dof)
+        limit = _chi2_quantile(0.999, dof)
         if best_cost / pixel_sigma**2 > limit:
             expected = pixel_sigma * np.sqrt(2.0 * limit / r.size)
             out.append(

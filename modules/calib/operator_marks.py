@@ -20,7 +20,7 @@ from umbra.connectors.messages import CameraModel, Pose, Vector
 from umbra.modules.calib.camera_message import pinhole_from_message
 
 
-class SimMarks(Module):
+class SimMarks(Module["SimMarks.Params"]):
     """Simulated operator clicks: the pixels of a known point in two cameras (targeting input).
 
     On every new camera model (and at the module's rate, if it has one) the point ``point_m``

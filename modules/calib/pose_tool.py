@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from umbra.modules.calib.camera_model import PinholeCamera
 from umbra.modules.calib.errors import DegenerateGeometryError
 from umbra.modules.calib.npnp import View, solve_npnp
-from umbra.modules.calib.rotations import invert_transform, vector_from_rotation
+from umbra.modules.calib.rotations import invert_transform, skew, vector_from_rotation
 from umbra.modules.geometry.transforms import transform_points
 
 FloatArray = NDArray[np.float64]
@@ -104,6 +104,31 @@ class MountResult:
     #: the start the solution came from, and what the caller must know (see ``solve_npnp``)
     start: str = ""
     warnings: tuple[str, ...] = ()
+    #: 6x6 covariance of the mount at the solution: a rotation vector [rad] applied on the left
+    #: of the solved rotation (``R <- exp([φ]_x) R``, parent frame), then the translation [m]
+    #: (parent frame); the clicks' noise as given, else estimated from the residuals
+    covariance: FloatArray | None = None
+    #: degrees of freedom of the noise behind the covariance: clicks' coordinates less 6 when
+    #: estimated from the residuals, infinite when given
+    noise_dof: float = float("inf")
+
+    @property
+    def standard_errors(self) -> dict[str, float]:
+        """One-sigma errors of the mount: ``rx ry rz`` [rad] about the parent's axes, ``x y z``
+        [m] (empty without a covariance)."""
+        if self.covariance is None:
+            return {}
+        sigma = np.sqrt(np.abs(np.diag(self.covariance)))
+        return dict(zip(("rx", "ry", "rz", "x", "y", "z"), sigma.tolist(), strict=True))
+
+    def interval_95(self) -> dict[str, float]:
+        """Half-widths of the 95 % intervals of the mount's parameters (``rx ry rz`` [rad],
+        ``x y z`` [m]): Student's t quantile at ``noise_dof`` times the standard errors (1.96
+        when the noise was given)."""
+        from scipy.stats import t as student
+
+        factor = float(student.ppf(0.975, self.noise_dof))
+        return {name: factor * se for name, se in self.standard_errors.items()}
 
     @property
     def max_px(self) -> float:
@@ -161,7 +186,25 @@ def solve_mount(
         initial_residuals,
         result.start,
         result.warnings,
+        _mount_covariance(result.R, result.d, result.covariance),
+        float("inf") if pixel_sigma is not None else float(max(all_r.size - 6, 1)),
     )
+
+
+def _mount_covariance(
+    R: FloatArray, d: FloatArray, covariance: FloatArray | None
+) -> FloatArray | None:
+    """The covariance of the mount ``(Rᵀ, -Rᵀ d)`` from that of the solved ``T_child_parent =
+    (R, d)`` (``dθ`` on the left of ``R``, then ``d``): first order, a left rotation ``dθ`` of
+    ``R`` is ``-Rᵀ dθ`` on the left of ``Rᵀ``, and the mount's translation moves by
+    ``-Rᵀ (dd + [d]_x dθ)``."""
+    if covariance is None:
+        return None
+    jacobian = np.zeros((6, 6))
+    jacobian[:3, :3] = -R.T
+    jacobian[3:, :3] = -R.T @ skew(d)
+    jacobian[3:, 3:] = -R.T
+    return jacobian @ covariance @ jacobian.T
 
 
 def pose_error(T_estimate: ArrayLike, T_truth: ArrayLike) -> tuple[float, float]:

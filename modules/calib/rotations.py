@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 # The project's transform helpers; re-exported here for the calibration code.
 from umbra.modules.geometry.transforms import invert_transform, skew
@@ -42,6 +41,8 @@ def rotation_from_vector(rotation_vector: ArrayLike) -> FloatArray:
 
 def vector_from_rotation(R: ArrayLike) -> FloatArray:
     """Axis-angle vector (radians) of a rotation matrix."""
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_matrix(np.asarray(R, dtype=float)).as_rotvec()
 
 
@@ -50,11 +51,15 @@ def rotation_from_xyz(angles_rad: ArrayLike) -> FloatArray:
 
     This is the reading used for the zoom file's ``thetax thetay thetaz``.
     """
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_euler("xyz", np.asarray(angles_rad, dtype=float)).as_matrix()
 
 
 def xyz_from_rotation(R: ArrayLike) -> FloatArray:
     """Inverse of :func:`rotation_from_xyz` (radians, ``ty`` in ``[-pi/2, pi/2]``)."""
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler("xyz")
 
 

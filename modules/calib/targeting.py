@@ -37,7 +37,7 @@ def triangulate_measured(
     return result, depths
 
 
-class Targeting(Module):
+class Targeting(Module["Targeting.Params"]):
     """Triangulates a pixel pair: point (metres, ``reference_frame``) and ray gap (metres).
 
     Each camera model's extrinsics are relative to its ``mount``; the mount's pose in

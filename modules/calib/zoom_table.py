@@ -21,10 +21,11 @@ Units, as the report's own file uses them:
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
 from umbra.modules.calib.rotations import rotation_from_xyz
@@ -50,7 +51,7 @@ class ZoomSample:
         """The camera model: extrinsics ``R, d`` take mount-frame points into the camera frame."""
         i, e = self.intrinsics, self.extrinsics
         return PinholeCamera(
-            Intrinsics(*(float(v) for v in i[:5])), rotation_from_xyz(e[3:]), e[:3], i[5:9]
+            Intrinsics.from_array(i[:5]), rotation_from_xyz(e[3:]), e[:3], i[5:9]
         )
 
     def as_dict(self) -> dict:
@@ -125,7 +126,7 @@ class ZoomFile:
         raise KeyError(f"no camera {name!r} in the file (it has {names})")
 
 
-def table_from_samples(name: str, samples: ArrayLike) -> ZoomTable:
+def table_from_samples(name: str, samples: Iterable[ZoomSample]) -> ZoomTable:
     """Build a table from ``ZoomSample`` objects (sorted by zoom)."""
     ordered = sorted(samples, key=lambda s: s.zoom)
     return ZoomTable(

@@ -27,7 +27,6 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
-from xml.sax.saxutils import escape
 
 import numpy as np
 
@@ -254,6 +253,8 @@ def _format_values(values: np.ndarray) -> str:
 
 def format_zoom_xml(zoom_file: ZoomFile) -> str:
     """Appendix D XML text with the report's layout; numbers round-trip exactly."""
+    from xml.sax.saxutils import escape
+
     lines = ['<?xml version="1.0"?>', "<SR_world>"]
     if zoom_file.recorded_path:
         lines.append(f"<SR_filename> {escape(zoom_file.recorded_path)} </SR_filename>")

@@ -8,7 +8,7 @@ from umbra.connectors import Module, Output, Parameters, from_param, param
 from umbra.connectors.messages import Scalar, Twist
 
 
-class Constant(Module):
+class Constant(Module["Constant.Params"]):
     """Sends the same scalar every period."""
 
     class Params(Parameters):
@@ -23,7 +23,7 @@ class Constant(Module):
         self.output.send(self._sample)  # send stamps a copy; the unstamped template stays
 
 
-class TwistSource(Module):
+class TwistSource(Module["TwistSource.Params"]):
     """Sends a constant twist [vx, vy, vz, wx, wy, wz] (m/s, rad/s) in frame ``frame``."""
 
     class Params(Parameters):

@@ -6,7 +6,7 @@ from umbra.connectors import Module, Output, Parameters, param
 from umbra.connectors.messages import Scalar
 
 
-class Counter(Module):
+class Counter(Module["Counter.Params"]):
     """Sends start, start+step, ... one value per period, as events: every value reaches every
     consumer, in order (what a link check needs; a state stream would keep only the newest)."""
 

@@ -6,7 +6,7 @@ from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.messages import Scalar
 
 
-class Gain(Module):
+class Gain(Module["Gain.Params"]):
     """output = gain * input + bias, on every new input."""
 
     class Params(Parameters):

@@ -37,7 +37,7 @@ def format_sample(sample: Message, precision: int = 4) -> str:
     return f"t={sample.stamp:.3f} {type(sample).__name__}(" + ", ".join(parts) + ")"
 
 
-class Printer(Module):
+class Printer(Module["Printer.Params"]):
     """Prints each new sample on its input (rate-limited), for watching a connector."""
 
     class Params(Parameters):

@@ -6,11 +6,12 @@ from pydantic import field_validator
 
 from umbra.connectors import Input, Module, Parameters, param
 from umbra.connectors.messages import Message
+from umbra.connectors.params import RunFile
 from umbra.modules.generic.recording import RecordingWriter
-from umbra.runtime.recording.settings import IMAGE_CHOICES, inside_run_folder
+from umbra.runtime.recording.settings import IMAGE_CHOICES
 
 
-class Recorder(Module):
+class Recorder(Module["Recorder.Params"]):
     """Records every new sample on each of its ``channels`` inputs.
 
     The inputs are named by the ``channels`` parameter (``channels: [twist, status]`` gives inputs
@@ -23,16 +24,12 @@ class Recorder(Module):
 
     class Params(Parameters):
         channels: list[str] = param(["input"], "names of the inputs to record", min_length=1)
-        path: str = param("recording.mcap", "output file, inside the run's output folder")
+        path: RunFile = param(
+            "recording.mcap",
+            "output file, inside the run's output folder (outside it only from the command line)",
+            min_length=1,
+        )
         images: str = param("raw", "how images are recorded: raw, jpeg or png")
-
-        @field_validator("path")
-        @classmethod
-        def _inside(cls, value: str) -> str:
-            why = inside_run_folder(value)
-            if why:
-                raise ValueError(f"path {value!r} {why}")
-            return value
 
         @field_validator("images")
         @classmethod

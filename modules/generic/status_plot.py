@@ -13,7 +13,7 @@ from umbra.connectors.messages import Status
 from umbra.connectors.params import RunFile
 
 
-class StatusPlot(Module):
+class StatusPlot(Module["StatusPlot.Params"]):
     """Collects ``values`` of each new Status and writes them as a PNG plot at the end."""
 
     class Params(Parameters):

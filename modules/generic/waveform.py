@@ -16,7 +16,7 @@ PERIODIC = {
 }
 
 
-class Signal(Module):
+class Signal(Module["Signal.Params"]):
     """offset + amplitude * waveform(2π f t + phase); ``step`` jumps from offset at ``t_step``."""
 
     class Params(Parameters):

@@ -5,4 +5,5 @@
 * ``rochester_head`` — the camera-head chain A9..A14 (CamPos from altitude and azimuth), aiming.
 * ``rochester_stereo`` — the Rochester camera model and the guide's two stereo methods.
 * ``rays`` — rays through pixels, triangulation of two or more rays, and epipolar lines.
+* ``polygon_moments`` — exact area moments of a closed polygon, and angles between axes.
 """

@@ -117,7 +117,7 @@ def aim_camera_at_point(
     """
     p = np.asarray(point_flange, dtype=float).reshape(-1)
     if p.shape != (3,):
-        raise AimError(f"point_flange must be 3 numbers, got {point_flange}")
+        raise AimError(f"point_flange must be 3 numbers, got {point_flange!s}")
     x, y, z = p - T_flange_camaxis(side, head)[:3, 3]
     h = float(np.hypot(y, z))
     d = -head.alt_offset

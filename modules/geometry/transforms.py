@@ -10,16 +10,15 @@ Conventions:
   to ``T_a_b @ exp(hat(xi) dt)``.
 
 Every rotation conversion (Euler angles, axis-angle) goes through :class:`scipy.spatial.transform.
-Rotation`; plain matrix products and inverses are written with numpy so they stay cheap enough for
-the servo tick.
+Rotation`, imported by the functions that use it (importing this module loads no scipy: ``umbra
+check`` reads module declarations that import it); plain matrix products and inverses are written
+with numpy so they stay cheap enough for the servo tick.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import expm
-from scipy.spatial.transform import Rotation
 
 FloatArray = NDArray[np.float64]
 
@@ -57,6 +56,8 @@ def rotation_about_axis(axis: str, angle: float) -> FloatArray:
     """4x4 pure rotation by ``angle`` (rad) about ``axis`` ``"x"``, ``"y"`` or ``"z"``."""
     if axis not in ("x", "y", "z"):
         raise TransformError(f"axis must be 'x', 'y' or 'z', got {axis!r}")
+    from scipy.spatial.transform import Rotation
+
     T = np.eye(4)
     T[:3, :3] = Rotation.from_euler(axis, angle).as_matrix()
     return T
@@ -128,12 +129,16 @@ def transform_from_xyz_rpy_deg(xyz: ArrayLike, rpy_deg: ArrayLike) -> FloatArray
     ``rpy_deg`` = (roll about x, pitch about y, yaw about z), applied as fixed axes x, then y,
     then z (``R = Rz(yaw) Ry(pitch) Rx(roll)``, the URDF/ROS convention).
     """
+    from scipy.spatial.transform import Rotation
+
     R = Rotation.from_euler("xyz", np.asarray(rpy_deg, dtype=float), degrees=True).as_matrix()
     return transform_from_rotation_translation(R, xyz)
 
 
 def xyz_rpy_deg_from_transform(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Inverse of :func:`transform_from_xyz_rpy_deg`: ``(xyz metres, rpy_deg)``."""
+    from scipy.spatial.transform import Rotation
+
     T = np.asarray(T, dtype=float)
     rpy = Rotation.from_matrix(T[:3, :3]).as_euler("xyz", degrees=True)
     return T[:3, 3].copy(), rpy
@@ -233,6 +238,8 @@ def twist_exponential(twist: ArrayLike, dt: float) -> FloatArray:
     ``V v dt`` with ``V = I + (1 - cos t)/t^2 K + (t - sin t)/t^3 K^2``, ``K = [w dt]x``,
     ``t = |w dt|`` (series near ``t = 0``). Agrees with ``scipy.linalg.expm`` of the 4x4.
     """
+    from scipy.spatial.transform import Rotation
+
     xi = np.asarray(twist, dtype=float).reshape(6) * dt
     rotvec = xi[3:]
     theta = float(np.linalg.norm(rotvec))
@@ -250,6 +257,8 @@ def twist_exponential(twist: ArrayLike, dt: float) -> FloatArray:
 
 def twist_exponential_expm(twist: ArrayLike, dt: float) -> FloatArray:
     """``exp(hat(xi) dt)`` by the general matrix exponential (reference for tests)."""
+    from scipy.linalg import expm
+
     return expm(twist_matrix(twist) * dt)
 
 

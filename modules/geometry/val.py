@@ -79,7 +79,9 @@ class ValLocationError(ValueError):
 def _as_location(location: ArrayLike) -> FloatArray:
     loc = np.asarray(location, dtype=float).reshape(-1)
     if loc.shape != (6,) or not np.all(np.isfinite(loc)):
-        raise ValLocationError(f"a VAL location is 6 finite numbers (X,Y,Z,O,A,T), got {location}")
+        raise ValLocationError(
+            f"a VAL location is 6 finite numbers (X,Y,Z,O,A,T), got {location!s}"
+        )
     return loc
 
 

@@ -10,7 +10,9 @@ import collections
 import math
 from dataclasses import dataclass
 
+from umbra.connectors.commands import Seed
 from umbra.connectors.messages import Contour
+from umbra.connectors.tracking import TrackStatus
 
 MIN_BOX_PX = 4.0
 
@@ -73,23 +75,24 @@ def _inside(frame: ShownFrame, u: float, v: float, what: str) -> None:
         )
 
 
-def point_seed(frame: ShownFrame, u: float, v: float) -> list[float]:
-    """A point seed ``[u, v]`` [px] for vsSnake."""
+def point_seed(frame: ShownFrame, u: float, v: float) -> Seed:
+    """A point seed at ``(u, v)`` [px] for vsSnake."""
     _inside(frame, u, v, "click")
-    return [float(u), float(v)]
+    return Seed.point(float(u), float(v))
 
 
-def box_seed(frame: ShownFrame, u0: float, v0: float, u1: float, v1: float) -> list[float]:
-    """A region seed ``[u_min, v_min, u_max, v_max]`` [px] from a dragged box (any corner order)."""
+def box_seed(frame: ShownFrame, u0: float, v0: float, u1: float, v1: float) -> Seed:
+    """A box seed ``[u_min, v_min, u_max, v_max]`` [px] from a dragged box (any corner order)."""
     _inside(frame, u0, v0, "box corner")
     _inside(frame, u1, v1, "box corner")
-    box = [min(u0, u1), min(v0, v1), max(u0, u1), max(v0, v1)]
-    if box[2] - box[0] < MIN_BOX_PX or box[3] - box[1] < MIN_BOX_PX:
+    seed = Seed.box(float(u0), float(v0), float(u1), float(v1))
+    width, height = seed.uv[2] - seed.uv[0], seed.uv[3] - seed.uv[1]
+    if width < MIN_BOX_PX or height < MIN_BOX_PX:
         raise Refused(
             f"box too small: expected at least {MIN_BOX_PX:.0f} x {MIN_BOX_PX:.0f} px, found "
-            f"{box[2] - box[0]:.1f} x {box[3] - box[1]:.1f}"
+            f"{width:.1f} x {height:.1f}"
         )
-    return [float(x) for x in box]
+    return seed
 
 
 def check_snake_healthy(
@@ -98,12 +101,12 @@ def check_snake_healthy(
     """Resume and start need a healthy snake: tracking, with a fresh contour."""
     if contour is None or not math.isfinite(contour_age):
         raise Refused(f"{what} refused: expected a tracking snake, found no contour yet")
-    if contour.status == "failed":
+    if contour.status == TrackStatus.FAILED:
         raise Refused(
             f"{what} refused: the snake is not healthy "
             f"({contour.reason or 'sanity check failed'}); click the patch to re-seed it first"
         )
-    if contour.status != "tracking":
+    if contour.status != TrackStatus.TRACKING:
         raise Refused(
             f"{what} refused: expected a tracking snake, found `{contour.status}` "
             f"({contour.reason or 'no seed'}); click the patch to seed it"

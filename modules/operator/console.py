@@ -10,8 +10,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from umbra.connectors import Input, Module, Output, UserError, from_param
+from umbra.connectors import Input, Module, Output, from_param
 from umbra.connectors.access.secret import resolve_token
+from umbra.connectors.commands import GrabCommand, Seed, StopRun
 from umbra.connectors.messages import (
     Contour,
     Image,
@@ -19,12 +20,11 @@ from umbra.connectors.messages import (
     Pose,
     Poses,
     Scalar,
-    Status,
-    Text,
     Twist,
-    Vector,
 )
-from umbra.modules.arm.arm_params import load_arm
+from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
+from umbra.connectors.states import GuardState, Presence, ServoStage, ServoState, Verdict
 from umbra.modules.operator import view_state
 from umbra.modules.operator.actions import FrameHistory, ShownFrame
 from umbra.modules.operator.console_events import ConsoleEvents
@@ -36,10 +36,8 @@ from umbra.modules.operator.jog import DeadMan, JogLimits, jog_twist
 from umbra.modules.operator.jog_labels import jog_labels
 from umbra.modules.operator.mailbox import Lanes
 from umbra.modules.operator.message_board import MessageBoard
-from umbra.modules.operator.plain_words import plain_reason
 from umbra.modules.operator.sketch_scene import SketchItems
 from umbra.modules.operator.web_figures import cpu_figures, web_figures
-from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from umbra.modules.vision.sanity import SanityLimits
 
 if TYPE_CHECKING:  # the web side is imported only when the console serves (not in batch trials)
@@ -55,7 +53,7 @@ ERROR_PERIOD_S = 0.1
 END_FLUSH_S = 3.0
 
 
-class OperatorConsole(ConsoleEvents, ConsoleView, Module):
+class OperatorConsole(Module[ConsoleParams]):
     """The operator's console: a web page (127.0.0.1 by default) with the live camera image, the
     snake drawn over it in the browser, the grab's stage and errors, link and arm health, and
     the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
@@ -78,10 +76,10 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
 
     image = Input(Image, trigger=True, doc="camera frames (BGR)")
     contour = Input(Contour, required=False, doc="snake contour, drawn over the image")
-    servo = Input(Status, required=False, doc="vsServo status: stage, errors, assistance")
-    guard = Input(Status, required=False, doc="REG_VEL status: passing, or zero and why")
+    servo = Input(ServoState, required=False, doc="vsServo's state: stage, errors, assistance")
+    guard = Input(GuardState, required=False, doc="REG_VEL's state: passing, or zero and why")
     joints = Input(JointState, required=False, feedback=True, doc="measured joint state")
-    world = Input(Status, required=False, feedback=True, doc="simulated world: grasp verdict")
+    world = Input(Verdict, required=False, feedback=True, doc="simulated world: grasp verdict")
     link_poses = Input(
         Poses, required=False, feedback=True, doc="3-D panel: T_base_link of the arm's links"
     )
@@ -97,13 +95,13 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
     vcr_state = Input(
         VcrState, required=False, feedback=True, doc="3-D panel: the player's place on the path"
     )
-    sim_seed = Input(Vector, required=False, doc="the simulated operator's click")
+    sim_seed = Input(Seed, required=False, doc="the simulated operator's click")
     zoom_auto = Input(
         Scalar, required=False, doc="zoom request passed to every zoom output until a person zooms"
     )
-    seed = Output(Vector, events=True, doc="seed for vsSnake: [u, v] or [u0, v0, u1, v1] px")
+    seed = Output(Seed, events=True, doc="seed for vsSnake: a clicked point or a dragged box, px")
     operator = Output(
-        Text, events=True, doc="grab command for vsServo: start / pause / resume / abort"
+        GrabCommand, events=True, doc="grab command for vsServo: start / pause / resume / abort"
     )
     jog = Output(
         Twist,
@@ -112,19 +110,21 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         doc="dead-man jog twist for REG_VEL: one per keep-alive of the held jog, zero on release",
     )
     stop_run = Output(
-        Text,
+        StopRun,
         events=True,
-        doc="the operator's *Stop*: `stop`, for the judge of the run (the world), which ends it "
-        "as a normal stop with the verdict 'stopped by the operator'",
+        doc="the operator's *Stop*, for the judge of the run (the world), which ends it as a "
+        "normal stop with the verdict 'stopped by the operator'",
     )
-    presence = Output(Status, doc="`person` while a person holds control, else `nobody`")
+    presence = Output(
+        Presence, doc="whether a person holds control, has acted, and how many pages are open"
+    )
     zoom_1 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[0]")
     zoom_2 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[1]")
 
     # -- lifecycle ----------------------------------------------------------------------------
     def start(self) -> None:
         p = self.params
-        arm = load_arm(p.robot, p.dh_file)
+        arm = p.table
         self._q_limits = (arm.q_min, arm.q_max, arm.qd_max)
         self._limits = SanityLimits(
             rectangle_margin=p.rectangle_margin, ellipse_scale=p.ellipse_scale
@@ -138,18 +138,10 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         #: the jog buttons' names in both frames (the camera's mount is static)
         self._jog_labels = {f: jog_labels(f, self._T_tool_camera) for f in ("tool", "camera")}
         self._jog_limits = JogLimits(p.jog_linear, p.jog_angular)
-        if len(p.patch_size_m) != 2 or not all(0 < x < 10 for x in p.patch_size_m):
-            raise UserError(
-                f"{self.name}: patch_size_m: expected two sides in (0, 10) m, found "
-                f"{p.patch_size_m}"
-            )
-        #: static transforms the 3-D panel looked up, by (parent, child) (None: not connected)
-        self._static: dict[tuple[str, str], np.ndarray | None] = {}
         self.arbiter = ControlArbiter()
         self.deadman = DeadMan(p.deadman_s)
         self.history = FrameHistory()
         self.lanes: Lanes[Event] = Lanes()
-        self._logged_refusal: dict[str, tuple[float, int]] = {}  #: session -> (wall, count)
         self.board = MessageBoard()
         self.sketch_items = SketchItems()  #: Active Sketch's items for the 3-D panel
         self._phase_ended = False  #: set by stop(): the page shows the run's end
@@ -157,10 +149,6 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._keepalive = False  #: a held jog's keep-alive arrived since the last step
         self._last_state = -math.inf
         self._state_period = 1.0 / p.state_rate_hz
-        self._link_age: dict[str, float] = {}  #: oldest age per input since the last page update
-        #: (stamp, origin) [s] of each input's sample last seen
-        self._link_seen: dict[str, tuple[float, float]] = {}
-        self._zero_since: float | None = None  #: when the guard's present zero began [s]
         self._last_presence: tuple[str, int, int] | None = None
         self._last_servo_stage = ""
         self._assist: dict[str, Any] | None = None
@@ -168,11 +156,9 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._errors: collections.deque[list[float]] = collections.deque(
             maxlen=int(PLOT_WINDOW_S / ERROR_PERIOD_S)
         )
-        self._errors_full_at = -math.inf  #: when the page last got the whole error history [s]
-        self._errors_sent_t = -math.inf  #: run time of the last error row sent [s]
         self._t0: float | None = None
         self._last_now = 0.0  #: the latest step's time [s]
-        self.counts = collections.Counter()
+        self.counts: collections.Counter[str] = collections.Counter()
         #: per seed from a page: (wall time the click reached the web thread, wall time sent) [s]
         self.seed_sent_wall: list[tuple[float, float]] = []
         self._server: WebServer | None = None
@@ -180,13 +166,9 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._app: ConsoleApp | None = None
         self.url = ""
         self._cpu0 = process_cpu_s()
-        if len(p.zoom_names) > 2 or len(set(p.zoom_names)) != len(p.zoom_names):
-            raise UserError(
-                f"{self.name}: zoom_names: expected at most 2 distinct camera names, found "
-                f"{p.zoom_names}"
-            )
         self._zoom = dict.fromkeys(p.zoom_names, 0.0)  #: commanded zoom per camera
-        self._person_zoomed = False
+        self.events = ConsoleEvents(self)  #: what the pages send
+        self.view = ConsoleView(self)  #: what the pages show
         if p.serve:
             from umbra.modules.operator.console_app import ConsoleApp
             from umbra.modules.operator.web_server import acquire_server
@@ -211,7 +193,7 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         if self._app is not None and self._app.stats.viewers:  # tell the pages the run ended
             self._phase_ended = True
             now = self._last_now
-            self._app.flush_final(self._state(now), END_FLUSH_S)
+            self._app.flush_final(self.view.state(now), END_FLUSH_S)
         if self._server is not None:  # kept for the summary (the server goes below)
             self._refused_requests = self._server.refused_requests
         if self._app is not None:
@@ -231,20 +213,20 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         self._video(now)
         self._sketch_items(now)
         for event in self.lanes.drain():
-            self._handle(event, now)
+            self.events.handle(event, now)
         self.lanes.set_holders(frozenset(s for s in self.arbiter.sessions if self.arbiter.holds(s)))
         self._sim_seed(now)
-        self._zoom_auto(now)
+        self.events.zoom_auto(now)
         self._jog_step(wall)
         self._track_servo(now)
         self._presence()
         app = self._app
         if app is None or not app.stats.viewers:
             return  # nobody watches: no page state
-        self._track_links(now)
+        self.view.track_links(now)
         if now - self._last_state >= self._state_period:
             self._last_state = now
-            app.state.put(self._state(now))
+            app.state.put(self.view.state(now))
 
     def _video(self, now: float) -> None:
         if not self.image.fresh:
@@ -291,12 +273,13 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
             self._jogging = False
 
     def _sim_seed(self, now: float) -> None:
-        if not self.sim_seed.fresh or self.sim_seed.value is None:
+        click = self.sim_seed.value
+        if not self.sim_seed.fresh or click is None:
             return
         if self.arbiter.person_acted:
             self.counts["sim_seeds_ignored"] += 1
             return
-        self.seed.send(Vector(values=np.asarray(self.sim_seed.value.values, dtype=float)))
+        self.seed.send(Seed(shape=click.shape, uv=np.asarray(click.uv, dtype=float)))
         self.counts["sim_seeds"] += 1
 
     def _presence(self) -> None:
@@ -308,10 +291,11 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
         if key != self._last_presence:
             self._last_presence = key
             self.presence.send(
-                Status(
-                    stage=key[0],
-                    message=f"{key[2]} page(s) open; control: {self.arbiter.holder_name() or '-'}",
-                    values={"acted": float(key[1]), "viewers": float(key[2])},
+                Presence(
+                    person=bool(self.arbiter.holder),
+                    acted=bool(key[1]),
+                    viewers=key[2],
+                    holder=self.arbiter.holder_name(),
                 )
             )
 
@@ -325,20 +309,22 @@ class OperatorConsole(ConsoleEvents, ConsoleView, Module):
             not self._errors or t - self._errors[-1][0] >= ERROR_PERIOD_S - 1e-6
         ):
             self._errors.append([t, *errs])
-        if status.stage == "assist" and self._last_servo_stage != "assist":
+        if status.stage == ServoStage.ASSIST and self._last_servo_stage != ServoStage.ASSIST:
             reason = status.reason or status.message
+            plain = status.words()
             self._assist = {
                 "id": self.counts["assists"] + 1,
                 "reason": reason,
-                "plain": plain_reason(reason),
+                "plain": plain,
                 "overlay": view_state.overlay(self.contour.value, self._limits),
             }
             self.counts["assists"] += 1
             if self._app is not None and self.image.value is not None:
                 self._app.assist_frame.put(np.array(self.image.value.pixels))  # kept: a copy
-            self.board.post_reason("the grab stopped and asks for you", reason, self._run_time())
+            lead = "the grab stopped and asks for you"
+            self.board.post_reason(lead, plain, reason, self._run_time())
             self.log.warning("console: assistance requested: %s", reason)
-        elif status.stage != "assist":
+        elif status.stage != ServoStage.ASSIST:
             self._assist = None
         self._last_servo_stage = status.stage
 

@@ -40,7 +40,7 @@ from fastapi.responses import HTMLResponse, Response
 
 from umbra.connectors.access.rate import MessageBudget
 from umbra.modules.operator.mailbox import Lanes, Latest
-from umbra.modules.operator.protocol import MessageChecker, ProtocolError
+from umbra.modules.operator.protocol import MessageChecker, ProtocolError, ReplayedMessage
 from umbra.modules.operator.web_server import WebServer
 from umbra.modules.webdoor.viewer import VIEWER_SCOPE
 
@@ -269,7 +269,7 @@ class ConsoleApp:
             msg = checker.check(raw)
         except ProtocolError as exc:
             text = str(exc)
-            if text.startswith("replayed"):
+            if isinstance(exc, ReplayedMessage):
                 self.stats.replayed += 1
             else:
                 self.stats.malformed += 1

@@ -2,11 +2,20 @@
 
 from __future__ import annotations
 
-from umbra.connectors import Parameters, param
+from typing import Annotated
+
+from pydantic import Field, field_validator
+
+from umbra.connectors import param
+from umbra.modules.arm.arm_params import ArmParams
+
+#: A side of the patch drawn in the 3-D panel [m].
+PatchSide = Annotated[float, Field(gt=0, lt=10)]
 
 
-class ConsoleParams(Parameters):
-    """:class:`~umbra.modules.operator.console.OperatorConsole`'s parameters."""
+class ConsoleParams(ArmParams):
+    """:class:`~umbra.modules.operator.console.OperatorConsole`'s parameters (``robot`` /
+    ``dh_file``: the arm whose joint limits are shown)."""
 
     serve: bool = param(True, "serve the page (false: no web server, for batch trials)")
     host: str = param("127.0.0.1", "address to listen on (the access token is always needed)")
@@ -27,10 +36,10 @@ class ConsoleParams(Parameters):
     tool_frame: str = param("tool", "frame of tool-frame jogs")
     jpeg_quality: int = param(80, "JPEG quality of the video", ge=10, le=100)
     state_rate_hz: float = param(10.0, "page updates per second", unit="Hz", gt=0, le=60)
-    robot: str = param("puma560", "built-in arm whose joint limits are shown")
-    dh_file: str = param("", "YAML DH table for the joint limits (overrides robot)")
     zoom_names: list[str] = param(
-        [], "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2)"
+        [],
+        "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2, distinct)",
+        max_length=2,
     )
     view_fov_deg: float = param(
         77.3,
@@ -39,8 +48,19 @@ class ConsoleParams(Parameters):
         gt=1,
         lt=179,
     )
-    patch_size_m: list[float] = param(
-        [0.06, 0.04], "3-D panel: the patch's sides drawn at patch_pose", unit="m"
+    patch_size_m: list[PatchSide] = param(
+        [0.06, 0.04],
+        "3-D panel: the patch's sides drawn at patch_pose",
+        unit="m",
+        min_length=2,
+        max_length=2,
     )
     rectangle_margin: float = param(0.12, "outer rectangle growth, as the snake's", ge=0)
     ellipse_scale: float = param(0.85, "inner ellipse scale, as the snake's", gt=0, le=1)
+
+    @field_validator("zoom_names")
+    @classmethod
+    def _distinct(cls, names: list[str]) -> list[str]:
+        if len(set(names)) != len(names):
+            raise ValueError(f"expected distinct camera names, found {names}")
+        return names

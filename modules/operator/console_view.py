@@ -1,15 +1,22 @@
-"""What the console's page shows: the state snapshot built from the console's inputs (read by
-:class:`~umbra.modules.operator.console.OperatorConsole`'s ``step``, handed to the web side)."""
+"""What the console's page shows: the state snapshot built from the console's inputs (a part
+that :class:`~umbra.modules.operator.console.OperatorConsole` owns; its ``step`` hands the
+snapshot to the web side)."""
 
 from __future__ import annotations
 
 import itertools
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
+from umbra.connectors.states import NO_AGE_S, GuardReason
 from umbra.modules.operator import view_state
 from umbra.modules.operator.scene_view import scene_view
 from umbra.modules.operator.state_line import commands_available, phase_of, state_line
+
+if TYPE_CHECKING:
+    from umbra.modules.operator.console import OperatorConsole
 
 #: The clocks of the graph's processes agree within this [s] for the page to say "in sync".
 CLOCK_SYNC_BOUND_S = 0.005
@@ -21,18 +28,31 @@ BANNER_HOLD_S = 0.15
 
 
 class ConsoleView:
-    """The page state of an :class:`~umbra.modules.operator.console.OperatorConsole` (a mixin: it
-    reads the console's inputs, control table, notices and counters)."""
+    """The page state of an :class:`~umbra.modules.operator.console.OperatorConsole`: reads the
+    console's inputs, control table, notices and counters; keeps the links' ages, the held
+    banner's start, the error rows already sent and the static frames it looked up."""
+
+    def __init__(self, console: OperatorConsole) -> None:
+        self._c = console
+        self._link_age: dict[str, float] = {}  #: oldest age per input since the last page update
+        #: (stamp, origin) [s] of each input's sample last seen
+        self._link_seen: dict[str, tuple[float, float]] = {}
+        self._zero_since: float | None = None  #: when the guard's present zero began [s]
+        self._errors_full_at = -math.inf  #: when the page last got the whole error history [s]
+        self._errors_sent_t = -math.inf  #: run time of the last error row sent [s]
+        #: static transforms the 3-D panel looked up, by (parent, child) (None: not connected)
+        self._static: dict[tuple[str, str], np.ndarray | None] = {}
 
     def _links(self) -> tuple[tuple[str, Any], ...]:
+        c = self._c
         return (
-            ("image", self.image),
-            ("contour", self.contour),
-            ("servo", self.servo),
-            ("joints", self.joints),
+            ("image", c.image),
+            ("contour", c.contour),
+            ("servo", c.servo),
+            ("joints", c.joints),
         )
 
-    def _track_links(self, now: float) -> None:
+    def track_links(self, now: float) -> None:
         """The oldest each input's latest sample got since the last page update [s], counted
         from its producer's stamp (on this process's clock): now, or when the next one replaced
         it. About its period while it flows, growing when it stops or falls behind (an age at
@@ -53,22 +73,21 @@ class ConsoleView:
     def _data_ages(self, now: float) -> dict[str, Any]:
         """The end-to-end age [ms] of the data behind the command REG_VEL passes (image capture
         to the register), whether it is held for old data, and the clocks' agreement."""
-        guard = self.guard.value
-        values = guard.values if guard is not None else {}
+        guard = self._c.guard.value
         errors = [reg.clock_error for _n, reg in self._links() if reg.value is not None]
         worst = max(errors, default=0.0)
         problems = [reg.clock_problem for _n, reg in self._links() if reg.clock_problem]
         return {
             "command_origin_ms": None
-            if "origin_age" not in values or values["origin_age"] >= 1e8
-            else round(values["origin_age"] * 1e3, 1),
-            "command_stale": bool(values.get("stale")),
+            if guard is None or guard.origin_age_s >= 0.1 * NO_AGE_S
+            else round(guard.origin_age_s * 1e3, 1),
+            "command_stale": guard is not None and guard.stale,
             "clock_error_ms": None if not math.isfinite(worst) else round(worst * 1e3, 3),
             "clocks_synced": math.isfinite(worst) and worst <= CLOCK_SYNC_BOUND_S,
             "clock_problem": problems[0] if problems else "",
         }
 
-    def _held_banner(self, now: float, servo: Any, guard: Any) -> str:
+    def held_banner(self, now: float, servo: Any, guard: Any) -> str:
         """The red "at zero" banner, only while the arm is actually held: at once for a request,
         old data or a lost process; for the link watchdog (a command that came late) once it
         lasted ``BANNER_HOLD_S`` (a late command or two is counted in the summary, not flashed)."""
@@ -78,20 +97,20 @@ class ConsoleView:
             return ""
         if self._zero_since is None:
             self._zero_since = now
-        blip = guard is not None and guard.reason.startswith("no new command")
+        blip = guard is not None and guard.code == GuardReason.WATCHDOG and not guard.jog
         return text if not blip or now - self._zero_since >= BANNER_HOLD_S else ""
 
-    def _error_rows(self, now: float) -> dict[str, Any]:
+    def error_rows(self, now: float) -> dict[str, Any]:
         """The servo errors for the plot: ``errors`` rows (page units) and ``errors_full``
         (True: the whole history, which replaces the page's; False: the rows since the previous
         state, which extend it)."""
         full = now - self._errors_full_at >= ERRORS_FULL_PERIOD_S
         if full:
             self._errors_full_at = now
-            rows = list(self._errors)
+            rows = list(self._c._errors)
         else:  # only the rows since the previous state: walk back from the newest
             sent = self._errors_sent_t
-            rows = list(itertools.takewhile(lambda r: r[0] > sent, reversed(self._errors)))
+            rows = list(itertools.takewhile(lambda r: r[0] > sent, reversed(self._c._errors)))
             rows.reverse()
         if rows:
             self._errors_sent_t = rows[-1][0]
@@ -99,26 +118,26 @@ class ConsoleView:
 
     def _panels(self) -> dict[str, bool]:
         """Which panels this graph feeds (a graph without some module lacks its panel)."""
-        links = self._server.links if self._server is not None else {}
+        links = self._c._server.links if self._c._server is not None else {}
         return {
             "video": True,
-            "controls": self.operator.connected or self.seed.connected,
-            "plot": self.servo.value is not None,
-            "jog": self.jog.connected,
+            "controls": self._c.operator.connected or self._c.seed.connected,
+            "plot": self._c.servo.value is not None,
+            "jog": self._c.jog.connected,
             "health": True,
             "messages": True,
-            "zoom": bool(self._zoom),
+            "zoom": bool(self._c._zoom),
             "sketch": "/sketch" in links,
-            "view3d": self.link_poses.value is not None,
+            "view3d": self._c.link_poses.value is not None,
         }
 
-    def _scene(self, now: float) -> dict[str, Any] | None:
+    def scene(self, now: float) -> dict[str, Any] | None:
         """The 3-D panel's scene (None: no arm in this graph)."""
-        latest = self.history.latest
+        latest = self._c.history.latest
         aspect = latest.width / latest.height if latest is not None else 16 / 9
-        p = self.params
+        p = self._c.params
         links, camera, patch = (
-            r.get(now) for r in (self.link_poses, self.camera_pose, self.patch_pose)
+            r.get(now) for r in (self._c.link_poses, self._c.camera_pose, self._c.patch_pose)
         )
         base = links.frame if links is not None else ""
         scene = scene_view(
@@ -131,9 +150,9 @@ class ConsoleView:
             aspect,
             (p.patch_size_m[0], p.patch_size_m[1]),
         )
-        if scene is not None and self.sketch_items:
-            scene["sketch"] = self.sketch_items.view(
-                lambda frame: self._static_pose(base, frame), self.vcr_state.get(now)
+        if scene is not None and self._c.sketch_items:
+            scene["sketch"] = self._c.sketch_items.view(
+                lambda frame: self._static_pose(base, frame), self._c.vcr_state.get(now)
             )
         return scene
 
@@ -142,34 +161,36 @@ class ConsoleView:
         key = (parent, child)
         if key not in self._static:
             try:
-                self._static[key] = self.context.frames.lookup(parent, child)
+                self._static[key] = self._c.context.frames.lookup(parent, child)
             except KeyError:
                 self._static[key] = None
         return self._static[key]
 
-    def _state(self, now: float) -> dict[str, Any]:
-        servo = self.servo.get(now)
-        guard = self.guard.get(now)
-        world = self.world.get(now)
-        held = self.deadman.held
-        phase = phase_of(self.history.latest is not None, self._phase_ended)
-        line = state_line(phase, servo, guard, world, self.arbiter.holder_name(), held is not None)
+    def state(self, now: float) -> dict[str, Any]:
+        servo = self._c.servo.get(now)
+        guard = self._c.guard.get(now)
+        world = self._c.world.get(now)
+        held = self._c.deadman.held
+        phase = phase_of(self._c.history.latest is not None, self._c._phase_ended)
+        line = state_line(
+            phase, servo, guard, world, self._c.arbiter.holder_name(), held is not None
+        )
         return {
-            "t": self._run_time(),
+            "t": self._c._run_time(),
             "phase": phase,
             "line": line.for_page(),
-            "commands": commands_available(phase, line.stage, self.stop_run.connected),
+            "commands": commands_available(phase, line.stage, self._c.stop_run.connected),
             "panels": self._panels(),
-            "overlay": view_state.overlay(self.contour.get(now), self._limits),
-            "scene": self._scene(now),
+            "overlay": view_state.overlay(self._c.contour.get(now), self._c._limits),
+            "scene": self.scene(now),
             "servo": view_state.servo_view(servo),
-            "banner": self._held_banner(now, servo, guard),
+            "banner": self.held_banner(now, servo, guard),
             "data_age": self._data_ages(now),
             "guard": None if guard is None else {"stage": guard.stage, "reason": guard.reason},
             "world": None
             if world is None
             else {"stage": world.stage, "message": world.message, "values": world.values},
-            **self._error_rows(now),
+            **self.error_rows(now),
             "links": [
                 view_state.link_view(
                     name,
@@ -180,19 +201,19 @@ class ConsoleView:
                 for name, reg in self._links()
             ],
             "smart_alive": None  # nothing from the servo side yet (or none in this graph)
-            if self.joints.value is None and self.guard.value is None
-            else self.joints.link_alive and self.guard.link_alive,
-            "joints": view_state.joints_view(self.joints.get(now), *self._q_limits),
-            "control": self.arbiter.holder_name(),
-            "control_session": self.arbiter.holder or "",
-            "viewers": [name for name in self.arbiter.sessions.values()],
-            "refused": self.counts["refused_others"],
+            if self._c.joints.value is None and self._c.guard.value is None
+            else self._c.joints.link_alive and self._c.guard.link_alive,
+            "joints": view_state.joints_view(self._c.joints.get(now), *self._c._q_limits),
+            "control": self._c.arbiter.holder_name(),
+            "control_session": self._c.arbiter.holder or "",
+            "viewers": [name for name in self._c.arbiter.sessions.values()],
+            "refused": self._c.counts["refused_others"],
             "jog": None
             if held is None
             else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
-            "jog_labels": self._jog_labels,
-            "assist": self._assist,
-            "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._zoom.items()],
-            "notices": self.board.for_page(),
-            "links_extra": dict(self._server.links) if self._server is not None else {},
+            "jog_labels": self._c._jog_labels,
+            "assist": self._c._assist,
+            "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._c._zoom.items()],
+            "notices": self._c.board.for_page(),
+            "links_extra": dict(self._c._server.links) if self._c._server is not None else {},
         }

@@ -124,4 +124,4 @@ class ControlArbiter:
             return None
         mine = [s for s, b in self.browsers.items() if b == browser]
         leading = [s for s in mine if s not in self.followers]
-        return (leading or mine or [None])[0]
+        return next(iter(leading or mine), None)

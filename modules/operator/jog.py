@@ -73,11 +73,10 @@ class HeldJog:
 
 
 class DeadMan:
-    """The held jog, dropped on release, on silence longer than ``deadman_s``, or on leave."""
+    """The held jog, dropped on release, on silence longer than ``deadman_s`` [s] (> 0: the
+    console's ``Params`` holds the bound), or on leave."""
 
     def __init__(self, deadman_s: float = 0.15) -> None:
-        if not deadman_s > 0:
-            raise ValueError(f"deadman_s must be > 0, got {deadman_s}")
         self.deadman_s = deadman_s
         self.held: HeldJog | None = None
         self.expired = 0  #: jogs dropped for silence (no keep-alive in time)

@@ -6,11 +6,13 @@ asyncio loop; :class:`Latest` can wake it through ``loop.call_soon_threadsafe`` 
 
 from __future__ import annotations
 
-import asyncio
 import collections
 import contextlib
 import threading
-from typing import Generic, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
+
+if TYPE_CHECKING:  # imported where used: checking a graph loads this file without it
+    import asyncio
 
 T = TypeVar("T")
 
@@ -41,6 +43,8 @@ class Latest(Generic[T]):
 
     async def wait_newer(self, version: int, timeout: float) -> tuple[int, T | None]:
         """Wait (in the web loop) until the version exceeds ``version`` or ``timeout`` [s]."""
+        import asyncio
+
         event = asyncio.Event()
         entry = (asyncio.get_running_loop(), event)
         with self._lock:

@@ -2,15 +2,14 @@
 
 A message that repeats (the same words to the same pages) is not a new line: its count grows
 and it moves to the top, so a reason said five times is shown once with "×5". The exact text
-behind a plain message (a module's full reason) is kept as its ``detail``, shown on a click.
-Pure: no clock (times are passed in, seconds of the run).
+behind a plain message (a module's full reason) is kept as its ``detail``, shown on a click; the
+plain words come from the reason's code (``umbra.connectors.reasons``). Pure: no clock (times
+are passed in, seconds of the run).
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-
-from umbra.modules.operator.plain_words import plain_reason
 
 
 @dataclass
@@ -53,11 +52,10 @@ class MessageBoard:
         del self.lines[: -self.size]
 
     def post_reason(
-        self, lead: str, reason: str, t: float, to: str = "*", level: str = "error"
+        self, lead: str, plain: str, reason: str, t: float, to: str = "*", level: str = "error"
     ) -> None:
-        """``lead`` and ``reason`` in plain words (:func:`plain_reason`), the reason as it came
-        kept as the detail."""
-        plain = plain_reason(reason)
+        """``lead`` and a reason in ``plain`` words (its code's), the ``reason`` as it came kept
+        as the detail."""
         text = f"{lead}: {plain}" if plain else lead
         self.post(text, t, to, level, detail=reason if reason != plain else "")
 

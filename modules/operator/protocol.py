@@ -13,10 +13,13 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from umbra.connectors.commands import GrabAction
 from umbra.connectors.limits import MAX_PAGE_MESSAGE_BYTES
 
 MAX_MESSAGE_BYTES = MAX_PAGE_MESSAGE_BYTES  #: (the websocket protocol refuses larger ones first)
-ACTIONS = ("start", "pause", "resume", "abort", "stop")  #: stop: end the run (the judge ends it)
+STOP_ACTION = "stop"  #: end the run (the judge ends it): the console's ``StopRun``
+#: the page's actions: the grab's commands, and stop
+ACTIONS = (*(str(a) for a in GrabAction), STOP_ACTION)
 JOG_FRAMES = ("tool", "camera")
 
 #: message type -> required fields and their kinds ("num" finite number, "int", "bool", "str")
@@ -35,6 +38,10 @@ _SCHEMA: dict[str, dict[str, str]] = {
 
 class ProtocolError(ValueError):
     """A message the console refuses; ``str()`` is the message for the page and the log."""
+
+
+class ReplayedMessage(ProtocolError):
+    """A message of another page's session, or one whose ``seq`` is not new: a replay."""
 
 
 @dataclass(frozen=True)
@@ -100,20 +107,20 @@ class MessageChecker:
                 f"malformed message: expected a JSON object, found {type(data).__name__}"
             )
         if data.get("session") != self.session:
-            raise ProtocolError(
+            raise ReplayedMessage(
                 "replayed message: expected this page's session, found "
                 f"{str(data.get('session'))[:16]!r} (reload the page)"
             )
         seq = data.get("seq")
-        if not _kind_ok("int", seq):
+        if not isinstance(seq, int) or not _kind_ok("int", seq):
             raise ProtocolError(
                 f"malformed message: expected seq {_KIND_TEXT['int']}, found {seq!r}"
             )
         if seq <= self.last_seq:
-            raise ProtocolError(f"replayed message: expected seq > {self.last_seq}, found {seq}")
+            raise ReplayedMessage(f"replayed message: expected seq > {self.last_seq}, found {seq}")
         kind = data.get("type")
         schema = _SCHEMA.get(kind) if isinstance(kind, str) else None
-        if schema is None:
+        if schema is None or not isinstance(kind, str):
             raise ProtocolError(
                 f"malformed message: expected type one of {sorted(_SCHEMA)}, found {kind!r}"
             )

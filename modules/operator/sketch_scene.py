@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
+from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
 
 #: Snapshots and primitives kept for the panel (the oldest go first).
 MAX_SNAPSHOTS = 4

@@ -15,23 +15,27 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from umbra.connectors.messages import Status
-from umbra.modules.operator.plain_words import plain_reason
+from umbra.connectors.states import (
+    GuardState,
+    Outcome,
+    ServoReason,
+    ServoStage,
+    ServoState,
+    Verdict,
+)
 from umbra.modules.servo.stages import ABORTED, ACTIVE_STAGES, ASSIST, DONE, PAUSED
 
 STARTING, RUNNING, ENDED = "starting", "running", "ended"
-#: the world's status stages that carry the run's verdict (stopped: by the operator, no grasp)
-VERDICT_STAGES = ("grasped", "missed", "stopped")
 
 #: what the robot does in each of vsServo's stages, in the operator's words
 _DOING = {
-    "acquire": "waiting for the tracker to hold the patch; the approach starts by itself",
-    "approach": "moving toward the patch",
-    "final_grab": "final grab: advancing and closing the gripper",
-    "done": "grab complete; the arm holds",
-    "assist": "stopped: the grab asks for you",
-    "paused": "paused by the operator; the arm holds",
-    "aborted": "aborted; the arm holds with the gripper open",
+    ServoStage.ACQUIRE: "waiting for the tracker to hold the patch; the approach starts by itself",
+    ServoStage.APPROACH: "moving toward the patch",
+    ServoStage.FINAL_GRAB: "final grab: advancing and closing the gripper",
+    ServoStage.DONE: "grab complete; the arm holds",
+    ServoStage.ASSIST: "stopped: the grab asks for you",
+    ServoStage.PAUSED: "paused by the operator; the arm holds",
+    ServoStage.ABORTED: "aborted; the arm holds with the gripper open",
 }
 
 #: vsServo stages from which *Start* begins a new grab (elsewhere it would change nothing)
@@ -42,7 +46,8 @@ PAUSABLE = (*ACTIVE_STAGES, ASSIST)
 
 @dataclass(frozen=True)
 class StateLine:
-    """What the page's state line says; ``stopped`` is "" while the robot may move."""
+    """What the page's state line says; ``stopped`` is "" while the robot may move; ``outcome``
+    is the verdict's (``pending`` before one)."""
 
     phase: str
     stage: str
@@ -51,6 +56,7 @@ class StateLine:
     stopped: str
     stopped_detail: str
     verdict: str
+    outcome: str = Outcome.PENDING.value
 
     def for_page(self) -> dict[str, Any]:
         return asdict(self)
@@ -65,9 +71,9 @@ def phase_of(images_seen: bool, stopping: bool) -> str:
 
 def state_line(
     phase: str,
-    servo: Status | None,
-    guard: Status | None,
-    world: Status | None,
+    servo: ServoState | None,
+    guard: GuardState | None,
+    world: Verdict | None,
     holder: str,
     jogging: bool,
 ) -> StateLine:
@@ -75,33 +81,41 @@ def state_line(
     judge in the graph, or not judged yet), the control holder's name ("" nobody) and whether
     a jog is held."""
     control = holder or "nobody (take control to act)"
-    verdict = world.message if world is not None and world.stage in VERDICT_STAGES else ""
+    judged = world is not None and world.outcome != Outcome.PENDING
+    verdict = world.message if world is not None and judged else ""
+    outcome = world.outcome.value if world is not None else Outcome.PENDING.value
     stage = servo.stage if servo is not None else "-"
     if phase == STARTING:
-        return StateLine(phase, stage, control, "starting: waiting for the camera", "", "", "")
+        return StateLine(
+            phase, stage, control, "starting: waiting for the camera", "", "", "", outcome
+        )
     if jogging:
         doing = "jogging by hand (the grab is paused)"
     elif servo is None:
         doing = ""  # no grab in this graph (or no word from it yet): nothing to say
-    elif servo.stage == "acquire" and servo.message.startswith("waiting"):
+    elif servo.stage == ServoStage.ACQUIRE and servo.code != ServoReason.NONE:
         doing = "waiting for a seed: click the patch (the approach then starts by itself)"
     else:
         doing = _DOING.get(servo.stage, servo.message or servo.stage)
     if phase == ENDED:
         doing = "the run has ended"
-    why = _why_stopped(servo, guard, jogging)
-    return StateLine(phase, stage, control, doing, plain_reason(why), why, verdict)
+    words, exact = _why_stopped(servo, guard, jogging)
+    return StateLine(phase, stage, control, doing, words, exact, verdict, outcome)
 
 
-def _why_stopped(servo: Status | None, guard: Status | None, jogging: bool) -> str:
-    """The exact reason the arm stands still ("" when it may move)."""
-    if guard is not None and guard.stage == "zero" and not jogging:
+def _why_stopped(
+    servo: ServoState | None, guard: GuardState | None, jogging: bool
+) -> tuple[str, str]:
+    """Why the arm stands still, in the operator's words (from the reason codes) and in the
+    producer's exact words ("", "" when it may move)."""
+    if guard is not None and not guard.passing and not jogging:
         if servo is not None and servo.stage in (ASSIST, PAUSED, ABORTED, DONE):
-            return servo.reason or _DOING[servo.stage]
-        return guard.reason or guard.message
+            exact = servo.reason or _DOING[servo.stage]
+            return (_DOING[servo.stage] if servo.code == ServoReason.NONE else servo.words()), exact
+        return guard.code.words, guard.reason
     if servo is not None and servo.stage == ASSIST:
-        return servo.reason
-    return ""
+        return servo.words(), servo.reason
+    return "", ""
 
 
 def commands_available(phase: str, stage: str, can_stop: bool = False) -> dict[str, bool]:

@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from umbra.connectors.messages import Contour, JointState, Status
+from umbra.connectors.messages import Contour, JointState
+from umbra.connectors.states import GuardState, ServoReason, ServoStage, ServoState
 from umbra.modules.vision.features import polygon_features
 from umbra.modules.vision.sanity import SanityLimits, bounding_shapes
 
@@ -24,10 +25,10 @@ ERRORS = {
 
 #: servo stages in which vsServo itself commands zero, and the banner text
 _SERVO_ZERO = {
-    "assist": "vsServo asks for the operator",
-    "paused": "paused by the operator",
-    "aborted": "grab aborted",
-    "done": "grab complete",
+    ServoStage.ASSIST: "vsServo asks for the operator",
+    ServoStage.PAUSED: "paused by the operator",
+    ServoStage.ABORTED: "grab aborted",
+    ServoStage.DONE: "grab complete",
 }
 
 
@@ -75,7 +76,7 @@ def overlay(contour: Contour | None, limits: SanityLimits) -> dict[str, Any] | N
     return out
 
 
-def servo_view(status: Status | None) -> dict[str, Any]:
+def servo_view(status: ServoState | None) -> dict[str, Any]:
     """Stage, message, reason and the four errors in mm / deg."""
     if status is None:
         return {"stage": "-", "message": "no status from vsServo yet", "assist": False}
@@ -109,17 +110,18 @@ def error_rows(rows: Any) -> list[list[float | None]]:
     ]
 
 
-def zero_banner(servo: Status | None, guard: Status | None) -> str:
-    """Why the servo side commands zero now ("" when it is passing a command)."""
-    if guard is not None and guard.stage == "zero":
-        return f"servo side at zero (REG_VEL): {guard.reason or guard.message}"
-    if guard is not None and guard.message == "passing jog":
+def zero_banner(servo: ServoState | None, guard: GuardState | None) -> str:
+    """Why the servo side commands zero now ("" when it is passing a command), in the
+    producers' exact words."""
+    if guard is not None and not guard.passing:
+        return f"servo side at zero (REG_VEL): {guard.reason}"
+    if guard is not None and guard.jog:
         return ""  # the operator is jogging by hand: REG_VEL passes the jog
     if servo is not None and servo.stage in _SERVO_ZERO:
         why = _SERVO_ZERO[servo.stage]
-        detail = f": {servo.reason}" if servo.reason and servo.stage == "assist" else ""
+        detail = f": {servo.reason}" if servo.reason and servo.stage == ServoStage.ASSIST else ""
         return f"servo side at zero: {why}{detail}"
-    if servo is not None and servo.stage == "acquire" and servo.message.startswith("waiting"):
+    if servo is not None and servo.stage == ServoStage.ACQUIRE and servo.code != ServoReason.NONE:
         return f"servo side at zero: {servo.message}"  # e.g. waiting: snake has no contour
     return ""
 

@@ -14,11 +14,11 @@ def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) 
     eye_v = np.asarray(eye, dtype=float)
     z = np.asarray(target, dtype=float) - eye_v
     if np.linalg.norm(z) < 1e-9:
-        raise ValueError(f"look_at: target {target} coincides with the eye {eye}")
+        raise ValueError(f"look_at: target {target!s} coincides with the eye {eye!s}")
     z = z / np.linalg.norm(z)
     x = np.cross(z, -np.asarray(up, dtype=float))
     if np.linalg.norm(x) < 1e-9:
-        raise ValueError(f"look_at: the view direction {z} is parallel to up {up}")
+        raise ValueError(f"look_at: the view direction {z} is parallel to up {up!s}")
     x = x / np.linalg.norm(x)
     T = np.eye(4)
     T[:3, :3] = np.column_stack([x, np.cross(z, x), z])

@@ -6,13 +6,13 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
 from umbra.connectors.messages import CameraModel, Pose
+from umbra.connectors.ptu_messages import PtuCommand, PtuState
 from umbra.modules.calib.camera_message import pinhole_from_message
 from umbra.modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
 from umbra.modules.ptu.sim_ptu import SimPtu
-from umbra.modules.sketch.messages import PtuCommand, PtuState
 
 
-class Ptu(Module):
+class Ptu(Module["Ptu.Params"]):
     """Simulated pan-tilt unit (rate- and acceleration-limited slewing).
 
     Commands: angles (pan, tilt) or a 3-D point in ``world_frame`` to aim at. Without a camera
@@ -36,6 +36,10 @@ class Ptu(Module):
         initial_tilt_deg: float = param(0.0, "tilt at start", unit="deg", ge=-47, le=31)
         max_rate: float = param(1.0, "slew rate limit per axis", unit="rad/s", gt=0, le=5)
         max_accel: float = param(4.0, "acceleration limit per axis", unit="rad/s^2", gt=0)
+
+        def required_frames(self) -> list[tuple[str, str]]:
+            """The unit's base in the world frame."""
+            return [(self.world_frame, self.ptu_frame)]
 
     command = Input(PtuCommand, required=False, doc="angles or a point to aim at")
     camera = Input(

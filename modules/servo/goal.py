@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from umbra.modules.servo.features import FeatureError, Intrinsics, MomentFeatures
+from umbra.modules.calib.camera_model import Intrinsics
+from umbra.modules.servo.features import FeatureError, MomentFeatures
 
 
 def goal_from_pixels(
@@ -40,7 +41,7 @@ def goal_from_pixels(
     if not patch_area_m2 > 0:
         raise FeatureError(f"patch area must be positive, got {patch_area_m2} m^2")
     area = area_px / (intrinsics.fx * intrinsics.fy)  # affine map: det = fx fy
-    xg, yg = intrinsics.normalize(np.asarray(centre_px, dtype=float))
+    xg, yg = intrinsics.normalized_from_pixels(np.asarray(centre_px, dtype=float))
     a_n = float(np.sqrt(patch_area_m2 / area))
     return MomentFeatures(x_n=a_n * float(xg), y_n=a_n * float(yg), a_n=a_n, alpha=float(roll))
 
@@ -62,7 +63,7 @@ def goal_from_standoff(
     if not standoff_m > 0:
         raise FeatureError(f"standoff must be positive, got {standoff_m} m")
     centre = (intrinsics.u0, intrinsics.v0) if centre_px is None else centre_px
-    xg, yg = intrinsics.normalize(np.asarray(centre, dtype=float))
+    xg, yg = intrinsics.normalized_from_pixels(np.asarray(centre, dtype=float))
     return MomentFeatures(
         x_n=standoff_m * float(xg), y_n=standoff_m * float(yg), a_n=standoff_m, alpha=float(roll)
     )

@@ -24,27 +24,21 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.modules.geometry.polygon_moments import wrap_axis_angle
 from umbra.modules.geometry.transforms import clamp_twist
-from umbra.modules.servo.features import MomentFeatures, wrap_roll_error
+from umbra.modules.servo.features import MomentFeatures
 
 FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
 class ServoGains:
-    """Per-axis gains (1/s) for ``x, y, z, roll`` and speed limits (m/s, rad/s)."""
+    """Per-axis gains (1/s) for ``x, y, z, roll`` and speed limits (m/s, rad/s), built from
+    validated parameters (vsServo's ``Params`` holds their bounds), not checked again here."""
 
     gains: tuple[float, float, float, float] = (0.8, 0.8, 0.6, 0.8)
     max_linear: float = 0.05
     max_angular: float = 0.3
-
-    def __post_init__(self) -> None:
-        if len(self.gains) != 4 or any(not g >= 0 for g in self.gains):
-            raise ValueError(f"gains must be 4 non-negative numbers (x, y, z, roll): {self.gains}")
-        if not (self.max_linear > 0 and self.max_angular > 0):
-            raise ValueError(
-                f"speed limits must be positive: {self.max_linear} m/s, {self.max_angular} rad/s"
-            )
 
 
 def interaction_matrix(features: MomentFeatures) -> FloatArray:
@@ -62,7 +56,7 @@ def interaction_matrix(features: MomentFeatures) -> FloatArray:
 def feature_error(features: MomentFeatures, goal: MomentFeatures) -> FloatArray:
     """``e = s - s*`` with the roll part wrapped into (-pi/2, pi/2]."""
     e = features.as_array() - goal.as_array()
-    e[3] = wrap_roll_error(e[3])
+    e[3] = wrap_axis_angle(e[3])
     return e
 
 

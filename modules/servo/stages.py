@@ -30,27 +30,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.connectors.commands import GrabAction, GripperAction
+from umbra.connectors.states import ServoReason, ServoStage
+from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.servo.features import MomentFeatures
 from umbra.modules.servo.law import ServoGains, servo_twist
 
 FloatArray = NDArray[np.float64]
 
-ACQUIRE = "acquire"
-APPROACH = "approach"
-FINAL_GRAB = "final_grab"
-DONE = "done"
-ASSIST = "assist"
-ABORTED = "aborted"
-PAUSED = "paused"
-STAGES = (ACQUIRE, APPROACH, FINAL_GRAB, DONE, ASSIST, ABORTED, PAUSED)
+ACQUIRE = ServoStage.ACQUIRE
+APPROACH = ServoStage.APPROACH
+FINAL_GRAB = ServoStage.FINAL_GRAB
+DONE = ServoStage.DONE
+ASSIST = ServoStage.ASSIST
+ABORTED = ServoStage.ABORTED
+PAUSED = ServoStage.PAUSED
+STAGES = tuple(ServoStage)
 ACTIVE_STAGES = (ACQUIRE, APPROACH, FINAL_GRAB)
-
-OPERATOR_COMMANDS = ("resume", "abort", "pause", "start")
 
 
 @dataclass(frozen=True)
 class StageSettings:
-    """Thresholds of the stage machine.
+    """Thresholds of the stage machine, built from validated parameters (vsServo's ``Params``
+    holds their bounds), not checked again here.
 
     Attributes:
         acquire_frames: healthy snake frames needed before the approach (N).
@@ -70,30 +72,23 @@ class StageSettings:
     gripper_close_time: float = 0.5
     max_contour_age: float = 0.5
 
-    def __post_init__(self) -> None:
-        if self.acquire_frames < 1 or self.settle_frames < 1:
-            raise ValueError("acquire_frames and settle_frames must be >= 1")
-        if len(self.tolerance) != 4 or any(not t > 0 for t in self.tolerance):
-            raise ValueError(f"tolerance must be 4 positive numbers, got {self.tolerance}")
-        if self.grab_distance < 0 or not self.grab_speed > 0:
-            raise ValueError("grab_distance must be >= 0 and grab_speed > 0")
-        if self.gripper_close_time < 0 or not self.max_contour_age > 0:
-            raise ValueError("gripper_close_time must be >= 0 and max_contour_age > 0")
-
 
 @dataclass(frozen=True)
 class Observation:
     """What the snake said this tick.
 
-    ``healthy`` is False when the snake failed (a sanity check; ``reason`` says which);
-    ``features`` is None when the snake has no contour yet (idle); ``stamp`` is the time (s)
-    the contour was produced or received, on the caller's clock.
+    ``healthy`` is False when the snake failed (``code`` says how: its checks failed, named in
+    ``checks``, or its contour gave no features; ``reason`` in exact words); ``features`` is
+    None when the snake has no contour yet (idle); ``stamp`` is the time (s) the contour was
+    produced or received, on the caller's clock.
     """
 
     features: MomentFeatures | None
     healthy: bool
     stamp: float
     reason: str = ""
+    code: ServoReason = ServoReason.SNAKE_FAILED
+    checks: tuple[SnakeCheck, ...] = ()
     #: False while the safety guard holds the arm at zero (old data, a late command): the final
     #: grab's dead reckoning counts only the advance the guard let through
     commands_pass: bool = True
@@ -104,15 +99,18 @@ class Observation:
 
 @dataclass(frozen=True)
 class ServoOutput:
-    """One tick's result: camera twist ``[v; w]`` (camera frame), stage and operator status."""
+    """One tick's result: camera twist ``[v; w]`` (camera frame), stage and operator status
+    (``code`` and ``checks`` say why it waits or stopped, ``reason`` in exact words)."""
 
     camera_twist: FloatArray
-    stage: str
+    stage: ServoStage
     assist: bool = False
     reason: str = ""
     message: str = ""
-    gripper: str = ""  #: "", "open" or "close": a command to send this tick
+    gripper: GripperAction | None = None  #: a command to send this tick
     error: FloatArray = field(default_factory=lambda: np.full(4, np.nan))
+    code: ServoReason = ServoReason.NONE
+    checks: tuple[SnakeCheck, ...] = ()
 
 
 #: Final-grab advance left [m] below which the advance is complete.
@@ -138,6 +136,8 @@ class ServoStages:
         self.settings = settings
         self.stage = ACQUIRE
         self.reason = ""
+        self.code = ServoReason.NONE
+        self.checks: tuple[SnakeCheck, ...] = ()
         self._healthy_frames = 0
         self._settled_frames = 0
         self._settled_depth_sum = 0.0  # sum of the depth errors of the settled frames [m]
@@ -146,43 +146,48 @@ class ServoStages:
         self._grab_travel_base: float | None = None  #: the guard's odometer at the grab's start
         self._grab_tick = (0.0, 0.0, 0.0)  # last step's time [s], speed [m/s], advance so far [m]
         self._close_start: float | None = None
-        self._pending_gripper = "open"
+        self._pending_gripper: GripperAction | None = GripperAction.OPEN
 
     # -- operator -------------------------------------------------------------------------
-    def operator(self, command: str) -> None:
-        """Apply an operator command: ``"resume"`` / ``"start"`` (back to acquire from any
-        stopped stage), ``"pause"`` (zero, hold) or ``"abort"`` (stop, open the gripper)."""
-        command = command.strip().lower()
-        if command not in OPERATOR_COMMANDS:
-            raise ValueError(
-                f"operator command must be one of {OPERATOR_COMMANDS}, got {command!r}"
-            )
-        if command == "abort":
-            self._enter(ABORTED, "aborted by the operator")
-            self._pending_gripper = "open"
-        elif command == "pause":
+    def operator(self, command: GrabAction) -> None:
+        """Apply an operator command: ``resume`` / ``start`` (back to acquire from any stopped
+        stage), ``pause`` (zero, hold) or ``abort`` (stop, open the gripper)."""
+        try:
+            command = GrabAction(command)
+        except ValueError:
+            known = [str(a) for a in GrabAction]
+            raise ValueError(f"operator command must be one of {known}, got {command!r}") from None
+        if command == GrabAction.ABORT:
+            self._enter(ABORTED, "aborted by the operator", ServoReason.ABORTED)
+            self._pending_gripper = GripperAction.OPEN
+        elif command == GrabAction.PAUSE:
             if self.stage in (*ACTIVE_STAGES, ASSIST):
-                self._enter(PAUSED, "paused by the operator")
+                self._enter(PAUSED, "paused by the operator", ServoReason.PAUSED)
         elif self.stage not in ACTIVE_STAGES:
             self._enter(ACQUIRE, "")
-            self._pending_gripper = "open"
+            self._pending_gripper = GripperAction.OPEN
 
     # -- tick -----------------------------------------------------------------------------
     def step(self, now: float, observation: Observation | None) -> ServoOutput:
         """Advance the machine to time ``now`` (s) with the latest observation (or None)."""
-        waiting = ""
+        waiting, why = "", ServoReason.NONE
         if self.stage in ACTIVE_STAGES and not self._closing:
             if observation is not None and not observation.healthy:
-                self._enter(ASSIST, f"snake failure: {observation.reason or 'sanity check failed'}")
+                self._enter(
+                    ASSIST,
+                    f"snake failure: {observation.reason or 'sanity check failed'}",
+                    observation.code,
+                    observation.checks,
+                )
             else:
-                waiting = self._unusable(now, observation)
+                why, waiting = self._unusable(now, observation)
                 if waiting and self.stage != ACQUIRE:
-                    self._enter(ASSIST, waiting)
+                    self._enter(ASSIST, waiting, why)
                 elif self.stage == ACQUIRE:
                     self._healthy_frames = 0 if waiting else self._healthy_frames + 1
-        gripper, self._pending_gripper = self._pending_gripper, ""
+        gripper, self._pending_gripper = self._pending_gripper, None
         if self.stage == ACQUIRE:
-            return self._acquire(gripper, waiting)
+            return self._acquire(gripper, waiting, why)
         if self.stage == APPROACH:
             assert observation is not None and observation.features is not None
             return self._approach(observation.features, gripper)
@@ -197,7 +202,14 @@ class ServoStages:
             PAUSED: "paused by the operator",
         }[self.stage]
         return ServoOutput(
-            _ZERO_TWIST, self.stage, self.stage == ASSIST, self.reason, message, gripper
+            _ZERO_TWIST,
+            self.stage,
+            self.stage == ASSIST,
+            self.reason,
+            message,
+            gripper,
+            code=self.code,
+            checks=self.checks,
         )
 
     @property
@@ -206,34 +218,48 @@ class ServoStages:
         camera sees the fingers close over the patch, so the snake's view no longer counts."""
         return self.stage == FINAL_GRAB and self._close_start is not None
 
-    def _unusable(self, now: float, observation: Observation | None) -> str:
-        """Why a healthy-flagged observation cannot be used ("" when it can)."""
+    def _unusable(self, now: float, observation: Observation | None) -> tuple[ServoReason, str]:
+        """Why a healthy-flagged observation cannot be used, as a code and in exact words
+        (``NONE`` and "" when it can)."""
         if observation is None:
-            return "no contour from the snake"
+            return ServoReason.NO_CONTOUR, "no contour from the snake"
         if observation.features is None:
-            return "snake has no contour"
+            return ServoReason.NOT_SEEDED, "snake has no contour"
         age = now - observation.stamp
         if age > self.settings.max_contour_age:
-            return f"contour is {age:.3f} s old (max {self.settings.max_contour_age:.3f} s)"
-        return ""
+            limit = self.settings.max_contour_age
+            return ServoReason.CONTOUR_LATE, f"contour is {age:.3f} s old (max {limit:.3f} s)"
+        return ServoReason.NONE, ""
 
-    def _enter(self, stage: str, reason: str) -> None:
+    def _enter(
+        self,
+        stage: ServoStage,
+        reason: str,
+        code: ServoReason = ServoReason.NONE,
+        checks: tuple[SnakeCheck, ...] = (),
+    ) -> None:
         self.stage = stage
         self.reason = reason
+        self.code = code
+        self.checks = checks
         self._healthy_frames = 0
         self._settled_frames = 0
         self._settled_depth_sum = 0.0
         self._grab_start = None
         self._close_start = None
 
-    def _acquire(self, gripper: str, waiting: str) -> ServoOutput:
+    def _acquire(
+        self, gripper: GripperAction | None, waiting: str, why: ServoReason
+    ) -> ServoOutput:
         count = self._healthy_frames
         if count >= self.settings.acquire_frames:
             self._enter(APPROACH, "")
         message = f"waiting: {waiting}" if waiting else f"snake healthy {count} frame(s)"
-        return ServoOutput(_ZERO_TWIST, ACQUIRE, message=message, gripper=gripper)
+        return ServoOutput(
+            _ZERO_TWIST, ACQUIRE, reason=waiting, message=message, gripper=gripper, code=why
+        )
 
-    def _approach(self, features: MomentFeatures, gripper: str) -> ServoOutput:
+    def _approach(self, features: MomentFeatures, gripper: GripperAction | None) -> ServoOutput:
         twist, error = servo_twist(features, self.goal, self.gains)
         if np.all(np.abs(error) <= np.asarray(self.settings.tolerance)):
             self._settled_frames += 1
@@ -254,7 +280,11 @@ class ServoStages:
         return ServoOutput(twist, APPROACH, message="approaching", gripper=gripper, error=error)
 
     def _final_grab(
-        self, now: float, gripper: str, passing: bool = True, travel_z: float | None = None
+        self,
+        now: float,
+        gripper: GripperAction | None,
+        passing: bool = True,
+        travel_z: float | None = None,
     ) -> ServoOutput:
         if self._grab_start is None:
             self._grab_start = now
@@ -279,7 +309,9 @@ class ServoStages:
         self._grab_tick = (now, 0.0, advanced)
         if self._close_start is None:
             self._close_start = now
-            return ServoOutput(_ZERO_TWIST, FINAL_GRAB, message="closing gripper", gripper="close")
+            return ServoOutput(
+                _ZERO_TWIST, FINAL_GRAB, message="closing gripper", gripper=GripperAction.CLOSE
+            )
         if now - self._close_start >= self.settings.gripper_close_time:
             self._enter(DONE, "")
             return ServoOutput(_ZERO_TWIST, DONE, message="grab complete", gripper=gripper)

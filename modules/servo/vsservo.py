@@ -7,21 +7,25 @@ from typing import Literal
 
 import numpy as np
 
-from umbra.connectors import Input, Module, Output, Parameters, UserError, from_param, param
+from umbra.connectors import Input, Module, Output, Parameters, from_param, param
+from umbra.connectors.commands import GrabCommand, GripperCommand
 from umbra.connectors.limits import MAX_TOOL_ANGULAR_RAD_S, MAX_TOOL_SPEED_M_S
-from umbra.connectors.messages import CameraModel, Contour, Status, Text, Twist
+from umbra.connectors.messages import CameraModel, Contour, Twist
+from umbra.connectors.params import NonNegative
+from umbra.connectors.states import GuardState, ServoReason, ServoState
+from umbra.connectors.status_figures import error_figure
+from umbra.connectors.tracking import TrackStatus
+from umbra.modules.calib.camera_model import Intrinsics
 from umbra.modules.calib.distortion import undistort_points
-from umbra.modules.servo.error_text import error_figure
 from umbra.modules.servo.features import (
     FeatureError,
-    Intrinsics,
     MomentFeatures,
+    checked_intrinsics,
     features_from_normalized_contour,
 )
 from umbra.modules.servo.goal import goal_from_pixels, goal_from_standoff
 from umbra.modules.servo.law import ServoGains
 from umbra.modules.servo.stages import (
-    OPERATOR_COMMANDS,
     Observation,
     ServoOutput,
     ServoStages,
@@ -31,7 +35,7 @@ from umbra.modules.servo.stages import (
 ERROR_NAMES = ("error_x", "error_y", "error_z", "error_roll")
 
 
-class VsServo(Module):
+class VsServo(Module["VsServo.Params"]):
     """Visual servo on a rectangular colored patch of known size (image-moment features).
 
     From each contour: normalized area (depth: the patch size is known), centroid (x, y) and
@@ -73,7 +77,7 @@ class VsServo(Module):
             None, "goal patch centre v (default principal point)", unit="px"
         )
         goal_roll_deg: float = param(0.0, "goal principal-axis angle from +u", unit="deg")
-        gains: list[float] = param(
+        gains: list[NonNegative] = param(
             [0.8, 0.8, 0.6, 0.8],
             "gains x, y, z, roll",
             unit="1/s",
@@ -109,10 +113,10 @@ class VsServo(Module):
         )
 
     contour = Input(Contour, trigger=True, doc="tracked patch from vsSnake")
-    operator = Input(Text, required=False, doc="operator: start / pause / resume / abort")
+    operator = Input(GrabCommand, required=False, doc="operator: start / pause / resume / abort")
     camera = Input(CameraModel, required=False, feedback=True, doc="calibrated camera (zoom)")
     guard = Input(
-        Status,
+        GuardState,
         required=False,
         feedback=True,
         doc="the safety guard's status (REG_VEL): the final grab counts only the advance it passed",
@@ -124,16 +128,15 @@ class VsServo(Module):
         doc="camera velocity command",
     )
     status = Output(
-        Status,
+        ServoState,
         origin_from=("contour",),  # as old as the image its errors come from
-        doc="stage, errors, operator-assistance requests",
+        doc="stage, why (a code, the snake's failed checks, the exact text), errors, "
+        "operator-assistance requests",
     )
-    gripper = Output(Text, events=True, doc="gripper command: open / close")
+    gripper = Output(GripperCommand, events=True, doc="gripper command: open / close")
 
     def start(self) -> None:
         p = self.params
-        if len(p.gains) != 4:
-            raise UserError(f"vsServo `{self.name}`: gains takes 4 numbers (x, y, z, roll)")
         self.patch_area = p.patch_width * p.patch_height
         self._stage_entered: dict[str, float] = {}
         self._stage_times: dict[str, float] = {}
@@ -142,7 +145,7 @@ class VsServo(Module):
         self._last_reason = ""
         self._t0: float | None = None
         self._camera_seq = -1
-        self._intrinsics = Intrinsics(fx=p.fx, fy=p.fy, u0=p.u0, v0=p.v0)
+        self._intrinsics = Intrinsics(p.fx, p.fy, 0.0, p.u0, p.v0)
         self._distortion: np.ndarray | None = None
         gains = ServoGains(tuple(p.gains), p.max_linear, p.max_angular)  # type: ignore[arg-type]
         settings = StageSettings(
@@ -186,9 +189,7 @@ class VsServo(Module):
         if model is None or model.seq == self._camera_seq:
             return
         self._camera_seq = model.seq
-        self._intrinsics = Intrinsics(
-            fx=model.fx, fy=model.fy, u0=model.u0, v0=model.v0, skew=model.skew
-        )
+        self._intrinsics = checked_intrinsics(Intrinsics.of_model(model))
         dist = np.asarray(model.dist, dtype=float)
         self._distortion = dist if np.any(dist) else None
         self._K = model.K
@@ -196,7 +197,7 @@ class VsServo(Module):
 
     def _normalized(self, vertices: np.ndarray) -> np.ndarray:
         if self._distortion is None:
-            return self._intrinsics.normalize(vertices)
+            return self._intrinsics.normalized_from_pixels(vertices)
         # the whole model, skew included (cv2.undistortPoints drops K's skew)
         points = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
         return undistort_points(points, self._K, self._distortion, normalized=True)
@@ -206,40 +207,38 @@ class VsServo(Module):
         if contour is None:
             return None
         received = now - self.contour.age(now)
-        if contour.status == "failed":
-            return Observation(None, healthy=False, stamp=received, reason=contour.reason)
-        if contour.status != "tracking":
+        if contour.status == TrackStatus.FAILED:
+            return Observation(
+                None, healthy=False, stamp=received, reason=contour.reason, checks=contour.checks
+            )
+        if contour.status != TrackStatus.TRACKING:
             return Observation(None, healthy=True, stamp=received)
         try:
             normalized = self._normalized(np.asarray(contour.vertices, dtype=float))
             features = features_from_normalized_contour(normalized, self.patch_area)
         except FeatureError as exc:
-            return Observation(None, healthy=False, stamp=received, reason=str(exc))
+            return Observation(
+                None, healthy=False, stamp=received, reason=str(exc), code=ServoReason.NO_FEATURES
+            )
         return Observation(features, healthy=True, stamp=received)
 
     def step(self, now: float) -> None:
         self._update_camera(now)
         command = self.operator.get(now)
         if command is not None and self.operator.fresh:
-            text = command.text.strip().lower()
-            if text in OPERATOR_COMMANDS:
-                self.stages.operator(text)
-            else:
-                self.log.warning(
-                    "ignoring operator input %r (expected one of %s)", text, OPERATOR_COMMANDS
-                )
+            self.stages.operator(command.action)
         observation = self._observe(now)
         guard = self.guard.value
         if observation is not None and guard is not None:
             observation = dataclasses.replace(
                 observation,
-                commands_pass=guard.stage != "zero",
-                guard_travel_z=guard.values.get("travel_z"),
+                commands_pass=guard.passing,
+                guard_travel_z=float(guard.travel_m[2]),
             )
         out = self.stages.step(now, observation)
         self.twist.send(Twist(vector=out.camera_twist, frame=self.params.camera_frame))
-        if out.gripper:
-            self.gripper.send(Text(text=out.gripper))
+        if out.gripper is not None:
+            self.gripper.send(GripperCommand(action=out.gripper))
         self._report(out, now)
 
     def _track_stage(self, now: float, out: ServoOutput, values: dict[str, float]) -> None:
@@ -279,12 +278,14 @@ class VsServo(Module):
             self._assists += 1
         self._last_key = key
         self.status.send(
-            Status(
+            ServoState(
                 stage=out.stage,
                 message=out.message,
                 assist=out.assist,
                 reason=out.reason,
                 values=values,
+                code=out.code,
+                checks=out.checks,
             )
         )
 
@@ -294,8 +295,8 @@ class VsServo(Module):
             stage = self._current[0]
             times[stage] = times.get(stage, 0.0)  # the final stage's time is open-ended
         return {
-            "stage": self.stages.stage,
+            "stage": str(self.stages.stage),
             "assist_requests": self._assists,
             "assist_reason": self._last_reason,
-            "stage_times_s": {k: round(v, 3) for k, v in times.items()},
+            "stage_times_s": {str(k): round(v, 3) for k, v in times.items()},
         }

@@ -9,6 +9,8 @@ calls act on one session. Snapshots are written as PNG images with a JSON of bot
     umbra sketch snapshot S                        -> S/snap1_a.png, S/snap1_b.png, S/snap1.json
     umbra sketch place S line --a 525,109 107,175 --b 544,109 101,171
     umbra sketch place S line --truth pipe --noise 0.5   (simulated clicks on the true pipe)
+                                  (its ``warnings`` name a vertex whose depth is poorly
+                                  constrained and what to do: modules/sketch/depth_check.py)
     umbra sketch macros S line1
     umbra sketch plan S grab_pipe line1           (a triad: plan S make_box triad1)
     umbra sketch play S path1 --script "0:play 2:pause 2.5:back 3.5:play@0.5 5:speed@1"
@@ -21,11 +23,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from umbra.connectors.cli_support import print_json
 from umbra.connectors.errors import UserError
+from umbra.modules.sketch.depth_check import depth_warnings
 from umbra.modules.sketch.macros import MacroError, check_options
 from umbra.modules.sketch.primitives import KINDS, PrimitiveError
 from umbra.modules.sketch.session import SessionError, SketchSession
@@ -37,6 +39,7 @@ from umbra.modules.world.scene_objects import targets_from_objects
 
 NAME = "sketch"
 HELP = "Active Sketch on the simulated cell: snapshot, place primitives, macros, plan, play"
+GUIDE = "docs/guide/active-sketch.md"  # the guide page this command's --help points to
 STATE = "session.json"
 
 
@@ -197,6 +200,8 @@ def _apply(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[
 
 
 def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[str, Any]:
+    import cv2
+
     cmd = e["cmd"]
     if cmd == "aim":
         if e["at"]:
@@ -242,12 +247,14 @@ def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[st
             a, b = _pixels(e["a"]), _pixels(e["b"])
         prim = session.place(e["kind"], a, b)
         sigmas = np.sqrt(np.linalg.eigvalsh(prim.covariances)[:, -1])
+        pair = StereoPair.from_snapshot(session.snapshots[prim.snapshot_id])
         return {
             "primitive": prim.primitive_id,
             "points_m": np.round(prim.points, 5).tolist(),
             "largest_sigma_mm": np.round(sigmas * 1e3, 3).tolist(),
             "pixels_b_on_epipolar_lines": np.round(prim.pixels_b, 3).tolist(),
             "macros": [m for m, _ in session.macros(prim.primitive_id)],
+            "warnings": depth_warnings(pair, prim),
         }
     if cmd == "macros":
         return {"macros": dict(session.macros(e["primitive"]))}

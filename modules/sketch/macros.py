@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.modules.sketch.messages import SketchPrimitive
+from umbra.connectors.sketch_messages import SketchPrimitive
 from umbra.modules.sketch.primitives import line_axis, plane_rect, point_of
 from umbra.modules.sketch.tool_poses import DOWN, arc, rotate_about_axis, tool_pose
 

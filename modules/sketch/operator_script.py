@@ -9,14 +9,11 @@ from pydantic import field_validator
 
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
 from umbra.connectors.messages import Status, Text
+from umbra.connectors.path_messages import VcrState
+from umbra.connectors.ptu_messages import PtuState
+from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
 from umbra.modules.sketch.command_text import VERBS, parse
-from umbra.modules.sketch.messages import (
-    PtuState,
-    SceneObjects,
-    SketchPrimitive,
-    StereoSnapshot,
-    VcrState,
-)
 from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.sketch.stereo import StereoPair
 from umbra.modules.trajectory.vcr import MODES
@@ -71,7 +68,7 @@ def script_step_problem(step: str) -> str:
     return ""
 
 
-class SketchOperatorSim(Module):
+class SketchOperatorSim(Module["SketchOperatorSim.Params"]):
     """Plays an operator's script against the Sketch module, one step at a time.
 
     Steps are Sketch commands (``modules/sketch/command_text.py``) in which ``@name`` stands for a

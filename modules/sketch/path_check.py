@@ -28,12 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
+from umbra.connectors.path_messages import ToolPath
 from umbra.modules.arm.dh import DHTable
 from umbra.modules.arm.jacobian import jacobian_and_pose
 from umbra.modules.sketch.macros import MacroKeys
-from umbra.modules.sketch.messages import ToolPath
 from umbra.modules.sketch.tool_poses import interpolate
 from umbra.modules.sketch.transit import goal_candidates, transit_options, transit_problem
 from umbra.modules.world.ik import IKFailed, solve_ik
@@ -176,6 +175,8 @@ def _check(
 ) -> str:
     """The checks of the module docstring; the first ``transit`` samples are a joint transit
     (already checked by :func:`transit_problem`) and skip the singular-value check."""
+    from scipy.spatial.transform import Rotation
+
     margins = np.array([table.limit_margin(q) for q in joints])
     worst = np.unravel_index(np.argmin(margins), margins.shape)
     checks["min_limit_margin_deg"] = float(np.degrees(margins[worst]))

@@ -2,8 +2,10 @@
 
 A primitive is placed by its vertices in both images of a snapshot. Each right-hand vertex is
 moved onto the epipolar line of its left-hand mate (the report's constraint), then each vertex
-pair is triangulated with its covariance (:mod:`umbra.modules.sketch.stereo`). The result is a
-:class:`umbra.modules.sketch.messages.SketchPrimitive`; the helpers below read its geometry
+pair is triangulated with its covariance (:mod:`umbra.modules.sketch.stereo`; a vertex on a
+featureless edge carries the operator's handle error along it,
+:mod:`umbra.modules.sketch.depth_check`). The result is a
+:class:`umbra.connectors.sketch_messages.SketchPrimitive`; the helpers below read its geometry
 (a line's axis, a plane's rectangle, a triad's box) in metres in the base frame.
 """
 
@@ -14,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.modules.sketch.messages import SketchBox, SketchPrimitive
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive
+from umbra.modules.sketch.depth_check import handle_spread
 from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 
 FloatArray = NDArray[np.float64]
@@ -60,7 +63,7 @@ def place_primitive(
         pair: the snapshot's stereo pair.
         kind: "point", "line", "plane" or "triad".
         pixels_a, pixels_b: (N, 2) image pixels of the vertices in images a and b.
-        noise: pixel and calibration sigmas for the covariances.
+        noise: pixel, handle and calibration sigmas for the covariances.
     """
     n = vertex_count(kind)
     uv_a = np.asarray(pixels_a, dtype=float).reshape(-1, 2)
@@ -74,7 +77,9 @@ def place_primitive(
     # the clicks in b on their epipolar lines (the derivative of that projection is the same
     # at the click and on the line: the covariance is the clicks' either way)
     uv_b = pair.constrain_b(uv_a, uv_b).reshape(n, 2)
-    points, joint, gaps = pair.triangulate_constrained(uv_a, uv_b, noise)
+    edges = np.asarray(KINDS[kind][1], dtype=np.int64).reshape(-1, 2)
+    spread = handle_spread(uv_b, edges, noise)
+    points, joint, gaps = pair.triangulate_constrained(uv_a, uv_b, noise, spread)
     covariances = [joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(n)]
     return SketchPrimitive(
         stamp=stamp,
@@ -86,7 +91,7 @@ def place_primitive(
         points=points,
         covariances=np.stack(covariances),
         gaps=np.asarray(gaps),
-        edges=np.asarray(KINDS[kind][1], dtype=np.int64).reshape(-1, 2),
+        edges=edges,
         frame=frame,
     )
 
@@ -185,7 +190,9 @@ def vertex_covariance(
     only the per-vertex blocks are known and the vertices are taken as independent.
     """
     if pair is not None and noise is not None:
-        return pair.triangulate_constrained(primitive.pixels_a, primitive.pixels_b, noise)[1]
+        a, b = primitive.pixels_a, primitive.pixels_b
+        spread = handle_spread(b, primitive.edges, noise)
+        return pair.triangulate_constrained(a, b, noise, spread)[1]
     n = len(primitive.points)
     joint = np.zeros((3 * n, 3 * n))
     for i, block in enumerate(np.asarray(primitive.covariances, dtype=float)):

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.connectors.path_messages import ToolPath
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.dls import DLSSettings, solve_dls
 from umbra.modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
@@ -26,7 +28,6 @@ from umbra.modules.arm.velocity_register import RegisterSettings, VelocityRegist
 from umbra.modules.geometry.transforms import translation
 from umbra.modules.ptu.sim_ptu import SimPtu
 from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
-from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot, ToolPath
 from umbra.modules.sketch.path_check import PathLimits, plan_path
 from umbra.modules.sketch.primitives import place_primitive, triad_box
 from umbra.modules.sketch.rig import RigCamera, default_rig

@@ -7,20 +7,14 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
+from umbra.connectors.path_messages import ToolPath, VcrCommand, VcrState
+from umbra.connectors.ptu_messages import PtuCommand, PtuState
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 from umbra.modules.sketch.command_text import Command, parse
+from umbra.modules.sketch.depth_check import depth_warnings
 from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
-from umbra.modules.sketch.messages import (
-    PtuCommand,
-    PtuState,
-    SketchBox,
-    SketchPrimitive,
-    StereoSnapshot,
-    ToolPath,
-    VcrCommand,
-    VcrState,
-)
 from umbra.modules.sketch.path_check import PathLimits, plan_path
 from umbra.modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
 from umbra.modules.sketch.session import Q_READY, Q_STOW
@@ -36,7 +30,7 @@ class _NotYet(_SnapshotRefused):
     """A snapshot that must wait: a camera is settling or has no frame to match its model."""
 
 
-class Sketch(Module):
+class Sketch(Module["Sketch.Params"]):
     """Active Sketch (LDRD report section 3) on the operator's side.
 
     Text commands (``modules/sketch/command_text.py``: aim, zoom, snapshot, place, plan, vcr)
@@ -46,8 +40,11 @@ class Sketch(Module):
     than that and than its camera model (so image and model belong together): the snapshot is
     then taken as soon as they are, within ``snapshot_wait``, and replied to then. Placed
     primitives are constrained to the epipolar lines and triangulated with their covariance
-    (``pixel_sigma`` and the calibration sigmas); a triad's macro ``make_box`` sends the box it
-    spans (scene geometry for the 3-D view, no motion). A plan is checked
+    (``pixel_sigma``, ``handle_sigma`` along a featureless edge and the calibration sigmas); a
+    primitive whose depth rests on where a handle sits along an edge that runs with the epipolar
+    lines is flagged in the reply, with what to do (``modules/sketch/depth_check.py``); a
+    triad's macro ``make_box`` sends the box it spans (scene geometry for the 3-D view, no
+    motion). A plan is checked
     (reach, joint limits, singularities, speed) before it is sent, and refused while the player
     moves the arm (the plan starts from the arm's joints); only a path that passed is
     sent to the player; VCR commands go to the player for the current path. When a path starts
@@ -58,10 +55,22 @@ class Sketch(Module):
     TYPE = "Sketch"
 
     class Params(ArmParams):
-        tool_xyz: list[float] = param([0.0, 0.0, 0.14], "tool point in the flange", unit="m")
-        tool_rpy_deg: list[float] = param([0.0, 0.0, 0.0], "tool frame in the flange", unit="deg")
+        tool_xyz: list[float] = param(
+            [0.0, 0.0, 0.14], "tool point in the flange", unit="m", min_length=3, max_length=3
+        )
+        tool_rpy_deg: list[float] = param(
+            [0.0, 0.0, 0.0], "tool frame in the flange", unit="deg", min_length=3, max_length=3
+        )
         world_frame: str = param("base", "frame of the 3-D points")
         pixel_sigma: float = param(0.5, "operator's placement error", unit="px", ge=0)
+        handle_sigma: float = param(
+            StereoNoise.handle_px,
+            "operator's placement error along a featureless edge (sets the depth of a vertex "
+            "whose edge runs along the epipolar lines)",
+            unit="px",
+            ge=0,
+            le=500,
+        )
         rotation_sigma: float = param(2e-4, "camera orientation error", unit="rad", ge=0)
         translation_sigma: float = param(2e-4, "camera position error", unit="m", ge=0)
         max_image_age: float = param(0.5, "snapshot: newest image at most this old", unit="s", gt=0)
@@ -100,7 +109,9 @@ class Sketch(Module):
         p = self.params
         self.table = p.table
         self.T_flange_tool = transform_from_xyz_rpy_deg(p.tool_xyz, p.tool_rpy_deg)
-        self.noise = StereoNoise(p.pixel_sigma, p.rotation_sigma, p.translation_sigma)
+        self.noise = StereoNoise(
+            p.pixel_sigma, p.rotation_sigma, p.translation_sigma, handle_px=p.handle_sigma
+        )
         self.limits = PathLimits()
         self.snapshots: dict[str, StereoSnapshot] = {}
         self.primitives: dict[str, SketchPrimitive] = {}
@@ -237,8 +248,9 @@ class Sketch(Module):
             raise UserError("place: take a snapshot first")
         snap = self.snapshots[list(self.snapshots)[-1]]
         pid = f"{cmd.kind}{len(self.primitives) + 1}"
+        pair = StereoPair.from_snapshot(snap)
         prim = place_primitive(
-            StereoPair.from_snapshot(snap),
+            pair,
             cmd.kind,
             cmd.pixels_a,
             cmd.pixels_b,
@@ -252,7 +264,10 @@ class Sketch(Module):
         self.primitive.send(prim)
         menu = ", ".join(m for m, _ in menu_for(prim))
         sigma = np.sqrt(np.max(np.linalg.eigvalsh(prim.covariances), axis=1)) * 1e3
-        return f"{pid} placed (largest sigma {np.round(sigma, 2).tolist()} mm); macros: {menu}"
+        warned = "".join(f"; WARNING {w}" for w in depth_warnings(pair, prim))
+        return (
+            f"{pid} placed (largest sigma {np.round(sigma, 2).tolist()} mm){warned}; macros: {menu}"
+        )
 
     def _plan(self, cmd: Command, now: float) -> str:
         prim = None

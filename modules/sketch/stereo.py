@@ -13,7 +13,10 @@ focal length, principal point) is taken by central differences and the covarianc
 whole sketch step: the operator's clicks (both images, as clicked), the move of the right-hand
 click onto the epipolar line, then triangulation, for all vertices of a primitive at once; its
 joint covariance holds the correlation the vertices share through the calibration, which a
-derived quantity (a box centre, a line direction) needs.
+derived quantity (a box centre, a line direction) needs. A right-hand vertex may be given the
+spread of where the operator believes it is (wider along a featureless edge than across it:
+:mod:`umbra.modules.sketch.depth_check`); the operator then leaves its handle at the spot of its
+epipolar line that agrees best with that belief.
 """
 
 from __future__ import annotations
@@ -22,11 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
+from umbra.connectors.sketch_messages import StereoSnapshot
 from umbra.modules.calib.distortion import distort_points, undistort_points
 from umbra.modules.geometry.rays import epipolar_line, line_distance, triangulate_pixels
-from umbra.modules.sketch.messages import StereoSnapshot
 
 FloatArray = NDArray[np.float64]
 
@@ -41,6 +43,9 @@ class StereoNoise:
         translation_m: each camera's position error along each axis (m).
         focal_rel: relative error of each camera's focal lengths (1).
         principal_px: error of each camera's principal point per coordinate (px).
+        handle_px: the operator's error placing a handle along a featureless edge (px): where
+            on the edge "the same point" is, judged by eye; it sets a vertex's depth when the
+            edge runs along the epipolar lines (:mod:`umbra.modules.sketch.depth_check`).
     """
 
     pixel_px: float = 0.5
@@ -48,10 +53,12 @@ class StereoNoise:
     translation_m: float = 2e-4
     focal_rel: float = 2e-3
     principal_px: float = 1.0
+    handle_px: float = 20.0
 
     def __post_init__(self) -> None:
         values = (self.pixel_px, self.rotation_rad, self.translation_m, self.focal_rel)
-        if not all(np.isfinite(v) and v >= 0 for v in (*values, self.principal_px)):
+        values = (*values, self.principal_px, self.handle_px)
+        if not all(np.isfinite(v) and v >= 0 for v in values):
             raise ValueError(f"stereo noise sigmas must be finite and >= 0, got {self}")
 
 
@@ -68,6 +75,8 @@ class _Camera:
     def perturbed(self, delta: FloatArray) -> _Camera:
         """The camera with ``delta`` = [rotvec(3), translation(3), focal_rel, du0, dv0] applied
         (rotation and translation in the camera's own frame)."""
+        from scipy.spatial.transform import Rotation
+
         T = self.T_base_camera.copy()
         T[:3, :3] = T[:3, :3] @ Rotation.from_rotvec(delta[:3]).as_matrix()
         T[:3, 3] = T[:3, 3] + self.T_base_camera[:3, :3] @ delta[3:6]
@@ -136,13 +145,36 @@ class StereoPair:
         image a."""
         return epipolar_line(self.P_a, self.P_b, self.ideal("a", pixel_a))
 
-    def constrain_b(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> FloatArray:
+    def constrain_b(
+        self, pixel_a: ArrayLike, pixel_b: ArrayLike, spread: ArrayLike | None = None
+    ) -> FloatArray:
         """``pixel_b`` moved onto the epipolar line of ``pixel_a`` (the nearest point of it, in
-        ideal pixels): the report's constraint on the right-hand vertex. Shapes (2,) or (m, 2)."""
+        ideal pixels): the report's constraint on the right-hand vertex. Shapes (2,) or (m, 2).
+
+        With ``spread`` ((2, 2) or (m, 2, 2), px², positive semi-definite, not degenerate
+        across the line), "nearest" is in the metric of that covariance: the point of the line
+        most consistent with a belief ``pixel_b`` that has that spread (the identity: the
+        perpendicular foot)."""
         line = self.epipolar_line_b(pixel_a)
         ideal_b = self.ideal("b", pixel_b)
         off = line_distance(line, ideal_b)
-        return self.shown("b", ideal_b - off[..., None] * line[..., :2])
+        normal = line[..., :2]
+        if spread is None:
+            return self.shown("b", ideal_b - off[..., None] * normal)
+        S = np.asarray(spread, dtype=float)
+        step = np.einsum("...ij,...j->...i", S, np.broadcast_to(normal, S.shape[:-1]))
+        step = step / np.sum(step * normal, axis=-1, keepdims=True)
+        return self.shown("b", ideal_b - off[..., None] * step)
+
+    def epipolar_direction_b(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> FloatArray:
+        """Unit direction(s) (image-b pixels as shown) of the epipolar curve of ``pixel_a`` at
+        ``pixel_b`` (on or near it). Shapes (2,) or (m, 2)."""
+        line = self.epipolar_line_b(pixel_a)
+        along = line[..., :2] @ np.array([[0.0, 1.0], [-1.0, 0.0]])  # (l1, l2) turned 90 deg
+        ideal_b = self.ideal("b", pixel_b)
+        step = 0.5 * along
+        d = self.shown("b", ideal_b + step) - self.shown("b", ideal_b - step)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
     def epipolar_error_px(self, pixel_a: ArrayLike, pixel_b: ArrayLike) -> FloatArray:
         """Distance (ideal px) of ``pixel_b`` from the epipolar line of ``pixel_a``."""
@@ -243,41 +275,59 @@ class StereoPair:
         return point, 0.5 * (covariance + covariance.T), gap
 
     def triangulate_constrained(
-        self, pixels_a: ArrayLike, pixels_b: ArrayLike, noise: StereoNoise
+        self,
+        pixels_a: ArrayLike,
+        pixels_b: ArrayLike,
+        noise: StereoNoise,
+        spread_b: ArrayLike | None = None,
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Vertices from clicked pixel pairs: each ``pixels_b[i]`` is moved onto the epipolar
         line of ``pixels_a[i]`` (:meth:`constrain_b`), then triangulated.
 
         Returns ``(points (n, 3) m, joint covariance (3n, 3n) m², gaps (n,) m)``: the covariance
         of all vertices from the clicks' noise (both coordinates of both images) and the two
-        cameras' calibration errors, through the epipolar step.
+        cameras' calibration errors, through the epipolar step. ``spread_b`` (n, 2, 2) px² is
+        the covariance of where the operator believes each right-hand vertex is (None: the
+        click noise ``noise.pixel_px`` in every direction); the handle is taken to the spot of
+        its epipolar line that agrees best with that belief (:meth:`constrain_b`), so the
+        spread along the line sets the vertex's depth error.
         """
         uv_a = np.asarray(pixels_a, dtype=float).reshape(-1, 2)
         uv_b = np.asarray(pixels_b, dtype=float).reshape(-1, 2)
-        key = (uv_a.tobytes(), uv_b.tobytes(), noise)
+        n = len(uv_a)
+        click = noise.pixel_px**2 * np.eye(2)
+        spread = np.broadcast_to(click if spread_b is None else spread_b, (n, 2, 2))
+        spread = np.array(spread, dtype=float)
+        key = (uv_a.tobytes(), uv_b.tobytes(), noise, spread.tobytes())
         if self._constrained is not None and self._constrained[0] == key:
             return tuple(np.copy(v) for v in self._constrained[1])
-        n = len(uv_a)
         calib_sigma = [noise.rotation_rad] * 3 + [noise.translation_m] * 3
         calib_sigma += [noise.focal_rel, noise.principal_px, noise.principal_px]
         sigma = np.array([noise.pixel_px] * (4 * n) + calib_sigma * 2)
+        # the parameters' covariance: click noise on image a's pixels, each right-hand
+        # vertex's spread on image b's, calibration errors
+        C = np.diag(sigma**2)
+        for i in range(n):
+            block = slice(2 * n + 2 * i, 2 * n + 2 * i + 2)
+            C[block, block] = spread[i]
         calib_steps = [1e-5] * 7 + [0.5, 0.5]
         steps = np.array([0.5] * (4 * n) + calib_steps * 2)
-        points, gaps = self._constrained_points(uv_a, uv_b, np.zeros(sigma.size))
+        metric = None if spread_b is None else spread
+        points, gaps = self._constrained_points(uv_a, uv_b, np.zeros(sigma.size), metric)
         J = np.zeros((3 * n, sigma.size))
-        for i in np.flatnonzero(sigma):
+        for i in np.flatnonzero(np.diag(C)):
             delta = np.zeros(sigma.size)
             delta[i] = steps[i]
-            plus, _ = self._constrained_points(uv_a, uv_b, delta)
-            minus, _ = self._constrained_points(uv_a, uv_b, -delta)
+            plus, _ = self._constrained_points(uv_a, uv_b, delta, metric)
+            minus, _ = self._constrained_points(uv_a, uv_b, -delta, metric)
             J[:, i] = (plus - minus).ravel() / (2.0 * steps[i])
-        covariance = (J * sigma**2) @ J.T
+        covariance = J @ C @ J.T
         result = (points, 0.5 * (covariance + covariance.T), gaps)
         self._constrained = (key, tuple(np.copy(v) for v in result))
         return result
 
     def _constrained_points(
-        self, uv_a: FloatArray, uv_b: FloatArray, delta: FloatArray
+        self, uv_a: FloatArray, uv_b: FloatArray, delta: FloatArray, spread: FloatArray | None
     ) -> tuple[FloatArray, FloatArray]:
         n = len(uv_a)
         pair = self
@@ -288,7 +338,7 @@ class StereoPair:
                 cam_a.K, cam_a.T_base_camera, cam_b.K, cam_b.T_base_camera, cam_a.dist, cam_b.dist
             )
         a = uv_a + delta[: 2 * n].reshape(n, 2)
-        b = pair.constrain_b(a, uv_b + delta[2 * n : 4 * n].reshape(n, 2)).reshape(n, 2)
+        b = pair.constrain_b(a, uv_b + delta[2 * n : 4 * n].reshape(n, 2), spread).reshape(n, 2)
         result = triangulate_pixels([pair.P_a, pair.P_b], [pair.ideal("a", a), pair.ideal("b", b)])
         return np.asarray(result.point, dtype=float).reshape(n, 3), np.atleast_1d(result.gap)
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation, Slerp
 
 FloatArray = NDArray[np.float64]
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -41,6 +40,8 @@ def tool_pose(
 def rotate_about_axis(T: FloatArray, point: ArrayLike, direction: ArrayLike, angle: float):
     """``T`` turned by ``angle`` (rad, right-hand rule) about the line through ``point`` along
     ``direction``."""
+    from scipy.spatial.transform import Rotation
+
     u = np.asarray(direction, dtype=float)
     R = Rotation.from_rotvec(angle * u / np.linalg.norm(u)).as_matrix()
     c = np.asarray(point, dtype=float)
@@ -55,6 +56,8 @@ def interpolate(
 ) -> tuple[FloatArray, FloatArray]:
     """Dense poses through key poses (straight lines, slerp) and, per sample, the index of the key
     segment it belongs to (the key itself for the last sample of a segment)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
     poses = [keys[0]]
     key_index = [0]
     for k in range(1, len(keys)):

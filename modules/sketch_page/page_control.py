@@ -1,47 +1,61 @@
 """The /sketch page's control, decided in ``step``: which browsers are on the page, who holds
 control (the server's table, shared with the console), each request's decision, and the pause
-of a path whose page went silent (a mixin of
-:class:`~umbra.modules.sketch_page.sketch_page.SketchPage`).
+of a path whose page went silent (a part that
+:class:`~umbra.modules.sketch_page.sketch_page.SketchPage` owns).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import secrets
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.messages import Text
+from umbra.connectors.path_messages import VcrState
 from umbra.modules.operator.control import Decision
 from umbra.modules.sketch.command_text import parse
-from umbra.modules.sketch.messages import VcrState
-from umbra.modules.sketch_page.page_web import PageRequest
+from umbra.modules.sketch_page.page_web import PageRequest, PageWeb
 from umbra.modules.trajectory.vcr import STARTS
+
+if TYPE_CHECKING:
+    from umbra.modules.sketch_page.sketch_page import SketchPage
 
 
 class PageControl:
-    """Control of the /sketch page (``step`` side); state lives on the SketchPage."""
+    """Control of the /sketch page (``step`` side): reads the page module's control table,
+    parameters and log and sends on its ``command`` output; takes the browsers seen from the
+    web side ``web`` and gives it the control view. Keeps each browser's session, the browser
+    that set a path moving, and the counts of commands sent, refused and paused paths."""
 
-    _sessions: dict[str, str]
-    _control: Any
-    _seen: dict[str, tuple[float, str]]
+    def __init__(self, page: SketchPage, web: PageWeb) -> None:
+        self._p = page
+        self._web = web
+        self._sessions: dict[str, str] = {}  #: viewer key -> session in the control table
+        self._numbers = itertools.count(1)
+        self._driver: str | None = None  #: viewer whose VCR command set the path moving
+        self._control_key: tuple[Any, ...] | None = None
+        self.sent = 0  #: commands sent
+        self.control_refused = 0  #: requests refused for want of control
+        self.lost = 0  #: paths paused because the page that set them moving went silent
 
-    def _sync_sessions(self, wall: float) -> dict[str, float]:
+    def sync_sessions(self, wall: float) -> dict[str, float]:
         """Join the browsers whose pages poll, let go of those silent for ``lost_after``;
         returns each seen browser's last contact (monotonic s)."""
-        with self._seen_lock:
-            seen = dict(self._seen)
+        with self._web.seen_lock:
+            seen = dict(self._web.seen)
         gone = []
         for viewer, (last, host) in seen.items():
-            if wall - last <= self.params.lost_after:
+            if wall - last <= self._p.params.lost_after:
                 self._session(viewer, host)
                 continue
             gone.append(viewer)
             if viewer in self._sessions:
                 self._leave(viewer, wall - last)
-        with self._seen_lock:  # forget them, unless they came back meanwhile
+        with self._web.seen_lock:  # forget them, unless they came back meanwhile
             for viewer in gone:
-                if self._seen.get(viewer) == seen[viewer]:
-                    del self._seen[viewer]
+                if self._web.seen.get(viewer) == seen[viewer]:
+                    del self._web.seen[viewer]
         return {viewer: last for viewer, (last, _) in seen.items()}
 
     def _session(self, viewer: str, host: str) -> str:
@@ -49,17 +63,25 @@ class PageControl:
         session = self._sessions.get(viewer)
         if session is None:
             session = f"sketch-{secrets.token_hex(4)}"
-            name = self._control.name_in(viewer) or f"sketch viewer {next(self._numbers)} ({host})"
-            self._control.join(session, name, viewer, lead=False)  # told by browser
+            name = self._p._control.name_in(viewer)
+            if not name:
+                name = f"sketch viewer {next(self._numbers)} ({host})"
+            self._p._control.join(session, name, viewer, lead=False)  # told by browser
             self._sessions[viewer] = session
-            self.log.info("%s opened the Active Sketch page", name)
+            self._p.log.info("%s opened the Active Sketch page", name)
         return session
+
+    def leave_all(self) -> None:
+        """Every browser of this page leaves the control table (the run ends)."""
+        for session in self._sessions.values():
+            self._p._control.leave(session)
+        self._sessions.clear()
 
     def _leave(self, viewer: str, silent: float) -> None:
         session = self._sessions.pop(viewer)
-        name = self._control.sessions.get(session, session)
-        freed = self._control.leave(session)
-        self.log.info(
+        name = self._p._control.sessions.get(session, session)
+        freed = self._p._control.leave(session)
+        self._p.log.info(
             "%s: no poll of the Active Sketch page for %.1f s: gone%s",
             name,
             silent,
@@ -67,11 +89,11 @@ class PageControl:
         )
 
     def _refuse(self, name: str, message: str) -> Decision:
-        self._control_refused += 1
-        self.log.warning("SketchPage %s: %s: %s", self.name, name, message)
+        self.control_refused += 1
+        self._p.log.warning("SketchPage %s: %s: %s", self._p.name, name, message)
         return Decision(False, message)
 
-    def _decide(self, request: PageRequest, wall: float) -> Decision:
+    def decide(self, request: PageRequest, wall: float) -> Decision:
         """Take / release control, or send a command if the request's browser holds control."""
         if not request.viewer:
             return self._refuse(
@@ -80,57 +102,58 @@ class PageControl:
                 "browser (its requests carry the cookie the server gave it)",
             )
         session = self._session(request.viewer, request.host)
-        name = self._control.sessions[session]
+        name = self._p._control.sessions[session]
         if request.kind in ("take", "release"):
             take = request.kind == "take"
-            decision = self._control.take(session) if take else self._control.release(session)
+            decision = self._p._control.take(session) if take else self._p._control.release(session)
             if not decision.ok:
                 return self._refuse(name, decision.message)
-            self.log.info("SketchPage %s: %s", self.name, decision.message)
+            self._p.log.info("SketchPage %s: %s", self._p.name, decision.message)
             return decision
         cmd = parse(request.text)
         words = request.text.split()
         what = " ".join(words[:2]) if cmd.verb in ("vcr", "plan") else words[0]
-        decision = self._control.may_command(session, what)
+        decision = self._p._control.may_command(session, what)
         if not decision.ok:
             return self._refuse(name, decision.message)
         if cmd.verb == "vcr" and cmd.action != "speed":
             self._driver = (
                 request.viewer if cmd.action in STARTS else None
             )  # a page gone silent then pauses it
-        self.command.send(Text(text=request.text, origin=self._command_origin()))
-        self._sent += 1
+        self._p.command.send(Text(text=request.text, origin=self._p._command_origin()))
+        self.sent += 1
         return Decision(True, f"sent {what}")
 
-    def _publish_control(self) -> None:
+    def publish_control(self) -> None:
         """Who holds control, each browser's name, the refusals (for the web thread; the
         browser keys never leave the server)."""
-        c = self._control
+        c = self._p._control
         names = {v: c.sessions.get(s, "") for v, s in self._sessions.items()}
-        refused = self._refused + self._control_refused
+        refused = self._web.refused + self.control_refused
         key = (c.holder_name(), c.holder_browser(), refused, tuple(sorted(names.items())))
         if key != self._control_key:
             self._control_key = key
-            self._control_view.put(
+            self._web.control_view.put(
                 {"holder": key[0], "holder_browser": key[1], "refused": refused, "names": names}
             )
 
-    def _watch_page(self, vcr: VcrState | None, seen: dict[str, float], wall: float) -> None:
+    def watch_page(self, vcr: VcrState | None, seen: dict[str, float], wall: float) -> None:
         """Pause a path set moving from this page once that browser's page has not polled
         for ``lost_after``."""
         if self._driver is None:
             return
         silent = wall - seen.get(self._driver, -math.inf)
-        moving = vcr is not None and vcr.mode in ("playing", "backing", "seeking", "gripping")
-        if moving and silent > self.params.lost_after:
+        if vcr is None or vcr.mode not in ("playing", "backing", "seeking", "gripping"):
+            return  # not moving
+        if silent > self._p.params.lost_after:
             self._driver = None
-            self._lost += 1
-            self.log.warning(
+            self.lost += 1
+            self._p.log.warning(
                 "SketchPage %s: the page that set %s moving has not polled for %.1f s while "
                 "it was %s: pausing it",
-                self.name,
+                self._p.name,
                 vcr.path_id,
                 silent,
                 vcr.mode,
             )
-            self.command.send(Text(text="vcr pause", origin=self._command_origin()))
+            self._p.command.send(Text(text="vcr pause", origin=self._p._command_origin()))

@@ -5,9 +5,10 @@ fundamental matrix ``F`` (``x_b^T F x_a = 0``, ideal pixels; the page's fallback
 epipolar curve of a vertex, distortion included, comes from ``/sketch/epipolar``, computed by
 :meth:`umbra.modules.sketch.stereo.StereoPair.epipolar_curve_b`), each image's size, the camera
 matrices for the test tools, every primitive with its vertices reprojected from 3-D, its
-centroid (m, base: where the cameras aim) and largest sigma (mm), the macro menu of each kind of
-primitive, and the planned tool path projected into both images, and the last macro's verdict
-(success or miss, with the numbers).
+centroid (m, base: where the cameras aim), largest sigma (mm) and warnings in words (a vertex
+whose depth is poorly constrained, and what to do: ``modules/sketch/depth_check.py``), the macro
+menu of each kind of primitive, and the planned tool path projected into both images, and the
+last macro's verdict (success or miss, with the numbers).
 """
 
 from __future__ import annotations
@@ -17,9 +18,12 @@ from typing import Any
 import numpy as np
 
 from umbra.connectors.messages import Status
+from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
+from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.geometry.rays import fundamental_matrix
+from umbra.modules.sketch.depth_check import depth_warnings
 from umbra.modules.sketch.macros import MENU, macro_label, menu_for
-from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from umbra.modules.sketch.stereo import StereoPair
 
 
@@ -38,7 +42,7 @@ def page_state(
     path: ToolPath | None,
     vcr: VcrState | None,
     status: Status | None,
-    verdict: Status | None = None,
+    verdict: Verdict | None = None,
 ) -> dict[str, Any]:
     """The page's JSON state (see module docstring)."""
     state: dict[str, Any] = {
@@ -76,10 +80,12 @@ def page_state(
             "points_m": _r(prim.points, 5),
             "centroid_m": _r(np.mean(prim.points, axis=0), 5),
             "sigma_mm": _r(np.sqrt(np.linalg.eigvalsh(prim.covariances)[:, -1]) * 1e3, 2),
+            "warnings": [],
         }
         if pair is not None:
             entry["reprojected_a"] = _r(pair.project("a", prim.points))
             entry["reprojected_b"] = _r(pair.project("b", prim.points))
+            entry["warnings"] = depth_warnings(pair, prim)
         state["primitives"].append(entry)
     if current:
         state["menu"] = _menu(menu_for(current[-1]))
@@ -115,6 +121,6 @@ def page_state(
             "macro": verdict.stage,
             "label": macro_label(verdict.stage),
             "text": verdict.message,
-            "success": bool(verdict.values.get("success", 0.0)),
+            "success": verdict.outcome == Outcome.SUCCEEDED,
         }
     return state

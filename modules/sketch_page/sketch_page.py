@@ -2,30 +2,25 @@
 
 from __future__ import annotations
 
-import asyncio
-import collections
-import itertools
 import math
-import threading
 import time
-from typing import Any
 
 import cv2
 
 from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.access.secret import resolve_token
 from umbra.connectors.messages import Image, Status, Text
-from umbra.modules.operator.mailbox import Lanes, Latest
+from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
+from umbra.connectors.states import Verdict
 from umbra.modules.operator.web_server import acquire_server, release_server
-from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from umbra.modules.sketch.stereo import StereoPair
 from umbra.modules.sketch_page.page_control import PageControl
 from umbra.modules.sketch_page.page_state import page_state
-from umbra.modules.sketch_page.page_web import PageRequest, PageWeb
-from umbra.modules.webdoor.gate import Refusals
+from umbra.modules.sketch_page.page_web import PageWeb
 
 
-class SketchPage(PageControl, PageWeb, Module):
+class SketchPage(Module["SketchPage.Params"]):
     """The operator's Active Sketch page on the console's web server (``/sketch``).
 
     Shows the last snapshot pair side by side with SVG overlays: primitives dropped in both
@@ -76,7 +71,7 @@ class SketchPage(PageControl, PageWeb, Module):
     vcr_state = Input(VcrState, required=False, feedback=True, doc="the player's state")
     sketch_status = Input(Status, required=False, doc="Sketch's reply to each command")
     verdict = Input(
-        Status,
+        Verdict,
         required=False,
         doc="each macro's verdict, success or miss with the numbers (SketchWorld.verdict)",
     )
@@ -91,44 +86,12 @@ class SketchPage(PageControl, PageWeb, Module):
         token = resolve_token(p.token_file, self.name)
         self._server = acquire_server(self.context, p.host or None, p.port or None, token)
         self._control = self._server.control  # shared with the console of this server
-        self._state: Latest[dict[str, Any]] = Latest()
-        self._control_view: Latest[dict[str, Any]] = Latest()
-        self._images: Latest[tuple[str, bytes, bytes]] = Latest()
-        self._live: dict[str, Latest[Image]] = {"a": Latest(), "b": Latest()}
-        #: per live camera: (frame version, JPEG, stamp) of the last encoding, for every poll of
-        #: that frame (web thread), and the encodings counted
-        self._live_jpeg: dict[str, tuple[int, bytes, float]] = {}
-        self._live_locks: dict[str, asyncio.Lock] = {}
-        self.live_encodes: collections.Counter[str] = collections.Counter()
-        #: the snapshot's stereo pair and image b's size, for epipolar curves (web thread)
-        self._pair: Latest[tuple[str, StereoPair, tuple[int, int]]] = Latest()
-        #: requests by browser: the holder's never wait behind another browser's
-        self._inbox: Lanes[PageRequest] = Lanes(per_session=4, budget=16, holder_capacity=64)
+        self.web = PageWeb(self.name, p.jpeg_quality)  #: the routes (web thread)
+        self.page_control = PageControl(self, self.web)  #: control and commands (step)
         self._primitives: list[SketchPrimitive] = []
-        self._vcr_key: tuple | None = None
-        self._control_key: tuple | None = None
-        self._sent = 0
-        self._refused = 0  #: malformed requests (web thread)
-        self._control_refused = 0  #: requests refused for want of control (step)
-        #: viewer key -> (monotonic time of its page's last poll or request, its address);
-        #: written by the web thread, read by ``step``
-        self._seen: dict[str, tuple[float, str]] = {}
-        self._seen_lock = threading.Lock()
-        self._malformed_log = Refusals()  #: logs malformed requests at most once a second
-        self._sessions: dict[str, str] = {}  #: viewer key -> session in the control table
-        self._numbers = itertools.count(1)
-        self._driver: str | None = None  #: viewer whose VCR command set the path moving
-        self._lost = 0
+        self._vcr_key: tuple[str, str, float, float, str] | None = None
         self._now = 0.0  #: the current step's time [s]
-        app = self._server.app
-        app.add_api_route("/sketch", self._page, methods=["GET"])
-        app.add_api_route("/sketch/sketch.js", self._script, methods=["GET"])
-        app.add_api_route("/sketch/state", self._get_state, methods=["GET"])
-        app.add_api_route("/sketch/image/{side}", self._image, methods=["GET"])
-        app.add_api_route("/sketch/live/{side}", self._live_image, methods=["GET"])
-        app.add_api_route("/sketch/epipolar", self._epipolar, methods=["GET"])
-        app.add_api_route("/sketch/command", self._post_command, methods=["POST"])
-        app.add_api_route("/sketch/control", self._post_control, methods=["POST"])
+        self.web.add_routes(self._server.app)
         self._server.add_link("/sketch", "Active Sketch")
         self.log.info("Active Sketch page: %s", self.url)
 
@@ -144,7 +107,7 @@ class SketchPage(PageControl, PageWeb, Module):
         read: in a process of its own the page may hold a sample that came before its clock
         was matched to its producer's, undatable for good, which would make every command,
         and the path planned from it, undatable too (the player refuses such a path)."""
-        snap = self.snapshot.value
+        snap: StereoSnapshot | None = self.snapshot.value
         if snap is not None and math.isfinite(snap.origin) and snap.origin > 0:
             return snap.origin
         return self._now
@@ -157,9 +120,9 @@ class SketchPage(PageControl, PageWeb, Module):
             quality = [cv2.IMWRITE_JPEG_QUALITY, self.params.jpeg_quality]
             a = cv2.imencode(".jpg", snap.image_a, quality)[1].tobytes()
             b = cv2.imencode(".jpg", snap.image_b, quality)[1].tobytes()
-            self._images.put((snap.snapshot_id, a, b))
+            self.web.images.put((snap.snapshot_id, a, b))
             size_b = (int(snap.image_b.shape[1]), int(snap.image_b.shape[0]))
-            self._pair.put((snap.snapshot_id, StereoPair.from_snapshot(snap), size_b))
+            self.web.pair.put((snap.snapshot_id, StereoPair.from_snapshot(snap), size_b))
             changed = True
         prim = self.primitive.get(now)
         if prim is not None and self.primitive.fresh:
@@ -174,7 +137,7 @@ class SketchPage(PageControl, PageWeb, Module):
             changed |= key != self._vcr_key
             self._vcr_key = key
         if changed:
-            self._state.put(
+            self.web.state.put(
                 page_state(
                     self.snapshot.get(now),
                     self._primitives,
@@ -187,28 +150,28 @@ class SketchPage(PageControl, PageWeb, Module):
         for side, port in (("a", self.live_a), ("b", self.live_b)):
             frame = port.get(now)
             if frame is not None and port.fresh:
-                self._live[side].put(frame)  # encoded only when a page asks (web thread)
+                self.web.live[side].put(frame)  # encoded only when a page asks (web thread)
         wall = time.monotonic()
-        seen = self._sync_sessions(wall)
-        for request in self._inbox.drain():
+        control = self.page_control
+        seen = control.sync_sessions(wall)
+        for request in self.web.inbox.drain():
             if request.reply.set_running_or_notify_cancel():  # else the web side gave up
-                request.reply.set_result(self._decide(request, wall))
+                request.reply.set_result(control.decide(request, wall))
         holder = self._control.holder_browser()
-        self._inbox.set_holders(frozenset((holder,)) if holder else frozenset())
-        self._publish_control()
-        self._watch_page(vcr, seen, wall)
+        self.web.inbox.set_holders(frozenset((holder,)) if holder else frozenset())
+        control.publish_control()
+        control.watch_page(vcr, seen, wall)
 
     def stop(self) -> None:
-        for session in self._sessions.values():
-            self._control.leave(session)
-        self._sessions.clear()
+        self.page_control.leave_all()
         release_server(self._server)
 
     def summary(self) -> dict[str, int]:
+        control, malformed = self.page_control, self.web.refused
         return {
-            "commands_sent": self._sent,
-            "commands_refused": self._refused + self._control_refused,
-            "malformed": self._refused,
-            "control_refused": self._control_refused,
-            "paused_for_lost_page": self._lost,
+            "commands_sent": control.sent,
+            "commands_refused": malformed + control.control_refused,
+            "malformed": malformed,
+            "control_refused": control.control_refused,
+            "paused_for_lost_page": control.lost,
         }

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
 
 FloatArray = NDArray[np.float64]
 
@@ -18,6 +17,8 @@ class JointPath:
     """``q(s)`` and its derivatives over ``[0, length]`` from waypoints ``(s_i, q_i)``."""
 
     def __init__(self, s: ArrayLike, joints: ArrayLike) -> None:
+        from scipy.interpolate import CubicSpline
+
         s_arr = np.asarray(s, dtype=float)
         q = np.asarray(joints, dtype=float)
         if s_arr.ndim != 1 or q.ndim != 2 or q.shape[0] != s_arr.size or s_arr.size < 2:

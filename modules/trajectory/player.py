@@ -29,9 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.connectors.commands import GripperAction
+from umbra.connectors.path_messages import ToolPath
 from umbra.modules.arm.dh import DHTable
 from umbra.modules.arm.jacobian import jacobian_and_pose
-from umbra.modules.sketch.messages import ToolPath
 from umbra.modules.trajectory.joint_path import JointPath
 from umbra.modules.trajectory.vcr import MOVING_MODES, STARTS, Vcr, VcrError, VcrLimits
 
@@ -41,10 +42,10 @@ FloatArray = NDArray[np.float64]
 @dataclass(frozen=True)
 class PlayerOutput:
     """One tick: tool twist ``[v; w]`` (m/s, rad/s; tool point, tool frame), a gripper command
-    ("", "open" or "close"), the desired joints, and the VCR's mode and parameter."""
+    (None: none this tick), the desired joints, and the VCR's mode and parameter."""
 
     twist_tool: FloatArray
-    gripper: str
+    gripper: GripperAction | None
     q_desired: FloatArray
     mode: str
     s: float
@@ -131,7 +132,7 @@ class PathPlayer:
         self._hold = 0.0  # seconds left of a gripper wait
         self._after_hold = ""  # VCR action to take when the wait is over
         self._end_done = False  # the event at the path's end has been made
-        self._pending_gripper = ""
+        self._pending_gripper: GripperAction | None = None
 
     # -- commands -----------------------------------------------------------------------------
     def command(
@@ -209,10 +210,10 @@ class PathPlayer:
         R = T_base_tool[:3, :3]
         twist_tool = np.concatenate([R.T @ twist_base[:3], R.T @ twist_base[3:]])
         mode = "gripping" if self._hold > 0 else st.mode
-        gripper, self._pending_gripper = self._pending_gripper, ""
+        gripper, self._pending_gripper = self._pending_gripper, None
         return PlayerOutput(twist_tool, gripper, q_d, mode, st.s, st.s_dot, st.s_ddot, st.reason)
 
     def _grip(self, opening: float, then: str) -> None:
-        self._pending_gripper = "close" if opening < 0.5 else "open"
+        self._pending_gripper = GripperAction.CLOSE if opening < 0.5 else GripperAction.OPEN
         self._hold = self.gripper_time
         self._after_hold = then

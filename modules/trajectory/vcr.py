@@ -19,10 +19,13 @@ Units: ``s`` in path units (the planner's; radians of weighted joint arc), time 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
-from ruckig import ControlInterface, InputParameter, Result, Ruckig, Trajectory
+
+if TYPE_CHECKING:  # imported where used: checking a graph loads this file without it
+    from ruckig import InputParameter
 
 MODES = (
     "idle",
@@ -122,6 +125,8 @@ class Vcr:
     """Path-parameter player over ``[0, length]`` with stop points ``stops`` (gripper events)."""
 
     def __init__(self, length: float, limits: VcrLimits, stops: ArrayLike = ()) -> None:
+        from ruckig import Ruckig, Trajectory
+
         if not (np.isfinite(length) and length > 0):
             raise VcrError(f"path length must be finite and > 0, got {length}")
         self.length = float(length)
@@ -217,6 +222,8 @@ class Vcr:
         return abs(st.s_dot) < _STILL and abs(st.s_ddot) < 1e-6
 
     def _input(self) -> InputParameter:
+        from ruckig import InputParameter
+
         st, lim = self.state, self.limits
         inp = InputParameter(1)
         inp.current_position = [st.s]
@@ -238,6 +245,8 @@ class Vcr:
         self._sample(dt)
 
     def _advance_velocity(self, dt: float) -> None:
+        from ruckig import ControlInterface
+
         key = ("velocity", 0.0, self.limits.rate * self.state.speed)
         if key != self._plan_key:
             inp = self._input()
@@ -248,6 +257,8 @@ class Vcr:
     def _plan(self, inp: InputParameter, key: tuple) -> None:
         """A new time-optimal plan from the current state; kept until the command changes, so
         the state follows one exact jerk-limited trajectory (no re-planning chatter)."""
+        from ruckig import Result
+
         result = self._otg.calculate(inp, self._trajectory)
         if result not in (Result.Working, Result.Finished):
             raise VcrError(f"ruckig could not time the path parameter: {result}")

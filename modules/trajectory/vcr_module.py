@@ -5,16 +5,18 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, from_param, param
+from umbra.connectors.commands import GripperCommand
 from umbra.connectors.limits import MAX_PATH_AGE_S
-from umbra.connectors.messages import JointState, Status, Text, Twist
+from umbra.connectors.messages import JointState, Twist
+from umbra.connectors.path_messages import ToolPath, VcrCommand, VcrState
+from umbra.connectors.states import GuardState
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
-from umbra.modules.sketch.messages import ToolPath, VcrCommand, VcrState
 from umbra.modules.trajectory.player import PathPlayer, PlayerOutput
 from umbra.modules.trajectory.vcr import ARGUMENT, MOVING_MODES, STARTS, VcrError
 
 
-class VcrPlayer(Module):
+class VcrPlayer(Module["VcrPlayer.Params"]):
     """Plays a checked tool path with VCR commands: play, pause (jerk-limited stop on the path),
     back (along the same path), speed 0.1..1, seek, resume.
 
@@ -34,8 +36,12 @@ class VcrPlayer(Module):
     TYPE = "VCR_PLAYER"
 
     class Params(ArmParams):
-        tool_xyz: list[float] = param([0.0, 0.0, 0.14], "tool point in the flange", unit="m")
-        tool_rpy_deg: list[float] = param([0.0, 0.0, 0.0], "tool frame in the flange", unit="deg")
+        tool_xyz: list[float] = param(
+            [0.0, 0.0, 0.14], "tool point in the flange", unit="m", min_length=3, max_length=3
+        )
+        tool_rpy_deg: list[float] = param(
+            [0.0, 0.0, 0.0], "tool frame in the flange", unit="deg", min_length=3, max_length=3
+        )
         tool_frame: str = param("tool", "frame of the output twist")
         stop_time: float = param(0.25, "pause: stop from full speed within", unit="s", gt=0)
         gain: float = param(4.0, "joint tracking gain", unit="1/s", ge=0, le=50)
@@ -61,14 +67,16 @@ class VcrPlayer(Module):
     )
     command = Input(VcrCommand, required=False, doc="VCR commands from the console")
     joint_state = Input(JointState, feedback=True, doc="measured joints")
-    guard = Input(Status, required=False, feedback=True, doc="REG_VEL status: zero = guard stop")
+    guard = Input(
+        GuardState, required=False, feedback=True, doc="REG_VEL's state: zero = guard stop"
+    )
     twist = Output(
         Twist,
         frame=from_param("tool_frame"),
         origin_from=("joint_state",),  # the path is judged on loading and at play (max_path_age)
         doc="tool twist command (to REG_VEL)",
     )
-    gripper = Output(Text, events=True, doc="gripper events: open / close (to REG_VEL)")
+    gripper = Output(GripperCommand, events=True, doc="gripper events: open / close (to REG_VEL)")
     state = Output(VcrState, doc="mode, path parameter, speed, halt reason")
 
     def start(self) -> None:
@@ -101,8 +109,8 @@ class VcrPlayer(Module):
         if self.command.link_gone and mode in MOVING_MODES:
             self._halt("console lost")
         guard = self.guard.get(now)
-        if guard is not None and guard.stage == "zero" and mode in MOVING_MODES:
-            self._halt(f"guard stop: {guard.reason or guard.message}", freeze=True)
+        if guard is not None and not guard.passing and mode in MOVING_MODES:
+            self._halt(f"guard stop: {guard.reason}", freeze=True)
         out = self.player.step(dt, np.asarray(state.position, dtype=float))
         self._send(out)
 
@@ -195,8 +203,8 @@ class VcrPlayer(Module):
     def _send(self, out: PlayerOutput) -> None:
         assert self.player is not None
         self.twist.send(Twist(vector=out.twist_tool, frame=self.params.tool_frame))
-        if out.gripper:
-            self.gripper.send(Text(text=out.gripper))
+        if out.gripper is not None:
+            self.gripper.send(GripperCommand(action=out.gripper))
         length = self.player.joint_path.length
         self.state.send(
             VcrState(

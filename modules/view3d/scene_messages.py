@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.view3d.scene_file import PRIMITIVE_KINDS, SceneBox, ScenePrimitive, SceneSnapshot
 
 

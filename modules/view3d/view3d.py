@@ -4,14 +4,18 @@ from __future__ import annotations
 
 import threading
 from pathlib import Path
+from typing import overload
 
 import numpy as np
+from pydantic import field_validator, model_validator
 
-from umbra.connectors import Input, Module, Output, UserError, from_param, param
+from umbra.connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
 from umbra.connectors.access.secret import resolve_token
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
+from umbra.connectors.params import RunFile
+from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.arm_params import ArmParams
-from umbra.modules.sketch.messages import SceneObjects, SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.view3d.geometry import (
     viewer_pose_looking_at,
 )
@@ -19,7 +23,7 @@ from umbra.modules.view3d.pose_tool_panel import PoseTool
 from umbra.modules.view3d.pose_tool_widgets import PoseToolWidgets, snapshot_image_depth
 from umbra.modules.view3d.scene_file import Scene, load_scene
 from umbra.modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
-from umbra.modules.view3d.view3d_push import CAMERAS, ViewPush
+from umbra.modules.view3d.view3d_push import CAMERAS, SceneItem, ViewPush
 from umbra.modules.view3d.viewer import ViewerPage
 
 
@@ -42,27 +46,63 @@ class View3DParams(ArmParams):
         [800.0, 800.0, 640.0, 360.0, 1280.0, 720.0],
         "wrist camera fx fy u0 v0 width height without a wrist_model input",
         unit="px",
+        min_length=6,
+        max_length=6,
     )
     wrist_frame: str = param("camera", "the wrist camera's frame in the static frames")
     tool_frame: str = param("tool", "frame the arm's tool is (static frame below flange)")
     table_frame: str = param("table", "the table top's frame (z up); '' for no table")
-    table_size_m: list[float] = param([1.4, 1.2, 0.04], "table x, y, thickness", unit="m")
-    tray_size_m: list[float] = param([0.3, 0.22, 0.01], "tray under the tool x, y, z", unit="m")
-    tool_size_m: list[float] = param([0.08, 0.05, 0.03], "tool body x, y, height", unit="m")
-    overview_xyz_m: list[float] = param([1.9, -1.6, 1.4], "overview viewer position", unit="m")
-    overview_target_m: list[float] = param([0.45, 0.0, 0.3], "overview look-at point", unit="m")
+    table_size_m: list[float] = param(
+        [1.4, 1.2, 0.04], "table x, y, thickness", unit="m", min_length=3, max_length=3
+    )
+    tray_size_m: list[float] = param(
+        [0.3, 0.22, 0.01], "tray under the tool x, y, z", unit="m", min_length=3, max_length=3
+    )
+    tool_size_m: list[float] = param(
+        [0.08, 0.05, 0.03], "tool body x, y, height", unit="m", min_length=3, max_length=3
+    )
+    overview_xyz_m: list[float] = param(
+        [1.9, -1.6, 1.4], "overview viewer position", unit="m", min_length=3, max_length=3
+    )
+    overview_target_m: list[float] = param(
+        [0.45, 0.0, 0.3], "overview look-at point", unit="m", min_length=3, max_length=3
+    )
     overview_fov_deg: float = param(
         50.0, "overview vertical field of view", unit="deg", gt=1, lt=170
     )
     animation_s: float = param(1.0, "duration of a viewer move", unit="s", ge=0, le=10)
-    scene_file: str = param("scene.json", "scene file in the run folder, saved on every change")
+    scene_file: RunFile = param("scene.json", "scene file in the run folder, saved on every change")
     load_scene: str = param("", "scene file to load at start (a previous run's)")
     pose_tool_mount: str = param(
         "tool->camera", "the static frame parent->child the pose tool corrects (a camera mount)"
     )
 
+    @field_validator("pose_tool_mount")
+    @classmethod
+    def _parent_child(cls, value: str) -> str:
+        parent, sep, child = value.partition("->")
+        if not sep or not parent.strip() or not child.strip():
+            raise ValueError(f"must be written parent->child, found {value!r}")
+        return value
 
-class View3D(ViewPush, Module):
+    @model_validator(mode="after")
+    def _scene_in_world_frame(self) -> View3DParams:
+        """A scene to load is a scene file, in the view's frame."""
+        if self.load_scene:
+            try:
+                frame = load_scene(self.load_scene).frame
+            except UserError as exc:
+                raise ParamProblem("load_scene", f"cannot be loaded: {exc}") from None
+            if frame != self.world_frame:
+                raise ParamProblem(
+                    "load_scene",
+                    f"is a scene in frame {frame!r}; expected the view's world_frame "
+                    f"{self.world_frame!r}",
+                )
+        return self
+
+
+class View3D(Module[View3DParams]):
     """The live 3-D view: the arm from its DH table moving with the joint state; the table,
     tray and tool, the frames named (base, table, tool, each camera); the task's stage (the
     ``stage`` input) as a state line; each camera (``wrist``, ``left``, ``right``) that the graph
@@ -124,34 +164,14 @@ class View3D(ViewPush, Module):
 
     def start(self) -> None:
         p = self.params
-        for name, values, n in (
-            ("wrist_intrinsics", p.wrist_intrinsics, 6),
-            ("table_size_m", p.table_size_m, 3),
-            ("tray_size_m", p.tray_size_m, 3),
-            ("tool_size_m", p.tool_size_m, 3),
-            ("overview_xyz_m", p.overview_xyz_m, 3),
-            ("overview_target_m", p.overview_target_m, 3),
-        ):
-            if len(values) != n or not np.all(np.isfinite(values)):
-                raise UserError(f"{self.name}: {name} needs {n} finite numbers, got {values}")
-        self._pose_tool_frames()  # checked before anything starts
         self._lock = threading.Lock()
-        self._latest: dict[str, object] = {}
-        self._new_items: list[object] = []
-        self._scene = Scene(frame=p.world_frame)
+        scene = Scene(frame=p.world_frame)
         if p.load_scene:
-            self._scene = load_scene(p.load_scene)
-            if self._scene.frame != p.world_frame:
-                raise UserError(
-                    f"{self.name}: scene file {p.load_scene} is in frame {self._scene.frame!r}, "
-                    f"the view's world_frame is {p.world_frame!r}"
-                )
-            self._new_items.extend(self._scene.snapshots.values())
-            self._new_items.extend(self._scene.boxes.values())
-            self._new_items.extend(self._scene.primitives.values())
-        self._scene_path = Path(self.context.output_dir) / p.scene_file
-        self._scene_dirty = False
-        self._saves = 0
+            scene = load_scene(p.load_scene)  # read and judged by View3DParams
+        self.push = ViewPush(self, self._lock, scene, Path(self.context.output_dir) / p.scene_file)
+        self.push.new_items.extend(scene.snapshots.values())
+        self.push.new_items.extend(scene.boxes.values())
+        self.push.new_items.extend(scene.primitives.values())
         self._refused = 0
         self._T_world_base = self._lookup(p.world_frame, "base", np.eye(4))
         self._T_flange_tool = self._lookup("flange", p.tool_frame, None)
@@ -176,63 +196,39 @@ class View3D(ViewPush, Module):
             raise UserError(
                 f"{self.name}: cannot serve the 3-D view on {p.host}:{p.port}: {error.strerror}"
             ) from None
-        self.page.on_save = self.save_now
-        self.page.on_snapshot = self._snapshot_taken
+        self.page.on_save = self.push.save_now
+        self.page.on_snapshot = self.push.add_item
         self._start_pose_tool()
         self.address = self.page.address
         print(f"3-D view: {self.address}", flush=True)
         self.log.info("3-D view at %s", self.address)
-        self._draw_static(None)
-        self._sent_frames = 0
-        self._updates = 0
-        self._skipped_idle = 0
-        self._shown: dict[str, object] = {}  # the samples on the page now, by input
-        self._failed = 0  # parts of updates that failed (malformed samples)
-        self._warned: set[str] = set()
-        self._stopping = threading.Event()
-        self._thread = threading.Thread(
-            target=self._pusher, name=f"{self.name}-view3d", daemon=True
-        )
-        self._thread.start()
+        self.push.draw_static(None)
+        self.push.start()
 
     def stop(self) -> None:
-        if getattr(self, "_thread", None) is not None:
-            self._stopping.set()
-            self._thread.join(timeout=5.0)
-        pending = getattr(self, "_new_items", None)
-        if pending:  # arrived after the sender's last turn: keep them too
-            for item in pending:
-                kind = {"SceneSnapshot": "snapshots", "SceneBox": "boxes"}.get(
-                    type(item).__name__, "primitives"
-                )
-                getattr(self._scene, kind)[item.id] = item
-            self._scene_dirty = True
-        if getattr(self, "_scene_dirty", False):
-            self._save()
+        push: ViewPush | None = getattr(self, "push", None)
+        if push is not None:
+            push.stop()
         if getattr(self, "page", None) is not None:
             self.page.stop()
 
     def summary(self) -> dict[str, object]:
+        push: ViewPush | None = getattr(self, "push", None)
         return {
             "address": getattr(self, "address", "").split("?")[0],  # not the token: a file
             "refused_requests": self.page.door.refused if getattr(self, "page", None) else 0,
-            "updates_sent": getattr(self, "_updates", 0),
+            "updates_sent": 0 if push is None else push.updates,
             "video_frames_sent": {k: s.frames_sent for k, s in self.page.cameras.items()}
             if getattr(self, "page", None) is not None
             else {},
-            "scene_items": self._scene.count() if hasattr(self, "_scene") else 0,
+            "scene_items": 0 if push is None else push.scene.count(),
             "items_refused": getattr(self, "_refused", 0),
-            "update_parts_failed": getattr(self, "_failed", 0),
-            "scene_file": str(getattr(self, "_scene_path", "")),
+            "update_parts_failed": 0 if push is None else push.failed,
+            "scene_file": "" if push is None else str(push.scene_path),
         }
 
     def _pose_tool_frames(self) -> tuple[str, str]:
-        parent, sep, child = self.params.pose_tool_mount.partition("->")
-        if not sep or not parent.strip() or not child.strip():
-            raise UserError(
-                f"{self.name}: pose_tool_mount must be written parent->child, got "
-                f"{self.params.pose_tool_mount!r}"
-            )
+        parent, _, child = self.params.pose_tool_mount.partition("->")  # View3DParams: a -> b
         return parent.strip(), child.strip()
 
     def _start_pose_tool(self) -> None:
@@ -257,11 +253,13 @@ class View3D(ViewPush, Module):
         with self._lock:  # called on the page's thread; step sends it
             self._mounts.append(np.array(T_parent_child))
 
-    def _snapshot_taken(self, snapshot) -> None:
-        with self._lock:
-            self._new_items.append(snapshot)
-
-    def _lookup(self, parent: str, child: str, default):
+    @overload
+    def _lookup(self, parent: str, child: str, default: np.ndarray) -> np.ndarray: ...
+    @overload
+    def _lookup(self, parent: str, child: str, default: None) -> np.ndarray | None: ...
+    def _lookup(self, parent: str, child: str, default: np.ndarray | None) -> np.ndarray | None:
+        """T_parent_child from the static frames (the identity for one frame); ``default``
+        when they do not tie the two."""
         frames = self.context.frames
         if parent == child:
             return np.eye(4)
@@ -272,7 +270,7 @@ class View3D(ViewPush, Module):
     # -- step: keep the newest samples (cheap; never blocks) ------------------------------------
 
     def step(self, now: float) -> None:
-        latest = {}
+        latest: dict[str, object] = {}
         for port in (
             "joint_state",
             "patch_pose",
@@ -283,7 +281,7 @@ class View3D(ViewPush, Module):
             sample = getattr(self, port).get(now)
             if sample is not None:
                 latest[port] = sample
-        items = []
+        items: list[SceneItem] = []
         try:
             if self.snapshot.fresh and (s := self.snapshot.get(now)) is not None:
                 items.extend(snapshot_items(s, self._to_world(s.frame)))
@@ -295,8 +293,8 @@ class View3D(ViewPush, Module):
             self._refused += 1
             self.log.warning("3-D view refused a sketch item: %s", error)
         with self._lock:
-            self._latest = latest
-            self._new_items.extend(items)
+            self.push.latest = latest
+            self.push.new_items.extend(items)
             mounts, self._mounts = self._mounts, []
         for T in mounts:
             tool = self.pose_tool.tool
@@ -309,7 +307,7 @@ class View3D(ViewPush, Module):
                     message=self.address.split("?")[0],  # not the token: it travels
                     values={
                         "browsers": float(self.page.clients()),
-                        "updates_sent": float(self._updates),
+                        "updates_sent": float(self.push.updates),
                     },
                 )
             )

@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbra.connectors.messages import Poses
+from umbra.connectors.scene_messages import SceneObjects
 from umbra.modules.arm.arm_solids import arm_boxes, box_corners
-from umbra.modules.sketch.messages import SceneObjects
 from umbra.modules.vision.scene import RGB, Occluder
 
 FloatArray = NDArray[np.float64]

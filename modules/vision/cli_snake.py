@@ -15,18 +15,20 @@ from __future__ import annotations
 
 import argparse
 
-import cv2
 import numpy as np
+import pydantic
 
 from umbra.connectors.cli_support import parse_set, print_json
 from umbra.connectors.errors import UserError
+from umbra.connectors.params import validation_problems
 from umbra.modules.vision.image_file import read_image
 from umbra.modules.vision.overlay import draw_overlay
-from umbra.modules.vision.snake_config import SettingsError, settings_from
+from umbra.modules.vision.snake_config import SnakeSettings, snake_setup
 from umbra.modules.vision.tracker import SnakeTracker
 
 NAME = "snake"
 HELP = "run the snake on one image until it converges"
+GUIDE = "docs/guide/pickup.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -64,12 +66,16 @@ def _load(path: str) -> np.ndarray:
 
 
 def main(args: argparse.Namespace) -> int:
+    import cv2
+
     image = _load(args.image)
     seed = _seed(args.seed, image.shape)
     try:
-        params, limits = settings_from(parse_set(args.set))
-    except SettingsError as exc:
-        raise UserError(f"--set: {exc}") from None
+        settings = SnakeSettings(**parse_set(args.set))
+    except pydantic.ValidationError as exc:
+        problems = "; ".join(validation_problems(SnakeSettings, exc))
+        raise UserError(f"--set: snake settings: {problems}") from None
+    params, limits = snake_setup(settings)
     tracker = SnakeTracker(params, limits)
     try:
         tracker.seed_at_point(image, seed)

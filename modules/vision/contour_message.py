@@ -6,19 +6,22 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from umbra.connectors.messages import Contour
+from umbra.connectors.tracking import SnakeCheck, TrackStatus
 from umbra.modules.vision.features import PolygonFeatures
 
 
 def contour_message(
     vertices: ArrayLike,
     features: PolygonFeatures | None,
-    status: str,
+    status: TrackStatus,
     reason: str,
     stamp: float,
     offending: ArrayLike | None = None,
+    checks: tuple[SnakeCheck, ...] = (),
 ) -> Contour:
     """A :class:`Contour` of ``vertices`` (N x 2 px) with ``features`` (None: empty centroid and
-    axes, zero area and orientation), and ``offending`` vertex indices when given."""
+    axes, zero area and orientation), ``offending`` vertex indices when given, and the codes of
+    the failed ``checks``."""
     if features is None:
         centroid, area, orientation, axes = np.zeros(0), 0.0, 0.0, np.zeros(0)
     else:
@@ -34,6 +37,7 @@ def contour_message(
         axes=axes,
         status=status,
         reason=reason,
+        checks=checks,
         stamp=stamp,
         **extra,
     )

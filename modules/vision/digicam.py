@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections import Counter, deque
-from typing import Literal
+from collections import Counter
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from pydantic import model_validator
@@ -20,13 +20,15 @@ from umbra.connectors import (
 )
 from umbra.connectors.limits import MAX_IMAGE_SIDE_PX
 from umbra.connectors.messages import CameraModel, Contour, Image, Pose, Poses
-from umbra.modules.vision.capture import CaptureError, CaptureReader, CaptureSource
-from umbra.modules.vision.capture_source import CameraSource
+from umbra.connectors.params import Channel, NonNegative, Positive
+from umbra.modules.vision.capture_source import CameraSource, CaptureError, CaptureSource
 from umbra.modules.vision.digicam_sim import SimCameraSide
-from umbra.modules.vision.sim_camera import SceneFault, SimulatedCamera
+
+if TYPE_CHECKING:  # imported by start(): checking a graph needs no OpenCV
+    from umbra.modules.vision.capture import CaptureReader
 
 
-class DigiCam(SimCameraSide, Module):
+class DigiCam(Module["DigiCam.Params"]):
     """Frames from a camera device, a video file, a stream URL, or the simulated wrist camera.
 
     ``source``: ``sim``, a device index (``0``, quoted or not) or device path (``/dev/video0``), a
@@ -102,16 +104,16 @@ class DigiCam(SimCameraSide, Module):
             [0.0, 0.0, 0.03], "patch centre in the world (sim)", min_length=3, max_length=3
         )
         patch_yaw_deg: float = param(0.0, "patch yaw about world z (sim)", unit="deg")
-        patch_size_m: list[float] = param(
+        patch_size_m: list[Positive] = param(
             [0.06, 0.04], "patch sides x, y (sim)", unit="m", min_length=2, max_length=2
         )
-        patch_rgb: list[int] = param(
+        patch_rgb: list[Channel] = param(
             [30, 170, 60], "patch color, RGB 0..255 (sim)", min_length=3, max_length=3
         )
         patch_present: bool = param(True, "whether the patch is there (sim)")
         background: Literal["flat", "photo"] = param("flat", "table: flat color or a photo (sim)")
         gain: float = param(1.0, "lighting gain (sim)", ge=0)
-        cast_rgb: list[float] = param(
+        cast_rgb: list[NonNegative] = param(
             [1.0, 1.0, 1.0], "per-channel lighting gains R G B (sim)", min_length=3, max_length=3
         )
         noise_sigma: float = param(0.0, "sensor noise (sim)", unit="gray levels", ge=0)
@@ -139,7 +141,7 @@ class DigiCam(SimCameraSide, Module):
         fault_side: Literal["+x", "-x", "+y", "-y"] = param(
             "+y", "patch side the occluder comes from, or the distractor touches (sim)"
         )
-        fault_rgb: list[int] = param(
+        fault_rgb: list[Channel] = param(
             [225, 180, 150], "occluder color, RGB 0..255 (sim)", min_length=3, max_length=3
         )
         fault_frozen_stale: bool = param(
@@ -147,17 +149,18 @@ class DigiCam(SimCameraSide, Module):
         )
 
         @model_validator(mode="after")
-        def _sim_values_in_range(self) -> DigiCam.Params:
-            """What the simulated camera would refuse at start, refused by ``umbra check``."""
-            for name in ("patch_rgb", "fault_rgb"):
-                if not all(0 <= c <= 255 for c in getattr(self, name)):
-                    raise ParamProblem(name, f"needs 3 values in 0..255, got {getattr(self, name)}")
-            if min(self.patch_size_m) <= 0:
+        def _size_and_fault(self) -> DigiCam.Params:
+            """A frame size is whole (both sides or neither); a fault is simulated."""
+            if (self.width == 0) != (self.height == 0):
                 raise ParamProblem(
-                    "patch_size_m", f"needs 2 positive values, got {self.patch_size_m}"
+                    "width" if self.width == 0 else "height",
+                    f"is needed too: give both width and height, or neither (0), found "
+                    f"width {self.width} and height {self.height}",
                 )
-            if min(self.cast_rgb) < 0:
-                raise ParamProblem("cast_rgb", f"needs 3 non-negative values, got {self.cast_rgb}")
+            if self.fault != "none" and str(self.source).strip() != "sim":
+                raise ParamProblem(
+                    "fault", f"{self.fault!r} needs source `sim`, found source {self.source!r}"
+                )
             return self
 
     # sim: a wired pose or model is waited for before the first frame (no frame from a pose
@@ -183,13 +186,19 @@ class DigiCam(SimCameraSide, Module):
     truth = Output(
         Contour, measured=True, doc="sim only: the patch outline in the image (ground truth)"
     )
+    camera_info = Output(
+        CameraModel,
+        doc="sim only: the intrinsics each frame is rendered with (the camera_model input's, "
+        "else the parameters'), sent with each frame when wired or mapped to ROS 2 "
+        "(its camera_info)",
+    )
 
     # -- lifecycle ------------------------------------------------------------------------------
 
     def start(self) -> None:
         p = self.params
         self._reader: CaptureReader | None = None
-        self._sim: SimulatedCamera | None = None
+        self._sim: SimCameraSide | None = None  #: the simulated camera (source: sim)
         self._last: Image | None = None
         self._last_new_at = -np.inf
         self._stale = False
@@ -199,32 +208,13 @@ class DigiCam(SimCameraSide, Module):
         self._last_number: int | None = None
         #: live frames by where their capture time came from: driver, grab, step (sim clock)
         self._stamped_by: Counter[str] = Counter()
-        self._fault: SceneFault | None = None
-        self._first_step_at: float | None = None
-        self._fault_started_at: float | None = None
-        self._frozen: np.ndarray | None = None
-        #: (t, T_world_camera, T_world_patch) of recent steps, for the ``lag`` fault
-        self._poses: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
         self._decoder_stalled = False
-        self._told_waiting = False
         size = (p.width, p.height) if p.width and p.height else None
-        if (p.width == 0) != (p.height == 0):
-            raise UserError(f"{self.name}: give both width and height, or neither (0)")
         if str(p.source).strip() == "sim":
-            self._check_sim_params()
-            self._sim = SimulatedCamera()
-            self._fault = SceneFault(
-                kind=p.fault,
-                at_s=p.fault_at_s,
-                speed_mps=p.fault_speed_mps,
-                side=p.fault_side,
-                rgb=tuple(int(c) for c in p.fault_rgb),  # type: ignore[arg-type]
-            )
+            self._sim = SimCameraSide(self)
             return
-        if p.fault != "none":
-            raise UserError(
-                f"{self.name}: fault {p.fault!r} needs source `sim`, got source {p.source!r}"
-            )
+        from umbra.modules.vision.capture import CaptureReader
+
         source = CaptureSource.parse(p.source)
         try:
             self._reader = CaptureReader(
@@ -235,24 +225,25 @@ class DigiCam(SimCameraSide, Module):
         self._reader.start()
 
     def stop(self) -> None:
-        if getattr(self, "_reader", None) is not None:
-            self._reader.close()
+        reader: CaptureReader | None = getattr(self, "_reader", None)
+        if reader is not None:
+            reader.close()
 
     def summary(self) -> dict[str, object]:
         out: dict[str, object] = {"frames": self._sent, "stale_events": self._stale_events}
         if self._stamped_by:
             out["capture_stamps"] = dict(self._stamped_by)
         if self._sim is not None:
-            out["renderers_built"] = self._sim.renderers_built
+            out["renderers_built"] = self._sim.sim.renderers_built
             out["fault"] = self.params.fault
-            out["fault_started_at"] = self._fault_started_at
+            out["fault_started_at"] = self._sim.fault_started_at
         return out
 
     # -- behaviour ------------------------------------------------------------------------------
 
     def step(self, now: float) -> None:
         if self._sim is not None:
-            self._step_sim(now)
+            self._sim.step(now)
         else:
             self._step_capture(now)
 

@@ -44,7 +44,6 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -99,6 +98,8 @@ def sample_bilinear(image: NDArray[np.uint8], points_uv: FloatArray) -> NDArray[
     """Bilinear colour (N, K, C float32) at points (N, K, 2 px) of an H x W x C uint8 image;
     points outside read the border. One ``cv2.remap`` over the points alone: only the 4 pixels
     around each point are read (positions to 1/32 px, values to the gray level)."""
+    import cv2
+
     maps = points_uv.astype(np.float32)
     sampled = cv2.remap(
         image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE

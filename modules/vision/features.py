@@ -1,4 +1,5 @@
-"""Features of a closed polygon from its exact area moments (shoelace / Green's theorem).
+"""Features of a closed polygon from its exact area moments
+(:mod:`umbra.modules.geometry.polygon_moments`).
 
 Image frame: u right, v down, pixels. The orientation is the angle of the principal (major)
 axis measured from the +u axis towards +v (so clockwise as seen on screen), in radians within
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.modules.vision.polygon import as_polygon, following
+from umbra.modules.geometry.polygon_moments import polygon_moments
 
 FloatArray = NDArray[np.float64]
 
@@ -43,44 +44,24 @@ class PolygonFeatures:
         return self.major_axis_px / self.minor_axis_px if self.minor_axis_px > 0 else np.inf
 
 
-def raw_moments(points: ArrayLike) -> tuple[float, float, float, float, float, float]:
-    """Signed area moments (m00, m10, m01, m20, m11, m02) of a closed polygon [px^k]."""
-    polygon = as_polygon(points)
-    x0, y0 = polygon[:, 0], polygon[:, 1]
-    x1, y1 = following(x0), following(y0)
-    cross = x0 * y1 - x1 * y0
-    m00 = cross.sum() / 2.0
-    m10 = (cross * (x0 + x1)).sum() / 6.0
-    m01 = (cross * (y0 + y1)).sum() / 6.0
-    m20 = (cross * (x0 * x0 + x0 * x1 + x1 * x1)).sum() / 12.0
-    m02 = (cross * (y0 * y0 + y0 * y1 + y1 * y1)).sum() / 12.0
-    m11 = (cross * (2.0 * x0 * y0 + x0 * y1 + x1 * y0 + 2.0 * x1 * y1)).sum() / 24.0
-    return float(m00), float(m10), float(m01), float(m20), float(m11), float(m02)
-
-
 def polygon_features(points: ArrayLike) -> PolygonFeatures:
-    """Centroid, area, orientation and axis lengths of the region inside a closed polygon.
+    """Centroid, area, orientation and axis lengths of the region inside a closed polygon
+    (its moments: :func:`umbra.modules.geometry.polygon_moments.polygon_moments`).
 
-    Raises ValueError for a polygon with (nearly) zero area.
+    Raises ValueError (:class:`~umbra.modules.geometry.polygon_moments.DegeneratePolygonError`)
+    for a polygon of fewer than 3 vertices or (nearly) zero area.
     """
-    m00, m10, m01, m20, m11, m02 = raw_moments(points)
-    if abs(m00) < 1e-9:
-        raise ValueError("polygon has zero area; its features are undefined")
-    cu, cv = m10 / m00, m01 / m00
-    mu20 = m20 / m00 - cu * cu
-    mu11 = m11 / m00 - cu * cv
-    mu02 = m02 / m00 - cv * cv
+    moments = polygon_moments(points)
+    mu20, mu11, mu02 = moments.mu20, moments.mu11, moments.mu02
     half_trace = 0.5 * (mu20 + mu02)
     spread = float(np.hypot(0.5 * (mu20 - mu02), mu11))
     lam_major = max(half_trace + spread, 0.0)
     lam_minor = max(half_trace - spread, 0.0)
-    orientation = 0.5 * float(np.arctan2(2.0 * mu11, mu20 - mu02))
-    if orientation <= -np.pi / 2:
-        orientation += np.pi
+    cu, cv = (float(c) for c in moments.centroid)
     return PolygonFeatures(
         centroid_uv=(cu, cv),
-        area_px2=abs(m00),
-        orientation_rad=orientation,
+        area_px2=moments.area,
+        orientation_rad=moments.orientation,
         major_axis_px=4.0 * float(np.sqrt(lam_major)),
         minor_axis_px=4.0 * float(np.sqrt(lam_minor)),
         second_moments=(mu20, mu11, mu02),

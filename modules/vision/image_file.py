@@ -14,9 +14,7 @@ import io
 import warnings
 from pathlib import Path
 
-import cv2
 import numpy as np
-from PIL import Image, UnidentifiedImageError
 
 from umbra.connectors.errors import UserError
 from umbra.connectors.image_header import image_size
@@ -28,6 +26,9 @@ from umbra.connectors.user_files import read_bytes
 
 def read_image(path: str | Path) -> np.ndarray:
     """The image at ``path`` as ``(height, width, 3)`` uint8 BGR; UserError saying why not."""
+    import cv2
+    from PIL import Image, UnidentifiedImageError
+
     data = read_bytes(path, "image file", MAX_IMAGE_BYTES)
     try:
         with warnings.catch_warnings():

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -53,6 +52,8 @@ def draw_overlay(
     vertices and features, each of which the keyword of the same name overrides; ``lines`` are
     text lines written at the top left (stage, status, errors).
     """
+    import cv2
+
     canvas = np.ascontiguousarray(image).copy()
     if canvas.ndim == 2:
         canvas = cv2.cvtColor(canvas, cv2.COLOR_GRAY2BGR)
@@ -95,6 +96,8 @@ def draw_overlay(
 
 
 def _draw_axes(canvas: NDArray[np.uint8], features: PolygonFeatures) -> None:
+    import cv2
+
     center = np.asarray(features.centroid_uv)
     c, s = np.cos(features.orientation_rad), np.sin(features.orientation_rad)
     major = 0.5 * features.major_axis_px * np.array([c, s])
@@ -116,6 +119,8 @@ def _draw_axes(canvas: NDArray[np.uint8], features: PolygonFeatures) -> None:
 
 
 def _draw_text(canvas: NDArray[np.uint8], lines: Sequence[str]) -> None:
+    import cv2
+
     font, scale, thickness = cv2.FONT_HERSHEY_SIMPLEX, 0.5, 1
     y = 6
     for line in lines:

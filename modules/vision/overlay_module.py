@@ -11,7 +11,7 @@ from pydantic import AfterValidator
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
 from umbra.connectors.messages import Contour, Image, Status
 from umbra.connectors.params import RunFile
-from umbra.modules.servo.error_text import error_figure
+from umbra.connectors.status_figures import error_figure
 from umbra.modules.vision.features import polygon_features
 from umbra.modules.vision.overlay import draw_overlay
 from umbra.modules.vision.sanity import SanityLimits, bounding_shapes
@@ -32,7 +32,7 @@ def _video_container(path: str) -> str:
 VideoFile = Annotated[RunFile, AfterValidator(_video_container)]
 
 
-class Overlay(Module):
+class Overlay(Module["Overlay.Params"]):
     """The operator's view: each image with the snake drawn on it, and optionally a video file.
 
     Draws the contour (offending vertices in red), the outer rectangle and inner ellipse of the

@@ -57,6 +57,27 @@ PALETTE = (
 SAMPLES = 16
 
 
+@dataclass(frozen=True)
+class CameraConditions:
+    """How hard the camera makes the frame: the lighting ``gain_range``; the patch's long side
+    ``span_px`` (low, high) in the image [px]; ``noise_scale`` times the shot and read noise;
+    JPEG on a ``jpeg_share`` of the frames at a quality drawn from ``jpeg_quality`` (low,
+    high, both included). The defaults are the generator's own frames."""
+
+    gain_range: tuple[float, float] = (0.55, 1.45)
+    span_px: tuple[float, float] = (160.0, 520.0)
+    noise_scale: float = 1.0
+    jpeg_share: float = 0.5
+    jpeg_quality: tuple[int, int] = (75, 95)
+
+
+#: Frames harder than the tuning ones: JPEG at quality 70 to 95 on every frame, twice the
+#: sensor noise, and gains up to 1.6 that clip the patch's brightest channel.
+HARSH = CameraConditions(
+    gain_range=(0.55, 1.6), noise_scale=2.0, jpeg_share=1.0, jpeg_quality=(70, 95)
+)
+
+
 @dataclass(frozen=True, eq=False)
 class PhotoFrame:
     """A rendered frame: ``image`` (H x W x 3 uint8 BGR), the patch ``corners`` (4 x 2 px, the
@@ -110,8 +131,11 @@ def _background(photo: NDArray[np.uint8], size: tuple[int, int], rng: np.random.
     return warped.astype(np.float32)
 
 
-def _patch_corners(size: tuple[int, int], rng: np.random.Generator) -> FloatArray:
-    """A w x h rectangle on a plane tilted up to 40 deg, seen through a pin-hole camera."""
+def _patch_corners(
+    size: tuple[int, int], rng: np.random.Generator, span_range=(160.0, 520.0)
+) -> FloatArray:
+    """A w x h rectangle on a plane tilted up to 40 deg, seen through a pin-hole camera, its
+    long side about ``span_range`` (low, high) px."""
     width, height = size
     focal = rng.uniform(0.75, 1.15) * width
     w = 0.06
@@ -126,7 +150,7 @@ def _patch_corners(size: tuple[int, int], rng: np.random.Generator) -> FloatArra
     k = np.array([np.cos(axis), np.sin(axis), 0.0])  # tilt about an axis in the plane
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     R = np.eye(3) + np.sin(tilt) * K + (1 - np.cos(tilt)) * K @ K
-    span_px = rng.uniform(160.0, 520.0)  # the patch's long side in the image, roughly
+    span_px = rng.uniform(*span_range)  # the patch's long side in the image, roughly
     depth = focal * w / span_px
     camera = points @ R.T + np.array([0.0, 0.0, depth])
     uv = focal * camera[:, :2] / camera[:, 2:3]
@@ -197,14 +221,16 @@ def render(
     photo: str,
     rng: np.random.Generator,
     size: tuple[int, int] = (1920, 1080),
-    gain_range: tuple[float, float] = (0.55, 1.45),
+    conditions: CameraConditions = CameraConditions(),
 ) -> PhotoFrame:
-    """One frame of the patch on ``photo`` (a scikit-image name) at ``size`` (W, H)."""
+    """One frame of the patch on ``photo`` (a scikit-image name) at ``size`` (W, H) under
+    ``conditions``."""
+    camera = conditions
     width, height = size
     source = load_photo(photo)
     for _ in range(50):
         scene = _background(source, size, rng)
-        corners = _patch_corners(size, rng)
+        corners = _patch_corners(size, rng, camera.span_px)
         rgb = PALETTE[int(rng.integers(len(PALETTE)))]
         if _distinct(scene, corners, rgb):
             break
@@ -218,7 +244,7 @@ def render(
     paint = np.array(rgb[::-1], dtype=np.float32) * rng.uniform(0.9, 1.1)
     region += (shade[:, :, None] * paint - region) * coverage[:, :, None]
     # Illumination: a smooth gradient over the scene, then the gain and the cast.
-    gain = rng.uniform(*gain_range)
+    gain = rng.uniform(*camera.gain_range)
     cast = rng.uniform(0.8, 1.25, 3)
     gy, gx = np.mgrid[0:height:8, 0:width:8].astype(np.float32)
     slope = rng.uniform(-0.2, 0.2, 2)
@@ -238,14 +264,15 @@ def render(
     # Shot noise (variance proportional to the signal) and read noise, in gray levels.
     read = rng.uniform(1.0, 4.0)
     shot = rng.uniform(0.05, 0.25)  # gray levels² per gray level
-    sigma = np.sqrt(read * read + shot * np.maximum(scene, 0.0))
+    sigma = camera.noise_scale * np.sqrt(read * read + shot * np.maximum(scene, 0.0))
     scene += sigma * rng.standard_normal(scene.shape, dtype=np.float32)
     image = np.clip(np.rint(scene), 0, 255).astype(np.uint8)
-    quality = int(rng.integers(75, 96)) if rng.random() < 0.5 else 0
+    low, high = camera.jpeg_quality
+    quality = int(rng.integers(low, high + 1)) if rng.random() < camera.jpeg_share else 0
     if quality:
         _, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
         image = cv2.imdecode(encoded, cv2.IMREAD_COLOR)
-    conditions = {
+    record = {
         "gain": float(gain),
         "cast_rgb": [float(c) for c in cast],
         "lens_sigma_px": float(lens_sigma),
@@ -254,10 +281,16 @@ def render(
         "shot_noise": float(shot),
         "jpeg_quality": quality,
     }
-    return PhotoFrame(image, corners, abs(_shoelace(corners)), photo, rgb, conditions)
+    return PhotoFrame(image, corners, abs(_shoelace(corners)), photo, rgb, record)
 
 
-def frames(photos: tuple[str, ...], count: int, seed: int, size=(1920, 1080)):
+def frames(
+    photos: tuple[str, ...],
+    count: int,
+    seed: int,
+    size=(1920, 1080),
+    conditions: CameraConditions = CameraConditions(),
+):
     """``count`` frames cycling through ``photos``, reproducible from ``seed``."""
     rng = np.random.default_rng(seed)
-    return [render(photos[i % len(photos)], rng, size) for i in range(count)]
+    return [render(photos[i % len(photos)], rng, size, conditions=conditions) for i in range(count)]

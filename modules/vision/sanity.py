@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.connectors.tracking import SnakeCheck, TrackStatus
 from umbra.modules.vision.features import (
     PolygonFeatures,
     angle_difference,
@@ -31,13 +32,14 @@ from umbra.modules.vision.polygon import as_polygon
 
 FloatArray = NDArray[np.float64]
 
-TRACKING = "tracking"
-FAILED = "failed"
+TRACKING = TrackStatus.TRACKING
+FAILED = TrackStatus.FAILED
 
 
 @dataclass(frozen=True)
 class SanityLimits:
-    """Bounds of the sanity checks.
+    """Bounds of the sanity checks, built from validated settings
+    (:class:`umbra.modules.vision.snake_config.SnakeSettings` holds their rules).
 
     - ``rectangle_margin``: the outer rectangle is the equivalent rectangle scaled by 1 + this.
     - ``ellipse_scale``: the inner ellipse is the one inscribed in the equivalent rectangle,
@@ -67,14 +69,6 @@ class SanityLimits:
     max_aspect_drift: float = 0.25
     min_contour_vertices: int = 4
 
-    def __post_init__(self) -> None:
-        if self.rectangle_margin < 0 or not 0 < self.ellipse_scale <= 1:
-            raise ValueError("need rectangle_margin >= 0 and 0 < ellipse_scale <= 1")
-        if not 0 <= self.min_area_px2 < self.max_area_px2:
-            raise ValueError("need 0 <= min_area_px2 < max_area_px2")
-        if not 1.0 <= self.min_aspect <= self.max_aspect:
-            raise ValueError("need 1 <= min_aspect <= max_aspect")
-
 
 @dataclass(frozen=True, eq=False)
 class OrientedBox:
@@ -102,17 +96,19 @@ class OrientedBox:
 @dataclass(frozen=True, eq=False)
 class SanityResult:
     """Outcome of the checks: ``status`` "tracking" or "failed"; ``reason`` all failed checks in
-    words ("" when tracking); ``reasons`` one string per failed check; ``offending`` indices of
-    vertices outside the rectangle or inside the ellipse; the ``outer_rectangle`` and
-    ``inner_ellipse`` (None if the contour had no area); the contour's ``features``."""
+    words ("" when tracking); ``reasons`` one string per failed check and ``checks`` its code,
+    in the same order; ``offending`` indices of vertices outside the rectangle or inside the
+    ellipse; the ``outer_rectangle`` and ``inner_ellipse`` (None if the contour had no area); the
+    contour's ``features``."""
 
-    status: str
+    status: TrackStatus
     reason: str
     reasons: tuple[str, ...]
     offending: NDArray[np.intp]
     outer_rectangle: OrientedBox | None
     inner_ellipse: OrientedBox | None
     features: PolygonFeatures | None
+    checks: tuple[SnakeCheck, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -150,24 +146,39 @@ def check_contour(
     no_offenders = np.empty(0, dtype=np.intp)
     if polygon.shape[0] < limits.min_contour_vertices:
         reason = f"only {polygon.shape[0]} vertices (need {limits.min_contour_vertices})"
-        return SanityResult(FAILED, reason, (reason,), no_offenders, None, None, None)
+        few = (SnakeCheck.TOO_FEW_VERTICES,)
+        return SanityResult(FAILED, reason, (reason,), no_offenders, None, None, None, few)
     try:
         features = polygon_features(polygon)
     except ValueError:
         reason = "contour has collapsed (zero area)"
-        return SanityResult(FAILED, reason, (reason,), no_offenders, None, None, None)
+        return SanityResult(
+            FAILED, reason, (reason,), no_offenders, None, None, None, (SnakeCheck.ZERO_AREA,)
+        )
     rectangle, ellipse = bounding_shapes(features, limits)
     reasons: list[str] = []
+    checks: list[SnakeCheck] = []
+
+    def fail(check: SnakeCheck, reason: str) -> None:
+        checks.append(check)
+        reasons.append(reason)
 
     area = features.area_px2
     if area < limits.min_area_px2:
-        reasons.append(f"area {area:.0f} px² below the minimum {limits.min_area_px2:.0f} px²")
+        fail(
+            SnakeCheck.AREA_BELOW_MIN,
+            f"area {area:.0f} px² below the minimum {limits.min_area_px2:.0f} px²",
+        )
     if area > limits.max_area_px2:
-        reasons.append(f"area {area:.0f} px² above the maximum {limits.max_area_px2:.0f} px²")
+        fail(
+            SnakeCheck.AREA_ABOVE_MAX,
+            f"area {area:.0f} px² above the maximum {limits.max_area_px2:.0f} px²",
+        )
     aspect = features.aspect_ratio
     if not limits.min_aspect <= aspect <= limits.max_aspect:
-        reasons.append(
-            f"aspect ratio {aspect:.2f} outside [{limits.min_aspect:g}, {limits.max_aspect:g}]"
+        fail(
+            SnakeCheck.ASPECT_OUT_OF_BOUNDS,
+            f"aspect ratio {aspect:.2f} outside [{limits.min_aspect:g}, {limits.max_aspect:g}]",
         )
 
     along_across = rectangle.local(polygon)
@@ -176,33 +187,47 @@ def check_contour(
     e_local = ellipse.local(polygon)
     inside = (e_local[:, 0] / a) ** 2 + (e_local[:, 1] / b) ** 2 < 1.0
     if np.any(outside):
-        reasons.append(f"{int(outside.sum())} vertices outside the outer rectangle")
+        fail(
+            SnakeCheck.OUTSIDE_RECTANGLE,
+            f"{int(outside.sum())} vertices outside the outer rectangle",
+        )
     if np.any(inside):
-        reasons.append(f"{int(inside.sum())} vertices inside the inner ellipse")
+        fail(SnakeCheck.INSIDE_ELLIPSE, f"{int(inside.sum())} vertices inside the inner ellipse")
 
     if previous is not None:
         jump = float(np.hypot(*np.subtract(features.centroid_uv, previous.centroid_uv)))
         if jump > limits.max_centroid_jump_px:
-            reasons.append(f"centroid jumped {jump:.0f} px in one frame")
+            fail(SnakeCheck.CENTROID_JUMP, f"centroid jumped {jump:.0f} px in one frame")
         change = area / previous.area_px2 - 1.0 if previous.area_px2 > 0 else np.inf
         if abs(change) > limits.max_area_change:
-            reasons.append(f"area changed {100 * change:+.0f}% in one frame")
+            fail(SnakeCheck.AREA_CHANGE, f"area changed {100 * change:+.0f}% in one frame")
         turn = angle_difference(features.orientation_rad, previous.orientation_rad)
         if turn > limits.max_rotation_rad:
-            reasons.append(f"rotated {np.rad2deg(turn):.0f} deg in one frame")
+            fail(SnakeCheck.ROTATION, f"rotated {np.rad2deg(turn):.0f} deg in one frame")
         aspect_change = aspect / previous.aspect_ratio - 1.0
         if abs(aspect_change) > limits.max_aspect_change:
-            reasons.append(f"aspect ratio changed {100 * aspect_change:+.0f}% in one frame")
+            fail(
+                SnakeCheck.ASPECT_CHANGE,
+                f"aspect ratio changed {100 * aspect_change:+.0f}% in one frame",
+            )
 
     if reference is not None:
         drift = aspect / reference.aspect_ratio - 1.0
         if abs(drift) > limits.max_aspect_drift:
-            reasons.append(
-                f"aspect ratio {100 * drift:+.0f}% from the acquired {reference.aspect_ratio:.2f}"
+            fail(
+                SnakeCheck.ASPECT_DRIFT,
+                f"aspect ratio {100 * drift:+.0f}% from the acquired {reference.aspect_ratio:.2f}",
             )
 
     offending = np.flatnonzero(outside | inside).astype(np.intp)
     status = FAILED if reasons else TRACKING
     return SanityResult(
-        status, "; ".join(reasons), tuple(reasons), offending, rectangle, ellipse, features
+        status,
+        "; ".join(reasons),
+        tuple(reasons),
+        offending,
+        rectangle,
+        ellipse,
+        features,
+        tuple(checks),
     )

@@ -19,20 +19,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.modules.calib.camera_model import Intrinsics
 from umbra.modules.geometry.transforms import transform_points
 from umbra.modules.vision.coverage import convex_coverage
 from umbra.modules.vision.lighting import Lighting, Sensor
 from umbra.modules.vision.polygon import inset_convex, is_convex, signed_area
-from umbra.modules.vision.projection import (
-    CameraIntrinsics,
-    Distortion,
-    ideal_pixels_of_distorted_grid,
-    project_camera_points,
-)
+from umbra.modules.vision.projection import ideal_pixels_of_distorted_grid, project_camera_points
 
 FloatArray = NDArray[np.float64]
 RGB = tuple[int, int, int]
@@ -174,8 +169,8 @@ def patch_outline(size_m: tuple[float, float], per_edge: int) -> FloatArray:
 def patch_image_outline(
     scene: Scene,
     T_camera_world: FloatArray,
-    intrinsics: CameraIntrinsics,
-    distortion: Distortion,
+    intrinsics: Intrinsics,
+    distortion: ArrayLike,
     per_edge: int,
 ) -> FloatArray | None:
     """The patch outline in the distorted image (4 ``per_edge`` x 2 px, as
@@ -224,6 +219,7 @@ def _rgb_to_bgr(rgb: RGB) -> tuple[int, int, int]:
 
 def _load_photo() -> NDArray[np.uint8]:
     """scikit-image's bundled ``coffee`` photograph (no download), as BGR."""
+    import cv2
     from skimage import data
 
     return cv2.cvtColor(data.coffee(), cv2.COLOR_RGB2BGR)
@@ -232,17 +228,20 @@ def _load_photo() -> NDArray[np.uint8]:
 class SceneRenderer:
     """Renders :class:`Scene` through one camera; the distortion maps are computed once here.
 
-    ``intrinsics`` in pixels; ``distortion`` OpenCV's coefficients. Rendering is deterministic
+    ``intrinsics`` in pixels (with the image size); ``distortion`` OpenCV's coefficients
+    ``[k1, k2, p1, p2(, k3)]`` (None: an ideal lens). Rendering is deterministic
     given the ``rng`` passed to :meth:`render` (only the sensor noise is random). It keeps
     scratch buffers between frames, so one renderer serves one thread.
     """
 
-    def __init__(self, intrinsics: CameraIntrinsics, distortion: Distortion | None = None) -> None:
+    def __init__(self, intrinsics: Intrinsics, distortion: ArrayLike | None = None) -> None:
+        import cv2
+
         self.intrinsics = intrinsics
-        self.distortion = distortion or Distortion()
+        self.distortion = np.zeros(5) if distortion is None else np.asarray(distortion, float)
         self._photo: NDArray[np.uint8] | None = None
         width, height = intrinsics.width, intrinsics.height
-        if self.distortion.is_zero:
+        if not np.any(self.distortion):
             self._offset = np.zeros(2)
             self._canvas_size = (width, height)
             self._maps: tuple[NDArray, NDArray] | None = None
@@ -267,7 +266,7 @@ class SceneRenderer:
         K[0, 2] += self._offset[0]
         K[1, 2] += self._offset[1]
         self._K_canvas = K
-        self._canvas_intrinsics = CameraIntrinsics(
+        self._canvas_intrinsics = Intrinsics(
             intrinsics.fx,
             intrinsics.fy,
             intrinsics.skew,
@@ -294,6 +293,8 @@ class SceneRenderer:
     # -- drawing --------------------------------------------------------------------------------
 
     def _draw_table(self, canvas: NDArray[np.uint8], scene: Scene, T_camera_world: FloatArray):
+        import cv2
+
         cv2.rectangle(canvas, (0, 0), self._canvas_size, _rgb_to_bgr(scene.table_rgb), -1)
         R, t = T_camera_world[:3, :3], T_camera_world[:3, 3]
         if scene.background == "photo":
@@ -317,6 +318,8 @@ class SceneRenderer:
 
     def _draw_sky(self, canvas: NDArray[np.uint8], scene: Scene, T_camera_world: FloatArray):
         """Paint the canvas pixels whose rays do not meet the table in front of the camera."""
+        import cv2
+
         R, t = T_camera_world[:3, :3], T_camera_world[:3, 3]
         normal_camera = R[:, 2]  # world z in camera coordinates
         offset = float(normal_camera @ t)  # plane: normal . X_cam = offset
@@ -343,6 +346,8 @@ class SceneRenderer:
         """Fill a polygon fast: OpenCV's anti-aliased fill, inset to keep the true area. Its
         edges may sit up to half a pixel off at some angles: good enough for the tray and the
         tool body, whose edges no test measures."""
+        import cv2
+
         if len(polygon_px) < 3:
             return
         image, labels = canvases
@@ -360,6 +365,8 @@ class SceneRenderer:
         analytically (:mod:`umbra.modules.vision.coverage`, area exact to ~0.01 %); another is
         rasterized on a grid ``_SUPERSAMPLE`` times finer over its bounding box and averaged
         down. Blended by coverage; labels where the coverage is at least one half."""
+        import cv2
+
         if len(polygon_px) < 3:
             return
         image, labels = canvases
@@ -391,6 +398,8 @@ class SceneRenderer:
         outline_points_per_edge: int = 16,
     ) -> RenderedFrame:
         """Image the scene from ``T_world_camera`` (4x4, metres) under ``lighting``."""
+        import cv2
+
         lighting = lighting or Lighting()
         rng = rng if rng is not None else np.random.default_rng(0)
         T_camera_world = np.linalg.inv(np.asarray(T_world_camera, dtype=np.float64))

@@ -20,10 +20,10 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.modules.calib.camera_model import Intrinsics
 from umbra.modules.geometry.transforms import transform_points
 from umbra.modules.vision.lighting import Lighting
 from umbra.modules.vision.polygon import signed_area
-from umbra.modules.vision.projection import CameraIntrinsics, Distortion
 from umbra.modules.vision.scene import (
     RGB,
     SIDE_AXES,
@@ -111,16 +111,6 @@ class SceneFault:
     side: PatchSide = "+y"
     rgb: RGB = (225, 180, 150)
 
-    def __post_init__(self) -> None:
-        if self.kind not in FAULT_KINDS:
-            raise ValueError(f"fault kind must be one of {', '.join(FAULT_KINDS)}, got {self.kind}")
-        if self.side not in SIDE_AXES:
-            raise ValueError(f"fault side must be one of +x -x +y -y, got {self.side}")
-        if not self.at_s >= 0:
-            raise ValueError(f"fault time must be >= 0 s, got {self.at_s}")
-        if not self.speed_mps > 0:
-            raise ValueError(f"occluder speed must be > 0 m/s, got {self.speed_mps}")
-
     def begun(self, elapsed_s: float) -> bool:
         """Whether the fault is on ``elapsed_s`` seconds after the camera's first frame."""
         return self.kind != "none" and elapsed_s >= self.at_s - _TIME_EPS_S
@@ -144,10 +134,11 @@ class SceneFault:
 
 @dataclass(frozen=True)
 class CameraSpec:
-    """Intrinsics (pixels) and distortion [k1, k2, p1, p2, k3] of the simulated camera."""
+    """Intrinsics (pixels, with the image size) and distortion ``(k1, k2, p1, p2, k3)`` of the
+    simulated camera."""
 
-    intrinsics: CameraIntrinsics
-    distortion: Distortion
+    intrinsics: Intrinsics
+    distortion: tuple[float, float, float, float, float]
 
     @classmethod
     def from_values(
@@ -166,11 +157,12 @@ class CameraSpec:
         if given.size not in (0, 4, 5):
             raise ValueError(f"distortion needs 4 or 5 coefficients, got {given.size}")
         coefficients[: given.size] = given
+        k1, k2, p1, p2, k3 = (float(c) for c in coefficients)
         return cls(
-            CameraIntrinsics(
+            Intrinsics(
                 float(fx), float(fy), float(skew), float(u0), float(v0), int(width), int(height)
             ),
-            Distortion(*(float(c) for c in coefficients)),
+            (k1, k2, p1, p2, k3),
         )
 
 

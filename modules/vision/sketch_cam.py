@@ -6,13 +6,13 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.messages import CameraModel, Image, Pose, Poses
-from umbra.modules.sketch.messages import SceneObjects
+from umbra.connectors.scene_messages import SceneObjects
 from umbra.modules.vision.arm_view import arm_in, with_arm
 from umbra.modules.vision.lighting import Sensor
 from umbra.modules.vision.sketch_render import render_scene
 
 
-class SketchCam(Module):
+class SketchCam(Module["SketchCam.Params"]):
     """Renders the scene's objects through the current camera model (CamCalib: intrinsics at
     the zoom, ``T_mount_camera``) from the PTU's mount pose (``T_world_mount``).
 

@@ -9,12 +9,11 @@ lens shows (distortion applied to the polygon vertices). Metres, base frame.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.connectors.scene_messages import SceneObjects
 from umbra.modules.calib.distortion import distort_points
-from umbra.modules.sketch.messages import SceneObjects
 from umbra.modules.vision.lighting import Lighting, Sensor
 
 FloatArray = NDArray[np.float64]
@@ -76,6 +75,8 @@ def render_scene(
             cameras' one sensor model (:class:`~umbra.modules.vision.lighting.Sensor`); pass one as
             ``sensor`` to reuse its buffers and noise bank from frame to frame.
     """
+    import cv2
+
     T_camera_base = np.linalg.inv(np.asarray(T_base_camera, dtype=float))
     eye = np.asarray(T_base_camera, dtype=float)[:3, 3]
     image = np.empty((height, width, 3), dtype=np.uint8)

@@ -60,7 +60,9 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class SnakeParams:
-    """Parameters of the snake. Lengths in pixels, counts in iterations or vertices.
+    """Parameters of the snake. Lengths in pixels, counts in iterations or vertices. Built from
+    validated settings (:class:`umbra.modules.vision.snake_config.SnakeSettings` holds their
+    bounds and rules), not checked again here.
 
     - ``k_sigma``: Mahalanobis radius of the target color [standard deviations].
     - ``min_gray``: pixels darker than this mean gray level (0..255) never count as target.
@@ -117,37 +119,6 @@ class SnakeParams:
     border_margin_px: float = 1.0
     min_chroma: float = 0.02
     max_unconverged_frames: int = 5
-
-    def __post_init__(self) -> None:
-        checks = [
-            (self.k_sigma > 0, "k_sigma must be > 0"),
-            (self.step_px > 0, "step_px must be > 0"),
-            (0.0 <= self.tension <= 0.5, "tension must be within [0, 0.5] (explicit smoothing)"),
-            (self.window_radius_px >= 0, "window_radius_px must be >= 0"),
-            (
-                0 < self.min_segment_px < self.max_segment_px,
-                "need 0 < min_segment_px < max_segment_px",
-            ),
-            (3 <= self.min_vertices <= self.max_vertices, "need 3 <= min_vertices <= max_vertices"),
-            (self.vertex_budget >= self.min_vertices, "need vertex_budget >= min_vertices"),
-            (self.seed_radius_px > 0, "seed_radius_px must be > 0"),
-            (self.seed_vertices >= 3, "seed_vertices must be >= 3"),
-            (self.max_iterations >= 1, "max_iterations must be >= 1"),
-            (self.track_iterations >= 1, "track_iterations must be >= 1"),
-            (self.converge_px > 0, "converge_px must be > 0"),
-            (0.0 <= self.adapt_rate <= 1.0, "adapt_rate must be within [0, 1]"),
-            (0.0 <= self.edge_half_length_px <= 32.0, "edge_half_length_px must be in [0, 32]"),
-            (0.0 < self.corner_turn_deg <= 180.0, "corner_turn_deg must be within (0, 180]"),
-            (0.0 <= self.min_edge_fraction <= 1.0, "min_edge_fraction must be within [0, 1]"),
-            (self.border_margin_px >= 0.0, "border_margin_px must be >= 0"),
-            (0.0 <= self.min_chroma < 1.0, "min_chroma must be within [0, 1)"),
-            (self.max_unconverged_frames >= 1, "max_unconverged_frames must be >= 1"),
-        ]
-        if not all(np.isfinite(float(getattr(self, f))) for f in self.__dataclass_fields__):
-            raise ValueError("snake parameters: every value must be finite")
-        for ok, message in checks:
-            if not ok:
-                raise ValueError(f"snake parameters: {message}")
 
     @property
     def target_segment_px(self) -> float:

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbra.connectors.tracking import SnakeCheck, TrackStatus
 from umbra.modules.vision import color
 from umbra.modules.vision.color import ColorModel
 from umbra.modules.vision.features import PolygonFeatures
@@ -40,7 +41,7 @@ from umbra.modules.vision.snake import (
 
 FloatArray = NDArray[np.float64]
 
-IDLE = "idle"
+IDLE = TrackStatus.IDLE
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,11 +129,12 @@ class SnakeTracker:
         self._unconverged = 0 if settled(result, self.params) else self._unconverged + 1
         outline = result.outline
         sanity = check_contour(outline, self.limits, self._previous, self._reference)
-        reasons = self._snake_failures(result, gray, acquiring)
-        if reasons:
-            reasons += sanity.reasons
+        failures = self._snake_failures(result, gray, acquiring)
+        if failures:
+            reasons = tuple(text for _check, text in failures) + sanity.reasons
+            checks = tuple(check for check, _text in failures) + sanity.checks
             sanity = replace(
-                sanity, status=FAILED, reason="; ".join(reasons), reasons=tuple(reasons)
+                sanity, status=FAILED, reason="; ".join(reasons), reasons=reasons, checks=checks
             )
         self._motion = _motion(self._previous, sanity.features) if sanity.ok else None
         if sanity.features is not None:
@@ -143,7 +145,13 @@ class SnakeTracker:
             self._latched = sanity
         if self._latched is not None:
             latched = self._latched
-            sanity = replace(sanity, status=FAILED, reason=latched.reason, reasons=latched.reasons)
+            sanity = replace(
+                sanity,
+                status=FAILED,
+                reason=latched.reason,
+                reasons=latched.reasons,
+                checks=latched.checks,
+            )
         elif self.params.adapt_rate > 0.0:
             samples = interior_samples(image, result.vertices, self.params)
             self.model = color.adapt(
@@ -163,29 +171,44 @@ class SnakeTracker:
         rotation = scale * np.array([[c, s], [-s, c]])  # row vectors: x @ R^T
         return centre + step + (vertices - centre) @ rotation
 
-    def _snake_failures(self, result: SnakeResult, gray: bool, acquiring: bool) -> list[str]:
-        """Why the snake itself cannot be on a target (empty when it can)."""
+    def _snake_failures(
+        self, result: SnakeResult, gray: bool, acquiring: bool
+    ) -> list[tuple[SnakeCheck, str]]:
+        """Why the snake itself cannot be on a target, each as a code and in exact words (empty
+        when it can)."""
         p = self.params
         if gray:
             return [
-                f"target colour is gray (chromaticity within {p.min_chroma:g} of gray): a "
-                "grayscale or colourless image cannot be tracked by colour"
+                (
+                    SnakeCheck.GRAY_TARGET,
+                    f"target colour is gray (chromaticity within {p.min_chroma:g} of gray): a "
+                    "grayscale or colourless image cannot be tracked by colour",
+                )
             ]
         if result.collapsed:
-            return ["snake collapsed: no target color left under it"]
-        reasons = []
+            return [(SnakeCheck.SNAKE_COLLAPSED, "snake collapsed: no target color left under it")]
+        failures = []
         if result.edge_fraction < p.min_edge_fraction:
-            reasons.append(
-                f"no colour edge under {100 * (1 - result.edge_fraction):.0f}% of the contour "
-                "(featureless image)"
+            failures.append(
+                (
+                    SnakeCheck.NO_EDGE,
+                    f"no colour edge under {100 * (1 - result.edge_fraction):.0f}% of the contour "
+                    "(featureless image)",
+                )
             )
         if result.touches_border:
-            reasons.append("contour touches the image border")
+            failures.append((SnakeCheck.TOUCHES_BORDER, "contour touches the image border"))
         if acquiring and not result.converged:
-            reasons.append(f"snake did not converge in {result.iterations} iterations")
+            text = f"snake did not converge in {result.iterations} iterations"
+            failures.append((SnakeCheck.NOT_CONVERGED, text))
         elif self._unconverged >= p.max_unconverged_frames:
-            reasons.append(f"snake did not converge for {self._unconverged} frames in a row")
-        return reasons
+            failures.append(
+                (
+                    SnakeCheck.NOT_CONVERGED,
+                    f"snake did not converge for {self._unconverged} frames in a row",
+                )
+            )
+        return failures
 
 
 def settled(result: SnakeResult, params: SnakeParams) -> bool:

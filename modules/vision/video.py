@@ -11,7 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 from types import TracebackType
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -26,6 +25,8 @@ class VideoWriter:
     """Writes H x W x 3 uint8 BGR frames of one size to ``path`` at ``fps`` frames per second."""
 
     def __init__(self, path: str | Path, fps: float, size_wh: tuple[int, int]) -> None:
+        import cv2
+
         self.path = Path(path)
         suffix = self.path.suffix.lower()
         if suffix not in CODECS:

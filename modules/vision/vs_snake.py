@@ -5,21 +5,23 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from pydantic import model_validator
 
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
-from umbra.connectors.messages import Contour, Image, Vector
+from umbra.connectors.commands import Seed
+from umbra.connectors.messages import Contour, Image
+from umbra.connectors.params import Channel, ParamProblem
+from umbra.connectors.tracking import SnakeCheck, TrackStatus
 from umbra.modules.vision import color
 from umbra.modules.vision.contour_message import contour_message
 from umbra.modules.vision.polygon import rectangle
-from umbra.modules.vision.sanity import FAILED, SanityLimits
-from umbra.modules.vision.snake import SnakeParams, seed_samples
-from umbra.modules.vision.snake_config import SettingsError, setting_defaults, settings_from
+from umbra.modules.vision.sanity import FAILED
+from umbra.modules.vision.snake import seed_samples
+from umbra.modules.vision.snake_config import SnakeSettings, snake_setup
 from umbra.modules.vision.tracker import IDLE, SnakeTracker
 
-_DEFAULTS = setting_defaults()
 
-
-class VsSnake(Module):
+class VsSnake(Module["VsSnake.Params"]):
     """Tracks a colored patch with a statistical pressure snake and checks it every frame.
 
     Seeding: at a point (``seed_mode: point``, ``seed_uv``; the target color is learned from the
@@ -36,7 +38,7 @@ class VsSnake(Module):
 
     TYPE = "vsSnake"
 
-    class Params(Parameters):
+    class Params(SnakeSettings):
         seed_mode: Literal["point", "region", "none"] = param(
             "point", "seed at start: point, region, or wait for the seed input"
         )
@@ -50,134 +52,51 @@ class VsSnake(Module):
             min_length=4,
             max_length=4,
         )
-        target_rgb: list[int] = param(
-            [], "target color RGB 0..255 for region seeds (empty: learn it at the region centre)"
+        target_rgb: list[Channel] = param(
+            [],
+            "target color RGB 0..255 for region seeds (empty: learn it at the region centre)",
+            max_length=3,
         )
         target_noise_gray: float = param(
             8.0, "spread of the target_rgb color model", unit="gray levels", gt=0
         )
-        k_sigma: float = param(
-            _DEFAULTS["k_sigma"], "color gate radius", unit="sigma", gt=0, tunable=True
-        )
-        min_gray: float = param(
-            _DEFAULTS["min_gray"], "darker pixels never count", unit="gray levels", ge=0
-        )
-        step_px: float = param(
-            _DEFAULTS["step_px"],
-            "largest pressure move per iteration",
-            unit="px",
-            gt=0,
-            tunable=True,
-        )
-        tension: float = param(
-            _DEFAULTS["tension"], "smoothing per iteration", ge=0, le=0.5, tunable=True
-        )
-        window_radius_px: int = param(
-            _DEFAULTS["window_radius_px"], "half-width of the pixel window", unit="px", ge=0
-        )
-        min_segment_px: float = param(
-            _DEFAULTS["min_segment_px"], "shorter segments trigger resampling", unit="px", gt=0
-        )
-        max_segment_px: float = param(
-            _DEFAULTS["max_segment_px"], "longer segments trigger resampling", unit="px", gt=0
-        )
-        seed_radius_px: float = param(
-            _DEFAULTS["seed_radius_px"], "radius of the point seed circle", unit="px", gt=0
-        )
-        max_iterations: int = param(
-            _DEFAULTS["max_iterations"], "iterations to acquire after a seed", ge=1, le=10_000
-        )
-        track_iterations: int = param(
-            _DEFAULTS["track_iterations"],
-            "iterations per image when tracking",
-            ge=1,
-            le=1_000,
-            tunable=True,
-        )
-        converge_px: float = param(
-            _DEFAULTS["converge_px"], "converged when no vertex moves more", unit="px", gt=0
-        )
-        adapt_rate: float = param(
-            _DEFAULTS["adapt_rate"], "color model adaptation per image", ge=0, le=1, tunable=True
-        )
-        edge_half_length_px: float = param(
-            _DEFAULTS["edge_half_length_px"],
-            "half-length of the sub-pixel edge profile (0: off)",
-            unit="px",
-            ge=0,
-            le=32,
-        )
-        corner_turn_deg: float = param(
-            _DEFAULTS["corner_turn_deg"], "sharper turns are corners put back", unit="deg", gt=0
-        )
-        min_edge_fraction: float = param(
-            _DEFAULTS["min_edge_fraction"], "fewer vertices on an edge: failed", ge=0, le=1
-        )
-        border_margin_px: float = param(
-            _DEFAULTS["border_margin_px"], "closer to the image border: failed", unit="px", ge=0
-        )
-        min_chroma: float = param(
-            _DEFAULTS["min_chroma"], "a target colour closer to gray: failed", ge=0, lt=1
-        )
-        max_unconverged_frames: int = param(
-            _DEFAULTS["max_unconverged_frames"], "frames in a row without settling: failed", ge=1
-        )
-        rectangle_margin: float = param(
-            _DEFAULTS["rectangle_margin"], "outer rectangle growth (0.12 = 12 %)", ge=0
-        )
-        ellipse_scale: float = param(_DEFAULTS["ellipse_scale"], "inner ellipse scale", gt=0, le=1)
-        min_area_px2: float = param(_DEFAULTS["min_area_px2"], "smallest area", unit="px²", ge=0)
-        max_area_px2: float = param(_DEFAULTS["max_area_px2"], "largest area", unit="px²", gt=0)
-        min_aspect: float = param(_DEFAULTS["min_aspect"], "smallest major/minor axis", ge=1)
-        max_aspect: float = param(_DEFAULTS["max_aspect"], "largest major/minor axis", ge=1)
-        max_centroid_jump_px: float = param(
-            _DEFAULTS["max_centroid_jump_px"], "largest centroid move per image", unit="px", gt=0
-        )
-        max_area_change: float = param(
-            _DEFAULTS["max_area_change"], "largest relative area change per image", gt=0
-        )
-        max_rotation_deg: float = param(
-            _DEFAULTS["max_rotation_deg"], "largest rotation per image", unit="deg", gt=0
-        )
-        max_aspect_change: float = param(
-            _DEFAULTS["max_aspect_change"], "largest relative aspect change per image", gt=0
-        )
-        max_aspect_drift: float = param(
-            _DEFAULTS["max_aspect_drift"], "largest aspect change since the seed", gt=0
-        )
-
         max_identical_frames: int = param(
             5, "this many identical images in a row mean a frozen camera (0: never)", ge=0
         )
 
+        @model_validator(mode="after")
+        def _seeds(self) -> VsSnake.Params:
+            """A target color has its 3 channels; a region seed is not empty."""
+            if len(self.target_rgb) not in (0, 3):
+                raise ParamProblem(
+                    "target_rgb", f"needs 3 values in 0..255 (or none), found {self.target_rgb}"
+                )
+            u0, v0, u1, v1 = self.seed_region
+            if self.seed_mode == "region" and (u1 <= u0 or v1 <= v0):
+                raise ParamProblem(
+                    "seed_region",
+                    f"is an empty region: expected u_min < u_max and v_min < v_max, "
+                    f"found {self.seed_region}",
+                )
+            return self
+
     image = Input(Image, trigger=True, doc="camera frames (BGR)")
-    seed = Input(Vector, required=False, doc="operator re-seed: [u, v] or [u0, v0, u1, v1] px")
+    seed = Input(Seed, required=False, doc="operator re-seed: a point or a box, px")
     contour = Output(
         Contour, origin_from=("image",), doc="tracked contour, features and sanity status"
     )
 
-    def _settings(self) -> tuple[SnakeParams, SanityLimits]:
-        """Snake parameters and sanity limits from this module's parameters."""
-        p = self.params
-        names = set(_DEFAULTS) & set(type(p).model_fields)
-        try:
-            return settings_from({name: getattr(p, name) for name in names})
-        except SettingsError as exc:
-            raise UserError(f"{self.name}: {exc}") from None
-
     def start(self) -> None:
         p = self.params
-        self._tracker = SnakeTracker(*self._settings())
+        self._tracker = SnakeTracker(*snake_setup(p))
         self._target = None
         if p.target_rgb:
-            if len(p.target_rgb) != 3 or not all(0 <= c <= 255 for c in p.target_rgb):
-                raise UserError(f"{self.name}: target_rgb needs 3 values in 0..255")
             self._target = color.from_rgb(p.target_rgb, p.target_noise_gray)
         self._pending: list[float] | None = None
         if p.seed_mode == "point":
-            self._pending = self._checked_seed(p.seed_uv, "parameter seed_uv")
+            self._pending = [float(v) for v in p.seed_uv]
         elif p.seed_mode == "region":
-            self._pending = self._checked_seed(p.seed_region, "parameter seed_region")
+            self._pending = [float(v) for v in p.seed_region]
         self._frames = 0
         self._failures = 0
         self._snake_time = 0.0
@@ -189,7 +108,7 @@ class VsSnake(Module):
     def retune(self, old: Parameters) -> None:
         """A tunable setting changed (tension, gate, step, iterations, adaptation): the tracker
         goes on with its contour and color model under the new settings."""
-        self._tracker.params, self._tracker.limits = self._settings()
+        self._tracker.params, self._tracker.limits = snake_setup(self.params)
 
     def _frozen(self, pixels: np.ndarray) -> bool:
         """True when the last ``max_identical_frames`` images were identical: a live sensor always
@@ -207,16 +126,6 @@ class VsSnake(Module):
         self._identical = self._identical + 1 if same else 0
         return self._identical >= limit
 
-    def _checked_seed(self, values: list[float] | np.ndarray, where: str) -> list[float]:
-        seed = [float(v) for v in np.asarray(values, dtype=float).ravel()]
-        if len(seed) not in (2, 4) or not np.all(np.isfinite(seed)):
-            raise UserError(
-                f"{self.name}: {where} must be [u, v] or [u_min, v_min, u_max, v_max], got {seed}"
-            )
-        if len(seed) == 4 and (seed[2] <= seed[0] or seed[3] <= seed[1]):
-            raise UserError(f"{self.name}: {where} is an empty region: {seed}")
-        return seed
-
     def summary(self) -> dict[str, object]:
         frames = max(self._frames, 1)
         return {
@@ -228,18 +137,21 @@ class VsSnake(Module):
 
     def step(self, now: float) -> None:
         if self.seed.fresh and self.seed.value is not None:
-            values = np.asarray(self.seed.value.values, dtype=float)
-            try:
-                self._pending = self._checked_seed(values, "input seed")
-            except UserError as exc:
-                self.log.warning("%s", exc)
+            seed = self.seed.value
+            problem = seed.problem()
+            if problem:
+                self.log.warning("%s: input seed refused: %s", self.name, problem)
+            else:
+                self._pending = [float(v) for v in np.asarray(seed.uv, dtype=float)]
         if not self.image.fresh:
             return
         sample = self.image.get(now)
         if sample is None:
             return
         if sample.stale:
-            self.contour.send(_empty(FAILED, "camera image is stale", sample.stamp))
+            self.contour.send(
+                _empty(FAILED, "camera image is stale", sample.stamp, (SnakeCheck.STALE_IMAGE,))
+            )
             return
         pixels = np.asarray(sample.pixels)  # the camera's frame, read in place (no copy)
         if pixels.dtype != np.uint8 or pixels.ndim not in (2, 3) or min(pixels.shape[:2]) < 2:
@@ -249,11 +161,13 @@ class VsSnake(Module):
             )
         if pixels.ndim == 2 or pixels.shape[2] != 3:
             reason = f"grayscale image ({pixels.shape}): the snake tracks a colour, it needs BGR"
-            self._fail(reason, sample.stamp)
+            self._fail(reason, sample.stamp, SnakeCheck.GRAYSCALE_IMAGE)
             return
         if self._frozen(pixels):
             self._fail(
-                f"camera frozen: {self._identical + 1} identical images in a row", sample.stamp
+                f"camera frozen: {self._identical + 1} identical images in a row",
+                sample.stamp,
+                SnakeCheck.CAMERA_FROZEN,
             )
             return
         if self._pending is not None:
@@ -280,16 +194,17 @@ class VsSnake(Module):
                 sanity.reason,
                 sample.stamp,
                 sanity.offending,
+                sanity.checks,
             )
         )
 
-    def _fail(self, reason: str, stamp: float) -> None:
+    def _fail(self, reason: str, stamp: float, check: SnakeCheck) -> None:
         """Send a failed, empty contour (counted once per run of failures)."""
         if not self._was_failed:
             self._failures += 1
             self.log.warning("%s: snake failed: %s", self.name, reason)
         self._was_failed = True
-        self.contour.send(_empty(FAILED, reason, stamp))
+        self.contour.send(_empty(FAILED, reason, stamp, (check,)))
 
     def _seed(self, pixels: np.ndarray, seed: list[float]) -> None:
         try:
@@ -312,5 +227,7 @@ class VsSnake(Module):
         self._was_failed = False
 
 
-def _empty(status: str, reason: str, stamp: float) -> Contour:
-    return contour_message(np.zeros((0, 2)), None, status, reason, stamp)
+def _empty(
+    status: TrackStatus, reason: str, stamp: float, checks: tuple[SnakeCheck, ...] = ()
+) -> Contour:
+    return contour_message(np.zeros((0, 2)), None, status, reason, stamp, checks=checks)

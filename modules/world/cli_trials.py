@@ -32,6 +32,7 @@ from umbra.modules.world.trials import (
 
 NAME = "trials"
 HELP = "randomized tool pick-up trials (success rate, errors, open-loop baseline, faults)"
+GUIDE = "docs/guide/pickup.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.modules.servo.features import wrap_roll_error
+from umbra.modules.geometry.polygon_moments import wrap_axis_angle
 
 FloatArray = NDArray[np.float64]
 
@@ -46,7 +46,7 @@ def grasp_error(T_base_tool: FloatArray, T_base_patch: FloatArray) -> GraspError
     T_patch_tool = np.linalg.inv(T_base_patch) @ T_base_tool
     offset = T_patch_tool[:3, 3]
     R = T_patch_tool[:3, :3] @ R_PATCH_TOOL_GRASP.T  # identity at a perfect grasp
-    roll = wrap_roll_error(float(np.arctan2(R[1, 0], R[0, 0])))  # modulo π
+    roll = wrap_axis_angle(float(np.arctan2(R[1, 0], R[0, 0])))  # modulo π
     approach = T_patch_tool[:3, 2]  # tool z in patch coordinates, ideally (0, 0, -1)
     tilt = float(np.arccos(np.clip(-approach[2], -1.0, 1.0)))
     return GraspError(float(np.linalg.norm(offset)), roll, tilt, tuple(float(v) for v in offset))

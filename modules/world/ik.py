@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from umbra.modules.arm.dh import DHTable
 from umbra.modules.arm.jacobian import jacobian_and_pose
@@ -23,6 +22,8 @@ class IKFailed(ValueError):
 
 def pose_error(T_target: FloatArray, T_current: FloatArray) -> FloatArray:
     """``[dp; dtheta]`` (m, rad), base coordinates, that moves ``T_current`` onto ``T_target``."""
+    from scipy.spatial.transform import Rotation  # lazy: tests/runtime/test_start_imports.py
+
     dp = T_target[:3, 3] - T_current[:3, 3]
     dtheta = Rotation.from_matrix(T_target[:3, :3] @ T_current[:3, :3].T).as_rotvec()
     return np.concatenate([dp, dtheta])

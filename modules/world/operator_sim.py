@@ -14,10 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, param
-from umbra.connectors.messages import Contour, Status, Vector
+from umbra.connectors.commands import Seed
+from umbra.connectors.messages import Contour
+from umbra.connectors.states import Presence
 
 
-class OperatorSim(Module):
+class OperatorSim(Module["OperatorSim.Params"]):
     """Clicks on the patch (seed point for vsSnake) from the simulated camera's ground truth."""
 
     class Params(Parameters):
@@ -30,9 +32,9 @@ class OperatorSim(Module):
 
     truth = Input(Contour, trigger=True, doc="patch outline in the image (sim camera truth)")
     console = Input(
-        Status, required=False, doc="the console's presence: a person acted -> step aside"
+        Presence, required=False, doc="the console's presence: a person acted -> step aside"
     )
-    seed = Output(Vector, events=True, doc="the click: seed point [u, v] for vsSnake")
+    seed = Output(Seed, events=True, doc="the click: a point seed [u, v] px for vsSnake")
 
     def start(self) -> None:
         self._started: float | None = None  # clock time [s] of the first step
@@ -49,7 +51,7 @@ class OperatorSim(Module):
         if self.stepped_aside_at is not None or self.context.attended:
             return
         console = self.console.get(now)
-        if console is not None and (console.stage == "person" or console.values.get("acted")):
+        if console is not None and (console.person or console.acted):
             self.stepped_aside_at = now  # also after its click: the person answers from now on
             self.log.info(
                 "a person took control of the console: the simulated operator steps aside"
@@ -66,7 +68,7 @@ class OperatorSim(Module):
             return
         jitter = self.context.rng.normal(0.0, self.params.click_noise_px, 2)
         uv = np.asarray(truth.centroid, dtype=float) + jitter
-        self.seed.send(Vector(values=uv))
+        self.seed.send(Seed.point(float(uv[0]), float(uv[1])))
         self.clicked_at = now
         self.click = [round(float(v), 2) for v in uv]
         self.log.info("operator clicked the patch at (%.1f, %.1f) px", uv[0], uv[1])

@@ -31,7 +31,7 @@ class SafetyMonitorParams(ArmParams):
         return [("flange", "tool")]
 
 
-class SafetyMonitor(Module):
+class SafetyMonitor(Module[SafetyMonitorParams]):
     """Records rate commands, true joint speeds and the true tool position over time."""
 
     Params = SafetyMonitorParams

@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.connectors.scene_messages import SceneObjects
 from umbra.modules.geometry.transforms import rot_z
-from umbra.modules.sketch.messages import SceneObjects
 
 FloatArray = NDArray[np.float64]
 

@@ -6,17 +6,19 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, param
 from umbra.connectors.messages import JointState, Poses, Status
+from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import arm_frames
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
-from umbra.modules.sketch.messages import SceneObjects, ToolPath, VcrState
 from umbra.modules.world.operator_stop import STOPPED_BY_OPERATOR, OperatorStop, operator_input
 from umbra.modules.world.scene_objects import SketchScene
 from umbra.modules.world.sketch_judge import SketchJudge
 from umbra.modules.world.sketch_verdict import GRASP_MACROS, RELEASE_MACROS, macro_verdict
 
 
-class SketchWorld(Module):
+class SketchWorld(Module["SketchWorld.Params"]):
     """The Active Sketch scene (pipe, door with handle, package, surface) and its judge.
 
     Reads the arm's TRUE joints and gripper, moves what the gripper moves (the door follows a
@@ -34,7 +36,7 @@ class SketchWorld(Module):
     device when it opens, any other when the player reports the path ``done``. Logged, and
     listed in the summary (``macro_verdicts``).
 
-    The console's *Stop* (``stop`` on the ``operator`` input; wire ``console.stop_run`` here)
+    The console's *Stop* (a ``StopRun`` on the ``operator`` input; wire ``console.stop_run`` here)
     ends any run, attended or not, as a normal stop (exit 0), its verdict "stopped by the
     operator" with the macros that had succeeded; the summary's ``stopped`` says it ("" while
     no one stopped the run). :mod:`umbra.modules.world.operator_stop` holds the rule.
@@ -43,8 +45,12 @@ class SketchWorld(Module):
     TYPE = "SketchWorld"
 
     class Params(ArmParams):
-        tool_xyz: list[float] = param([0.0, 0.0, 0.14], "tool point in the flange", unit="m")
-        tool_rpy_deg: list[float] = param([0.0, 0.0, 0.0], "tool frame in the flange", unit="deg")
+        tool_xyz: list[float] = param(
+            [0.0, 0.0, 0.14], "tool point in the flange", unit="m", min_length=3, max_length=3
+        )
+        tool_rpy_deg: list[float] = param(
+            [0.0, 0.0, 0.0], "tool frame in the flange", unit="deg", min_length=3, max_length=3
+        )
         table_z: float = param(0.25, "table top above the arm's base", unit="m", ge=0, le=1.5)
         randomize: bool = param(False, "randomize the object poses (seeded)")
         objects_rate_hz: float = param(10.0, "how often the objects are published", gt=0, le=100)
@@ -69,10 +75,10 @@ class SketchWorld(Module):
         doc="TRUE T_base_link of the arm's links, tool and fingers, for the cameras to draw it",
     )
     verdict = Output(
-        Status,
+        Verdict,
         events=True,
         measured=True,
-        doc="one per macro played: success or miss with the numbers (stage = macro)",
+        doc="one per macro played: succeeded or missed (outcome) with the numbers (stage = macro)",
     )
 
     def start(self) -> None:
@@ -177,7 +183,9 @@ class SketchWorld(Module):
         self._judged = True
         outcome, text, figures = macro_verdict(self._macro, v)
         figures = {k: round(float(x), 3) for k, x in figures.items()}
-        self.verdict.send(Status(stage=self._macro, message=text, values=figures))
+        self.verdict.send(
+            Verdict(stage=self._macro, message=text, values=figures, outcome=Outcome(outcome))
+        )
         self._macro_verdicts.append(
             {"macro": self._macro, "path_id": self._path_id, "outcome": outcome, "verdict": text}
             | figures

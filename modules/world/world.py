@@ -9,7 +9,7 @@ Its ``status`` says ``running`` until then and the verdict after, re-sent every
 ``status_period_s`` so a page that joins late reads it. In an attended run
 (``ModuleContext.attended``) the verdict is published and logged but the run goes on until the
 person stops it: no end after an assistance request, no timeout. The person stops it with the
-console's *Stop* (``stop`` on the ``operator`` input, any run): the run ends as a normal stop,
+console's *Stop* (a ``StopRun`` on the ``operator`` input, any run): the run ends as a normal stop,
 its verdict "stopped by the operator" (after the grasp's verdict when one was judged), exit 0
 unless the grasp was judged missed.
 
@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, param
-from umbra.connectors.messages import JointState, Pose, Poses, Status
+from umbra.connectors.messages import JointState, Pose, Poses
+from umbra.connectors.states import GuardState, Outcome, Presence, ServoState, Verdict
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import TRUE_PREFIX, arm_frames
 from umbra.modules.world.grasp import grasp_error
@@ -88,7 +89,7 @@ class WorldParams(ArmParams):
 TRUE_FLANGE, TRUE_TOOL = TRUE_PREFIX + "flange", TRUE_PREFIX + "tool"
 
 
-class SimWorld(Module):
+class SimWorld(Module[WorldParams]):
     """The simulated plant: true camera and patch poses out, grasp judged when the gripper shuts."""
 
     TYPE = "World"
@@ -96,20 +97,20 @@ class SimWorld(Module):
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper of the arm")
     servo_status = Input(
-        Status,
+        ServoState,
         required=False,
         feedback=True,
         doc="the grab's stage (vsServo): ends the run after an assist request",
     )
     presence = Input(
-        Status,
+        Presence,
         required=False,
         feedback=True,
         doc="the operator console's presence: once a person took control, an assist request "
         "no longer ends the run (the person answers it)",
     )
     guard = Input(
-        Status,
+        GuardState,
         required=False,
         feedback=True,
         doc="the safety register's status (REG_VEL): a run that ends while it holds the arm for "
@@ -119,7 +120,9 @@ class SimWorld(Module):
     camera_pose = Output(Pose, frame="table->camera", measured=True, doc="true T_table_camera")
     patch_pose = Output(Pose, frame="table->patch", measured=True, doc="true T_table_patch")
     status = Output(
-        Status, measured=True, doc="world state: running, grasped or missed, with errors"
+        Verdict,
+        measured=True,
+        doc="world state: running, grasped, missed or stopped, with errors and the outcome",
     )
     arm_poses = Output(
         Poses,
@@ -150,7 +153,7 @@ class SimWorld(Module):
         self._judged = False
         self._stopped_since: float | None = None
         self._stop_reason = ""
-        self._status = Status(stage="running", message="no grasp yet")
+        self._status = Verdict(stage="running", message="no grasp yet")
         self._status_due = -np.inf
         self._operator = OperatorStop()
 
@@ -188,9 +191,12 @@ class SimWorld(Module):
         elif self.context.attended:
             return  # the person answers requests and decides when to stop
         elif self._servo_stopped(now):
-            self._finish(now, False, f"stopped without a grasp: {self._stop_reason}")
+            verdict = f"stopped without a grasp: {self._stop_reason}"
+            self._finish(now, False, verdict, outcome=Outcome.STOPPED)
         elif now - self.t0 > self.params.timeout_s:
-            self._finish(now, False, self._why_not(f"no grasp within {self.params.timeout_s:g} s"))
+            verdict = self._why_not(f"no grasp within {self.params.timeout_s:g} s")
+            held = Outcome.STOPPED if self._held_for_old_data() else Outcome.MISSED
+            self._finish(now, False, verdict, outcome=held)
 
     def _operator_command(self, now: float) -> None:
         """The console's *Stop*: the run ends now as a normal stop, its verdict 'stopped by the
@@ -199,23 +205,30 @@ class SimWorld(Module):
             return
         if self._judged:
             verdict = f"{self.result['verdict']}; {STOPPED_BY_OPERATOR}"
-            self._finish(now, bool(self.result["grasped"]), verdict, self._status.stage)
+            grasped = bool(self.result["grasped"])
+            self._finish(now, grasped, verdict, self._status.stage, self._status.outcome)
         else:
-            self._finish(now, False, f"{STOPPED_BY_OPERATOR} before a grasp", stage="stopped")
+            verdict = f"{STOPPED_BY_OPERATOR} before a grasp"
+            self._finish(now, False, verdict, stage="stopped", outcome=Outcome.STOPPED)
 
     def _why_not(self, missed: str) -> str:
         """The verdict of a run without a grasp: 'stopped: data too old' first when the guard
         holds the arm for old data at the end (the control path could not stay fresh)."""
         guard = self.guard.value
-        if guard is not None and guard.stage == "zero" and guard.values.get("stale"):
+        if guard is not None and self._held_for_old_data():
             return f"stopped: data too old ({guard.reason}); {missed}"
         return missed
+
+    def _held_for_old_data(self) -> bool:
+        """The guard holds the arm at zero for old data now."""
+        guard = self.guard.value
+        return guard is not None and not guard.passing and guard.stale
 
     def _servo_stopped(self, now: float) -> bool:
         """True ``end_after_stop_s`` after the grab asked for help or its process vanished."""
         status = self.servo_status.get(now)
         person = self.presence.value
-        if person is not None and person.values.get("acted"):
+        if person is not None and person.acted:
             self._stopped_since = None  # a person at the console answers for the grab
             return False
         if self._stopped_since is None:
@@ -260,10 +273,17 @@ class SimWorld(Module):
             return 1, self._why_not("no grasp before the run's duration ended")
         return None
 
-    def _finish(self, now: float, grasped: bool, verdict: str, stage: str = "") -> None:
+    def _finish(
+        self,
+        now: float,
+        grasped: bool,
+        verdict: str,
+        stage: str = "",
+        outcome: Outcome | None = None,
+    ) -> None:
         """Publish and log the verdict; end the run unless it is attended (a person ends an
         attended run with *Stop*, which ends any run). ``stage``: the status's stage ("" says
-        grasped or missed)."""
+        grasped or missed); ``outcome``: None says succeeded or missed."""
         self._judged = True
         self.result.update(
             {
@@ -273,8 +293,13 @@ class SimWorld(Module):
         )
         self.result.setdefault("time_s", round(now - (self.t0 if self.t0 is not None else now), 3))
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
-        self._status = Status(
-            stage=stage or ("grasped" if grasped else "missed"), message=verdict, values=values
+        if outcome is None:
+            outcome = Outcome.SUCCEEDED if grasped else Outcome.MISSED
+        self._status = Verdict(
+            stage=stage or ("grasped" if grasped else "missed"),
+            message=verdict,
+            values=values,
+            outcome=outcome,
         )
         self._status_due = -np.inf
         self._send_status(now)

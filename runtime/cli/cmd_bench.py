@@ -31,6 +31,7 @@ from umbra.connectors.errors import UserError
 
 NAME = "bench"
 HELP = "run the benchmarks (each against a baseline measured in the same run) and summarise them"
+GUIDE = "docs/guide/benchmarks.md"  # the guide page this command's --help points to
 #: Fastest first, so a short look comes before the long runs.
 ORDER = (
     "scheduler",
@@ -96,8 +97,9 @@ def _missed_in_goals(goals: dict[str, object], figures: dict[str, object]) -> li
             continue  # nested goals ({"met": ...}) are read by missed_goals
         for suffix, worse in (("_max", float.__gt__), ("_min", float.__lt__)):
             figure = figures.get(name.removesuffix(suffix)) if name.endswith(suffix) else None
-            judged = isinstance(figure, int | float) and not isinstance(figure, bool)
-            if judged and worse(float(figure), float(goal)):  # type: ignore[arg-type]
+            if not isinstance(figure, int | float) or isinstance(figure, bool):
+                continue  # not judged by this suffix
+            if worse(float(figure), float(goal)):
                 sign = ">" if suffix == "_max" else "<"
                 missed.append(f"{name.removesuffix(suffix)} {figure:.3g} {sign} {goal:g}")
     return missed

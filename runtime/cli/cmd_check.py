@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from umbra.connectors.errors import CheckFailed
-from umbra.runtime.graph.check import load_graph
-from umbra.runtime.graph.origin_age import bounded_inputs
-from umbra.runtime.graph.spec import GraphSpec
-from umbra.runtime.registry import Registry
+
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.graph.spec import GraphSpec
 
 NAME = "check"
 HELP = "check graph files: report every problem as FILE:LINE:COL, list links"
+GUIDE = "docs/guide/graphs.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -21,6 +22,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from umbra.runtime.graph.check import load_graph
+    from umbra.runtime.graph.check_ros2 import Ros2Check
+    from umbra.runtime.graph.origin_age import bounded_inputs
+    from umbra.runtime.registry import Registry
+
     registry = Registry()
     failed = False
     for path in args.graphs:
@@ -37,7 +43,8 @@ def main(args: argparse.Namespace) -> int:
             f"{path}: ok: graph `{plan.spec.name}`, {len(plan.modules)} modules, "
             f"{len(plan.connections)} connections, processes: {', '.join(processes)}"
         )
-        for item in bounded_inputs(plan.modules, plan.connections):
+        outside = Ros2Check(plan.ros2).sources()
+        for item in bounded_inputs(plan.modules, plan.connections, outside):
             print(
                 f"  origin age at `{item.connection.dst}`: at least {item.worst.age * 1e3:.0f} ms "
                 f"of {item.bound * 1e3:.0f} ms allowed ({item.worst.text()})"
@@ -47,6 +54,10 @@ def main(args: argparse.Namespace) -> int:
                 f"  link {link.connection} ({link.msg_type.__name__}, {link.policy}): "
                 f"key `{link.key}`"
             )
+        for port in plan.ros2:
+            m = port.mapping
+            way = "->" if m.direction.value == "out" else "<-"
+            print(f"  ros2 {port} {way} {m.topic} ({m.ros_type}), process `{port.process}`")
     return 2 if failed else 0
 
 

@@ -4,19 +4,23 @@ from __future__ import annotations
 
 import argparse
 import inspect
+from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.params import describe_params, is_safety, is_tunable
-from umbra.runtime.registry import Registry
+
+if TYPE_CHECKING:
+    from umbra.connectors.module import Module
 
 NAME = "describe"
 HELP = "print a module type's ports and parameters"
+GUIDE = "docs/reference/modules.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("type", metavar="TYPE", help="module type name (see `umbra modules`)")
 
 
-def describe(cls: type) -> str:
+def describe(cls: type[Module[Any]]) -> str:
     """The text ``umbra describe`` prints for module class ``cls``."""
     lines = [f"{cls.type_name()}  ({cls.__module__}.{cls.__qualname__})"]
     if cls.SAFETY_GUARD:
@@ -38,8 +42,9 @@ def describe(cls: type) -> str:
             for attr in ("trigger", "feedback", "requires_guard"):
                 if getattr(d, attr, False):
                     flags.append(attr.replace("_", " "))
-            if getattr(d, "max_age", None) is not None:
-                flags.append(f"max age {d.max_age} s")
+            max_age = getattr(d, "max_age", None)
+            if max_age is not None:
+                flags.append(f"max age {max_age} s")
             if getattr(d, "required", True) is False:
                 flags.append("optional")
             extra = f" [{', '.join(flags)}]" if flags else ""
@@ -58,12 +63,14 @@ def describe(cls: type) -> str:
     return "\n".join(lines)
 
 
-def _marks(cls: type, name: str) -> dict[str, bool]:
+def _marks(cls: type[Module[Any]], name: str) -> dict[str, bool]:
     """``tunable``: may be changed while the graph runs; ``safety``: bounds what reaches the arm."""
     return {"tunable": is_tunable(cls.Params, name), "safety": is_safety(cls.Params, name)}
 
 
 def main(args: argparse.Namespace) -> int:
+    from umbra.runtime.registry import Registry
+
     cls = Registry().require(args.type)
     print(describe(cls))
     return 0

@@ -8,6 +8,7 @@ import math
 import queue
 import sys
 import time
+from typing import TYPE_CHECKING
 
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.observing import (
@@ -17,10 +18,15 @@ from umbra.runtime.cli.observing import (
     open_observation,
     run_ended_text,
 )
-from umbra.runtime.links.observe import Observed
+from umbra.runtime.ros2 import shell as ros2_shell
+from umbra.runtime.ros2.run_args import wants_ros2
+
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.links.observe import Observed
 
 NAME = "echo"
 HELP = "print the samples of an output of a running graph (KEY or MODULE/PORT), decoded"
+GUIDE = "docs/guide/recording.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -34,6 +40,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="exit 1 when no sample came for S seconds (default: wait)",
     )
+    ros2_shell.add_shell_args(parser)  # KEY a ROS 2 topic (`/joint_states`)
 
 
 #: Seconds between two looks at whether the run has ended while no sample comes.
@@ -43,6 +50,8 @@ LOOK_PERIOD = 0.2
 def main(args: argparse.Namespace) -> int:
     if args.timeout is not None and not (args.timeout > 0 and math.isfinite(args.timeout)):
         raise UserError(f"--timeout must be a positive number of seconds, found {args.timeout}")
+    if wants_ros2(args):
+        return ros2_shell.echo(args, args.key)
     observation = open_observation(args)
     try:
         key = full_key(observation, args.key)

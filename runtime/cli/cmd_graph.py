@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-from umbra.runtime.graph.check import load_graph
-from umbra.runtime.graph.plan import GraphPlan
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.graph.plan import GraphPlan
 
 NAME = "graph"
 HELP = "print a graph as Graphviz dot or Mermaid"
+GUIDE = "docs/guide/graphs.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -52,6 +54,8 @@ def to_mermaid(plan: GraphPlan) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    from umbra.runtime.graph.check import load_graph
+
     plan = load_graph(args.graph)
     print(to_dot(plan) if args.format == "dot" else to_mermaid(plan))
     return 0

@@ -8,6 +8,7 @@ import sys
 import threading
 import time
 from collections import deque
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,10 +19,13 @@ from umbra.runtime.cli.observing import (
     open_observation,
     run_ended_text,
 )
-from umbra.runtime.links.observe import Observed
+
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.links.observe import Observed
 
 NAME = "hz"
 HELP = "print the rate of an output of a running graph (KEY or MODULE/PORT) every second"
+GUIDE = "docs/guide/recording.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

@@ -6,14 +6,16 @@ import argparse
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from umbra.connectors.errors import UserError
-from umbra.runtime.graph.check import load_graph
-from umbra.runtime.graph.plan import GraphPlan
-from umbra.runtime.links.acl import output_keys
+
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.graph.plan import GraphPlan
 
 NAME = "keys"
 HELP = "make a CA, a certificate per process and the graph's zenoh access rules (mutual TLS)"
+GUIDE = "docs/guide/processes.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -57,6 +59,8 @@ def _hosts(items: list[str], processes: list[str]) -> dict[str, list[str]]:
 
 def _observers(items: list[str], plan: GraphPlan) -> dict[str, list[str]]:
     """``--observer NAME[=MODULE/PORT,...]`` as name -> the full keys it may read."""
+    from umbra.runtime.links.acl import output_keys
+
     every = output_keys(plan)
     found: dict[str, list[str]] = {}
     for item in items:
@@ -82,6 +86,7 @@ def _observers(items: list[str], plan: GraphPlan) -> dict[str, list[str]]:
 
 
 def main(args: argparse.Namespace) -> int:
+    from umbra.runtime.graph.check import load_graph
     from umbra.runtime.links.tls import write_keys
 
     if not 1 <= args.days <= 3650:

@@ -6,10 +6,9 @@ import argparse
 import re
 import textwrap
 
-from umbra.runtime.registry import Registry
-
 NAME = "modules"
 HELP = "list module types (from the umbra.modules entry points)"
+GUIDE = "docs/reference/modules.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -17,6 +16,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from umbra.runtime.registry import Registry
+
     registry = Registry()
     rows = []
     for name in registry.names():

@@ -6,6 +6,7 @@ import argparse
 
 NAME = "record-info"
 HELP = "summarise an MCAP recording (channels, rates, gaps, drops, duration)"
+GUIDE = "docs/guide/recording.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

@@ -16,6 +16,7 @@ NAME = "replay"
 #: 1 ns tolerance and the rounding of tick times.
 END_MARGIN = 5e-9
 HELP = "run a graph with recorded outputs in place of the modules that produced them"
+GUIDE = "docs/guide/recording.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

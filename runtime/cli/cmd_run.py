@@ -7,19 +7,20 @@ import logging
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.common import parse_module_set
-from umbra.runtime.graph.check import load_graph
 from umbra.runtime.graph.names import endpoint_problem
-from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.realtime import NO_CONSTRAINT_US, is_latency_us, latency_limit
-from umbra.runtime.run import default_output_dir, run_process
-from umbra.runtime.scheduler import SchedulerOptions
+from umbra.runtime.ros2.run_args import add_ros2_args, ros2_options, start_router
+
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.graph.plan import GraphPlan
 
 NAME = "run"
 HELP = "run a graph (all its processes, --process NAME, or --single-process)"
+GUIDE = "docs/guide/running.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -107,6 +108,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="with --record: how images are recorded (default: the graph's, else jpeg)",
     )
     parser.add_argument(
+        "--record-format",
+        choices=("foxglove", "ros2"),
+        help="with --record: `foxglove` (default: Foxglove's schemas) or `ros2` (ros2msg/cdr "
+        "channels that rosbags and `ros2 bag` read)",
+    )
+    add_ros2_args(parser)
+    parser.add_argument(
         "--publish-all",
         action="store_true",
         help="split runs: every process also publishes the outputs that feed no other process, "
@@ -189,6 +197,10 @@ def enable_recording(plan: GraphPlan, args: argparse.Namespace) -> None:
         if not plan.spec.record.enabled:
             raise UserError("--record-images needs --record (or `record:` in the graph)")
         plan.spec.record.images = args.record_images
+    if getattr(args, "record_format", None):
+        if not plan.spec.record.enabled:
+            raise UserError("--record-format needs --record (or `record:` in the graph)")
+        plan.spec.record.format = args.record_format
 
 
 def run_duration(plan: GraphPlan, args: argparse.Namespace) -> float | None:
@@ -207,6 +219,11 @@ def run_duration(plan: GraphPlan, args: argparse.Namespace) -> float | None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from umbra.runtime.graph.check import load_graph
+    from umbra.runtime.ros2.run_bridge import ros2_lines
+    from umbra.runtime.run import default_output_dir, run_process
+    from umbra.runtime.scheduler import SchedulerOptions
+
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         raise UserError(
             f"--duration must be a positive, finite number of seconds (leave it out to run"
@@ -230,6 +247,8 @@ def main(args: argparse.Namespace) -> int:
             f"{clock} ({'--clock' if args.clock else plan.spec.file}); add --clock real"
         )
     duration = run_duration(plan, args)
+    ros2 = ros2_options(plan, args)
+    router = start_router(ros2, bool(getattr(args, "supervised", False)))  # none answers: ours
     out = args.out or default_output_dir(plan)
     logging.basicConfig(
         level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr
@@ -243,6 +262,7 @@ def main(args: argparse.Namespace) -> int:
             handle_signals=True,
             cpu_latency_us=latency_limit(plan.spec.cpu_latency_us, None, latency),
             attended=args.attended,
+            ros2=ros2,
         )
         live: Any = None
 
@@ -258,8 +278,12 @@ def main(args: argparse.Namespace) -> int:
             if live is not None:
                 live.close()
                 print(f"foxglove: {live.summary()}", file=sys.stderr)
+            if router is not None:
+                router.close()
         if not args.quiet:
             print(result.table(), file=sys.stderr)
+            for line in ros2_lines(result.extra.get("ros2")):
+                print(line, file=sys.stderr)
             print(f"summary written to {out}", file=sys.stderr)
             if "recording" in result.extra:
                 rec = result.extra["recording"]
@@ -282,6 +306,8 @@ def main(args: argparse.Namespace) -> int:
     try:
         return launcher.main(plan, args, clock=clock, duration=duration, out=out)
     finally:
+        if router is not None:
+            router.close()
         if live is not None:
             live.close()
             print(f"foxglove: {live.summary()}", file=sys.stderr)

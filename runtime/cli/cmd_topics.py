@@ -9,13 +9,19 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypedDict
 
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.observing import add_observer_args, open_observation, run_ended_text
-from umbra.runtime.links.observe import Observed
+from umbra.runtime.ros2 import shell as ros2_shell
+from umbra.runtime.ros2.run_args import wants_ros2
+
+if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without them
+    from umbra.runtime.links.observe import Observed
 
 NAME = "topics"
 HELP = "list the outputs of a running graph: key, type, producer, rate, age, drops"
+GUIDE = "docs/guide/recording.md"  # the guide page this command's --help points to
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -24,6 +30,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--window", type=float, default=2.0, metavar="S", help="seconds to watch (default 2)"
     )
     parser.add_argument("--json", action="store_true", help="one JSON object per output")
+    ros2_shell.add_shell_args(parser)  # the ROS 2 domain's topics beside ours
 
 
 @dataclass
@@ -68,7 +75,15 @@ class Seen:
 def main(args: argparse.Namespace) -> int:
     if not (args.window > 0 and math.isfinite(args.window)):
         raise UserError(f"--window must be a positive number of seconds, found {args.window}")
-    observation = open_observation(args, list_runs=True)
+    ros2 = ros2_shell.list_topics(args, min(args.window, 1.0)) if wants_ros2(args) else None
+    try:
+        observation = open_observation(args, list_runs=True)
+    except UserError as exc:
+        if ros2 is None:
+            raise
+        print(f"umbra topics: {exc}", file=sys.stderr)  # no run of ours: the ROS 2 side alone
+        ros2_shell.print_topics(*ros2, args.json)
+        return 0
     seen: dict[str, Seen] = {}
     lock = threading.Lock()
 
@@ -87,7 +102,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"umbra topics: {run_ended_text(observation)} within the window", file=sys.stderr)
     now = time.monotonic()
     process_of = {session: name for name, session in producers.items()}
-    rows = []
+    rows: list[_Row] = []
     known: set[str] = set()
     run = observation.run
     for proc in run.processes if run else []:
@@ -105,12 +120,27 @@ def main(args: argparse.Namespace) -> int:
             print(json.dumps(row))
     else:
         _table(rows, observation.prefix, producers)
+    if ros2 is not None:
+        ros2_shell.print_topics(*ros2, args.json)
     return 0
+
+
+class _Row(TypedDict):
+    """One topic as ``umbra topics`` prints it (``--json``: one object a line)."""
+
+    key: str
+    type: str
+    producer: str
+    rate_hz: float | None  # [Hz]
+    age_s: float | None  # [s] since the last sample
+    drops: int
+    samples: int
+    note: str
 
 
 def _row(
     key: str, type_name: str, producer: str, s: Seen | None, now: float, published: bool
-) -> dict[str, object]:
+) -> _Row:
     rate = s.rate() if s else None
     age = now - s.last if s and s.count else None
     if not published:
@@ -133,7 +163,7 @@ def _row(
     }
 
 
-def _table(rows: list[dict[str, object]], prefix: str, producers: dict[str, str]) -> None:
+def _table(rows: list[_Row], prefix: str, producers: dict[str, str]) -> None:
     alive = ", ".join(sorted(producers)) or "none"
     print(f"graph prefix {prefix}; processes up: {alive}", file=sys.stderr)
     head = ("KEY", "TYPE", "PRODUCER", "RATE Hz", "AGE s", "DROPS", "")

@@ -13,6 +13,7 @@ import logging
 import os
 import re
 import sys
+from collections.abc import Sequence
 from importlib.metadata import entry_points
 from types import ModuleType
 from typing import Any, NoReturn
@@ -37,6 +38,9 @@ COMMANDS = (
     "cmd_hz",
 )
 COMMAND_GROUP = "umbra.commands"
+#: The guide's front page, which ``umbra --help`` names; each command names its own page in its
+#: module's ``GUIDE`` (a path in the repository, like this one).
+GUIDE = "docs/index.md"
 
 
 #: A command-line word that is a value, not an option: a negative number or a comma-separated
@@ -52,12 +56,17 @@ class _Parser(argparse.ArgumentParser):
         # attribute for it, unchanged since Python 2.7; no option of ours looks like a number)
         self._negative_number_matcher = NEGATIVE_VALUE_RE
 
-    def error(self, message: str) -> None:  # usage message and exit 2 on a bad command line
+    def error(self, message: str) -> NoReturn:  # usage message and exit 2 on a bad command line
         self.print_usage(sys.stderr)
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _load_commands() -> list[ModuleType]:
+def _load_commands(only: str | None = None) -> list[ModuleType]:
+    """The command modules: just the one named ``only`` when it names one that loads (a command
+    imports its own stacks, never the others'), else every command."""
+    one = _load_command(only) if only else None
+    if one is not None:
+        return [one]
     found = [importlib.import_module(f"umbra.runtime.cli.{name}") for name in COMMANDS]
     for ep in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
         try:
@@ -67,21 +76,45 @@ def _load_commands() -> list[ModuleType]:
     return found
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _load_command(name: str) -> ModuleType | None:
+    """The module of the command ``name`` (runtime ``cmd_<name>``, or the entry point of that
+    name), or None when none loads with that ``NAME``."""
+    module = f"cmd_{name.replace('-', '_')}"
+    try:
+        if module in COMMANDS:
+            cmd = importlib.import_module(f"umbra.runtime.cli.{module}")
+        else:
+            (ep,) = [ep for ep in entry_points(group=COMMAND_GROUP) if ep.name == name]
+            cmd = ep.load()
+    except Exception:  # none, two, or a broken plug-in: loading them all says which
+        return None
+    return cmd if getattr(cmd, "NAME", None) == name else None
+
+
+def _command_word(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` starts with; None when it starts with an option (``--help``)."""
+    return argv[0] if argv and not argv[0].startswith("-") else None
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``umbra`` parser: with ``command``, only that command's sub-parser when it is one."""
     parser = _Parser(
         prog="umbra",
         description="Dataflow connector framework for vision-guided robots (Umbra/SMART).",
+        epilog=f"guide: {GUIDE} (each command's --help names its page)",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for cmd in _load_commands():
-        p = sub.add_parser(cmd.NAME, help=cmd.HELP, description=cmd.HELP)
+    for cmd in _load_commands(command):
+        guide = getattr(cmd, "GUIDE", None)  # a plug-in's command may have no page of ours
+        epilog = f"guide: {guide}" if guide else None
+        p = sub.add_parser(cmd.NAME, help=cmd.HELP, description=cmd.HELP, epilog=epilog)
         cmd.configure(p)
         p.set_defaults(_main=cmd.main)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    parser = build_parser(_command_word(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     if not getattr(args, "_main", None):
         parser.print_help(sys.stderr)

@@ -6,14 +6,16 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 import numpy as np
 
 from umbra.connectors.errors import UserError
 from umbra.connectors.messages import Message
-from umbra.runtime.links.observe import Observation, runs_text, sibling_runs
+
+if TYPE_CHECKING:  # imported where used: `umbra --help` loads this file without it
+    from umbra.runtime.links.observe import Observation
 
 #: Arrays with more elements than this are summarised (dtype, shape, range) when printed.
 MAX_LISTED = 64
@@ -54,6 +56,8 @@ def open_observation(args: argparse.Namespace, list_runs: bool = False) -> Obser
     was taken as the newest of several, the others and how to choose); ``list_runs``: one
     more line per run of the graph when several are up. UserError (exit 2) when none runs or
     access is refused."""
+    from umbra.runtime.links.observe import Observation, runs_text, sibling_runs
+
     observation = Observation.open(
         args.graph,
         prefix=args.prefix,

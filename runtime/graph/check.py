@@ -15,10 +15,12 @@ from collections.abc import Callable
 from typing import Any
 
 from umbra.connectors.errors import CheckFailed, Diagnostic, Location, UserError
+from umbra.connectors.user_files import OnCommandLine
 from umbra.runtime.graph.check_frames import check_frames, static_frames
 from umbra.runtime.graph.check_links import check_zenoh_config, plan_links
 from umbra.runtime.graph.check_modules import module_plan
 from umbra.runtime.graph.check_paths import check_guards, check_loops
+from umbra.runtime.graph.check_ros2 import check_ros2
 from umbra.runtime.graph.check_wiring import (
     check_connections,
     check_required_inputs,
@@ -44,9 +46,9 @@ def _check(spec: GraphSpec, registry: Registry) -> tuple[GraphPlan | None, list[
 
     modules: dict[str, ModulePlan] = {}
     for mspec in spec.modules.values():
-        plan = module_plan(mspec, registry, error)
-        if plan is not None:
-            modules[mspec.name] = plan
+        checked = module_plan(mspec, registry, error)
+        if checked is not None:
+            modules[mspec.name] = checked
     frames = static_frames(spec, error)
     check_frames(modules, frames, error)
     connections = check_connections(spec, modules, error)
@@ -54,8 +56,9 @@ def _check(spec: GraphSpec, registry: Registry) -> tuple[GraphPlan | None, list[
     check_scheduling(spec, modules, error)
     order = check_loops(spec, modules, connections, error)
     check_guards(spec, modules, connections, error)
+    ros2 = check_ros2(spec, modules, connections, error)  # the ports mapped to ROS 2 topics
     if not problems:  # ages are followed along connections already found sound
-        check_origin_ages(modules, connections, error)
+        check_origin_ages(modules, connections, error, ros2.sources())
     check_zenoh_config(spec, error)
     outputs = {n: set(m.outputs) if (m := modules.get(n)) else None for n in spec.modules}
     check_record_ports(spec.record, outputs, error)
@@ -63,6 +66,7 @@ def _check(spec: GraphSpec, registry: Registry) -> tuple[GraphPlan | None, list[
         return None, problems
     plan = GraphPlan(spec, modules, connections, order, frames)
     plan.links = plan_links(plan, connections)
+    plan.ros2 = ros2.ports
     return plan, problems
 
 
@@ -112,11 +116,15 @@ def _read(parse: Callable[[], GraphSpec]) -> tuple[GraphSpec, list[Diagnostic]]:
 
 
 def apply_overrides(spec: GraphSpec, overrides: dict[str, dict[str, Any]]) -> None:
-    """Apply ``--set module.param=value`` overrides; UserError for an unknown module."""
+    """Apply ``--set module.param=value`` overrides; UserError for an unknown module. Text
+    values arrive as :class:`OnCommandLine`: a file the user names there may lie outside the
+    run folder."""
     for module, values in overrides.items():
         if module not in spec.modules:
             raise UserError(f"--set: unknown module `{module}`{did_you_mean(module, spec.modules)}")
-        spec.modules[module].params.update(values)
+        spec.modules[module].params.update(
+            {k: OnCommandLine(v) if isinstance(v, str) else v for k, v in values.items()}
+        )
         for key in values:
             where = Location(f"--set {module}.{key}", 0, 0)
             spec.modules[module].param_val_loc[key] = where

@@ -7,7 +7,7 @@ from typing import Any
 
 import pydantic
 
-from umbra.connectors.params import ParamProblem
+from umbra.connectors.params import Parameters, ParamProblem, short_repr
 from umbra.runtime.graph.check_report import Report
 from umbra.runtime.graph.plan import ModulePlan, PortInfo
 from umbra.runtime.graph.spec import ModuleSpec
@@ -47,7 +47,7 @@ def module_plan(mspec: ModuleSpec, registry: Registry, error: Report) -> ModuleP
     return ModulePlan(mspec, cls, params, inputs, outputs, triggers, in_decls)
 
 
-def _params(mspec: ModuleSpec, params_cls: type, error: Report) -> Any:
+def _params(mspec: ModuleSpec, params_cls: type[Parameters], error: Report) -> Parameters | None:
     """The validated parameters of ``mspec``, or None with each problem reported where it is."""
     try:
         return params_cls(**mspec.params)
@@ -64,11 +64,10 @@ def _params(mspec: ModuleSpec, params_cls: type, error: Report) -> Any:
                 )
             elif err["type"] == "missing":
                 error(mspec.params_loc, f"{mspec.type} `{mspec.name}` needs parameter `{key}`")
-            elif not loc and isinstance(_cause(err), ParamProblem):
-                field = _cause(err).field
+            elif not loc and isinstance(problem := _cause(err), ParamProblem):
                 error(
-                    mspec.param_val_loc.get(field, mspec.params_loc),
-                    f"parameters of `{mspec.name}`: {_cause(err)}",
+                    mspec.param_val_loc.get(problem.field, mspec.params_loc),
+                    f"parameters of `{mspec.name}`: {problem}",
                 )
             elif err["type"] == "value_error" and _cause(err) is not None:
                 where = ".".join(str(p) for p in loc)  # a validator's own message
@@ -81,7 +80,7 @@ def _params(mspec: ModuleSpec, params_cls: type, error: Report) -> Any:
                 error(
                     mspec.param_val_loc.get(key, mspec.params_loc),
                     f"parameter `{where}` of `{mspec.name}`: {err['msg']}, "
-                    f"found {_short(err.get('input'))}",
+                    f"found {short_repr(err.get('input'))}",
                 )
         return None
     except (TypeError, ValueError) as exc:  # a module's own validator
@@ -93,15 +92,6 @@ def _cause(err: Any) -> BaseException | None:
     """The exception a validator raised, kept by pydantic in the error's context."""
     ctx = err.get("ctx") or {}
     return ctx.get("error") if isinstance(ctx.get("error"), BaseException) else None
-
-
-def _short(value: Any) -> str:
-    """``repr(value)`` cut to 120 characters (a 5000-digit number is not printed whole)."""
-    try:
-        text = repr(value)
-    except ValueError:  # an int too long for repr
-        return "a number too long to print"
-    return text if len(text) <= 120 else text[:117] + "..."
 
 
 def _port_infos(decls: dict[str, Any], params: Any) -> dict[str, PortInfo]:

@@ -39,6 +39,43 @@ def check_loops(
     return topological_order(names, edges)
 
 
+#: What to do about a command path without a guard.
+GUARD_HINT = "put a watchdog register (e.g. REG_VEL) on that path"
+
+
+def command_feeding(
+    spec: GraphSpec, modules: Mapping[str, ModulePlan], connections: Sequence[ConnectionSpec]
+) -> tuple[dict[str, list[str]], set[str]]:
+    """Which modules feed each module along command paths (feedback inputs carry no commands and
+    are not followed), and the modules fed by one that could not be built (not judged)."""
+    feeding: dict[str, list[str]] = {}
+    for conn in connections:
+        decl = modules[conn.dst.module].input_decls[conn.dst.port]
+        if not decl.feedback:
+            feeding.setdefault(conn.dst.module, []).append(conn.src.module)
+    unknown = {c.dst.module for c in spec.connections if c.src.module not in modules}
+    return feeding, unknown
+
+
+def unguarded_chain(
+    modules: Mapping[str, ModulePlan],
+    start: str,
+    end: str,
+    feeding: dict[str, list[str]],
+    unknown: set[str],
+    target: str = "",
+) -> str | None:
+    """The command path ``... -> start -> end`` that passes no guard, as text (None when every
+    path into ``start`` passes one; :func:`unguarded_path` says which paths count)."""
+    path = unguarded_path(modules, start, target, feeding, unknown)
+    if path is None:
+        return None
+    names = [*reversed(path), end]
+    if len(names) > 12:  # a long chain: its ends and how many between
+        names = [*names[:5], f"... {len(names) - 10} more ...", *names[-5:]]
+    return " -> ".join(names)
+
+
 def check_guards(
     spec: GraphSpec,
     modules: Mapping[str, ModulePlan],
@@ -47,27 +84,20 @@ def check_guards(
 ) -> None:
     """Every command path into an input that ``requires_guard`` passes a safety guard (feedback
     inputs carry no commands and are not followed)."""
-    feeding: dict[str, list[str]] = {}
-    for conn in connections:
-        decl = modules[conn.dst.module].input_decls[conn.dst.port]
-        if not decl.feedback:
-            feeding.setdefault(conn.dst.module, []).append(conn.src.module)
-    unknown = {c.dst.module for c in spec.connections if c.src.module not in modules}
+    feeding, unknown = command_feeding(spec, modules, connections)
     for conn in connections:
         decl = modules[conn.dst.module].input_decls[conn.dst.port]
         if not decl.requires_guard:
             continue
-        path = unguarded_path(modules, conn.src.module, conn.dst.module, feeding, unknown)
-        if path is not None:
-            names = [*reversed(path), str(conn.dst)]
-            if len(names) > 12:  # a long chain: its ends and how many between
-                names = [*names[:5], f"... {len(names) - 10} more ...", *names[-5:]]
-            chain = " -> ".join(names)
+        chain = unguarded_chain(
+            modules, conn.src.module, str(conn.dst), feeding, unknown, conn.dst.module
+        )
+        if chain is not None:
             error(
                 conn.loc,
                 f"`{conn.dst}` must be fed through a safety guard, but the "
                 f"command path {chain} has none",
-                "put a watchdog register (e.g. REG_VEL) on that path",
+                GUARD_HINT,
             )
 
 

@@ -56,22 +56,32 @@ def check_connections(
                 "transform it first (e.g. ROTATE_KIN) or fix the frame parameter",
             )
             continue
-        if (
-            src.msg_type.HAS_JOINTS
-            and src.joints is not None
-            and dst.joints is not None
-            and src.joints != dst.joints
-        ):
-            error(
-                conn.src.port_loc,
-                f"joint mismatch: `{conn.src}` carries joints "
-                f"{list(src.joints)}, `{conn.dst}` expects "
-                f"{list(dst.joints)}",
-            )
+        mismatch = joint_mismatch(
+            src.msg_type.HAS_JOINTS, src.joints, dst.joints, f"`{conn.src}`", f"`{conn.dst}`"
+        )
+        if mismatch:
+            error(conn.src.port_loc, mismatch)
             continue
         _check_max_age(modules, conn, error)
         sound.append(conn)
     return sound
+
+
+def joint_mismatch(
+    has_joints: bool,
+    carried: tuple[str, ...] | None,
+    expected: tuple[str, ...] | None,
+    source: str,
+    dest: str,
+) -> str:
+    """Why ``source``'s joints ``carried`` cannot feed ``dest``, an input that declares
+    ``expected`` (empty: they can, or either side declares none): the rule for a connection and
+    for a ROS 2 topic's joint state (``check_ros2``)."""
+    if not has_joints or carried is None or expected is None or tuple(carried) == tuple(expected):
+        return ""
+    return (
+        f"joint mismatch: {source} carries joints {list(carried)}, {dest} expects {list(expected)}"
+    )
 
 
 def _port(
@@ -122,9 +132,9 @@ def _check_max_age(modules: Mapping[str, ModulePlan], conn: ConnectionSpec, erro
 def check_required_inputs(
     spec: GraphSpec, modules: Mapping[str, ModulePlan], error: Report
 ) -> None:
-    """Every required input has a connection (inputs of connections that failed a check are not
-    reported again as unconnected)."""
-    attempted = {(c.dst.module, c.dst.port) for c in spec.connections}
+    """Every required input has a connection or is fed from ROS 2 (inputs of connections that
+    failed a check are not reported again as unconnected)."""
+    attempted = {(c.dst.module, c.dst.port) for c in spec.connections} | spec.ros2.fed_inputs()
     for plan in modules.values():
         for name, decl in plan.input_decls.items():
             if decl.required and (plan.name, name) not in attempted:
@@ -137,7 +147,7 @@ def check_required_inputs(
 
 def check_scheduling(spec: GraphSpec, modules: Mapping[str, ModulePlan], error: Report) -> None:
     """Every module runs: at a rate, or on a connected trigger input."""
-    connected = {(c.dst.module, c.dst.port) for c in spec.connections}
+    connected = {(c.dst.module, c.dst.port) for c in spec.connections} | spec.ros2.fed_inputs()
     for plan in modules.values():
         if plan.spec.rate is not None or plan.spec.rate_loc is not None:
             continue  # a rate, or a bad one (reported when the graph was read)

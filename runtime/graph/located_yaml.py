@@ -3,6 +3,12 @@
 Guards against hostile input: files over ``MAX_BYTES``, bytes that are not UTF-8, nesting deeper
 than ``MAX_DEPTH``, and alias ("billion laughs") expansion beyond ``MAX_NODES``. Every failure is a
 :class:`~umbra.connectors.errors.CheckFailed` with ``FILE:LINE:COL``; nothing else escapes.
+Positions, line ends, indentation and merge keys follow :mod:`umbra.connectors.safe_yaml`: a key
+merged in by ``<<: *anchor`` keeps the location where the anchor's mapping writes it.
+
+A mapping or list tagged ``!replace`` is read as an untagged one with ``replace`` set: a graph
+that extends another replaces the base's value with it instead of merging
+(``umbra.runtime.graph.parse_extends``).
 """
 
 from __future__ import annotations
@@ -12,27 +18,37 @@ from typing import Any
 import yaml
 
 from umbra.connectors.errors import CheckFailed, Diagnostic, Location
-from umbra.connectors.safe_yaml import BoundedLoader, Refused, check_tree
+from umbra.connectors.safe_yaml import (
+    BoundedLoader,
+    Refused,
+    check_tree,
+    line_end_problem,
+    odd_indent,
+)
 
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64
 MAX_NODES = 100_000
 _PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+REPLACE_TAG = "!replace"
 
 
-class YMap(dict):
+class YMap(dict[Any, Any]):
     """A mapping with the location of itself, of each key and of each value."""
 
     loc: Location
     key_loc: dict[Any, Location]
     val_loc: dict[Any, Location]
+    replace: bool = False
 
 
-class YList(list):
+class YList(list[Any]):
     """A list with the location of itself and of each item."""
 
     loc: Location
     item_loc: list[Location]
+    replace: bool = False
 
 
 def _loc(file: str, node: yaml.Node) -> Location:
@@ -52,29 +68,17 @@ class _Builder:
             raise _TooBig(node, f"more than {MAX_NODES} YAML nodes (after expanding aliases)")
         if depth > MAX_DEPTH:
             raise _TooBig(node, f"nesting deeper than {MAX_DEPTH} levels")
-        if isinstance(node, yaml.MappingNode | yaml.SequenceNode) and node.tag not in _PLAIN_TAGS:
+        collection = isinstance(node, yaml.MappingNode | yaml.SequenceNode)
+        if collection and node.tag not in (*_PLAIN_TAGS, REPLACE_TAG):
             raise _Bad(node, f"unsupported YAML tag `{node.tag}`")
         if isinstance(node, yaml.MappingNode):
-            out = YMap()
-            out.loc, out.key_loc, out.val_loc = _loc(self.file, node), {}, {}
-            try:  # YAML `<<` merges, which may name something that is no mapping
-                self.constructor.flatten_mapping(node)
-            except yaml.YAMLError as exc:
-                raise _Bad(node, f"bad merge: {_problem(exc)}") from None
-            for key_node, value_node in node.value:
-                key = self.build(key_node, depth + 1)
-                if isinstance(key, dict | list):
-                    raise _Bad(key_node, "a mapping key must be a plain value")
-                if key in out:
-                    first = out.key_loc[key]
-                    raise _Bad(key_node, f"duplicate key `{key}` (first at line {first.line})")
-                out[key] = self.build(value_node, depth + 1)
-                out.key_loc[key] = _loc(self.file, key_node)
-                out.val_loc[key] = _loc(self.file, value_node)
+            out = self.mapping(node, depth)
+            out.replace = node.tag == REPLACE_TAG
             return out
         if isinstance(node, yaml.SequenceNode):
             items = YList()
             items.loc, items.item_loc = _loc(self.file, node), []
+            items.replace = node.tag == REPLACE_TAG
             for item in node.value:
                 items.append(self.build(item, depth + 1))
                 items.item_loc.append(_loc(self.file, item))
@@ -86,6 +90,57 @@ class _Builder:
         except Exception as exc:  # `!!float abc`, a 5000-digit integer: the file's fault
             text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise _Bad(node, f"bad value for tag `{node.tag}`: {text[:160]}") from None
+
+    def mapping(self, node: yaml.MappingNode, depth: int) -> YMap:
+        """A mapping with YAML 1.1 merges: ``<<`` takes a mapping or a list of mappings; the
+        mapping's own keys override merged ones, and an earlier merged mapping wins over a later
+        one. Its own keys are unique (``check_tree`` refused duplicates before)."""
+        out = YMap()
+        out.loc, out.key_loc, out.val_loc = _loc(self.file, node), {}, {}
+        own = []
+        for key_node, value_node in node.value:
+            if key_node.tag == _MERGE_TAG:
+                for merged in self.merged(value_node, depth):
+                    for key in merged:
+                        if key not in out:
+                            out[key] = merged[key]
+                            out.key_loc[key] = merged.key_loc[key]
+                            out.val_loc[key] = merged.val_loc[key]
+            else:
+                own.append((key_node, value_node))
+        own_keys: set[Any] = set()
+        for key_node, value_node in own:
+            key = self.build(key_node, depth + 1)
+            if isinstance(key, dict | list):
+                raise _Bad(key_node, "a mapping key must be a plain value")
+            if key in own_keys:  # `1` and `0x1`: two spellings, one key
+                first = out.key_loc[key]
+                raise _Bad(key_node, f"duplicate key `{key}` (first at line {first.line})")
+            own_keys.add(key)
+            out[key] = self.build(value_node, depth + 1)
+            out.key_loc[key] = _loc(self.file, key_node)
+            out.val_loc[key] = _loc(self.file, value_node)
+        return out
+
+    def merged(self, node: yaml.Node, depth: int) -> list[YMap]:
+        """The mappings a ``<<`` value names, in order."""
+        nodes = node.value if isinstance(node, yaml.SequenceNode) else [node]
+        out = []
+        for item in nodes:
+            if not isinstance(item, yaml.MappingNode):
+                raise _Bad(
+                    item,
+                    "bad merge: `<<` takes a mapping or a list of mappings (`<<: *base`, "
+                    f"`<<: [*a, *b]`), found {_node_kind(item)}",
+                )
+            out.append(self.build(item, depth + 1))
+        return out
+
+
+def _node_kind(node: yaml.Node) -> str:
+    if isinstance(node, yaml.SequenceNode):
+        return "a list"
+    return f"`{node.value}`" if isinstance(node, yaml.ScalarNode) else "a node"
 
 
 class _Bad(Exception):
@@ -127,6 +182,10 @@ def load_located(text_or_bytes: str | bytes, file: str) -> Any:
     if "\x00" in text:
         line = text[: text.index("\x00")].count("\n") + 1
         raise fail(line, 1, "not a text file (contains a NUL byte)")
+    text = text.removeprefix("\ufeff")  # a byte-order mark is no character of line 1
+    odd = line_end_problem(text)
+    if odd is not None:
+        raise fail(odd.line, odd.column, odd.message)
     try:
         loader = BoundedLoader(text, MAX_DEPTH)
         try:
@@ -140,6 +199,9 @@ def load_located(text_or_bytes: str | bytes, file: str) -> Any:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        indent = odd_indent(text, line)
+        if indent is not None:
+            raise fail(indent.line, indent.column, f"YAML syntax: {indent.message}") from None
         raise fail(line, col, f"YAML syntax: {exc.problem or exc.context}") from None
     except yaml.YAMLError as exc:
         raise fail(1, 1, f"YAML: {_problem(exc)}") from None

@@ -10,6 +10,8 @@ age of the data behind a sample grows along a path by what each hop may add:
 * a module triggered by an input runs in the tick the input arrives and adds nothing (its output
   is replaced as soon as the input is);
 * a link between processes adds its latency (``LINK_LATENCY_S``, loopback);
+* an input fed from outside the graph (a ROS 2 topic: :class:`OutsideFeed`) starts with the worst
+  age its declaration states (transport and clock error bound) and goes on like any other;
 * event inputs (operator actions, paths) date a step only when they bring a new event, so they add
   nothing to a state's worst age.
 
@@ -53,10 +55,26 @@ class WorstAge:
 
 
 @dataclass(frozen=True)
-class BoundedInput:
-    """An input with ``max_origin_age``, the bound and the worst age the graph allows there."""
+class OutsideFeed:
+    """Input ``module.port`` fed from outside the graph (a ROS 2 topic): ``worst``, the worst
+    origin age [s] of what arrives there as its declaration states it; ``loc``, the declaration."""
 
-    connection: ConnectionSpec
+    module: str
+    port: str
+    worst: WorstAge
+    loc: Location
+
+    @property
+    def dst(self) -> str:
+        return f"{self.module}.{self.port}"
+
+
+@dataclass(frozen=True)
+class BoundedInput:
+    """An input with ``max_origin_age``, the bound and the worst age the graph allows there;
+    ``connection`` feeds it (a connection of the graph, or a feed from outside)."""
+
+    connection: ConnectionSpec | OutsideFeed
     bound: float
     worst: WorstAge
 
@@ -71,9 +89,13 @@ class OriginLoop(Exception):
 
 class _Ages:
     def __init__(
-        self, modules: Mapping[str, ModulePlan], connections: Sequence[ConnectionSpec]
+        self,
+        modules: Mapping[str, ModulePlan],
+        connections: Sequence[ConnectionSpec],
+        outside: Sequence[OutsideFeed] = (),
     ) -> None:
         self.modules = modules
+        self.outside = {(f.module, f.port): f for f in outside if f.module in modules}
         self.feeding: dict[tuple[str, str], list[ConnectionSpec]] = {}
         for conn in connections:
             if conn.src.module in modules and conn.dst.module in modules:
@@ -116,10 +138,12 @@ class _Ages:
         plan = self.modules[module]
         worst = WorstAge(0.0, [])
         for port in inputs:
-            for conn in self.feeding.get((module, port), []):
-                if self.events(conn):
-                    continue
-                arriving = self.arriving(conn)
+            feeds = [
+                self.arriving(c) for c in self.feeding.get((module, port), []) if not self.events(c)
+            ]
+            if (module, port) in self.outside:
+                feeds.append(self.outside[(module, port)].worst)
+            for arriving in feeds:
                 if arriving.age > worst.age or not worst.path:
                     worst = arriving
         if not worst.path:  # reads nothing that dates it: its own stamp
@@ -138,16 +162,25 @@ class _Ages:
 
 
 def bounded_inputs(
-    modules: Mapping[str, ModulePlan], connections: Sequence[ConnectionSpec]
+    modules: Mapping[str, ModulePlan],
+    connections: Sequence[ConnectionSpec],
+    outside: Sequence[OutsideFeed] = (),
 ) -> list[BoundedInput]:
-    """Every connection into an input that declares ``max_origin_age``, with the worst origin age
-    the graph allows there; raises :class:`OriginLoop`."""
-    ages = _Ages(modules, connections)
-    out = []
+    """Every connection (or feed from ``outside``) into an input that declares
+    ``max_origin_age``, with the worst origin age the graph allows there; raises
+    :class:`OriginLoop`."""
+    ages = _Ages(modules, connections, outside)
+    out: list[BoundedInput] = []
+    for feed in ages.outside.values():
+        plan = modules[feed.module]
+        decl = plan.input_decls.get(feed.port)
+        bound = decl.resolve_max_origin_age(plan.params) if decl is not None else None
+        if bound is not None:
+            out.append(BoundedInput(feed, bound, feed.worst))
     for conn in connections:
-        plan = modules.get(conn.dst.module)
-        if plan is None or conn.src.module not in modules:
+        if conn.dst.module not in modules or conn.src.module not in modules:
             continue
+        plan = modules[conn.dst.module]
         decl = plan.input_decls.get(conn.dst.port)
         bound = decl.resolve_max_origin_age(plan.params) if decl is not None else None
         if bound is None or ages.events(conn):
@@ -160,11 +193,12 @@ def check_origin_ages(
     modules: Mapping[str, ModulePlan],
     connections: Sequence[ConnectionSpec],
     error: Callable[[Location, str, str], None],
+    outside: Sequence[OutsideFeed] = (),
 ) -> None:
-    """Report every bounded input whose bound the graph's rates cannot meet, and loops that would
-    keep origins from advancing."""
+    """Report every bounded input whose bound the graph's rates (and the declared ages of the
+    feeds from ``outside``) cannot meet, and loops that would keep origins from advancing."""
     try:
-        found = bounded_inputs(modules, connections)
+        found = bounded_inputs(modules, connections, outside)
     except OriginLoop as loop:
         flow = loop.loop[::-1]  # followed upstream; said the way the data flows
         first = modules[flow[0]]

@@ -17,12 +17,18 @@ Format (see README "Graphs")::
       - source.count -> sink.value
       - sink.x ~> source.y        # delayed: reads the previous tick's value
     links: {prefix: demo, listen: [tcp/127.0.0.1:7447]}
+
+Before the sections are read, a graph that ``extends:`` another is composed with it
+(``parse_extends``) and each ``$NAME`` is replaced by its entry of ``values:`` (``parse_values``);
+every part keeps the file and line where it is written.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 from umbra.connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from umbra.connectors.frames import NAME_RE  # one rule for every graph name
@@ -31,10 +37,13 @@ from umbra.runtime.graph.located_yaml import MAX_BYTES, YMap, load_located
 from umbra.runtime.graph.names import (
     MAX_NAME_CHARS,
 )
-from umbra.runtime.graph.parse_base import _kind
+from umbra.runtime.graph.parse_base import _kind, _plain
+from umbra.runtime.graph.parse_extends import compose
 from umbra.runtime.graph.parse_links import LinksParser
 from umbra.runtime.graph.parse_modules import ModulesParser
 from umbra.runtime.graph.parse_processes import ProcessesParser
+from umbra.runtime.graph.parse_ros2 import Ros2Parser
+from umbra.runtime.graph.parse_values import substitute
 from umbra.runtime.graph.spec import (
     GraphSpec,
 )
@@ -52,10 +61,11 @@ TOP_KEYS = (
     "connections",
     "links",
     "record",
+    "ros2",
 )
 
 
-class _Parser(ProcessesParser, ModulesParser, LinksParser):
+class _Parser(ProcessesParser, ModulesParser, LinksParser, Ros2Parser):
     """The whole file: its top-level keys, then each section (``umbra.runtime.graph.parse_*``)."""
 
     def parse(self, doc: Any) -> GraphSpec | None:
@@ -103,9 +113,21 @@ class _Parser(ProcessesParser, ModulesParser, LinksParser):
         spec.modules = self.modules(doc, spec.processes)
         spec.connections = self.connections(doc)
         spec.links = self.links(doc)
+        spec.ros2 = self.ros2(doc)
         if "record" in doc:
             spec.record = parse_record(doc["record"], doc.val_loc["record"], self.error)
         return spec
+
+
+def resolved_text(doc: YMap, texts: dict[str, str]) -> str:
+    """The composed graph as one YAML text that reads as the same graph (what a recording
+    attaches): every value substituted, nothing extended."""
+    files = list(texts)
+    head = f"# {files[0]} as run: composed from {', '.join(files)}\n"
+    body: str = yaml.safe_dump(
+        _plain(doc), sort_keys=False, allow_unicode=True, width=100, default_flow_style=None
+    )
+    return head + body
 
 
 class ShapeProblems(CheckFailed):
@@ -118,10 +140,14 @@ class ShapeProblems(CheckFailed):
 
 
 def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
-    """Parse graph text; raises ShapeProblems (a CheckFailed) listing every shape problem."""
+    """Parse graph text; raises ShapeProblems (a CheckFailed) listing every shape problem. A graph
+    that ``extends:`` another reads it relative to ``file``'s folder."""
     doc = load_located(text, file)
     as_text = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
-    parser = _Parser(file, as_text)
+    composed = compose(doc, file, as_text)
+    doc = substitute(composed.doc, composed.problems)
+    parser = _Parser(file, as_text, composed.texts)
+    parser.problems.extend(composed.problems)
     if doc is None:
         raise CheckFailed(
             [
@@ -135,6 +161,8 @@ def parse_graph_text(text: str | bytes, file: str) -> GraphSpec:
     spec = parser.parse(doc)
     if spec is not None:
         spec.broken_modules = parser.broken
+        spec.sources = list(composed.texts)
+        spec.text = resolved_text(doc, composed.texts) if composed.extends else as_text
     if parser.problems or spec is None:
         raise ShapeProblems(parser.problems, spec)
     return spec

@@ -35,9 +35,10 @@ def _plain(value: Any) -> Any:
 class ParserBase:
     """The parser's state: the file, its text, and the problems found (``diagnostics``)."""
 
-    def __init__(self, file: str, text: str) -> None:
+    def __init__(self, file: str, text: str, others: dict[str, str] | None = None) -> None:
         self.file = file
-        self.lines = text.splitlines()
+        #: the lines of each file read, by file name (a graph that extends another reads two)
+        self.lines = {name: t.split("\n") for name, t in {**(others or {}), file: text}.items()}
         self.problems: list[Diagnostic] = []
         self.broken: set[str] = set()
 
@@ -61,7 +62,8 @@ class ParserBase:
 
     def col_of(self, loc: Location, offset: int) -> Location:
         """Location ``offset`` characters into a plain or quoted scalar that starts at ``loc``."""
-        line = self.lines[loc.line - 1] if 0 < loc.line <= len(self.lines) else ""
+        lines = self.lines.get(loc.file, [])
+        line = lines[loc.line - 1] if 0 < loc.line <= len(lines) else ""
         quoted = 1 if line[loc.column - 1 : loc.column] in ("'", '"') else 0
         return Location(loc.file, loc.line, loc.column + quoted + offset)
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from umbra.connectors.frames import FrameTree
+from umbra.connectors.messages import Message
 from umbra.connectors.module import Module
 from umbra.connectors.params import Parameters
 from umbra.runtime.graph.spec import ConnectionSpec, GraphSpec, ModuleSpec
@@ -16,7 +17,7 @@ class PortInfo:
     """A port of a module instance with its frame and joint names resolved from parameters."""
 
     name: str
-    msg_type: type
+    msg_type: type[Message]
     frame: str | None
     joints: tuple[str, ...] | None
 
@@ -26,7 +27,7 @@ class ModulePlan:
     """One module instance as checked."""
 
     spec: ModuleSpec
-    cls: type[Module]
+    cls: type[Module[Any]]
     params: Parameters
     inputs: dict[str, PortInfo]
     outputs: dict[str, PortInfo]
@@ -57,7 +58,7 @@ class LinkPlan:
 
     connection: ConnectionSpec
     key: str
-    msg_type: type
+    msg_type: type[Message]
     reliable: bool
 
     @property
@@ -83,6 +84,9 @@ class GraphPlan:
     order: list[str]
     frames: FrameTree
     links: list[LinkPlan] = field(default_factory=list)
+    #: ports mapped to ROS 2 topics, each with its owning process
+    #: (``umbra.runtime.graph.check_ros2.PortMapping``)
+    ros2: list[Any] = field(default_factory=list)
 
     @property
     def processes(self) -> list[str]:

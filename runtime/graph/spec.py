@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from umbra.connectors.errors import Location
+from umbra.runtime.graph.spec_ros2 import Ros2Section
 from umbra.runtime.recording.settings import RecordSettings
 
 DEFAULT_PROCESS = "main"
@@ -107,6 +108,13 @@ class GraphSpec:
     links: LinkSettings = field(default_factory=LinkSettings)
     #: ``record:``: whether and how the run records its connections (``umbra.runtime.recording``)
     record: RecordSettings = field(default_factory=RecordSettings)
+    #: ``ros2:``: the ports mapped to ROS 2 topics (``umbra.runtime.graph.spec_ros2``)
+    ros2: Ros2Section = field(default_factory=Ros2Section)
     loc: Location | None = None
     #: modules whose declaration was broken (already reported); later checks stay quiet on them
     broken_modules: set[str] = field(default_factory=set)
+    #: the graph as run: the file's text, or the composed graph when it extends another
+    #: (``umbra.runtime.graph.parse_extends``); empty for a graph made in code
+    text: str = ""
+    #: every graph file read, the given one first (more than one when it extends another)
+    sources: list[str] = field(default_factory=list)

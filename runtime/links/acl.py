@@ -30,7 +30,7 @@ subscribes only to its own key, and nobody else may put there.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -131,7 +131,7 @@ def zenoh_acl(
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
 
-    def rule(rid: str, messages: list[str], flows: list[str], keys: set[str] | list[str]) -> str:
+    def rule(rid: str, messages: list[str], flows: list[str], keys: Iterable[str]) -> str:
         rules.append(
             {
                 "id": rid,

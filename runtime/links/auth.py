@@ -155,7 +155,7 @@ def load_auth(path: str) -> dict[str, Any]:
             f"found mode {stat.S_IMODE(mode):04o}"
         )
     try:
-        auth = json.loads(text)
+        auth: dict[str, Any] = json.loads(text)
         for field in ("user", "password", "dictionary_file"):
             if not isinstance(auth[field], str) or not auth[field]:
                 raise ValueError(f"`{field}` must be a non-empty string")

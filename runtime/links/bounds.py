@@ -4,8 +4,9 @@ A receiving link drops anything larger before decoding it (``ZenohTransport``), 
 samples costs the consumer a length check each, never a copy or a decode. The bound is the encoded
 size of the largest legitimate sample plus room for the envelope and strings:
 
-* fixed-size types (``Twist``, ``Pose``, ``Scalar``, ``ZoomState``, ``CameraModel``...): their
-  arrays plus ``ENVELOPE_BYTES`` (a Twist is ~100 bytes on the wire; its bound is 1 KiB);
+* fixed-size types (``Twist``, ``Pose``, ``Scalar``, ``ZoomState``, ``CameraModel``, the typed
+  states and commands...): their arrays and texts plus ``ENVELOPE_BYTES`` (a Twist is ~100 bytes
+  on the wire; its bound is 1 KiB);
 * joint vectors: ``MAX_JOINTS`` joints;
 * ``Image``: the producer's declared frame size (its ``width``/``height`` parameters, e.g. a
   DigiCam's) at ``IMAGE_BYTES_PER_PIXEL`` bytes per pixel, else ``DEFAULT_IMAGE_PIXELS``; a type
@@ -41,6 +42,13 @@ _FIXED_ARRAYS = {
     "ZoomState": 0,
     "CameraModel": (5 + 16) * _F8,
     "Text": 4096,  # operator commands and log lines: bounded text
+    "GuardState": 3 * _F8 + 4096,  # travel; the exact reason
+    "ServoState": 4 * (64 + _F8) + 64 * 32 + 4096,  # 4 errors, up to 64 check codes, the reason
+    "Presence": 256,  # the holder's name
+    "GrabCommand": 0,
+    "GripperCommand": 0,
+    "StopRun": 256,  # the holder's name
+    "Seed": 4 * _F8,
 }
 #: Types that carry whole images besides small arrays: how many images.
 _IMAGES = {"StereoSnapshot": 2}

@@ -260,10 +260,13 @@ class ClockSync:
             return ""
         return self._why.get(producer, f"process `{producer}` is not a producer of this process")
 
-    def date(self, producer: str, sample: Any, deliver: Callable[[Any], None]) -> None:
+    def date(self, producer: str | None, sample: Any, deliver: Callable[[Any], None]) -> None:
         """Deliver ``sample`` of ``producer`` with its stamp and origin on our clock: at once
         when the producer's clock is measured (after any held before it), else held until it
         is (``HOLD_UNDATED_S`` at most, then as undatable)."""
+        if producer is None:  # a sample that names no producer: as it is
+            deliver(translated(sample, None))
+            return
         lock = self._undated_locks.get(producer)
         if lock is None:  # not a producer of ours (a test's transport): as it is
             deliver(translated(sample, self.offsets.get(producer)))

@@ -120,7 +120,7 @@ def read_user_config(path: str) -> zenoh.Config:
     file = Path(path)
     read_text(file, "zenoh configuration file (JSON5)", MAX_CONFIG_BYTES)  # a bounded file
     try:
-        cfg = zenoh.Config.from_file(str(file))
+        cfg: zenoh.Config = zenoh.Config.from_file(str(file))
     except Exception as exc:  # zenoh raises ZError with its parser's message
         raise UserError(_parser_error(path, str(exc))) from None
     _resolve_tls_files(cfg, file.resolve().parent)
@@ -183,7 +183,8 @@ def build_config(
         apply_auth(cfg, auth)
 
     def unchanged(key: str) -> bool:
-        return cfg.get_json(key) == stock.get_json(key)
+        same: bool = cfg.get_json(key) == stock.get_json(key)  # get_json is typed Any
+        return same
 
     for i, text in enumerate(endpoints.listen + endpoints.connect):
         check_endpoint(text, f"endpoint {i + 1}")

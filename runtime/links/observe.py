@@ -332,10 +332,10 @@ class Observation:
 
     def _codec(self) -> Codec:
         try:
-            return self._local.codec
+            codec: Codec = self._local.codec
         except AttributeError:
             codec = self._local.codec = Codec()
-            return codec
+        return codec
 
     def observed(self, sample: zenoh.Sample) -> Observed:
         """``sample`` decoded (any zenoh thread)."""

@@ -232,7 +232,7 @@ class PoolReader:
             raise ValueError("pool slot holds another sample (stale descriptor)")
         base = np.frombuffer(mm, np.uint8, length, start + _SLOT_HEAD)
         weakref.finalize(base, release)
-        return memoryview(base).toreadonly(), release
+        return base.data.toreadonly(), release
 
     def slot_of(self, arr: np.ndarray) -> tuple[str, int, int] | None:
         """(pool, slot, offset from the slot's data) of the memory of ``arr`` when it lies

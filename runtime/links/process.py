@@ -89,6 +89,8 @@ class ProcessOptions:
     run_id: str = BY_HAND
     #: when the launcher started the run [s since the epoch] (0: started by hand)
     run_started: float = 0.0
+    #: ``--ros2``: this process's ROS 2 node (``SchedulerOptions.ros2``); None: none
+    ros2: Any = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -232,6 +234,7 @@ def run_linked_process(
                 dispatch=plan.spec.links.dispatch,
                 cpu_latency_us=options.cpu_latency_us,
                 attended=options.attended,
+                ros2=options.ros2,
             ),
             transport,
         )

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, cast
 
 import zenoh
 
@@ -46,7 +46,7 @@ class AllOutputs:
         session: zenoh.Session,
         plan: GraphPlan,
         process: str,
-        modules: dict[str, Module],
+        modules: dict[str, Module[Any]],
         skip: Iterable[str],
         log: logging.Logger | None = None,
     ) -> None:
@@ -79,7 +79,9 @@ class AllOutputs:
         )
         watched = _Watched()
         listener = pub.declare_matching_listener(watched)
-        watched.matching = bool(pub.matching_status.matching)
+        # zenoh 1.x's stub says bool; the property gives a MatchingStatus
+        status = cast(zenoh.MatchingStatus, pub.matching_status)
+        watched.matching = bool(status.matching)
         source = zenoh.SourceInfo(pub.id, 0)
         self._pubs.append((pub, listener, source))
         encode = self._codec.compact_writer(msg_type)

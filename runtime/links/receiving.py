@@ -48,10 +48,10 @@ class Decoders:
 
     def __call__(self) -> Codec:
         try:
-            return self._local.codec
+            codec: Codec = self._local.codec
         except AttributeError:
             codec = self._local.codec = Codec()
-            return codec
+        return codec
 
 
 @dataclass
@@ -144,9 +144,8 @@ def receiver(
                     else decoder().decode_placed(header, data, expected)
                 )
             else:  # a small sample: the compact reader, else the general path (or its error)
-                msg = read_compact(data)
-                if msg is None:
-                    msg = decoder().decode(data, expected)
+                compact = read_compact(data)
+                msg = compact if compact is not None else decoder().decode(data, expected)
         except Exception as exc:  # DecodeError, or anything a foreign payload provokes
             if release is not None:
                 release()

@@ -75,4 +75,5 @@ class ShmWriter:
             return data
         buf[0:n] = data
         self.counters.shm_samples += 1
-        return zenoh.ZBytes(buf)
+        placed: zenoh.ZBytes = zenoh.ZBytes(buf)
+        return placed

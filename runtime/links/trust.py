@@ -56,15 +56,15 @@ class ProducerGate:
         self._holding = threading.Lock()
         self.handle: Callable[[zenoh.Sample], None] = lambda sample: None
 
+    def _live_token(self) -> Token | None:
+        """The token of the producer's live session; None when it has none (or no producer)."""
+        return None if self.producer is None else self._current.get(self.producer)
+
     def admits(self, sample: zenoh.Sample) -> bool:
         """Whether ``sample`` comes from the producer's live session (counted when not; a held
         sample is not admitted now, and counted as refused until its token lets it through)."""
         info = sample.source_info
-        if (
-            info is not None
-            and info.source_id in self.ids
-            and self._current.get(self.producer) is self.token  # type: ignore[arg-type]
-        ):
+        if info is not None and info.source_id in self.ids and self._live_token() is self.token:
             return True
         return bool(self._attributed(sample))
 
@@ -102,7 +102,7 @@ class ProducerGate:
         """Whether ``sample`` comes from the live session of the link's producer (counted
         when not); None when it is held for the producer's token."""
         stats, producer = self.stats, self.producer
-        token = self._current.get(producer)  # type: ignore[arg-type]
+        token = self._live_token()
         if token is None:  # not up yet, or declared gone: nobody drives the link now
             was_gone = producer in self._gone
             self._unowned(was_gone)
@@ -141,7 +141,7 @@ class ProducerGate:
         held, stats = self.held, self.stats
         while held:
             at, sample, was_gone = held[0]
-            if self._current.get(self.producer) is None and now - at < MAX_HOLD_S:  # type: ignore[arg-type]
+            if self._live_token() is None and now - at < MAX_HOLD_S:
                 return  # still waiting for the token
             held.popleft()
             if now - at >= MAX_HOLD_S:

@@ -34,12 +34,14 @@ def encoding_text(type_name: str, version: int) -> str:
 
 def sample_encoding(type_name: str, version: int) -> zenoh.Encoding:
     """The zenoh encoding of a sample of type ``type_name`` in envelope ``version``."""
-    return zenoh.Encoding(encoding_text(type_name, version))
+    encoding: zenoh.Encoding = zenoh.Encoding(encoding_text(type_name, version))
+    return encoding
 
 
 def pool_encoding(type_name: str) -> zenoh.Encoding:
     """The zenoh encoding of a frame-pool descriptor of a ``type_name`` sample."""
-    return zenoh.Encoding(f"{POOL_MEDIA_TYPE};type={type_name}")
+    encoding: zenoh.Encoding = zenoh.Encoding(f"{POOL_MEDIA_TYPE};type={type_name}")
+    return encoding
 
 
 def parse_encoding(text: str) -> tuple[str, int, str] | None:

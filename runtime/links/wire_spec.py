@@ -2,7 +2,7 @@
 
 Positions, names, types, defaults and layout tags come from the message types that ship:
 ``umbra.connectors.messages`` and the modules of the ``umbra.messages`` entry points, such as
-``umbra.modules.sketch.messages`` (``registered_message_types``); the units, dtypes and shapes a
+``umbra.connectors.sketch_messages`` (``registered_message_types``); the units, dtypes and shapes a
 producer sends come from each type's ``FIELD_NOTES``, beside its fields (``Message.FIELD_NOTES`` for
 ``stamp``, ``seq`` and ``origin``). ``tests/wire/test_spec.py`` fails when the document differs from
 what this writes, or when a field has no note (a field added to a message type must be

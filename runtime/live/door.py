@@ -67,7 +67,7 @@ class DoorListener:
         factory: Callable[[], asyncio.Protocol],
     ) -> None:
         self._loop, self._sock, self._table, self._factory = loop, sock, table, factory
-        self._handing: set[asyncio.Task] = set()
+        self._handing: set[asyncio.Task[None]] = set()
 
     def start(self) -> None:
         """Accept from now on (the loop's thread)."""

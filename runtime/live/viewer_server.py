@@ -38,11 +38,13 @@ import threading
 import time
 from collections import deque
 from collections.abc import Iterable
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
-from websockets.asyncio.server import Request, Response, ServerConnection
+from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
 from websockets.server import ServerProtocol
+from websockets.typing import Subprotocol
 
 from umbra.connectors.access.door import Connections, Refusals, peer_address
 from umbra.connectors.access.hosts import allowed_hosts
@@ -63,7 +65,13 @@ from umbra.runtime.live.gate import origin_netlocs, refusal
 SOCKET_BUFFER = 128 * 1024
 
 
-class _Quiet(logging.LoggerAdapter):
+if TYPE_CHECKING:  # generic at run time only from Python 3.11 on
+    _LoggerAdapter = logging.LoggerAdapter[logging.Logger]
+else:
+    _LoggerAdapter = logging.LoggerAdapter
+
+
+class _Quiet(_LoggerAdapter):
     """``websockets``' logger: its warnings and errors only (it says ``connection open`` and
     ``connection rejected`` of every connection at INFO; the door counts those)."""
 
@@ -143,7 +151,9 @@ class _Viewer:
         held_bytes: dict[int, int] = {}
         for held, f in self.data:
             held_bytes[held] = held_bytes.get(held, 0) + len(f)
-        victim = channel_id if channel_id in held_bytes else max(held_bytes, key=held_bytes.get)
+        victim = (
+            channel_id if channel_id in held_bytes else max(held_bytes, key=held_bytes.__getitem__)
+        )
         at = next(i for i, (held, _f) in enumerate(self.data) if held == victim)
         self.data_bytes -= len(self.data[at][1])
         del self.data[at]
@@ -219,7 +229,7 @@ class ViewerServer:
         def factory() -> ServerConnection:
             # no extensions: JPEG and protobuf, deflate would cost CPU for little
             sans_io = ServerProtocol(
-                subprotocols=list(protocol.SUBPROTOCOLS),  # type: ignore[arg-type]
+                subprotocols=[Subprotocol(name) for name in protocol.SUBPROTOCOLS],
                 max_size=MAX_VIEWER_MESSAGE_BYTES,
                 logger=logger,
             )

@@ -15,7 +15,7 @@ from __future__ import annotations
 import io
 import zlib
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, Protocol
 
 import lz4.frame
 import zstandard
@@ -121,8 +121,14 @@ class _Reader:
         return out
 
 
+class _RecordType(Protocol):
+    """A record class that reads its body from a stream (mcap's ``Schema``, ``Channel``)."""
+
+    def read(self, stream: ReadDataStream) -> McapRecord: ...
+
+
 #: Records a chunk may hold (the MCAP spec); opcodes from 0x80 are private records, skipped.
-_IN_CHUNK = {Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel}
+_IN_CHUNK: dict[int, _RecordType] = {Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel}
 _PRIVATE = 0x80
 
 
@@ -138,7 +144,7 @@ def chunk_records(chunk: Chunk, validate_crc: bool = True) -> Iterator[McapRecor
 
 
 def _records(data: bytes | bytearray) -> Iterator[McapRecord]:
-    stream = ReadDataStream(_Reader(data))  # type: ignore[arg-type]
+    stream = ReadDataStream(_Reader(data))  # type: ignore[arg-type]  # it only calls read()
     while stream.count < len(data):
         start = stream.count
         if len(data) - start < 9:

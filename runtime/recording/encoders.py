@@ -56,7 +56,7 @@ import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from typing import Any
+from typing import Any, TypeVar
 
 import cv2
 import numpy as np
@@ -167,32 +167,31 @@ def channel_encodings(
 
 
 # -- reading back ---------------------------------------------------------------------------------
-#: The message type each Foxglove schema of a primary channel is read back as.
-_SCHEMA_CARRIES: dict[str, type[Message]] = {
-    "foxglove.RawImage": Image,
-    "foxglove.CompressedImage": Image,
-    "foxglove.FrameTransform": Pose,
-    "foxglove.FrameTransforms": Poses,
-    "foxglove.JointStates": JointState,
-}
+_M = TypeVar("_M", bound=Message)
+
+
+def _read_as(msg_type: type[Message], carried: type[_M], schema_name: str) -> type[_M]:
+    """``msg_type``, which a primary channel with Foxglove schema ``schema_name`` is read back
+    as: a ``carried`` type (ValueError when it is another)."""
+    if not issubclass(msg_type, carried):
+        raise ValueError(
+            f"schema {schema_name} carries {carried.__name__}, not {msg_type.__name__}"
+        )
+    return msg_type
 
 
 def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: int) -> Message:
     """The sample of ``msg_type`` on a primary channel with ``schema_name``; ValueError when the
     bytes are not one (``seq``: the MCAP message's sequence number, the sample's ``seq``)."""
-    carried = _SCHEMA_CARRIES.get(schema_name)
     if schema_name.startswith("umbra."):
         carried_name = schema_name.removeprefix("umbra.")
         if carried_name != msg_type.__name__:
             raise ValueError(
                 f"schema {schema_name} carries {carried_name}, not {msg_type.__name__}"
             )
-    elif carried is not None and not issubclass(msg_type, carried):
-        raise ValueError(
-            f"schema {schema_name} carries {carried.__name__}, not {msg_type.__name__}"
-        )
     try:
         if schema_name == "foxglove.RawImage":
+            image_type = _read_as(msg_type, Image, schema_name)
             raw = RawImage.FromString(data)
             channels = {"bgr8": 3, "mono8": 1}.get(raw.encoding)
             if channels is None or raw.step != raw.width * channels:
@@ -204,26 +203,28 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
                 )
             shape = (raw.height, raw.width) if channels == 1 else (raw.height, raw.width, 3)
             pixels = np.frombuffer(pixel_bytes, dtype=np.uint8).reshape(shape)
-            return msg_type(
+            return image_type(
                 pixels=pixels, frame=raw.frame_id, stamp=seconds(raw.timestamp), seq=seq
             )
         if schema_name == "foxglove.CompressedImage":
+            image_type = _read_as(msg_type, Image, schema_name)
             comp = CompressedImage.FromString(data)
             width, height = check_image_size(comp.data)  # before decoding: as the decoder reads it
-            pixels = cv2.imdecode(np.frombuffer(comp.data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-            if pixels is None:
+            decoded = cv2.imdecode(np.frombuffer(comp.data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+            if decoded is None:
                 raise ValueError(f"{comp.format or 'compressed'} image does not decode")
-            if pixels.shape[:2] != (height, width):
+            if decoded.shape[:2] != (height, width):
                 raise ValueError(
-                    f"image decodes to {pixels.shape[1]} x {pixels.shape[0]} pixels, its header "
+                    f"image decodes to {decoded.shape[1]} x {decoded.shape[0]} pixels, its header "
                     f"declares {width} x {height}"
                 )
-            return msg_type(
-                pixels=pixels, frame=comp.frame_id, stamp=seconds(comp.timestamp), seq=seq
+            return image_type(
+                pixels=decoded, frame=comp.frame_id, stamp=seconds(comp.timestamp), seq=seq
             )
         if schema_name == "foxglove.FrameTransform":
+            pose_type = _read_as(msg_type, Pose, schema_name)
             ft = FrameTransform.FromString(data)
-            return msg_type(
+            return pose_type(
                 matrix=matrix(ft),
                 parent=ft.parent_frame_id,
                 child=ft.child_frame_id,
@@ -231,9 +232,11 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
                 seq=seq,
             )
         if schema_name == "foxglove.FrameTransforms":
-            return _decode_poses(msg_type, FrameTransforms.FromString(data), seq)
+            poses_type = _read_as(msg_type, Poses, schema_name)
+            return _decode_poses(poses_type, FrameTransforms.FromString(data), seq)
         if schema_name == "foxglove.JointStates":
-            return _decode_joints(msg_type, JointStates.FromString(data), seq)
+            joints_type = _read_as(msg_type, JointState, schema_name)
+            return _decode_joints(joints_type, JointStates.FromString(data), seq)
     except ProtobufDecodeError as exc:
         raise ValueError(f"not a {schema_name} message: {exc}") from None
     if schema_name.startswith("umbra."):
@@ -246,7 +249,7 @@ def decode_primary(msg_type: type[Message], schema_name: str, data: bytes, seq: 
 MAX_POSES = 1024
 
 
-def _decode_poses(msg_type: type[Message], fts: FrameTransforms, seq: int) -> Message:
+def _decode_poses(msg_type: type[Poses], fts: FrameTransforms, seq: int) -> Poses:
     """A ``Poses`` sample from ``foxglove.FrameTransforms`` of a chain (each transform's parent
     the child before it) or, as older recordings hold, a star (every transform from one frame)."""
     transforms = fts.transforms
@@ -278,7 +281,7 @@ def _decode_poses(msg_type: type[Message], fts: FrameTransforms, seq: int) -> Me
     )
 
 
-def _decode_joints(msg_type: type[Message], js: JointStates, seq: int) -> Message:
+def _decode_joints(msg_type: type[JointState], js: JointStates, seq: int) -> JointState:
     """A ``JointState`` from ``foxglove.JointStates`` written by :func:`joint_states`."""
     joints = list(js.joints)
     if not joints or joints[-1].name != GRIPPER_JOINT or len(joints) > MAX_POSES:

@@ -270,4 +270,6 @@ def view_frames(sample: Message) -> list[tuple[str, str]]:
 
 
 def seconds(ts: Timestamp) -> float:
-    return ts.seconds + ts.nanos * 1e-9
+    whole: int = ts.seconds  # protobuf's generated classes carry no types
+    nanos: int = ts.nanos
+    return whole + nanos * 1e-9

@@ -17,6 +17,7 @@ description names it) rather than making the channel unreadable.
 
 from __future__ import annotations
 
+import enum
 import math
 import types
 import typing
@@ -37,11 +38,21 @@ NONFINITE = {"NaN": float("nan"), "Infinity": float("inf"), "-Infinity": float("
 NONFINITE_KEY = "_nonfinite"
 
 
+def _codes(tp: Any) -> list[str] | None:
+    """The codes of a string enum (``GuardStage``: ``["passing", "zero"]``), else None."""
+    if isinstance(tp, type) and issubclass(tp, enum.Enum) and issubclass(tp, str):
+        return [str(m.value) for m in tp]
+    return None
+
+
 def _field_schema(tp: Any) -> dict[str, Any] | None:
-    """JSON schema of one field type (``float``, ``tuple[str, ...]``, ``np.ndarray``...), or None
-    when viewers cannot be told its type."""
+    """JSON schema of one field type (``float``, ``tuple[str, ...]``, ``np.ndarray``, a string
+    enum...), or None when viewers cannot be told its type."""
     if tp in _PRIMITIVE:
         return {"type": _PRIMITIVE[tp]}
+    codes = _codes(tp)
+    if codes is not None:  # a code: a string, one of these
+        return {"type": "string", "description": f"one of: {', '.join(codes)}"}
     if tp is np.ndarray:
         return {
             "type": "array",
@@ -55,6 +66,8 @@ def _field_schema(tp: Any) -> dict[str, Any] | None:
     if origin in (tuple, list):
         items = {a for a in args if a is not Ellipsis}  # tuple[str, ...], list[float]
         item = items.pop() if len(items) == 1 else None
+        if _codes(item) is not None:  # codes: strings
+            return {"type": "array", "items": _field_schema(item)}
         if item not in _PRIMITIVE:
             return None
         return {"type": "array", "items": {"type": _PRIMITIVE[item]}}
@@ -286,8 +299,11 @@ def decode_json(msg_type: type[Message], data: bytes) -> Message:
             kwargs[name] = float("nan")
         elif f.type is float and isinstance(value, list) and len(value) == 1:
             kwargs[name] = float(value[0])
+        elif _codes(f.type) is not None:
+            kwargs[name] = f.type(value)  # ValueError for a code the enum does not have
         elif typing.get_origin(f.type) is tuple:
-            kwargs[name] = tuple(value)
+            item = typing.get_args(f.type)[0]
+            kwargs[name] = tuple(item(v) for v in value) if _codes(item) else tuple(value)
         elif f.type is float and isinstance(value, int):
             kwargs[name] = float(value)
         else:

@@ -14,12 +14,16 @@ from __future__ import annotations
 import heapq
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mcap.records import Channel, Message, Schema
 from mcap.writer import CompressionType, Writer
 
 from umbra.runtime.recording.reader import RecordingScan, indexed_scan, read_records
 from umbra.runtime.recording.writer import PROFILE, TF_STATIC
+
+if TYPE_CHECKING:
+    from umbra.runtime.graph.plan import GraphPlan
 
 
 def _stream(
@@ -62,6 +66,14 @@ def _register(
     )
 
 
+def _profile(parts: list[Path]) -> str:
+    """The parts' MCAP profile (``ros2`` for ``--record-format ros2``; else umbra's)."""
+    from mcap.reader import make_reader
+
+    with open(parts[0], "rb") as f:
+        return make_reader(f).get_header().profile or PROFILE
+
+
 def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> dict[str, int]:
     """Merge recordings ``parts`` into ``out``; returns counts (messages, parts)."""
     scans = [RecordingScan(p) for p in parts]
@@ -72,7 +84,7 @@ def merge_parts(parts: list[Path], out: Path, chunk_size: int = 1024 * 1024) -> 
     messages = 0
     with open(out, "wb") as f:
         writer = Writer(f, chunk_size=chunk_size, compression=_compression(parts))
-        writer.start(profile=PROFILE, library="umbra")
+        writer.start(profile=_profile(parts), library="umbra")
         for log_time, part, _n, channel, schema, msg in heapq.merge(*streams):
             key = (part, channel.id)
             if key not in channel_ids:
@@ -141,12 +153,12 @@ def _merged_metadata(writer: Writer, scans: list[RecordingScan]) -> None:
                 writer.add_attachment(att.create_time, att.log_time, name, att.media_type, att.data)
 
 
-def merge_run(plan: object, out: Path, processes: list[str]) -> str:
+def merge_run(plan: GraphPlan, out: Path, processes: list[str]) -> str:
     """Merge the parts of a split run's processes in ``out``; what happened, in one line."""
     from umbra.connectors.errors import UserError
     from umbra.runtime.recording.tap import part_path
 
-    settings = plan.spec.record  # type: ignore[attr-defined]
+    settings = plan.spec.record
     target = out / settings.file
     parts = [p for p in (part_path(out, settings, n) for n in processes) if p.exists()]
     if not parts:

@@ -69,7 +69,7 @@ class _Counting:
         if n < 0 or n > left:
             self.short = self.short or 0 < left < n
             n = left
-        data = self._f.read(n)
+        data: bytes = self._f.read(n)
         self.pos += len(data)
         if 0 < len(data) < n:
             self.short = True
@@ -132,7 +132,7 @@ def read_records(
             raise _fail(path, "empty file (0 bytes), not an MCAP recording")
         counting = _Counting(f)
         reader = StreamReader(
-            counting,  # type: ignore[arg-type]
+            counting,  # type: ignore[arg-type]  # a file in all that mcap calls
             emit_chunks=True,
             validate_crcs=True,
             record_size_limit=_record_limit(scan.size),
@@ -306,7 +306,8 @@ def _chunk_messages(
             )
         if index.chunk_length > scan.size - index.chunk_start_offset:
             raise ValueError(f"its index claims {index.chunk_length} bytes, past the file's end")
-        chunk = Chunk.read(ReadDataStream(_Counting(f, scan.size)))  # type: ignore[arg-type]
+        counting = _Counting(f, scan.size)
+        chunk = Chunk.read(ReadDataStream(counting))  # type: ignore[arg-type]  # reads with read()
         for record in chunk_records(chunk, validate_crc=True):
             if isinstance(record, Message) and (wanted is None or record.channel_id in wanted):
                 yield record
@@ -343,13 +344,13 @@ def read_messages(
             if wanted is not None and wanted.isdisjoint(index.message_index_offsets):
                 continue
             for msg in _chunk_messages(f, index, wanted, path, scan):
-                channel = scan.channels.get(msg.channel_id)
-                if channel is None:
+                declared = scan.channels.get(msg.channel_id)
+                if declared is None:
                     raise _fail(
                         path,
                         f"corrupted: a message in the chunk at byte {index.chunk_start_offset} "
                         f"names channel {msg.channel_id}, which was never declared",
                     )
-                yield channel, scan.schemas.get(channel.schema_id), msg
+                yield declared, scan.schemas.get(declared.schema_id), msg
     finally:
         f.close()

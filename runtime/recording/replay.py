@@ -37,6 +37,7 @@ import msgspec
 from umbra.connectors.errors import CheckFailed, Diagnostic, Location, UserError
 from umbra.connectors.messages import Image, Message
 from umbra.connectors.module import Module
+from umbra.connectors.params import Parameters
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.hints import did_you_mean
 from umbra.runtime.recording.reader import RecordingScan, indexed_scan, read_records
@@ -181,7 +182,7 @@ class ReplayFeed:
             close()
 
 
-class ReplaySource(Module):
+class ReplaySource(Module[Parameters]):
     """Stands in for a recorded module: sends its recorded outputs (see the module docstring)."""
 
     FEED: ClassVar[ReplayFeed | None] = None
@@ -215,7 +216,7 @@ class ReplaySource(Module):
         return sum(p.count for p in self.outputs.values())
 
 
-def replay_class(original: type[Module], feed: ReplayFeed) -> type[Module]:
+def replay_class(original: type[Module[Any]], feed: ReplayFeed) -> type[Module[Any]]:
     """A module type with ``original``'s ports and parameters that replays from ``feed``."""
     attrs: dict[str, Any] = {
         "TYPE": original.type_name(),
@@ -252,11 +253,12 @@ def fed_outputs(
 ) -> dict[str, tuple[str, str]]:
     """Topic -> (module, port) of the recorded outputs of ``names`` that a replay sends: those
     that feed a connection, and those of other types than images that feed nothing (a re-record
-    then holds them again; an image nobody reads is not decoded): what ``--record`` records."""
+    then holds them again; an image nobody reads is not decoded): what ``--record`` records; an
+    output that sent nothing while recorded (none listened) is not replayed."""
     return {
         topic_of(n, port): (n, port)
         for n, port in recorded_outputs(plan, set(names))
-        if topic_of(n, port) in index.topics
+        if topic_of(n, port) in index.topics and index.topics[topic_of(n, port)]["count"]
     }
 
 

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import PurePosixPath
 from typing import Any
 
 from umbra.connectors.errors import Location
+from umbra.connectors.user_files import run_file_problem
 
 IMAGE_CHOICES = ("raw", "jpeg", "png")
 PORT_CHOICES = (*IMAGE_CHOICES, "off")
@@ -36,6 +36,8 @@ class RecordSettings:
     jpeg_quality: int = 90
     ports: dict[str, str] = field(default_factory=dict)
     file: str = DEFAULT_FILE
+    #: ``foxglove`` (Foxglove's schemas) or ``ros2`` (ros2msg/cdr channels: ``--record-format``)
+    format: str = "foxglove"
     loc: Location | None = None
     port_locs: dict[str, Location] = field(default_factory=dict)
 
@@ -43,18 +45,6 @@ class RecordSettings:
         """``raw``, ``jpeg``, ``png`` or ``off`` for output ``module.port``: its ``ports`` entry,
         else ``images`` (which only image outputs use)."""
         return self.ports.get(f"{module}.{port}", self.images)
-
-
-def inside_run_folder(path: str) -> str:
-    """Empty when ``path`` names a file inside the run folder, else why it does not."""
-    p = PurePosixPath(path.replace("\\", "/"))
-    if not path.strip():
-        return "is empty"
-    if p.is_absolute() or (len(path) > 1 and path[1] == ":"):
-        return "is absolute; files a graph writes stay in the run folder (give a relative path)"
-    if ".." in p.parts:
-        return "leaves the run folder (`..`); files a graph writes stay in the run folder"
-    return ""
 
 
 def parse_record(
@@ -95,7 +85,7 @@ def parse_record(
             settings.jpeg_quality = q
     if "file" in value:
         f = value["file"]
-        why = inside_run_folder(f) if isinstance(f, str) else "is not a string"
+        why = run_file_problem(f) if isinstance(f, str) else "is not a string"
         if why or not isinstance(f, str):
             error(where.get("file", loc), f"`record.file` {f!r} {why}")
         else:

@@ -176,18 +176,19 @@ class RunRecorder:
     def __init__(
         self,
         plan: GraphPlan,
-        modules: Mapping[str, Module],
+        modules: Mapping[str, Module[Any]],
         settings: RecordSettings,
         *,
-        process: str,
+        process: str | None,
         output_dir: Path,
         clock_kind: str,
         now: float,
         log: logging.Logger | None = None,
     ) -> None:
         """Record the outputs of ``modules`` (this process's, wired) of ``plan`` into the part
-        file of ``process`` under ``output_dir``; ``clock_kind`` ("sim", "real") and ``now`` (s)
-        are the scheduler's clock."""
+        file of ``process`` (None: the run's file, every module in one process) under
+        ``output_dir``; ``clock_kind`` ("sim", "real") and ``now`` (s) are the scheduler's
+        clock."""
         self.plan = plan
         check_file_clash(self.plan, settings)
         self.settings = settings
@@ -209,6 +210,7 @@ class RunRecorder:
             # one offset for the whole file: every time written is wall-clock time
             clock_offset=wall_offset(now),
             log=log,
+            record_format=settings.format,
         )
         self.topics: list[str] = []
         # children of poses recorded by any process of the run: every part leaves them out of
@@ -235,10 +237,12 @@ class RunRecorder:
                 data["t0_ns"] = str(time_ns(now, offset))
                 data["clock_offset_ns"] = str(round(offset * 1e9))  # wall − the run's clock
             self.file.add_metadata(name, data)
-        try:
-            text = Path(self.plan.spec.file).read_bytes()
-        except OSError:
-            text = b""
+        text = self.plan.spec.text.encode()  # as run: composed when the graph extends another
+        if not text:  # a graph made in code
+            try:
+                text = Path(self.plan.spec.file).read_bytes()
+            except OSError:
+                text = b""
         if text:
             self.file.add_attachment("graph.yaml", "application/yaml", text)
         # a frame that a recorded pose moves keeps that one parent in a viewer's transform tree

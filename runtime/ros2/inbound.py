@@ -11,8 +11,16 @@ ROS 2                              umbra         how
 =================================  ============  ===========================================
 sensor_msgs/msg/Image              Image         bgr8, rgb8, bgra8, rgba8, mono8 -> BGR uint8
 sensor_msgs/msg/CompressedImage    Image         JPEG or PNG, size read from its header first
-sensor_msgs/msg/JointState         JointState    names, positions, velocities (when given)
+sensor_msgs/msg/JointState         JointState    the mapping's joints (else every name) in
+                                                 its order, velocities when given, the
+                                                 gripper joint's position as the opening
+geometry_msgs/msg/PolygonStamped   Contour       vertices (x, y) [px], with their moments
 =================================  ============  ===========================================
+
+A contour's features (centroid, area, orientation, axes) are the polygon's exact area moments as
+OpenCV computes them (``cv2.moments``, Green's theorem, as ``umbra.modules.vision.features``
+does; ``tests/ros2/test_inbound_contour.py`` holds the two equal), so a ROS 2 simulator's ground
+truth outline can stand for DigiCam's ``truth``.
 """
 
 from __future__ import annotations
@@ -21,12 +29,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 
 from umbra.connectors.image_header import check_image_size
 from umbra.connectors.limits import MAX_IMAGE_SIDE_PX, MAX_RECORDING_RECORD_BYTES
-from umbra.connectors.messages import Image, JointState, Message
+from umbra.connectors.messages import Contour, Image, JointState, Message
+from umbra.connectors.tracking import TrackStatus
 from umbra.runtime.ros2.stamps import Dated, WallRelation, from_stamp
 
 
@@ -37,15 +45,18 @@ class InOptions:
 
     frame_id: str = ""
     clock_error_s: float = 0.0
+    joints: tuple[str, ...] = ()
+    gripper_joint: str = ""
 
 
-#: Channels and the OpenCV conversion to BGR of each raw image encoding taken.
-_ENCODINGS: dict[str, tuple[int, int | None]] = {
+#: Channels and the OpenCV conversion to BGR (the name of its ``cv2`` code: OpenCV loads when
+#: a first image comes) of each raw image encoding taken.
+_ENCODINGS: dict[str, tuple[int, str | None]] = {
     "bgr8": (3, None),
-    "rgb8": (3, cv2.COLOR_RGB2BGR),
-    "bgra8": (4, cv2.COLOR_BGRA2BGR),
-    "rgba8": (4, cv2.COLOR_RGBA2BGR),
-    "mono8": (1, cv2.COLOR_GRAY2BGR),
+    "rgb8": (3, "COLOR_RGB2BGR"),
+    "bgra8": (4, "COLOR_BGRA2BGR"),
+    "rgba8": (4, "COLOR_RGBA2BGR"),
+    "mono8": (1, "COLOR_GRAY2BGR"),
 }
 
 
@@ -65,6 +76,8 @@ def _check_side(width: int, height: int) -> None:
 
 def image(msg: Any, rel: WallRelation, opts: InOptions) -> Image:
     """A ``sensor_msgs/Image`` as a BGR image; ValueError for an encoding or size not taken."""
+    import cv2
+
     if msg.encoding not in _ENCODINGS:
         raise ValueError(
             f"expected an image encoding among {', '.join(_ENCODINGS)}, found {msg.encoding!r}"
@@ -79,7 +92,7 @@ def image(msg: Any, rel: WallRelation, opts: InOptions) -> Image:
         )
     rows = np.asarray(msg.data, dtype=np.uint8)[: step * h].reshape(h, step)
     pixels = rows[:, : w * channels].reshape(h, w, channels)
-    pixels = pixels.copy() if conversion is None else cv2.cvtColor(pixels, conversion)
+    pixels = pixels.copy() if conversion is None else cv2.cvtColor(pixels, getattr(cv2, conversion))
     d = dated(msg, rel, opts)
     return Image(
         pixels=pixels,
@@ -92,6 +105,8 @@ def image(msg: Any, rel: WallRelation, opts: InOptions) -> Image:
 def compressed_image(msg: Any, rel: WallRelation, opts: InOptions) -> Image:
     """A ``sensor_msgs/CompressedImage`` (JPEG or PNG) as a BGR image; its declared size is
     checked before it is decoded."""
+    import cv2
+
     data = np.asarray(msg.data, dtype=np.uint8)
     w, h = check_image_size(data.tobytes())
     pixels = cv2.imdecode(data, cv2.IMREAD_COLOR)
@@ -109,8 +124,10 @@ def compressed_image(msg: Any, rel: WallRelation, opts: InOptions) -> Image:
 
 
 def joint_state(msg: Any, rel: WallRelation, opts: InOptions) -> JointState:
-    """A ``sensor_msgs/JointState`` as umbra's (positions for every name; velocities when the
-    message gives one per name)."""
+    """A ``sensor_msgs/JointState`` as umbra's: the mapping's ``joints`` in their order (every
+    name in the message's order when it names none; ValueError when one is missing), velocities
+    when the message gives one per name, and the ``gripper_joint``'s position as the gripper's
+    opening (0 closed .. 1 open)."""
     names = tuple(str(n) for n in msg.name)
     position = np.asarray(msg.position, dtype=np.float64)
     if position.size != len(names):
@@ -118,11 +135,57 @@ def joint_state(msg: Any, rel: WallRelation, opts: InOptions) -> JointState:
     velocity = np.asarray(msg.velocity, dtype=np.float64)
     if velocity.size not in (0, len(names)):
         raise ValueError(f"expected 0 or {len(names)} velocities, found {velocity.size}")
+    index = {n: i for i, n in enumerate(names)}
+    gripper = 0.0
+    if opts.gripper_joint:
+        if opts.gripper_joint not in index:
+            raise ValueError(f"expected gripper joint {opts.gripper_joint!r}, found {list(names)}")
+        gripper = float(np.clip(position[index[opts.gripper_joint]], 0.0, 1.0))
+    wanted = opts.joints or tuple(n for n in names if n != opts.gripper_joint)
+    missing = [n for n in wanted if n not in index]
+    if missing:
+        raise ValueError(f"expected joints {list(wanted)}, found {list(names)}")
+    order = [index[n] for n in wanted]
     d = dated(msg, rel, opts)
     return JointState(
-        names=names,
-        position=position.copy(),
-        velocity=velocity.copy(),
+        names=tuple(wanted),
+        position=position[order].copy(),
+        velocity=velocity[order].copy() if velocity.size else velocity.copy(),
+        gripper=gripper,
+        stamp=d.stamp_s,
+        origin=d.origin_s,
+    )
+
+
+def contour(msg: Any, rel: WallRelation, opts: InOptions) -> Contour:
+    """A ``geometry_msgs/PolygonStamped`` (vertices ``(x, y)`` [px] in the image, ``z`` unused) as
+    a Contour with the polygon's moment features; ``idle`` (no features) when it has fewer than 3
+    vertices or no area."""
+    import cv2
+
+    vertices = np.array([(p.x, p.y) for p in msg.polygon.points], dtype=np.float64).reshape(-1, 2)
+    d = dated(msg, rel, opts)
+    m = cv2.moments(vertices.astype(np.float32)) if len(vertices) >= 3 else {"m00": 0.0}
+    if abs(m["m00"]) <= 0.0:
+        return Contour(
+            vertices=vertices, centroid=np.zeros(0), area=0.0, orientation=0.0,
+            axes=np.zeros(0), status=TrackStatus.IDLE, reason="no polygon",
+            stamp=d.stamp_s, origin=d.origin_s,
+        )  # fmt: skip
+    area = abs(m["m00"])
+    mu20, mu11, mu02 = (m[k] / m["m00"] for k in ("mu20", "mu11", "mu02"))
+    half_trace, spread = 0.5 * (mu20 + mu02), float(np.hypot(0.5 * (mu20 - mu02), mu11))
+    orientation = float(0.5 * np.arctan2(2.0 * mu11, mu20 - mu02))
+    if orientation <= -np.pi / 2:
+        orientation += np.pi
+    axes = 4.0 * np.sqrt(np.maximum([half_trace + spread, half_trace - spread], 0.0))
+    return Contour(
+        vertices=vertices,
+        centroid=np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]),
+        area=float(area),
+        orientation=orientation,
+        axes=axes,
+        status=TrackStatus.TRACKING,
         stamp=d.stamp_s,
         origin=d.origin_s,
     )
@@ -135,6 +198,7 @@ INBOUND: dict[tuple[str, str], Converter] = {
     ("sensor_msgs/msg/Image", "Image"): image,
     ("sensor_msgs/msg/CompressedImage", "Image"): compressed_image,
     ("sensor_msgs/msg/JointState", "JointState"): joint_state,
+    ("geometry_msgs/msg/PolygonStamped", "Contour"): contour,
 }
 
 #: Largest payload taken of an image type [bytes]: a raw image of the largest side at 4 bytes a

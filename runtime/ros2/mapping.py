@@ -25,6 +25,11 @@ from umbra.runtime.ros2.qos import ROS_DEFAULT, QosProfile
 COMMAND_TYPES = frozenset({"geometry_msgs/msg/TwistStamped", "std_msgs/msg/Float64MultiArray"})
 #: Largest wall-clock error bound a mapping may declare [s] (beyond it every input is old).
 MAX_CLOCK_ERROR_S = 1.0
+#: The worst age an input's sample has when it arrives, unless the mapping declares one [s]
+#: (capture to receipt through a router on one site's network).
+DEFAULT_TRANSPORT_AGE_S = 0.05
+#: Largest worst-case transport age a mapping may declare [s].
+MAX_TRANSPORT_AGE_S = 10.0
 
 
 class Direction(str, Enum):
@@ -50,6 +55,7 @@ def mapping_problems(
     direction: object,
     distro: object = DEFAULT_DISTRO,
     clock_error_s: object = 0.0,
+    max_transport_age_s: object = DEFAULT_TRANSPORT_AGE_S,
 ) -> list[tuple[str, str]]:
     """Every ``(field, reason)`` why these settings cannot make a mapping (empty: they can)."""
     out: list[tuple[str, str]] = []
@@ -96,6 +102,18 @@ def mapping_problems(
                 f"expected seconds in [0, {MAX_CLOCK_ERROR_S}], found {clock_error_s!r}",
             )
         )
+    if (
+        isinstance(max_transport_age_s, bool)
+        or not isinstance(max_transport_age_s, (int, float))
+        or not math.isfinite(max_transport_age_s)
+        or not 0.0 < max_transport_age_s <= MAX_TRANSPORT_AGE_S
+    ):
+        out.append(
+            (
+                "max_transport_age_s",
+                f"expected seconds in (0, {MAX_TRANSPORT_AGE_S:g}], found {max_transport_age_s!r}",
+            )
+        )
     return out
 
 
@@ -105,8 +123,13 @@ class Ros2Mapping:
 
     ``frame_id``: the frame for messages whose umbra type names none (a contour's image frame; a
     joint state's header) or for inputs whose header names none; ``gripper_joint``: a joint name
-    under which a JointState's gripper opening is published (empty: left out);
-    ``clock_error_s`` [s]: for inputs, the bound of the sender's wall clock against ours."""
+    under which a JointState's gripper opening is published or taken (empty: left out);
+    ``joints``: for a JointState input, the joint names taken, in the consumer's order (empty:
+    every name the message has, in its order);
+    ``clock_error_s`` [s]: for inputs, the bound of the sender's wall clock against ours;
+    ``max_transport_age_s`` [s]: for inputs, the worst age a sample has when it arrives (from
+    its ``header.stamp`` to our receipt: the sender's capture, its period and the transport),
+    what ``umbra check`` counts for the input as it counts a link's latency."""
 
     topic: str
     ros_type: str
@@ -118,6 +141,8 @@ class Ros2Mapping:
     status_name: str = "umbra"
     clock_error_s: float = 0.0
     distro: str = DEFAULT_DISTRO
+    max_transport_age_s: float = DEFAULT_TRANSPORT_AGE_S
+    joints: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         found = mapping_problems(
@@ -127,6 +152,7 @@ class Ros2Mapping:
             self.direction,
             self.distro,
             self.clock_error_s,
+            self.max_transport_age_s,
         )
         if found:
             raise MappingError(found)
@@ -145,5 +171,17 @@ class Ros2Mapping:
             distro=self.distro,
         )
 
+    @property
+    def worst_arrival_age_s(self) -> float:
+        """The worst origin age [s] of an input's sample as it arrives: the declared transport
+        age plus the clock error bound its origin is moved by
+        (:mod:`~umbra.runtime.ros2.stamps`)."""
+        return self.max_transport_age_s + self.clock_error_s
+
     def in_options(self) -> InOptions:
-        return InOptions(frame_id=self.frame_id, clock_error_s=self.clock_error_s)
+        return InOptions(
+            frame_id=self.frame_id,
+            clock_error_s=self.clock_error_s,
+            joints=self.joints,
+            gripper_joint=self.gripper_joint,
+        )

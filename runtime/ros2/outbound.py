@@ -17,6 +17,9 @@ transform's ``child_frame_id`` the frame it places.
 - Twist -> geometry_msgs/msg/TwistStamped: the command in its frame (as moveit_servo takes it).
 - JointRates -> std_msgs/msg/Float64MultiArray: rates [rad/s] in joint order (ros2_control's
   forward velocity controller); it has no header, so no origin crosses with it.
+- Text -> std_msgs/msg/String: the line as it is; no header.
+- GripperCommand -> std_msgs/msg/String: the action, ``open`` or ``close``; no header.
+- ServoState -> diagnostic_msgs/msg/DiagnosticArray: as a Status (it is one).
 """
 
 from __future__ import annotations
@@ -26,8 +29,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from umbra.connectors.commands import GripperCommand
 from umbra.connectors.messages import (
     CameraModel,
     Contour,
@@ -38,6 +41,7 @@ from umbra.connectors.messages import (
     Pose,
     Poses,
     Status,
+    Text,
     Twist,
 )
 from umbra.runtime.ros2.msgtypes import message_class
@@ -96,6 +100,8 @@ def _transform(
     rel: WallRelation,
     opts: OutOptions,
 ) -> Any:
+    from scipy.spatial.transform import Rotation  # loads with the first pose sent
+
     m = np.asarray(matrix, dtype=np.float64)
     x, y, z, w = Rotation.from_matrix(m[:3, :3]).as_quat()
     vec = _cls("geometry_msgs/msg/Vector3", opts)
@@ -213,6 +219,14 @@ def float64_array(sample: JointRates, rel: WallRelation, opts: OutOptions) -> An
     return _cls("std_msgs/msg/Float64MultiArray", opts)(layout=layout, data=rates)
 
 
+def string(sample: Text, rel: WallRelation, opts: OutOptions) -> Any:
+    return _cls("std_msgs/msg/String", opts)(data=sample.text)
+
+
+def gripper_string(sample: GripperCommand, rel: WallRelation, opts: OutOptions) -> Any:
+    return _cls("std_msgs/msg/String", opts)(data=str(sample.action))
+
+
 Converter = Callable[[Any, WallRelation, OutOptions], Any]
 
 #: (umbra message type, ROS 2 message type) -> its converter, for outputs mapped to ROS 2.
@@ -225,6 +239,9 @@ OUTBOUND: dict[tuple[str, str], Converter] = {
     ("Image", "sensor_msgs/msg/Image"): image,
     ("Contour", "geometry_msgs/msg/PolygonStamped"): polygon,
     ("Status", "diagnostic_msgs/msg/DiagnosticArray"): diagnostics,
+    ("ServoState", "diagnostic_msgs/msg/DiagnosticArray"): diagnostics,  # a Status
     ("Twist", "geometry_msgs/msg/TwistStamped"): twist_stamped,
     ("JointRates", "std_msgs/msg/Float64MultiArray"): float64_array,
+    ("Text", "std_msgs/msg/String"): string,
+    ("GripperCommand", "std_msgs/msg/String"): gripper_string,
 }

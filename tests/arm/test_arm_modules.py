@@ -5,8 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.commands import GripperAction, GripperCommand
 from umbra.connectors.errors import UserError
-from umbra.connectors.messages import JointRates, JointState, Status, Text, Twist
+from umbra.connectors.messages import JointRates, JointState, Twist
+from umbra.connectors.states import GuardReason, GuardStage, ServoReason, ServoState
 from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.jacobian import jacobian
 from umbra.modules.arm.reg_vel import RegVel
@@ -33,17 +35,21 @@ def test_reg_vel_passes_fresh_commands_and_zeroes_stale_ones():
         sent = h.step(0.01)
         assert not np.any(h.output("twist").vector)
         assert h.output("status").reason == "no command received yet"
+        assert h.output("status").code == GuardReason.NO_COMMAND_YET
         h.push("command", camera_twist([0.01, 0, 0, 0, 0, 0.1]))
         h.step(0.01)
         np.testing.assert_allclose(h.output("twist").vector, [0.01, 0, 0, 0, 0, 0.1])
         assert h.output("twist").frame == "camera"
-        assert h.output("status").stage == "passing"
+        assert h.output("status").stage == GuardStage.PASSING
+        assert h.output("status").code == GuardReason.PASSING
         for _ in range(4):
             h.step(0.01)
         assert np.any(h.output("twist").vector)  # 0.05 s old: still within the timeout
         sent = h.step(0.01)
         assert not np.any(h.output("twist").vector)
         assert "no new command for 0.060 s (link watchdog 0.050 s)" in sent["status"][0].reason
+        assert sent["status"][0].code == GuardReason.WATCHDOG
+        assert sent["status"][0].stage == GuardStage.ZERO
 
 
 def test_reg_vel_zeroes_when_the_producer_is_gone_or_halts():
@@ -55,12 +61,17 @@ def test_reg_vel_zeroes_when_the_producer_is_gone_or_halts():
         h.step(0.01)
         assert not np.any(h.output("twist").vector)
         assert h.output("status").reason == "command producer is gone"
+        assert h.output("status").code == GuardReason.PRODUCER_GONE
         h.module.registers["command"].link_alive = True
-        h.push("halt", Status(stage="assist", assist=True, reason="snake failure: size"))
+        halt = ServoState(
+            stage="assist", assist=True, reason="snake failure: size", code=ServoReason.SNAKE_FAILED
+        )
+        h.push("halt", halt)
         h.push("command", camera_twist([0.01, 0, 0, 0, 0, 0]))
         h.step(0.01)
         assert not np.any(h.output("twist").vector)
         assert h.output("status").reason == "halted by assist: snake failure: size"
+        assert h.output("status").code == GuardReason.HALTED
 
 
 def test_reg_vel_clamps_and_rejects_a_wrong_frame():
@@ -72,15 +83,16 @@ def test_reg_vel_clamps_and_rejects_a_wrong_frame():
         h.step(0.01)
         assert not np.any(h.output("twist").vector)
         assert "expected `camera`" in h.output("status").reason
+        assert h.output("status").code == GuardReason.WRONG_FRAME
 
 
 def test_reg_vel_passes_gripper_commands_only_while_passing():
     with ModuleHarness(RegVel) as h:
-        h.push("gripper_in", Text(text="close"))
+        h.push("gripper_in", GripperCommand(action=GripperAction.CLOSE))
         assert "gripper" not in h.step(0.01)  # no command yet: not passing
         h.push("command", camera_twist(np.zeros(6)))
-        h.push("gripper_in", Text(text="close"))
-        assert h.step(0.01)["gripper"][0].text == "close"
+        h.push("gripper_in", GripperCommand(action=GripperAction.CLOSE))
+        assert h.step(0.01)["gripper"][0].action == GripperAction.CLOSE
 
 
 # -- ROTATE_KIN ------------------------------------------------------------------------------
@@ -224,7 +236,7 @@ def test_wolverine_jnts_zeroes_stale_or_foreign_rates_and_moves_the_gripper():
         h.push("rates", rates_msg(np.full(6, 0.1), names=tuple("abcdef")))
         h.step(0.01)
         assert "arm has" in h.output("status").reason
-        h.push("gripper_in", Text(text="close"))
+        h.push("gripper_in", GripperCommand(action=GripperAction.CLOSE))
         h.run(60, 0.01)
         assert h.output("joint_state").gripper == 0.0
 
@@ -261,6 +273,6 @@ def test_reg_vel_reports_the_travel_it_let_through() -> None:
             h.step(0.01)
         for _ in range(30):  # no new command: held at zero by the watchdog after 0.1 s
             h.step(0.01)
-        values = h.output("status").values
-        assert values["travel_z"] == pytest.approx(0.005 + 0.001, abs=2e-4)  # + the 0.1 s hold
-        assert values["travel_x"] == 0.0 and values["travel_y"] == 0.0
+        travel = h.output("status").travel_m
+        assert travel[2] == pytest.approx(0.005 + 0.001, abs=2e-4)  # + the 0.1 s hold
+        assert travel[0] == 0.0 and travel[1] == 0.0

@@ -5,9 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.errors import UserError
 from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.joints_backend import SimJointsBackend
 from umbra.modules.arm.sim_joints import SimJoints, SimJointSettings
+from umbra.modules.arm.wolverine_jnts import WolverineJnts
+from umbra.runtime.harness import ModuleHarness
 
 PUMA = puma560()
 Q0 = np.radians([0, 45, -180, 0, 45, 0])
@@ -76,11 +79,13 @@ def test_gripper_travels_in_its_travel_time():
         sim.command_gripper("squeeze")
 
 
-def test_bad_setup_is_rejected():
-    with pytest.raises(ValueError, match="6 offsets"):
-        SimJoints(PUMA, Q0, SimJointSettings(calibration_error=(0.1,)))
-    with pytest.raises(ValueError, match="outside the joint limits"):
-        SimJoints(PUMA, np.radians([0, 45, 180, 0, 45, 0]))
+def test_bad_setup_is_rejected_by_the_modules_declaration():
+    """One offset per joint and a start inside the limits: WOLVERINE_JNTS's ``Params`` rule
+    (the plant is built from validated parameters)."""
+    with pytest.raises(UserError, match=r"calibration_error_deg`? needs 6"):
+        ModuleHarness(WolverineJnts, {"calibration_error_deg": [0.1]})
+    with pytest.raises(UserError, match="outside the joint limits: j3 180"):
+        ModuleHarness(WolverineJnts, {"initial_q_deg": [0, 45, 180, 0, 45, 0]})
 
 
 def commanded_backend(rate: float, watchdog: float = 0.1) -> tuple[SimJointsBackend, float]:
@@ -132,8 +137,8 @@ def test_regular_commands_are_obeyed_as_before():
         plant.step(np.r_[0.5, np.zeros(5)], 0.002)
     np.testing.assert_allclose(backend.read(t_last).position, plant.q_reported, atol=1e-9)
     assert backend.counters() == {"drive_watchdog_stops": 0}
-    with pytest.raises(ValueError, match="watchdog must be positive"):
-        SimJointSettings(watchdog=0.0)
+    with pytest.raises(UserError, match="drive_watchdog"):  # the module's declaration says so
+        ModuleHarness(WolverineJnts, {"drive_watchdog": 0.0})
 
 
 def test_a_rate_too_slow_for_the_drive_watchdog_is_a_graph_error():

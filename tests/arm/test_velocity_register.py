@@ -5,8 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.errors import UserError
+from umbra.connectors.states import GuardReason
+from umbra.modules.arm.reg_vel import RegVel
 from umbra.modules.arm.velocity_register import RegisterSettings, VelocityRegister
 from umbra.modules.geometry.transforms import clamp_twist
+from umbra.runtime.harness import ModuleHarness
 
 SETTINGS = RegisterSettings(timeout=0.2, max_linear=0.1, max_angular=0.5)
 
@@ -25,6 +29,7 @@ def test_passes_a_fresh_command_and_zeroes_it_after_the_timeout():
     assert not out.passing
     np.testing.assert_array_equal(out.twist, np.zeros(6))
     assert "(link watchdog 0.200 s)" in out.zero_reason
+    assert out.code == GuardReason.WATCHDOG
 
 
 def test_zero_before_any_command_and_when_the_producer_is_gone():
@@ -35,7 +40,7 @@ def test_zero_before_any_command_and_when_the_producer_is_gone():
     assert out.zero_reason == "command producer is gone"
     assert not np.any(out.twist)
     out = register.output(now=0.01, halt="snake failure: outside outer rectangle")
-    assert out.zero_reason.startswith("snake failure")
+    assert out.zero_reason.startswith("snake failure") and out.code == GuardReason.HALTED
     register.clear()
     assert register.output(now=0.01).zero_reason == "no command received yet"
 
@@ -45,7 +50,7 @@ def test_bad_command_is_rejected_not_held():
     register.put(np.r_[0.01, 0, 0, 0, 0, 0], stamp=0.0)
     register.put([np.nan, 0, 0, 0, 0, 0], stamp=0.05)
     out = register.output(now=0.06)
-    assert "command rejected" in out.zero_reason
+    assert "command rejected" in out.zero_reason and out.code == GuardReason.REJECTED
     assert not np.any(out.twist)
 
 
@@ -60,9 +65,10 @@ def test_clamps_scale_linear_and_angular_parts_keeping_direction():
     np.testing.assert_array_equal(twist, [0.01, 0, 0, 0, 0.1, 0])
 
 
-def test_settings_are_validated():
-    with pytest.raises(ValueError, match="timeout"):
-        RegisterSettings(timeout=0.0)
+def test_settings_are_validated_by_the_modules_declaration():
+    """The register's bounds live in REG_VEL's ``Params`` (the settings are built from it)."""
+    with pytest.raises(UserError, match="timeout"):
+        ModuleHarness(RegVel, {"timeout": 0.0})
 
 
 def test_a_fresh_arrival_made_from_old_sensor_data_is_refused_in_operator_words():
@@ -74,6 +80,7 @@ def test_a_fresh_arrival_made_from_old_sensor_data_is_refused_in_operator_words(
     assert not out.passing and out.stale
     np.testing.assert_array_equal(out.twist, np.zeros(6))
     assert out.zero_reason == "command made from sensor data 1.30 s old (limit 0.25 s)"
+    assert out.code == GuardReason.STALE_DATA
     assert out.origin_age == pytest.approx(1.301)
     register.put(np.r_[0.02, 0, 0, 0, 0, 0], stamp=10.01, origin=9.9)  # fresh data again
     out = register.output(now=10.02)
@@ -94,3 +101,4 @@ def test_a_command_that_cannot_be_dated_is_old():
     out = register.output(now=1.0)
     assert out.stale
     assert out.zero_reason == "command made from sensor data that cannot be dated (limit 0.25 s)"
+    assert out.code == GuardReason.UNDATABLE

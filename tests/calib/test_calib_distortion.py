@@ -11,7 +11,8 @@ from umbra.modules.calib.distortion import (
     distort_normalized,
     distort_points,
     undistort_image,
-    undistort_normalized,
+    undistort_normalized_fixed_point,
+    undistort_normalized_newton,
     undistort_points,
     undistortion_maps,
 )
@@ -57,7 +58,7 @@ def test_projection_matches_cv2_project_points(scene, dist: np.ndarray) -> None:
 def test_undistort_inverts_distort(dist: np.ndarray) -> None:
     rng = np.random.default_rng(6)
     ideal = rng.uniform(-0.45, 0.45, (500, 2))
-    recovered = undistort_normalized(distort_normalized(ideal, dist), dist)
+    recovered = undistort_normalized_newton(distort_normalized(ideal, dist), dist)
     np.testing.assert_allclose(recovered, ideal, atol=1e-12)
     pixels = rng.uniform([0, 0], [640, 480], (100, 2))
     np.testing.assert_allclose(
@@ -88,10 +89,25 @@ def test_zero_distortion_is_identity() -> None:
 def test_no_inverse_is_nan() -> None:
     dist = np.array([-0.4, 0.0, 0.0, 0.0])
     # r (1 - 0.4 r^2) peaks at 0.609 for r = 0.913; beyond it there is only a mirrored root.
-    out = undistort_normalized(np.array([[0.1, 0.0], [2.0, 0.0], [0.55, 0.3], [0.0, 0.6]]), dist)
+    distorted = np.array([[0.1, 0.0], [2.0, 0.0], [0.55, 0.3], [0.0, 0.6]])
+    out = undistort_normalized_newton(distorted, dist)
     assert np.all(np.isfinite(out[[0, 3]]))
     assert np.all(np.isnan(out[[1, 2]]))
     np.testing.assert_allclose(distort_normalized(out[3], dist), [0.0, 0.6], atol=1e-12)
+    # the fixed-point inversion stays finite there (the renderer's tables need a value)
+    assert np.all(np.isfinite(undistort_normalized_fixed_point(distorted, dist)))
+
+
+@pytest.mark.parametrize("dist", DISTORTIONS)
+def test_both_inversions_agree_where_the_lens_has_an_inverse(dist: np.ndarray) -> None:
+    u, v = np.meshgrid(np.arange(0.0, 640.0, 8.0), np.arange(0.0, 480.0, 8.0))
+    distorted = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1]], axis=-1)
+    exact = undistort_normalized_newton(distorted, dist)
+    fixed = undistort_normalized_fixed_point(distorted, dist)
+    assert fixed.shape == exact.shape == distorted.shape
+    np.testing.assert_allclose(fixed, exact, atol=1e-12)
+    residual = np.abs(distort_normalized(fixed, dist) - distorted).max()
+    assert residual < 1e-13
 
 
 def test_bad_coefficient_count() -> None:

@@ -1,6 +1,6 @@
-"""Issue #31 item 6: ``umbra calib fit`` chooses the distortion model the data hold, says why,
-and gives each parameter's standard error, checked by Monte Carlo (the spread of refits over
-fresh noise), the truth being the simulated camera."""
+"""``umbra calib fit`` chooses the distortion model the data hold (tangential terms always,
+radial terms by an F test), says why, and gives each parameter's standard error, checked by
+Monte Carlo (the spread of refits over fresh noise), the truth being the simulated camera."""
 
 from __future__ import annotations
 
@@ -48,13 +48,12 @@ def test_undistorted_data_get_no_distortion_and_the_true_focal_length(tmp_path, 
     X = rig(0)
     uv = camera().project(X) + np.random.default_rng(100).normal(0, 0.3, (40, 2))
     out = fit_json(tmp_path, X, uv, capsys)
-    assert out["distortion_model"] == "none"
-    assert "information criterion" in out["why"] and set(out["information_criterion"]) == {
-        "none",
-        "k1k2",
-        "k1k2p1p2",
-    }
-    assert all(out["intrinsics"][k] == 0.0 for k in ("k1", "k2", "p1", "p2"))
+    assert out["distortion_model"] == "p1p2"
+    assert "F test" in out["why"] and out["radial_test"]["p_value"] >= 0.01
+    assert set(out["rms_px_by_model"]) == {"p1p2", "k1k2p1p2"}
+    assert all(out["intrinsics"][k] == 0.0 for k in ("k1", "k2"))
+    for term in ("p1", "p2"):  # fitted, and zero within their errors
+        assert abs(out["intrinsics"][term]) < 3.0 * out["standard_errors"][term]
     fx, se = out["intrinsics"]["fx"], out["standard_errors"]["fx"]
     assert 0.3 < se < 5.0 and abs(fx - 800.0) < 3.0 * se
     # the report's four-term model, forced, trades k2 against the focal length
@@ -63,16 +62,43 @@ def test_undistorted_data_get_no_distortion_and_the_true_focal_length(tmp_path, 
 
 
 def test_choice_over_many_rigs() -> None:
+    """No radial terms on undistorted rigs, radial terms on every distorted one, tangential
+    terms always."""
     undistorted, distorted = 0, 0
     for seed in range(20):
         X = rig(seed)
         noise = np.random.default_rng(1000 + seed).normal(0, 0.3, (40, 2))
-        undistorted += calibrate_choosing_distortion(X, camera().project(X) + noise)[1].chosen == (
-            "none"
-        )
+        bare = calibrate_choosing_distortion(X, camera().project(X) + noise)[1].chosen
+        undistorted += bare == "p1p2"
         lens = camera([-0.25, 0.1, 0.0, 0.0])
-        distorted += calibrate_choosing_distortion(X, lens.project(X) + noise)[1].chosen != "none"
-    assert undistorted >= 18 and distorted == 20
+        distorted += calibrate_choosing_distortion(X, lens.project(X) + noise)[1].chosen == (
+            "k1k2p1p2"
+        )
+    assert undistorted >= 19 and distorted == 20
+
+
+@pytest.mark.parametrize("sigma", [0.3, 0.5])
+def test_real_tangential_terms_are_kept_and_the_principal_point_stays_honest(sigma) -> None:
+    """A lens decentred by p1 0.0012, p2 -0.0008 (0.1-0.3 px at the rig's edge): the fit keeps
+    p1 p2 at 0.3 and 0.5 px of noise, and the principal point stays within 3.3 of its stated
+    errors on every rig (dropping the terms moves it further)."""
+    lens = camera([-0.25, 0.1, 0.0012, -0.0008])
+    for seed in range(12):
+        X = rig(200 + seed)
+        uv = lens.project(X) + np.random.default_rng(300 + seed).normal(0, sigma, (40, 2))
+        fit, choice = calibrate_choosing_distortion(X, uv)
+        assert choice.chosen == "k1k2p1p2", choice.reason
+        f = fit.camera.intrinsics
+        se = fit.standard_errors
+        assert abs(f.u0 - 320.0) < 3.3 * se["u0"] and abs(f.v0 - 240.0) < 3.3 * se["v0"]
+
+
+def test_too_few_pairs_for_tangential_terms_fit_no_distortion() -> None:
+    X = rig(4, n=6)
+    uv = camera().project(X) + np.random.default_rng(5).normal(0, 0.3, (6, 2))
+    fit, choice = calibrate_choosing_distortion(X, uv)
+    assert choice.chosen == "none" and "too few pairs" in choice.reason
+    assert np.all(fit.camera.distortion == 0.0)
 
 
 def test_text_output_says_which_model_and_why(tmp_path, capsys) -> None:
@@ -82,7 +108,7 @@ def test_text_output_says_which_model_and_why(tmp_path, capsys) -> None:
     write_csv(tmp_path / "pairs.csv", X, uv)
     assert main(["calib", "fit", str(tmp_path / "pairs.csv")]) == 0
     text = capsys.readouterr().out
-    assert "distortion k1k2" in text and "lowest Bayesian information criterion" in text
+    assert "distortion k1k2p1p2" in text and "F test" in text
     assert "standard errors" in text and "fx " in text
 
 

@@ -71,7 +71,7 @@ def test_yaml_blocks_are_graphs_that_check(block: Block) -> None:
         check_text(block.text, block.where, None)
         return
     base = yaml.safe_load((ROOT / "graphs" / "tool_pickup.yaml").read_text())
-    unknown = set(document) - {"record", "links", "processes", "frames", "seed", "clock"}
+    unknown = set(document) - {"record", "links", "processes", "frames", "seed", "clock", "ros2"}
     assert not unknown, f"{block.where}: neither a graph nor graph settings: {sorted(unknown)}"
     base.update(document)
     check_text(yaml.safe_dump(base), f"{block.where} (in graphs/tool_pickup.yaml)", None)

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from umbra.connectors.ptu_messages import PtuCommand
 from umbra.modules.calib.camcalib import REPORT_FILE
 from umbra.modules.calib.camera_model import Intrinsics, PinholeCamera
 from umbra.modules.geometry.rochester_head import (
@@ -24,7 +25,6 @@ from umbra.modules.geometry.rochester_head import (
     aim_camera_model_at_point,
 )
 from umbra.modules.ptu.ptu_module import Ptu
-from umbra.modules.sketch.messages import PtuCommand
 from umbra.modules.sketch.rig import default_rig
 from umbra.runtime.harness import ModuleHarness
 

@@ -12,7 +12,8 @@ import time
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, param
-from umbra.connectors.messages import JointState, Scalar, Status, Twist, Vector
+from umbra.connectors.messages import JointState, Scalar, Twist, Vector
+from umbra.connectors.states import GuardState
 
 #: Joint motion [rad] beyond which ArmWatch says the arm moved (far below a 0.1 mm step).
 MOVED_RAD = 1e-6
@@ -160,7 +161,7 @@ class ArmWatch(Module):
     TYPE = "ArmWatch"
 
     joints = Input(JointState, doc="the arm's reported joints")
-    guard = Input(Status, required=False, doc="the velocity register's status")
+    guard = Input(GuardState, required=False, doc="the velocity register's state")
 
     def start(self) -> None:
         self.q0: np.ndarray | None = None
@@ -195,7 +196,7 @@ class ArmWatch(Module):
         status = self.guard.get(now)
         if status is not None and self.guard.seq != self._seen_status:
             self._seen_status = self.guard.seq
-            passing = status.stage == "passing"
+            passing = status.passing
             if self._passing and not passing:
                 self.zeroed += 1
                 if len(self.zeroed_at) < 100:

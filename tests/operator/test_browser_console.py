@@ -147,7 +147,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 # the operator's click seeds the snake where it was made
                 click_image(page, 341.0, 229.0)
                 _wait(lambda: stepper.outputs("seed"))
-                u, v = stepper.outputs("seed")[-1][1].values
+                u, v = stepper.outputs("seed")[-1][1].uv
                 assert abs(u - 341.0) < 2.0 and abs(v - 229.0) < 2.0
                 # dragging a box gives a region seed [u_min, v_min, u_max, v_max]
                 page.mouse.move(*image_to_screen(page, 372.0, 256.0))
@@ -155,7 +155,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 page.mouse.move(*image_to_screen(page, 306.0, 204.0), steps=5)
                 page.mouse.up()
                 _wait(lambda: len(stepper.outputs("seed")) == 2)
-                box = stepper.outputs("seed")[-1][1].values
+                box = stepper.outputs("seed")[-1][1].uv
                 np.testing.assert_allclose(box, [306.0, 204.0, 372.0, 256.0], atol=2.0)
                 # control passes: released, taken by the other page, shown on both
                 page.click("#release")

@@ -17,7 +17,9 @@ import pytest
 from tests.operator.browser import chromium, click_image, needs_chromium, take_control
 from tests.operator.helpers import image, rectangle_contour
 from tests.world.test_attended import FRAMES
-from umbra.connectors.messages import Message, Status
+from umbra.connectors.messages import Message
+from umbra.connectors.states import ServoReason, ServoStage, ServoState
+from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.operator.console import OperatorConsole
 from umbra.modules.world.world import SimWorld
 from umbra.runtime.harness import ModuleHarness
@@ -27,6 +29,11 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 SNAKE_REASON = (
     "snake failure: no colour edge under 100% of the contour (featureless image); "
     "area changed -63% in one frame"
+)
+SNAKE_CHECKS = (SnakeCheck.NO_EDGE, SnakeCheck.AREA_CHANGE)
+#: vsServo waiting for a seed
+WAITING = ServoState(
+    stage=ServoStage.ACQUIRE, message="waiting: snake has no contour", code=ServoReason.NOT_SEEDED
 )
 VERDICT = "stopped by the operator before a grasp"
 
@@ -38,7 +45,7 @@ class Plant(threading.Thread):
     def __init__(self, h: ModuleHarness) -> None:
         super().__init__(daemon=True)
         self.h = h
-        self.servo = Status(stage="acquire", message="waiting: snake has no contour")
+        self.servo = WAITING
         self.extra: list[tuple[str, Message]] = []
         self.steady: dict[str, Message] = {}  #: more inputs, pushed with each frame
         self.sent: list[tuple[str, Message]] = []
@@ -64,10 +71,18 @@ class Plant(threading.Thread):
             time.sleep(0.01)
 
     def stage(self, stage: str, reason: str = "") -> None:
-        self.servo = Status(stage=stage, message=stage, reason=reason, assist=stage == "assist")
+        failed = stage == "assist" and reason == SNAKE_REASON
+        self.servo = ServoState(
+            stage=ServoStage(stage),
+            message=stage,
+            reason=reason,
+            assist=stage == "assist",
+            code=ServoReason.SNAKE_FAILED if failed else ServoReason.NONE,
+            checks=SNAKE_CHECKS if failed else (),
+        )
 
     def commands(self) -> list[str]:
-        return [s.text for port, s in list(self.sent) if port == "operator"]
+        return [str(s.action) for port, s in list(self.sent) if port == "operator"]
 
 
 def _wait(cond: Any, timeout: float = 10.0) -> None:
@@ -128,7 +143,7 @@ def _layout_persists(page: Any) -> None:
 
 def _drive(page: Any, plant: Plant, size: tuple[int, int], shot: Path) -> None:
     """One operator's session on the page at ``size``."""
-    plant.servo = Status(stage="acquire", message="waiting: snake has no contour")
+    plant.servo = WAITING
     take_control(page)
     assert page.evaluate("document.scrollingElement.scrollHeight") <= size[1]
     for action in ("start", "pause", "resume", "abort"):
@@ -222,7 +237,10 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
             assert viewer.is_disabled(stop)  # not the holder
             pages[0].click(stop)
             _wait(
-                lambda: [s.text for port, s in list(plant.sent) if port == "stop_run"] == ["stop"]
+                lambda: (
+                    [type(s).__name__ for port, s in list(plant.sent) if port == "stop_run"]
+                    == ["StopRun"]
+                )
             )
             with ModuleHarness(SimWorld, frames=FRAMES, attended=True) as world:
                 world.push("operator", next(s for port, s in plant.sent if port == "stop_run"))

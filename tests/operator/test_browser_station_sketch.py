@@ -15,8 +15,9 @@ from tests.operator.browser import chromium, needs_chromium
 from tests.operator.test_browser_station import Plant
 from tests.operator.test_sketch_scene import T_BASE_TABLE, path, snapshot
 from umbra.connectors.messages import Poses
+from umbra.connectors.path_messages import VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive
 from umbra.modules.operator.console import OperatorConsole
-from umbra.modules.sketch.messages import SketchPrimitive, VcrState
 from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]

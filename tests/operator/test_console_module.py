@@ -12,8 +12,10 @@ import pytest
 from websockets.exceptions import InvalidStatus
 
 from tests.operator.helpers import Page, client, image, rectangle_contour
+from umbra.connectors.commands import GrabAction, Seed, SeedShape
 from umbra.connectors.errors import UserError
-from umbra.connectors.messages import Status, Vector
+from umbra.connectors.states import ServoReason, ServoStage, ServoState
+from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.operator.console import OperatorConsole
 from umbra.runtime.harness import ModuleHarness
 
@@ -71,16 +73,19 @@ def _frame_seq(h: ModuleHarness) -> int:
 def test_without_a_page_the_simulated_operators_seed_passes_until_a_person_acts() -> None:
     with _harness(serve=False) as h:
         h.push("image", image())
-        h.push("sim_seed", Vector(values=np.array([340.0, 230.0])))
+        h.push("sim_seed", Seed.point(340.0, 230.0))
         out = h.step(dt=0.02)
-        assert out["seed"][0].values.tolist() == [340.0, 230.0]
-        assert h.output("presence").stage == "nobody"
+        assert out["seed"][0].uv.tolist() == [340.0, 230.0]
+        assert out["seed"][0].shape == SeedShape.POINT
+        presence = h.output("presence")
+        assert not presence.person and not presence.acted and presence.holder == ""
         h.module.arbiter.join("s1", "viewer")
         assert h.module.arbiter.take("s1").ok
-        h.push("sim_seed", Vector(values=np.array([10.0, 10.0])))
+        h.push("sim_seed", Seed.point(10.0, 10.0))
         out = h.step(dt=0.02)
         assert "seed" not in out or not out["seed"]
-        assert h.output("presence").stage == "person"
+        presence = h.output("presence")
+        assert presence.person and presence.acted and presence.holder == "viewer"
         assert h.module.summary()["sim_seeds_ignored"] == 1
 
 
@@ -101,7 +106,7 @@ def test_click_from_the_holder_seeds_and_a_viewer_without_control_is_refused() -
             seq = _frame_seq(h)
             operator.send("click", u=341.5, v=229.0, frame=seq)
             _pump(h, lambda: h.module.counts["seeds"] == 1)
-            assert h.output("seed").values.tolist() == [341.5, 229.0]
+            assert h.output("seed").uv.tolist() == [341.5, 229.0]
             assert h.module.counts["refused"] == 2
             assert h.module.arbiter.refused == 2
             # every page is told who holds control
@@ -111,7 +116,8 @@ def test_click_from_the_holder_seeds_and_a_viewer_without_control_is_refused() -
             texts = [n["text"] for n in state["notices"] if n["to"] == viewer.session]
             assert any("take control first" in t for t in texts)
             assert any("holds control" in t for t in texts)
-            assert h.output("presence").stage == "person"
+            presence = h.output("presence")
+            assert presence.person and presence.holder == operator.name and presence.viewers == 2
         finally:
             operator.close()
             viewer.close()
@@ -230,10 +236,10 @@ def test_resume_is_refused_while_the_snake_is_not_healthy() -> None:
             h.push("contour", rectangle_contour())
             page.send("action", action="resume")
             _pump(h, lambda: h.module.counts["resume"] == 1)
-            assert h.output("operator").text == "resume"
+            assert h.output("operator").action == GrabAction.RESUME
             page.send("action", action="abort")
             _pump(h, lambda: h.module.counts["abort"] == 1)
-            assert h.output("operator").text == "abort"
+            assert h.output("operator").action == GrabAction.ABORT
         finally:
             page.close()
 
@@ -243,10 +249,18 @@ def test_assistance_request_keeps_the_frame_and_reason_for_the_dialog() -> None:
         page = Page(h.module.url)
         try:
             h.push("contour", rectangle_contour("failed", "area changed too fast"))
-            h.push("servo", Status(stage="assist", assist=True, reason="snake failure: area"))
+            assist = ServoState(
+                stage=ServoStage.ASSIST,
+                assist=True,
+                reason="snake failure: area",
+                code=ServoReason.SNAKE_FAILED,
+                checks=(SnakeCheck.AREA_CHANGE,),
+            )
+            h.push("servo", assist)
             _pump(h, lambda: h.module._assist is not None)
             state = _state(h, page, lambda s: s["assist"] is not None)
             assert state["assist"]["reason"] == "snake failure: area"
+            assert state["assist"]["plain"] == "the patch's size jumped"
             assert state["assist"]["overlay"]["status"] == "failed"
             assert "vsServo asks for the operator" in state["banner"]
             http, base = client(h.module.url)

@@ -4,16 +4,19 @@ real console and world modules in the harness)."""
 
 from __future__ import annotations
 
+import pytest
+
 from tests.operator.helpers import Page
 from tests.operator.test_console_module import _harness, _operator, _pump, _state
 from tests.world.test_attended import DT, FRAMES, NAMES, Q0, _close_gripper
+from umbra.connectors.commands import StopRun
 from umbra.connectors.messages import JointState, Text
 from umbra.modules.world.world import SimWorld
 from umbra.runtime.harness import ModuleHarness
 
 
 def _stops(h: ModuleHarness) -> list[str]:
-    return [s.text for s in h.outputs("stop_run")]
+    return [type(s).__name__ for s in h.outputs("stop_run")]
 
 
 def test_only_the_holder_stops_the_run_and_the_world_ends_it_stopped_by_the_operator() -> None:
@@ -28,7 +31,8 @@ def test_only_the_holder_stops_the_run_and_the_world_ends_it_stopped_by_the_oper
             _pump(console, lambda: console.module.counts["refused_others"] == 1)
             assert _stops(console) == []
             operator.send("action", action="stop")
-            _pump(console, lambda: _stops(console) == ["stop"])
+            _pump(console, lambda: _stops(console) == ["StopRun"])
+            assert console.outputs("stop_run")[-1].by == operator.name
             # the world, attended (it never ends a run by itself), ends it now
             world.step(dt=DT)
             assert world.stop_request is None and world.output("status").stage == "running"
@@ -73,20 +77,21 @@ def test_a_stop_after_the_grasp_was_judged_keeps_its_verdict_and_exit_status() -
         for _ in range(10):
             world.push("joint_state", JointState(names=NAMES, position=Q0, gripper=0.0))
             world.step(dt=DT)
-        world.push("operator", Text(text="stop"))
+        world.push("operator", StopRun(by="ann"))
         world.step(dt=DT)
         verdict = f"{judged.message}; stopped by the operator"
         assert world.stop_request == (verdict, 1)  # a miss stays a miss
         assert world.output("status").stage == "missed"
         summary = world.module.summary()
         assert summary["verdict"] == verdict and summary["time_s"] == time_s  # the grasp's time
-        world.push("operator", Text(text="stop"))  # a second Stop changes nothing
+        world.push("operator", StopRun(by="ann"))  # a second Stop changes nothing
         world.step(dt=DT)
         assert world.module.summary()["verdict"] == verdict
 
 
-def test_other_words_on_the_worlds_operator_input_do_not_end_the_run() -> None:
+def test_the_worlds_operator_input_takes_a_stop_and_nothing_else() -> None:
     with ModuleHarness(SimWorld, frames=FRAMES) as world:
-        world.push("operator", Text(text="pause"))
+        with pytest.raises(TypeError, match="takes StopRun, found Text"):
+            world.push("operator", Text(text="stop"))  # a word is not a Stop
         world.step(dt=DT)
         assert world.stop_request is None and world.output("status").stage == "running"

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from umbra.connectors.messages import Status, Twist
+from umbra.connectors.messages import Twist
+from umbra.connectors.states import GuardReason, ServoReason, ServoStage, ServoState
 from umbra.modules.arm.reg_vel import RegVel
 from umbra.modules.servo.features import MomentFeatures
 from umbra.modules.servo.stages import ABORTED, ACQUIRE, PAUSED, ServoStages
@@ -23,20 +24,28 @@ def _twist(*v: float) -> Twist:
 def test_a_held_jog_replaces_the_command_and_stops_when_its_keepalives_stop() -> None:
     with ModuleHarness(RegVel, PARAMS) as h:
         h.push("command", _twist(0.01, 0, 0, 0, 0, 0))
-        h.push("halt", Status(stage="assist", assist=True, reason="snake failure"))
+        halt = ServoState(
+            stage=ServoStage.ASSIST,
+            assist=True,
+            reason="snake failure",
+            code=ServoReason.SNAKE_FAILED,
+        )
+        h.push("halt", halt)
         h.step(dt=0.01)
         assert not np.any(h.output("twist").vector)  # halted by the servo
         h.push("jog", _twist(0, 0, 0.2, 0, 0, 0))  # too fast: clamped
         h.step(dt=0.01)
         np.testing.assert_allclose(h.output("twist").vector, [0, 0, 0.05, 0, 0, 0])
-        assert h.output("status").message == "passing jog"
+        assert h.output("status").passing and h.output("status").jog
         for _ in range(9):  # no keep-alive for 0.1 s and more: zero, and why
             h.step(dt=0.012)
         assert not np.any(h.output("twist").vector)
         assert h.output("status").reason.startswith("jog: no new command for 0.1")
+        assert h.output("status").code == GuardReason.WATCHDOG and h.output("status").jog
         h.push("jog", _twist(0, 0, 0, 0, 0, 0))  # release: back to the (halted) command
         h.step(dt=0.01)
         assert h.output("status").reason.startswith("halted by assist")
+        assert h.output("status").code == GuardReason.HALTED and not h.output("status").jog
         assert 8 <= h.module.summary()["jog_ticks"] <= 9  # 0.1 s of jog at 100 Hz
 
 

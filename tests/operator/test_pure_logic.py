@@ -9,7 +9,16 @@ import pytest
 
 from tests.operator.helpers import rectangle_contour
 from umbra.connectors.access.secret import is_loopback, resolve_token, token_matches
-from umbra.connectors.messages import JointState, Status
+from umbra.connectors.commands import SeedShape
+from umbra.connectors.messages import JointState
+from umbra.connectors.states import (
+    GuardReason,
+    GuardStage,
+    GuardState,
+    ServoReason,
+    ServoStage,
+    ServoState,
+)
 from umbra.modules.geometry.transforms import twist_tool_from_camera
 from umbra.modules.operator.actions import (
     FrameHistory,
@@ -21,7 +30,7 @@ from umbra.modules.operator.actions import (
 )
 from umbra.modules.operator.control import ControlArbiter
 from umbra.modules.operator.jog import DeadMan, JogLimits, jog_twist
-from umbra.modules.operator.protocol import MessageChecker, ProtocolError
+from umbra.modules.operator.protocol import MessageChecker, ProtocolError, ReplayedMessage
 from umbra.modules.operator.view_state import joints_view, overlay, servo_view, zero_banner
 from umbra.modules.vision.sanity import SanityLimits
 
@@ -39,7 +48,10 @@ def test_messages_are_checked_for_shape_session_and_order() -> None:
         ("[1, 2]", "expected a JSON object, found list"),
         (_msg(seq=2, type="fly"), "expected type one of"),
         (_msg(seq=1, type="take"), "replayed message: expected seq > 1, found 1"),
-        (json.dumps({"session": "zzz", "seq": 9, "type": "take"}), "expected this page's session"),
+        (
+            json.dumps({"session": "zzz", "seq": 9, "type": "take"}),
+            "replayed message: expected this page's session",
+        ),
         (_msg(seq=3, type="click", u="1", v=2, frame=1), "expected u a finite number, found '1'"),
         (_msg(seq=3, type="click", u=1e999, v=2, frame=1), "expected u a finite number"),
         (_msg(seq=3, type="click", u=1, v=2, frame=-1), "expected frame a non-negative integer"),
@@ -62,6 +74,8 @@ def test_messages_are_checked_for_shape_session_and_order() -> None:
         with pytest.raises(ProtocolError, match=None) as info:
             c.check(raw)
         assert expected in str(info.value), (raw[:60], str(info.value))
+        # a replay is told by its type (counted apart), not by its words
+        assert isinstance(info.value, ReplayedMessage) == expected.startswith("replayed")
     assert c.last_seq == 1  # refused messages do not advance the order
     assert c.check(_msg(seq=5, type="take")).seq == 5
 
@@ -118,14 +132,17 @@ def test_clicks_boxes_and_stale_pages() -> None:
     for seq in range(1, 6):
         h.add(ShownFrame(seq, stamp=seq * 0.1, width=640, height=480))
     frame = h.frame_for(5, now=0.55, max_age=0.1)
-    assert point_seed(frame, 10, 470) == [10.0, 470.0]
+    point = point_seed(frame, 10, 470)
+    assert point.shape == SeedShape.POINT and point.uv.tolist() == [10.0, 470.0]
     with pytest.raises(Refused, match=r"click outside the image: .* found \(640.0, 10.0\)"):
         point_seed(frame, 640, 10)
     with pytest.raises(Refused, match=r"is 0\.250 s old, expected at most 0\.100 s"):
         h.frame_for(3, now=0.55, max_age=0.1)
     with pytest.raises(Refused, match="frame 1\\) is no longer live"):
         h.frame_for(1, now=0.55, max_age=10)
-    assert box_seed(frame, 300, 260, 200, 100) == [200.0, 100.0, 300.0, 260.0]
+    box = box_seed(frame, 300, 260, 200, 100)
+    assert box.shape == SeedShape.BOX and box.uv.tolist() == [200.0, 100.0, 300.0, 260.0]
+    assert box.problem() == ""
     with pytest.raises(Refused, match="box too small"):
         box_seed(frame, 10, 10, 12, 40)
 
@@ -154,25 +171,42 @@ def test_overlay_has_the_snake_shapes_in_pixels() -> None:
 
 
 def test_banner_errors_and_joints_for_the_page() -> None:
-    status = Status(stage="approach", values={"error_x": 0.0021, "error_roll": np.radians(2)})
+    errors = {"error_x": 0.0021, "error_roll": np.radians(2)}
+    status = ServoState(stage=ServoStage.APPROACH, values=errors)
     assert servo_view(status)["errors"] == {"x": 2.1, "roll": 2.0}
-    assert zero_banner(status, Status(stage="passing")) == ""
-    guard = Status(stage="zero", reason="command is 0.300 s old (timeout 0.100 s)")
+    passing = GuardState(stage=GuardStage.PASSING, code=GuardReason.PASSING)
+    assert zero_banner(status, passing) == ""
+    guard = GuardState(
+        stage=GuardStage.ZERO,
+        code=GuardReason.WATCHDOG,
+        reason="command is 0.300 s old (timeout 0.100 s)",
+    )
     assert zero_banner(status, guard) == (
         "servo side at zero (REG_VEL): command is 0.300 s old (timeout 0.100 s)"
     )
-    paused = Status(stage="paused", message="paused by the operator")
-    assert zero_banner(paused, Status(stage="passing", message="passing jog")) == ""
+    paused = ServoState(
+        stage=ServoStage.PAUSED, message="paused by the operator", code=ServoReason.PAUSED
+    )
+    jogging = GuardState(stage=GuardStage.PASSING, code=GuardReason.PASSING, jog=True)
+    assert zero_banner(paused, jogging) == ""
     assert zero_banner(paused, None) == "servo side at zero: paused by the operator"
-    assist = Status(stage="assist", assist=True, reason="snake failure: border")
+    assist = ServoState(
+        stage=ServoStage.ASSIST,
+        assist=True,
+        reason="snake failure: border",
+        code=ServoReason.SNAKE_FAILED,
+    )
     assert zero_banner(assist, None) == (
         "servo side at zero: vsServo asks for the operator: snake failure: border"
     )
-    waiting = Status(stage="acquire", message="waiting: snake has no contour")
-    assert zero_banner(waiting, Status(stage="passing")) == (
-        "servo side at zero: waiting: snake has no contour"
+    waiting = ServoState(
+        stage=ServoStage.ACQUIRE,
+        message="waiting: snake has no contour",
+        code=ServoReason.NOT_SEEDED,
     )
-    assert zero_banner(Status(stage="acquire", message="snake healthy 3 frame(s)"), None) == ""
+    assert zero_banner(waiting, passing) == "servo side at zero: waiting: snake has no contour"
+    healthy = ServoState(stage=ServoStage.ACQUIRE, message="snake healthy 3 frame(s)")
+    assert zero_banner(healthy, None) == ""
     state = JointState(
         names=("j1", "j2"), position=np.radians([0.0, 45.0]), velocity=np.radians([10.0, 0.0])
     )

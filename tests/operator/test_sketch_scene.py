@@ -10,9 +10,10 @@ import numpy as np
 
 from tests.operator.helpers import image
 from umbra.connectors.messages import Poses
+from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
 from umbra.modules.operator.console import OperatorConsole
 from umbra.modules.operator.sketch_scene import MAX_PATH_POINTS, MAX_SNAPSHOTS, SketchItems
-from umbra.modules.sketch.messages import SketchPrimitive, StereoSnapshot, ToolPath, VcrState
 from umbra.runtime.harness import ModuleHarness
 
 T_BASE_TABLE = np.eye(4)
@@ -119,12 +120,12 @@ def test_the_console_hands_the_items_to_its_page() -> None:
             Poses(matrices=np.stack([np.eye(4)]), children=["link1"], frame="base"),
         )
         h.step(dt=0.01)
-        assert "sketch" not in h.module._scene(h.now)  # nothing sketched yet
+        assert "sketch" not in h.module.view.scene(h.now)  # nothing sketched yet
         h.push("snapshot", snapshot())
         h.push("path", path())
         h.push("vcr_state", VcrState(path_id="p1", mode="paused", s=0.5, progress=0.5))
         h.step(dt=0.01)
-        scene = h.module._scene(h.now)
+        scene = h.module.view.scene(h.now)
         assert scene["sketch"]["snapshots"][0]["id"] == "s1"
         assert scene["sketch"]["path"]["at"] == [0.6, -0.2, 0.35]
         assert scene["sketch"]["path"]["mode"] == "paused"

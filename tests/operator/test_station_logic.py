@@ -1,5 +1,5 @@
-"""The station's logic without a browser: the state line, reasons in plain words said once, the
-run's life cycle, the jog pad's names and the refusal counts."""
+"""The station's logic without a browser: the state line, reasons in plain words (from their
+codes) said once, the run's life cycle, the jog pad's names and the refusal counts."""
 
 from __future__ import annotations
 
@@ -7,10 +7,20 @@ import numpy as np
 
 from tests.operator.helpers import Page, image
 from tests.operator.test_console_module import _harness, _operator, _pump, _state
-from umbra.connectors.messages import Pose, Poses, Status
+from umbra.connectors.messages import Pose, Poses
+from umbra.connectors.states import (
+    GuardReason,
+    GuardStage,
+    GuardState,
+    Outcome,
+    ServoReason,
+    ServoStage,
+    ServoState,
+    Verdict,
+)
+from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.operator.jog_labels import jog_labels
 from umbra.modules.operator.message_board import MessageBoard
-from umbra.modules.operator.plain_words import plain_reason
 from umbra.modules.operator.scene_view import scene_view
 from umbra.modules.operator.state_line import (
     ENDED,
@@ -21,31 +31,34 @@ from umbra.modules.operator.state_line import (
     state_line,
 )
 
-#: the reason the issue found shown five times, as vsSnake gives it
+#: the reason the issue found shown five times, as vsSnake gives it, and its checks' codes
 SNAKE_REASON = (
     "snake failure: no colour edge under 100% of the contour (featureless image); "
     "area changed -63% in one frame; centroid jumped 41 px in one frame"
 )
+SNAKE_CHECKS = (SnakeCheck.NO_EDGE, SnakeCheck.AREA_CHANGE, SnakeCheck.CENTROID_JUMP)
+SNAKE_WORDS = (
+    "the tracker lost the patch's edge; the patch's size jumped; the patch jumped in the image"
+)
 
 
-def test_a_long_reason_reads_in_plain_words_each_clause_once() -> None:
-    assert plain_reason(SNAKE_REASON) == (
-        "the tracker lost the patch's edge; the patch's size jumped; the patch jumped in the image"
+def test_a_failed_snake_reads_in_plain_words_from_its_codes_each_once() -> None:
+    failed = _servo("assist", reason=SNAKE_REASON, checks=SNAKE_CHECKS)
+    assert failed.words() == SNAKE_WORDS
+    # two checks that say the same thing are said once; the exact text plays no part
+    shape = (SnakeCheck.ASPECT_CHANGE, SnakeCheck.ASPECT_DRIFT, SnakeCheck.AREA_CHANGE)
+    assert _servo("assist", reason="(reworded)", checks=shape).words() == (
+        "the patch's shape changed; the patch's size jumped"
     )
-    # two clauses that say the same thing are said once; an unknown clause is kept as it is
-    assert plain_reason("area changed +40% in one frame; area changed -30% in one frame") == (
-        "the patch's size jumped"
-    )
-    assert plain_reason("gripper jammed; no new command for 0.113 s") == (
-        "gripper jammed; commands stopped arriving in time"
-    )
-    assert plain_reason("") == ""
+    late = _servo("assist", reason="contour is 0.612 s old", code=ServoReason.CONTOUR_LATE)
+    assert late.words() == "the tracker's outline came too late"
 
 
 def test_a_repeated_message_is_one_line_with_its_count_and_the_exact_text_a_click_away() -> None:
     board = MessageBoard(size=3)
     for k in range(5):
-        board.post_reason("the grab stopped and asks for you", SNAKE_REASON, t=1.0 + k)
+        lead = "the grab stopped and asks for you"
+        board.post_reason(lead, SNAKE_WORDS, SNAKE_REASON, t=1.0 + k)
     lines = board.for_page()
     assert len(lines) == 1
     assert lines[0]["count"] == 5 and lines[0]["t"] == 5.0 and lines[0]["id"] == 5
@@ -66,39 +79,73 @@ def test_a_repeated_message_is_one_line_with_its_count_and_the_exact_text_a_clic
     assert board.for_page()[0]["count"] == 2 and board.for_page()[0]["t"] == 9.0
 
 
-def _servo(stage: str, message: str = "", reason: str = "") -> Status:
-    return Status(stage=stage, message=message, reason=reason, assist=stage == "assist")
+def _servo(
+    stage: str,
+    message: str = "",
+    reason: str = "",
+    code: ServoReason | None = None,
+    checks: tuple[SnakeCheck, ...] = (),
+) -> ServoState:
+    """A vsServo state; a failed snake's code when checks are given."""
+    if code is None:
+        code = ServoReason.SNAKE_FAILED if checks else ServoReason.NONE
+    return ServoState(
+        stage=ServoStage(stage),
+        message=message,
+        reason=reason,
+        assist=stage == "assist",
+        code=code,
+        checks=checks,
+    )
+
+
+def _guard(code: GuardReason, reason: str = "") -> GuardState:
+    stage = GuardStage.PASSING if code == GuardReason.PASSING else GuardStage.ZERO
+    return GuardState(stage=stage, code=code, reason=reason)
+
+
+PASSING = _guard(GuardReason.PASSING)
 
 
 def test_the_state_line_says_stage_control_what_the_robot_does_and_why_it_is_stopped() -> None:
-    waiting = _servo("acquire", "waiting: snake has no contour")
-    guard_zero = Status(stage="zero", reason="no command received yet")
+    waiting = _servo("acquire", "waiting: snake has no contour", code=ServoReason.NOT_SEEDED)
+    guard_zero = _guard(GuardReason.NO_COMMAND_YET, "no command received yet")
     line = state_line(RUNNING, waiting, guard_zero, None, "", jogging=False)
     assert line.stage == "acquire" and line.control.startswith("nobody")
     assert "click the patch" in line.doing and "starts by itself" in line.doing
     assert line.stopped == "no command yet"
-    approach = state_line(RUNNING, _servo("approach"), Status(stage="passing"), None, "ann", False)
+    approach = state_line(RUNNING, _servo("approach"), PASSING, None, "ann", False)
     assert (approach.doing, approach.stopped, approach.control) == (
         "moving toward the patch",
         "",
         "ann",
     )
-    old = Status(stage="zero", reason="command made from sensor data 1.30 s old (limit 0.25 s)")
+    old = _guard(GuardReason.STALE_DATA, "command made from sensor data 1.30 s old (limit 0.25 s)")
     held = state_line(RUNNING, _servo("approach"), old, None, "ann", False)
     assert held.stopped == "the camera data behind the command is too old"
     assert held.stopped_detail == "command made from sensor data 1.30 s old (limit 0.25 s)"
-    assist = state_line(
-        RUNNING, _servo("assist", reason=SNAKE_REASON), guard_zero, None, "ann", False
-    )
+    snake = _servo("assist", reason=SNAKE_REASON, checks=SNAKE_CHECKS)
+    assist = state_line(RUNNING, snake, guard_zero, None, "ann", False)
     assert assist.doing == "stopped: the grab asks for you"
-    assert assist.stopped.startswith("the tracker lost the patch's edge")
+    assert assist.stopped == SNAKE_WORDS
     assert assist.stopped_detail == SNAKE_REASON
-    jog = state_line(RUNNING, _servo("paused"), Status(stage="passing"), None, "ann", True)
+    paused = _servo("paused", reason="paused by the operator", code=ServoReason.PAUSED)
+    held_paused = state_line(RUNNING, paused, guard_zero, None, "ann", False)
+    assert held_paused.stopped == "paused by the operator"
+    done = state_line(RUNNING, _servo("done"), guard_zero, None, "ann", False)
+    assert done.stopped == done.stopped_detail == "grab complete; the arm holds"
+    jog = state_line(RUNNING, _servo("paused"), PASSING, None, "ann", True)
     assert jog.doing.startswith("jogging by hand") and jog.stopped == ""
-    judged = Status(stage="missed", message="missed: tool point 11.02 mm from the grasp point")
+    judged = Verdict(
+        stage="missed",
+        message="missed: tool point 11.02 mm from the grasp point",
+        outcome=Outcome.MISSED,
+    )
     ended = state_line(ENDED, _servo("done"), guard_zero, judged, "ann", False)
     assert ended.phase == ENDED and ended.doing == "the run has ended"
-    assert ended.verdict.startswith("missed: tool point 11.02 mm")
+    assert ended.verdict.startswith("missed: tool point 11.02 mm") and ended.outcome == "missed"
+    running = Verdict(stage="running", message="no grasp yet")
+    assert state_line(RUNNING, _servo("approach"), PASSING, running, "ann", False).verdict == ""
 
 
 def test_the_life_cycle_starts_runs_and_ends_and_commands_follow_the_stage() -> None:
@@ -170,7 +217,10 @@ def test_a_stopping_console_tells_its_pages_the_run_ended_with_the_verdict() -> 
     page = Page(h.module.url)
     try:
         _pump(h, lambda: page.session in h.module.arbiter.sessions)
-        h.push("world", Status(stage="grasped", message=verdict, values={"time_s": 14.2}))
+        grasped = Verdict(
+            stage="grasped", message=verdict, values={"time_s": 14.2}, outcome=Outcome.SUCCEEDED
+        )
+        h.push("world", grasped)
         _state(h, page, lambda s: s["line"]["verdict"] == verdict)
     finally:
         h.__exit__(None, None, None)  # stops the module: its pages get the last state
@@ -215,19 +265,19 @@ def test_the_plot_gets_its_whole_history_now_and_then_and_new_rows_in_between() 
         def servo_steps(n: int) -> None:
             for k in range(n):
                 values = {"error_x": 0.01 * k, "error_y": 0.0, "error_z": -0.002, "error_roll": 0.1}
-                h.push("servo", Status(stage="approach", values=values))
+                h.push("servo", ServoState(stage=ServoStage.APPROACH, values=values))
                 h.push("image", image())
                 h.step(dt=0.1)
 
         servo_steps(5)
-        first = h.module._error_rows(h.module._last_now)
+        first = h.module.view.error_rows(h.module._last_now)
         assert first["errors_full"] and len(first["errors"]) == 5
         assert first["errors"][1][1:] == [10.0, 0.0, -2.0, round(0.1 * 180 / np.pi, 3)]  # mm, deg
-        assert h.module._error_rows(h.module._last_now) == {"errors": [], "errors_full": False}
+        assert h.module.view.error_rows(h.module._last_now) == {"errors": [], "errors_full": False}
         servo_steps(3)
-        more = h.module._error_rows(h.module._last_now)
+        more = h.module.view.error_rows(h.module._last_now)
         assert not more["errors_full"] and len(more["errors"]) == 3
         assert more["errors"][0][0] > first["errors"][-1][0]
         servo_steps(20)  # 2 s later: the whole history again
-        again = h.module._error_rows(h.module._last_now)
+        again = h.module.view.error_rows(h.module._last_now)
         assert again["errors_full"] and len(again["errors"]) == 28

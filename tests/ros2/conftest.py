@@ -1,7 +1,8 @@
 """A zenoh router on a loopback port standing in for ``rmw_zenohd``, and ``zenoh-ros2-sdk`` (an
 independent ROS 2-over-zenoh implementation) connected to it, offline: its message registry reads
-``.msg`` files written here from the ROS 2 interface definitions (it computes the RIHS01 hashes
-from them itself), and its session has multicast and gossip scouting off."""
+``.msg`` files of the ROS 2 interface definitions (``examples/ros2_robot/msg_files.py``; it
+computes the RIHS01 hashes from them itself), and its session has multicast and gossip scouting
+off."""
 
 from __future__ import annotations
 
@@ -11,23 +12,9 @@ from pathlib import Path
 
 import pytest
 
+from examples.ros2_robot.msg_files import write_msg_files
 from umbra.runtime.links.config import free_loopback_ports
 from umbra.runtime.ros2.router import open_router
-
-#: The ROS 2 interface definitions the peer needs (comments and constants left out: they do not
-#: enter a type hash).
-MSG_FILES = {
-    "builtin_interfaces/msg/Time": "int32 sec\nuint32 nanosec\n",
-    "std_msgs/msg/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
-    "sensor_msgs/msg/JointState": (
-        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
-        "float64[] effort\n"
-    ),
-    "sensor_msgs/msg/Image": (
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
-        "uint8 is_bigendian\nuint32 step\nuint8[] data\n"
-    ),
-}
 
 
 def wait_for(
@@ -63,10 +50,7 @@ def sdk(router_port: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     from zenoh_ros2_sdk import message_registry
     from zenoh_ros2_sdk.session import ZenohSession
 
-    for name, text in MSG_FILES.items():
-        path = tmp_path / "msgs" / f"{name}.msg"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
+    write_msg_files(tmp_path / "msgs")
     monkeypatch.setenv("ZENOH_SESSION_CONFIG_URI", "")
     monkeypatch.setenv(
         "ZENOH_CONFIG_OVERRIDE",

@@ -31,7 +31,7 @@ def test_a_good_mapping_and_its_command_flag():
             "type",
             "converts to sensor_msgs/msg/JointState; found sensor_msgs/msg/Image",
         ),
-        (("/j", "sensor_msgs/msg/Image", "Contour", "in"), "umbra_type", "conversion from ROS 2"),
+        (("/j", "sensor_msgs/msg/Image", "Twist", "in"), "umbra_type", "conversion from ROS 2"),
         (("/j", "sensor_msgs/msg/JointState", "JointState", "both"), "direction", "`out` or `in`"),
     ],
 )

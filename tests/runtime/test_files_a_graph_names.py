@@ -8,6 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+from umbra.runtime.cli.main import main
+
 GRAPH = """graph: files
 modules:
   cam: {{type: DigiCam, rate: 10, params: {{source: {source}}}}}
@@ -67,3 +71,38 @@ def test_a_missing_camera_file_is_a_check_error(tmp_path: Path) -> None:
         ":3:" in proc.stderr
         and "video file missing_clip.avi not found (no such file" in proc.stderr
     )
+
+
+RECORDER = """graph: rec
+modules:
+  src: {{type: Counter, rate: 20}}
+  rec: {{type: Recorder, params: {{channels: [count], path: {path}}}}}
+connections:
+  - src.count -> rec.count
+"""
+
+
+def _run(tmp_path: Path, path: str, *extra: str) -> int:
+    graph = tmp_path / "rec.yaml"
+    graph.write_text(RECORDER.format(path=path))
+    return main(["run", str(graph), "--single-process", "--clock", "sim", "--duration", "0.5",
+                 "--quiet", "--out", str(tmp_path / "out"), *extra])  # fmt: skip
+
+
+def test_a_recorder_outside_the_run_folder_is_refused_in_the_graph(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for path, why in ((str(tmp_path / "outside.mcap"), "is absolute"), ("../up.mcap", "leaves")):
+        assert _run(tmp_path, path) == 2
+        first = capsys.readouterr().err.splitlines()[0]
+        assert first.startswith(f"{tmp_path / 'rec.yaml'}:4:") and why in first
+        assert "name an outside file on the command line" in first
+        assert not (tmp_path / "out").exists() and not (tmp_path / "outside.mcap").exists()
+
+
+def test_the_user_names_an_outside_file_on_the_command_line(tmp_path: Path) -> None:
+    outside = tmp_path / "elsewhere" / "pick.mcap"
+    assert _run(tmp_path, "rec.mcap", "--set", f"rec.path={outside}") == 0
+    assert outside.stat().st_size > 1000 and not (tmp_path / "out" / "rec.mcap").exists()
+    assert _run(tmp_path, "rec.mcap", "--set", "rec.path=../beside.mcap") == 0
+    assert (tmp_path / "beside.mcap").stat().st_size > 1000

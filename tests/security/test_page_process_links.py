@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from umbra.connectors.codec import Codec
-from umbra.modules.sketch.messages import StereoSnapshot
+from umbra.connectors.sketch_messages import StereoSnapshot
 from umbra.runtime.graph.check import load_graph
 from umbra.runtime.links.bounds import max_sample_bytes
 

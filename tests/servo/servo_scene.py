@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from umbra.modules.calib.camera_model import Intrinsics
 from umbra.modules.geometry.transforms import integrate_body_twist, transform_from_xyz_rpy_deg
-from umbra.modules.servo.features import Intrinsics, MomentFeatures, features_from_contour
+from umbra.modules.servo.features import MomentFeatures, features_from_contour
 
-INTRINSICS = Intrinsics(fx=600.0, fy=610.0, u0=320.0, v0=240.0)
+INTRINSICS = Intrinsics(fx=600.0, fy=610.0, skew=0.0, u0=320.0, v0=240.0)
 PATCH_SIZE = (0.08, 0.05)  # metres: a rectangle, long side along world x
 PATCH_AREA = PATCH_SIZE[0] * PATCH_SIZE[1]
 #: vsServo parameters that describe this scene's patch and camera.
@@ -45,7 +46,7 @@ def project(T_world_camera: np.ndarray, points_world: np.ndarray) -> np.ndarray:
     p = points_world @ T_camera_world[:3, :3].T + T_camera_world[:3, 3]
     if np.any(p[:, 2] <= 0):
         raise ValueError("patch behind the camera")
-    return INTRINSICS.pixel(p[:, :2] / p[:, 2:3])
+    return INTRINSICS.pixels_from_normalized(p[:, :2] / p[:, 2:3])
 
 
 def features_seen(T_world_camera: np.ndarray) -> MomentFeatures:

@@ -1,6 +1,6 @@
 import math
 
-from umbra.modules.servo.error_text import error_figure
+from umbra.connectors.status_figures import error_figure
 
 
 def test_errors_read_in_millimetres_and_degrees() -> None:

@@ -63,7 +63,7 @@ def test_goal_in_pixels_is_reached_in_pixels():
     assert goal.a_n == pytest.approx(0.25)
     T, _ = servo_until_converged(camera_above(0.04, 0.04, 0.4, -10.0), goal)
     s = features_seen(T)
-    seen_centre = INTRINSICS.pixel(np.array([s.x_n, s.y_n]) / s.a_n)
+    seen_centre = INTRINSICS.pixels_from_normalized(np.array([s.x_n, s.y_n]) / s.a_n)
     np.testing.assert_allclose(seen_centre, centre, atol=3.0)
     assert s.alpha == pytest.approx(np.radians(15), abs=np.radians(0.5))
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from tests.servo.servo_scene import INTRINSICS, camera_above, features_seen, move
+from umbra.connectors.states import ServoReason
 from umbra.modules.servo.goal import goal_from_standoff
 from umbra.modules.servo.stages import (
     ABORTED,
@@ -146,10 +147,12 @@ def test_acquisition_waits_for_a_contour_and_restarts_its_count():
     T = camera_above(0.0, 0.0, 0.3, 0.0)
     out = machine.step(0.0, None)
     assert out.stage == ACQUIRE and out.message == "waiting: no contour from the snake"
+    assert out.code == ServoReason.NO_CONTOUR
     machine.step(0.1, healthy(T, 0.1))
     machine.step(0.2, healthy(T, 0.2))
     out = machine.step(0.3, Observation(None, healthy=True, stamp=0.3))  # snake went idle
     assert out.stage == ACQUIRE and out.message == "waiting: snake has no contour"
+    assert out.code == ServoReason.NOT_SEEDED
     machine.step(0.4, healthy(T, 0.4))
     machine.step(0.5, healthy(T, 0.5))
     assert machine.stage == ACQUIRE  # the count started again
@@ -160,15 +163,19 @@ def test_acquisition_waits_for_a_contour_and_restarts_its_count():
 def test_stale_or_missing_contours_stop_the_approach():
     settings = StageSettings(acquire_frames=1, max_contour_age=0.1)
     T = camera_above(0.05, 0.0, 0.3, 0.0)
-    for bad, reason in (
-        (Observation(features_seen(T), healthy=True, stamp=0.8), "0.200 s old"),
-        (None, "no contour from the snake"),
+    for bad, reason, code in (
+        (
+            Observation(features_seen(T), healthy=True, stamp=0.8),
+            "0.200 s old",
+            ServoReason.CONTOUR_LATE,
+        ),
+        (None, "no contour from the snake", ServoReason.NO_CONTOUR),
     ):
         machine = ServoStages(GOAL, settings=settings)
         machine.step(0.9, healthy(T, 0.9))
         assert np.any(machine.step(0.95, healthy(T, 0.95)).camera_twist)
         out = machine.step(1.0, bad)
-        assert out.stage == ASSIST and reason in out.reason
+        assert out.stage == ASSIST and reason in out.reason and out.code == code
         assert not np.any(out.camera_twist)
 
 
@@ -181,7 +188,7 @@ def test_abort_from_any_stage_and_resume_starts_a_new_grab():
     machine.operator("abort")
     out = machine.step(1.0, healthy(T, 1.0))
     assert out.stage == ABORTED and not np.any(out.camera_twist)
-    assert out.reason == "aborted by the operator"
+    assert out.reason == "aborted by the operator" and out.code == ServoReason.ABORTED
     machine.operator("resume")
     assert machine.step(1.1, healthy(T, 1.1)).gripper == "open"
     with pytest.raises(ValueError, match="resume"):

@@ -14,8 +14,11 @@ from tests.servo.servo_scene import (
     patch_corners,
     project,
 )
+from umbra.connectors.commands import GrabAction, GrabCommand, GripperAction
 from umbra.connectors.errors import UserError
-from umbra.connectors.messages import CameraModel, Contour, Text
+from umbra.connectors.messages import CameraModel, Contour
+from umbra.connectors.states import ServoReason, ServoStage
+from umbra.connectors.tracking import SnakeCheck, TrackStatus
 from umbra.modules.servo.vsservo import VsServo
 from umbra.runtime.harness import ModuleHarness
 
@@ -30,7 +33,12 @@ PARAMS = {
 }
 
 
-def contour_of(pixels: np.ndarray, status: str = "tracking", reason: str = "") -> Contour:
+def contour_of(
+    pixels: np.ndarray,
+    status: TrackStatus = TrackStatus.TRACKING,
+    reason: str = "",
+    checks: tuple[SnakeCheck, ...] = (),
+) -> Contour:
     return Contour(
         vertices=pixels,
         centroid=pixels.mean(axis=0) if len(pixels) else np.zeros(2),
@@ -39,6 +47,7 @@ def contour_of(pixels: np.ndarray, status: str = "tracking", reason: str = "") -
         axes=np.zeros(2),
         status=status,
         reason=reason,
+        checks=checks,
     )
 
 
@@ -62,7 +71,8 @@ def test_module_runs_a_grab_to_done():
         assert stages[-1] == "done"
         order = [s for i, s in enumerate(stages) if i == 0 or stages[i - 1] != s]
         assert order == ["acquire", "approach", "final_grab", "done"]
-        assert [g.text for g in h.outputs("gripper")] == ["open", "close"]
+        actions = [g.action for g in h.outputs("gripper")]
+        assert actions == [GripperAction.OPEN, GripperAction.CLOSE]
         np.testing.assert_allclose(T[:3, 3], [0.0, 0.0, 0.2 - 0.04], atol=3e-3)
         assert h.module.summary()["stage"] == "done"
 
@@ -71,17 +81,26 @@ def test_failed_snake_stops_and_resume_restarts():
     with ModuleHarness(VsServo, PARAMS) as h:
         T, stages = servo_run(h, camera_above(0.05, 0.0, 0.35, 0.0), 10)
         assert stages[-1] == "approach"
-        h.push("contour", contour_of(project(T, patch_corners()), "failed", "aspect ratio"))
+        failed = contour_of(
+            project(T, patch_corners()),
+            TrackStatus.FAILED,
+            "aspect ratio",
+            (SnakeCheck.ASPECT_CHANGE,),
+        )
+        h.push("contour", failed)
         sent = h.step(0.02)
         assert not np.any(sent["twist"][0].vector)
         status = sent["status"][0]
         assert status.stage == "assist" and status.assist
         assert status.reason == "snake failure: aspect ratio"
-        h.push("operator", Text(text="resume"))
+        assert status.code == ServoReason.SNAKE_FAILED
+        assert status.checks == (SnakeCheck.ASPECT_CHANGE,)
+        assert status.words() == "the patch's shape changed"
+        h.push("operator", GrabCommand(action=GrabAction.RESUME))
         h.push("contour", contour_of(project(T, patch_corners())))
         assert h.step(0.02)["status"][0].stage == "acquire"
-        h.push("operator", Text(text="abort"))
-        assert h.step(0.02)["status"][0].stage == "aborted"
+        h.push("operator", GrabCommand(action=GrabAction.ABORT))
+        assert h.step(0.02)["status"][0].stage == ServoStage.ABORTED
 
 
 def test_idle_snake_keeps_acquisition_waiting():
@@ -89,6 +108,7 @@ def test_idle_snake_keeps_acquisition_waiting():
         h.push("contour", contour_of(np.zeros((0, 2)), status="idle"))
         status = h.step(0.02)["status"][0]
         assert status.stage == "acquire" and status.message == "waiting: snake has no contour"
+        assert status.code == ServoReason.NOT_SEEDED
 
 
 def test_camera_model_input_undistorts_the_contour():

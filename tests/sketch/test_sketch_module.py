@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors.messages import Image, JointState, Pose, Text
+from umbra.connectors.ptu_messages import PtuState
 from umbra.modules.arm.dh import puma560
-from umbra.modules.sketch.messages import PtuState
 from umbra.modules.sketch.session import Q_READY, SketchSession
 from umbra.modules.sketch.sketch_module import Sketch
 from umbra.modules.sketch.stereo import StereoPair
@@ -102,7 +102,7 @@ def test_snapshot_place_plan_and_vcr():
 
 
 def test_refused_plans_are_shown_not_sent_and_no_plan_while_the_arm_moves():
-    from umbra.modules.sketch.messages import VcrState
+    from umbra.connectors.path_messages import VcrState
 
     session = SketchSession(seed=2)
     session.aim(session.scene.pipe.center, zoom=0.1)

@@ -26,9 +26,11 @@ import pytest
 from websockets.sync.client import connect
 
 from tests.operator.browser import chromium, needs_chromium
-from umbra.connectors.messages import Image, Status
+from umbra.connectors.messages import Image
+from umbra.connectors.path_messages import VcrState
+from umbra.connectors.sketch_messages import SketchPrimitive
+from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.operator.console import OperatorConsole
-from umbra.modules.sketch.messages import SketchPrimitive, VcrState
 from umbra.modules.sketch_page import page_web
 from umbra.modules.sketch_page.sketch_page import SketchPage
 from umbra.runtime.harness import ModuleHarness
@@ -170,7 +172,12 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
         stepper.push(
             h,
             "verdict",
-            Status(stage="grab_pipe", message=text, values={"grasp_distance_mm": 11.0}),
+            Verdict(
+                stage="grab_pipe",
+                message=text,
+                values={"grasp_distance_mm": 11.0},
+                outcome=Outcome.MISSED,
+            ),
         )
         state = _wait(lambda: (s := op.state()).get("verdict") and s)
         assert state["verdict"] == {
@@ -188,7 +195,7 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
         # every poll of the same frame gets the one encoding; a new frame is encoded once more
         polls = [op.client.get(op.root + "/sketch/live/a.jpg") for _ in range(3)]
         assert {p.content for p in polls} == {reply.content}
-        assert h.module.live_encodes["a"] == 1
+        assert h.module.web.live_encodes["a"] == 1
         stepper.push(h, "live_a", Image(pixels=255 - pixels, frame="cam_left"))
         newer = _wait(
             lambda: (
@@ -199,7 +206,7 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
             cv2.imdecode(np.frombuffer(newer.content, np.uint8), cv2.IMREAD_COLOR)[10, 10].min()
             > 200
         )
-        assert h.module.live_encodes["a"] == 2
+        assert h.module.web.live_encodes["a"] == 2
         assert op.client.get(op.root + "/sketch/live/b.jpg").status_code == 404
         assert op.client.get(op.root + "/sketch/live/c.jpg").status_code == 404
         op.close()
@@ -363,7 +370,7 @@ def test_one_holder_for_the_console_and_the_sketch_page_of_one_server() -> None:
         assert arbiter.holder == alice_console.session  # the console page says "(you)"
         alice_console.send("action", action="abort")
         _wait(lambda: console.module.counts["abort"] == 1)
-        assert console.output("operator").text == "abort"
+        assert console.output("operator").action == "abort"
         # the console page closes: the sketch page of the same browser keeps control
         alice_console.close()
         _wait(lambda: alice_console.session not in arbiter.sessions)

@@ -22,7 +22,7 @@ from tests.sketch.test_sketch_epipolar_curve import (
 )
 from tests.sketch.test_sketch_page import Browser, Stepper
 from umbra.connectors.messages import CameraModel
-from umbra.modules.sketch.messages import StereoSnapshot
+from umbra.connectors.sketch_messages import StereoSnapshot
 from umbra.modules.sketch_page.sketch_page import SketchPage
 from umbra.runtime.harness import ModuleHarness
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.sketch_messages import SketchPrimitive
 from umbra.modules.arm.dh import puma560
 from umbra.modules.geometry.transforms import translation
 from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
-from umbra.modules.sketch.messages import SketchPrimitive
 from umbra.modules.sketch.path_check import PathLimits, plan_path
 from umbra.modules.sketch.session import Q_READY
 from umbra.modules.world.scene_objects import SketchScene

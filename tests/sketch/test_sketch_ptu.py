@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.ptu_messages import PtuCommand
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 from umbra.modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
 from umbra.modules.ptu.ptu_module import Ptu
 from umbra.modules.ptu.sim_ptu import SimPtu
-from umbra.modules.sketch.messages import PtuCommand
 from umbra.runtime.harness import ModuleHarness
 
 #: unit 1.4 m up behind the arm, looking along base +x, 30 deg down (Z forward, Y down, X right)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.sketch_messages import StereoSnapshot
 from umbra.modules.ptu.aim import look_at
-from umbra.modules.sketch.messages import StereoSnapshot
 from umbra.modules.sketch.primitives import (
     PrimitiveError,
     line_axis,

@@ -25,7 +25,10 @@ from umbra.modules.sketch.primitives import (
 )
 from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 
-NOISE = StereoNoise(pixel_px=0.5, rotation_rad=3e-4, translation_m=3e-4, focal_rel=2e-3)
+#: clicks on the true corners (features: no handle error along an edge, test_sketch_depth_trust)
+NOISE = StereoNoise(
+    pixel_px=0.5, rotation_rad=3e-4, translation_m=3e-4, focal_rel=2e-3, handle_px=0.0
+)
 K = np.array([[1500.0, 0.0, 330.0], [0.0, 1490.0, 235.0], [0.0, 0.0, 1.0]])
 DIST = np.array([-0.2, 0.05, 0.0005, -0.0003, 0.0])
 RUNS = 60

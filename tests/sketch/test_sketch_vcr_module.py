@@ -5,11 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from umbra.connectors.messages import JointState, Status
+from umbra.connectors.messages import JointState
+from umbra.connectors.path_messages import VcrCommand
+from umbra.connectors.sketch_messages import SketchPrimitive
+from umbra.connectors.states import GuardReason, GuardStage, GuardState
 from umbra.modules.arm.dh import puma560
 from umbra.modules.geometry.transforms import translation
 from umbra.modules.sketch.macros import macro_keys
-from umbra.modules.sketch.messages import SketchPrimitive, VcrCommand
 from umbra.modules.sketch.path_check import PathLimits, plan_path
 from umbra.modules.sketch.session import Q_READY
 from umbra.modules.trajectory.vcr_module import VcrPlayer
@@ -60,12 +62,15 @@ def test_plays_and_a_guard_stop_freezes_it_on_the_path(path):
         assert state.mode == "playing" and state.s > 0.05
         twist = h.output("twist")
         assert twist.frame == "tool" and np.linalg.norm(twist.vector[:3]) > 0.005
-        h.push("guard", Status(stage="zero", reason="command is 0.210 s old"))
+        late = GuardState(
+            stage=GuardStage.ZERO, code=GuardReason.WATCHDOG, reason="command is 0.210 s old"
+        )
+        h.push("guard", late)
         arm.tick()
         state = h.output("state")
         assert state.mode == "halted" and state.reason.startswith("guard stop: command is 0.210")
         s_halt = state.s
-        h.push("guard", Status(stage="passing"))
+        h.push("guard", GuardState(stage=GuardStage.PASSING, code=GuardReason.PASSING))
         arm.tick(50)
         assert h.output("state").s == s_halt  # stays halted until the operator plays again
         _command(h, "play")

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from umbra.connectors.messages import JointState
+from umbra.connectors.path_messages import ToolPath, VcrState
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import rot_z
-from umbra.modules.sketch.messages import ToolPath, VcrState
 from umbra.modules.sketch.tool_poses import DOWN, tool_pose
 from umbra.modules.world.ik import solve_ik
 from umbra.modules.world.scene_objects import SketchScene

@@ -11,7 +11,8 @@ import numpy as np
 
 from tests.operator.test_console_module import _harness, _operator, _pump, _state
 from tests.sketch.test_sketch_verdict import DT, _path, _q_at
-from umbra.connectors.messages import JointState, Text
+from umbra.connectors.commands import StopRun
+from umbra.connectors.messages import JointState
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.sketch.tool_poses import DOWN, tool_pose
 from umbra.modules.world.sketch_world import SketchWorld
@@ -39,15 +40,14 @@ def test_an_attended_stop_ends_the_run_with_the_macros_that_succeeded() -> None:
         # end_after is met, but an attended run goes on until its operator stops it
         assert h.module.summary()["succeeded"] == ["grab_pipe"]
         assert h.stop_request is None and h.module.summary()["stopped"] == ""
-        h.push("operator", Text(text="pause"))  # any other word: nothing
         h.step(dt=DT)
         assert h.stop_request is None
-        h.push("operator", Text(text="stop"))
+        h.push("operator", StopRun(by="ann"))
         h.step(dt=DT)
         verdict = "stopped by the operator; succeeded: grab_pipe"
         assert h.stop_request == (verdict, 0)
         assert h.module.summary()["stopped"] == verdict
-        h.push("operator", Text(text="stop"))  # a second Stop changes nothing
+        h.push("operator", StopRun(by="ann"))  # a second Stop changes nothing
         h.step(dt=DT)
         assert h.module.summary()["stopped"] == verdict
 
@@ -56,7 +56,7 @@ def test_a_stop_before_any_success_is_a_normal_stop_that_says_so() -> None:
     with ModuleHarness(SketchWorld) as h:
         _grab_pipe(h, 11.0)  # missed: 11 mm off the axis
         assert h.module.summary()["succeeded"] == [] and h.stop_request is None
-        h.push("operator", Text(text="stop"))
+        h.push("operator", StopRun())
         h.step(dt=DT)
         verdict = "stopped by the operator; no macro succeeded"
         assert h.stop_request == (verdict, 0)  # a normal stop: the misses are in macro_verdicts
@@ -74,7 +74,8 @@ def test_the_consoles_stop_reaches_sketch_world_and_ends_the_run() -> None:
             state = _state(console, page, lambda s: s["phase"] == "running")
             assert state["commands"]["stop"] is True
             page.send("action", action="stop")
-            _pump(console, lambda: [s.text for s in console.outputs("stop_run")] == ["stop"])
+            _pump(console, lambda: len(console.outputs("stop_run")) == 1)
+            assert isinstance(console.outputs("stop_run")[0], StopRun)
             world.step(dt=DT)
             assert world.stop_request is None
             world.push("operator", console.outputs("stop_run")[-1])

@@ -188,6 +188,14 @@ def test_cli_solves_and_writes_frames_and_graph(tmp_path: Path, capsys) -> None:
     assert np.degrees(angle) < 0.3 and offset < 0.005
     assert data["rms_px"] < 1.5 and len(data["clicks"]) >= 9
     assert all(c["before_px"] > c["residual_px"] for c in data["clicks"][:1])
+    # the mount's stated errors: the 95 % intervals hold the truth's offset, a few mm wide
+    half = data["interval_95"]
+    assert set(half) == {"rx", "ry", "rz", "x", "y", "z"} and len(data["covariance"]) == 6
+    assert np.all(
+        np.abs(np.array(data["T"])[:3, 3] - truth[:3, 3])
+        < 3 * np.array([half["x"], half["y"], half["z"]])
+    )
+    assert all(1e-4 < half[k] < 0.02 for k in ("x", "y", "z")), half
     xyz, rpy = xyz_rpy_deg_from_transform(np.array(data["T"]))
     new_graph = graph.read_text()
     assert "graph: g  # keep me" in new_graph and "# nominal" in new_graph

@@ -29,11 +29,11 @@ from tests.view3d.browser_support import (
     wait_value,
 )
 from umbra.connectors.messages import CameraModel, Image, Pose
+from umbra.connectors.scene_messages import SceneObjects
 from umbra.modules.calib.pose_tool import pose_error
 from umbra.modules.calib.pose_tool_synthetic import T_WORLD_PTU_BASE, T_base_head, aim
 from umbra.modules.geometry.mount_offset import offset_transform
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
-from umbra.modules.sketch.messages import SceneObjects
 from umbra.modules.view3d.geometry import (
     frustum_from_model,
     ray_hit,

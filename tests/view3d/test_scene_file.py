@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from umbra.connectors.errors import UserError
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
-from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.view3d.scene_file import (
     Scene,
     SceneBox,

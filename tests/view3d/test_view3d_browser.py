@@ -23,9 +23,9 @@ from tests.view3d.browser_support import (
     wait_value,
 )
 from umbra.connectors.messages import CameraModel, Image, Pose
+from umbra.connectors.sketch_messages import SketchBox
 from umbra.modules.calib.rotations import vector_from_rotation
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
-from umbra.modules.sketch.messages import SketchBox
 from umbra.modules.view3d.geometry import (
     frustum_from_model,
     matrix_from_wxyz,

@@ -9,8 +9,8 @@ import pytest
 
 from tests.view3d.browser_support import wait_for
 from umbra.connectors.errors import UserError
+from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
-from umbra.modules.sketch.messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.view3d.scene_file import load_scene
 from umbra.modules.view3d.view3d import View3D
 from umbra.runtime.harness import ModuleHarness
@@ -137,7 +137,7 @@ def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> No
         h.push("left_model", model)
         h.push("left_image", Image(pixels=np.zeros((480, 640, 3), np.uint8)))
         h.step(dt=0.05)
-        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        h.module.push.send(dict(h.module.push.latest))  # what the sender thread does for a browser
         page, widgets = h.module.page, h.module.pose_tool
         snapshot = page.take_snapshot("left")
         assert snapshot is not None
@@ -167,7 +167,7 @@ def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> No
 
 
 def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
-    from umbra.modules.sketch.messages import SceneObjects
+    from umbra.connectors.scene_messages import SceneObjects
 
     poses = np.stack(
         [
@@ -185,7 +185,7 @@ def test_scene_objects_are_drawn_and_pickable(tmp_path: Path) -> None:
     with ModuleHarness(View3D, {"port": 0}, frames=FRAMES, output_dir=tmp_path) as h:
         h.push("objects", objects)
         h.step(dt=0.05)
-        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        h.module.push.send(dict(h.module.push.latest))  # what the sender thread does for a browser
         meshes = h.module.page.meshes
         assert {"/objects/pipe", "/objects/package"} <= set(meshes)
         from umbra.modules.view3d.geometry import ray_hit
@@ -199,7 +199,7 @@ def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
     a scaled pose is not drawn; the other solids and the cameras are drawn in the same
     update."""
     from umbra.connectors.messages import CameraModel, Pose
-    from umbra.modules.sketch.messages import SceneObjects
+    from umbra.connectors.scene_messages import SceneObjects
     from umbra.modules.view3d.geometry import ray_hit
 
     mirrored = np.eye(4)
@@ -222,7 +222,7 @@ def test_a_malformed_solid_spoils_only_itself(tmp_path: Path) -> None:
         T_left = transform_from_xyz_rpy_deg([0, 0, 1.5], [180, 0, 0])
         h.push("left_pose", Pose(matrix=T_left, parent="base", child="left"))
         h.step(dt=0.05)
-        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        h.module.push.send(dict(h.module.push.latest))  # what the sender thread does for a browser
         meshes = h.module.page.meshes
         assert {"/objects/door", "/objects/crate"} <= set(meshes)
         assert "/objects/package" not in meshes
@@ -255,7 +255,7 @@ def test_only_fed_cameras_are_offered_frames_are_named_and_the_stage_is_shown(
         )
         h.push("stage", status)
         h.step(dt=0.05)
-        h.module._push(dict(h.module._latest))  # what the sender thread does for a browser
+        h.module.push.send(dict(h.module.push.latest))  # what the sender thread does for a browser
         # the graph feeds the left camera only: only it has a folder and a "View from" button
         assert set(page.sliders) == set(page.view_buttons) == {"left"}
         # frames named where they are: the table (25 cm above base), the tool, the camera
@@ -275,12 +275,12 @@ def test_only_fed_cameras_are_offered_frames_are_named_and_the_stage_is_shown(
         # pushed again with nothing moved: no label is sent again; a moved camera's is
         sent = page.labels_sent
         for _ in range(3):
-            h.module._push(dict(h.module._latest))
+            h.module.push.send(dict(h.module.push.latest))
         assert page.labels_sent == sent
         T_moved = transform_from_xyz_rpy_deg([0.1, 0, 1.5], [180, 0, 0])
         h.push("left_pose", Pose(matrix=T_moved, parent="base", child="left"))
         h.step(dt=0.05)
-        h.module._push(dict(h.module._latest))
+        h.module.push.send(dict(h.module.push.latest))
         assert page.labels_sent == sent + 1
         assert page.labels["camera left"][1][0] == pytest.approx(at[0] + 0.1)
         # the task's state line, with why it stopped

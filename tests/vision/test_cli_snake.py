@@ -8,10 +8,10 @@ import cv2
 import numpy as np
 import pytest
 
+from umbra.modules.calib.camera_model import Intrinsics
 from umbra.modules.vision.features import polygon_features
 from umbra.modules.vision.lighting import Lighting
 from umbra.modules.vision.metrics import polygon_iou
-from umbra.modules.vision.projection import CameraIntrinsics
 from umbra.modules.vision.scene import Scene, SceneRenderer, pose
 from umbra.runtime.cli.main import main
 
@@ -76,8 +76,11 @@ def test_a_seed_off_the_patch_fails_the_checks_with_exit_1(patch_image, capsys) 
     [
         (["--seed", "1"], "--seed expects U,V"),
         (["--seed", "900,10"], "outside the 640x480 image"),
-        (["--seed", "320,240", "--set", "kk=1"], "unknown snake setting `kk`"),
-        (["--seed", "320,240", "--set", "step_px=fast"], "must be a number"),
+        (["--seed", "320,240", "--set", "kk=1"], "unknown parameter `kk`"),
+        (
+            ["--seed", "320,240", "--set", "step_px=fast"],
+            "parameter `step_px`: Input should be a valid number",
+        ),
         (["--seed", "320,240", "--overlay", "/no/such/dir/x.png"], "cannot write"),
     ],
 )
@@ -103,7 +106,7 @@ def test_high_resolution_images(width: int, height: int, tmp_path, capsys) -> No
     vertices for a contour of 1100-1600 px)."""
     f = 600.0 * width / 640.0
     renderer = SceneRenderer(
-        CameraIntrinsics(f, f, 0.0, width / 2, height / 2, width, height), DISTORTION
+        Intrinsics(f, f, 0.0, width / 2, height / 2, width, height), DISTORTION
     )
     frame = renderer.render(
         Scene(T_world_patch=pose((0.004, 0.002, 0.03), np.deg2rad(30)), background="photo"),

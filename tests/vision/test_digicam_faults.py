@@ -22,7 +22,7 @@ from umbra.connectors import UserError
 from umbra.connectors.messages import Image, Pose
 from umbra.modules.vision.digicam import DigiCam
 from umbra.modules.vision.scene import camera_looking_down
-from umbra.modules.vision.sim_camera import OCCLUDER_GAP_M, OCCLUDER_LIFT_M, SceneFault
+from umbra.modules.vision.sim_camera import OCCLUDER_GAP_M, OCCLUDER_LIFT_M
 from umbra.modules.vision.vs_snake import VsSnake
 from umbra.runtime.graph.check import check_text
 from umbra.runtime.harness import ModuleHarness
@@ -232,8 +232,8 @@ def test_fault_parameters_are_checked() -> None:
         ModuleHarness(DigiCam, {"fault": "occluder", "fault_rgb": [0, 0]}).start()
     with pytest.raises(UserError, match="needs source `sim`"):
         ModuleHarness(DigiCam, {"source": "0", "fault": "freeze"}).start()
-    with pytest.raises(ValueError, match="speed"):
-        SceneFault(kind="occluder", speed_mps=0.0)
+    with pytest.raises(UserError, match="fault_speed_mps"):
+        ModuleHarness(DigiCam, {"fault": "occluder", "fault_speed_mps": 0.0})
 
 
 def test_summary_without_a_fault() -> None:

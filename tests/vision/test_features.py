@@ -10,7 +10,6 @@ from umbra.modules.vision.features import (
     angle_difference,
     equivalent_rectangle_sides,
     polygon_features,
-    raw_moments,
 )
 from umbra.modules.vision.polygon import (
     circle,
@@ -33,11 +32,9 @@ def random_star(rng: np.random.Generator, count: int = 40) -> np.ndarray:
 @pytest.mark.parametrize("seed", range(5))
 def test_moments_match_opencv_on_random_polygons(seed: int) -> None:
     polygon = random_star(np.random.default_rng(seed))
-    ours = raw_moments(polygon)
     cv = cv2.moments(polygon.astype(np.float32))
-    for value, key in zip(ours, ("m00", "m10", "m01", "m20", "m11", "m02"), strict=True):
-        assert value == pytest.approx(cv[key], rel=1e-4)
     features = polygon_features(polygon)
+    assert features.area_px2 == pytest.approx(abs(cv["m00"]), rel=1e-4)
     assert features.centroid_uv == pytest.approx((cv["m10"] / cv["m00"], cv["m01"] / cv["m00"]))
     mu = (cv["mu20"] / cv["m00"], cv["mu11"] / cv["m00"], cv["mu02"] / cv["m00"])
     assert features.second_moments == pytest.approx(mu, rel=1e-4, abs=1e-3)

@@ -6,36 +6,30 @@ import cv2
 import numpy as np
 import pytest
 
-from umbra.modules.vision.projection import (
-    CameraIntrinsics,
-    Distortion,
-    ideal_pixels_of_distorted_grid,
-    project_camera_points,
-)
+from umbra.modules.calib.camera_model import Intrinsics
+from umbra.modules.vision.projection import ideal_pixels_of_distorted_grid, project_camera_points
 
 from .conftest import DISTORTION, INTRINSICS
 
 
 @pytest.mark.parametrize(
     "distortion",
-    [Distortion(), DISTORTION, Distortion(k1=0.08, k2=-0.05, p1=-0.002, p2=0.001, k3=0.01)],
+    [np.zeros(5), DISTORTION, np.array([0.08, -0.05, -0.002, 0.001, 0.01])],
 )
-def test_projection_matches_opencv(distortion: Distortion) -> None:
+def test_projection_matches_opencv(distortion: np.ndarray) -> None:
     rng = np.random.default_rng(5)
     points = np.column_stack(
         [rng.uniform(-0.1, 0.1, 200), rng.uniform(-0.08, 0.08, 200), rng.uniform(0.15, 0.5, 200)]
     )
     ours = project_camera_points(points, INTRINSICS, distortion)
-    theirs, _ = cv2.projectPoints(
-        points, np.zeros(3), np.zeros(3), INTRINSICS.matrix(), distortion.as_array()
-    )
+    theirs, _ = cv2.projectPoints(points, np.zeros(3), np.zeros(3), INTRINSICS.matrix(), distortion)
     np.testing.assert_allclose(ours, theirs.reshape(-1, 2), atol=1e-6)
 
 
 def test_skew_shifts_u_by_skew_times_b() -> None:
-    skewed = CameraIntrinsics(skew=5.0)
+    skewed = Intrinsics(600.0, 600.0, 5.0, 320.0, 240.0)
     point = np.array([[0.02, 0.05, 0.25]])
-    plain = project_camera_points(point, CameraIntrinsics())
+    plain = project_camera_points(point, Intrinsics(600.0, 600.0, 0.0, 320.0, 240.0))
     assert project_camera_points(point, skewed)[0, 0] - plain[0, 0] == pytest.approx(5.0 * 0.2)
 
 
@@ -53,7 +47,7 @@ def test_undistortion_maps_agree_with_opencv_and_invert_the_model() -> None:
     reference = cv2.undistortPoints(
         pixels.reshape(-1, 1, 2),
         INTRINSICS.matrix(),
-        DISTORTION.as_array(),
+        DISTORTION,
         P=INTRINSICS.matrix(),
         criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12),
     ).reshape(-1, 2)

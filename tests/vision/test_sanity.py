@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.vision.features import polygon_features
 from umbra.modules.vision.polygon import rectangle, resample_uniform
 from umbra.modules.vision.sanity import FAILED, TRACKING, SanityLimits, check_contour
+from umbra.modules.vision.snake_config import SnakeSettings
 
 LIMITS = SanityLimits()
 
@@ -41,6 +43,7 @@ def test_vertices_outside_the_rectangle_are_flagged() -> None:
     result = check_contour(bulge, LIMITS)
     assert result.status == FAILED
     assert "outside the outer rectangle" in result.reason
+    assert result.checks == (SnakeCheck.OUTSIDE_RECTANGLE,)
     assert 10 in result.offending
 
 
@@ -52,6 +55,8 @@ def test_vertices_inside_the_ellipse_are_flagged() -> None:
     result = check_contour(notch, LIMITS)
     assert result.status == FAILED
     assert "inside the inner ellipse" in result.reason
+    assert SnakeCheck.INSIDE_ELLIPSE in result.checks
+    assert len(result.checks) == len(result.reasons)
     assert 20 in result.offending
 
 
@@ -67,6 +72,7 @@ def test_l_shape_and_triangle_fail_the_shape_checks() -> None:
 def test_size_and_aspect_bounds() -> None:
     small = check_contour(rectangle((50, 50), (10, 8)), LIMITS)
     assert "below the minimum" in small.reason
+    assert SnakeCheck.AREA_BELOW_MIN in small.checks
     long_ = check_contour(resample_uniform(rectangle((300, 200), (400, 60)), 64), LIMITS)
     assert "aspect ratio 6.67 outside" in long_.reason
     patch_limits = SanityLimits(min_aspect=1.2, max_aspect=2.0)
@@ -95,8 +101,8 @@ def test_degenerate_contours_fail_cleanly() -> None:
     assert "vertices" in check_contour(np.zeros((2, 2)), LIMITS).reason
     flat = check_contour(np.array([[0, 0], [10, 0], [20, 0], [30, 0.0]]), LIMITS)
     assert flat.status == FAILED and "collapsed" in flat.reason
-    with pytest.raises(ValueError):
-        SanityLimits(ellipse_scale=1.5)
+    with pytest.raises(ValueError, match="ellipse_scale"):
+        SnakeSettings(ellipse_scale=1.5)  # the limits' rules are in the settings' declaration
 
 
 def test_aspect_drift_from_the_acquired_contour() -> None:

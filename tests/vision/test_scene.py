@@ -32,7 +32,7 @@ def opencv_projection(T_world_camera: np.ndarray, points_world: np.ndarray) -> n
     T_camera_world = np.linalg.inv(T_world_camera)
     rvec, _ = cv2.Rodrigues(T_camera_world[:3, :3])
     pixels, _ = cv2.projectPoints(
-        points_world, rvec, T_camera_world[:3, 3], INTRINSICS.matrix(), DISTORTION.as_array()
+        points_world, rvec, T_camera_world[:3, 3], INTRINSICS.matrix(), DISTORTION
     )
     return pixels.reshape(-1, 2)
 

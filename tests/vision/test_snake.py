@@ -11,6 +11,7 @@ from umbra.modules.vision.lighting import Lighting
 from umbra.modules.vision.metrics import polygon_iou
 from umbra.modules.vision.polygon import rectangle, segment_lengths
 from umbra.modules.vision.scene import Scene, pose
+from umbra.modules.vision.snake_config import SnakeSettings
 
 from .conftest import METRES_PER_PIXEL, T_WORLD_CAMERA
 
@@ -124,10 +125,11 @@ def test_collapses_without_target(renderer, rng) -> None:
 
 
 def test_parameter_validation() -> None:
+    # the settings' rules are in their declaration (the snake's parameters are built from it)
     with pytest.raises(ValueError, match="min_segment_px"):
-        sn.SnakeParams(min_segment_px=10.0, max_segment_px=5.0)
+        SnakeSettings(min_segment_px=10.0, max_segment_px=5.0)
     with pytest.raises(ValueError, match="tension"):
-        sn.SnakeParams(tension=0.8)
+        SnakeSettings(tension=0.8)
     with pytest.raises(ValueError, match="color image"):
         sn.evolve(
             np.zeros((10, 10), np.uint8),

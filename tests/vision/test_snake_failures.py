@@ -6,6 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.vision.lighting import Lighting
 from umbra.modules.vision.scene import Scene, pose
 from umbra.modules.vision.snake import SnakeParams
@@ -42,6 +43,7 @@ def test_a_featureless_image_fails() -> None:
     assert update.status == "failed"
     assert "no colour edge under" in update.sanity.reason
     assert "touches the image border" in update.sanity.reason
+    assert update.sanity.checks[:2] == (SnakeCheck.NO_EDGE, SnakeCheck.TOUCHES_BORDER)
 
 
 def test_a_grayscale_image_fails_without_growing(renderer) -> None:
@@ -52,6 +54,7 @@ def test_a_grayscale_image_fails_without_growing(renderer) -> None:
     update = tracker.update(gray)
     assert update.status == "failed"
     assert "target colour is gray" in update.sanity.reason
+    assert update.sanity.checks[0] == SnakeCheck.GRAY_TARGET
     assert update.iterations == 0
 
 

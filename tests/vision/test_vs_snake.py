@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from umbra.connectors import UserError
-from umbra.connectors.messages import Image, Pose, Vector
+from umbra.connectors.commands import Seed
+from umbra.connectors.messages import Image, Pose
 from umbra.modules.vision.digicam import DigiCam
 from umbra.modules.vision.metrics import polygon_iou
 from umbra.modules.vision.scene import pose
@@ -101,13 +102,13 @@ def test_waits_for_the_operator_seed_then_reseeds() -> None:
         h.push("image", image)
         idle = h.step(0.1)["contour"][0]
         assert idle.status == "idle" and "seed" in idle.reason
-        h.push("seed", Vector(values=truth.centroid))
+        h.push("seed", Seed.point(*truth.centroid))
         h.push("image", image)
         contour = h.step(0.1)["contour"][0]
         assert contour.status == "tracking"
         assert polygon_iou(contour.vertices, truth.vertices, (480, 640)) >= 0.95
         # A seed on the gray tray: the learned color is the tray's, not the patch's.
-        h.push("seed", Vector(values=np.array([40.0, 40.0, 140.0, 120.0])))
+        h.push("seed", Seed.box(40.0, 40.0, 140.0, 120.0))
         h.push("image", image)
         elsewhere = h.step(0.1)["contour"][0]
         assert polygon_iou(elsewhere.vertices, truth.vertices, (480, 640)) < 0.5

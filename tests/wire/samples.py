@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import enum
+import typing
 from typing import Any
 
 import msgspec
@@ -29,6 +31,11 @@ def _value(name: str, typ: Any, i: int) -> Any:
         return 7 + i
     if typ is str:
         return f"{name}-é{i}"
+    if isinstance(typ, type) and issubclass(typ, enum.Enum):
+        return list(typ)[-1]  # a code, not the default
+    if typing.get_origin(typ) is tuple and isinstance(typing.get_args(typ)[0], enum.EnumMeta):
+        codes = list(typing.get_args(typ)[0])
+        return (codes[-1], codes[0])
     text = repr(typ)
     if text.startswith("tuple[str"):
         return ("a", f"b{i}")

@@ -1,5 +1,6 @@
-"""A package adds message types through the ``umbra.messages`` entry points, as the sketch domain
-does: every process knows them by name without the base layer importing the package."""
+"""A package adds message types through the ``umbra.messages`` entry points: every process knows
+them by name without the base layer importing the package, beside the base layer's own (the
+vocabulary several domains speak, such as a planned path's)."""
 
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ import json, sys
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import message_types, registered_message_types
 import numpy as np
-before = sorted(m for m in sys.modules if m in ("widget_msgs", "umbra.modules.sketch.messages"))
+before = sorted(m for m in sys.modules if m == "widget_msgs" or m.startswith("umbra.modules"))
 types = message_types()
 codec = Codec()
 sample = types["WidgetReading"](level=2.5, trace=np.arange(3.0), seq=4)
@@ -64,10 +65,10 @@ def test_an_entry_point_adds_message_types_every_process_knows(tmp_path: Path) -
     done = _probe(tmp_path)
     assert done.returncode == 0, done.stderr
     out = json.loads(done.stdout)
-    assert out["before"] == []  # importing the base layer imports no domain's types
+    assert out["before"] == []  # importing the base layer imports no plug-in and no domain
     assert out["module"] == "widget_msgs"
     assert out["level"] == 2.5 and out["trace"] == [0.0, 1.0, 2.0] and out["seq"] == 4
-    assert out["path"] == ["umbra.modules.sketch.messages", "p"]  # the sketch domain, the same way
+    assert out["path"] == ["umbra.connectors.path_messages", "p"]  # the base layer's own
     assert {"WidgetReading", "ToolPath", "Twist"} <= set(out["registered"])
 
 

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from umbra.modules.arm.dh import puma560
-from umbra.modules.servo.features import wrap_roll_error
+from umbra.modules.geometry.polygon_moments import wrap_axis_angle
 from umbra.modules.world.grasp import R_PATCH_TOOL_GRASP, grasp_error
 from umbra.modules.world.ik import IKFailed, solve_ik
 from umbra.modules.world.trials import (
@@ -51,7 +51,7 @@ def test_grasp_error_zero_at_a_perfect_grasp_and_measures_offsets_and_roll() -> 
     [(0.0, 0.0), (np.pi, 0.0), (np.pi / 2, np.pi / 2), (-np.pi / 2, np.pi / 2), (3.0, 3.0 - np.pi)],
 )
 def test_roll_is_wrapped_modulo_a_half_turn(angle: float, wrapped: float) -> None:
-    assert wrap_roll_error(angle) == pytest.approx(wrapped)
+    assert wrap_axis_angle(angle) == pytest.approx(wrapped)
 
 
 def test_ik_reaches_a_pose_and_refuses_an_unreachable_one() -> None:

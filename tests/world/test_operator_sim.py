@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from umbra.connectors.commands import SeedShape
 from umbra.connectors.messages import Contour
 from umbra.modules.world.operator_sim import OperatorSim
 from umbra.runtime.harness import ModuleHarness
@@ -41,12 +42,13 @@ def test_clicks_near_the_centroid_after_the_delay_and_reports_when() -> None:
             h.step(dt=DT)
         seeds = h.outputs("seed")
         assert len(seeds) == 1  # one click, never repeated
-        assert np.linalg.norm(seeds[0].values - [320.0, 240.0]) < 5.0
+        assert seeds[0].shape == SeedShape.POINT
+        assert np.linalg.norm(seeds[0].uv - [320.0, 240.0]) < 5.0
         summary = h.module.summary()
     # first step at DT, patch first seen at 3 DT, clicked at the first step 0.22 s after that (8 DT)
     assert summary["clicked_after_s"] == pytest.approx(7 * DT, abs=1e-6)
     assert summary["clicked_at_s"] == pytest.approx(8 * DT, abs=1e-6)
-    assert summary["click_uv"] == [round(float(v), 2) for v in seeds[0].values]
+    assert summary["click_uv"] == [round(float(v), 2) for v in seeds[0].uv]
 
 
 def test_no_patch_no_click() -> None:

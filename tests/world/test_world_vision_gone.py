@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from umbra.connectors.messages import JointState, Status
+from umbra.connectors.messages import JointState
+from umbra.connectors.states import ServoReason, ServoStage, ServoState
 from umbra.modules.world.world import SimWorld
 from umbra.runtime.harness import ModuleHarness
 
@@ -21,7 +22,10 @@ Q = np.deg2rad([14.482, 45.603, -182.743, 0.0, -42.86, -165.518])
 
 def _tick(world: ModuleHarness, alive: bool) -> None:
     world.push("joint_state", JointState(names=NAMES, position=Q, gripper=1.0))
-    world.push("servo_status", Status(stage="acquire", message="waiting for a seed"))
+    waiting = ServoState(
+        stage=ServoStage.ACQUIRE, message="waiting for a seed", code=ServoReason.NOT_SEEDED
+    )
+    world.push("servo_status", waiting)
     world.module.registers["servo_status"].set_link_alive(alive)
     world.step(0.01)
 

@@ -377,7 +377,7 @@ class PacketSplitter:
         return len(self._buffer)
 
 
-def _last_header_index(chunk: bytes) -> int | None:
+def _last_header_index(chunk: bytes | bytearray) -> int | None:
     for index in range(len(chunk) - 1, -1, -1):
         if chunk[index] & 0x80:
             return index

@@ -42,7 +42,7 @@ def serial_port_problem(port: str) -> str:
     )
 
 
-class Sony(Module):
+class Sony(Module["Sony.Params"]):
     """Sony FCB zoom camera over VISCA (serial, or `sim` on a pty): zoom commands, position polls.
 
     ``zoom_command`` sets a position; ``zoom_hold`` drives the zoom like a rocker held down

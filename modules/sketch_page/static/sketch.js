@@ -90,7 +90,8 @@ function selectedPrimitive() {
 function drawPrimitive(svg, prim, side) {  // the triangulated vertices projected back
   const pts = prim["reprojected_" + side];
   if (!pts) return;
-  for (const [i, j] of prim.edges) polyline(svg, [pts[i], pts[j]], "reproj");
+  const cls = prim.warnings && prim.warnings.length ? "reproj warned" : "reproj";
+  for (const [i, j] of prim.edges) polyline(svg, [pts[i], pts[j]], cls);
   pts.forEach((p) => el(svg, "circle", { cx: p[0], cy: p[1], r: 4, class: "reproj-dot" }));
 }
 function drawMenu() {
@@ -110,8 +111,23 @@ function drawMenu() {
   }
   sel.value = prim ? prim.id : "";
   $("aim").disabled = !prim;
-  $("primitives").textContent = st.primitives.map((p) =>
-    `${p.id} ${p.kind} at ${p.centroid_m.map((x) => x.toFixed(3)).join(", ")} m, sigma ${p.sigma_mm.join(" / ")} mm`).join("; ");
+  drawPrimitiveList(st.primitives);
+}
+// Each primitive in words, and under it its warnings (a vertex whose depth rests on where its
+// handle sits along an edge running with the epipolar lines, and what to do): the server's.
+function drawPrimitiveList(prims) {
+  const box = $("primitives");
+  box.innerHTML = "";
+  for (const p of prims) {
+    const row = document.createElement("div");
+    row.textContent = `${p.id} ${p.kind} at ${p.centroid_m.map((x) => x.toFixed(3)).join(", ")} m, sigma ${p.sigma_mm.join(" / ")} mm`;
+    box.appendChild(row);
+    for (const w of p.warnings || []) {
+      const warn = document.createElement("div");
+      warn.className = "warning"; warn.dataset.testid = "warning-" + p.id; warn.textContent = "\u26a0 " + w;
+      box.appendChild(warn);
+    }
+  }
 }
 function draw() {
   const st = sk.state;

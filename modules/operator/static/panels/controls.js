@@ -30,7 +30,7 @@
     $("line-verdict").innerHTML = "";
     if (l.verdict) {
       const b = document.createElement("b");
-      b.className = l.verdict.startsWith("grasped") ? "grasped" : l.verdict.startsWith("stopped") ? "stopped" : "missed";
+      b.className = { succeeded: "grasped", stopped: "stopped" }[l.outcome] || "missed";
       b.textContent = `verdict: ${l.verdict}`;
       $("line-verdict").append(b);
     }

@@ -1,4 +1,9 @@
-"""How servo errors read to a person: one short figure per error, in mm and degrees."""
+"""How the named figures of a :class:`~umbra.connectors.messages.Status` read to a person.
+
+A grab's state (:class:`~umbra.connectors.states.ServoState`) carries its errors in ``values``:
+``error_x``, ``error_y``, ``error_z`` [m] and ``error_roll`` [rad]; its producer (vsServo) and
+the displays that take any status (the video overlay) write them the same way, from here.
+"""
 
 from __future__ import annotations
 

@@ -1,21 +1,17 @@
-"""Message types of Active Sketch (LDRD report section 3): snapshots, primitives, paths, VCR.
+"""Message types of Active Sketch (LDRD report section 3): stereo snapshots, primitives, boxes,
+macro requests.
 
-All are :class:`umbra.connectors.messages.Message` subclasses of the Active Sketch domain,
-registered as a plug-in's would be: the entry point ``sketch`` of the group ``umbra.messages`` (in
-``pyproject.toml``) names this module, so the codec, the graph checker and a recording's reader
-know them by class name in any process (``umbra.connectors.messages.message_types``), while the
-framework's base layer never imports them.
-Units are SI (metres, radians, seconds); poses are 4 x 4 homogeneous transforms named
-``T_<parent>_<child>``; 3-D points are in the frame named by ``frame`` (``base`` in the shipped
-graph). Pixel coordinates are ideal pin-hole pixels (u right, v down) of the image named.
+Spoken by the sketch module, the operator's console, the 3-D view and the /sketch page, so they
+live in the base layer where every domain reaches them. Units are SI (metres, radians, seconds);
+poses are 4 x 4 homogeneous transforms named ``T_<parent>_<child>``; 3-D points are in the frame
+named by ``frame`` (``base`` in the shipped graph). Pixel coordinates are ideal pin-hole pixels
+(u right, v down) of the image named.
 
 Flow::
 
     cameras + PTUs --StereoSnapshot--> sketch (operator places vertices in both images)
     sketch --SketchPrimitive / SketchBox--> 3-D view, planner
-    planner --ToolPath--> VCR player (smart) <--VcrCommand-- console
-    VCR player --VcrState--> console;  --JointRates--> REG_VEL (safety guard)
-    sketch --PtuCommand--> PTU --PtuState--> cameras
+    console --MacroRequest--> planner --ToolPath--> VCR player (``path_messages``)
 """
 
 from __future__ import annotations
@@ -221,164 +217,3 @@ class MacroRequest(Message, frozen=True, kw_only=True):
     macro: str
     primitive_id: str = ""
     options: dict[str, float] = msgspec.field(default_factory=dict)
-
-
-class ToolPath(Message, frozen=True, kw_only=True):
-    """A planned and checked path for the arm, as waypoints along path parameter ``s``.
-
-    ``s`` (N,, m-equivalent, increasing from 0): path parameter at each waypoint (arc length of
-    the joint path in the weighted norm of the planner); ``joints`` (N x n, rad): joint positions
-    for ``names``; ``T_base_tool`` (N x 4 x 4, m): tool poses (for display); ``gripper`` (N,):
-    commanded gripper opening 0 closed .. 1 open at each waypoint. ``ok`` is False when a check
-    failed, and ``reason`` says which check, where and by how much. ``checks`` holds the figures
-    (min margins, peak rates). ``path_id`` names the plan; VCR commands refer to it.
-    """
-
-    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
-    FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "path_id": "names the plan",
-        "macro": "macro that made it",
-        "names": "n joint names",
-        "s": f"{_F8} (N,), path parameter, increasing from 0",
-        "joints": f"{_F8} (N, n), rad",
-        "T_base_tool": f"{_F8} (N, 4, 4) or (0, 4, 4), m",
-        "gripper": f"{_F8} (N,) or (0,), 0 closed .. 1 open",
-        "ok": "false: a check failed",
-        "reason": "which check failed, where, by how much",
-        "checks": "map str -> float: margins, peak rates",
-        "frame": "frame of the tool poses",
-    }
-
-    path_id: str
-    macro: str
-    names: tuple[str, ...]
-    s: np.ndarray
-    joints: np.ndarray
-    T_base_tool: np.ndarray = np.zeros((0, 4, 4))
-    gripper: np.ndarray = _EMPTY
-    ok: bool = True
-    reason: str = ""
-    checks: dict[str, float] = msgspec.field(default_factory=dict)
-    frame: str = "base"
-
-    HAS_JOINTS: ClassVar[bool] = True
-
-
-class VcrCommand(Message, frozen=True, kw_only=True):
-    """A command to the VCR trajectory player.
-
-    ``action``: "play" (forward), "back" (reverse along the same path), "pause" (jerk-limited
-    stop on the path), "speed" (set ``speed``), "seek" (move along the path to ``s``), "stop".
-    ``speed``: fraction of the planned speed, 0.1 .. 1 (0: keep the current one) for "play",
-    "back" and "speed". ``s``: seek target. ``path_id`` must match the loaded path.
-    """
-
-    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
-    FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "action": '"play", "back", "pause", "speed", "seek" or "stop"',
-        "path_id": "must match the loaded path",
-        "speed": "fraction of the planned speed, 0.1 .. 1 (0: keep)",
-        "s": "seek target (path parameter)",
-    }
-
-    action: str
-    path_id: str = ""
-    speed: float = 0.0
-    s: float = 0.0
-
-
-class VcrState(Message, frozen=True, kw_only=True):
-    """The VCR player's state: ``mode`` ("idle", "playing", "backing", "pausing", "paused",
-    "halted", "done"), path parameter ``s`` and its rate ``s_dot`` [1/s of s], ``speed`` override,
-    ``progress`` 0 .. 1, ``reason`` for a halt (lost console, stale command, guard stop)."""
-
-    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
-    FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "path_id": "the loaded path",
-        "mode": '"idle", "playing", "backing", "pausing", "paused", "halted", "done"',
-        "s": "path parameter",
-        "s_dot": "1/s (of s)",
-        "speed": "override, fraction of the planned speed",
-        "progress": "0 .. 1",
-        "reason": "why it halted",
-    }
-
-    path_id: str
-    mode: str
-    s: float = 0.0
-    s_dot: float = 0.0
-    speed: float = 1.0
-    progress: float = 0.0
-    reason: str = ""
-
-
-class PtuCommand(Message, frozen=True, kw_only=True):
-    """A pan/tilt unit command: ``mode`` "angles" (go to ``pan``, ``tilt`` [rad]) or "point"
-    (aim the camera's optical axis at ``point`` (3,, m) in ``frame``)."""
-
-    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
-    FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "mode": '"angles" or "point"',
-        "pan": "rad",
-        "tilt": "rad",
-        "point": f"{_F8} (3,), m in `frame`",
-        "frame": "frame of `point`",
-    }
-
-    mode: str
-    pan: float = 0.0
-    tilt: float = 0.0
-    point: np.ndarray = np.zeros(3)
-    frame: str = "base"
-
-
-class PtuState(Message, frozen=True, kw_only=True):
-    """A pan/tilt unit's angles [rad] and rates [rad/s]; ``moving`` while slewing; ``status``."""
-
-    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
-    FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "pan": "rad",
-        "tilt": "rad",
-        "pan_rate": "rad/s",
-        "tilt_rate": "rad/s",
-        "moving": "true while slewing",
-        "status": '"ok" or what is wrong',
-    }
-
-    pan: float
-    tilt: float
-    pan_rate: float = 0.0
-    tilt_rate: float = 0.0
-    moving: bool = False
-    status: str = "ok"
-
-
-class SceneObjects(Message, frozen=True, kw_only=True):
-    """The true objects of the simulated world (for rendering and the 3-D view), in ``frame``.
-
-    One row per solid: ``names``; ``kinds`` "box" (``sizes`` = edge lengths x, y, z, centred on
-    the pose) or "cylinder" (``sizes`` = radius, radius, length along the pose's z, centred);
-    ``poses`` (N x 4 x 4, m): T_base_object; ``colors`` (N x 3, uint8 RGB).
-    ``values``: named state figures (e.g. ``door_angle`` [rad], ``gripper`` 0 .. 1).
-    """
-
-    #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
-    FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "names": "N object names",
-        "kinds": 'N kinds, "box" or "cylinder"',
-        "poses": f"{_F8} (N, 4, 4), m: T_frame_object",
-        "sizes": f"{_F8} (N, 3), m: box edges, or radius, radius, length",
-        "colors": "uint8 (N, 3), RGB",
-        "values": "map str -> float: named state figures",
-        "frame": "frame of the poses",
-    }
-
-    names: tuple[str, ...]
-    kinds: tuple[str, ...]
-    poses: np.ndarray
-    sizes: np.ndarray
-    colors: np.ndarray
-    values: dict[str, float] = msgspec.field(default_factory=dict)
-    frame: str = "base"
-
-    FRAME_KIND: ClassVar[str] = "frame"

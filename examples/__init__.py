@@ -1,0 +1,1 @@
+"""Programs that show umbra beside other systems; each folder says how to run it."""
