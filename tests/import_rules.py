@@ -70,6 +70,16 @@ KNOWN_CYCLES: list[set[str]] = [
         "umbra.modules.calib.visca.client_startup",
         "umbra.modules.calib.visca.client_wire",
     },
+    # a module's parts take it as their owner, typed under TYPE_CHECKING (the module builds
+    # them at start and calls them; the parts read its ports and parameters)
+    {
+        "umbra.modules.operator.console",
+        "umbra.modules.operator.console_events",
+        "umbra.modules.operator.console_view",
+    },
+    {"umbra.modules.sketch_page.page_control", "umbra.modules.sketch_page.sketch_page"},
+    {"umbra.modules.view3d.view3d", "umbra.modules.view3d.view3d_push"},
+    {"umbra.modules.vision.digicam", "umbra.modules.vision.digicam_sim"},
 ]
 
 

@@ -65,17 +65,17 @@ def section(path: Path) -> list[str]:
         f"{machine.get('cpu', '?')}); file `benchmarks/results/{path.name}`"
         + (f"; run `python benchmarks/{script.name}`." if script.exists() else "."),
         "",
-        "| | figure | value |",
-        "| --- | --- | --- |",
+        "| figure | value |",
+        "| --- | --- |",
     ]
     goals = [(p, v) for p, v in leaves(data) if is_goal(p) and isinstance(v, bool)]
     figures = [(p, v) for p, v in leaves(data) if p[0] not in _HEAD and (p, v) not in goals]
     for p, v in goals:
-        lines.append(f"| goal | {_path(p)} | {'**met**' if v else '**missed**'} |")
+        lines.append(f"| goal: {_path(p)} | {'**met**' if v else '**missed**'} |")
     for p, v in figures[:MAX_ROWS]:
-        lines.append(f"| | {_path(p)} | {_value(v)} |")
+        lines.append(f"| {_path(p)} | {_value(v)} |")
     if len(figures) > MAX_ROWS:
-        lines.append(f"| | … | {len(figures) - MAX_ROWS} more figures in the file |")
+        lines.append(f"| … | {len(figures) - MAX_ROWS} more figures in the file |")
     return lines
 
 

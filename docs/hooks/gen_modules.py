@@ -29,7 +29,7 @@ def render() -> str:
     for name in names:
         cls = registry.require(name)
         sentence = first_sentence(cls.__doc__ or "").replace("|", "\\|")
-        out.append(f"| [`{name}`](#{_anchor(name)}) | {sentence} |")
+        out.append(f"| [{name}](#{_anchor(name)}) | {sentence} |")
     for name in names:
         out += [
             "",

@@ -151,6 +151,7 @@ class VelocityRegister:
             code = GuardReason.WATCHDOG
         if reason:
             return RegisterOutput(_ZERO, reason, False, age, origin_age, stale, code)
+        assert self._twist is not None  # a missing command gave a reason above
         twist, clamped = clamp_twist(self._twist, settings.max_linear, settings.max_angular)
         return RegisterOutput(twist, "", clamped, age, origin_age)
 

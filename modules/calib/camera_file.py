@@ -49,7 +49,7 @@ def _inline(fields: dict[str, yaml.Node]) -> PinholeCamera:
     if get["fx"] <= 0 or get["fy"] <= 0:
         raise SpotError.at(fields["intrinsics"], "focal lengths fx, fy must be positive")
     intrinsics = Intrinsics(get["fx"], get["fy"], get.get("skew", 0.0), get["u0"], get["v0"])
-    distortion = [get.get(k, 0.0) for k in ("k1", "k2", "p1", "p2", "k3")]
+    distortion = np.array([get.get(k, 0.0) for k in ("k1", "k2", "p1", "p2", "k3")])
     if "pose" not in fields:
         raise SpotError.at(fields["intrinsics"], "a camera with intrinsics needs a 'pose'")
     camera = PinholeCamera(intrinsics, distortion=distortion)

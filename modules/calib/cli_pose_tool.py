@@ -125,10 +125,10 @@ def main(args: argparse.Namespace) -> int:
         print(f"  warning: {warning}")
     print("  snapshot  point            line  residual px  (before px)")
     for c in clicks:
-        before = "" if c["before_px"] is None else f"({c['before_px']:.2f})"
+        before_text = "" if c["before_px"] is None else f"({c['before_px']:.2f})"
         print(
             f"  {c['snapshot']:8d}  {c['point']:<15s} {c['line']:5d}  "
-            f"{c['residual_px']:11.3f}  {before}"
+            f"{c['residual_px']:11.3f}  {before_text}"
         )
     for path in saved:
         print(f"wrote {path}")

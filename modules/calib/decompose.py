@@ -64,5 +64,5 @@ def decompose_camera_matrix(P: ArrayLike) -> tuple[Intrinsics, FloatArray, Float
     r1 = row1 / fx
     R = np.vstack([r1, r2, r3])
     intrinsics = Intrinsics(fx, fy, skew, u0, v0)
-    d = np.linalg.solve(intrinsics.matrix(), Pn[:, 3])
+    d = np.asarray(np.linalg.solve(intrinsics.matrix(), Pn[:, 3]), dtype=np.float64)
     return intrinsics, R, d

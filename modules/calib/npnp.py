@@ -154,10 +154,10 @@ def _residuals_and_jacobian_raw(
             dpix_dc = np.einsum("ij,njk->nik", p.K2, dp_dc)
             dc_dtheta = -np.einsum("ij,njk->nik", p.A_R, _skews(rotated))
             dc_dd = np.broadcast_to(p.A_R, (n, 3, 3))
-            J = np.concatenate(
+            J_block = np.concatenate(
                 [dpix_dc @ dc_dtheta, np.einsum("nij,njk->nik", dpix_dc, dc_dd)], axis=2
             )
-            jacobian_blocks.append(J.reshape(2 * n, 6))
+            jacobian_blocks.append(J_block.reshape(2 * n, 6))
     r = np.concatenate([b.ravel() for b in residual_blocks])
     J = np.vstack(jacobian_blocks) if with_jacobian else None
     return r, J, min_depth
@@ -338,6 +338,7 @@ def _gauss_newton(
         R, d, min_depth = R_new, d_new, depth_new
         if J_new is None:
             r, J, _ = _residuals_and_jacobian(prepared, R, d)
+            assert J is not None  # asked for (with_jacobian defaults to True)
         else:
             r, J = r_new, J_new
         previous, cost = cost, float(r @ r)

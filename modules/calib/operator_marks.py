@@ -80,14 +80,15 @@ class SimMarks(Module["SimMarks.Params"]):
         for out, model, T in zip((self.pose_a, self.pose_b), models, T_ref_mounts, strict=True):
             out.send(Pose(matrix=T, parent=reference, child=model.mount, stamp=now))
         self.truth.send(Vector(values=self._point, stamp=now))
-        if any(p is None for p in pixels):
+        seen = [uv for uv in pixels if uv is not None]
+        if len(seen) < len(pixels):
             self._out_of_view += 1
             if not self._reported_out:
                 self._reported_out = True
                 self.log.warning("%s: the point is out of view of a camera; no marks", self.name)
             return
         sigma = self.params.click_noise_px
-        for out, uv in zip((self.pixel_a, self.pixel_b), pixels, strict=True):
+        for out, uv in zip((self.pixel_a, self.pixel_b), seen, strict=True):
             if sigma > 0:
                 uv = uv + self.context.rng.normal(0.0, sigma, 2)
             out.send(Vector(values=uv, stamp=now))

@@ -69,9 +69,8 @@ def _camera(node: yaml.Node) -> PinholeCamera:
     if get["fx"] <= 0 or get["fy"] <= 0:
         raise SpotError.at(node, f"focal lengths must be positive, found {get['fx']}, {get['fy']}")
     intrinsics = Intrinsics(get["fx"], get["fy"], get.get("skew", 0.0), get["u0"], get["v0"])
-    return PinholeCamera(
-        intrinsics, distortion=[get.get(k, 0.0) for k in ("k1", "k2", "p1", "p2", "k3")]
-    )
+    distortion = np.array([get.get(k, 0.0) for k in ("k1", "k2", "p1", "p2", "k3")])
+    return PinholeCamera(intrinsics, distortion=distortion)
 
 
 def _mount_names(node: yaml.Node) -> tuple[str, str]:

@@ -50,9 +50,7 @@ class ZoomSample:
     def camera(self) -> PinholeCamera:
         """The camera model: extrinsics ``R, d`` take mount-frame points into the camera frame."""
         i, e = self.intrinsics, self.extrinsics
-        return PinholeCamera(
-            Intrinsics.from_array(i[:5]), rotation_from_xyz(e[3:]), e[:3], i[5:9]
-        )
+        return PinholeCamera(Intrinsics.from_array(i[:5]), rotation_from_xyz(e[3:]), e[:3], i[5:9])
 
     def as_dict(self) -> dict:
         """``{"zoom", "intrinsics": {fx..p2}, "extrinsics": {dx..rz}}`` (file units)."""

@@ -178,7 +178,10 @@ def _camera(element: _Element) -> ZoomTable:
     name = element.text.strip()
     if not element.children:
         raise _SpotError(element.line, f"camera {name!r} has no <SR_zoom> entries")
-    zooms, intrinsics, extrinsics, lines = [], [], [], []
+    zooms: list[float] = []
+    intrinsics: list[list[float]] = []
+    extrinsics: list[list[float]] = []
+    lines: list[int] = []
     for child in element.children:
         zoom, intr, extr = _zoom_entry(child)
         if zooms and zoom <= zooms[-1]:

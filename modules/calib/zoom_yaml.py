@@ -52,7 +52,9 @@ def _units(node: yaml.Node | None) -> tuple[float, float]:
 def _camera(node: yaml.Node, length: float, angle: float) -> ZoomTable:
     fields = yn.mapping(node, "a camera", ("name", "zooms"))
     name = yn.text(fields["name"], "camera name")
-    zooms, intrinsics, extrinsics = [], [], []
+    zooms: list[float] = []
+    intrinsics: list[list[float]] = []
+    extrinsics: list[list[float]] = []
     previous_line = 0
     for entry in yn.sequence(fields["zooms"], f"zooms of camera {name!r}"):
         parts = yn.mapping(entry, "a zoom entry", ("zoom", "intrinsics", "extrinsics"))

@@ -59,9 +59,9 @@ class StatusPlot(Module["StatusPlot.Params"]):
 
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=100)
         for key, points in self._series.items():
-            t, v = zip(*points, strict=True)
+            times, values = zip(*points, strict=True)
             unit = self.params.units.get(key, "")
-            ax.plot(t, v, label=f"{key} [{unit}]" if unit else key, linewidth=1.4)
+            ax.plot(times, values, label=f"{key} [{unit}]" if unit else key, linewidth=1.4)
         for t, stage in self._stages:
             ax.axvline(t, color="0.7", linewidth=0.8, linestyle="--")
             ax.text(

@@ -73,7 +73,7 @@ def _unit(v: FloatArray) -> FloatArray:
 def camera_centre(P: ArrayLike) -> FloatArray:
     """Centre of projection (metres, world frame) of camera matrix ``P``: the null vector of P."""
     P = _as_camera_matrix(P)
-    return -np.linalg.solve(P[:, :3], P[:, 3])
+    return np.asarray(-np.linalg.solve(P[:, :3], P[:, 3]), dtype=np.float64)
 
 
 def pixel_rays(P: ArrayLike, pixels: ArrayLike) -> tuple[FloatArray, FloatArray]:

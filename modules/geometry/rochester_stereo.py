@@ -99,8 +99,9 @@ def stereo_pseudo_inverse(
     rows, rhs = [], []
     for pixel, T_world_camera, camera in zip(pixels, T_world_cameras, cameras, strict=True):
         T = invert_transform(T_world_camera)
-        x = float(pixel[0]) - camera.centre_px[0]
-        y = float(pixel[1]) - camera.centre_px[1]
+        px = np.asarray(pixel, dtype=np.float64)
+        x = float(px[0]) - camera.centre_px[0]
+        y = float(px[1]) - camera.centre_px[1]
         f, fs = camera.focal_px, camera.focal_px * camera.aspect
         rows.append(x * T[2, :3] - f * T[0, :3])
         rhs.append(f * T[0, 3] - x * T[2, 3])

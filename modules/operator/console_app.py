@@ -29,6 +29,7 @@ import secrets
 import struct
 import threading
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any
@@ -99,7 +100,12 @@ _MEDIA = {".js": "text/javascript", ".css": "text/css"}
 
 
 def _static(name: str) -> str:
-    return resources.files("umbra.modules.operator").joinpath("static", name).read_text("utf-8")
+    return (
+        resources.files("umbra.modules.operator")
+        .joinpath("static")
+        .joinpath(name)
+        .read_text("utf-8")
+    )
 
 
 def _station_files() -> dict[str, tuple[str, str]]:
@@ -128,7 +134,7 @@ class ConsoleApp:
         self._encoded: Latest[bytes] = Latest()
         self._state_json: tuple[int, str] = (0, "")
         self._encoder = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="umbra-jpeg")
-        self._pump: asyncio.Task | None = None
+        self._pump: asyncio.Task[None] | None = None
         self._names = itertools.count(1)
         self._lock = threading.Lock()
         self._page = _static("station.html")
@@ -227,7 +233,7 @@ class ConsoleApp:
         self.stats.viewers_max = max(self.stats.viewers_max, self.stats.viewers)
         browser = ws.scope.get(VIEWER_SCOPE, "")
         self.lanes.joined(Event("join", session, name, time.monotonic(), browser))
-        sender: asyncio.Task | None = None
+        sender: asyncio.Task[None] | None = None
         try:
             await ws.send_text(json.dumps({"type": "welcome", "session": session, "name": name}))
             sender = asyncio.create_task(self._send_loop(ws, flight))
@@ -259,7 +265,7 @@ class ConsoleApp:
         checker: MessageChecker,
         budget: MessageBudget,
         flight: _InFlight,
-        message: dict[str, Any],
+        message: Mapping[str, Any],
     ) -> str:
         """Check one message and queue it for ``step``; "" or why the socket must close."""
         raw = message.get("text")
@@ -328,7 +334,9 @@ class ConsoleApp:
                     await ws.send_bytes(data)
                     self.stats.frames_sent += 1
                     continue
-                waits = [asyncio.ensure_future(self.state.wait_newer(sent_state, 0.25))]
+                waits: list[asyncio.Future[object]] = [
+                    asyncio.ensure_future(self.state.wait_newer(sent_state, 0.25))
+                ]
                 if can_send:
                     waits.append(
                         asyncio.ensure_future(self._encoded.wait_newer(frame_version, 0.25))

@@ -322,8 +322,9 @@ class SketchSession:
                     break
         return log
 
-    def _tick(self, twist_tool: FloatArray, gripper: str) -> str:
-        """One control period: register (watchdog, clamps) -> DLS -> joints -> world."""
+    def _tick(self, twist_tool: FloatArray, gripper: str | None) -> str:
+        """One control period: register (watchdog, clamps) -> DLS -> joints -> world; a
+        ``gripper`` action ("open" / "close"; empty or None: none) is commanded first."""
         self.register.put(twist_tool, self.time)
         reg = self.register.output(self.time)
         q = self.arm.q_reported

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import msgspec
 
@@ -33,8 +33,12 @@ Name = Annotated[str, msgspec.Meta(max_length=200)]
 _NUMBER = r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d{1,2})?"
 #: A pixel as the command line takes it, ``U,V`` (finite numbers: no nan, no 1e999).
 Pixel = Annotated[str, msgspec.Meta(max_length=100, pattern=f"^{_NUMBER},{_NUMBER}$")]
-VcrAction = Literal.__getitem__(VCR_ACTIONS)  # type: ignore[attr-defined]
-PrimitiveKind = Literal.__getitem__(tuple(KINDS))  # type: ignore[attr-defined]
+if TYPE_CHECKING:  # choices made from data are no static type: the checker sees their strings
+    VcrAction = str
+    PrimitiveKind = str
+else:  # msgspec checks a value against the choices
+    VcrAction = Literal.__getitem__(VCR_ACTIONS)
+    PrimitiveKind = Literal.__getitem__(tuple(KINDS))
 
 
 class _Event(msgspec.Struct, tag_field="cmd", forbid_unknown_fields=True):
@@ -82,7 +86,7 @@ class Play(_Event, tag="play"):
 Event = Aim | Snapshot | Place | Macros | Plan | Play
 #: The values a field of a choice may take, by field name (for the error that names them).
 _CHOICES: dict[str, tuple[str, ...]] = {
-    "cmd": tuple(e.__struct_config__.tag for e in (Aim, Snapshot, Place, Macros, Plan, Play)),
+    "cmd": tuple(str(e.__struct_config__.tag) for e in (Aim, Snapshot, Place, Macros, Plan, Play)),
     "kind": tuple(KINDS),
     "script": VCR_ACTIONS,
 }

@@ -249,6 +249,7 @@ class Sketch(Module["Sketch.Params"]):
         snap = self.snapshots[list(self.snapshots)[-1]]
         pid = f"{cmd.kind}{len(self.primitives) + 1}"
         pair = StereoPair.from_snapshot(snap)
+        assert cmd.pixels_a is not None and cmd.pixels_b is not None  # parse() sets a place's
         prim = place_primitive(
             pair,
             cmd.kind,

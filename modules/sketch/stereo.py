@@ -31,6 +31,8 @@ from umbra.modules.calib.distortion import distort_points, undistort_points
 from umbra.modules.geometry.rays import epipolar_line, line_distance, triangulate_pixels
 
 FloatArray = NDArray[np.float64]
+#: A constrained triangulation: points (n, 3) m, joint covariance (3n, 3n) m², gaps (n,) m.
+_Vertices = tuple[FloatArray, FloatArray, FloatArray]
 
 
 @dataclass(frozen=True)
@@ -56,8 +58,14 @@ class StereoNoise:
     handle_px: float = 20.0
 
     def __post_init__(self) -> None:
-        values = (self.pixel_px, self.rotation_rad, self.translation_m, self.focal_rel)
-        values = (*values, self.principal_px, self.handle_px)
+        values = (
+            self.pixel_px,
+            self.rotation_rad,
+            self.translation_m,
+            self.focal_rel,
+            self.principal_px,
+            self.handle_px,
+        )
         if not all(np.isfinite(v) and v >= 0 for v in values):
             raise ValueError(f"stereo noise sigmas must be finite and >= 0, got {self}")
 
@@ -106,7 +114,7 @@ class StereoPair:
         self.P_b = self._b.matrix()
         #: the last joint covariance computed, by its clicks and noise (a box built from a
         #: primitive just placed asks for the same one)
-        self._constrained: tuple[tuple, tuple] | None = None
+        self._constrained: tuple[tuple[object, ...], _Vertices] | None = None
 
     @classmethod
     def from_snapshot(cls, snap: StereoSnapshot) -> StereoPair:
@@ -280,7 +288,7 @@ class StereoPair:
         pixels_b: ArrayLike,
         noise: StereoNoise,
         spread_b: ArrayLike | None = None,
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    ) -> _Vertices:
         """Vertices from clicked pixel pairs: each ``pixels_b[i]`` is moved onto the epipolar
         line of ``pixels_a[i]`` (:meth:`constrain_b`), then triangulated.
 
@@ -300,7 +308,7 @@ class StereoPair:
         spread = np.array(spread, dtype=float)
         key = (uv_a.tobytes(), uv_b.tobytes(), noise, spread.tobytes())
         if self._constrained is not None and self._constrained[0] == key:
-            return tuple(np.copy(v) for v in self._constrained[1])
+            return _copied(self._constrained[1])
         calib_sigma = [noise.rotation_rad] * 3 + [noise.translation_m] * 3
         calib_sigma += [noise.focal_rel, noise.principal_px, noise.principal_px]
         sigma = np.array([noise.pixel_px] * (4 * n) + calib_sigma * 2)
@@ -315,7 +323,7 @@ class StereoPair:
         metric = None if spread_b is None else spread
         points, gaps = self._constrained_points(uv_a, uv_b, np.zeros(sigma.size), metric)
         J = np.zeros((3 * n, sigma.size))
-        for i in np.flatnonzero(np.diag(C)):
+        for i in np.flatnonzero(np.diag(C)).tolist():
             delta = np.zeros(sigma.size)
             delta[i] = steps[i]
             plus, _ = self._constrained_points(uv_a, uv_b, delta, metric)
@@ -323,7 +331,7 @@ class StereoPair:
             J[:, i] = (plus - minus).ravel() / (2.0 * steps[i])
         covariance = J @ C @ J.T
         result = (points, 0.5 * (covariance + covariance.T), gaps)
-        self._constrained = (key, tuple(np.copy(v) for v in result))
+        self._constrained = (key, _copied(result))
         return result
 
     def _constrained_points(
@@ -366,3 +374,9 @@ def _f(values: ArrayLike, shape: tuple[int, ...]) -> FloatArray:
     if array.shape != shape or not np.all(np.isfinite(array)):
         raise ValueError(f"expected finite numbers of shape {shape}, got {array.shape}: {array}")
     return array
+
+
+def _copied(vertices: _Vertices) -> _Vertices:
+    """Copies of the three arrays (the cache's own are never handed out)."""
+    points, covariance, gaps = vertices
+    return np.copy(points), np.copy(covariance), np.copy(gaps)

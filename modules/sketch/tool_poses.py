@@ -22,12 +22,12 @@ def tool_pose(
     """The tool at ``point`` with z along ``approach`` and x along ``across`` (made orthogonal to
     the approach); x's sign is chosen to agree with ``x_hint`` (the current tool x) so that the
     wrist does not turn half a revolution for a symmetric grasp."""
-    z = np.asarray(approach, dtype=float)
-    z = z / np.linalg.norm(z)
-    x = np.asarray(across, dtype=float)
-    x = x - (x @ z) * z
+    approach_v = np.asarray(approach, dtype=float)
+    across_v = np.asarray(across, dtype=float)
+    z = approach_v / np.linalg.norm(approach_v)
+    x = across_v - (across_v @ z) * z
     if np.linalg.norm(x) < 1e-6:
-        raise ValueError(f"the grasp axis {across} is parallel to the approach {approach}")
+        raise ValueError(f"the grasp axis {across_v} is parallel to the approach {approach_v}")
     x = x / np.linalg.norm(x)
     if x_hint is not None and x @ np.asarray(x_hint, dtype=float) < 0:
         x = -x

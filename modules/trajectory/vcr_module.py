@@ -230,11 +230,12 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
     def summary(self) -> dict[str, object]:
         if getattr(self, "_final", None) is not None:
             return dict(self._final)
-        st = self.player.vcr.state if self.player else None
+        player = self.player
+        st = player.vcr.state if player else None
         return {
-            "path": self.player.path.path_id if self.player else "",
+            "path": player.path.path_id if player else "",
             "mode": st.mode if st else "idle",
-            "progress": float(st.s / self.player.joint_path.length) if st else 0.0,
+            "progress": float(st.s / player.joint_path.length) if player and st else 0.0,
             "halts": self._halts,
             "refused_commands": self._refused,
         }

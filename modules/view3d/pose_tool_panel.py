@@ -162,10 +162,14 @@ class PoseTool:
         self.result_ids = ids
         return self.result
 
-    def corrected_mount(self) -> np.ndarray:
+    def solved(self) -> MountResult:
+        """The last solve's result; :class:`CalibrationError` before the first solve."""
         if self.result is None:
             raise CalibrationError("solve the mount first")
-        return self.result.T_parent_child
+        return self.result
+
+    def corrected_mount(self) -> np.ndarray:
+        return self.solved().T_parent_child
 
     def change(self) -> tuple[float, float]:
         """How far the solved mount is from the believed one: (degrees, metres)."""
@@ -189,12 +193,13 @@ class PoseTool:
     def save(self, folder: Path, snapshots: dict) -> list[Path]:
         """Write ``mount_<parent>_<child>.yaml`` (frames) and, when every snapshot has the same
         intrinsics, ``pose_tool_session.yaml`` (the clicks, for ``umbra pose-tool``)."""
-        corrected = self.corrected_mount()
+        result = self.solved()
+        corrected = result.T_parent_child
         folder.mkdir(parents=True, exist_ok=True)
         mount_path = folder / f"mount_{self.parent}_{self.child}.yaml"
         comment = (
             f"camera mount {self.parent}->{self.child} solved by the 3-D view's pose tool "
-            f"(RMS {self.result.rms_px:.3f} px)"
+            f"(RMS {result.rms_px:.3f} px)"
         )
         mount_path.write_text(frames_text(self.parent, self.child, corrected, comment))
         mount_snapshots, ids = self._mount_snapshots(snapshots)

@@ -150,11 +150,11 @@ def save_scene(scene: Scene, path: str | Path) -> Path:
         name = _safe_name(snap.id) + ".png"
         target = folder / name
         if not target.exists():  # a snapshot's image never changes once taken
-            ok, data = cv2.imencode(".png", snap.image)
+            ok, png = cv2.imencode(".png", snap.image)
             if not ok:
                 raise UserError(f"{path}: error: cannot encode the image of snapshot {snap.id!r}")
             tmp = target.with_suffix(".png.tmp")
-            tmp.write_bytes(data.tobytes())
+            tmp.write_bytes(png.tobytes())
             os.replace(tmp, target)
         snapshots.append(
             {
@@ -246,7 +246,9 @@ def load_scene(path: str | Path) -> Scene:
                     f"{image.shape[1]}x{image.shape[0]}"
                 )
             T = _pose(s.T_world_camera, f"{where}.T_world_camera")
-            scene.snapshots[s.id] = SceneSnapshot(s.id, s.camera, T, K, image)
+            # IMREAD_COLOR decodes to 8-bit BGR: the dtype converts nothing.
+            pixels = np.asarray(image, dtype=np.uint8)
+            scene.snapshots[s.id] = SceneSnapshot(s.id, s.camera, T, K, pixels)
         for i, b in enumerate(parsed.boxes):
             where = f"boxes[{i}] ({b.id!r})"
             size = np.array(b.size, dtype=float)

@@ -217,7 +217,8 @@ class ViewerPage(ViewerMoves, ViewerSketch):
             if T is None or not (np.all(np.isfinite(size)) and np.all(size > 0)):
                 refused.append(str(name))
                 continue
-            rgb = tuple(int(c) for c in color)
+            red, green, blue = (int(c) for c in color)  # colors are N x 3 (SceneObjects)
+            rgb = (red, green, blue)
             if kind == "cylinder":
                 self.meshes[node] = cylinder_mesh(node, T, float(size[0]), float(size[2]))
                 self.server.scene.add_cylinder(

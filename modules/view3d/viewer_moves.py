@@ -114,9 +114,10 @@ class ViewerMoves:
 
     def view_from_camera(self, client: viser.ClientHandle, name: str) -> None:
         """Fly into a live camera's pose and field of view, and stay there as it moves."""
-        if self.cameras[name].frustum is None:
+        start = self.camera_viewer_pose(name)
+        if start is None:  # the camera has no frustum yet
             return
-        last = [self.camera_viewer_pose(name)]
+        last = [start]
 
         def goal() -> ViewerPose:
             pose = self.camera_viewer_pose(name)

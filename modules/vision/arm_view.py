@@ -68,8 +68,9 @@ def arm_occluders(
             if facing <= 0.0:
                 continue  # turned away
             shade = 0.55 + 0.45 * facing / max(float(np.linalg.norm(to_eye)), 1e-9)
-            shaded = tuple(int(min(255, c * shade)) for c in rgb)
-            faces.append((float(np.linalg.norm(to_eye)), Occluder(quad, "world", shaded)))
+            red, green, blue = (int(min(255, c * shade)) for c in rgb)
+            occluder = Occluder(quad, "world", (red, green, blue))
+            faces.append((float(np.linalg.norm(to_eye)), occluder))
     faces.sort(key=lambda f: -f[0])
     return tuple(face for _, face in faces)
 

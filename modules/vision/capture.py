@@ -20,7 +20,7 @@ import contextlib
 import queue
 import threading
 import time
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import cv2
 import numpy as np
@@ -33,6 +33,9 @@ from umbra.modules.vision.capture_source import (
     source_problem,
 )
 from umbra.modules.vision.capture_time import capture_time
+
+if TYPE_CHECKING:
+    from cv2.typing import MatLike
 
 __all__ = ["CaptureError", "CaptureReader", "CaptureSource", "LiveFrame"]
 
@@ -47,14 +50,17 @@ class LiveFrame(NamedTuple):
     stamped_by: str
 
 
-def _as_bgr(frame: NDArray[np.uint8], size_wh: tuple[int, int] | None) -> NDArray[np.uint8]:
+def _as_bgr(frame: MatLike, size_wh: tuple[int, int] | None) -> NDArray[np.uint8]:
+    """A decoded frame as contiguous 8-bit BGR, resized to ``size_wh`` (width, height) [px]."""
     if frame.ndim == 2:
         frame = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
     elif frame.shape[2] == 4:
         frame = cv2.cvtColor(frame, cv2.COLOR_BGRA2BGR)
     if size_wh is not None and (frame.shape[1], frame.shape[0]) != size_wh:
         frame = cv2.resize(frame, size_wh, interpolation=cv2.INTER_AREA)
-    return np.ascontiguousarray(frame)
+    # imread(IMREAD_COLOR) and VideoCapture deliver 8-bit frames: the dtype converts nothing,
+    # it states what the array holds.
+    return np.ascontiguousarray(frame, dtype=np.uint8)
 
 
 class CaptureReader:
@@ -115,7 +121,7 @@ class CaptureReader:
             raise CaptureError(f"{source.describe()} opened but delivered no frame (cannot decode)")
         self._first = _as_bgr(first, size_wh)
 
-    def _read(self) -> tuple[NDArray[np.uint8] | None, tuple[float, str]]:
+    def _read(self) -> tuple[MatLike | None, tuple[float, str]]:
         """One frame (None: none) and, for a live one, its capture time [s] and its source."""
         if self.is_file:
             ok, frame = self._capture.read()

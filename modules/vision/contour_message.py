@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -28,8 +29,7 @@ def contour_message(
         centroid = np.array(features.centroid_uv)
         area, orientation = features.area_px2, features.orientation_rad
         axes = np.array([features.major_axis_px, features.minor_axis_px])
-    extra = {} if offending is None else {"offending": np.asarray(offending).astype(np.int64)}
-    return Contour(
+    contour = Contour(
         vertices=np.asarray(vertices, dtype=np.float64).reshape(-1, 2),
         centroid=centroid,
         area=area,
@@ -39,5 +39,7 @@ def contour_message(
         reason=reason,
         checks=checks,
         stamp=stamp,
-        **extra,
     )
+    if offending is None:
+        return contour  # the message's own default (no offending vertex)
+    return msgspec.structs.replace(contour, offending=np.asarray(offending).astype(np.int64))

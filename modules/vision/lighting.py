@@ -109,20 +109,22 @@ class Sensor:
             return image_bgr.copy()
         radiance: NDArray = image_bgr
         if not unit_gain or blur:
-            radiance = cv2.multiply(
-                image_bgr, (*cast_bgr.tolist(), 0.0), dst=self._scaled, dtype=cv2.CV_32F
-            )
+            # cv2's stubs omit the per-channel scalar (a tuple) that cv2.multiply takes as src2.
+            scalar = (*cast_bgr.tolist(), 0.0)
+            radiance = cv2.multiply(image_bgr, scalar, dst=self._scaled, dtype=cv2.CV_32F)  # type: ignore[call-overload]
         if blur:
             kernel = motion_blur_kernel(lighting.blur_length_px, lighting.blur_angle_rad)
             radiance = cv2.filter2D(
                 radiance, -1, kernel, dst=self._blurred, borderType=cv2.BORDER_REFLECT
             )
         if lighting.noise_sigma == 0:
-            return cv2.add(radiance, 0.0, dtype=cv2.CV_8U)
+            # cv2's stubs omit the scalar src2; dtype=CV_8U makes the result uint8 (no copy here).
+            quantized = cv2.add(radiance, 0.0, dtype=cv2.CV_8U)  # type: ignore[call-overload]
+            return np.asarray(quantized, dtype=np.uint8)
         table = _UNIT_NOISE * np.float32(lighting.noise_sigma)
         noise = cv2.LUT(self._picks(rng), table, dst=self._noise)
         # Saturating conversion: rounds to the nearest gray level and clips to 0..255.
-        return cv2.add(radiance, noise, dtype=cv2.CV_8U)
+        return np.asarray(cv2.add(radiance, noise, dtype=cv2.CV_8U), dtype=np.uint8)
 
 
 def apply_lighting(

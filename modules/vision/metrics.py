@@ -52,7 +52,8 @@ def polygon_iou(a: ArrayLike, b: ArrayLike, shape: tuple[int, int] | None = None
         high = np.minimum(high, np.array([shape[1], shape[0]]) - 0.5)
         if np.any(high <= low):
             return 0.0
-    size = tuple(int(s) for s in np.ceil((high - low) * SUPERSAMPLE)[::-1])
+    width, height = (int(s) for s in np.ceil((high - low) * SUPERSAMPLE))
+    size = (height, width)
     mask_a = _fine_mask(pa, low, size)
     mask_b = _fine_mask(pb, low, size)
     union = np.count_nonzero(mask_a | mask_b)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import PurePath
+from pathlib import Path, PurePath
 from typing import Annotated
 
 import numpy as np
@@ -66,7 +66,7 @@ class Overlay(Module["Overlay.Params"]):
             rectangle_margin=self.params.rectangle_margin, ellipse_scale=self.params.ellipse_scale
         )
         self._writer: ThreadedVideoWriter | None = None
-        self._path = None
+        self._path: Path | None = None  # the video file; None: no video
         if self.params.video:
             self._path = self.context.output_dir / self.params.video
             self._path.parent.mkdir(parents=True, exist_ok=True)
@@ -102,7 +102,7 @@ class Overlay(Module["Overlay.Params"]):
         self.overlay.send(Image(pixels=drawn, frame=sample.frame, stamp=sample.stamp))
         self._drawn += 1
         if self._path is not None:
-            self._write(drawn)
+            self._write(self._path, drawn)
 
     @staticmethod
     def _lines(sample: Image, contour: Contour | None, status: Status | None) -> list[str]:
@@ -146,11 +146,12 @@ class Overlay(Module["Overlay.Params"]):
             inner_ellipse=ellipse,
         )
 
-    def _write(self, drawn: np.ndarray) -> None:
+    def _write(self, path: Path, drawn: np.ndarray) -> None:
+        """Append ``drawn`` to the video at ``path``, opened at the first frame."""
         if self._writer is None:
             try:
                 self._writer = ThreadedVideoWriter(
-                    self._path,
+                    path,
                     self.params.video_fps,
                     (drawn.shape[1], drawn.shape[0]),
                     wait=self.context.clock == "sim",  # the sim clock's file holds every frame

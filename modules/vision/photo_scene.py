@@ -191,8 +191,8 @@ def patch_coverage(corners: FloatArray, shape: tuple[int, int]) -> tuple[NDArray
     rows, cols = np.nonzero(np.abs(outside) < half_diag)
     if rows.size:
         steps = (np.arange(SAMPLES) + 0.5) / SAMPLES - 0.5
-        su, sv = np.meshgrid(steps, steps)
-        su, sv = su.ravel(), sv.ravel()
+        grid_u, grid_v = np.meshgrid(steps, steps)
+        su, sv = grid_u.ravel(), grid_v.ravel()
         pu = u[cols][:, None] + su[None, :]
         pv = v[rows][:, None] + sv[None, :]
         inside = np.ones(pu.shape, dtype=bool)

@@ -244,8 +244,8 @@ class SceneRenderer:
         if not np.any(self.distortion):
             self._offset = np.zeros(2)
             self._canvas_size = (width, height)
-            self._maps: tuple[NDArray, NDArray] | None = None
-            self._nearest_maps: tuple[NDArray, NDArray] | None = None
+            # (linear, nearest-neighbour) cv2.remap maps from the canvas; None: no distortion
+            self._maps: tuple[tuple[NDArray, NDArray], tuple[NDArray, NDArray]] | None = None
         else:
             map_u, map_v = ideal_pixels_of_distorted_grid(intrinsics, self.distortion)
             span = np.array([map_u.max() - (width - 1), map_v.max() - (height - 1)])
@@ -255,8 +255,10 @@ class SceneRenderer:
             self._offset = margin
             self._canvas_size = (int(width + 2 * margin[0]), int(height + 2 * margin[1]))
             shifted = (map_u + np.float32(margin[0]), map_v + np.float32(margin[1]))
-            self._maps = cv2.convertMaps(*shifted, cv2.CV_16SC2)
-            self._nearest_maps = cv2.convertMaps(*shifted, cv2.CV_16SC2, nninterpolation=True)
+            self._maps = (
+                cv2.convertMaps(*shifted, cv2.CV_16SC2),
+                cv2.convertMaps(*shifted, cv2.CV_16SC2, nninterpolation=True),
+            )
         self._sensor = Sensor((height, width, 3))
         canvas_width, canvas_height = self._canvas_size
         self._canvas = np.empty((canvas_height, canvas_width, 3), dtype=np.uint8)
@@ -438,15 +440,22 @@ class SceneRenderer:
             if occluder.frame == "world":
                 polygon = self._canvas_polygon(T_camera_world, np.asarray(occluder.polygon))
                 self._fill_exact(canvases, polygon, _rgb_to_bgr(occluder.rgb), LABEL_OCCLUDER)
+        image: NDArray[np.uint8]
         if self._maps is not None:
-            image = cv2.remap(
+            (map1, map2), (nearest1, nearest2) = self._maps
+            # remap keeps the source's dtype: np.asarray converts nothing.
+            distorted = cv2.remap(
                 canvas,
-                *self._maps,
+                map1,
+                map2,
                 cv2.INTER_LINEAR,
                 dst=self._distorted,
                 borderMode=cv2.BORDER_REPLICATE,
             )
-            labels = cv2.remap(labels, *self._nearest_maps, cv2.INTER_NEAREST)
+            image = np.asarray(distorted, dtype=np.uint8)
+            labels = np.asarray(
+                cv2.remap(labels, nearest1, nearest2, cv2.INTER_NEAREST), dtype=np.uint8
+            )
         else:
             image = canvas
             labels = labels.copy()

@@ -199,8 +199,9 @@ class SimulatedCamera:
         """The patch outline in the distorted image (4 ``per_edge`` x 2 px, as
         :attr:`RenderedFrame.patch_polygon`) and the share of its area inside the image, without
         rendering (occlusion is not known). Empty and 0 when the patch is absent or behind."""
+        T_camera_world = np.asarray(np.linalg.inv(T_world_camera), dtype=np.float64)
         polygon = patch_image_outline(
-            scene, np.linalg.inv(T_world_camera), spec.intrinsics, spec.distortion, per_edge
+            scene, T_camera_world, spec.intrinsics, spec.distortion, per_edge
         )
         if polygon is None:
             return np.empty((0, 2)), 0.0

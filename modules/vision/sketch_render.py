@@ -97,7 +97,8 @@ def render_scene(
             if dist is not None and np.any(dist):
                 uv = distort_points(uv, K, dist)
             shade = 0.45 + 0.55 * max(0.0, float(normal @ _LIGHT))
-            bgr = tuple(int(min(255, c * shade)) for c in (rgb[2], rgb[1], rgb[0]))
+            blue, green, red = (int(min(255, c * shade)) for c in (rgb[2], rgb[1], rgb[0]))
+            bgr = (blue, green, red)
             faces.append((float(cam[:, 2].mean()), np.round(uv * scale).astype(np.int32), bgr))
     for _, polygon, bgr in sorted(faces, key=lambda f: -f[0]):
         cv2.fillPoly(image, [polygon], bgr, lineType=cv2.LINE_AA, shift=4)

@@ -37,7 +37,8 @@ class VideoWriter:
             raise VideoFileError(f"{self.path}: frame rate must be > 0, got {fps}")
         self.size_wh = (int(size_wh[0]), int(size_wh[1]))
         self.frames = 0
-        fourcc = cv2.VideoWriter_fourcc(*CODECS[suffix])
+        # cv2's stubs lack VideoWriter_fourcc, which the module has.
+        fourcc = cv2.VideoWriter_fourcc(*CODECS[suffix])  # type: ignore[attr-defined]
         self._writer = cv2.VideoWriter(str(self.path), fourcc, float(fps), self.size_wh)
         if not self._writer.isOpened():
             raise VideoFileError(f"{self.path}: cannot open for writing ({CODECS[suffix]} codec)")

@@ -35,7 +35,7 @@ def protocols(table: Connections) -> tuple[type, type]:
     """The HTTP and websocket protocol classes of a server counted in ``table``."""
 
     class DoorHttp(H11Protocol):
-        def connection_made(self, transport: Any) -> None:  # type: ignore[override]
+        def connection_made(self, transport: Any) -> None:
             if not table.admit(transport):  # aborted, over a limit
                 return
             super().connection_made(transport)

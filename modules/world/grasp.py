@@ -49,4 +49,5 @@ def grasp_error(T_base_tool: FloatArray, T_base_patch: FloatArray) -> GraspError
     roll = wrap_axis_angle(float(np.arctan2(R[1, 0], R[0, 0])))  # modulo π
     approach = T_patch_tool[:3, 2]  # tool z in patch coordinates, ideally (0, 0, -1)
     tilt = float(np.arccos(np.clip(-approach[2], -1.0, 1.0)))
-    return GraspError(float(np.linalg.norm(offset)), roll, tilt, tuple(float(v) for v in offset))
+    offset_patch = (float(offset[0]), float(offset[1]), float(offset[2]))
+    return GraspError(float(np.linalg.norm(offset)), roll, tilt, offset_patch)

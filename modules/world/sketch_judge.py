@@ -144,7 +144,7 @@ class SketchJudge:
         v.closed_distance_m = distance
         if distance < 0.05:
             v.grasp_distance_m = distance
-            v.grasp_angle_rad = float(np.arccos(min(1.0, abs(x_axis @ pipe.axis))))
+            v.grasp_angle_rad = float(np.arccos(min(1.0, abs(float(x_axis @ pipe.axis)))))
             v.grasp_inside = abs(along) <= pipe.length / 2 - 0.02
             v.events.append(
                 f"gripper closed {distance * 1e3:.2f} mm from the pipe axis, "

@@ -186,10 +186,13 @@ class SketchWorld(Module["SketchWorld.Params"]):
         self.verdict.send(
             Verdict(stage=self._macro, message=text, values=figures, outcome=Outcome(outcome))
         )
-        self._macro_verdicts.append(
-            {"macro": self._macro, "path_id": self._path_id, "outcome": outcome, "verdict": text}
-            | figures
-        )
+        entry: dict[str, object] = {
+            "macro": self._macro,
+            "path_id": self._path_id,
+            "outcome": outcome,
+            "verdict": text,
+        }
+        self._macro_verdicts.append(entry | figures)
         self.log.info("verdict of %s: %s", self._macro, text)
 
     def _maybe_end(self, now: float) -> None:

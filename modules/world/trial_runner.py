@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from umbra.modules.arm.wolverine_jnts import WolverineJnts
 from umbra.modules.world.grasp import GraspError
 from umbra.modules.world.trial_faults import (
     VISION_LAG_S,
@@ -36,6 +37,7 @@ from umbra.modules.world.trials import (
     stale_travel,
     stop_figures,
 )
+from umbra.modules.world.world import WorldParams
 from umbra.runtime.graph.check import load_graph
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.config import free_loopback_ports
@@ -78,9 +80,11 @@ class TrialGraph:
                 f"DigiCam, WOLVERINE_JNTS and vsServo; missing: {', '.join(missing)}"
             )
         joints = self.plan.modules[self.names["joints"]].params
+        world = self.plan.modules[self.names["world"]].params
+        # found by their types' names, so of these types' parameter classes
+        assert isinstance(joints, WolverineJnts.Params) and isinstance(world, WorldParams)
         self.arm = joints.table  # the arm the graph drives, for the open-loop baseline
         self.q0 = np.radians(joints.initial_q_deg or [0.0] * self.arm.n)
-        world = self.plan.modules[self.names["world"]].params
         self.tolerance = (world.position_tolerance_mm, world.roll_tolerance_deg)
         self.T_base_table = self.plan.frames.lookup("base", "table")
         self.T_flange_tool = self.plan.frames.lookup("flange", "tool")
@@ -272,7 +276,7 @@ def run_split(
             if setup.fault == "kill_umbra":
                 umbra.send_signal(signal.SIGKILL)
             else:  # vision_lag: the vision process loses its CPU, then goes on
-                stop_and_continue(umbra)  # type: ignore[arg-type]
+                stop_and_continue(umbra)
         smart.wait(timeout=timeout_s + 60)
         for rest in [umbra, *others]:  # the judge has spoken: the others stop now
             if rest.poll() is None:

@@ -89,7 +89,7 @@ def draw_trial(
         patch_height_m=nominal.patch_height_m
         + float(rng.uniform(-nominal.height_m, nominal.height_m)),
         gain=float(rng.uniform(*nominal.gain)),
-        cast_rgb=tuple(float(c) for c in rng.uniform(1 - nominal.cast, 1 + nominal.cast, 3)),
+        cast_rgb=_triple(rng.uniform(1 - nominal.cast, 1 + nominal.cast, 3)),
         noise_sigma=float(rng.uniform(*nominal.noise)),
         calibration_error_deg=tuple(
             float(e)
@@ -98,6 +98,11 @@ def draw_trial(
         fault=fault,
         fault_at_s=float(rng.uniform(*fault_window_s)) if fault != "none" else 0.0,
     )
+
+
+def _triple(values: np.ndarray) -> tuple[float, float, float]:
+    """Three numbers as a tuple of floats."""
+    return float(values[0]), float(values[1]), float(values[2])
 
 
 def open_loop_grab(
@@ -186,6 +191,7 @@ def stale_travel(record: np.ndarray, episodes: list[list[float | None]]) -> dict
     t, xyz = record[:, 0], record[:, 3:6]
     worst = 0.0
     for start, end in episodes:
+        assert start is not None  # REG_VEL opens each stretch with its start time
         inside = (t >= float(start)) & (t <= (np.inf if end is None else float(end)))
         first = int(np.argmax(inside)) if inside.any() else None
         if first is None:
@@ -217,8 +223,14 @@ def aggregate(results: list[TrialResult]) -> dict[str, Any]:
     return {
         "trials": n,
         "success_rate": len(ok) / n if n else 0.0,
-        "final_error_mm": stats([r.position_error_mm for r in ok], ("median", "p95", "max")),
-        "final_error_deg": stats([r.roll_error_deg for r in ok], ("median", "p95", "max")),
+        "final_error_mm": stats(
+            [r.position_error_mm for r in ok if r.position_error_mm is not None],
+            ("median", "p95", "max"),
+        ),
+        "final_error_deg": stats(
+            [r.roll_error_deg for r in ok if r.roll_error_deg is not None],
+            ("median", "p95", "max"),
+        ),
         "time_s": stats([r.time_s for r in ok if r.time_s is not None], ("median", "p95")),
         "open_loop_success_rate": sum(r.open_loop_success for r in results) / n if n else 0.0,
         "open_loop_error_mm": stats(

@@ -16,6 +16,8 @@ if TYPE_CHECKING:  # annotations only: `umbra --help` loads this file without th
 NAME = "keys"
 HELP = "make a CA, a certificate per process and the graph's zenoh access rules (mutual TLS)"
 GUIDE = "docs/guide/processes.md"  # the guide page this command's --help points to
+#: An observer's or a ROS 2 certificate's name (``@`` and ``/`` never: they name files).
+NAME_PATTERN = r"[A-Za-z0-9_.\-]+"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -42,6 +44,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "the outputs named (default: every output of the graph) and their liveliness, nothing "
         "else (repeatable; for `umbra topics/echo/hz --zenoh-config`, viewers)",
     )
+    parser.add_argument(
+        "--ros2",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="also a ROS 2 certificate (ros2@NAME.json5): mutual TLS with this CA and no access "
+        "rules, for a TLS ROS 2 router endpoint: `umbra run --ros2-config`, the router, a ROS 2 "
+        "host (repeatable: one per end; docs/ros2.md)",
+    )
 
 
 def _hosts(items: list[str], processes: list[str]) -> dict[str, list[str]]:
@@ -57,6 +68,16 @@ def _hosts(items: list[str], processes: list[str]) -> dict[str, list[str]]:
     return hosts
 
 
+def _names(items: list[str], option: str) -> list[str]:
+    """New names of letters, digits, '_', '.', '-' (``--ros2``)."""
+    for i, name in enumerate(items):
+        if not re.fullmatch(NAME_PATTERN, name) or name in items[:i]:
+            raise UserError(
+                f"{option}: expected a new NAME of letters, digits, '_', '.', '-', found {name!r}"
+            )
+    return items
+
+
 def _observers(items: list[str], plan: GraphPlan) -> dict[str, list[str]]:
     """``--observer NAME[=MODULE/PORT,...]`` as name -> the full keys it may read."""
     from umbra.runtime.links.acl import output_keys
@@ -65,7 +86,7 @@ def _observers(items: list[str], plan: GraphPlan) -> dict[str, list[str]]:
     found: dict[str, list[str]] = {}
     for item in items:
         name, sep, outputs = item.partition("=")
-        if not re.fullmatch(r"[A-Za-z0-9_.\-]+", name) or name in found:
+        if not re.fullmatch(NAME_PATTERN, name) or name in found:
             raise UserError(
                 f"--observer: expected NAME[=MODULE/PORT,...] with a new NAME of letters, "
                 f"digits, '_', '.', '-', found {item!r}"
@@ -93,10 +114,11 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(f"--days must be from 1 to 3650, found {args.days}")
     plan = load_graph(args.graph, prefix=args.prefix)
     processes = plan.populated_processes
-    if len(processes) < 2:
+    if len(processes) < 2 and not args.ros2:
         raise UserError(
             f"{args.graph}: graph `{plan.spec.name}` runs in one process "
-            f"({', '.join(processes)}): it has no links to secure"
+            f"({', '.join(processes)}): it has no links to secure (--ros2 NAME: certificates "
+            "for a TLS ROS 2 router endpoint)"
         )
     out: Path = args.out
     if out.exists() and not out.is_dir():
@@ -105,7 +127,8 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(f"--out: {out} is not empty; give a new folder (keys are never mixed)")
     hosts = _hosts(args.host, processes)
     observers = _observers(args.observer, plan)
-    written = write_keys(plan, out, args.days, hosts, observers)
+    ros2 = _names(args.ros2, "--ros2")
+    written = write_keys(plan, out, args.days, hosts, observers, ros2)
     print(f"wrote {len(written)} files to {out}:", file=sys.stderr)
     for path in written:
         print(f"  {path}", file=sys.stderr)
@@ -118,17 +141,25 @@ def main(args: argparse.Namespace) -> int:
         for p in processes
         if p != listener
     )
-    print(
-        f"copy {out}/ to each host (it holds every process's private key: keep it private), "
-        f"then e.g.\n  umbra run {args.graph} --process {listener} --zenoh-config {out}/ "
-        f"--listen tls/0.0.0.0:7447{connects}\n"
-        f"or on one host: umbra run {args.graph} --zenoh-config {out}/",
-        file=sys.stderr,
-    )
+    if len(processes) > 1:
+        print(
+            f"copy {out}/ to each host (it holds every process's private key: keep it private), "
+            f"then e.g.\n  umbra run {args.graph} --process {listener} --zenoh-config {out}/ "
+            f"--listen tls/0.0.0.0:7447{connects}\n"
+            f"or on one host: umbra run {args.graph} --zenoh-config {out}/",
+            file=sys.stderr,
+        )
     for name in observers:
         print(
             f"observer `{name}`: umbra topics --zenoh-config {out}/observer@{name}.json5 "
             f"--connect tls/{address}:7447 (copy observer@{name}.* and ca.pem only)",
+            file=sys.stderr,
+        )
+    for name in ros2:
+        print(
+            f"ROS 2 `{name}`: {out}/ros2@{name}.json5, one end of a TLS ROS 2 router endpoint "
+            f"(copy ros2@{name}.* and ca.pem only), e.g. umbra run {args.graph} --ros2-router "
+            f"tls/HOST:7447 --ros2-config {out}/ros2@{name}.json5",
             file=sys.stderr,
         )
     return 0

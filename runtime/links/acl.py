@@ -105,6 +105,12 @@ def observer_certificate_name(graph: str, observer: str) -> str:
     return f"{observer}@observer.{graph}.umbra"
 
 
+def ros2_certificate_name(graph: str, name: str) -> str:
+    """Common name of ROS 2 certificate ``name`` (``@``: never a process's, so the graph's rules
+    give it nothing on the links: it is for the ROS 2 router's endpoint only)."""
+    return f"{name}@ros2.{graph}.umbra"
+
+
 def link_keys(plan: GraphPlan) -> tuple[dict[str, set[str]], dict[str, set[str]]]:
     """Keys each process publishes and keys each process consumes."""
     produces: dict[str, set[str]] = {p: set() for p in plan.populated_processes}

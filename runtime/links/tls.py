@@ -12,6 +12,11 @@ folder. Keys are EC P-256; each private key file is mode 0600. Certificate paths
 configurations are relative to the folder (``umbra.runtime.links.config`` resolves them), so the
 folder can be copied to each host as it is.
 
+``ros2@NAME.json5`` (``--ros2 NAME``) is mutual TLS with a certificate of the same CA and no
+access rules: the configuration of a ROS 2 router endpoint's ends (``umbra run --ros2-config``,
+the router, ROS 2 hosts). Its common name is no process's, so the graph's rules give it nothing
+on the links.
+
 Each certificate names ``localhost`` and ``127.0.0.1`` and any ``--host`` addresses given for its
 process. Zenoh's check of the listener's name on connect is off (``verify_name_on_connect``):
 both ends prove who they are with a certificate of this CA, and the rules key on its common name.
@@ -36,6 +41,7 @@ from umbra.runtime.links.acl import (
     by_certificate,
     common_name,
     observer_certificate_name,
+    ros2_certificate_name,
     zenoh_acl,
 )
 
@@ -89,17 +95,24 @@ def observer_file(name: str) -> str:
     return f"observer@{name}"
 
 
+def ros2_file(name: str) -> str:
+    """Stem of the files of ROS 2 certificate ``name`` (``@`` is in no process name)."""
+    return f"ros2@{name}"
+
+
 def write_keys(
     plan: GraphPlan,
     out: Path,
     days: int = 365,
     hosts: dict[str, list[str]] | None = None,
     observers: dict[str, list[str]] | None = None,
+    ros2: list[str] | None = None,
 ) -> list[Path]:
     """Write the CA certificate, a key and certificate per process and ``PROCESS.json5`` per
     process of ``plan`` into ``out``, and for each of ``observers`` (name -> the keys it may
     read) a key, a certificate, ``observer@NAME.json5`` and ``observer@NAME.keys.json`` (the
-    prefix and keys, for ``umbra topics``); the files written."""
+    prefix and keys, for ``umbra topics``), and for each of ``ros2`` a key, a certificate and
+    ``ros2@NAME.json5`` (TLS only, for a ROS 2 router endpoint); the files written."""
     hosts = hosts or {}
     observers = observers or {}
     out.mkdir(parents=True, exist_ok=True)
@@ -145,6 +158,7 @@ def write_keys(
         (p, common_name(graph, p), hosts.get(p, []), None) for p in plan.populated_processes
     ]
     names += [(observer_file(o.name), o.subject["cert_common_names"][0], [], o) for o in readers]
+    names += [(ros2_file(n), ros2_certificate_name(graph, n), [], None) for n in ros2 or []]
     for process, cn, alt, observer in names:
         key = ec.generate_private_key(ec.SECP256R1())
         cert = (
@@ -190,6 +204,16 @@ def write_keys(
             f"and the graph's access rules.\n// Use: umbra run GRAPH --process {process} "
             f"--zenoh-config {out.name}/ --listen tls/HOST:PORT (or --connect)\n"
         )
+        if process.startswith(ros2_file("")):
+            del config["access_control"]  # ROS 2 keys are no graph's: TLS only
+            header = (
+                f"// zenoh configuration of ROS 2 end `{process.removeprefix(ros2_file(''))}` "
+                f"of graph `{graph}`, written by `umbra keys`:\n// mutual TLS with certificate "
+                f"CN={cn}, no access rules (the graph's give it nothing on the links).\n"
+                f"// Use: umbra run GRAPH --ros2-router tls/HOST:PORT --ros2-config "
+                f"{out.name}/{process}.json5\n// (or in a ROS 2 router's or host's zenoh "
+                "configuration, with its own mode and endpoints)\n"
+            )
         if observer is not None:
             del config["access_control"]  # the processes' rules hold it to its keys
             header = (

@@ -91,8 +91,11 @@ def image(msg: Any, rel: WallRelation, opts: InOptions) -> Image:
             f" {len(msg.data)} bytes"
         )
     rows = np.asarray(msg.data, dtype=np.uint8)[: step * h].reshape(h, step)
-    pixels = rows[:, : w * channels].reshape(h, w, channels)
-    pixels = pixels.copy() if conversion is None else cv2.cvtColor(pixels, getattr(cv2, conversion))
+    raw = rows[:, : w * channels].reshape(h, w, channels)
+    if conversion is None:
+        pixels = raw.copy()
+    else:  # cv2's stubs type its result loosely: a uint8 image gives a uint8 image
+        pixels = np.asarray(cv2.cvtColor(raw, getattr(cv2, conversion)), dtype=np.uint8)
     d = dated(msg, rel, opts)
     return Image(
         pixels=pixels,

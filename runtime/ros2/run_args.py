@@ -54,9 +54,11 @@ def add_ros2_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--ros2-config",
         metavar="FILE|DIR",
-        help="zenoh JSON5 configuration of the ROS 2 session (a TLS router endpoint with the "
-        "graph's certificates, as --zenoh-config takes them: a folder written by `umbra keys` "
-        "gives each process its own PROCESS.json5); implies --ros2",
+        help="zenoh JSON5 configuration of the ROS 2 session, read as --zenoh-config reads it "
+        "(a folder gives each process its own PROCESS.json5); for a TLS router endpoint with "
+        "the graph's CA: the ros2@NAME.json5 `umbra keys GRAPH --ros2 NAME` writes (a "
+        "process's own file carries the graph's access rules, which deny every ROS 2 key); "
+        "implies --ros2",
     )
 
 

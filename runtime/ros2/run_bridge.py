@@ -40,7 +40,7 @@ from umbra.connectors.ports import Register
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.exposure import config_for
 from umbra.runtime.ros2.bridge import MAX_DOMAIN, Ros2Bridge
-from umbra.runtime.ros2.mapping import Ros2Mapping
+from umbra.runtime.ros2.mapping import Direction, Ros2Mapping
 from umbra.runtime.ros2.router import DEFAULT_ROUTER, session_config
 
 #: ROS 2's transform topics and their type: a process that maps an output to ``/tf`` also
@@ -124,7 +124,7 @@ class RunBridge:
         #: the graph's static frames, on /tf_static beside the process's /tf (ROS 2's rule)
         self._static = static_frames(plan) if TF in by_topic else []
         if self._static:
-            mappings.append(Ros2Mapping(TF_STATIC, TF_TYPE, "Pose", "out"))
+            mappings.append(Ros2Mapping(TF_STATIC, TF_TYPE, "Pose", Direction.OUT))
         self.bridge = Ros2Bridge(
             session_config(options.router, config_file=options.config_of(process)),
             options.domain,

@@ -106,7 +106,7 @@ def print_topics(domain: int, router: str, topics: list[Ros2Topic], as_json: boo
 
 def message_dict(msg: Any) -> dict[str, Any]:
     """A rosbags message as JSON-ready fields (big arrays summarised as ``umbra echo`` does)."""
-    return _plain(dataclasses.asdict(msg))
+    return {k: _plain(v) for k, v in dataclasses.asdict(msg).items()}
 
 
 def echo(args: argparse.Namespace, topic: str) -> int:

@@ -26,6 +26,7 @@ from canopen.pdo import PdoMap
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
 from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.canopen_types import maps_of, node_id_of
 from umbra.modules.arm.cia402.drive_watchdog import consumer_entry
 from umbra.modules.arm.cia402.state_machine import (
     Command,
@@ -93,17 +94,18 @@ def check_identity(node: canopen.RemoteNode, label: str) -> None:
 def configure_pdos(node: canopen.RemoteNode, label: str) -> PdoLayout:
     """Write the layout of the module docstring to the drive (NMT PRE-OPERATIONAL)."""
     od = node.object_dictionary
-    if len(node.rpdo.map) < 1 or len(node.tpdo.map) < 2:
+    rpdo_maps, tpdo_maps = maps_of(node.rpdo), maps_of(node.tpdo)
+    if len(rpdo_maps) < 1 or len(tpdo_maps) < 2:
         raise DriveStartError(
-            f"{label}: object dictionary has {len(node.rpdo.map)} RPDO(s) and "
-            f"{len(node.tpdo.map)} TPDO(s); the master needs at least 1 and 2"
+            f"{label}: object dictionary has {len(rpdo_maps)} RPDO(s) and "
+            f"{len(tpdo_maps)} TPDO(s); the master needs at least 1 and 2"
         )
     node.rpdo.read(from_od=True)
     node.tpdo.read(from_od=True)
-    for pdo_map in (*node.rpdo.map.values(), *node.tpdo.map.values()):
+    for pdo_map in (*rpdo_maps.values(), *tpdo_maps.values()):
         pdo_map.clear()
         pdo_map.enabled = False
-    rpdo1, tpdo1, tpdo2 = node.rpdo.map[1], node.tpdo.map[1], node.tpdo.map[2]
+    rpdo1, tpdo1, tpdo2 = rpdo_maps[1], tpdo_maps[1], tpdo_maps[2]
     layout: tuple[tuple[PdoMap, int, tuple[int, ...]], ...] = (
         (rpdo1, 0x200, (obj.CONTROLWORD, obj.TARGET_VELOCITY)),
         (tpdo1, 0x180, (obj.STATUSWORD, obj.POSITION_ACTUAL, obj.ERROR_CODE)),
@@ -113,7 +115,7 @@ def configure_pdos(node: canopen.RemoteNode, label: str) -> PdoLayout:
         for index in indexes:
             if index in od:
                 pdo_map.add_variable(index)
-        pdo_map.cob_id = cob_base + node.id
+        pdo_map.cob_id = cob_base + node_id_of(node)
         pdo_map.trans_type = SYNCHRONOUS_EVERY_SYNC
         pdo_map.inhibit_time = None
         pdo_map.event_timer = None
@@ -129,10 +131,10 @@ def read_pdos(node: canopen.RemoteNode, label: str) -> PdoLayout:
     sdo_step(label, "read its TPDO configuration", node.tpdo.read)
     rpdos = tuple(
         m
-        for m in node.rpdo.map.values()
+        for m in maps_of(node.rpdo).values()
         if m.enabled and {v.index for v in m.map if v.length} & RPDO_OBJECTS_FILLED
     )
-    tpdos = tuple(m for m in node.tpdo.map.values() if m.enabled and m.map)
+    tpdos = tuple(m for m in maps_of(node.tpdo).values() if m.enabled and m.map)
     rx = {v.index for m in rpdos for v in m.map if v.length}
     tx = {v.index for m in tpdos for v in m.map if v.length}
     missing_rx = [i for i in (obj.CONTROLWORD, obj.TARGET_VELOCITY) if i not in rx]

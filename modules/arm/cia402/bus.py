@@ -49,7 +49,8 @@ def open_bus(
     """A connected network on the bus `spec` names; BusSpecError when it cannot be opened."""
     network = canopen.Network()
     network.NOTIFIER_CYCLE = RECEIVE_POLL_S
-    network.listeners.append(BusWatch(on_error_frame, on_dead))
+    # canopen's list is inferred as list[MessageListener]; its Notifier takes any can.Listener
+    network.listeners.append(BusWatch(on_error_frame, on_dead))  # type: ignore[arg-type]
     try:
         network.connect(interface=spec.interface, channel=spec.channel, bitrate=spec.bitrate)
     except Exception as exc:  # python-can raises many types here; all mean "no such bus"

@@ -123,9 +123,10 @@ def _unmapped(od: ObjectDictionary) -> dict[tuple[int, int], str]:
     absent: dict[tuple[int, int], str] = {}
     for first in (obj.RPDO_MAP_FIRST, obj.TPDO_MAP_FIRST):
         for index in range(first, first + 0x200):
-            if index not in od or isinstance(od[index], ODVariable):
+            entry = od.get(index)
+            if entry is None or isinstance(entry, ODVariable):
                 continue
-            entries = od[index].subindices
+            entries = entry.subindices
             for sub in range(1, _default(entries.get(0)) + 1):
                 value = _default(entries.get(sub))
                 mapped = (value >> 16, (value >> 8) & 0xFF)

@@ -45,6 +45,7 @@ from canopen.pdo import PdoMap, PdoMaps
 from canopen.sdo import SdoAbortedError
 
 from umbra.modules.arm.cia402 import objects as obj
+from umbra.modules.arm.cia402.canopen_types import maps_of, node_id_of
 from umbra.modules.arm.cia402.config import Cia402ConfigError
 from umbra.modules.arm.cia402.drive_motion import (
     QUICK_STOP_DECELERATION,
@@ -114,7 +115,7 @@ class SimDrive(MasterWatchMixin):
         self._watch_thread: threading.Thread | None = None
         self.node.add_read_callback(self._on_read)
         self.node.add_write_callback(self._on_write)
-        for pdo_map in self.node.rpdo.map.values():
+        for pdo_map in maps_of(self.node.rpdo).values():
             pdo_map.add_callback(self._on_rpdo)
 
     # -- lifecycle -------------------------------------------------------------------
@@ -133,7 +134,7 @@ class SimDrive(MasterWatchMixin):
                 network.subscribe(obj.HEARTBEAT_COB_BASE + node_id, self._on_heartbeat)
         self.network = network
         with self._lock:
-            for maps in (self.node.rpdo.map, self.node.tpdo.map):
+            for maps in (maps_of(self.node.rpdo), maps_of(self.node.tpdo)):
                 for pdo_map in maps.values():
                     pdo_map.read(from_od=True)
             self.node.nmt.send_command(0x81)  # reset: boot-up message
@@ -173,7 +174,7 @@ class SimDrive(MasterWatchMixin):
 
     @property
     def node_id(self) -> int:
-        return self.node.id
+        return node_id_of(self.node)
 
     @property
     def state(self) -> State:
@@ -377,9 +378,9 @@ class SimDrive(MasterWatchMixin):
     def _reload_pdo(self, index: int) -> None:
         offset = index & 0x1FF
         if index < obj.TPDO_COMM_FIRST:
-            maps: PdoMaps = self.node.rpdo.map
+            maps: PdoMaps = maps_of(self.node.rpdo)
         else:
-            maps = self.node.tpdo.map
+            maps = maps_of(self.node.tpdo)
         number = offset + 1
         if number not in maps:
             return
@@ -429,7 +430,7 @@ class SimDrive(MasterWatchMixin):
             self._sync_count += 1
             if self._silent:
                 return
-            for pdo_map in self.node.tpdo.map.values():
+            for pdo_map in maps_of(self.node.tpdo).values():
                 trans_type = pdo_map.trans_type
                 if not pdo_map.enabled or trans_type is None or not 1 <= trans_type <= 240:
                     continue

@@ -57,7 +57,10 @@ class MasterWatchMixin:
     _free_run: bool
     _quick_stop_cycles: int
     _closing: threading.Event
-    node_id: int
+
+    @property
+    def node_id(self) -> int:
+        raise NotImplementedError
 
     def advance(self, dt_s: float) -> None:
         raise NotImplementedError

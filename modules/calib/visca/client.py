@@ -37,7 +37,7 @@ import serial
 from umbra.connectors.errors import UserError
 from umbra.modules.calib.visca import commands as vc
 from umbra.modules.calib.visca import protocol as vp
-from umbra.modules.calib.visca.client_moves import Move, MoveSteps
+from umbra.modules.calib.visca.client_moves import STOP, Move, MoveSteps
 from umbra.modules.calib.visca.client_startup import StartupSteps
 from umbra.modules.calib.visca.client_types import (
     LinkStatus,
@@ -76,7 +76,7 @@ class _State:
     ready: bool = False
 
 
-class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
+class ViscaZoomClient:
     """Drive and watch the zoom of one FCB camera on a serial port (see the module docstring)."""
 
     def __init__(self, settings: ViscaSettings) -> None:
@@ -84,16 +84,17 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
         self.counters = ViscaCounters()
         self._lock = threading.Lock()
         self._state = _State(problems={"init": Problem(LinkStatus.STARTING, "not started")})
-        self._splitter = vp.PacketSplitter()
         self._serial: serial.Serial | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._ready_event = threading.Event()
-        self._consecutive_failures = 0
         self._zoom_retry_at = 0.0
         self.version: vc.Version | None = None
         """What CAM_VersionInq reported at the last initialisation (None: not known)."""
+        self._wire = WireRequests(self)  #: requests on the line, in the device thread
+        self._startup = StartupSteps(self)  #: address set, IF_Clear, power, version
+        self._moves = MoveSteps(self)  #: tele / wide / stop
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -123,7 +124,7 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
             self._thread = None
         if self._serial is not None:
             try:
-                self._stop_started_zoom()
+                self._moves.stop_started_zoom()
             finally:
                 self._serial.close()
                 self._serial = None
@@ -149,6 +150,17 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
             self._state.target_zoom = vp.zoom_raw_to_normalized(raw)
             self._state.move_pending = None  # the latest request wins
         self._wake.set()
+
+    def zoom_hold(self, direction: vc.ZoomDirection, speed: int | None = None) -> None:
+        """Zoom toward ``direction`` at variable speed ``speed`` (0..7; None: standard) until
+        :meth:`zoom_stop` or another request (sent once, not again while it holds)."""
+        if speed is not None and not 0 <= speed <= vc.MAX_ZOOM_SPEED:
+            raise ValueError(f"zoom speed must be 0..{vc.MAX_ZOOM_SPEED} or None, got {speed}")
+        self._moves.request((direction, speed))
+
+    def zoom_stop(self) -> None:
+        """Stop a held zoom (CAM_Zoom stop); retried until the camera takes it."""
+        self._moves.request(STOP)
 
     def latest(self) -> ZoomReading:
         """The latest zoom reading and link status."""
@@ -192,11 +204,11 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
         while not self._stop.is_set():
             try:
                 if not self._is_ready():
-                    if not self._initialise():
+                    if not self._startup.initialise():
                         self._idle(time.monotonic() + self.settings.retry_backoff_s)
                         continue
                     next_poll = 0.0
-                self._send_move_if_needed()
+                self._moves.send_if_needed()
                 self._send_zoom_if_needed()
                 if time.monotonic() >= next_poll:
                     next_poll = time.monotonic() + self.settings.poll_period_s
@@ -235,7 +247,7 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
 
         self.counters.zoom_commands += 1
         try:
-            ack = self._request(
+            ack = self._wire.request(
                 vp.encode_zoom_direct(address, target),
                 f"zoom direct to raw {target:#06x}",
                 lambda r: isinstance(r, vp.Ack) and r.address == address,
@@ -277,7 +289,7 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
         address = self.settings.address
         self.counters.polls += 1
         try:
-            self._request(
+            self._wire.request(
                 vp.encode_zoom_position_inquiry(address),
                 "zoom position inquiry",
                 lambda r: is_position_reply(r, address),
@@ -292,7 +304,7 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
         """Read and handle unsolicited replies (completions) until ``until`` or a new target."""
         self._wake.clear()
         while not self._stop.is_set() and time.monotonic() < until:
-            self._read_replies()
+            self._wire.read_replies()
             if self._wake.is_set():
                 return
 
@@ -346,7 +358,7 @@ class ViscaZoomClient(StartupSteps, MoveSteps, WireRequests):
                 self._serial = self._open_port()
             except UserError:
                 continue
-            self._splitter = vp.PacketSplitter()  # drop half a packet from before the failure
+            self._wire.drop_partial()
             self._clear_problem("port")
             return
 

@@ -1,6 +1,6 @@
 """Continuous zoom (tele / wide at a speed, stop) for the VISCA zoom client: the caller's
-requests and the device thread's sending (a part of
-:class:`~umbra.modules.calib.visca.client.ViscaZoomClient`)."""
+requests and the device thread's sending (a part that
+:class:`~umbra.modules.calib.visca.client.ViscaZoomClient` owns)."""
 
 from __future__ import annotations
 
@@ -15,53 +15,44 @@ from umbra.modules.calib.visca.client_types import LinkStatus, RequestFailedErro
 if TYPE_CHECKING:
     from umbra.modules.calib.visca.client import ViscaZoomClient
 
-    _Base = ViscaZoomClient
-else:
-    _Base = object
-
 
 Move = tuple[vc.ZoomDirection | None, int | None]
 """A continuous zoom: (direction, variable speed 0..7 or None for standard); (None, None) stops."""
 STOP: Move = (None, None)
 
 
-class MoveSteps(_Base):
-    """zoom_hold / zoom_stop and their sending."""
+class MoveSteps:
+    """Tele / wide / stop: the caller's request into the client's shared state, and its sending
+    through the client's wire by the device thread."""
 
-    def zoom_hold(self, direction: vc.ZoomDirection, speed: int | None = None) -> None:
-        """Zoom toward ``direction`` at variable speed ``speed`` (0..7; None: standard) until
-        :meth:`zoom_stop` or another request (sent once, not again while it holds)."""
-        if speed is not None and not 0 <= speed <= vc.MAX_ZOOM_SPEED:
-            raise ValueError(f"zoom speed must be 0..{vc.MAX_ZOOM_SPEED} or None, got {speed}")
-        self._request_move((direction, speed))
+    def __init__(self, client: ViscaZoomClient) -> None:
+        self._c = client
 
-    def zoom_stop(self) -> None:
-        """Stop a held zoom (CAM_Zoom stop); retried until the camera takes it."""
-        self._request_move(STOP)
-
-    def _request_move(self, move: Move) -> None:
-        with self._lock:
-            s = self._state
+    def request(self, move: Move) -> None:
+        """Store ``move`` as the latest request (it replaces a zoom target) and wake the thread;
+        the move already active and not superseded is not stored again."""
+        with self._c._lock:
+            s = self._c._state
             if s.move_pending is None and s.move_active == move and s.target_raw is None:
                 return
             s.move_pending = move
             s.target_raw = s.commanded_raw = None  # a later zoom_to is sent even if unchanged
             s.target_zoom = None
-        self._wake.set()
+        self._c._wake.set()
 
-    def _send_move_if_needed(self) -> None:
+    def send_if_needed(self) -> None:
         """Send the pending tele/wide/stop; a stop that fails is tried again (dead-man)."""
-        with self._lock:
-            move = self._state.move_pending
-            self._state.move_pending = None
+        with self._c._lock:
+            move = self._c._state.move_pending
+            self._c._state.move_pending = None
             if move is not None:  # taken: the same request again while it is sent is no news
-                self._state.move_active = move
+                self._c._state.move_active = move
                 if move != STOP:  # the camera may take it even if its ACK is lost
-                    self._state.lens_started = True
-            old_socket = self._state.inflight_socket
+                    self._c._state.lens_started = True
+            old_socket = self._c._state.inflight_socket
         if move is None:
             return
-        address = self.settings.address
+        address = self._c.settings.address
         direction, speed = move
         if direction is None:
             packet, what = vc.encode_zoom_stop(address), "zoom stop"
@@ -73,34 +64,34 @@ class MoveSteps(_Base):
             superseded = error.code in (vp.ErrorCode.CANCELLED, vp.ErrorCode.NO_SOCKET)
             return error.address == address and not (superseded and error.socket == old_socket)
 
-        self.counters.zoom_moves += 1
+        self._c.counters.zoom_moves += 1
         try:
-            self._request(
+            self._c._wire.request(
                 packet, what, lambda r: isinstance(r, vp.Ack) and r.address == address, ours
             )
         except RequestFailedError as failure:
-            self._set_problem("zoom", failure.link, failure.detail)
-            with self._lock:
-                if self._state.move_active == move:
-                    self._state.move_active = None
-                latest = self._state.move_pending is None and self._state.target_raw is None
+            self._c._set_problem("zoom", failure.link, failure.detail)
+            with self._c._lock:
+                if self._c._state.move_active == move:
+                    self._c._state.move_active = None
+                latest = self._c._state.move_pending is None and self._c._state.target_raw is None
                 if move == STOP and latest:
-                    self._state.move_pending = STOP
+                    self._c._state.move_pending = STOP
             return
         if move == STOP:
-            with self._lock:
-                self._state.lens_started = False
-        self._clear_problem("zoom")
+            with self._c._lock:
+                self._c._state.lens_started = False
+        self._c._clear_problem("zoom")
 
-    def _stop_started_zoom(self) -> None:
+    def stop_started_zoom(self) -> None:
         """At the client's stop (device thread ended, port open): send CAM_Zoom stop if a zoom
         this client started may still run; its failure is counted, never raised."""
-        with self._lock:
-            running = self._state.lens_started or self._state.inflight_socket is not None
+        with self._c._lock:
+            running = self._c._state.lens_started or self._c._state.inflight_socket is not None
         if not running:
             return
-        address = self.settings.address
-        self.counters.end_stops += 1
+        address = self._c.settings.address
+        self._c.counters.end_stops += 1
         acked: list[int] = []
 
         def ack_then_completion(reply: vp.Reply) -> bool:
@@ -121,7 +112,7 @@ class MoveSteps(_Base):
             )
 
         try:
-            self._request(
+            self._c._wire.request(
                 vc.encode_zoom_stop(address),
                 "zoom stop at the end",
                 ack_then_completion,
@@ -132,9 +123,9 @@ class MoveSteps(_Base):
             link = (
                 failure.link if isinstance(failure, RequestFailedError) else LinkStatus.PORT_ERROR
             )
-            self._set_problem("zoom", link, f"zoom stop at the end: {failure}")
-            self.counters.end_stop_failures += 1
+            self._c._set_problem("zoom", link, f"zoom stop at the end: {failure}")
+            self._c.counters.end_stop_failures += 1
             return
-        with self._lock:
-            self._state.lens_started = False
-            self._state.inflight_socket = None
+        with self._c._lock:
+            self._c._state.lens_started = False
+            self._c._state.inflight_socket = None

@@ -1,5 +1,6 @@
 """Requests on the VISCA line: send, wait for the answer among unsolicited replies, retry, and
-say what went wrong (a part of :class:`~umbra.modules.calib.visca.client.ViscaZoomClient`)."""
+say what went wrong (a part that :class:`~umbra.modules.calib.visca.client.ViscaZoomClient`
+owns)."""
 
 from __future__ import annotations
 
@@ -17,15 +18,22 @@ from umbra.modules.calib.visca.client_types import (
 if TYPE_CHECKING:
     from umbra.modules.calib.visca.client import ViscaZoomClient
 
-    _Base = ViscaZoomClient
-else:
-    _Base = object
 
+class WireRequests:
+    """Sending packets and reading replies, in the device thread: reads the client's settings,
+    stop event, port and shared state, counts in its counters and hands every reply to it;
+    keeps the packet splitter and the count of consecutive failed requests."""
 
-class WireRequests(_Base):
-    """Sending packets and reading replies, in the device thread."""
+    def __init__(self, client: ViscaZoomClient) -> None:
+        self._c = client
+        self._splitter = vp.PacketSplitter()
+        self._consecutive_failures = 0
 
-    def _request(
+    def drop_partial(self) -> None:
+        """Forget half a packet read before the port failed (a new splitter)."""
+        self._splitter = vp.PacketSplitter()
+
+    def request(
         self,
         packet: bytes,
         what: str,
@@ -39,19 +47,19 @@ class WireRequests(_Base):
         A ``stoppable`` request gives up as soon as the client is stopping; the last request of
         a stopping client (its zoom stop) is not stoppable.
         """
-        s = self.settings
-        stopping = self._stop if stoppable else threading.Event()
+        s = self._c.settings
+        stopping = self._c._stop if stoppable else threading.Event()
         tries = 1 + s.retries
         last: RequestFailedError | None = None
         for attempt in range(tries):
             if attempt:
-                self.counters.retries += 1
-            garbled_before = self._garbled_total()
-            self._write(packet)
+                self._c.counters.retries += 1
+            garbled_before = self.garbled_total()
+            self.write(packet)
             deadline = time.monotonic() + s.reply_timeout_s
             answer: vp.Reply | None = None
             while answer is None and time.monotonic() < deadline and not stopping.is_set():
-                for reply in self._read_replies():
+                for reply in self.read_replies():
                     if accept(reply):
                         answer = reply
                         break
@@ -62,7 +70,7 @@ class WireRequests(_Base):
                 self._consecutive_failures = 0
                 return answer
             if isinstance(answer, vp.ErrorReply):
-                self.counters.camera_errors += 1
+                self._c.counters.camera_errors += 1
                 last = RequestFailedError(
                     LinkStatus.CAMERA_ERROR,
                     f"camera answered {what} ({vp.hex_bytes(packet)}) with "
@@ -70,14 +78,14 @@ class WireRequests(_Base):
                 )
                 if answer.code is vp.ErrorCode.BUFFER_FULL:
                     stopping.wait(s.reply_timeout_s)
-            elif self._garbled_total() > garbled_before:
-                self.counters.timeouts += 1
+            elif self.garbled_total() > garbled_before:
+                self._c.counters.timeouts += 1
                 last = RequestFailedError(
                     LinkStatus.GARBLED,
                     f"unreadable reply to {what} ({vp.hex_bytes(packet)}) on {s.port}",
                 )
             else:
-                self.counters.timeouts += 1
+                self._c.counters.timeouts += 1
                 last = RequestFailedError(
                     LinkStatus.NO_REPLY,
                     f"no reply to {what} ({vp.hex_bytes(packet)}) on {s.port} "
@@ -90,33 +98,33 @@ class WireRequests(_Base):
         self._consecutive_failures += 1
         if self._consecutive_failures >= s.reinit_after_failures:
             self._consecutive_failures = 0
-            with self._lock:
-                self._state.ready = False
+            with self._c._lock:
+                self._c._state.ready = False
         raise last
 
-    def _write(self, packet: bytes) -> None:
-        assert self._serial is not None
-        self._serial.write(packet)
-        self.counters.packets_sent += 1
+    def write(self, packet: bytes) -> None:
+        assert self._c._serial is not None
+        self._c._serial.write(packet)
+        self._c.counters.packets_sent += 1
 
-    def _read_replies(self) -> list[vp.Reply]:
+    def read_replies(self) -> list[vp.Reply]:
         """Read what the port has (waiting at most one read slice), decode and handle it."""
-        assert self._serial is not None
-        data = self._serial.read(max(1, self._serial.in_waiting))
+        assert self._c._serial is not None
+        data = self._c._serial.read(max(1, self._c._serial.in_waiting))
         replies: list[vp.Reply] = []
         errors_before = self._splitter.errors
         packets = self._splitter.feed(data)
-        self.counters.garbled += self._splitter.errors - errors_before
+        self._c.counters.garbled += self._splitter.errors - errors_before
         for packet in packets:
             try:
                 reply = vp.decode_reply(packet)
             except vp.ViscaDecodeError:
-                self.counters.garbled += 1
+                self._c.counters.garbled += 1
                 continue
-            self.counters.replies += 1
-            self._handle(reply)
+            self._c.counters.replies += 1
+            self._c._handle(reply)
             replies.append(reply)
         return replies
 
-    def _garbled_total(self) -> int:
-        return self.counters.garbled
+    def garbled_total(self) -> int:
+        return self._c.counters.garbled
