@@ -101,7 +101,10 @@ class ModuleHarness:
         return self.clock.now()
 
     def start(self) -> ModuleHarness:
-        """Call the module's ``start``."""
+        """Call the module's ``start`` (once: ``with ModuleHarness(...)`` already has; a second
+        start would take what the module holds twice, a page server, a device)."""
+        if self.started:
+            raise RuntimeError(f"{self.module.name}: started twice (`with` starts the module)")
         self.module.start()
         self.started = True
         return self

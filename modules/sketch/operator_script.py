@@ -22,6 +22,8 @@ from umbra.modules.world.scene_objects import targets_from_objects
 _OWN = ("wait", "settle", "wait_vcr")
 #: Longest ``wait S`` step [s].
 MAX_WAIT_S = 3600.0
+#: Snapshots refused right after ``settle`` that the script settles again for and retakes.
+SNAPSHOT_RETRIES = 3
 
 
 def script_step_problem(step: str) -> str:
@@ -123,6 +125,8 @@ class SketchOperatorSim(Module["SketchOperatorSim.Params"]):
         self._halted_since: float | None = None
         self._direction = "play"
         self._resumes = 0
+        self._sent: int | None = None  # the script step whose command awaits Sketch's reply
+        self._snapshot_retries = 0
         if self.context.attended:
             self.log.info("attended run: the scripted operator stays off (a person sketches)")
 
@@ -135,6 +139,9 @@ class SketchOperatorSim(Module["SketchOperatorSim.Params"]):
                 return
             self._waiting_reply = False
             if reply.stage == "refused":
+                if self._settle_again():
+                    self.log.info("sketch refused the snapshot (%s): settling again", reply.message)
+                    return
                 self.context.request_stop(f"operator script: refused: {reply.message}", 1)
                 return
             self.log.info("sketch: %s", reply.message)
@@ -178,7 +185,22 @@ class SketchOperatorSim(Module["SketchOperatorSim.Params"]):
                 self._direction = "back" if words[1] == "back" else "play"
             self.command.send(Text(text=text))
             self._waiting_reply = True
+            self._sent = self._index
         self._index += 1
+
+    def _settle_again(self) -> bool:
+        """What a person does when a snapshot right after ``settle`` is refused (a camera moved
+        again: a PTU re-aims while its zoom camera still zooms): wait for the cameras to settle
+        and take it again, at most ``SNAPSHOT_RETRIES`` times; False for any other refusal."""
+        sent = self._sent
+        script = self.params.script
+        if sent is None or sent == 0 or script[sent].split()[0] != "snapshot":
+            return False
+        if script[sent - 1].split()[0] != "settle" or self._snapshot_retries >= SNAPSHOT_RETRIES:
+            return False
+        self._snapshot_retries += 1
+        self._index = sent - 1
+        return True
 
     def _resume_after_halt(self, reason: str, now: float) -> None:
         """What an operator does when the player halts (guard stop, stale state): wait, then

@@ -170,7 +170,6 @@ def test_a_retune_that_fails_is_rolled_back_and_the_run_goes_on(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     with ModuleHarness(_Fragile, {}, name="frag") as h:
-        h.start()
         tuner = Tuner({"frag": h.module}, logging.getLogger("test.tuning"))
         assert tuner.request("frag", "gain", 9.0, "viewer #1") == ""
         with caplog.at_level(logging.ERROR, "test.tuning"):

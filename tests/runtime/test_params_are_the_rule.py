@@ -75,8 +75,8 @@ def param_problems(type_name: str, params: dict[str, object]) -> list[str]:
 def test_the_base_settings_pass_check_and_start(type_name: str) -> None:
     base = BASE.get(type_name, {})
     assert param_problems(type_name, base) == []
-    with ModuleHarness(type_name, base, frames=_harness_frames()) as h:
-        h.start()
+    with ModuleHarness(type_name, base, frames=_harness_frames()):
+        pass  # entering starts the module, leaving stops it
 
 
 #: Every declared parameter of every registered type.
@@ -112,8 +112,10 @@ def test_what_the_model_accepts_starts_and_what_it_refuses_check_refuses(
             assert problems, f"check took {name}={value!r}, which the model refuses"
             return
         seen["accepted"] += 1
-        with ModuleHarness(cls, params, frames=_harness_frames()) as h:
-            h.start()  # raises (and fails the test) if start judges the value again
+        # entering starts the module (and raises, failing the test, if start judges the value
+        # again); leaving stops it and gives back what it held (a page server, a device)
+        with ModuleHarness(cls, params, frames=_harness_frames()):
+            pass
 
     prove()
     assert seen["accepted"] + seen["refused"] > 0
