@@ -11,6 +11,7 @@ from pydantic import field_validator, model_validator
 
 from umbra.connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
 from umbra.connectors.access.secret import resolve_token
+from umbra.connectors.limits import MIN_RATE_HZ
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
 from umbra.connectors.params import RunFile
 from umbra.connectors.scene_messages import SceneObjects
@@ -37,7 +38,11 @@ class View3DParams(ArmParams):
     )
     world_frame: str = param("base", "the view's reference frame (z up)")
     max_fps: float = param(
-        10.0, "most scene updates (video frames) sent per second", unit="Hz", gt=0, le=60
+        10.0,
+        "most scene updates (video frames) sent per second",
+        unit="Hz",
+        ge=MIN_RATE_HZ,  # the scheduler's slowest rate: below it a wait overflows the OS's time
+        le=60,
     )
     video_width: int = param(
         320, "video is scaled down to this width for the page", unit="px", ge=32, le=1920

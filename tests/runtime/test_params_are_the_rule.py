@@ -24,6 +24,10 @@ from .param_draws import draws, yaml_value
 REGISTRY = Registry()
 TYPES = sorted(REGISTRY.names())
 
+#: A module thread that dies on a value the model took is a failure too (View3D's pusher did, on
+#: a max_fps of 1e-300: its wait overflowed the OS's time).
+pytestmark = pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
+
 #: Settings each type runs with in the test (its simulation, no fixed port, no page).
 BASE: dict[str, dict[str, object]] = {
     "OperatorConsole": {"serve": False},
