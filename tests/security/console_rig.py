@@ -42,7 +42,7 @@ class Rig(threading.Thread):
                 outs = self.h.outputs("operator")
             now = time.monotonic()
             for out in outs[seen:]:
-                self.sent_at.append((out.text, now))
+                self.sent_at.append((str(out.action), now))  # a GrabCommand
             seen = len(outs)
             next_tick += 0.01
             time.sleep(max(0.0, next_tick - time.monotonic()))
@@ -72,8 +72,8 @@ class Rig(threading.Thread):
         end = t0 + 5.0
         while time.monotonic() < end:
             if len(self.sent_at) > before:
-                text, at = self.sent_at[before]
-                assert text == "abort"
+                action, at = self.sent_at[before]
+                assert action == "abort"
                 return at - t0
             time.sleep(0.001)
         raise AssertionError("the abort did not land within 5 s")
