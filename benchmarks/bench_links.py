@@ -71,7 +71,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(REPO))
 
-from benchmarks.common import write_results  # noqa: E402
+from benchmarks.common import plugin_env, write_results  # noqa: E402
 from umbra.connectors import Input, Module, Output, Parameters, param  # noqa: E402
 from umbra.connectors.messages import Image, Twist  # noqa: E402
 from umbra.runtime.realtime import CpuLatencyHold  # noqa: E402
@@ -211,13 +211,8 @@ connections:
 
 
 def _plugin_env(tmp: Path) -> dict[str, str]:
-    dist = tmp / "umbra_bench_links-0.1.dist-info"
-    dist.mkdir(exist_ok=True)
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: umbra-bench-links\nVersion: 0.1\n")
-    lines = "".join(f"{k} = {v}\n" for k, v in ENTRY_POINTS.items())
-    (dist / "entry_points.txt").write_text(f"[umbra.modules]\n{lines}")
-    path = os.pathsep.join([str(tmp), str(HERE), str(REPO), os.environ.get("PYTHONPATH", "")])
-    return dict(os.environ, PYTHONPATH=path.rstrip(os.pathsep))
+    """The environment of ``umbra run`` with this file's modules registered (an entry point)."""
+    return plugin_env(tmp, "bench-links", ENTRY_POINTS)
 
 
 def _umbra(tmp: Path, graph: str, name: str, *extra: str) -> Path:

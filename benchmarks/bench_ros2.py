@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -41,6 +40,7 @@ from benchmarks.common import (  # noqa: E402
     SIM_ARM_SMART,
     SIM_ARM_SMART_WIRES,
     percentiles,
+    plugin_env,
     table,
     write_results,
 )
@@ -140,13 +140,7 @@ ros2:
 
 def _plugin_env(tmp: Path) -> dict[str, str]:
     """The environment of ``umbra run`` with this file's modules registered (an entry point)."""
-    dist = tmp / "umbra_bench_ros2-0.1.dist-info"
-    dist.mkdir(exist_ok=True)
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: umbra-bench-ros2\nVersion: 0.1\n")
-    lines = "".join(f"{k} = {v}\n" for k, v in ENTRY_POINTS.items())
-    (dist / "entry_points.txt").write_text(f"[umbra.modules]\n{lines}")
-    path = os.pathsep.join([str(tmp), str(HERE), str(REPO), os.environ.get("PYTHONPATH", "")])
-    return dict(os.environ, PYTHONPATH=path.rstrip(os.pathsep))
+    return plugin_env(tmp, "bench-ros2", ENTRY_POINTS)
 
 
 def _run(tmp: Path, graph: str, name: str, seconds: float, *extra: str) -> Path:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import subprocess
 import threading
@@ -13,6 +14,21 @@ from typing import Any
 import numpy as np
 
 RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def plugin_env(tmp: Path, name: str, entry_points: dict[str, str]) -> dict[str, str]:
+    """The environment of an ``umbra`` child process that sees ``entry_points`` (module type ->
+    ``module:Class``) registered as a third-party package registers them (a dist-info named
+    ``name`` in ``tmp``), with the benchmarks' folder and the repository importable."""
+    dist = tmp / f"umbra_{name.replace('-', '_')}-0.1.dist-info"
+    dist.mkdir(exist_ok=True)
+    (dist / "METADATA").write_text(f"Metadata-Version: 2.1\nName: umbra-{name}\nVersion: 0.1\n")
+    lines = "".join(f"{k} = {v}\n" for k, v in entry_points.items())
+    (dist / "entry_points.txt").write_text(f"[umbra.modules]\n{lines}")
+    here = Path(__file__).resolve().parent
+    folders = [str(tmp), str(here), str(here.parent), os.environ.get("PYTHONPATH", "")]
+    path = os.pathsep.join(folders)
+    return dict(os.environ, PYTHONPATH=path.rstrip(os.pathsep))
 
 
 def percentiles(values: Any, qs: tuple[float, ...] = (50, 99)) -> dict[str, float]:
