@@ -44,6 +44,13 @@ class SimCameraSide:
             side=p.fault_side,
             rgb=(int(p.fault_rgb[0]), int(p.fault_rgb[1]), int(p.fault_rgb[2])),
         )
+        #: the model made of the parameters, once (they are not tunable)
+        self._params_model = CameraModel(
+            fx=p.fx, fy=p.fy, skew=p.skew, u0=p.u0, v0=p.v0,
+            dist=np.array([*p.dist, 0.0][:5], dtype=float),
+            width=p.width or 640, height=p.height or 480,
+            mount=p.camera_frame, frame=p.camera_frame,
+        )  # fmt: skip
         self._first_step_at: float | None = None
         self.fault_started_at: float | None = None  #: when the fault began [s] (None: not yet)
         self._frozen: np.ndarray | None = None
@@ -71,15 +78,9 @@ class SimCameraSide:
         else one made of the parameters (its mount: the camera itself, as its pose in the tool is
         the graph's static frames' or the pose input's, not this model's)."""
         model: CameraModel | None = self._c.camera_model.value
-        if model is not None:
-            return msgspec.structs.replace(model, stamp=captured, origin=captured)
-        p = self._c.params
-        return CameraModel(
-            fx=p.fx, fy=p.fy, skew=p.skew, u0=p.u0, v0=p.v0,
-            dist=np.array([*p.dist, 0.0][:5], dtype=float),
-            width=p.width or 640, height=p.height or 480,
-            mount=p.camera_frame, frame=p.camera_frame, stamp=captured, origin=captured,
-        )  # fmt: skip
+        return msgspec.structs.replace(
+            model if model is not None else self._params_model, stamp=captured, origin=captured
+        )
 
     def _patch_pose(self) -> np.ndarray:
         sample = self._c.patch_pose.value

@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 import websockets.sync.client as ws_client
 
-from tests.live.graphs import small_plan
+from tests.live.graphs import TOKEN, small_viewer_server
 from tests.live.helpers import REPO, LiveRun
 from tests.live.ports import viewer_gets
 from umbra.connectors.access.door import Connections, Refusals
@@ -33,11 +33,9 @@ from umbra.connectors.limits import (
     MAX_PAGE_REQUEST_S,
 )
 from umbra.connectors.messages import Scalar
-from umbra.runtime.live.parameters import ParameterTable
 from umbra.runtime.live.server import LiveServer
 from umbra.runtime.live.viewer_server import ViewerServer
 
-TOKEN = "t0ken-of-this-run-0123456789"
 TOPIC = "/servo/error"
 #: Descriptors a flood may make the live server hold beyond its admitted connections: none (a
 #: refused one is closed before the next is accepted), and a few of the process's own that come
@@ -48,15 +46,7 @@ SLACK_FDS = 16
 @contextlib.contextmanager
 def _served(connections: Connections | None = None) -> Iterator[ViewerServer]:
     """A live server with one channel fed at 100 Hz (as a run's ticks would)."""
-    door = ViewerServer(
-        name="test",
-        host="127.0.0.1",
-        port=0,
-        token=TOKEN,
-        origins=[],
-        parameters=ParameterTable(small_plan()),
-        connections=connections,
-    )
+    door = small_viewer_server(connections)
     server = LiveServer(socket=door, clock_offset=0.0)
     server.declare(TOPIC, Scalar)
     stop = threading.Event()

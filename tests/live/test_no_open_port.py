@@ -13,15 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from tests.live.graphs import small_plan
+from tests.live.graphs import TOKEN, small_viewer_server
 from tests.live.helpers import REPO, LiveRun, wait_joined
 from tests.live.ports import descendants, listening_ports, viewer_gets
 from umbra.connectors.messages import Scalar
-from umbra.runtime.live.parameters import ParameterTable
 from umbra.runtime.live.server import LiveServer
 from umbra.runtime.live.viewer_server import ViewerServer
-
-TOKEN = "t0ken-of-this-run-0123456789"
 
 
 @pytest.fixture
@@ -29,14 +26,7 @@ def served() -> Iterator[tuple[ViewerServer, set[int]]]:
     """A live server publishing a scalar at 50 Hz; the ports this process listens on that it
     added."""
     before = listening_ports(os.getpid())
-    door = ViewerServer(
-        name="test",
-        host="127.0.0.1",
-        port=0,
-        token=TOKEN,
-        origins=[],
-        parameters=ParameterTable(small_plan()),
-    )
+    door = small_viewer_server()
     server = LiveServer(socket=door, clock_offset=0.0)
     server.declare("/servo/error", Scalar)
     added = listening_ports(os.getpid()) - before
@@ -105,14 +95,7 @@ def test_a_viewer_that_stops_reading_gets_fresh_data_when_it_reads_again() -> No
 
     import websockets.sync.client as ws_client
 
-    door = ViewerServer(
-        name="test",
-        host="127.0.0.1",
-        port=0,
-        token=TOKEN,
-        origins=[],
-        parameters=ParameterTable(small_plan()),
-    )
+    door = small_viewer_server()
     channel = door.add_channel("/camera/image", "protobuf", "x.Image", "protobuf", b"")
     rare = door.add_channel("/tf_static", "protobuf", "x.Frames", "protobuf", b"")
     stop = threading.Event()
