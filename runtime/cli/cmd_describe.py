@@ -6,8 +6,6 @@ import argparse
 import inspect
 from typing import TYPE_CHECKING, Any
 
-from umbra.connectors.params import describe_params, is_safety, is_tunable
-
 if TYPE_CHECKING:
     from umbra.connectors.module import Module
 
@@ -49,6 +47,8 @@ def describe(cls: type[Module[Any]]) -> str:
                 flags.append("optional")
             extra = f" [{', '.join(flags)}]" if flags else ""
             lines.append(f"  {name}: {d.msg_type.__name__}{extra}  {d.doc}")
+    from umbra.connectors.params import describe_params  # `umbra --help` loads this file
+
     lines += ["", "parameters:"]
     params = describe_params(cls.Params)
     if not params:
@@ -65,6 +65,8 @@ def describe(cls: type[Module[Any]]) -> str:
 
 def _marks(cls: type[Module[Any]], name: str) -> dict[str, bool]:
     """``tunable``: may be changed while the graph runs; ``safety``: bounds what reaches the arm."""
+    from umbra.connectors.params import is_safety, is_tunable
+
     return {"tunable": is_tunable(cls.Params, name), "safety": is_safety(cls.Params, name)}
 
 

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
+import statistics
 import sys
 import threading
 import time
 from collections import deque
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.observing import (
@@ -66,7 +66,7 @@ def main(args: argparse.Namespace) -> int:
         while args.duration is None or time.monotonic() - start < args.duration:
             time.sleep(1.0 if args.duration is None else min(1.0, args.duration))
             with lock:
-                times, new = np.array(arrivals), fresh[0]
+                times, new = list(arrivals), fresh[0]
                 fresh[0] = 0
             print(_line(key, times) if new else f"{key}: no new samples", flush=True)
             if ended.is_set():
@@ -80,14 +80,15 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def _line(key: str, times: np.ndarray) -> str:
-    """``average rate: R Hz`` with the periods' min, max and standard deviation [s]."""
+def _line(key: str, times: list[float]) -> str:
+    """``average rate: R Hz`` with the periods' min, max and (population) standard deviation
+    [s], from the arrival times ``times`` [s]."""
     if len(times) < 2:
         return f"{key}: one sample so far"
-    periods = np.diff(times)
-    rate = 1.0 / periods.mean()
+    periods = [b - a for a, b in itertools.pairwise(times)]
+    rate = 1.0 / statistics.fmean(periods)
     return (
         f"{key}: average rate: {rate:.3f} Hz\n"
-        f"\tmin: {periods.min():.4f} s max: {periods.max():.4f} s "
-        f"std dev: {periods.std():.5f} s window: {len(times)}"
+        f"\tmin: {min(periods):.4f} s max: {max(periods):.4f} s "
+        f"std dev: {statistics.pstdev(periods):.5f} s window: {len(times)}"
     )

@@ -7,8 +7,10 @@ Exit status: 0 success, 1 the run failed, 2 bad input (graph, parameters, files,
 from __future__ import annotations
 
 import argparse
+import ast
 import atexit
 import importlib
+import importlib.util
 import logging
 import os
 import re
@@ -91,18 +93,63 @@ def _load_command(name: str) -> ModuleType | None:
     return cmd if getattr(cmd, "NAME", None) == name else None
 
 
+def _command_modules() -> list[str]:
+    """The import names of every command's module: the runtime's, then the plug-ins' by name."""
+    plugins = sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name)
+    return [f"umbra.runtime.cli.{name}" for name in COMMANDS] + [ep.module for ep in plugins]
+
+
+def _declared_face(module: str) -> tuple[str, str] | None:
+    """``(NAME, HELP)`` as the command module ``module`` declares them, read from its source
+    without running it (``umbra --help`` lists every command and needs nothing else of them);
+    None when the source is not at hand or does not declare both as plain strings."""
+    try:
+        spec = importlib.util.find_spec(module)
+        loader = spec.loader if spec else None
+        source = loader.get_source(module) if loader and hasattr(loader, "get_source") else None
+        tree = ast.parse(source) if source else None
+    except (ImportError, SyntaxError, ValueError):
+        return None
+    found: dict[str, str] = {}
+    for node in tree.body if tree else ():
+        if isinstance(node, ast.Assign) and len(node.targets) == 1:
+            target = node.targets[0]
+            if isinstance(target, ast.Name) and target.id in ("NAME", "HELP"):
+                value = node.value
+                if isinstance(value, ast.Constant) and isinstance(value.value, str):
+                    found[target.id] = value.value
+    return (found["NAME"], found["HELP"]) if len(found) == 2 else None
+
+
+def _listing_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser | None:
+    """``parser`` with one entry per command, named and described from the commands' declared
+    faces (:func:`_declared_face`) and configured no further: what ``umbra --help`` prints.
+    None when a command's face cannot be read so (a plug-in that builds its ``HELP``); the
+    caller then loads every command."""
+    faces = [_declared_face(module) for module in _command_modules()]
+    if any(face is None for face in faces):
+        return None
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name, help_text in (face for face in faces if face is not None):
+        sub.add_parser(name, help=help_text)
+    return parser
+
+
 def _command_word(argv: Sequence[str]) -> str | None:
     """The command ``argv`` starts with; None when it starts with an option (``--help``)."""
     return argv[0] if argv and not argv[0].startswith("-") else None
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The ``umbra`` parser: with ``command``, only that command's sub-parser when it is one."""
+def build_parser(command: str | None = None, listing: bool = False) -> argparse.ArgumentParser:
+    """The ``umbra`` parser: with ``command``, only that command's sub-parser when it is one;
+    with ``listing`` (``umbra --help``), every command named and described, none configured."""
     parser = _Parser(
         prog="umbra",
         description="Dataflow connector framework for vision-guided robots (Umbra/SMART).",
         epilog=f"guide: {GUIDE} (each command's --help names its page)",
     )
+    if listing and command is None and _listing_parser(parser) is not None:
+        return parser
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for cmd in _load_commands(command):
         guide = getattr(cmd, "GUIDE", None)  # a plug-in's command may have no page of ours
@@ -113,8 +160,14 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _asks_listing(argv: Sequence[str]) -> bool:
+    """Whether ``argv`` asks only for the list of commands (``umbra``, ``umbra --help``)."""
+    return all(word in ("-h", "--help") for word in argv)
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser(_command_word(sys.argv[1:] if argv is None else argv))
+    words = sys.argv[1:] if argv is None else argv
+    parser = build_parser(_command_word(words), listing=_asks_listing(words))
     args = parser.parse_args(argv)
     if not getattr(args, "_main", None):
         parser.print_help(sys.stderr)

@@ -9,12 +9,11 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 import msgspec
-import numpy as np
 
 from umbra.connectors.errors import UserError
-from umbra.connectors.messages import Message
 
-if TYPE_CHECKING:  # imported where used: `umbra --help` loads this file without it
+if TYPE_CHECKING:  # imported where used: `umbra --help` loads this file without them
+    from umbra.connectors.messages import Message
     from umbra.runtime.links.observe import Observation
 
 #: Arrays with more elements than this are summarised (dtype, shape, range) when printed.
@@ -118,6 +117,8 @@ def full_key(observation: Observation, key: str) -> str:
 
 def _plain(value: Any) -> Any:
     """``value`` as JSON-ready data: big arrays summarised, non-finite floats as strings."""
+    import numpy as np  # loaded by the messages it is given; `umbra --help` loads this file
+
     if isinstance(value, np.ndarray):
         if value.size <= MAX_LISTED:
             return _plain(value.tolist())

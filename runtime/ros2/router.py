@@ -15,11 +15,10 @@ import json
 
 import zenoh
 
+from umbra.runtime.graph.spec_ros2 import DEFAULT_ROS2_ROUTER as DEFAULT_ROUTER
 from umbra.runtime.links.config import Endpoints, build_config, check_endpoint, read_user_config
 from umbra.runtime.links.session import open_session
 
-#: The endpoint rmw_zenoh's nodes connect to by default (``rmw_zenohd`` listens there).
-DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 #: Zenoh modes our end of the ROS 2 side may take.
 MODES = ("client", "peer")
 

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.errors import UserError
 from umbra.runtime.graph.names import endpoint_problem
+from umbra.runtime.graph.spec_ros2 import DEFAULT_ROS2_ROUTER
 
 if TYPE_CHECKING:  # imported where used: `umbra --help` loads this file without them
     from umbra.runtime.graph.plan import GraphPlan
@@ -48,8 +49,8 @@ def add_ros2_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--ros2-router",
         metavar="ENDPOINT",
-        help="the ROS 2 zenoh router (default: the section's `router`, else tcp/127.0.0.1:7447, "
-        "where rmw_zenohd listens); implies --ros2",
+        help=f"the ROS 2 zenoh router (default: the section's `router`, else "
+        f"{DEFAULT_ROS2_ROUTER}, where rmw_zenohd listens); implies --ros2",
     )
     parser.add_argument(
         "--ros2-config",

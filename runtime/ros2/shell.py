@@ -19,12 +19,11 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.errors import UserError
-from umbra.runtime.cli.observing import _plain
 from umbra.runtime.graph.names import endpoint_problem
+from umbra.runtime.graph.spec_ros2 import DEFAULT_ROS2_ROUTER as DEFAULT_ROUTER
 from umbra.runtime.ros2.attachment import Attachment
 from umbra.runtime.ros2.keys import EntityKind, data_key
 from umbra.runtime.ros2.names import topic_name_problem
-from umbra.runtime.ros2.router import DEFAULT_ROUTER, session_config
 from umbra.runtime.ros2.run_args import router_answers
 
 if TYPE_CHECKING:  # imported where used: `umbra --help` loads this file without them
@@ -52,6 +51,7 @@ def _open(args: argparse.Namespace) -> tuple[zenoh.Session, int, str]:
     """A client session of the ROS 2 router the options name, the domain and the router."""
     from umbra.runtime.links.session import open_session
     from umbra.runtime.ros2.bridge import MAX_DOMAIN
+    from umbra.runtime.ros2.router import session_config
 
     domain = getattr(args, "ros2_domain", None)
     domain = 0 if domain is None else domain
@@ -106,6 +106,8 @@ def print_topics(domain: int, router: str, topics: list[Ros2Topic], as_json: boo
 
 def message_dict(msg: Any) -> dict[str, Any]:
     """A rosbags message as JSON-ready fields (big arrays summarised as ``umbra echo`` does)."""
+    from umbra.runtime.cli.observing import _plain
+
     return {k: _plain(v) for k, v in dataclasses.asdict(msg).items()}
 
 

@@ -108,6 +108,28 @@ def test_help_on_every_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert proc.returncode == 0 and all(cmd.NAME in proc.stdout for cmd in _load_commands())
 
 
+def test_the_listing_is_what_the_loaded_commands_declare(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``umbra --help`` (commands' NAME and HELP read from their source) prints exactly what the
+    parser built from every loaded command prints; a module whose HELP is built when it runs is
+    not read (the listing then loads every command)."""
+    from umbra.runtime.cli.main import _declared_face, _load_commands, build_parser
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--help"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out == build_parser(None).format_help()  # all loaded, configured
+    for cmd in _load_commands():
+        assert _declared_face(cmd.__name__) == (cmd.NAME, cmd.HELP), cmd.__name__
+    (tmp_path / "built_help_cmd.py").write_text("NAME = 'x'\nHELP = 'a ' + 'sum'\n")
+    (tmp_path / "plain_help_cmd.py").write_text("NAME = 'x'\nHELP = 'a' ' sum'\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert _declared_face("built_help_cmd") is None
+    assert _declared_face("plain_help_cmd") == ("x", "a sum")
+    assert _declared_face("umbra.runtime.cli.no_such_command") is None
+
+
 def test_failed_run_exits_1(tmp_path: Path) -> None:
     graph = tmp_path / "bad.yaml"
     graph.write_text(
