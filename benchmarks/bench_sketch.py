@@ -9,11 +9,13 @@ retrace and transition figures against a step-velocity VCR (the same-run baselin
 Snapshots are taken without rendering (the handles come from the true features projected through
 the snapshot's camera models, plus the person's errors); rendering is measured by the tests.
 
-A primitive with a warning (``modules/sketch/depth_check.py``), heeded by pan: placed again on
-a snapshot from another pan (the cameras aimed 0.15 m beside it); still flagged, it is refused
-(not played). Heeded by features: its vertices are put on features that cross the epipolar
-lines (the pipe's visible ends) and played; vertices already at features (corners, ends) are
-played as placed. Not heeded: every primitive is played as placed.
+A primitive with a warning (``modules/sketch/depth_check.py``), re-placed from another pan: placed
+again on a snapshot from another pan (the cameras aimed 0.15 m beside it); still flagged, it is
+refused (not played). This row measures advice the warning does not give: a pan turns each
+camera about its own centre and leaves the epipolar lines where they were. Heeded by features:
+its vertices are put on features that cross the epipolar lines (the pipe's visible ends) and
+played; vertices already at features (corners, ends) are played as placed. Not heeded: every
+primitive is played as placed.
 """
 
 from __future__ import annotations
@@ -373,8 +375,8 @@ def main() -> None:
     print(
         f"\nSuccess per macro over {n} randomized scenes, a person dragging the handles "
         f"({Person.ACROSS_PX} px across an edge, {Person.ALONG_FRACTION:.0%} of a featureless "
-        "edge along it). Heeded by pan: a flagged primitive re-placed from another pan, else "
-        "refused; by features: re-placed on features across the epipolar lines"
+        "edge along it). Re-placed from another pan (not advised): a flagged primitive placed "
+        "again, else refused; by features: re-placed on features across the epipolar lines"
     )
     head = ["macro", "succeeded", "warned", "missed warned", "missed unwarned"]
     for heed in ("pan", "features"):

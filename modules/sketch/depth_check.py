@@ -37,11 +37,14 @@ FloatArray = NDArray[np.float64]
 #: a vertex whose image-b edges all run within this angle of its epipolar line is flagged (deg)
 WARN_ANGLE_DEG = 20.0
 
-#: what the operator can do about a flagged primitive (said in every warning)
+#: what the operator can do about a flagged primitive (said in every warning). Another pan of
+#: the same two cameras is not offered: each camera turns about (nearly) its own centre, the
+#: baseline stays, and so do the epipolar lines (``bench_sketch.py``'s "re-placed from another
+#: pan" row: no flagged primitive of a macro stopped being flagged)
 REMEDY = (
     "place its vertices on features that cross the epipolar lines (an end, a joint, a mark), "
-    "take another snapshot from another pan, or check it in the live wrist view before the "
-    "arm moves"
+    "or check it in the live wrist view before the arm moves; another pan of the same cameras "
+    "does not help (the epipolar lines stay where they are)"
 )
 
 
