@@ -3,18 +3,24 @@
 7. *Cost at the same accuracy*: ``solve_npnp`` (several starts, rival check, covariance) against
    a plain bundle: ``cv2.solvePnP`` SQPnP on the view with the most points, refined over every
    view by ``scipy.optimize.least_squares`` (Levenberg-Marquardt) on the reprojection; time per
-   call (fastest of 3) and rotation error, on one view of 10 points, on four cameras of 4
-   points, and on one view of 4 coplanar points.
+   call (fastest of 3) and rotation error, on 1, 2 and 4 cameras: non-planar (one view of 10
+   points; 4 points per camera) and planar (one target of 4 coplanar points seen by every
+   camera).
 8. *Planar targets*: 4 to 6 coplanar points at 0.3-4 m, 0.2-2 px noise; how often each method
    ends at the global minimum (the least cost of both and of Gauss-Newton from 40 random
    rotations), and for nPnP how often it names the rival where it does not.
 9. *Stated errors*: the share of 95 % intervals that hold the truth over fresh 0.3 px noise on a
    60-point rig, for ``calibrate`` (every parameter) and for ``cv2.calibrateCameraExtended``'s
    standard deviations of the intrinsics (its intervals ±1.96 sigma).
+
+Sections 7 and 8 alone (printed, no results file written)::
+
+    python -m benchmarks.calib_bundle [--trials 300] [--scenes 600]
 """
 
 from __future__ import annotations
 
+import argparse
 import time
 
 import cv2
@@ -69,11 +75,18 @@ def _single_scene(rng, camera):
     return [View(camera, points, camera.project(points @ R.T + d) + rng.normal(0, 0.5, (10, 2)))], R
 
 
-def _ring_scene(rng, cameras):
+def _ring_scene(rng, cameras, planar: bool = False):
+    """Cameras on a ring about a target posed within 0.5 rad and 10 cm of the origin, 1 px
+    noise: non-planar, 4 points of a 30 cm cube per camera; planar, one 4-point target (a
+    15-30 cm square, corners jittered in its plane) seen by every camera."""
     R, d = random_pose(rng, angle=0.5, offset=0.1)
+    if planar:
+        side = rng.uniform(0.15, 0.3)
+        square = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * side / 2
+        target = np.column_stack([square + rng.normal(0, 0.1 * side, (4, 2)), np.zeros(4)])
     views = []
     for camera in cameras:
-        points = rng.uniform(-0.15, 0.15, (4, 3))
+        points = target if planar else rng.uniform(-0.15, 0.15, (4, 3))
         pixels = camera.project(points @ R.T + d) + rng.normal(0, 1.0, (4, 2))
         views.append(View(camera, points, pixels))
     return views, R
@@ -98,11 +111,14 @@ def planar_scene(rng, camera, points: int = 4):
 def bench_bundle(trials: int, seed: int) -> dict:
     rng = np.random.default_rng(seed)
     camera = PinholeCamera(TYPICAL_INTRINSICS, np.eye(3), np.zeros(3))
-    cameras = ring_of_cameras(4, 2.0, spread=0.8)
+    two, four = ring_of_cameras(2, 2.0, spread=0.4), ring_of_cameras(4, 2.0, spread=0.8)
     scenes = {
         "1 view, 10 points": lambda: _single_scene(rng, camera),
-        "4 cameras, 4 points each": lambda: _ring_scene(rng, cameras),
+        "2 cameras, 4 points each": lambda: _ring_scene(rng, two),
+        "4 cameras, 4 points each": lambda: _ring_scene(rng, four),
         "1 view, 4 coplanar points": lambda: planar_scene(rng, camera),
+        "2 cameras, 4-point planar target": lambda: _ring_scene(rng, two, planar=True),
+        "4 cameras, 4-point planar target": lambda: _ring_scene(rng, four, planar=True),
     }
     out, rows = {}, []
     for name, make in scenes.items():
@@ -223,3 +239,17 @@ def bench_coverage(trials: int, seed: int) -> dict:
     )
     print(table(rows, ["parameter", "ours (calib fit)", "cv2.calibrateCameraExtended"]))
     return {"trials": trials, "ours_pct": ours_pct, "cv2_pct": theirs_pct}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description="nPnP against a plain bundle; planar targets")
+    parser.add_argument("--trials", type=int, default=300, help="poses per scene of section 7")
+    parser.add_argument("--scenes", type=int, default=600, help="planar scenes of section 8")
+    args = parser.parse_args()
+    bench_bundle(args.trials, seed=6)
+    bench_planar(args.scenes, seed=7)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -21,13 +21,16 @@ than one centre), projected onto the rotations.
 Several starts, one answer: Gauss-Newton finds the minimum nearest its start, and a pose problem
 has others (a PnP case a few degrees from the truth and one 100 degrees away can both be
 minima; a planar target seen from afar has two, mirror images of each other about the line of
-sight). :func:`solve_npnp` runs from the given start and from global ones (SQPnP and EPnP on
-every view with four points or more, OpenCV's iterative PnP where SQPnP fails; on a view whose
-points are coplanar, both of IPPE's poses, one for each of the two planar minima; the linear
-generalized-camera solution, which needs points off one plane) and keeps the lowest cost. A start
-within ``SAME_BASIN_DEG`` of a minimum already found or of a start already run would end there
-and is not run (the cost of the extra starts is paid only where they lead somewhere new), nor is
-one other than the caller's that puts a point behind a camera.
+sight). :func:`solve_npnp` runs from the given start and from global ones (on every view with
+four points or more, SQPnP, or OpenCV's iterative PnP where SQPnP fails, and beside it EPnP on a
+view whose points are off one plane, both of IPPE's poses on one whose points are coplanar, one
+for each of the two planar minima; the linear generalized-camera solution, which needs points
+off one plane) and keeps the lowest cost. The given start runs first, the others from the
+lowest reprojection cost up, so the first runs most often reach the best minimum. The cost of
+the extra starts is paid only where they lead somewhere new: a start within ``SAME_BASIN_DEG``
+of a minimum already found or of a start already run would end there and is not run, a run
+other than the caller's stops as soon as an iterate comes that near a minimum already found,
+and a start other than the caller's that puts a point behind a camera is not run.
 ``PoseResult.warnings`` says when the given start led elsewhere (a bad start), when another
 minimum fits the clicks about as well (geometry that does not decide), and, given the click
 noise ``pixel_sigma``, when even the best residual is more than the noise explains (a
@@ -51,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from umbra.modules.calib.camera_model import PinholeCamera
 from umbra.modules.calib.errors import DegenerateGeometryError, NotConvergedError
 from umbra.modules.calib.npnp_warnings import GIVEN, MIN_PIXEL_SIGMA, pose_warnings
-from umbra.modules.calib.rotations import nearest_rotation, rotation_from_vector, skew, transform
+from umbra.modules.calib.rotations import nearest_rotation, rotation_from_vector, transform
 
 FloatArray = NDArray[np.float64]
 
@@ -123,53 +126,84 @@ def _prepare(views: Sequence[View]) -> list[_Prepared]:
     return prepared
 
 
+@dataclass(frozen=True, eq=False)
+class _Stacked:
+    """Every view's points in one set of arrays (one row per point), so that the residuals and
+    their Jacobian take a few array operations whatever the number of views: each point carries
+    its view's extrinsics ``A_R, A_t`` (output frame -> camera) and ``K2, principal`` [px]."""
+
+    points: FloatArray  # (n, 3) input frame [m]
+    A_R: FloatArray  # (n, 3, 3)
+    A_t: FloatArray  # (n, 3) [m]
+    K2: FloatArray  # (n, 2, 2) [px]
+    principal: FloatArray  # (n, 2) [px]
+    ideal: FloatArray  # (n, 2) undistorted measured pixels [px]
+    centre: FloatArray  # (3,) the points' mean, input frame [m]
+
+
+def _stack(prepared: list[_Prepared] | _Stacked) -> _Stacked:
+    """The views of ``prepared`` in one :class:`_Stacked` (returned as is when it is one)."""
+    if isinstance(prepared, _Stacked):
+        return prepared
+    counts = [len(p.points) for p in prepared]
+
+    def each(name: str) -> FloatArray:
+        return np.concatenate(
+            [
+                np.broadcast_to(getattr(p, name), (k, *np.shape(getattr(p, name))))
+                for p, k in zip(prepared, counts, strict=True)
+            ]
+        )
+
+    points = np.vstack([p.points for p in prepared])
+    return _Stacked(
+        points,
+        each("A_R"),
+        each("A_t"),
+        each("K2"),
+        each("principal"),
+        np.vstack([p.ideal for p in prepared]),
+        points.mean(axis=0),
+    )
+
+
 def _residuals_and_jacobian(
-    prepared: list[_Prepared], R: FloatArray, d: FloatArray, with_jacobian: bool = True
+    stacked: _Stacked, R: FloatArray, d: FloatArray, with_jacobian: bool = True
 ) -> tuple[FloatArray, FloatArray | None, float]:
-    """Residuals (px, flat), their Jacobian in ``(dtheta, dd)`` and the least depth [m]; a point
-    at depth 0 gives non-finite values (no warning: the callers test for them)."""
+    """Residuals (px, flat, point by point in view order), their Jacobian in ``(dtheta, dd)``
+    and the least depth [m]; a point at depth 0 gives non-finite values (no warning: the
+    callers test for them)."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return _residuals_and_jacobian_raw(prepared, R, d, with_jacobian)
+        return _residuals_and_jacobian_raw(stacked, R, d, with_jacobian)
 
 
 def _residuals_and_jacobian_raw(
-    prepared: list[_Prepared], R: FloatArray, d: FloatArray, with_jacobian: bool
+    s: _Stacked, R: FloatArray, d: FloatArray, with_jacobian: bool
 ) -> tuple[FloatArray, FloatArray | None, float]:
-    residual_blocks, jacobian_blocks = [], []
-    min_depth = np.inf
-    for p in prepared:
-        rotated = p.points @ R.T
-        c = (rotated + d) @ p.A_R.T + p.A_t
-        z = c[:, 2]
-        min_depth = min(min_depth, float(z.min()))
-        normalized = c[:, :2] / z[:, None]
-        predicted = normalized @ p.K2.T + p.principal
-        residual_blocks.append(predicted - p.ideal)
-        if with_jacobian:
-            n = len(c)
-            dp_dc = np.zeros((n, 2, 3))
-            dp_dc[:, 0, 0] = 1.0 / z
-            dp_dc[:, 1, 1] = 1.0 / z
-            dp_dc[:, :, 2] = -normalized / z[:, None]
-            dpix_dc = np.einsum("ij,njk->nik", p.K2, dp_dc)
-            dc_dtheta = -np.einsum("ij,njk->nik", p.A_R, _skews(rotated))
-            dc_dd = np.broadcast_to(p.A_R, (n, 3, 3))
-            J_block = np.concatenate(
-                [dpix_dc @ dc_dtheta, np.einsum("nij,njk->nik", dpix_dc, dc_dd)], axis=2
-            )
-            jacobian_blocks.append(J_block.reshape(2 * n, 6))
-    r = np.concatenate([b.ravel() for b in residual_blocks])
-    J = np.vstack(jacobian_blocks) if with_jacobian else None
-    return r, J, min_depth
-
-
-def _skews(vectors: FloatArray) -> FloatArray:
-    """``[v]_x`` for each row of ``vectors`` ``(n, 3)`` -> ``(n, 3, 3)``."""
-    out = np.zeros((len(vectors), 3, 3))
-    x, y, z = vectors[:, 0], vectors[:, 1], vectors[:, 2]
-    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -z, y, -x
-    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = z, -y, x
-    return out
+    rotated = s.points @ R.T  # R x, output frame
+    c = np.matmul(s.A_R, (rotated + d)[:, :, None])[:, :, 0] + s.A_t  # camera frame
+    inv_z = 1.0 / c[:, 2]
+    normalized = c[:, :2] * inv_z[:, None]
+    predicted = np.matmul(s.K2, normalized[:, :, None])[:, :, 0] + s.principal
+    r = (predicted - s.ideal).ravel()
+    min_depth = float(c[:, 2].min())
+    if not with_jacobian:
+        return r, None, min_depth
+    # d pixel / d camera point: K2 [[1/z, 0, -x/z^2], [0, 1/z, -y/z^2]]
+    B = np.zeros((len(c), 2, 3))
+    B[:, 0, 0] = inv_z
+    B[:, 1, 1] = inv_z
+    B[:, :, 2] = -normalized * inv_z[:, None]
+    M = np.matmul(np.matmul(s.K2, B), s.A_R)  # d pixel / d output-frame point (= d / dd)
+    # d pixel / d theta = -M [R x]_x: each row m of M becomes (R x) x m
+    v0, v1, v2 = (rotated[:, None, k] for k in range(3))
+    m0, m1, m2 = M[:, :, 0], M[:, :, 1], M[:, :, 2]
+    J = np.empty((len(c), 2, 6))
+    J[:, :, 0] = v1 * m2 - v2 * m1
+    J[:, :, 1] = v2 * m0 - v0 * m2
+    J[:, :, 2] = v0 * m1 - v1 * m0
+    J[:, :, 3:] = M
+    return r, J.reshape(-1, 6), min_depth
 
 
 def initial_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArray]:
@@ -268,17 +302,18 @@ def linear_generalized_pose(views: Sequence[View]) -> tuple[FloatArray, FloatArr
 
 
 def _linear_generalized_pose(prepared: list[_Prepared]) -> tuple[FloatArray, FloatArray]:
-    rows, rhs = [], []
+    # one ray o + s w per point: [w]_x (R x + d) = [w]_x o, 3 rows in (vec(R) row-major, d)
+    origins, directions = [], []
     for p in prepared:
-        origin = -p.A_R.T @ p.A_t
         normalized = np.linalg.solve(p.K2, (p.ideal - p.principal).T).T
-        directions = np.hstack([normalized, np.ones((len(normalized), 1))]) @ p.A_R
-        for x, w in zip(p.points, directions, strict=True):
-            W = skew(w / np.linalg.norm(w))
-            rows.append(W @ np.hstack([np.kron(np.eye(3), x[None, :]), np.eye(3)]))
-            rhs.append(W @ origin)
-    A = np.vstack(rows)
-    b = np.concatenate(rhs)
+        rays = np.hstack([normalized, np.ones((len(normalized), 1))]) @ p.A_R
+        directions.append(rays / np.linalg.norm(rays, axis=1, keepdims=True))
+        origins.append(np.broadcast_to(-p.A_R.T @ p.A_t, rays.shape))
+    W = _skews(np.vstack(directions))  # (n, 3, 3)
+    X = np.vstack([p.points for p in prepared])
+    rotation_part = (W[:, :, :, None] * X[:, None, None, :]).reshape(-1, 3, 9)  # W kron(I, x)
+    A = np.concatenate([rotation_part, W], axis=2).reshape(-1, 12)
+    b = np.matmul(W, np.vstack(origins)[:, :, None]).ravel()
     singular = np.linalg.svd(A, compute_uv=False)
     if len(singular) < 12 or singular[11] <= 1e-9 * singular[0]:
         raise DegenerateGeometryError(
@@ -288,24 +323,39 @@ def _linear_generalized_pose(prepared: list[_Prepared]) -> tuple[FloatArray, Flo
         )
     solution = np.linalg.lstsq(A, b, rcond=None)[0]
     R = nearest_rotation(solution[:9].reshape(3, 3))
-    translation_rows = np.vstack([r[:, 9:] for r in rows])
-    translation_rhs = np.concatenate(
-        [rh - r[:, :9] @ R.ravel() for r, rh in zip(rows, rhs, strict=True)]
-    )
-    d = np.linalg.lstsq(translation_rows, translation_rhs, rcond=None)[0]
+    d = np.linalg.lstsq(A[:, 9:], b - A[:, :9] @ R.ravel(), rcond=None)[0]
     return R, d
 
 
+def _skews(vectors: FloatArray) -> FloatArray:
+    """``[v]_x`` for each row of ``vectors`` ``(n, 3)`` -> ``(n, 3, 3)``."""
+    out = np.zeros((len(vectors), 3, 3))
+    x, y, z = vectors[:, 0], vectors[:, 1], vectors[:, 2]
+    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -z, y, -x
+    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = z, -y, x
+    return out
+
+
+class _SameMinimum(Exception):
+    """Raised by :func:`_gauss_newton` when its iterate enters the basin of a minimum already
+    found (within ``SAME_BASIN_DEG`` of it, see :func:`_near`): the run would end there."""
+
+
 def _gauss_newton(
-    prepared: list[_Prepared],
+    prepared: list[_Prepared] | _Stacked,
     R: FloatArray,
     d: FloatArray,
     max_iterations: int,
     step_tolerance: float,
+    known: Sequence[tuple[FloatArray, FloatArray]] = (),
 ) -> tuple[FloatArray, FloatArray, FloatArray, int]:
-    """Gauss-Newton from ``(R, d)``: the minimum's ``R, d``, residuals and iteration count."""
+    """Gauss-Newton from ``(R, d)``: the minimum's ``R, d``, residuals and iteration count.
+
+    Raises _SameMinimum as soon as an iterate comes within the basin of one of the ``known``
+    minima ``(R, d)`` (the remaining iterations would only refine a minimum already found)."""
+    stacked = _stack(prepared)
     R = nearest_rotation(R)
-    r, J, min_depth = _residuals_and_jacobian(prepared, R, d)
+    r, J, min_depth = _residuals_and_jacobian(stacked, R, d)
     assert J is not None
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
         raise NotConvergedError(
@@ -327,7 +377,7 @@ def _gauss_newton(
             R_new = rotation_from_vector(scale * step[:3]) @ R
             d_new = d + scale * step[3:]
             r_new, J_new, depth_new = _residuals_and_jacobian(
-                prepared, R_new, d_new, with_jacobian=scale == 1.0
+                stacked, R_new, d_new, with_jacobian=scale == 1.0
             )
             cost_new = float(r_new @ r_new)
             if cost_new <= cost * (1.0 + 1e-12) or not np.isfinite(cost):
@@ -336,8 +386,10 @@ def _gauss_newton(
         else:
             break  # no descent along the Gauss-Newton step: at a minimum to machine precision
         R, d, min_depth = R_new, d_new, depth_new
+        if known and min_depth > 0 and _near(R, d, known, stacked.centre):
+            raise _SameMinimum
         if J_new is None:
-            r, J, _ = _residuals_and_jacobian(prepared, R, d)
+            r, J, _ = _residuals_and_jacobian(stacked, R, d)
             assert J is not None  # asked for (with_jacobian defaults to True)
         else:
             r, J = r_new, J_new
@@ -358,11 +410,10 @@ def _gauss_newton_step(J: FloatArray, r: FloatArray) -> FloatArray:
     if not np.all(scale > 0.0):
         raise DegenerateGeometryError(_UNDETERMINED)
     Js = J / scale
-    normal = Js.T @ Js
-    eigen = np.linalg.eigvalsh(normal)
+    eigen, vectors = np.linalg.eigh(Js.T @ Js)
     if eigen[0] <= 1e-20 * eigen[-1]:  # singular values' ratio 1e-10
         raise DegenerateGeometryError(_UNDETERMINED)
-    return np.linalg.solve(normal, -(Js.T @ r)) / scale
+    return (vectors @ ((vectors.T @ -(Js.T @ r)) / eigen)) / scale
 
 
 _UNDETERMINED = (
@@ -370,32 +421,29 @@ _UNDETERMINED = (
     "(need >= 3 points not on one line, seen with enough parallax)"
 )
 #: A start within this angle [deg] of a minimum already found, or of a start already run, ends
-#: where that one did: it is not run. (The minima a pose problem has besides the best lie tens
-#: of degrees away: a planar target's mirror pose is twice its tilt from facing the camera.)
+#: where that one did: it is not run, and a run whose iterate comes this near a minimum already
+#: found stops there. (The minima a pose problem has besides the best lie tens of degrees
+#: away: a planar target's mirror pose is twice its tilt from facing the camera.)
 SAME_BASIN_DEG = 3.0
 
 
 def _near(
-    R0: FloatArray, d0: FloatArray, poses: list[tuple[FloatArray, FloatArray]], centre: FloatArray
+    R0: FloatArray,
+    d0: FloatArray,
+    poses: Sequence[tuple[FloatArray, FloatArray]],
+    centre: FloatArray,
 ) -> bool:
     """True when the start ``(R0, d0)`` lies within ``SAME_BASIN_DEG`` of one of ``poses`` and
     puts the points' ``centre`` (input frame, m) within 5 % of its distance of where that one
     does."""
     for R, d in poses:
-        cos = 0.5 * (float(np.trace(R.T @ R0)) - 1.0)
+        cos = 0.5 * (float(np.vdot(R, R0)) - 1.0)  # trace(R^T R0) = sum of R * R0
         if cos > _SAME_BASIN_COS:
             here = R @ centre + d
-            if np.linalg.norm(R0 @ centre + d0 - here) <= 0.05 * np.linalg.norm(here):
+            gap = R0 @ centre + d0 - here
+            if float(gap @ gap) <= 0.0025 * float(here @ here):  # within 5 % of the distance
                 return True
     return False
-
-
-def _behind(prepared: list[_Prepared], R: FloatArray, d: FloatArray) -> bool:
-    """True when the pose puts a point at or behind a camera's centre plane: Gauss-Newton,
-    which only ever lowers the cost, cannot cross the infinite residual at depth 0 to the
-    side the points are seen from."""
-    _, _, min_depth = _residuals_and_jacobian(prepared, nearest_rotation(R), d, False)
-    return not min_depth > 0
 
 
 #: Gauss-Newton iterations of a start other than the caller's: one that has not converged by
@@ -431,22 +479,22 @@ def solve_npnp(
     """
     prepared = _prepare(views)
     _check_spread(prepared)
-    starts = _starts(prepared, initial)
+    stacked = _stack(prepared)
     found: list[tuple[str, FloatArray, FloatArray, FloatArray, int]] = []
     failed: dict[str, str] = {}
     tried: list[tuple[FloatArray, FloatArray]] = []
-    centre = np.vstack([p.points for p in prepared]).mean(axis=0)
-    for name, R0, d0 in starts:
-        if _near(R0, d0, tried, centre):
+    for name, R0, d0 in _ranked(stacked, _starts(prepared, initial), failed):
+        if _near(R0, d0, tried, stacked.centre):
             continue
         tried.append((R0, d0))
-        if name != GIVEN and _behind(prepared, R0, d0):
-            failed[name] = "it puts a point behind a camera"
-            continue
-        budget = max_iterations if name == GIVEN else min(max_iterations, EXTRA_START_ITERATIONS)
+        given = name == GIVEN
+        budget = max_iterations if given else min(max_iterations, EXTRA_START_ITERATIONS)
+        known = [] if given else [(f[1], f[2]) for f in found]
         try:
-            found.append((name, *_gauss_newton(prepared, R0, d0, budget, step_tolerance)))
+            found.append((name, *_gauss_newton(stacked, R0, d0, budget, step_tolerance, known)))
             tried.append((found[-1][1], found[-1][2]))
+        except _SameMinimum:
+            continue
         except (DegenerateGeometryError, NotConvergedError) as error:
             failed[name] = str(error)
         except np.linalg.LinAlgError as error:  # the linear algebra of this start broke down
@@ -458,7 +506,7 @@ def solve_npnp(
         raise NotConvergedError(f"no start reached a pose with every point in front ({reasons})")
     found.sort(key=lambda f: float(f[3] @ f[3]))
     name, R, d, r, iterations = found[0]
-    _, J, _ = _residuals_and_jacobian(prepared, R, d)
+    _, J, _ = _residuals_and_jacobian(stacked, R, d)
     assert J is not None
     singular = np.linalg.svd(J, compute_uv=False)
     if singular[-1] <= 1e-9 * singular[0]:
@@ -471,6 +519,30 @@ def solve_npnp(
     rms_px = float(np.sqrt(np.mean(np.sum(r.reshape(-1, 2) ** 2, axis=1))))
     covariance = _covariance(J, r, pixel_sigma)
     return PoseResult(R, d, rms_px, blocks, iterations, name, warnings, covariance)
+
+
+def _ranked(
+    stacked: _Stacked, starts: list[tuple[str, FloatArray, FloatArray]], failed: dict[str, str]
+) -> list[tuple[str, FloatArray, FloatArray]]:
+    """The caller's start first, then the others from the lowest reprojection cost up (the
+    first run then most often reaches the best minimum, and later runs stop on entering its
+    basin); a start other than the caller's that puts a point at or behind a camera's centre
+    plane is left out and named in ``failed`` (Gauss-Newton, which only lowers the cost, cannot
+    cross the infinite residual at depth 0 to the side the points are seen from). The starts
+    other than the caller's are rotations already (from rotation vectors, or projected)."""
+    given: list[tuple[str, FloatArray, FloatArray]] = []
+    others: list[tuple[float, int, tuple[str, FloatArray, FloatArray]]] = []
+    for name, R0, d0 in starts:
+        if name == GIVEN:
+            given.append((name, R0, d0))
+            continue
+        r, _, min_depth = _residuals_and_jacobian(stacked, R0, d0, False)
+        if min_depth <= 0.0:  # (a NaN depth is left to Gauss-Newton, which names it)
+            failed[name] = "it puts a point behind a camera"
+            continue
+        cost = float(r @ r)
+        others.append((cost if np.isfinite(cost) else np.inf, len(others), (name, R0, d0)))
+    return given + [start for _, _, start in sorted(others, key=lambda o: o[:2])]
 
 
 def _covariance(J: FloatArray, r: FloatArray, pixel_sigma: float | None) -> FloatArray:
@@ -494,10 +566,14 @@ def _starts(
             T0 = np.asarray(initial, dtype=float)
             R, d = T0[:3, :3], T0[:3, 3]
         starts.append((GIVEN, R, d))
-    methods = (("SQPnP", cv2.SOLVEPNP_SQPNP), ("EPnP", cv2.SOLVEPNP_EPNP))
     for i, p in enumerate(prepared):
         if len(p.points) < 4:
             continue
+        coplanar = _coplanar(p.points)
+        # IPPE, not EPnP, beside SQPnP on a plane: it gives both of the plane's minima
+        methods = (("SQPnP", cv2.SOLVEPNP_SQPNP),) + (
+            () if coplanar else (("EPnP", cv2.SOLVEPNP_EPNP),)
+        )
         for label, flag in methods:
             with contextlib.suppress(DegenerateGeometryError, cv2.error):
                 starts.append((f"{label} on view {i}", *_single_view_pose(p, flag)))
@@ -506,7 +582,7 @@ def _starts(
             with contextlib.suppress(DegenerateGeometryError, cv2.error):
                 start = _single_view_pose(p, cv2.SOLVEPNP_ITERATIVE)
                 starts.append((f"iterative PnP on view {i}", *start))
-        if _coplanar(p.points):
+        if coplanar:
             with contextlib.suppress(cv2.error):
                 starts += [
                     (f"IPPE pose {k + 1} on view {i}", R, d)
