@@ -9,7 +9,8 @@ noise, gains up to 1.6 that clip a channel) at 1920x1080 and at 640x480 (patches
 For every frame, in this run:
 
 - **ours**: the tracker acquires from a click within 15 % of the patch centre (colour learned
-  there), as the operator seeds it; IoU and area bias of its outline against the quadrilateral.
+  there), as the operator seeds it; IoU and area bias of its outline against the quadrilateral,
+  and how many of these whole patches failed the sanity checks (false alarms).
   Then one tracking update on the same frame from the acquired contour, timed (fastest of 3):
   the per-frame cost while tracking.
 - **HS threshold** (baseline): the whole frame in HSV, ``cv2.inRange`` on hue and saturation
@@ -78,6 +79,7 @@ def bench_photos(
     rng = np.random.default_rng(seed + 1)
     rows: dict[str, list[tuple[float, float, float]]] = {"ours": [], "HS threshold": []}
     gains = []
+    false_alarms = 0  # whole patches whose snake failed its sanity checks
     for index in range(count):
         offset = rng.uniform(-0.15, 0.15, 2)
         frame = ps.render(
@@ -91,7 +93,9 @@ def bench_photos(
         tracker.seed_at_point(
             frame.image, frame.corners.mean(axis=0) + offset * np.ptp(frame.corners, 0)
         )
-        outline = tracker.update(frame.image).vertices
+        update = tracker.update(frame.image)
+        outline = update.vertices
+        false_alarms += update.status != "tracking"
         seconds, _ = _fastest(lambda t=tracker, f=frame: copy.copy(t).update(f.image))
         rows["ours"].append((*_score(outline, frame), 1e3 * seconds))
         bounds = tune_bounds(_Truth(frame))
@@ -115,6 +119,7 @@ def bench_photos(
             "abs_area_bias_pct_p95": float(np.percentile(np.abs(data[:, 1]), 95)),
             "ms_p50": float(np.median(data[:, 2])),
         }
+    out["ours"]["sanity_failed"] = false_alarms
     return out
 
 
@@ -148,6 +153,7 @@ def goals(result: dict) -> dict[str, bool]:
         out[f"{name}: median area bias within 0.2 % at every gain"] = all(
             abs(v) <= 0.2 for v in ours["area_bias_pct_p50_by_gain"].values()
         )
+        out[f"{name}: no whole patch fails its sanity checks"] = ours["sanity_failed"] == 0
     return out
 
 
@@ -177,7 +183,8 @@ def print_heldout(result: dict) -> None:
         base = methods["HS threshold"]["area_bias_pct_p50_by_gain"]
         cells = ", ".join(f"{band} {ours[band]:+.3f} / {base[band]:+.3f}" for band in ours)
         below = methods["ours"]["below_iou_0.99"]
-        print(f"  {name}: {cells}; frames below IoU 0.99: {below}")
+        failed = methods["ours"]["sanity_failed"]
+        print(f"  {name}: {cells}; frames below IoU 0.99: {below}; sanity failed: {failed}")
     ours = result["held-out"]["ours"]["ms_p50"]
     base = result["held-out"]["HS threshold"]["ms_p50"]
     print(f"held-out: HS threshold / ours (tracking update) = {base / ours:.2f}x")

@@ -33,6 +33,10 @@ texture, another edge in the profile) is dropped. Where there is no edge to meas
 differ by less than ``min_contrast`` gray levels, the inner end is not the target colour or the
 outer end is, no crossing), the vertex moves as the vertices on either side that found one,
 interpolated across a gap of up to ``max_gap`` vertices, else it stays where the snake put it.
+Last, where the edge is smooth (no corner within ``smooth_reach`` vertices, all of them on a
+measured edge), each fitted point is put on the quadratic least-squares curve through it and
+its neighbours: the noise of single profiles (sensor noise, JPEG blocks) averages out along the
+edge, and a straight or evenly curved edge stays where it is.
 
 Only ``N x (2 L / step + 1) x 4`` pixels are read per pass for N vertices (three passes at
 most), never the whole image. Pixels: u right, v down, pixel centres at integer coordinates.
@@ -64,7 +68,9 @@ class EdgeFitParams:
     this off the curve through its neighbours' is texture [px]; ``max_gap``: longest run of
     vertices without an edge that is interpolated from either side [vertices]; ``window_px``:
     half-width of the equal-area window about the crossing [px]; ``recentre_px``: a crossing
-    further than this from its profile's centre is measured again on a centred profile [px]."""
+    further than this from its profile's centre is measured again on a centred profile [px];
+    ``smooth_reach``: each fitted point is put on the quadratic through it and this many
+    neighbours on either side where the edge is smooth (0: off) [vertices]."""
 
     half_length_px: float = 4.0
     sample_px: float = 0.5
@@ -76,6 +82,7 @@ class EdgeFitParams:
     max_gap: int = 4
     window_px: float = 2.5
     recentre_px: float = 0.5
+    smooth_reach: int = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -172,7 +179,41 @@ def fit_edges(
     # side, a speck of texture) moves as the vertices on either side that found one, across a
     # gap of up to ``max_gap`` vertices (interpolated along the contour).
     shift = _bridge(shift, found, p.max_gap)
+    if p.smooth_reach > 0:
+        shift += _along_the_curve(vertices + shift[:, None] * normals, normals, found, p)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
+
+
+def _along_the_curve(
+    fitted: FloatArray, normals: FloatArray, found: NDArray[np.bool_], p: EdgeFitParams
+) -> FloatArray:
+    """The move (N px, along each normal) that puts each fitted point on the quadratic
+    least-squares curve through it and its ``smooth_reach`` neighbours on either side (a
+    Savitzky-Golay filter of their offsets along its normal): the noise of single profiles
+    (sensor noise, JPEG blocks) averages out along the edge, and a straight or evenly curved
+    edge is left where it is. Only where all of them measured an edge and the normals turn by
+    less than ``_STRAIGHT`` across them (never across a corner); 0 elsewhere."""
+    count = len(fitted)
+    reach = p.smooth_reach
+    if count < 2 * reach + 3:
+        return np.zeros(count)
+    weights = _savitzky_golay(reach)
+    index = (np.arange(count)[:, None] + np.arange(-reach, reach + 1)[None, :]) % count
+    offsets = np.einsum("nkc,nc->nk", fitted[index] - fitted[:, None, :], normals)
+    cos_turn = np.einsum("nc,nc->n", normals[index[:, 0]], normals[index[:, -1]])
+    smooth = found[index].all(axis=1) & (cos_turn > _STRAIGHT)
+    return np.where(smooth, offsets @ weights, 0.0)
+
+
+@lru_cache(maxsize=4)
+def _savitzky_golay(reach: int) -> FloatArray:
+    """Weights (2 reach + 1) of the quadratic least-squares fit's value at the centre of evenly
+    spaced samples: (sum k⁴ - sum k² · k²) / (m sum k⁴ - (sum k²)²) over k = -reach..reach."""
+    k2 = np.arange(-reach, reach + 1, dtype=np.float64) ** 2
+    s2, s4 = k2.sum(), (k2 * k2).sum()
+    weights = (s4 - s2 * k2) / (len(k2) * s4 - s2 * s2)
+    weights.flags.writeable = False
+    return weights
 
 
 def _off_the_curve(

@@ -5,11 +5,16 @@ slightly larger rectangle and outside a slightly smaller ellipse, both built fro
 contour's own moments: the rectangle with the same second moments as the contour (sides
 ``sqrt(12 eigenvalue)``, see :func:`umbra.modules.vision.features.equivalent_rectangle_sides`),
 scaled up by ``1 + rectangle_margin``; and the ellipse inscribed in that same equivalent rectangle,
-scaled down by ``ellipse_scale``. On top of that the area and the aspect ratio must stay within
-bounds, and so must the rates of change from the previous frame (centroid jump, relative area
-change, rotation, relative aspect change) and the drift of the aspect ratio from the contour
-acquired at the seed (approach and roll keep a patch's aspect ratio). Any failed check means
-the snake may no longer be on the patch: the servo stops and the operator is asked.
+scaled down by ``ellipse_scale``. A patch seen obliquely is a quadrilateral, not a rectangle,
+so when the contour follows a quadrilateral that a camera can see a rectangle as, the two
+shapes are built and tested on the contour seen head-on (:mod:`umbra.modules.vision.rectify`:
+mapped by the homography that makes that quadrilateral a square, the shapes from the mapped
+contour's moments along the square's sides); the shapes a result reports for drawing are those
+of the contour as the image shows it. On top of that the area and the aspect ratio must stay
+within bounds, and so must the rates of change from the previous frame (centroid jump, relative
+area change, rotation, relative aspect change) and the drift of the aspect ratio from the
+contour acquired at the seed (approach and roll keep a patch's aspect ratio). Any failed check
+means the snake may no longer be on the patch: the servo stops and the operator is asked.
 
 Units: pixels, px², radians; image frame u right, v down.
 """
@@ -29,6 +34,7 @@ from umbra.modules.vision.features import (
     polygon_features,
 )
 from umbra.modules.vision.polygon import as_polygon
+from umbra.modules.vision.rectify import apply_homography, rectifying_homography
 
 FloatArray = NDArray[np.float64]
 
@@ -116,21 +122,53 @@ class SanityResult:
 
 
 def bounding_shapes(
-    features: PolygonFeatures, limits: SanityLimits
+    features: PolygonFeatures, limits: SanityLimits, axis_rad: float | None = None
 ) -> tuple[OrientedBox, OrientedBox]:
-    """Outer rectangle and inner ellipse of a contour with these features."""
-    along, across = equivalent_rectangle_sides(features)
+    """Outer rectangle and inner ellipse of a contour with these features, along its principal
+    axis, or along ``axis_rad`` [rad] when the patch's sides are known (the principal axis of a
+    square is any direction). The sides are those of the rectangle with the contour's second
+    moments along that axis (``sqrt(12 variance)``)."""
+    if axis_rad is None:
+        angle = features.orientation_rad
+        along, across = equivalent_rectangle_sides(features)
+    else:
+        angle = axis_rad
+        mu20, mu11, mu02 = features.second_moments
+        c, s = np.cos(angle), np.sin(angle)
+        var_along = mu20 * c * c + 2.0 * mu11 * c * s + mu02 * s * s
+        var_across = mu20 * s * s - 2.0 * mu11 * c * s + mu02 * c * c
+        along, across = (float(np.sqrt(12.0 * max(v, 0.0))) for v in (var_along, var_across))
     grow = 1.0 + limits.rectangle_margin
-    rectangle = OrientedBox(
-        features.centroid_uv, (0.5 * along * grow, 0.5 * across * grow), features.orientation_rad
-    )
+    rectangle = OrientedBox(features.centroid_uv, (0.5 * along * grow, 0.5 * across * grow), angle)
     shrink = limits.ellipse_scale
     ellipse = OrientedBox(
-        features.centroid_uv,
-        (0.5 * along * shrink, 0.5 * across * shrink),
-        features.orientation_rad,
+        features.centroid_uv, (0.5 * along * shrink, 0.5 * across * shrink), angle
     )
     return rectangle, ellipse
+
+
+def shape_offenders(
+    polygon: FloatArray, features: PolygonFeatures, limits: SanityLimits
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Which vertices of ``polygon`` (N x 2 px, with these ``features``) lie outside the outer
+    rectangle and which inside the inner ellipse. When the quadrilateral the contour follows is
+    a view of a rectangle, judged on the contour seen head-on: mapped by the homography that
+    makes that quadrilateral the unit square
+    (:func:`umbra.modules.vision.rectify.rectifying_homography`), the shapes built from the
+    mapped contour's moments along the square's sides. Otherwise on the contour as it is, the
+    shapes along its principal axis."""
+    homography = rectifying_homography(polygon)
+    axis_rad = None
+    if homography is not None:
+        polygon = apply_homography(homography, polygon)
+        features, axis_rad = polygon_features(polygon), 0.0
+    rectangle, ellipse = bounding_shapes(features, limits, axis_rad)
+    along_across = rectangle.local(polygon)
+    outside = np.any(np.abs(along_across) > np.asarray(rectangle.half_sizes), axis=1)
+    a, b = (max(half, 1e-9) for half in ellipse.half_sizes)
+    e_local = ellipse.local(polygon)
+    inside = (e_local[:, 0] / a) ** 2 + (e_local[:, 1] / b) ** 2 < 1.0
+    return outside, inside
 
 
 def check_contour(
@@ -181,11 +219,7 @@ def check_contour(
             f"aspect ratio {aspect:.2f} outside [{limits.min_aspect:g}, {limits.max_aspect:g}]",
         )
 
-    along_across = rectangle.local(polygon)
-    outside = np.any(np.abs(along_across) > np.asarray(rectangle.half_sizes), axis=1)
-    a, b = (max(half, 1e-9) for half in ellipse.half_sizes)
-    e_local = ellipse.local(polygon)
-    inside = (e_local[:, 0] / a) ** 2 + (e_local[:, 1] / b) ** 2 < 1.0
+    outside, inside = shape_offenders(polygon, features, limits)
     if np.any(outside):
         fail(
             SnakeCheck.OUTSIDE_RECTANGLE,

@@ -8,7 +8,19 @@ import pytest
 from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.vision.features import polygon_features
 from umbra.modules.vision.polygon import rectangle, resample_uniform
-from umbra.modules.vision.sanity import FAILED, TRACKING, SanityLimits, check_contour
+from umbra.modules.vision.rectify import (
+    apply_homography,
+    is_rectangle_view,
+    quadrilateral,
+    rectifying_homography,
+)
+from umbra.modules.vision.sanity import (
+    FAILED,
+    TRACKING,
+    SanityLimits,
+    bounding_shapes,
+    check_contour,
+)
 from umbra.modules.vision.snake_config import SnakeSettings
 
 LIMITS = SanityLimits()
@@ -111,3 +123,106 @@ def test_aspect_drift_from_the_acquired_contour() -> None:
     assert closer.status == TRACKING  # approach and roll keep the aspect ratio
     leaked = check_contour(rounded_rectangle(230, 110, 6, 0.0), LIMITS, reference=reference)
     assert "aspect ratio +4" in leaked.reason and "from the acquired 1.45" in leaked.reason
+
+
+# -- a patch seen obliquely -----------------------------------------------------------------------
+#
+# A generator of contours that is not the snake's: the outline of a w x h rectangle on a plane,
+# drawn in the plane (with or without damage), seen by a pin-hole camera (focal length 600 px)
+# with the plane tilted up to 55 deg about any in-plane axis and turned by any angle, from a
+# distance at which its long side spans 120-300 px; 0.2 px of noise on every vertex.
+
+
+def _outline(w: float, h: float, damage: str, rng: np.random.Generator) -> np.ndarray:
+    """The patch's outline in its plane [m] (K x 2, counter-clockwise from (-w/2, -h/2)),
+    ``damage`` applied to a random side or corner: a leak outwards or a bite inwards across the
+    middle of a side (a third of its length, 20 % of the patch's other side deep), a corner cut
+    off at 60 % of both sides, a quarter missing (an L), half missing along a diagonal."""
+    corners = np.array([[-w, -h], [w, -h], [w, h], [-w, h]]) / 2.0
+    turn = int(rng.integers(4))
+    corners = np.roll(corners, -turn, axis=0)  # the damaged side runs from corners[0]
+    a, b, c, d = corners
+    side, across = b - a, d - a
+    if damage in ("leak", "bite"):
+        depth = (-0.2 if damage == "leak" else 0.2) * across
+        points = [a, a + side / 3, a + side / 2 + depth, a + 2 * side / 3, b, c, d]
+    elif damage == "cut corner":
+        points = [a + 0.6 * side, b, c, d, a + 0.6 * across]
+    elif damage == "L":
+        points = [a + side / 2, b, c, d, a + across / 2, a + side / 2 + across / 2]
+    elif damage == "triangle":
+        points = [b, c, d]
+    else:
+        points = [a, b, c, d]
+    polygon = np.array(points)
+    return resample_uniform(polygon, 72)
+
+
+def _seen(outline: np.ndarray, span_px: float, rng: np.random.Generator) -> np.ndarray:
+    """``outline`` (K x 2 m, in its plane) as a camera sees it (K x 2 px)."""
+    tilt = np.deg2rad(rng.uniform(0.0, 55.0))
+    axis = rng.uniform(-np.pi, np.pi)
+    k = np.array([np.cos(axis), np.sin(axis), 0.0])
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    R = np.eye(3) + np.sin(tilt) * K + (1 - np.cos(tilt)) * K @ K
+    yaw = rng.uniform(-np.pi, np.pi)
+    c, s = np.cos(yaw), np.sin(yaw)
+    planar = outline @ np.array([[c, s], [-s, c]])
+    extent = float(np.max(np.ptp(outline, axis=0)))
+    depth = 600.0 * extent / span_px
+    camera = np.column_stack([planar, np.zeros(len(planar))]) @ R.T + [0.0, 0.0, depth]
+    uv = 600.0 * camera[:, :2] / camera[:, 2:3] + [320.0, 240.0]
+    return uv + rng.normal(0.0, 0.2, uv.shape)
+
+
+def _outside_moment_rectangle(contour: np.ndarray) -> bool:
+    """Whether a vertex lies outside the outer rectangle of the contour's image moments."""
+    rectangle, _ = bounding_shapes(polygon_features(contour), LIMITS)
+    return bool(np.any(np.abs(rectangle.local(contour)) > np.asarray(rectangle.half_sizes)))
+
+
+def test_a_patch_seen_obliquely_passes_and_its_damage_fails() -> None:
+    """300 views of whole patches all pass (a third of them stand out of the rectangle of their
+    image moments: the check is made on the patch seen head-on); each kind of damage fails on
+    every one of 100 views."""
+    rng = np.random.default_rng(4317)
+    stand_out = 0
+    for _ in range(300):
+        w = 0.06
+        outline = _outline(w, w * rng.uniform(0.4, 1.0), "none", rng)
+        contour = _seen(outline, rng.uniform(120.0, 300.0), rng)
+        result = check_contour(contour, LIMITS)
+        assert result.status == TRACKING, result.reason
+        stand_out += _outside_moment_rectangle(contour)
+    assert stand_out > 100
+    for damage in ("leak", "bite", "cut corner", "L", "triangle"):
+        for _ in range(100):
+            w = 0.06
+            outline = _outline(w, w * rng.uniform(0.4, 1.0), damage, rng)
+            contour = _seen(outline, rng.uniform(120.0, 300.0), rng)
+            result = check_contour(contour, LIMITS)
+            assert result.status == FAILED, damage
+            assert {SnakeCheck.OUTSIDE_RECTANGLE, SnakeCheck.INSIDE_ELLIPSE} & set(result.checks)
+
+
+def test_the_rectified_quadrilateral_is_the_patch_seen_head_on() -> None:
+    """A rectangle under a known plane homography: its outline's quadrilateral is the image of
+    its corners and maps back onto the unit square (to a hundredth of a side); a thin sliver
+    and a near-triangle are no view of a rectangle."""
+    H = np.array([[0.9, 0.25, 210.0], [-0.1, 0.7, 160.0], [4e-4, -6e-4, 1.0]])
+    square = np.array([[0.0, 0.0], [200.0, 0.0], [200.0, 120.0], [0.0, 120.0]])
+    corners = apply_homography(H, square)
+    ends = zip(square, np.roll(square, -1, axis=0), strict=True)
+    sides = [np.linspace(a, b, 15, endpoint=False) for a, b in ends]
+    outline = apply_homography(H, np.concatenate(sides))
+    quad = quadrilateral(outline)
+    assert quad is not None
+    assert np.allclose(np.sort(quad, axis=0), np.sort(corners, axis=0), atol=1e-3)
+    rectified = apply_homography(rectifying_homography(outline), corners)
+    unit = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    assert min(np.abs(np.roll(rectified, k, axis=0) - unit).max() for k in range(4)) < 0.01
+    sliver = np.array([[0.0, 0.0], [200.0, 0.0], [400.0, 30.0], [200.0, 30.0]])
+    near_triangle = np.array([[0.0, 0.0], [200.0, 0.0], [110.0, 150.0], [90.0, 150.0]])
+    for shape in (sliver, near_triangle):
+        assert not is_rectangle_view(shape)
+        assert rectifying_homography(resample_uniform(shape, 60)) is None
