@@ -23,7 +23,8 @@ class Refused(ValueError):
 
 @dataclass(frozen=True)
 class ShownFrame:
-    """A frame the console sent to the pages: its ``seq``, ``stamp`` [s] and size [px]."""
+    """A frame the console sent to the pages: its ``seq``, ``stamp`` (the capture of its
+    image, on the run's clock) [s] and size [px]."""
 
     seq: int
     stamp: float

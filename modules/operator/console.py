@@ -32,7 +32,7 @@ from umbra.modules.operator.console_params import ConsoleParams
 from umbra.modules.operator.console_view import ConsoleView
 from umbra.modules.operator.control import ControlArbiter
 from umbra.modules.operator.cpu import process_cpu_s
-from umbra.modules.operator.jog import DeadMan, JogLimits, jog_twist
+from umbra.modules.operator.jog import KEEPALIVE_S, DeadMan, JogLimits, jog_twist
 from umbra.modules.operator.jog_labels import jog_labels
 from umbra.modules.operator.mailbox import Lanes
 from umbra.modules.operator.message_board import MessageBoard
@@ -47,9 +47,9 @@ if TYPE_CHECKING:  # the web side is imported only when the console serves (not 
 #: the plots' longest window [s] and the spacing of their points [s]
 PLOT_WINDOW_S = 120.0
 ERROR_PERIOD_S = 0.1
-#: how long [s] the stopping console waits, at most, for its pages to get the run's end (a
-#: page that misses it says "reconnecting" instead of the verdict; a loaded web thread has been
-#: seen to need more than 1 s)
+#: how long [s] the stopping console waits, at most, for its open pages to get the run's end (a
+#: loaded web thread has been seen to need more than 1 s); a page that misses it gets it when it
+#: reconnects, for as long as the server lingers (``linger.END_LINGER_S``)
 END_FLUSH_S = 3.0
 
 
@@ -59,8 +59,8 @@ class OperatorConsole(Module[ConsoleParams]):
     the operator's actions as outputs: ``seed`` (click: [u, v]; dragged box: [u0, v0, u1, v1]),
     ``operator`` (start / pause / resume / abort for vsServo), ``stop_run`` (*Stop*: the run ends,
     judged by the world) and ``jog`` (dead-man teleoperation
-    twist in ``camera_frame``, for REG_VEL's ``jog`` input: one per keep-alive from the page, so
-    REG_VEL's watchdog stops a jog whose keep-alives stop within its timeout).
+    twist in ``camera_frame``, for REG_VEL's ``jog`` input: at each keep-alive from the page and
+    at the keep-alive period while the dead-man holds it, zero once it expires or is released).
 
     Many pages may watch; one holds control, and only its commands pass (the others are refused
     and counted). Every page, route and socket needs the per-run access token (``token_file``, or
@@ -107,7 +107,8 @@ class OperatorConsole(Module[ConsoleParams]):
         Twist,
         frame=from_param("camera_frame"),
         origin_from=("image",),  # a jog is as old as the picture the operator acts on
-        doc="dead-man jog twist for REG_VEL: one per keep-alive of the held jog, zero on release",
+        doc="dead-man jog twist for REG_VEL: at the keep-alive period while the jog is held, "
+        "zero on release",
     )
     stop_run = Output(
         StopRun,
@@ -147,6 +148,8 @@ class OperatorConsole(Module[ConsoleParams]):
         self._phase_ended = False  #: set by stop(): the page shows the run's end
         self._jogging = False
         self._keepalive = False  #: a held jog's keep-alive arrived since the last step
+        self._jog_sent_at = -math.inf  #: wall time [s] the held jog's twist was last sent
+        self._jog_since = math.inf  #: when [s] the held jog began
         self._last_state = -math.inf
         self._state_period = 1.0 / p.state_rate_hz
         self._last_presence: tuple[str, int, int] | None = None
@@ -190,18 +193,19 @@ class OperatorConsole(Module[ConsoleParams]):
 
     def stop(self) -> None:
         self._cpu_end = self._cpu_figures()
-        if self._app is not None and self._app.stats.viewers:  # tell the pages the run ended
-            self._phase_ended = True
-            now = self._last_now
-            self._app.flush_final(self.view.state(now), END_FLUSH_S)
+        self._phase_ended = True
+        if self._app is not None:  # the run's end, for the pages open now and those to come
+            self._app.flush_final(self.view.state(self._last_now), END_FLUSH_S)
         if self._server is not None:  # kept for the summary (the server goes below)
             self._refused_requests = self._server.refused_requests
         if self._app is not None:
             self._app.close()
         if self._server is not None:
             from umbra.modules.operator.web_server import release_server
+            from umbra.modules.webdoor.linger import END_LINGER_S
 
-            release_server(self._server)
+            # a page that reconnects after the end still gets it (and its verdict)
+            release_server(self._server, END_LINGER_S)
             self._server = None
 
     # -- step ---------------------------------------------------------------------------------
@@ -217,7 +221,7 @@ class OperatorConsole(Module[ConsoleParams]):
         self.lanes.set_holders(frozenset(s for s in self.arbiter.sessions if self.arbiter.holds(s)))
         self._sim_seed(now)
         self.events.zoom_auto(now)
-        self._jog_step(wall)
+        self._jog_step(now, wall)
         self._track_servo(now)
         self._presence()
         app = self._app
@@ -235,13 +239,12 @@ class OperatorConsole(Module[ConsoleParams]):
         if image is None:
             return
         pixels = np.asarray(image.pixels)
-        self.history.add(
-            ShownFrame(image.seq, self.image.received_at, pixels.shape[1], pixels.shape[0])
-        )
+        # dated by its capture (origin; its arrival while the clocks cannot date it), as the
+        # page dates the picture it shows: a refusal's age is the page's shown age, later
+        capture = image.origin if math.isfinite(image.origin) else self.image.received_at
+        self.history.add(ShownFrame(image.seq, capture, pixels.shape[1], pixels.shape[0]))
         if self._app is not None:
-            self._app.frames.put(
-                self._app.raw_frame(pixels, image.seq, time.time(), now - image.stamp)
-            )
+            self._app.frames.put(self._app.raw_frame(pixels, image.seq, time.time(), now - capture))
 
     def _sketch_items(self, now: float) -> None:
         items = self.sketch_items
@@ -253,17 +256,39 @@ class OperatorConsole(Module[ConsoleParams]):
             items.set_path(path)
 
     # -- periodic -----------------------------------------------------------------------------
-    def _jog_step(self, wall: float) -> None:
-        """One jog twist per keep-alive that arrived since the last step (none in between: the
-        register's watchdog then zeroes a jog whose keep-alives stop, within its timeout); a
-        zero twist once, when the jog is released, its page goes, or the dead-man expires."""
+    def _jog_step(self, now: float, wall: float) -> None:
+        """The held jog's twist at each keep-alive, and at the keep-alive period of this clock
+        while the dead-man holds it (a late keep-alive does not zero the arm between two; the
+        register's watchdog zeroes the jog when this console goes silent); a zero twist once,
+        when the jog is released, its page goes, the dead-man expires or the guard (REG_VEL)
+        held the jog at zero since it began: then the page is told why, and the hold stays
+        stopped until released (one motion, not bursts)."""
         keepalive, self._keepalive = self._keepalive, False
+        before, expired = self.deadman.held, self.deadman.expired
         held = self.deadman.current(wall)
+        if before is not None and self.deadman.expired > expired:  # its page went silent
+            self.events._notice(self.deadman.stopped[before.session], before.session, "error")
         if held is not None and not self.arbiter.holds(held.session):
             self.deadman.release()
             held = None
+        if held is not None and not self._jogging:
+            self._jog_since = now  #: the guard's word counts from the hold's start [s]
+        guard = self.guard.value
+        if (
+            held is not None
+            and self._jogging
+            and guard is not None
+            and guard.jog
+            and not guard.passing
+            and self.guard.received_at > self._jog_since
+        ):
+            why = f"jog stopped: the arm's guard held it at zero: {guard.code.words}"
+            self.deadman.stop(held.session, why)
+            self.events._notice(why, held.session, "error", detail=guard.reason)
+            held = None
         if held is not None:
-            if keepalive:
+            if keepalive or wall - self._jog_sent_at >= KEEPALIVE_S:
+                self._jog_sent_at = wall
                 T = self._T_tool_camera if self._T_tool_camera is not None else np.eye(4)
                 twist = jog_twist(held.axes, held.speed, held.jog_frame, self._jog_limits, T)
                 self.jog.send(Twist(vector=twist, frame=self.params.camera_frame))

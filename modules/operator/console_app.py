@@ -201,7 +201,10 @@ class ConsoleApp:
             if frame is None or self.stats.viewers == 0:
                 continue
             t0 = time.perf_counter()
-            jpeg = await loop.run_in_executor(self._encoder, self._encode, frame.pixels)
+            try:
+                jpeg = await loop.run_in_executor(self._encoder, self._encode, frame.pixels)
+            except RuntimeError:  # the encoder is shut: the run ended (its pages get no frames)
+                return
             h, w = frame.pixels.shape[:2]
             header = json.dumps(
                 {

@@ -178,12 +178,15 @@ class ConsoleEvents:
             self._send_zoom(camera, value)
 
     def _jog_message(self, s: str, f: dict[str, Any], now: float, wall: float) -> None:
+        if f["held"] and s in self._c.deadman.stopped:
+            return  # a hold stopped (the page was told why) stays stopped until released
         if f["held"]:  # nobody jogs blind: the page must show live video (a release always goes)
             try:
                 self._c.history.frame_for(f["frame"], now, self._c.params.stale_page_s)
             except Refused as exc:
-                self._c.deadman.release(s)
-                raise Refused(f"jog refused: {exc}") from None
+                why = f"jog refused: {exc}"
+                self._c.deadman.stop(s, why)
+                raise Refused(why) from None
         if f["held"] and f["jog_frame"] == "tool" and self._c._T_tool_camera is None:
             raise Refused(
                 f"tool-frame jog refused: expected a static frame {self._c.params.tool_frame}->"

@@ -12,6 +12,7 @@ import numpy as np
 
 from umbra.connectors.states import NO_AGE_S, GuardReason
 from umbra.modules.operator import view_state
+from umbra.modules.operator.jog import KEEPALIVE_S
 from umbra.modules.operator.scene_view import scene_view
 from umbra.modules.operator.state_line import commands_available, phase_of, state_line
 
@@ -25,6 +26,10 @@ CLOCK_SYNC_BOUND_S = 0.005
 ERRORS_FULL_PERIOD_S = 2.0
 #: A zero shorter than this [s] is not shown as the arm held (it is counted, not flashed).
 BANNER_HOLD_S = 0.15
+#: The page shows its picture's age amber from this fraction of ``stale_page_s`` (the bound
+#: past which the console refuses an action made on it: red), so the operator sees a refusal
+#: coming.
+FRAME_AGE_WARN_FRACTION = 0.5
 
 
 class ConsoleView:
@@ -100,6 +105,16 @@ class ConsoleView:
         blip = guard is not None and guard.code == GuardReason.WATCHDOG and not guard.jog
         return text if not blip or now - self._zero_since >= BANNER_HOLD_S else ""
 
+    def frame_age_bounds(self) -> dict[str, float]:
+        """The bounds [ms] on the age of the picture the page shows, from its capture:
+        ``limit_ms`` is the console's own ``stale_page_s`` (an action on an older picture is
+        refused: red), ``warn_ms`` where the page turns amber."""
+        limit = self._c.params.stale_page_s
+        return {
+            "limit_ms": round(limit * 1e3, 3),
+            "warn_ms": round(limit * FRAME_AGE_WARN_FRACTION * 1e3, 3),
+        }
+
     def error_rows(self, now: float) -> dict[str, Any]:
         """The servo errors for the plot: ``errors`` rows (page units) and ``errors_full``
         (True: the whole history, which replaces the page's; False: the rows since the previous
@@ -172,8 +187,9 @@ class ConsoleView:
         world = self._c.world.get(now)
         held = self._c.deadman.held
         phase = phase_of(self._c.history.latest is not None, self._c._phase_ended)
+        contour = self._c.contour.get(now)
         line = state_line(
-            phase, servo, guard, world, self._c.arbiter.holder_name(), held is not None
+            phase, servo, guard, world, self._c.arbiter.holder_name(), held is not None, contour
         )
         return {
             "t": self._c._run_time(),
@@ -181,7 +197,8 @@ class ConsoleView:
             "line": line.for_page(),
             "commands": commands_available(phase, line.stage, self._c.stop_run.connected),
             "panels": self._panels(),
-            "overlay": view_state.overlay(self._c.contour.get(now), self._c._limits),
+            "overlay": view_state.overlay(contour, self._c._limits),
+            "frame_age": self.frame_age_bounds(),
             "scene": self.scene(now),
             "servo": view_state.servo_view(servo),
             "banner": self.held_banner(now, servo, guard),
@@ -212,6 +229,9 @@ class ConsoleView:
             if held is None
             else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
             "jog_labels": self._c._jog_labels,
+            "jog_keepalive_ms": KEEPALIVE_S * 1e3,
+            #: why the holder's held jog was stopped (it stays so until released), "" none
+            "jog_stopped": self._c.deadman.stopped.get(self._c.arbiter.holder or "", ""),
             "assist": self._c._assist,
             "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._c._zoom.items()],
             "notices": self._c.board.for_page(),

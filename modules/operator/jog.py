@@ -1,11 +1,16 @@
 """The jog pad's dead-man: motion only while the operator holds a button or key.
 
-The page sends the held jog again every 40 ms while a button or key is down, and a release
-when it goes up, when the page loses focus or is hidden, or before it unloads. The console
-forwards one twist per keep-alive, so the register's watchdog zeroes a silent jog too.
-:class:`DeadMan` gives the twist to command now: zero once no keep-alive came for
-``deadman_s`` (a frozen page, a dropped socket) or after a release. Time is the wall clock of
-the operator's hands (monotonic seconds), passed in. Pure.
+The page sends the held jog again every :data:`KEEPALIVE_S` while a button or key is down (the
+console tells the page this period), and a release when it goes up, when the page loses focus
+or is hidden, or before it unloads. The console forwards the held jog at that period of its own
+clock for as long as :class:`DeadMan` holds it, so a keep-alive that comes late (a page on a
+loaded machine) does not zero the arm between two keep-alives; the register's watchdog zeroes
+the jog when the console itself goes silent. :class:`DeadMan` gives the twist to command now:
+zero once no keep-alive came for ``deadman_s`` (a frozen page, a dropped socket) or after a
+release. A hold that was stopped (its keep-alives came too late, the console refused one, or
+the register held the jog at zero) stays stopped until the page releases it: the arm stops once
+and the page says why (:attr:`DeadMan.stopped`), instead of moving in bursts as keep-alives come
+and go. Time is the wall clock of the operator's hands (monotonic seconds), passed in. Pure.
 """
 
 from __future__ import annotations
@@ -18,6 +23,10 @@ from numpy.typing import NDArray
 from umbra.modules.geometry.transforms import twist_camera_from_tool
 
 FloatArray = NDArray[np.float64]
+
+#: The page's keep-alive period while a jog is held [s] (sent to the page with the state); the
+#: console forwards the held jog at this period too.
+KEEPALIVE_S = 0.04
 
 
 @dataclass(frozen=True)
@@ -74,34 +83,57 @@ class HeldJog:
 
 class DeadMan:
     """The held jog, dropped on release, on silence longer than ``deadman_s`` [s] (> 0: the
-    console's ``Params`` holds the bound), or on leave."""
+    console's ``Params`` holds the bound), on leave, or when the console refuses it; a hold
+    dropped for silence or refused stays stopped until its page releases it."""
 
     def __init__(self, deadman_s: float = 0.15) -> None:
         self.deadman_s = deadman_s
         self.held: HeldJog | None = None
         self.expired = 0  #: jogs dropped for silence (no keep-alive in time)
+        #: session -> why its hold was stopped; its keep-alives are ignored until it releases
+        self.stopped: dict[str, str] = {}
 
     def update(
         self, session: str, held: bool, axes: list[float], speed: float, jog_frame: str, now: float
     ) -> None:
         """A jog message from ``session`` at wall time ``now`` [s]."""
         if not held or not any(axes) or speed <= 0:
+            self.stopped.pop(session, None)  # released: the next press starts afresh
             if self.held is not None and self.held.session == session:
                 self.held = None
             return
+        if session in self.stopped:
+            return  # this hold was stopped (and said why): it waits for its release
         self.held = HeldJog(session, list(axes), speed, jog_frame, now)
+
+    def stop(self, session: str, why: str) -> None:
+        """Stop the hold of ``session`` for ``why`` (the console refused it) until it is
+        released."""
+        self.stopped[session] = why
+        if self.held is not None and self.held.session == session:
+            self.held = None
 
     def release(self, session: str | None = None) -> None:
         """Drop the jog (of ``session`` only, when given): a disconnect or loss of control."""
         if self.held is not None and (session is None or self.held.session == session):
             self.held = None
+        if session is None:
+            self.stopped.clear()
+        else:
+            self.stopped.pop(session, None)
 
     def current(self, now: float) -> HeldJog | None:
         """The jog to command at wall time ``now`` [s], or None."""
         if self.held is None:
             return None
-        if now - self.held.last_seen > self.deadman_s:
-            self.held = None
+        silent = now - self.held.last_seen
+        if silent > self.deadman_s:
+            self.stop(
+                self.held.session,
+                f"jog stopped: no keep-alive from the page for {silent:.2f} s, expected one "
+                f"every {KEEPALIVE_S:.2f} s and at most {self.deadman_s:.2f} s apart (the page "
+                "or its machine is too slow)",
+            )
             self.expired += 1
             return None
         return self.held

@@ -1,13 +1,16 @@
 """The station's one state line and the run's life cycle, from the graph's statuses. Pure.
 
-The line answers four questions at a glance: which stage the task is in, who holds control,
-what the robot is doing, and, when it stands still, why. The life cycle is ``starting`` (no
+The line answers five questions at a glance: which stage the task is in, who holds control,
+what the robot is doing, when it stands still why, and what a click on the patch in the live
+image does now (``click``). A failed tracker is said in its checks' words (``tracker``) whatever
+the stage, so a failure while paused is not only a red outline. The life cycle is ``starting`` (no
 camera image yet), ``running``, ``ended`` (the process is stopping: the page says so, with the
 verdict, instead of trying to reconnect to a run that is gone).
 
 A seed starts the approach: vsServo waits in ``acquire`` for a healthy snake and moves as soon
 as the snake holds the patch for a few frames. *Start* begins a new grab from a stopped stage
-(done, aborted, paused, assist); in ``acquire`` there is nothing to start but the seed.
+(done, aborted, paused, assist); in ``acquire`` there is nothing to start but the seed. A jog
+pauses the grab, so after a jog a click seeds the tracker and the arm holds until *Resume*.
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from umbra.connectors.messages import Contour
+from umbra.connectors.reasons import words_of
 from umbra.connectors.states import (
     GuardState,
     Outcome,
@@ -23,6 +28,7 @@ from umbra.connectors.states import (
     ServoState,
     Verdict,
 )
+from umbra.connectors.tracking import TrackStatus
 from umbra.modules.servo.stages import ABORTED, ACTIVE_STAGES, ASSIST, DONE, PAUSED
 
 STARTING, RUNNING, ENDED = "starting", "running", "ended"
@@ -38,6 +44,25 @@ _DOING = {
     ServoStage.ABORTED: "aborted; the arm holds with the gripper open",
 }
 
+#: what a click (or a dragged box) on the patch does in each of vsServo's stages, for the page
+#: that holds control: the seed always goes to the tracker; whether the arm then moves depends on
+#: the stage (after a jog or a pause the grab waits for *Resume*)
+_CLICK = {
+    ServoStage.ACQUIRE: "seeds the tracker; the approach then starts by itself",
+    ServoStage.APPROACH: "re-seeds the tracker; the approach goes on from the new outline",
+    ServoStage.FINAL_GRAB: "re-seeds the tracker; the final grab goes on from the new outline",
+    ServoStage.DONE: "seeds the tracker; the arm holds until you press Start",
+    ServoStage.ASSIST: "re-seeds the tracker; the arm holds until you press Resume",
+    ServoStage.PAUSED: "seeds the tracker; the arm holds until you press Resume",
+    ServoStage.ABORTED: "seeds the tracker; the arm holds until you press Start",
+}
+#: what a click does with no grab in the graph (or no word from it yet), before the first
+#: picture, after the run, and on a page without control
+CLICK_NO_GRAB = "seeds the tracker"
+CLICK_STARTING = "nothing yet: no picture from the camera"
+CLICK_ENDED = "nothing: the run has ended"
+CLICK_WITHOUT_CONTROL = "nothing: take control first"
+
 #: vsServo stages from which *Start* begins a new grab (elsewhere it would change nothing)
 STARTABLE = (DONE, ABORTED, PAUSED, ASSIST)
 #: stages in which *Pause* holds the arm
@@ -47,7 +72,9 @@ PAUSABLE = (*ACTIVE_STAGES, ASSIST)
 @dataclass(frozen=True)
 class StateLine:
     """What the page's state line says; ``stopped`` is "" while the robot may move; ``outcome``
-    is the verdict's (``pending`` before one)."""
+    is the verdict's (``pending`` before one); ``click`` what a click on the patch does now for
+    the page holding control (``click_without_control`` for the others); ``tracker`` the
+    tracker's failure in words ("" while it tracks, or when ``stopped`` already says it)."""
 
     phase: str
     stage: str
@@ -57,6 +84,9 @@ class StateLine:
     stopped_detail: str
     verdict: str
     outcome: str = Outcome.PENDING.value
+    click: str = CLICK_NO_GRAB
+    click_without_control: str = CLICK_WITHOUT_CONTROL
+    tracker: str = ""
 
     def for_page(self) -> dict[str, Any]:
         return asdict(self)
@@ -76,10 +106,11 @@ def state_line(
     world: Verdict | None,
     holder: str,
     jogging: bool,
+    contour: Contour | None = None,
 ) -> StateLine:
     """The state line from vsServo's and REG_VEL's statuses, the world's verdict (None: no
-    judge in the graph, or not judged yet), the control holder's name ("" nobody) and whether
-    a jog is held."""
+    judge in the graph, or not judged yet), the control holder's name ("" nobody), whether
+    a jog is held and the tracker's latest contour (None: none, or too old)."""
     control = holder or "nobody (take control to act)"
     judged = world is not None and world.outcome != Outcome.PENDING
     verdict = world.message if world is not None and judged else ""
@@ -87,7 +118,15 @@ def state_line(
     stage = servo.stage if servo is not None else "-"
     if phase == STARTING:
         return StateLine(
-            phase, stage, control, "starting: waiting for the camera", "", "", "", outcome
+            phase,
+            stage,
+            control,
+            "starting: waiting for the camera",
+            "",
+            "",
+            "",
+            outcome,
+            click=CLICK_STARTING,
         )
     if jogging:
         doing = "jogging by hand (the grab is paused)"
@@ -100,7 +139,46 @@ def state_line(
     if phase == ENDED:
         doing = "the run has ended"
     words, exact = _why_stopped(servo, guard, jogging)
-    return StateLine(phase, stage, control, doing, words, exact, verdict, outcome)
+    return StateLine(
+        phase,
+        stage,
+        control,
+        doing,
+        words,
+        exact,
+        verdict,
+        outcome,
+        click=click_does(phase, servo, jogging),
+        tracker=_tracker_words(contour, words),
+    )
+
+
+def click_does(phase: str, servo: ServoState | None, jogging: bool) -> str:
+    """What a click on the patch does now, for the page holding control: the seed goes to the
+    tracker; whether the arm moves then depends on vsServo's stage (a held jog pauses an active
+    grab, so it is said as paused)."""
+    if phase == STARTING:
+        return CLICK_STARTING
+    if phase == ENDED:
+        return CLICK_ENDED
+    if servo is None:
+        return CLICK_NO_GRAB
+    stage = PAUSED if jogging and servo.stage in ACTIVE_STAGES else servo.stage
+    return _CLICK.get(stage, CLICK_NO_GRAB)
+
+
+def _tracker_words(contour: Contour | None, stopped: str) -> str:
+    """The tracker's failure in the operator's words (its failed checks'; "" while it tracks,
+    or when the line's ``stopped`` already says the same)."""
+    if contour is None or contour.status != TrackStatus.FAILED:
+        return ""
+    checks = words_of(contour.checks)
+    if checks and checks == stopped:
+        return ""
+    said = (
+        f"{ServoReason.SNAKE_FAILED.words}: {checks}" if checks else ServoReason.SNAKE_FAILED.words
+    )
+    return f"{said}; click the patch to re-seed it"
 
 
 def _why_stopped(

@@ -28,7 +28,11 @@ the server was started for, its own pages' Origin, bounded bodies, messages and 
 gate also gives each browser its viewer cookie. The server holds the control table of all its pages
 (``server.control``, a :class:`~umbra.modules.operator.control.ControlArbiter`): the operator who
 holds control on one page holds it on every page of the server, and commands from everyone
-else are refused. The server stops when the last module holding it releases it.
+else are refused. The server stops when the last module holding it releases it; a module whose
+pages must still learn how the run ended releases it with ``linger_s``: the server then serves
+on (no module owns it any more) until the process ends, at most that long
+(:mod:`umbra.modules.webdoor.linger`), so a page that reconnects after the run's end still gets
+its verdict.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ from umbra.connectors.access.secret import TOKEN_QUERY
 from umbra.connectors.errors import UserError
 from umbra.modules.operator.control import ControlArbiter
 from umbra.modules.webdoor.gate import Gate
+from umbra.modules.webdoor.linger import linger
 from umbra.modules.webdoor.transport import Connections, uvicorn_options
 
 
@@ -186,8 +191,10 @@ def acquire_server(
         return server
 
 
-def release_server(server: WebServer) -> None:
-    """Give back a server from :func:`acquire_server`; the last user stops it."""
+def release_server(server: WebServer, linger_s: float = 0.0) -> None:
+    """Give back a server from :func:`acquire_server`; the last user stops it, at once or, with
+    ``linger_s`` [s], that much later in a thread of its own (the server leaves the registry at
+    once: a later :func:`acquire_server` starts a new one; the process's end ends it sooner)."""
     with _REGISTRY.lock:
         server.users -= 1
         if server.users > 0:
@@ -195,4 +202,4 @@ def release_server(server: WebServer) -> None:
         for key, value in list(_REGISTRY.servers.items()):
             if value is server:
                 del _REGISTRY.servers[key]
-    server.stop()
+    linger(server.stop, linger_s, "umbra-web-linger")

@@ -16,6 +16,7 @@ from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Stat
 from umbra.connectors.params import RunFile
 from umbra.connectors.scene_messages import SceneObjects
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.connectors.states import Verdict
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.view3d.geometry import (
     viewer_pose_looking_at,
@@ -24,8 +25,9 @@ from umbra.modules.view3d.pose_tool_panel import PoseTool
 from umbra.modules.view3d.pose_tool_widgets import PoseToolWidgets, snapshot_image_depth
 from umbra.modules.view3d.scene_file import Scene, load_scene
 from umbra.modules.view3d.scene_messages import box_item, primitive_item, snapshot_items
-from umbra.modules.view3d.view3d_push import CAMERAS, SceneItem, ViewPush
+from umbra.modules.view3d.view3d_push import CAMERAS, SceneItem, ViewPush, verdict_words
 from umbra.modules.view3d.viewer import ViewerPage
+from umbra.modules.webdoor.linger import END_LINGER_S, linger
 
 
 class View3DParams(ArmParams):
@@ -117,7 +119,11 @@ class View3D(Module[View3DParams]):
     back to the overview. Stereo snapshots stay in the scene with their frustum and image and
     can be viewed from their own pose; boxes and sketched primitives appear in the model. The
     scene is saved to ``scene_file`` in the run folder on every change and reloads with
-    ``load_scene``. The page's address is printed at start.
+    ``load_scene``. The page's address is printed at start. A judge's ``verdict`` is said under
+    the state line; at the run's end the page says that it ended, with the verdict (in the
+    panel's header too, which keeps it once the server is gone), and the server serves on until
+    the process ends (:mod:`umbra.modules.webdoor.linger`): a page that reconnects then still
+    learns how the run ended.
 
     A camera's pose: its ``*_pose`` input (the camera's or its mount's pose, in any frame the
     static frames tie to ``world_frame``), else its model's mount in the static frames, and
@@ -161,6 +167,13 @@ class View3D(Module[View3DParams]):
         feedback=True,
         doc="the task's status (vsServo's stage and reason, a world's verdict): the page's "
         "state line",
+    )
+    verdict = Input(
+        Verdict,
+        required=False,
+        feedback=True,
+        doc="a judge's verdict on the run (the world's): said on the page once judged, and with "
+        "the run's end",
     )
     status = Output(Status, doc="page address, browsers connected, video frames sent")
     mount = Output(Pose, events=True, doc="the camera mount the pose tool solved and saved")
@@ -215,7 +228,11 @@ class View3D(Module[View3DParams]):
         if push is not None:
             push.stop()
         if getattr(self, "page", None) is not None:
-            self.page.stop()
+            # the run's end and its verdict stay on the page (its header too, where viser would
+            # say "Connecting..." once the server is gone); a page that reconnects meanwhile
+            # gets them from the server, which serves on until the process ends
+            self.page.end(verdict_words(self.verdict.value))
+            linger(self.page.stop, END_LINGER_S, f"{self.name}-linger")
 
     def summary(self) -> dict[str, object]:
         push: ViewPush | None = getattr(self, "push", None)
@@ -281,6 +298,7 @@ class View3D(Module[View3DParams]):
             "patch_pose",
             "objects",
             "stage",
+            "verdict",
             *(f"{c}_{k}" for c in CAMERAS for k in ("image", "model", "pose")),
         ):
             sample = getattr(self, port).get(now)

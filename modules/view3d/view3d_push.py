@@ -16,6 +16,7 @@ import numpy as np
 from umbra.connectors import UserError
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
 from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.view3d.geometry import (
     Frustum,
     arm_joint_points,
@@ -165,6 +166,11 @@ class ViewPush:
             self._shown["stage"] = stage
             with self._part("stage"):
                 self._v.page.set_stage(stage_line(stage))
+        verdict = latest.get("verdict")
+        if isinstance(verdict, Verdict) and self._shown.get("verdict") is not verdict:
+            self._shown["verdict"] = verdict
+            with self._part("verdict"):
+                self._v.page.set_verdict(verdict_words(verdict, ended=False))
         patch = latest.get("patch_pose")
         if isinstance(patch, Pose) and self._shown.get("patch_pose") is not patch:
             self._shown["patch_pose"] = patch
@@ -319,6 +325,14 @@ def stage_line(status: Status) -> str:
     if status.assist and status.reason:
         line += f" (asks the operator: {status.reason})"
     return line
+
+
+def verdict_words(verdict: Verdict | None, ended: bool = True) -> str:
+    """The verdict as the page says it: the judge's words once it judged; "" before that while
+    the run lives, and at its end what is known (``ended``)."""
+    if verdict is not None and verdict.outcome != Outcome.PENDING:
+        return verdict.message or verdict.outcome.value
+    return "no verdict (the run was stopped before it was judged)" if ended else ""
 
 
 def label_under(frustum: Frustum, camera: str) -> np.ndarray:

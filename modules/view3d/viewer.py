@@ -101,6 +101,8 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         #: called with a new snapshot taken by a button (the module keeps it in its scene)
         self.on_snapshot: Callable[[SceneSnapshot], None] | None = None
         self._taken = 0
+        self.ended = ""  #: the verdict said at the run's end ("" while the run lives)
+        self._stopped = False
         self._build_gui()
         self.server.scene.set_up_direction("+z")
         # plain lights, no environment map or shadows: cheap to draw on any machine (a browser
@@ -125,7 +127,10 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         return len(self.server.get_clients())
 
     def stop(self) -> None:
-        self.server.stop()
+        """Stop the server (once: the run's end and the process's end may both ask)."""
+        if not self._stopped:
+            self._stopped = True
+            self.server.stop()
 
     # -- GUI ------------------------------------------------------------------------------------
 
@@ -136,6 +141,7 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         self.overview_button = gui.add_button("Overview")
         self.overview_button.on_click(lambda event: self.animate_to(event.client, self.overview))
         self.stage_note = gui.add_markdown("**stage**: (no task status wired)")
+        self.verdict_note = gui.add_markdown("")
         self.sliders: dict[str, object] = {}
         self.view_buttons: dict[str, object] = {}
         with gui.add_folder("Snapshots"):
@@ -167,6 +173,19 @@ class ViewerPage(ViewerMoves, ViewerSketch):
     def set_stage(self, text: str) -> None:
         """The task's state line (the stage and what it is doing), shown above the cameras."""
         self.stage_note.content = f"**stage**: {text}"
+
+    def set_verdict(self, text: str) -> None:
+        """The judge's verdict on the run ("" none yet), shown under the state line."""
+        self.verdict_note.content = f"**verdict**: {text}" if text else ""
+
+    def end(self, verdict: str) -> None:
+        """The run has ended with ``verdict`` (its words): said under the state line and in the
+        panel's header, which keeps saying it once the server is gone (instead of viser's
+        "Connecting...")."""
+        self.ended = verdict
+        self.stage_note.content = "**the run has ended**: this page is no longer live"
+        self.set_verdict(verdict)
+        self.server.gui.set_panel_label(f"Run ended: {verdict}")
 
     def label(self, name: str, text: str, T_world_frame: np.ndarray) -> None:
         """A frame's name written at its origin in the model (``labels``: where each is); sent

@@ -8,8 +8,9 @@ Every configuration built here:
 * lists its listen and connect endpoints explicitly (zenoh's own default listens on every
   interface): on one host the defaults are loopback ``tcp/127.0.0.1:PORT`` endpoints;
 * retries connect endpoints quickly (a peer that comes back, or a link that returns, is rejoined
-  without restarting anything) and uses a short lease, so a silent peer is declared gone within
-  about a second (``LEASE_MS``);
+  without restarting anything) and uses a short lease, so a silent peer's link is dropped within
+  about a second (``LEASE_MS``): a peer on another host is then gone, one on this host whose
+  process lives is late until it returns or dies (``umbra.runtime.links.late``);
 * keeps zenoh's shared-memory transport on, so large samples between processes on one host travel
   as shared-memory references (see ``umbra.runtime.links.shm``).
 """
@@ -29,7 +30,8 @@ from umbra.connectors.errors import UserError
 from umbra.connectors.user_files import read_text
 from umbra.runtime.links.auth import apply_auth
 
-#: Lease of a zenoh link [ms]: a peer that sends nothing for this long is declared gone.
+#: Lease of a zenoh link [ms]: a peer that sends nothing for this long loses its link and its
+#: token (gone, or late while its process on this host lives: ``umbra.runtime.links.late``).
 LEASE_MS = 1000
 #: Longest a connecting peer may take over zenoh's handshake [ms] (zenoh's default: 10 s). A
 #: handshake over loopback or a LAN takes milliseconds, with TLS tens; a peer that opens a

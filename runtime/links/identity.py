@@ -8,7 +8,8 @@ from the live session of the process the graph names as the link's producer:
 * a session is live from its token's appearance until its disappearance; a second token of the
   same process while one is live is a conflict (counted, ignored): the first stays in charge;
 * a process whose token disappeared is gone and stays gone until a token of it appears again —
-  samples never bring it back, whoever sends them;
+  samples never bring it back, whoever sends them (a process on this host whose token went while
+  it lives is late, not gone, and keeps its live session: ``umbra.runtime.links.late``);
 * sequence numbers are tracked per session, as its token names it: a new session of a producer
   (the same zenoh id started again too: its marker differs) starts a new count; the same token
   back after its link was lost goes on with the old one.
@@ -119,6 +120,10 @@ class Sessions:
     def live_sessions(self) -> list[str]:
         """Zenoh ids of every live process's session."""
         return [token.session for token in list(self.current.values())]
+
+    def is_live(self, token: Token) -> bool:
+        """Whether ``token`` is the live token of its process."""
+        return self.current.get(token.process) == token
 
     def token_up(self, token: Token) -> bool:
         """A token appeared; True when it is now (or still) the live one of its process."""

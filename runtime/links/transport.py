@@ -7,10 +7,12 @@ Key expressions (``P`` is the graph's key prefix, ``umbra/<graph>`` unless overr
 * ``P/_alive/<process>/<marker>/<session>/<proof>`` — a liveliness token held by each running
   process of the graph. Zenoh removes it when the process's session ends for any reason (exit,
   crash, kill -9, link lost for longer than the lease), which is how consumers learn that a
-  producing process is gone. The marker names a file the process keeps in /dev/shm: a peer that
-  sees the file shares this host's shared memory. ``session`` is the zenoh id of the process's
-  session, which also stamps every sample it publishes; ``proof`` shows the token was made by a
-  holder of the run's credentials (``umbra.runtime.links.identity``).
+  producing process is gone (a process on this host that the OS says lives is only late until
+  its link returns: ``umbra.runtime.links.late``). The marker names a file the process keeps in
+  /dev/shm: a peer that sees the file shares this host's shared memory and learns its pid.
+  ``session`` is the zenoh id of the process's session, which also stamps every sample it
+  publishes; ``proof`` shows the token was made by a holder of the run's credentials
+  (``umbra.runtime.links.identity``).
 
 The parts: publishing (``umbra.runtime.links.publishing``, large samples through the frame pool:
 ``umbra.runtime.links.pool_handoff``), receiving (``umbra.runtime.links.receiving``) behind the
@@ -38,6 +40,7 @@ from umbra.connectors.ports import Sink
 from umbra.runtime.graph.plan import GraphPlan, LinkPlan
 from umbra.runtime.links.bounds import max_sample_bytes
 from umbra.runtime.links.clock_sync import ClockSync
+from umbra.runtime.links.config import LEASE_MS
 from umbra.runtime.links.identity import (
     ALIVE,
     Sessions,
@@ -48,6 +51,7 @@ from umbra.runtime.links.identity import (
     proven,
     sign,
 )
+from umbra.runtime.links.late import LatePeers
 from umbra.runtime.links.log_limit import RateLimitedLog
 from umbra.runtime.links.pool import HostMarker, PoolReader, marker_pid
 from umbra.runtime.links.pool_handoff import PoolHandoff
@@ -111,6 +115,10 @@ class ZenohTransport:
         self._arrived: dict[str, list[Callable[[], None]]] = {}
         self._alive: set[str] = set()
         self._peer_pid: dict[str, int] = {}  # processes sharing this host's /dev/shm
+        #: pid of each process of the graph on this host (its marker names it), pool or not
+        self._host_pid: dict[str, int] = {}
+        #: processes whose token went while their process lives: late, not gone (``late``)
+        self._late = LatePeers(self._declare_gone)
         self._sessions = Sessions()
         #: per producing process: what lets the samples held for its token go (``subscribe``)
         self._releasers: dict[str, list[Callable[[], None]]] = {}
@@ -195,32 +203,63 @@ class ZenohTransport:
                 self._sessions.session_of(name),
             )
             return
-        if not up and not self._sessions.token_down(token):
-            return  # the token of a session that is not (or no longer) the live one
+        if not up:
+            if not self._sessions.is_live(token):
+                return  # the token of a session that is not (or no longer) the live one
+            held = name in self._alive and not self._stopped(name)
+            if held and self._late.hold(token, self._host_pid.get(name)):
+                self._log.warning(
+                    "process `%s` is late: its link was lost (nothing heard for %.1f s) but its "
+                    "process lives; declared gone if it dies or stays silent %.0f s",
+                    name,
+                    LEASE_MS / 1e3,
+                    self._late.bound_s,
+                )
+                return
+            self._declare_gone(token)
+            return
+        late_s = self._late.back(token)
         with self._lock:
             known = name in self._alive
-            if up:
-                self._alive.add(name)
-                pid = marker_pid(marker) if self._marker is not None else None
-                if pid is not None:
+            self._alive.add(name)
+            pid = marker_pid(marker)
+            if pid is not None:
+                self._host_pid[name] = pid
+                if self._marker is not None:
                     self._peer_pid[name] = pid
-            else:
-                self._alive.discard(name)
             self._state_changed()
-        if up:
-            self.clocks.poke()
-            for release in self._releasers.get(name, ()):
-                release()
-        else:
-            self.clocks.forget(name)  # a new session of it is measured afresh
-        if up and not known:
+        self.clocks.poke()
+        for release in self._releasers.get(name, ()):
+            release()
+        if late_s is not None:
+            self._log.info(
+                "process `%s` is back after %.1f s late (session %s)", name, late_s, session
+            )
+        elif not known:
             self._log.info("process `%s` is up (session %s)", name, session)
-        elif not up and known:
-            mine = [k for k, p in self._producer_of.items() if p == name and k in self._subs]
-            if mine and all(k in self._ended for k in mine):
-                self._log.info("process `%s` stopped (its streams ended)", name)
-            else:
-                self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
+
+    def _stopped(self, name: str) -> bool:
+        """Whether every stream of process ``name`` that this process takes has ended (it
+        stopped cleanly; False when this process takes none)."""
+        mine = [k for k, p in self._producer_of.items() if p == name and k in self._subs]
+        return bool(mine) and all(k in self._ended for k in mine)
+
+    def _declare_gone(self, token: Token) -> None:
+        """The live ``token`` is gone for good: its process is gone (or stopped)."""
+        name = token.process
+        if not self._sessions.token_down(token):
+            return
+        with self._lock:
+            known = name in self._alive
+            self._alive.discard(name)
+            self._state_changed()
+        self.clocks.forget(name)  # a new session of it is measured afresh
+        if not known:
+            return
+        if self._stopped(name):
+            self._log.info("process `%s` stopped (its streams ended)", name)
+        else:
+            self._log.warning("process `%s` is gone (zenoh liveliness lost)", name)
 
     def _forged(self, token: Token) -> None:
         """Count a token whose proof is wrong; log it (rate-limited)."""
@@ -250,6 +289,11 @@ class ZenohTransport:
         """Other processes of the graph whose liveliness token is visible now."""
         with self._lock:
             return set(self._alive)
+
+    def late_processes(self) -> dict[str, float]:
+        """Other processes whose link was lost while their process lives (``late``), and for
+        how long [s] each has been late."""
+        return self._late.late()
 
     # -- producer side --------------------------------------------------------------------------
     def publisher(self, link: LinkPlan) -> Sink:
@@ -392,6 +436,8 @@ class ZenohTransport:
             "session": self._session_id,
             "token_conflicts": self._sessions.conflicts,
             "forged_tokens": self.forged_tokens,
+            "late_held": self._late.held,
+            "late_returned": self._late.returned,
             "clocks": self.clocks.summary(),
         }
 
@@ -400,6 +446,7 @@ class ZenohTransport:
         if self._closed:
             return
         self._closed = True
+        self._late.close()
         for pub, _stats in self._pubs.values():
             try:
                 pub.delete(source_info=zenoh.SourceInfo(pub.id, 0))

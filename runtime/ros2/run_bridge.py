@@ -38,10 +38,11 @@ from umbra.connectors.messages import Message, Pose
 from umbra.connectors.module import Module
 from umbra.connectors.ports import Register
 from umbra.runtime.graph.plan import GraphPlan
+from umbra.runtime.graph.spec_ros2 import DEFAULT_ROS2_ROUTER as DEFAULT_ROUTER
 from umbra.runtime.links.exposure import config_for
 from umbra.runtime.ros2.bridge import MAX_DOMAIN, Ros2Bridge
 from umbra.runtime.ros2.mapping import Direction, Ros2Mapping
-from umbra.runtime.ros2.router import DEFAULT_ROUTER, session_config
+from umbra.runtime.ros2.router import session_config
 
 #: ROS 2's transform topics and their type: a process that maps an output to ``/tf`` also
 #: publishes the graph's static frames on ``/tf_static``, every ``STATIC_PERIOD_S`` [s].

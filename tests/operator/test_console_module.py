@@ -159,7 +159,19 @@ def test_nobody_jogs_on_a_frozen_page_but_a_live_one_jogs_and_a_release_always_g
             texts = [n["text"] for n in map(vars, h.module.board.lines) if n["level"] == "error"]
             assert texts[-1].startswith("jog refused: stale page: the image you acted on is 0.")
             assert not any(np.any(t.vector) for t in h.outputs("jog"))
-            live = _frame_seq(h)
+            live = _frame_seq(h)  # the same hold on a live picture stays stopped (no bursts)
+            page.send(
+                "jog", held=True, axes=[1, 0, 0, 0], jog_frame="camera", speed=1.0, frame=live
+            )
+            for _ in range(20):  # the keep-alive is handled, and ignored
+                h.push("image", image())
+                h.step(dt=0.005)
+                time.sleep(0.005)
+            assert h.module.view.state(h.now)["jog_stopped"].startswith("jog refused: stale")
+            assert not any(np.any(t.vector) for t in h.outputs("jog"))
+            page.send(  # released, then pressed again on the live picture: it jogs
+                "jog", held=False, axes=[0, 0, 0, 0], jog_frame="camera", speed=1.0, frame=live
+            )
             page.send(
                 "jog", held=True, axes=[1, 0, 0, 0], jog_frame="camera", speed=1.0, frame=live
             )

@@ -101,6 +101,9 @@ def test_dead_man_drops_the_jog_on_release_silence_and_disconnect() -> None:
     d.update("s1", True, [1, 0, 0, 0], 0.5, "camera", now=10.0)
     assert d.current(10.1) is not None
     assert d.current(10.16) is None and d.expired == 1  # keep-alives stopped: zero
+    d.update("s1", True, [0, 0, 1, 0], 1.0, "tool", now=10.5)  # the late hold stays stopped
+    assert d.current(10.51) is None and "no keep-alive" in d.stopped["s1"]
+    d.update("s1", False, [0, 0, 0, 0], 1.0, "tool", now=10.9)  # until released
     d.update("s1", True, [0, 0, 1, 0], 1.0, "tool", now=11.0)
     d.update("s2", False, [0, 0, 0, 0], 1.0, "tool", now=11.01)  # another page's release
     assert d.current(11.02) is not None

@@ -218,7 +218,7 @@ def _shape(spec: object) -> dict:
 @pytest.mark.parametrize(
     ("variant", "base", "view_inputs"),
     [
-        ("tool_pickup_3d.yaml", "tool_pickup.yaml", 4),
+        ("tool_pickup_3d.yaml", "tool_pickup.yaml", 5),
         ("active_sketch_3d.yaml", "active_sketch.yaml", 12),
     ],
 )

@@ -63,7 +63,7 @@ function imageSize(side) {  // the snapshot's image size (px), not an assumed 64
 async function post(url, body) {  // the server's answer, or its refusal, shown on the page
   const r = await fetch(url, { method: "POST", body: JSON.stringify(body) });
   const reply = await r.json().catch(() => ({ error: `HTTP ${r.status}` }));
-  $("notice").textContent = r.ok ? reply.message : reply.error;
+  $("notice").textContent = $("notice").title = r.ok ? reply.message : reply.error;
   $("notice").className = r.ok ? "" : "error";
 }
 const send = (text) => post("/sketch/command", { text });
@@ -160,7 +160,7 @@ function draw() {
   const v = st.vcr;
   $("vcr").textContent = v ? `${v.path} ${v.mode} ${(100 * v.progress).toFixed(1)} % x${v.speed.toFixed(1)} ${v.reason}` : "";
   $("progress").value = v ? v.progress : 0;
-  $("status").textContent = st.status ? `${st.status.stage}: ${st.status.message}` : "";
+  $("status").textContent = $("status").title = st.status ? `${st.status.stage}: ${st.status.message}` : "";
   const vd = st.verdict;
   $("verdict").textContent = vd ? `${vd.label}: ${vd.text}` : "";
   $("verdict").className = vd ? (vd.text.startsWith("done") ? "done" : vd.success ? "ok" : "miss") : "";

@@ -24,6 +24,9 @@
     // the reason the arm is held is said once: in the red banner while it holds, else here
     const held = s.banner && !umbra.ended;
     $("line-stopped").textContent = l.stopped && !held ? `· arm stopped: ${l.stopped}` : "";
+    $("line-tracker").textContent = l.tracker && !umbra.ended ? `· ${l.tracker}` : "";
+    // what a click on the patch does now: the console's words, for this page's control
+    $("click-does").textContent = mine || s.phase === "ended" ? l.click : l.click_without_control;
     const det = $("line-detail");
     det.hidden = !l.stopped_detail || l.stopped_detail === l.stopped;
     det.querySelector("span").textContent = l.stopped_detail;

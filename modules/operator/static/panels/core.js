@@ -1,11 +1,18 @@
 // umbra station core: the page's one socket and a small bus the panels subscribe to. Every
-// action goes to the server as a checked message; the server decides.
+// action goes to the server as a checked message; the server decides. A lost socket is opened
+// again every second; the server's first word on a socket is its latest state, so a page whose
+// socket was cut at the run's end learns the end and its verdict when it reconnects (the server
+// serves on for a while after the run).
 "use strict";
 const $ = (id) => document.getElementById(id);
 const umbra = (window.umbra = { painted: 0, frame: 0, size: [640, 480], state: null, notices: [],
   session: "", name: "", latencies: [], ended: false, handlers: {} });
 let socket = null, seq = 0;
 const LOST_S = 5;  // how long [s] without an answer before the page says the run may be gone
+// how long [s] an open socket may stay silent (the server sends its state 10 times a second)
+// before the page drops it and opens another: a connection that lost its messages without
+// closing (a half-open one) must not hold the page on a live-looking state
+const SILENT_S = 5;
 
 umbra.on = (kind, fn) => { (umbra.handlers[kind] = umbra.handlers[kind] || []).push(fn); };
 umbra.emit = (kind, data) => { for (const fn of umbra.handlers[kind] || []) fn(data); };
@@ -22,11 +29,11 @@ umbra.connect = () => {
               (token ? `?token=${encodeURIComponent(token)}` : "");
   socket = new WebSocket(url);
   socket.binaryType = "arraybuffer";
-  socket.onopen = () => { umbra.lostAt = 0; umbra.emit("connection", "connected"); };
+  socket.onopen = () => { umbra.lostAt = 0; umbra.heardAt = performance.now(); umbra.emit("connection", "connected"); };
   socket.onclose = () => {
     const hadSession = umbra.session !== "";
     umbra.session = ""; seq = 0;
-    if (umbra.state && umbra.state.phase === "ended") { umbra.ended = true; umbra.emit("ended", umbra.state); return; }
+    if (umbra.ended) return;  // the run's end was said: nothing more to hear
     // a run that died without saying so: after LOST_S the page says what it knows, and the
     // commands are shown disabled at once (the state drawn again without this page's session)
     umbra.lostAt = umbra.lostAt || performance.now();
@@ -37,10 +44,21 @@ umbra.connect = () => {
     setTimeout(umbra.connect, 1000);
   };
   socket.onmessage = (ev) => {
+    umbra.heardAt = performance.now();
     if (typeof ev.data !== "string") { umbra.emit("frame", ev.data); return; }
     const m = JSON.parse(ev.data);
     if (m.type === "welcome") { umbra.session = m.session; umbra.name = m.name; umbra.send("hello", { name: m.name }); }
     else if (m.type === "notice") umbra.emit("notice", m);
-    else if (m.type === "state") { umbra.state = m; umbra.emit("state", m); }
+    else if (m.type === "state") {
+      // the run's end, as soon as it is said (the first thing a page reconnecting after it hears)
+      const end = m.phase === "ended" && !umbra.ended;
+      umbra.state = m; umbra.ended = umbra.ended || end;
+      umbra.emit("state", m);
+      if (end) umbra.emit("ended", m);
+    }
   };
 };
+setInterval(() => {  // a silent socket is dropped (its close opens another)
+  if (socket && socket.readyState === 1 && !umbra.ended &&
+      performance.now() - umbra.heardAt > SILENT_S * 1000) socket.close();
+}, 1000);

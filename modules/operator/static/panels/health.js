@@ -1,8 +1,20 @@
-// Health panel: each link's age (from its producer's stamp) and data age (from the sensor), the
-// image-to-command age at REG_VEL, whether the clocks agree and the servo process lives, joints.
+// Health panel: this page's own glass-to-glass figure (camera capture to paint, p50 / p95 of
+// the last seconds' frames, measured by the video panel), each link's age (from its producer's
+// stamp) and data age (from the sensor), the image-to-command age at REG_VEL, whether the
+// clocks agree and the servo process lives, joints.
 // Once the run has ended, processes gone and links silent are its end, not faults: said in grey.
 "use strict";
+umbra.glassFigures = () => {  // {p50, p95, n} [ms] of the frames painted in the last seconds
+  const ms = umbra.glass.map((p) => p[1]).sort((a, b) => a - b);
+  const at = (q) => ms[Math.min(ms.length - 1, Math.floor(q * ms.length))];
+  return ms.length ? { p50: Math.round(at(0.5)), p95: Math.round(at(0.95)), n: ms.length } : null;
+};
 umbra.on("state", (s) => {
+  const g = umbra.glassFigures(), b = s.frame_age;
+  const cls = (ms) => (!b ? "" : ms > b.limit_ms ? "bad" : ms > b.warn_ms ? "warn" : "ok");
+  $("glass").innerHTML = !g ? "this page: no picture painted yet" :
+    `this page, capture → paint: p50 <b class="${cls(g.p50)}">${g.p50} ms</b> · ` +
+    `p95 <b class="${cls(g.p95)}">${g.p95} ms</b> <span class="dim">(${g.n} frames, last ${umbra.glassWindowMs / 1000} s)</span>`;
   const ended = s.phase === "ended", bad = ended ? "dim" : "bad";
   $("links").innerHTML = s.links.map((l) => `<tr><td>${l.name}</td>` +
     `<td class="${!l.alive ? bad : l.age_ms === null || l.age_ms > 500 ? "stale" : ""}">` +

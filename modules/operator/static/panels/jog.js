@@ -1,19 +1,36 @@
 // Jog pad: buttons named by where they take the camera in the live image (the frame and axis
-// beneath), held to move: a keep-alive every 40 ms; released on up, blur, hide or unload.
+// beneath), held to move: a keep-alive at the console's period (state.jog_keepalive_ms);
+// released on up, blur, hide or unload. A hold the console stopped (a picture too old, or
+// keep-alives too late) stays stopped until released: the pad says why, in the console's words.
 "use strict";
 (() => {
   let held = null, timer = null, drawn = "";
   function jogSend(isHeld) {
     umbra.send("jog", { held: isHeld, axes: held || [0, 0, 0, 0], jog_frame: $("jog-frame").value,
                         speed: Number($("jog-speed").value), frame: umbra.frame || 0 });
+    hint();
+  }
+  // the pad's line: why a held jog stopped (the console's words), or, while held on a picture
+  // older than the console's bound, that it will be refused (said at once, even when the
+  // console is too busy to answer), else the frame the buttons move in
+  function hint() {
+    const s = umbra.state, el = $("jog-hint");
+    if (!s) return;
+    const age = umbra.frameAge(), b = s.frame_age, stopped = umbra.holds() && s.jog_stopped;
+    const old = held && b && age !== null && age > b.limit_ms;
+    el.textContent = stopped ? `${s.jog_stopped} · release and press again` : old ?
+      `jog: your picture is ${Math.round(age)} ms old; jogs on a picture older than ${b.limit_ms} ms are refused` :
+      `${$("jog-frame").value} frame · as seen in the live image`;
+    el.className = stopped || old ? "bad" : "dim";
   }
   function holdJog(axis, sign) {
+    if (!umbra.state) return;  // no word from the console yet (its keep-alive period)
     held = [0, 0, 0, 0]; held[axis] = sign; jogSend(true);
-    clearInterval(timer); timer = setInterval(() => jogSend(true), 40);
+    clearInterval(timer); timer = setInterval(() => jogSend(true), umbra.state.jog_keepalive_ms);
   }
   function releaseJog() {
     if (timer) { clearInterval(timer); timer = null; }
-    if (held) { jogSend(false); held = null; }
+    if (held) { jogSend(false); held = null; hint(); }
   }
   umbra.holdJog = holdJog; umbra.releaseJog = releaseJog;
   function draw(labels) {
@@ -31,7 +48,7 @@
     const frame = $("jog-frame").value, labels = s.jog_labels[frame] || [];
     const key = frame + JSON.stringify(labels);
     if (key !== drawn) { drawn = key; draw(labels); }
-    $("jog-hint").textContent = `${frame} frame · as seen in the live image`;
+    hint();
     for (const b of $("jog").querySelectorAll("button")) b.disabled = !umbra.holds() || umbra.ended;
   });
   $("jog-frame").addEventListener("change", () => { releaseJog(); if (umbra.state) umbra.emit("state", umbra.state); });

@@ -1,5 +1,6 @@
 // Layout: panels shown / hidden (only those the graph feeds), their heights and the columns'
-// split, kept per browser in localStorage; "Reset layout" forgets them.
+// split, kept per browser in localStorage; "Reset layout" forgets them. Nothing here moves the
+// live video while it is in use: only showing or hiding Active Sketch does (station.css).
 "use strict";
 (() => {
   const KEY = "umbra.station.layout", NAMES = { video: "Live video", sketch: "Active Sketch",
@@ -11,15 +12,21 @@
   const panels = [...document.querySelectorAll(".panel")];
   let fed = {};
   function apply() {
-    // first visit: on a narrow screen the 3-D view starts hidden, and Active Sketch too when the
-    // page has a grab to run (a sketch-only graph shows its sketch)
-    if (!saved.hidden) saved.hidden = innerWidth < 1600 ? (fed.controls ? ["sketch", "view3d"] : ["view3d"]) : [];
+    // first visit: on a narrow screen the 3-D view starts hidden; Active Sketch starts hidden when
+    // the page has a grab to run (shown, it takes the live video's column; a sketch-only graph
+    // shows its sketch)
+    if (!saved.hidden) saved.hidden = [...(innerWidth < 1600 ? ["view3d"] : []), ...(fed.controls ? ["sketch"] : [])];
     for (const p of panels) {
       const name = p.dataset.panel;
       p.hidden = !fed[name] || saved.hidden.includes(name);
       if (saved.heights[name]) p.style.height = saved.heights[name] + "px";
     }
     if (saved.left) document.documentElement.style.setProperty("--left", saved.left + "%");
+    // Active Sketch shown: it takes the left column and the live video goes to the top of the
+    // right column (the sketch's frame itself never moves: a moved iframe reloads)
+    const video = document.querySelector('section[data-panel="video"]');
+    const home = document.querySelector('section[data-panel="sketch"]').hidden ? $("col-left") : $("col-right");
+    if (video.parentElement !== home) home.prepend(video);
     $("panel-list").innerHTML = "";
     for (const p of panels) {
       const name = p.dataset.panel;
@@ -47,6 +54,11 @@
     if (next !== JSON.stringify(fed)) { fed = s.panels; apply(); }
   });
   $("layout-reset").onclick = () => { localStorage.removeItem(KEY); location.reload(); };
+  // the frame's rows have fixed heights (station.css): a text cut at a row's end is whole in
+  // its tooltip, kept to the text as the panels change it
+  for (const e of document.querySelectorAll("#seed-hint, #line-doing, #line-stopped, #line-tracker")) {
+    new MutationObserver(() => { e.title = e.textContent; }).observe(e, { childList: true, characterData: true, subtree: true });
+  }
   let dragging = false;
   $("split").addEventListener("pointerdown", (ev) => { dragging = true; $("split").setPointerCapture(ev.pointerId); });
   $("split").addEventListener("pointerup", () => { dragging = false; store(); });

@@ -1,5 +1,6 @@
 // Messages panel: the console's board (each message once, with how many times it was said and
-// the exact text behind it on a click), plus what the server told this page alone.
+// the exact text behind it on a click), plus what the server told this page alone. The list has
+// a bounded height and scrolls inside its panel (station.css): messages never push a panel away.
 "use strict";
 (() => {
   let newest = 0, board = [];
@@ -33,5 +34,12 @@
     newest = top; board = mine;
     redraw();
   });
-  umbra.on("notice", (n) => { umbra.notices.push(n); own.unshift(n); own.length = Math.min(own.length, 5); redraw(); });
+  // this page's own notices: the newest 5, a repeat of the newest counted on its line (a flood
+  // of "slow down" is one line); the board's lines are counted by the server
+  umbra.on("notice", (n) => {
+    umbra.notices.push(n);
+    if (own.length && own[0].text === n.text && own[0].level === n.level) own[0].count = (own[0].count || 1) + 1;
+    else { own.unshift({ ...n, count: 1 }); own.length = Math.min(own.length, 5); }
+    redraw();
+  });
 })();

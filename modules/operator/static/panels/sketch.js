@@ -3,6 +3,6 @@
 "use strict";
 umbra.on("layout", () => {
   const panel = document.querySelector('[data-panel="sketch"]'), frame = $("sketch-frame");
-  if (!panel.hidden && !frame.getAttribute("src")) frame.src = "sketch";
+  if (!panel.hidden && !frame.getAttribute("src")) frame.src = "sketch?embed=1";  // no header of its own
   if (panel.hidden && frame.getAttribute("src")) frame.removeAttribute("src");
 });

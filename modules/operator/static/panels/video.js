@@ -1,9 +1,33 @@
 // Live video panel: the newest JPEG frame painted on a canvas (the server is told when, which
 // measures glass-to-glass latency), the snake drawn over it in SVG, and click / drag seeds.
+// The age of the picture on screen, from the camera's capture, is shown in the header and
+// carried by the canvas as data-frame-age-ms: set at every paint and again every AGE_TICK_MS
+// (an old picture keeps ageing while no new one comes), coloured by the console's own bounds
+// (state.frame_age: amber from warn_ms, red past limit_ms, where the console refuses actions).
 "use strict";
 (() => {
   const SVGNS = "http://www.w3.org/2000/svg";
   const paintTimes = [];
+  const AGE_TICK_MS = 100;  // how often the shown age is re-evaluated without a new frame
+  const GLASS_WINDOW_MS = (umbra.glassWindowMs = 10000);  // the health panel's figures' window
+  let captureWallMs = null;  // the capture of the picture on screen [ms since epoch]
+  const wallMs = () => performance.timeOrigin + performance.now();
+  umbra.glass = [];  // [[paint time (performance.now) ms, glass-to-glass ms]] in the window
+  umbra.frameAge = () => (captureWallMs === null ? null : wallMs() - captureWallMs);
+  function showAge() {  // the picture's age and the frame rate, now (both fall when frames stop)
+    const t = performance.now();
+    while (paintTimes.length && t - paintTimes[0] > 1000) paintTimes.shift();
+    $("fps").textContent = captureWallMs === null ? "" : `${paintTimes.length} fps`;
+    const age = umbra.frameAge(), el = $("frame-age");
+    if (age === null || !el) return;
+    $("video").dataset.frameAgeMs = Math.round(age);
+    const b = umbra.state && umbra.state.frame_age;
+    el.textContent = `picture ${age < 10000 ? Math.round(age) + " ms" : Math.round(age / 1000) + " s"} old`;
+    el.className = !b ? "dim" : age > b.limit_ms ? "bad" : age > b.warn_ms ? "warn" : "ok";
+    el.title = "age of the picture on screen, from the camera's capture" + (b ?
+      `; clicks and jogs on a picture older than ${b.limit_ms} ms are refused` : "");
+  }
+  setInterval(showAge, AGE_TICK_MS);
   function el(tag, attrs) { const e = document.createElementNS(SVGNS, tag); for (const k in attrs) e.setAttribute(k, attrs[k]); return e; }
   umbra.drawOverlay = (svg, o) => {
     svg.querySelectorAll(".snake").forEach((e) => e.remove());
@@ -38,12 +62,15 @@
       c.getContext("2d").drawImage(bitmap, 0, 0);
       bitmap.close();
       umbra.frame = head.frame; umbra.size = [head.w, head.h]; umbra.painted++;
-      const latency = performance.timeOrigin + performance.now() - head.handoff_wall_ms + head.age_ms;
-      umbra.latencies.push(latency);
+      // the capture on the server's wall clock (handed over age_ms after it), and its age now
+      captureWallMs = head.handoff_wall_ms - head.age_ms;
+      const latency = wallMs() - captureWallMs, t = performance.now();
+      paintTimes.push(t);
+      showAge();
       umbra.send("painted", { frame: head.frame, latency_ms: latency });
-      const t = performance.now(); paintTimes.push(t);
-      while (paintTimes.length && t - paintTimes[0] > 1000) paintTimes.shift();
-      $("fps").textContent = `${paintTimes.length} fps`;
+      umbra.latencies.push(latency);  // every paint's (the benchmarks read them by index)
+      umbra.glass.push([t, latency]);
+      while (umbra.glass.length && t - umbra.glass[0][0] > GLASS_WINDOW_MS) umbra.glass.shift();
     });
   });
   function fit() {  // the image's height: what is left under the commands and the dialog
