@@ -9,6 +9,8 @@ at. Without xdist the marks change nothing.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import pytest
 
 #: the xdist group of the tests that must not run beside one another
@@ -19,3 +21,14 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.get_closest_marker("heavy") or item.get_closest_marker("browser"):
             item.add_marker(pytest.mark.xdist_group(HEAVY_GROUP))
+
+
+@pytest.fixture(autouse=True)
+def _no_page_server_outlives_its_test() -> Iterator[None]:
+    """A run's page servers serve on after its end until its process ends
+    (``umbra.modules.webdoor.linger``); a test's process goes on, so they are stopped when the
+    test is over, never in the middle of another test (whose output and heap they would touch)."""
+    yield
+    from umbra.modules.webdoor.linger import end_lingering
+
+    end_lingering()
