@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 import uuid
 from collections.abc import Callable, Iterator
 
@@ -11,15 +10,6 @@ import pytest
 from umbra.modules.arm.cia402 import BusSpec, Cia402Arm, Cia402ArmConfig, JointDrive, SimDrive
 
 COUNTS_PER_RAD = 10_000.0
-
-
-def wait_until(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:
-    """Poll `predicate` until true; fail the test naming `what` after `timeout_s`."""
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.005)
 
 
 @pytest.fixture

@@ -9,10 +9,11 @@ import can
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.modules.arm.cia402 import ArmState, Cia402Arm, DriveStartError, SimDrive, TripCause
 from umbra.modules.arm.cia402.state_machine import State
 
-from .conftest import COUNTS_PER_RAD, wait_until
+from .conftest import COUNTS_PER_RAD
 
 NODES = (1, 2, 3, 4)
 MakeDrives = Callable[..., list[SimDrive]]
@@ -49,13 +50,13 @@ def test_enable_drive_read_back_and_stop(sim_drives: MakeDrives, make_arm: MakeA
     for _ in range(20):
         arm.set_velocities(rates)
         time.sleep(0.01)
-    wait_until(
+    wait_for(
         lambda: arm.set_velocities(rates) and np.allclose(arm.read().velocities_rad_s, rates),
         2.0,
         "velocity actual to reach the commanded rates",
     )
     ran_s = 0.2 + drive_for(arm, rates, 0.4)
-    wait_until(lambda: np.all(arm.read().velocities_rad_s == 0), 2.0, "standstill")
+    wait_for(lambda: np.all(arm.read().velocities_rad_s == 0), 2.0, "standstill")
     time.sleep(0.05)  # one more TPDO after standstill
     after = arm.read()
     travelled = after.positions_rad - before
@@ -87,11 +88,11 @@ def test_fault_on_one_drive_stops_all_and_names_it(
     drive_for(arm, rates, 0.1)
     for _ in range(5):
         arm.set_velocities(rates)
-    wait_until(lambda: all(d.velocity_counts_s != 0 for d in drives), 2.0, "motion")
+    wait_for(lambda: all(d.velocity_counts_s != 0 for d in drives), 2.0, "motion")
 
     drives[2].inject_fault(0x2310)
-    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
-    wait_until(
+    wait_for(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_for(
         lambda: any(t.cause is TripCause.FAULT for t in arm.status().trips), 2.0, "the fault bit"
     )
     status = arm.status()
@@ -101,7 +102,7 @@ def test_fault_on_one_drive_stops_all_and_names_it(
     assert all(t.error_code == 0x2310 for t in status.trips)
     assert "joint 'j3' (node 3)" in status.message and "0x2310" in status.message
 
-    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    wait_for(lambda: stopped(drives), 2.0, "every drive to stop")
     assert all(d.target_velocity_counts_s == 0 for d in drives)
     assert drives[2].state is State.FAULT
     assert not arm.set_velocities(rates)
@@ -137,7 +138,7 @@ def test_lost_heartbeat_is_detected_and_stops_all(
     # Judged by the heartbeat timeout, not by one missed period (the last heartbeat may
     # predate the silence by a period or more when threads are late, hence the margin).
     assert detected_after > 0.5 * timeout_s
-    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    wait_for(lambda: stopped(drives), 2.0, "every drive to stop")
 
 
 @pytest.mark.timeout(15)
@@ -149,14 +150,14 @@ def test_dead_transmitter_is_detected_and_stops_all(
     arm.start()
     drive_for(arm, np.full(4, 0.2), 0.1)
     drives[3].go_silent()
-    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
-    wait_until(
+    wait_for(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_for(
         lambda: any(t.cause is TripCause.HEARTBEAT_LOST for t in arm.status().trips),
         2.0,
         "the heartbeat loss",
     )
     # The silent drive still receives: it got the quick stop too.
-    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    wait_for(lambda: stopped(drives), 2.0, "every drive to stop")
     arm.stop()  # does not hang on the silent drive
     status = arm.status()
     assert status.state is ArmState.STOPPED  # and the reasons are kept for the operator
@@ -174,11 +175,11 @@ def test_bus_off_error_frame_stops_all(
     drive_for(arm, np.array([0.4, -0.4]), 0.1)
     with can.Bus(interface="virtual", channel=channel) as other:
         other.send(can.Message(is_error_frame=True, arbitration_id=0x40, data=bytes(8)))
-    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_for(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
     (trip,) = arm.status().trips
     assert trip.cause is TripCause.BUS_ERROR and trip.node_id is None
     assert "bus-off" in trip.detail and arm.status().error_frames == 1
-    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    wait_for(lambda: stopped(drives), 2.0, "every drive to stop")
 
 
 @pytest.mark.timeout(15)
@@ -189,10 +190,10 @@ def test_drives_own_pdo_mapping_and_command_watchdog(
     arm = make_arm((1, 2), configure_pdos=False, command_timeout_s=0.1)
     arm.start()
     arm.set_velocities([0.5, 0.5])
-    wait_until(lambda: np.allclose(arm.read().velocities_rad_s, 0.5), 2.0, "motion")
+    wait_for(lambda: np.allclose(arm.read().velocities_rad_s, 0.5), 2.0, "motion")
     # No further command: after the command timeout the targets drop to zero, no trip.
-    wait_until(lambda: arm.status().command_stale, 2.0, "the command watchdog")
-    wait_until(lambda: all(d.velocity_counts_s == 0 for d in drives), 2.0, "standstill")
+    wait_for(lambda: arm.status().command_stale, 2.0, "the command watchdog")
+    wait_for(lambda: all(d.velocity_counts_s == 0 for d in drives), 2.0, "standstill")
     assert arm.status().state is ArmState.RUNNING and not arm.status().trips
     assert all(d.state is State.OPERATION_ENABLED for d in drives)
     assert arm.set_velocities([-0.2, 0.1]) and not arm.status().command_stale
@@ -208,7 +209,7 @@ def test_non_finite_rate_trips(sim_drives: MakeDrives, make_arm: MakeArm) -> Non
     assert not arm.set_velocities([0.1, np.nan])
     (trip,) = arm.status().trips
     assert trip.cause is TripCause.BAD_COMMAND and "j2" in trip.detail
-    wait_until(lambda: stopped(drives), 2.0, "every drive to stop")
+    wait_for(lambda: stopped(drives), 2.0, "every drive to stop")
 
 
 @pytest.mark.timeout(15)
@@ -217,7 +218,7 @@ def test_restart_after_a_fault_resets_the_drive(sim_drives: MakeDrives, make_arm
     arm = make_arm((1, 2))
     arm.start()
     drives[0].inject_fault(0x4310)  # overtemperature
-    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_for(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
     arm.stop()
     arm.start()  # fault reset, state machine again
     assert arm.status().ok
@@ -235,9 +236,7 @@ def test_failed_start_names_the_drive_and_disables_the_others(
         arm.start()
     assert arm.status().state is ArmState.IDLE
     # quick-stopped by SDO at standstill: Quick stop active for a drive cycle, then disabled
-    wait_until(
-        lambda: all(d.state is State.SWITCH_ON_DISABLED for d in drives), 1.0, "transition 12"
-    )
+    wait_for(lambda: all(d.state is State.SWITCH_ON_DISABLED for d in drives), 1.0, "transition 12")
     assert all(d.nmt_state == "PRE-OPERATIONAL" for d in drives)
 
 
@@ -248,9 +247,9 @@ def test_drive_leaving_nmt_operational_stops_all(sim_drives: MakeDrives, make_ar
     arm.start()
     drive_for(arm, np.array([0.3, 0.3]), 0.05)
     drives[0].node.nmt.state = "PRE-OPERATIONAL"  # as after a drive-side NMT change
-    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
+    wait_for(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the trip")
     (trip,) = arm.status().trips
     assert (trip.cause, trip.node_id) == (TripCause.NMT_STATE, 1)
     assert "PRE-OPERATIONAL" in trip.detail
     # The drive in PRE-OPERATIONAL ignores PDOs: only the other one is quick-stopped by PDO.
-    wait_until(lambda: stopped(drives[1:]), 2.0, "the other drive to stop")
+    wait_for(lambda: stopped(drives[1:]), 2.0, "the other drive to stop")

@@ -10,6 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.connectors.messages import JointRates
 from umbra.modules.arm.cia402 import Cia402ConfigError
 from umbra.modules.arm.cia402.backend import Cia402Backend, guard_rates
@@ -18,8 +19,6 @@ from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.joints_backend import BackendError
 from umbra.modules.arm.wolverine_jnts import WolverineJnts
 from umbra.runtime.harness import ModuleHarness
-
-from .conftest import wait_until
 
 JOINTS_YAML = "".join(
     f"  - {{name: j{i}, node_id: {i}, counts_per_rad: 10000}}\n" for i in range(1, 7)
@@ -151,7 +150,7 @@ def test_wolverine_jnts_runs_simulated_drives_over_canopen(tmp_path: Path) -> No
         assert isinstance(backend, Cia402Backend)
         # A fault on one drive: the module reports the drive and refuses to move.
         backend.sim_drives[4].inject_fault(0x2310)
-        wait_until(lambda: not backend.read(h.now).ok, 2.0, "the trip")
+        wait_for(lambda: not backend.read(h.now).ok, 2.0, "the trip")
         h.push("rates", JointRates(names=table.names, rates=rates))
         h.step(0.01)
         status = h.output("status")

@@ -17,10 +17,9 @@ import pytest
 from canopen.pdo import PdoMap
 from canopen.profiles.p402 import BaseNode402
 
+from tests.poll import wait_for
 from umbra.modules.arm.cia402 import SimDrive
 from umbra.modules.arm.cia402 import objects as obj
-
-from .conftest import wait_until
 
 NODE = 7
 SYNC_S = 0.01
@@ -101,7 +100,7 @@ def master(
     node.setup_402_state_machine(read_pdos=True)  # its own PDO discovery, by SDO
     node.nmt.state = "OPERATIONAL"
     network.sync.start(SYNC_S)
-    wait_until(lambda: len(node.tpdo_values) >= 4 and node.statusword != 0, 2.0, "TPDOs")
+    wait_for(lambda: len(node.tpdo_values) >= 4 and node.statusword != 0, 2.0, "TPDOs")
     yield Master(node, network), drive
     network.sync.stop()
     network.disconnect()
@@ -139,9 +138,9 @@ def test_every_commanded_transition(master: tuple[Master, SimDrive]) -> None:
         node.state = state  # raises RuntimeError when not confirmed by a TPDO in time
         assert node.state == state
         assert drive.state.value == state.lower()
-    wait_until(lambda: node.state == "SWITCH ON DISABLED", 1.0, "transition 12")
+    wait_for(lambda: node.state == "SWITCH ON DISABLED", 1.0, "transition 12")
     drive.inject_fault(0x2310)
-    wait_until(lambda: node.state == "FAULT", 1.0, "the fault in a TPDO")
+    wait_for(lambda: node.state == "FAULT", 1.0, "the fault in a TPDO")
     node.reset_from_fault()  # transition 15, then on to OPERATION ENABLED
     assert node.state == "OPERATION ENABLED"
     assert not node.is_faulted()
@@ -152,14 +151,14 @@ def test_profile_velocity(master: tuple[Master, SimDrive]) -> None:
     m, drive = master
     enable_profile_velocity(m)
     m.target(SPEED)
-    wait_until(lambda: m.velocity() == SPEED, 1.0, "velocity actual at the target")
+    wait_for(lambda: m.velocity() == SPEED, 1.0, "velocity actual at the target")
     assert m.node.statusword & 0x0400  # target reached
     start = m.tpdo1[-1][1]
-    wait_until(lambda: m.tpdo1[-1][1] - start >= SPEED * 0.1, 1.0, "0.1 s of travel")
+    wait_for(lambda: m.tpdo1[-1][1] - start >= SPEED * 0.1, 1.0, "0.1 s of travel")
     m.target(-SPEED // 2)
-    wait_until(lambda: m.velocity() == -SPEED // 2, 1.0, "the reverse speed")
+    wait_for(lambda: m.velocity() == -SPEED // 2, 1.0, "the reverse speed")
     m.target(0)
-    wait_until(lambda: m.velocity() == 0, 1.0, "standstill")
+    wait_for(lambda: m.velocity() == 0, 1.0, "standstill")
     assert m.node.state == "OPERATION ENABLED"  # a zero target holds, it does not disable
     assert drive.target_velocity_counts_s == 0
 
@@ -171,17 +170,17 @@ def test_quick_stop_option_code(master: tuple[Master, SimDrive], option: int) ->
     m.node.sdo[obj.QUICK_STOP_OPTION_CODE].raw = option
     enable_profile_velocity(m)
     m.target(SPEED)
-    wait_until(lambda: m.velocity() == SPEED, 1.0, "full speed")
+    wait_for(lambda: m.velocity() == SPEED, 1.0, "full speed")
     m.tpdo1.clear()
-    wait_until(lambda: len(m.tpdo1) >= 2, 1.0, "TPDOs at speed")
+    wait_for(lambda: len(m.tpdo1) >= 2, 1.0, "TPDOs at speed")
     m.node.state = "QUICK STOP ACTIVE"  # BaseNode402 waits for it in a TPDO (0.4 s at most)
     stays = option >= 5
     final = "QUICK STOP ACTIVE" if stays else "SWITCH ON DISABLED"
-    wait_until(
+    wait_for(
         lambda: drive.velocity_counts_s == 0 and drive.state.value == final.lower(), 2.0, "the stop"
     )
     n = len(m.tpdo1)
-    wait_until(lambda: len(m.tpdo1) >= n + 3, 1.0, "TPDOs at standstill")
+    wait_for(lambda: len(m.tpdo1) >= n + 3, 1.0, "TPDOs at standstill")
     states = [state_of(word) for word, _ in m.tpdo1]
     positions = [pos for _, pos in m.tpdo1]
     first_qs = states.index("QUICK STOP ACTIVE")
@@ -200,7 +199,7 @@ def test_quick_stop_option_code(master: tuple[Master, SimDrive], option: int) ->
     if stays:
         m.node.state = "OPERATION ENABLED"  # transition 16, allowed for 5..8
         m.target(SPEED // 4)
-        wait_until(lambda: m.velocity() == SPEED // 4, 1.0, "moving again")
+        wait_for(lambda: m.velocity() == SPEED // 4, 1.0, "moving again")
     else:
         with pytest.raises(ValueError, match="Illegal state transition"):
             m.node._change_state("OPERATION ENABLED")  # no transition 16 from disabled

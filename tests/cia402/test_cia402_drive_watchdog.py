@@ -23,6 +23,7 @@ import canopen
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.modules.arm.cia402 import (
     ArmState,
     BusSpec,
@@ -37,7 +38,7 @@ from umbra.modules.arm.cia402.config_yaml import load_canopen_settings
 from umbra.modules.arm.cia402.drive_watchdog import consumer_entry
 from umbra.modules.arm.cia402.state_machine import State
 
-from .conftest import COUNTS_PER_RAD, wait_until
+from .conftest import COUNTS_PER_RAD
 
 MakeDrives = Callable[..., list[SimDrive]]
 MakeArm = Callable[..., Cia402Arm]
@@ -87,11 +88,11 @@ def test_a_frozen_master_leaves_drives_that_stop_by_themselves(
     for _ in range(30):
         arm.set_velocities(rates)
         time.sleep(0.01)
-    wait_until(lambda: drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD, 1.0, "full speed")
+    wait_for(lambda: drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD, 1.0, "full speed")
     with arm._lock:  # the master freezes: no heartbeat, command or supervision; SYNC goes on
         frozen_at = time.monotonic()
         start = true_position(drives[0], frozen_at)
-        wait_until(lambda: drives[0].velocity_counts_s == 0, 2.0, "the drive to stop alone")
+        wait_for(lambda: drives[0].velocity_counts_s == 0, 2.0, "the drive to stop alone")
         stopped_after = time.monotonic() - frozen_at
         time.sleep(0.2)
         travel_rad = (drives[0].position_counts - start) / COUNTS_PER_RAD
@@ -109,7 +110,7 @@ def test_a_frozen_master_leaves_drives_that_stop_by_themselves(
     assert [d.master_losses for d in drives] == [1, 1]
     assert drives[0].node.sdo[obj.COMMUNICATION_LOSS_COUNT].raw == 1
     # The master, running again, finds its drives stopped and trips (it does not restart them).
-    wait_until(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the master's trip")
+    wait_for(lambda: arm.status().state is ArmState.TRIPPED, 2.0, "the master's trip")
     assert "0x8130" in arm.status().message or "left operation enabled" in arm.status().message
     assert not arm.set_velocities(rates)
 
@@ -123,7 +124,7 @@ def test_without_the_watchdog_a_frozen_master_leaves_the_drive_running(
     arm = make_arm((1,), drive_heartbeat_timeout_s=None, command_timeout_s=None)
     arm.start()
     arm.set_velocities([RATE])
-    wait_until(lambda: drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD, 1.0, "full speed")
+    wait_for(lambda: drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD, 1.0, "full speed")
     with arm._lock:
         time.sleep(0.6)
         assert drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD
@@ -251,9 +252,9 @@ def test_rpdo_deadline_stops_the_drive_when_commands_stop(
         rpdo.transmit()
         time.sleep(0.01)
     assert drive.velocity_counts_s == 10_000 and drive.master_losses == 0
-    wait_until(lambda: drive.velocity_counts_s == 0, 1.0, "the stop on the RPDO deadline")
-    wait_until(lambda: [e.code for e in emcy] == [0x8250], 1.0, "EMCY 0x8250 RPDO timeout")
-    wait_until(lambda: drive.state is State.SWITCH_ON_DISABLED, 1.0, "transition 12")
+    wait_for(lambda: drive.velocity_counts_s == 0, 1.0, "the stop on the RPDO deadline")
+    wait_for(lambda: [e.code for e in emcy] == [0x8250], 1.0, "EMCY 0x8250 RPDO timeout")
+    wait_for(lambda: drive.state is State.SWITCH_ON_DISABLED, 1.0, "transition 12")
     assert drive.master_losses == 1
     network.sync.stop()
 
@@ -269,13 +270,13 @@ def test_a_drive_without_sync_still_ramps_down_on_its_own_clock(
     network.sync.transmit()
     time.sleep(0.05)
     network.sync.transmit()  # two SYNCs: the drive runs at its target
-    wait_until(lambda: drive.velocity_counts_s == 10_000, 1.0, "the target speed")
+    wait_for(lambda: drive.velocity_counts_s == 10_000, 1.0, "the target speed")
     network.send_message(0x700 + 100, bytes([5]))  # one heartbeat arms the consumer, then none
     start = true_position(drive, time.monotonic())
-    wait_until(lambda: drive.velocity_counts_s == 0, 1.0, "the stop without SYNC")
+    wait_for(lambda: drive.velocity_counts_s == 0, 1.0, "the stop without SYNC")
     # 0.1 s at 10000 counts/s at most (from the last SYNC), then 10000^2 / (2 x 50000)
     assert drive.position_counts - start <= 10_000 * 0.1 + 1_000 + 50  # 50: the clock read
-    wait_until(lambda: drive.state is State.SWITCH_ON_DISABLED, 1.0, "transition 12")
+    wait_for(lambda: drive.state is State.SWITCH_ON_DISABLED, 1.0, "transition 12")
 
 
 def test_watchdog_settings_from_yaml(tmp_path: Path) -> None:

@@ -10,11 +10,10 @@ import pytest
 from canopen.nmt import NmtError
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
+from tests.poll import wait_for
 from umbra.modules.arm.cia402 import SimDrive
 from umbra.modules.arm.cia402 import objects as obj
 from umbra.modules.arm.cia402.state_machine import State, state_from_statusword
-
-from .conftest import wait_until
 
 NODE = 5
 
@@ -62,7 +61,7 @@ def test_state_machine_and_mode_by_sdo(bus: tuple[SimDrive, canopen.RemoteNode, 
         assert sdo_state(node) is state
     node.sdo[obj.CONTROLWORD].raw = 0x02  # quick stop at standstill: option code 2 shows
     assert sdo_state(node) is State.QUICK_STOP_ACTIVE  # Quick stop active for a drive cycle,
-    wait_until(  # then ends in Switch on disabled by itself (transition 12)
+    wait_for(  # then ends in Switch on disabled by itself (transition 12)
         lambda: sdo_state(node) is State.SWITCH_ON_DISABLED, 1.0, "transition 12"
     )
     assert drive.state is State.SWITCH_ON_DISABLED
@@ -153,7 +152,7 @@ def test_fault_injection_emcy_and_fault_reset(
     node.sdo[obj.CONTROLWORD].raw = 0x80
     assert sdo_state(node) is State.SWITCH_ON_DISABLED
     assert node.sdo[obj.ERROR_CODE].raw == 0
-    wait_until(lambda: not node.emcy.active, 1.0, "the EMCY error reset")
+    wait_for(lambda: not node.emcy.active, 1.0, "the EMCY error reset")
 
 
 @pytest.mark.timeout(10)
@@ -184,7 +183,7 @@ def test_pdos_follow_the_mapping_the_master_writes(
     # Synchronous RPDO: the SDO round trip proves it arrived, but it waits for SYNC.
     assert node.sdo[obj.TARGET_VELOCITY].raw == 0
     network.sync.transmit()
-    wait_until(lambda: drive.target_velocity_counts_s == 5_000, 1.0, "the RPDO to apply")
+    wait_for(lambda: drive.target_velocity_counts_s == 5_000, 1.0, "the RPDO to apply")
     drive.advance(0.1)
     network.sync.transmit()  # second SYNC: the TPDO goes out
     assert tpdo.wait_for_reception(timeout=1.0) is not None

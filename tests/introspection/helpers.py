@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import json
 import subprocess
-import time
 from pathlib import Path
 
 from tests.links.conftest import REPO, Running, run_umbra
+from tests.poll import wait_for
 from umbra.runtime.links.observe import Run, local_runs
 
 COUNTER = str(REPO / "graphs" / "counter_split.yaml")
@@ -24,16 +24,19 @@ def running(
     """The run once its ``processes`` run files are written and every process runs (``run``:
     the launcher, or each process started by hand)."""
     commands = run if isinstance(run, list) else [run]
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+
+    def up() -> Run | None:
         runs = [r for r in local_runs(user_folder(env)) if len(r.processes) == processes]
         lines = [line for c in commands for line in c.stderr]
         if runs and sum("links ready, running" in line for line in lines) >= processes:
             return runs[0]
         for c in commands:
             assert c.popen.poll() is None, "\n".join(c.stderr[-30:])
-        time.sleep(0.1)
-    raise AssertionError("the run did not come up:\n" + "\n".join(commands[0].stderr[-30:]))
+        return None
+
+    return wait_for(
+        up, timeout, lambda: "the run to come up:\n" + "\n".join(commands[0].stderr[-30:]), 0.1
+    )
 
 
 def umbra_cli(

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import re
-import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import pytest
 
 from tests.introspection.helpers import COUNTER, json_lines, running, umbra_cli, user_folder
 from tests.links.conftest import Running
+from tests.poll import wait_for
 from umbra.runtime.links.observe import Observation
 
 # whole runs of umbra in subprocesses, seconds each: in CI with -m slow (a short default run)
@@ -48,9 +48,7 @@ def test_topics_echo_and_hz_on_a_run_publishing_every_output(
     seen: set[str] = set()
     try:
         observer.subscribe(lambda o: seen.add(o.key), f"{PREFIX}/*/*")
-        deadline = time.monotonic() + 10
-        while len(seen) < 2 and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_for(lambda: len(seen) >= 2, 10, "two keys observed", 0.05)
     finally:
         observer.close()
     assert seen == set(rows)

@@ -16,6 +16,7 @@ import zenoh
 
 from tests.introspection.helpers import running, user_folder
 from tests.links.conftest import Running, guarded_arm_graph
+from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import Twist
 from umbra.runtime.links.config import Endpoints, build_config
@@ -26,15 +27,6 @@ from umbra.runtime.links.runs import observer_endpoint
 pytestmark = pytest.mark.slow
 
 KEY = "umbra/observed/source/twist"
-
-
-def _until(check: Callable[[], bool], timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.02)
-    return check()
 
 
 def test_an_observer_reads_but_its_commands_never_arrive_and_strangers_read_nothing(
@@ -67,7 +59,10 @@ def test_an_observer_reads_but_its_commands_never_arrive_and_strangers_read_noth
         twists: list[zenoh.Sample] = []
         observer.subscribe(seen.append, KEY)
         raw = observer.session.declare_subscriber(KEY, twists.append)
-        assert _until(lambda: len(seen) >= 20 and len(twists) >= 20)  # the observer reads
+        # the observer reads
+        wait_for(
+            lambda: len(seen) >= 20 and len(twists) >= 20, 10.0, "20 samples and 20 twists read"
+        )
         assert all(o.kind == "sample" and o.type_name == "Twist" for o in seen[:20])
         source = twists[-1].source_info
         raw.undeclare()

@@ -6,12 +6,13 @@ import os
 import subprocess
 import sys
 import threading
-import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+
+from tests.poll import wait_for
 
 REPO = Path(__file__).resolve().parents[2]
 PROBES = {
@@ -114,16 +115,19 @@ class Running:
     threads: list[threading.Thread] = field(default_factory=list)
 
     def wait_for(self, text: str, timeout: float = 20.0) -> str:
-        """The first stderr/stdout line containing ``text``; fails after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            for line in self.stderr + self.stdout:
-                if text in line:
-                    return line
-            if self.popen.poll() is not None and all(not t.is_alive() for t in self.threads):
-                break
-            time.sleep(0.01)
-        raise AssertionError(f"no line with {text!r}; stderr:\n" + "\n".join(self.stderr[-40:]))
+        """The first stderr/stdout line containing ``text``; fails after ``timeout`` s, or at
+        once when the process has ended without it."""
+
+        def line() -> str:
+            found = next((line for line in self.stderr + self.stdout if text in line), "")
+            ended = self.popen.poll() is not None and all(not t.is_alive() for t in self.threads)
+            assert found or not ended, f"ended with no line with {text!r}" + tail()
+            return found
+
+        def tail() -> str:
+            return "; stderr:\n" + "\n".join(self.stderr[-40:])
+
+        return wait_for(line, timeout, lambda: f"a line with {text!r}" + tail())
 
     def finish(self, timeout: float = 60.0) -> int:
         code = self.popen.wait(timeout=timeout)

@@ -34,6 +34,7 @@ import pytest
 import zenoh
 
 from tests.links.conftest import Running, guarded_arm_graph, start_umbra, stop_all
+from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import Twist
 from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
@@ -44,15 +45,6 @@ pytestmark = pytest.mark.slow
 #: Servo period of the graph [s] (REG_VEL, WOLVERINE_JNTS and ArmWatch run at 100 Hz).
 PERIOD = 0.01
 FOREIGN = Twist(vector=np.array([0.05, 0, 0, 0, 0, 0.0]), frame="camera", seq=1)
-
-
-def _until(check, timeout: float = 10.0) -> bool:  # type: ignore[no-untyped-def]
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.01)
-    return check()
 
 
 def _realtime() -> tuple[str, ...]:
@@ -118,7 +110,7 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
             overheard: list[zenoh.Sample] = []
             spy = attacker.declare_subscriber(key, overheard.append)
             pub = attacker.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
-            assert _until(lambda: len(overheard) >= 20)
+            wait_for(lambda: len(overheard) >= 20, 10.0, "20 overheard samples")
             source = overheard[-1].source_info
             attack_start = time.monotonic()
             # 1. a foreign peer commanding as itself, 50 Hz for half a second
@@ -265,7 +257,8 @@ def test_under_the_launcher_strangers_cannot_connect_and_insiders_cannot_command
         insider_cfg.insert_json5("transport/auth/usrpwd", json.dumps(usrpwd))
         insider = zenoh.open(insider_cfg)
         try:
-            assert _until(lambda: len(list(insider.info.peers_zid())) == 3)  # it is let in
+            # it is let in
+            wait_for(lambda: len(list(insider.info.peers_zid())) == 3, 10.0, "the insider let in")
             token = insider.liveliness().declare_token(
                 alive_key("umbra/insider", "umbra", "none", str(insider.zid()))
             )

@@ -19,6 +19,7 @@ import msgspec
 import pytest
 import zenoh
 
+from tests.poll import wait_for
 from umbra.connectors.messages import Scalar
 from umbra.runtime.links.clock_identity import clock_identity
 from umbra.runtime.links.clock_sync import (
@@ -70,12 +71,12 @@ def _sync(
 
 
 def _measured(consumer: ClockSync, producer: str = "umbra") -> Offset:
-    deadline = time.monotonic() + 10.0
-    while time.monotonic() < deadline:
-        found = consumer.exchange(producer)
-        if found is not None:
-            return found
-    raise AssertionError(f"no offset measured: {consumer.problem(producer)}")
+    return wait_for(
+        lambda: consumer.exchange(producer),
+        10.0,
+        lambda: f"an offset measured: {consumer.problem(producer)}",
+        0,
+    )
 
 
 def test_a_producer_on_our_very_clock_is_dated_with_no_error(sessions) -> None:  # type: ignore[no-untyped-def]
@@ -136,10 +137,14 @@ def test_an_impostor_on_the_clock_key_neither_widens_the_bound_nor_moves_the_off
     key = clock_key(PREFIX, "umbra", str(producer_s.zid()))
     queryable = impostor_s.declare_queryable(key, impostor)
     try:
-        deadline = time.monotonic() + 10.0
-        while not asked.is_set():  # until the impostor's declaration has reached the consumer
-            assert time.monotonic() < deadline, "the impostor was never asked"
-            consumer.exchange("umbra")
+        # until the impostor's declaration has reached the consumer
+        wait_for(
+            asked.is_set,
+            10.0,
+            "the impostor to be asked",
+            0,
+            step=lambda: consumer.exchange("umbra"),
+        )
         for _ in range(3):  # exchanges the impostor was asked in
             found = _measured(consumer)
         assert not found.same_clock  # the lie about our clock was not taken

@@ -12,7 +12,7 @@ import json
 import stat
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +20,7 @@ import pytest
 import zenoh
 
 from tests.links.conftest import REPO
+from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.errors import UserError
 from umbra.connectors.messages import Message, Scalar
@@ -46,15 +47,6 @@ connections:
   - tick.count -> show.input
 """
 KEY = "umbra/trio/counter/count"
-
-
-def _until(check: Callable[[], bool], timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.01)
-    return check()
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +119,7 @@ def mesh(trio: tuple[GraphPlan, Path, Path]) -> Iterator[Mesh]:
     assert transports["umbra"].wait_ready(threading.Event(), timeout=10)
     for i in range(1, 11):
         send(Scalar(value=float(i), seq=i), 0.0)
-    assert _until(lambda: len(got) == 10)
+    wait_for(lambda: len(got) == 10, 10.0, "10 samples")
     yield Mesh(transports, endpoints, got)
     for t in transports.values():
         t.close()

@@ -32,7 +32,8 @@ from tests.links.pickup import (
     pickup_with_watch,
     summary,
 )
-from tests.links.test_attacks import _realtime, _until
+from tests.links.test_attacks import _realtime
+from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import Twist
 from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
@@ -83,7 +84,11 @@ def test_the_pick_up_grasps_through_noise_on_its_command_link(
             pub = attacker.declare_publisher(
                 TWIST_KEY, congestion_control=zenoh.CongestionControl.BLOCK
             )
-            assert _until(lambda: len(overheard) >= 5 and pub.matching_status.matching)
+            wait_for(
+                lambda: len(overheard) >= 5 and pub.matching_status.matching,
+                10.0,
+                "5 overheard twists and a match",
+            )
             source = overheard[-1].source_info  # the attacker hears its own puts later on
             data = overheard[-1].payload.to_bytes()
             seq = (read(data) or codec.decode(data, Twist)).seq

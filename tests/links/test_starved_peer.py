@@ -11,12 +11,13 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 
 import pytest
 import zenoh
 
 from tests.links.conftest import REPO
+from tests.poll import wait_for
 from umbra.runtime.graph.check import load_graph
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.config import LEASE_MS, Endpoints, build_config, free_loopback_ports
@@ -40,15 +41,6 @@ print("announced", flush=True)
 sys.stdin.read()
 transport.close()
 """
-
-
-def _until(check: Callable[[], bool], timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.01)
-    return check()
 
 
 class _Lines(logging.Handler):
@@ -88,7 +80,7 @@ def watched() -> Iterator[tuple[ZenohTransport, subprocess.Popen[str], _Lines, G
     )
     try:
         assert peer.stdout is not None and peer.stdout.readline().strip() == "announced"
-        assert _until(lambda: "umbra" in transport.alive_processes(), 10.0)
+        wait_for(lambda: "umbra" in transport.alive_processes(), 10.0, "the peer alive")
         yield transport, peer, lines, plan
     finally:
         if peer.poll() is None:
@@ -111,14 +103,15 @@ def test_a_stopped_peer_is_late_not_gone_and_comes_back(watched) -> None:
         return transport.late_processes().get("umbra", 0.0) >= seconds
 
     # its lease runs out (its link and token go): it is late, and stays alive past the lease
-    assert _until(lambda: late_for(1.5), LEASE_MS / 1e3 + 8.0)
+    wait_for(lambda: late_for(1.5), LEASE_MS / 1e3 + 8.0, "the peer late for 1.5 s")
     silent_s = time.monotonic() - stopped_at
     assert LEASE_MS / 1e3 < silent_s < LATE_MAX_S
     assert alive_throughout
     assert not any("is gone" in line for line in lines.lines), lines.lines
     assert any("`umbra` is late" in line for line in lines.lines), lines.lines
     os.kill(peer.pid, signal.SIGCONT)
-    assert _until(lambda: "umbra" not in transport.late_processes(), 10.0)  # its token returns
+    # its token returns
+    wait_for(lambda: "umbra" not in transport.late_processes(), 10.0, "the peer no longer late")
     assert alive_throughout and "umbra" in transport.alive_processes()
     stats = transport.stats()
     assert stats["late_held"] == 1 and stats["late_returned"] == 1
@@ -129,11 +122,11 @@ def test_a_stopped_peer_is_late_not_gone_and_comes_back(watched) -> None:
 def test_a_late_peer_that_dies_is_gone_at_once(watched) -> None:
     transport, peer, lines, _plan = watched
     os.kill(peer.pid, signal.SIGSTOP)
-    assert _until(lambda: "umbra" in transport.late_processes(), LEASE_MS / 1e3 + 8.0)
+    wait_for(lambda: "umbra" in transport.late_processes(), LEASE_MS / 1e3 + 8.0, "the peer late")
     peer.kill()
     killed_at = time.monotonic()
     peer.wait(5)  # reaped: the OS no longer has it
-    assert _until(lambda: "umbra" not in transport.alive_processes(), 5.0)
+    wait_for(lambda: "umbra" not in transport.alive_processes(), 5.0, "the peer gone")
     gone_s = time.monotonic() - killed_at
     assert gone_s < 10 * LATE_CHECK_S + 0.5 < LATE_MAX_S  # by its death, not by the bound
     assert any("`umbra` is gone" in line for line in lines.lines), lines.lines
@@ -144,6 +137,6 @@ def test_a_killed_peer_is_gone_without_being_late(watched) -> None:
     transport, peer, lines, _plan = watched
     peer.kill()
     peer.wait(5)
-    assert _until(lambda: "umbra" not in transport.alive_processes(), 5.0)
+    wait_for(lambda: "umbra" not in transport.alive_processes(), 5.0, "the peer gone")
     assert not transport.late_processes()
     assert any("`umbra` is gone" in line for line in lines.lines), lines.lines

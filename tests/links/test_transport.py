@@ -12,6 +12,7 @@ import pytest
 import zenoh
 
 from tests.links.conftest import REPO
+from tests.poll import wait_for
 from umbra.connectors import Module, Output
 from umbra.connectors.messages import Image, Message, Scalar
 from umbra.runtime.graph.check import check_spec, load_graph
@@ -68,15 +69,6 @@ def _pair(plan: GraphPlan, frame_pool: bool = True) -> Pair:
     )
 
 
-def _until(check: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.005)
-    return check()
-
-
 @pytest.fixture
 def counter_plan() -> GraphPlan:
     return load_graph(str(REPO / "graphs" / "counter_split.yaml"))
@@ -112,7 +104,7 @@ def test_samples_arrive_in_order_once_per_output(counter_plan: GraphPlan, pair: 
     send = _ready(pair, links, got)
     for i in range(1, 301):
         send(Scalar(value=i * 0.5, seq=i, stamp=100.0 + i))
-    assert _until(lambda: len(got) >= 600)
+    wait_for(lambda: len(got) >= 600, 5.0, "600 samples")
     time.sleep(0.05)
     assert len(got) == 600  # one publication per output, delivered to both inputs
     assert [m.seq for m in got[::2]] == list(range(1, 301))
@@ -134,13 +126,17 @@ def test_foreign_and_old_samples_are_dropped_and_counted(
     foreign = zenoh.open(build_config(Endpoints(connect=[pair.consumer_endpoint])))
     try:
         raw = foreign.declare_publisher(link.key, congestion_control=zenoh.CongestionControl.BLOCK)
-        assert _until(lambda: raw.matching_status.matching)
+        wait_for(lambda: raw.matching_status.matching, 5.0, "the raw publisher to match")
         send(Scalar(value=1.0, seq=5))
         raw.put(b"\x00\x01garbage")
         send(Scalar(value=2.0, seq=6))
         send(Scalar(value=3.0, seq=4))  # older than one already delivered
         send(Scalar(value=4.0, seq=9))  # 7 and 8 never came
-        assert _until(lambda: pair.consumer.stats()["subscribe"][0]["received"] == 3)
+        wait_for(
+            lambda: pair.consumer.stats()["subscribe"][0]["received"] == 3,
+            5.0,
+            "3 samples received",
+        )
         time.sleep(0.05)
     finally:
         foreign.close()
@@ -155,10 +151,10 @@ def test_clean_end_and_death_of_the_producer(counter_plan: GraphPlan) -> None:
     pair = _pair(counter_plan)
     try:
         _ready(pair, [link], [])
-        assert _until(lambda: pair.consumer.producer_alive(link))
+        wait_for(lambda: pair.consumer.producer_alive(link), 5.0, "the producer alive")
         assert not pair.consumer.inputs_ended()
         pair.producer.close()  # end of stream, token withdrawn, session closed
-        assert _until(lambda: not pair.consumer.producer_alive(link))
+        wait_for(lambda: not pair.consumer.producer_alive(link), 5.0, "the producer gone")
         assert pair.consumer.inputs_ended()
         assert pair.consumer.stats()["subscribe"][0]["ended"] == 1
     finally:
@@ -184,10 +180,11 @@ def test_images_on_one_host_are_read_in_place_from_the_frame_pool() -> None:
     try:
         got: list[Message] = []
         send = _ready(pair, [link], got)
-        assert _until(lambda: "smart" in pair.producer._peer_pid)  # same /dev/shm: same host
+        # same /dev/shm: same host
+        wait_for(lambda: "smart" in pair.producer._peer_pid, 5.0, "the producer's pid")
         for i, pixels in enumerate(FRAMES[:3], 1):
             send(Image(pixels=pixels, seq=i))
-            assert _until(lambda i=i: len(got) == i)
+            wait_for(lambda i=i: len(got) == i, 5.0, f"{i} samples")
         for frame, msg in zip(FRAMES, got, strict=False):
             np.testing.assert_array_equal(msg.pixels, frame)
             assert not msg.pixels.flags.writeable  # a read-only view on the shared slot
@@ -201,7 +198,7 @@ def test_images_on_one_host_are_read_in_place_from_the_frame_pool() -> None:
         assert pool.busy == 0
         for i, pixels in enumerate(FRAMES, 4):  # hold 20 frames: more than the pool's 16 slots
             send(Image(pixels=pixels, seq=i))
-            assert _until(lambda n=i - 3: len(got) == n)
+            wait_for(lambda n=i - 3: len(got) == n, 5.0, f"{i - 3} samples")
         for frame, msg in zip(FRAMES, got, strict=True):
             np.testing.assert_array_equal(msg.pixels, frame)  # none overwritten
         (pub,) = pair.producer.stats()["publish"]
@@ -223,11 +220,11 @@ def test_images_without_the_pool_travel_through_zenoh_shared_memory() -> None:
         send = _ready(pair, [link], got)
         for i, pixels in enumerate(FRAMES[:3], 1):
             send(Image(pixels=pixels, seq=i))
-            assert _until(lambda i=i: len(got) == i)
+            wait_for(lambda i=i: len(got) == i, 5.0, f"{i} samples")
         for frame, msg in zip(FRAMES, got, strict=False):
             np.testing.assert_array_equal(msg.pixels, frame)
             assert not msg.pixels.flags.writeable  # a view on the received bytes
-        assert _until(lambda: len(seen_shm) == 3)
+        wait_for(lambda: len(seen_shm) == 3, 5.0, "3 samples over shm")
         assert seen_shm == [True, True, True]
         (pub,) = pair.producer.stats()["publish"]
         assert pub["shm_samples"] == 3 and pub["mode"] == "best-effort/drop"
@@ -286,14 +283,14 @@ def test_a_relayed_frame_is_passed_on_in_place_without_a_copy() -> None:
             t.announce()
         for t in (cam, relay):
             assert t.wait_ready(threading.Event(), timeout=10)
-        assert _until(lambda: {"smart", "ops"} <= set(cam._peer_pid))
-        assert _until(lambda: "ops" in relay._peer_pid)
+        wait_for(lambda: {"smart", "ops"} <= set(cam._peer_pid), 5.0, "both peers' pids")
+        wait_for(lambda: "ops" in relay._peer_pid, 5.0, "the ops pid at the relay")
         for i, pixels in enumerate(FRAMES[:3], 1):
             to_relay(Image(pixels=pixels, seq=i, stamp=float(i)), 0.0)
-            assert _until(lambda i=i: len(relayed) == i)
+            wait_for(lambda i=i: len(relayed) == i, 5.0, f"{i} relayed samples")
             got = relayed[-1]
             from_relay(Image(pixels=got.pixels, seq=i, stamp=got.stamp, frame="wrist"), 0.0)
-            assert _until(lambda i=i: len(seen) == i)
+            wait_for(lambda i=i: len(seen) == i, 5.0, f"{i} samples")
         for i, (pixels, msg) in enumerate(zip(FRAMES, seen, strict=False), 1):
             np.testing.assert_array_equal(msg.pixels, pixels)
             assert (msg.seq, msg.stamp, msg.frame) == (i, float(i), "wrist")
@@ -305,7 +302,7 @@ def test_a_relayed_frame_is_passed_on_in_place_without_a_copy() -> None:
         assert pool.busy == 3
         del msg
         seen.clear()
-        assert _until(lambda: pool.busy == 0)
+        wait_for(lambda: pool.busy == 0, 5.0, "the pool idle")
     finally:
         for t in (cam, relay, view):
             t.close()

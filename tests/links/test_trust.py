@@ -28,8 +28,8 @@ from tests.links.test_transport import (
     Viewer,
     _pair,
     _ready,
-    _until,
 )
+from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import Image, Message, Scalar, Twist
 from umbra.runtime.graph.check import check_spec, load_graph
@@ -57,14 +57,14 @@ class Attacker:
             key, congestion_control=zenoh.CongestionControl.BLOCK
         )
         self.codec = Codec()
-        assert _until(lambda: len(list(self.session.info.peers_zid())) == 2)
+        wait_for(lambda: len(list(self.session.info.peers_zid())) == 2, 5.0, "two peers")
         time.sleep(0.3)  # the spy's subscription reaches the producer
 
     def wait_matching(self) -> None:
-        assert _until(lambda: self.pub.matching_status.matching)
+        wait_for(lambda: self.pub.matching_status.matching, 5.0, "the publisher to match")
 
     def copied_source(self) -> zenoh.SourceInfo:
-        assert _until(lambda: bool(self.overheard))
+        wait_for(lambda: bool(self.overheard), 5.0, "an overheard sample")
         return self.overheard[-1].source_info
 
     def put(self, msg: Message | bytes, source: zenoh.SourceInfo | None) -> None:
@@ -103,9 +103,9 @@ def test_a_gone_producer_stays_gone_whatever_arrives_in_its_name(
     try:
         send(Scalar(value=1.0, seq=1))
         source = attacker.copied_source()
-        assert _until(lambda: len(got) == 1)
+        wait_for(lambda: len(got) == 1, 5.0, "the first sample")
         pair.producer._session.close()  # dies without ending its streams (as kill -9 would)
-        assert _until(lambda: not pair.consumer.producer_alive(link))
+        wait_for(lambda: not pair.consumer.producer_alive(link), 5.0, "the producer gone")
         attacker.wait_matching()
         deadline = time.monotonic() + 0.4  # four times the old revive delay
         seq = 2
@@ -113,7 +113,9 @@ def test_a_gone_producer_stays_gone_whatever_arrives_in_its_name(
             attacker.put(Scalar(value=99.0, seq=seq), source)
             seq += 1
             time.sleep(0.002)
-        assert _until(lambda: _sub(pair)["after_gone"] >= seq - 2)
+        wait_for(
+            lambda: _sub(pair)["after_gone"] >= seq - 2, 5.0, "the samples after its end counted"
+        )
         assert not pair.consumer.producer_alive(link)
         assert [m.value for m in got] == [1.0]  # nothing injected was delivered
         assert pair.consumer.stats()["liveliness_flaps"] == 0
@@ -132,7 +134,7 @@ def test_one_huge_sequence_number_does_not_make_genuine_samples_old(
     send(Scalar(value=3.0, seq=2 + 2**21))  # a jump further than any plausible loss
     send(Scalar(value=4.0, seq=2))
     send(Scalar(value=5.0, seq=3))
-    assert _until(lambda: len(got) == 3)
+    wait_for(lambda: len(got) == 3, 5.0, "3 samples")
     time.sleep(0.05)
     assert [m.value for m in got] == [1.0, 4.0, 5.0]
     sub = _sub(pair)
@@ -155,7 +157,9 @@ def test_samples_larger_than_the_type_allows_are_dropped_before_decoding(
         for size in (bound + 1, 1 << 20, 64 << 20):
             attacker.put(b"\x00" * size, source)
         send(Scalar(value=2.0, seq=2))
-        assert _until(lambda: len(got) == 2 and _sub(pair)["oversize"] == 3, timeout=20)
+        wait_for(
+            lambda: len(got) == 2 and _sub(pair)["oversize"] == 3, 20, "2 samples and 3 oversize"
+        )
     finally:
         attacker.close()
     sub = _sub(pair)
@@ -172,16 +176,16 @@ def test_a_second_token_of_a_live_process_does_not_take_over(
     attacker = Attacker(pair, link.key)
     try:
         send(Scalar(value=1.0, seq=1))
-        assert _until(lambda: len(got) == 1)
+        wait_for(lambda: len(got) == 1, 5.0, "the first sample")
         own = str(attacker.session.zid())
         token = attacker.session.liveliness().declare_token(
             alive_key(counter_plan.key_prefix, "umbra", "none", own)
         )
-        assert _until(lambda: pair.consumer.stats()["token_conflicts"] == 1)
+        wait_for(lambda: pair.consumer.stats()["token_conflicts"] == 1, 5.0, "the token conflict")
         attacker.wait_matching()
         attacker.put(Scalar(value=66.0, seq=2), None)
         pair.producer._session.close()  # the genuine producer dies; the impostor's token stays
-        assert _until(lambda: not pair.consumer.producer_alive(link))
+        wait_for(lambda: not pair.consumer.producer_alive(link), 5.0, "the producer gone")
         attacker.put(Scalar(value=77.0, seq=3), None)
         time.sleep(0.1)
         assert not pair.consumer.producer_alive(link)
@@ -197,20 +201,22 @@ def test_a_restarted_producer_starts_a_new_count(counter_plan: GraphPlan, pair: 
     send = _ready(pair, [link], got)
     for i in range(1, 51):
         send(Scalar(value=float(i), seq=i))
-    assert _until(lambda: len(got) == 50)
+    wait_for(lambda: len(got) == 50, 5.0, "50 samples")
     producer_endpoint = pair.producer_endpoint
     pair.producer.close()
-    assert _until(lambda: not pair.consumer.producer_alive(link))
+    wait_for(lambda: not pair.consumer.producer_alive(link), 5.0, "the producer gone")
     session = zenoh.open(build_config(Endpoints(listen=[producer_endpoint])))
     again = ZenohTransport(session, counter_plan, "umbra")
     try:
         sink = again.publisher(link)
         again.announce()
         assert again.wait_ready(threading.Event(), timeout=10)
-        assert _until(lambda: "umbra" in pair.consumer.alive_processes())
+        wait_for(
+            lambda: "umbra" in pair.consumer.alive_processes(), 5.0, "the producer alive again"
+        )
         for i in range(1, 11):
             sink(Scalar(value=100.0 + i, seq=i), 0.0)
-        assert _until(lambda: len(got) == 60)
+        wait_for(lambda: len(got) == 60, 5.0, "60 samples")
     finally:
         again.close()
     sub = _sub(pair)
@@ -256,7 +262,7 @@ def test_a_key_prefix_holding_an_alive_chunk_still_names_its_processes() -> None
         got: list[Message] = []
         send = _ready(pair, [link], got)  # the producer sees its consumer come up
         send(Scalar(value=1.0, seq=1))
-        assert _until(lambda: len(got) == 1)
+        wait_for(lambda: len(got) == 1, 5.0, "the first sample")
         assert pair.consumer.alive_processes() == {"umbra"}
     finally:
         pair.producer.close()
@@ -281,9 +287,9 @@ def test_tokens_of_processes_the_graph_does_not_have_are_ignored(
         probe = attacker.session.liveliness().declare_token(
             alive_key(counter_plan.key_prefix, "smart", "none", own)  # a process of the graph
         )
-        assert _until(lambda: pair.producer.stats()["token_conflicts"] == 1)
+        wait_for(lambda: pair.producer.stats()["token_conflicts"] == 1, 5.0, "the token conflict")
         send(Scalar(value=1.0, seq=1))
-        assert _until(lambda: len(got) == 1)
+        wait_for(lambda: len(got) == 1, 5.0, "the first sample")
         assert pair.consumer.alive_processes() == {"umbra"}  # no stranger is tracked
         assert pair.consumer._sessions.current.keys() == {"umbra"}
         for token in [*tokens, probe]:
@@ -299,7 +305,7 @@ def _before_the_token(pair: Pair, link: LinkPlan, got: list[Message]) -> Callabl
     pair.consumer.subscribe(link, got.append)
     pair.consumer.announce()
     publisher = pair.producer._pubs[link.key][0]
-    assert _until(lambda: publisher.matching_status.matching)
+    wait_for(lambda: publisher.matching_status.matching, 5.0, "the publisher to match")
     return lambda msg: sink(msg, 0.0)
 
 
@@ -312,12 +318,14 @@ def test_samples_that_overtake_their_producers_token_wait_for_it(
     send = _before_the_token(pair, link, got)
     for i in range(1, 4):
         send(Scalar(value=float(i), seq=i))
-    assert _until(lambda: _sub(pair)["unattributed"] == 3)  # held, counted as refused so far
+    # held, counted as refused so far
+    wait_for(lambda: _sub(pair)["unattributed"] == 3, 5.0, "3 unattributed samples")
     assert got == []
     pair.producer.announce()  # the token: they go through, in order, before any later one
-    assert _until(lambda: "umbra" in pair.consumer.alive_processes())  # else 4 is held too
+    # else 4 is held too
+    wait_for(lambda: "umbra" in pair.consumer.alive_processes(), 5.0, "the producer alive")
     send(Scalar(value=4.0, seq=4))
-    assert _until(lambda: len(got) == 4)
+    wait_for(lambda: len(got) == 4, 5.0, "4 samples")
     assert [m.seq for m in got] == [1, 2, 3, 4]
     sub = _sub(pair)
     assert sub["held"] == 3 and sub["unattributed"] == 0 and sub["received"] == 4
@@ -334,14 +342,15 @@ def test_samples_whose_token_comes_too_late_or_names_another_session_are_dropped
     try:
         attacker.wait_matching()
         send(Scalar(value=1.0, seq=1))  # waits too long: the token comes after 0.5 s
-        assert _until(lambda: _sub(pair)["unattributed"] == 1)
+        wait_for(lambda: _sub(pair)["unattributed"] == 1, 5.0, "1 unattributed sample")
         time.sleep(0.5)
         attacker.put(Scalar(value=66.0, seq=2), None)  # from another session: held, then
-        assert _until(lambda: _sub(pair)["unattributed"] == 2)  # judged foreign
+        # judged foreign
+        wait_for(lambda: _sub(pair)["unattributed"] == 2, 5.0, "2 unattributed samples")
         pair.producer.announce()
-        assert _until(lambda: _sub(pair)["foreign"] == 1)
+        wait_for(lambda: _sub(pair)["foreign"] == 1, 5.0, "1 foreign sample")
         send(Scalar(value=3.0, seq=3))
-        assert _until(lambda: len(got) == 1)
+        wait_for(lambda: len(got) == 1, 5.0, "the first sample")
     finally:
         attacker.close()
     assert [m.value for m in got] == [3.0]
@@ -383,38 +392,38 @@ def test_tokens_without_the_runs_proof_are_ignored_and_the_producer_returns_only
         sink = producer.publisher(link)
         producer.announce()
         assert producer.wait_ready(threading.Event(), timeout=10)
-        assert _until(lambda: consumer.producer_alive(link))
+        wait_for(lambda: consumer.producer_alive(link), 5.0, "the producer alive")
         return lambda msg: sink(msg, 0.0)
 
     def stop() -> None:
         started[-1]._session.close()  # dies without ending its streams (as kill -9 would)
-        assert _until(lambda: not consumer.producer_alive(link))
+        wait_for(lambda: not consumer.producer_alive(link), 5.0, "the producer gone")
 
     try:
         send = start()
         for i in range(1, 21):
             send(Scalar(value=float(i), seq=i))
-        assert _until(lambda: len(got) == 20)
+        wait_for(lambda: len(got) == 20, 5.0, "20 samples")
         own = str(attacker.zid())
         liveliness = attacker.liveliness()
         tokens = [liveliness.declare_token(alive_key(prefix, "umbra", "none", own))]
-        assert _until(lambda: consumer.forged_tokens == 1)
+        wait_for(lambda: consumer.forged_tokens == 1, 5.0, "1 forged token")
         assert consumer._sessions.conflicts == 0  # not even a rival: ignored outright
         stop()
         for proof in (sign(wrong, "umbra", "none", zid), "0" * 32):  # in the producer's id
             tokens.append(liveliness.declare_token(alive_key(prefix, "umbra", "none", zid, proof)))
-        assert _until(lambda: consumer.forged_tokens == 3)
+        wait_for(lambda: consumer.forged_tokens == 3, 5.0, "3 forged tokens")
         pub = attacker.declare_publisher(link.key, congestion_control=zenoh.CongestionControl.BLOCK)
-        assert _until(lambda: pub.matching_status.matching)
+        wait_for(lambda: pub.matching_status.matching, 5.0, "the publisher to match")
         codec = Codec()
         for i in range(21, 31):
             pub.put(codec.encode(Scalar(value=-1.0, seq=i)))
-        assert _until(lambda: _sub_of(consumer)["after_gone"] == 10)
+        wait_for(lambda: _sub_of(consumer)["after_gone"] == 10, 5.0, "10 samples after its end")
         assert not consumer.producer_alive(link) and len(got) == 20
         send = start()  # the genuine producer again, same zenoh id, a new token
         for i in range(1, 6):
             send(Scalar(value=100.0 + i, seq=i))
-        assert _until(lambda: len(got) == 25)
+        wait_for(lambda: len(got) == 25, 5.0, "25 samples")
         for token in tokens:
             token.undeclare()
     finally:

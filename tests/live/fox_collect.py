@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import websockets.sync.client as ws_client
 from websockets.exceptions import ConnectionClosed
 
+from tests.poll import wait_for
+
 #: Foxglove's binary "message data" frame: opcode 0x01, subscription id, log time [ns].
 _DATA_HEAD = struct.Struct("<BIQ")
 
@@ -90,13 +92,18 @@ class FoxCollector:
 
     def wait_count(self, topic: str, count: int, timeout: float) -> None:
         """Until ``count`` messages of ``topic`` came; AssertionError after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        while len(self.values(topic)) < count:
-            assert time.monotonic() < deadline and not self.error, (
-                f"{len(self.values(topic))} of {count} messages on {topic} within {timeout:g} s "
-                f"from {self.url} {self.error}"
-            )
-            time.sleep(0.05)
+
+        def arrived() -> int:
+            assert not self.error, f"{self.url}: {self.error}"
+            return len(self.values(topic))
+
+        wait_for(
+            arrived,
+            timeout,
+            f"{count} messages on {topic} from {self.url}",
+            0.05,
+            ok=lambda n: n >= count,
+        )
 
     def close(self) -> None:
         self._stop.set()

@@ -8,10 +8,11 @@ import re
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+
+from tests.poll import wait_for
 
 NODE_DIR = Path(__file__).resolve().parent / "node"
 REPO = Path(__file__).resolve().parents[2]
@@ -60,12 +61,12 @@ def run_tune(tune_js: Path, url: str, seconds: float, topics: str, changes: list
 def wait_joined(run: LiveRun, timeout: float = 60.0) -> None:
     """Until the live server of a split run receives the other processes' samples (it then
     joins them as the tuner and says so)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if "foxglove: parameter changes reach processes" in run.text():
-            return
-        time.sleep(0.2)
-    raise AssertionError(f"the live server did not join the processes:\n{run.text()[-3000:]}")
+    wait_for(
+        lambda: "foxglove: parameter changes reach processes" in run.text(),
+        timeout,
+        lambda: f"the live server to join the processes:\n{run.text()[-3000:]}",
+        0.2,
+    )
 
 
 class LiveRun:
@@ -82,15 +83,12 @@ class LiveRun:
         self.url = self._wait_url()
 
     def _wait_url(self, timeout: float = 60.0) -> str:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            found = _URL.search(self.log_path.read_text(errors="replace"))
-            if found:
-                return found.group(1)
-            if self.proc.poll() is not None:
-                break
-            time.sleep(0.1)
-        raise AssertionError(f"no foxglove address printed:\n{self.text()[-3000:]}")
+        def url() -> str:
+            found = _URL.search(self.text())
+            assert found or self.proc.poll() is None, f"ended, no address:\n{self.text()[-3000:]}"
+            return found.group(1) if found else ""
+
+        return wait_for(url, timeout, lambda: f"a foxglove address:\n{self.text()[-3000:]}", 0.1)
 
     def text(self) -> str:
         return self.log_path.read_text(errors="replace")

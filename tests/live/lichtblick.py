@@ -8,13 +8,13 @@ import re
 import subprocess
 import sys
 import tarfile
-import time
 import urllib.request
 from pathlib import Path
 
 import pytest
 
 from tests.browser import CHROMIUM_ARGS
+from tests.poll import wait_for
 
 VIEWERS = Path(__file__).resolve().parents[3] / "shared" / "viewers"
 TARBALL = VIEWERS / "lichtblick-1.10.8-web.tar.xz"
@@ -53,15 +53,19 @@ class Served:
             [sys.executable, str(VIEWERS / "serve.py"), str(root), str(port), *extra]
         )
         self.base = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 20
-        while time.monotonic() < deadline:
+
+        def up() -> bool:
             try:
                 urllib.request.urlopen(f"{self.base}/probe.html", timeout=1).close()
-                return
             except OSError:
-                time.sleep(0.2)
-        self.close()
-        raise AssertionError("the viewer's server did not start")
+                return False
+            return True
+
+        try:
+            wait_for(up, 20, "the viewer's server to start", 0.2)
+        except AssertionError:
+            self.close()
+            raise
 
     def close(self) -> None:
         self.proc.terminate()

@@ -16,7 +16,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -25,6 +25,7 @@ import websockets.sync.client as ws_client
 from tests.live.graphs import TOKEN, small_viewer_server
 from tests.live.helpers import REPO, LiveRun
 from tests.live.ports import viewer_gets
+from tests.poll import wait_for
 from umbra.connectors.access.door import Connections, Refusals
 from umbra.connectors.limits import (
     MAX_PAGE_CONNECTIONS,
@@ -70,13 +71,6 @@ def _served(connections: Connections | None = None) -> Iterator[ViewerServer]:
 
 #: The head deadline the small door of the first test gives [s].
 HEAD_S = 6.0
-
-
-def _wait(condition: Callable[[], bool], timeout: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        assert time.monotonic() < deadline, "timed out"
-        time.sleep(0.01)
 
 
 def _connect(port: int, source: str, data: bytes = b"") -> socket.socket:
@@ -132,11 +126,11 @@ def test_the_live_server_admits_by_the_doors_limits_before_the_token(
         assert _closed_after(garbled, 3.0) < 0.5 and _closed_after(big, 3.0) < 0.5
         garbled.close()
         big.close()
-        _wait(lambda: not table.open)
+        wait_for(lambda: not table.open, 5.0, "no open connection")
         assert table.refusals.counts["handshake"] == 2
         # one client address holds 3, the 4th is closed at once: before it sent a byte
         held = [(_connect(port, "127.0.0.2"), time.monotonic()) for _ in range(3)]
-        _wait(lambda: table.by_client["127.0.0.2"] == 3)
+        wait_for(lambda: table.by_client["127.0.0.2"] == 3, 5.0, "3 connections from 127.0.0.2")
         assert _refused_at_once(port, "127.0.0.2")
         assert table.refused == 1
         # another address (the viewer's) has its own share: it gets in, with the token
@@ -144,7 +138,7 @@ def test_the_live_server_admits_by_the_doors_limits_before_the_token(
         assert table.by_client["127.0.0.2"] == 3  # (all still held meanwhile)
         # the server's limit: 6 in all, whoever they come from
         held += [(_connect(port, "127.0.0.3"), time.monotonic()) for _ in range(3)]
-        _wait(lambda: len(table.open) == 6)
+        wait_for(lambda: len(table.open) == 6, 5.0, "6 open connections")
         assert _refused_at_once(port, "127.0.0.4")
         assert table.refused == 2 and table.most == 6
         # half-open: each closed at the head's deadline, counted
@@ -153,7 +147,7 @@ def test_the_live_server_admits_by_the_doors_limits_before_the_token(
             waited = time.monotonic() - opened
             assert HEAD_S - 0.2 <= waited <= HEAD_S + 10.0, waited  # at the deadline, not before
             s.close()
-        _wait(lambda: table.half_open == 6 and not table.open)
+        wait_for(lambda: table.half_open == 6 and not table.open, 5.0, "6 half-open and none open")
         # a viewer with the token once the flood is gone
         assert viewer_gets(port, f"?token={TOKEN}", TOPIC) == "data"
         assert door.refused == table.refusals.total == 2 + 2 + 6
@@ -244,7 +238,7 @@ def test_a_flood_without_the_token_leaves_the_live_server_bounded_and_serving(
         first = _Viewer(door.url)  # a viewer watching before the flood: served all through it
         first.start()
         assert first.subscribed.wait(5), first.error
-        _wait(lambda: len(first.times) > 10)
+        wait_for(lambda: len(first.times) > 10, 5.0, "11 frames at the viewer")
         base_fds, base_rss = _fds(), _rss_bytes()
         t0 = time.monotonic()
         proc = _flood(door.port, flood_s, MAX_PAGE_REQUEST_S + 2.5)
@@ -310,10 +304,12 @@ def test_a_split_pickup_whose_live_server_is_flooded_stays_bounded_and_ends(
     try:
         port = int(run.url.rsplit(":", 1)[1].split("/", 1)[0])
         query = run.url.split("/", 3)[3]
-        deadline = time.monotonic() + 60
-        while viewer_gets(port, query, "/joints/joint_state") != "data":  # the run is up
-            assert time.monotonic() < deadline, run.text()[-3000:]
-            time.sleep(0.5)
+        wait_for(
+            lambda: viewer_gets(port, query, "/joints/joint_state") == "data",
+            60,
+            lambda: f"the run to be up:\n{run.text()[-3000:]}",
+            0.5,
+        )
         base = _fds(run.proc.pid)
         proc = _flood(port, 4.0, 1.0)
         during: list[str] = []

@@ -16,6 +16,7 @@ import websockets.sync.client as ws_client
 from websockets.exceptions import ConnectionClosed
 
 from tests.live.graphs import small_plan
+from tests.poll import wait_for
 from umbra.connectors.limits import (
     MAX_PAGE_BAD_MESSAGES,
 )
@@ -146,10 +147,8 @@ def test_a_client_that_asks_and_never_reads_is_closed(gate: ViewerServer) -> Non
                 conn.send(ask)
             if n >= BURST // 2:  # within the message budget: closed for its backlog
                 time.sleep(2.0 / RATE)
-        deadline = time.monotonic() + 10
-        while gate.viewers and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert gate.viewers == 0  # closed by the server (1008), its answers dropped
+        # closed by the server (1008), its answers dropped
+        wait_for(lambda: gate.viewers == 0, 10, "the unread viewer closed", 0.05)
         assert gate.cut_off == 0  # for the answers it left unread, not for its rate
     finally:
         conn.close()
@@ -196,10 +195,8 @@ def test_a_flood_of_client_messages_is_cut_off_while_the_others_are_served(
         assert _parameter_answer(calm, "after")["servo.gain"] == 0.5
         with _welcomed(gate.url) as late:
             assert _parameter_answer(late, "late")["guard.timeout"] == 0.2
-            deadline = time.monotonic() + 10
-            while gate.viewers != 2 and time.monotonic() < deadline:
-                time.sleep(0.02)
-            assert gate.viewers == 2  # the calm one and the late one; the flood is gone
+            # the calm one and the late one; the flood is gone
+            wait_for(lambda: gate.viewers == 2, 10, "two viewers", 0.02)
     finally:
         calm.close()
         flood.close()

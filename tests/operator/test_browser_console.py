@@ -6,6 +6,7 @@ the test drives the page like an operator and checks the module's outputs.
 
 from __future__ import annotations
 
+import functools
 import threading
 import time
 from typing import Any
@@ -22,6 +23,7 @@ from tests.operator.browser import (
     take_control,
 )
 from tests.operator.helpers import image, rectangle_contour
+from tests.poll import wait_for
 from umbra.connectors.messages import Message
 from umbra.modules.operator.console import OperatorConsole
 from umbra.modules.operator.jog import KEEPALIVE_S
@@ -67,15 +69,6 @@ class Stepper(threading.Thread):
 
     def outputs(self, port: str, since: float = 0.0) -> list[tuple[float, Any]]:
         return [(t, s) for t, p, s in list(self.sent) if p == port and t >= since]
-
-
-def _wait(cond, timeout: float = 10.0) -> None:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.02)
-    raise AssertionError("condition not reached in time")
 
 
 def _moving(stepper: Stepper, since: float) -> bool:
@@ -147,7 +140,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 assert holder in watcher.inner_text("#holder")
                 # the operator's click seeds the snake where it was made
                 click_image(page, 341.0, 229.0)
-                _wait(lambda: stepper.outputs("seed"))
+                wait_for(lambda: stepper.outputs("seed"), 10.0, "a seed")
                 u, v = stepper.outputs("seed")[-1][1].uv
                 assert abs(u - 341.0) < 2.0 and abs(v - 229.0) < 2.0
                 # dragging a box gives a region seed [u_min, v_min, u_max, v_max]
@@ -155,7 +148,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 page.mouse.down()
                 page.mouse.move(*image_to_screen(page, 306.0, 204.0), steps=5)
                 page.mouse.up()
-                _wait(lambda: len(stepper.outputs("seed")) == 2)
+                wait_for(lambda: len(stepper.outputs("seed")) == 2, 10.0, "a second seed")
                 box = stepper.outputs("seed")[-1][1].uv
                 np.testing.assert_allclose(box, [306.0, 204.0, 372.0, 256.0], atol=2.0)
                 # control passes: released, taken by the other page, shown on both
@@ -201,7 +194,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 ):
                     started = time.monotonic()
                     page.evaluate("window.umbra.holdJog(2, 1)")
-                    _wait(lambda t=started: _moving(stepper, t))
+                    wait_for(functools.partial(_moving, stepper, started), 10.0, "a jog")
                     page.evaluate(release)
                     stopped = time.monotonic()
                     page.wait_for_timeout(400)
@@ -214,7 +207,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 cdp.send("Debugger.enable")
                 started = time.monotonic()
                 page.evaluate("window.umbra.holdJog(0, -1)")
-                _wait(lambda: _moving(stepper, started))
+                wait_for(lambda: _moving(stepper, started), 10.0, "a jog")
                 expired = h.module.deadman.expired
                 cdp.send("Debugger.pause")
                 frozen = time.monotonic()
@@ -257,7 +250,7 @@ def test_zoom_sliders_in_chromium() -> None:
                 slider = page.locator("#zoom-left")
                 box = slider.bounding_box()
                 page.mouse.click(box["x"] + 0.8 * box["width"], box["y"] + box["height"] / 2)
-                _wait(lambda: stepper.outputs("zoom_1"))
+                wait_for(lambda: stepper.outputs("zoom_1"), 10.0, "a zoom")
                 assert abs(stepper.outputs("zoom_1")[-1][1].value - 0.8) < 0.06
                 assert not stepper.outputs("zoom_2")  # the other camera is left alone
                 page.wait_for_function(

@@ -16,6 +16,7 @@ import pytest
 
 from tests.operator.browser import chromium, click_image, needs_chromium, take_control
 from tests.operator.helpers import image, rectangle_contour
+from tests.poll import wait_for
 from tests.world.test_attended import FRAMES
 from umbra.connectors.messages import Message
 from umbra.connectors.states import ServoReason, ServoStage, ServoState
@@ -85,15 +86,6 @@ class Plant(threading.Thread):
         return [str(s.action) for port, s in list(self.sent) if port == "operator"]
 
 
-def _wait(cond: Any, timeout: float = 10.0) -> None:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.02)
-    raise AssertionError("condition not reached in time")
-
-
 def _in_view(page: Any, selector: str, size: tuple[int, int]) -> bool:
     """Whether every element matching ``selector`` is visible and wholly inside the viewport."""
     boxes = [
@@ -119,7 +111,7 @@ def _command(page: Any, plant: Plant, action: str, stage_before: str) -> None:
         timeout=10000,
     )
     page.click(button)
-    _wait(lambda: plant.commands()[before:] == [action])
+    wait_for(lambda: plant.commands()[before:] == [action], 10.0, f"the {action} command")
 
 
 def _layout_persists(page: Any) -> None:
@@ -152,7 +144,11 @@ def _drive(page: Any, plant: Plant, size: tuple[int, int], shot: Path) -> None:
     assert "starts by itself" in page.inner_text("#seed-hint")
     seeds = len([1 for port, _ in plant.sent if port == "seed"])
     click_image(page, 340.0, 230.0)
-    _wait(lambda: len([1 for port, _ in plant.sent if port == "seed"]) == seeds + 1)
+    wait_for(
+        lambda: len([1 for port, _ in plant.sent if port == "seed"]) == seeds + 1,
+        10.0,
+        "one more seed",
+    )
     page.wait_for_function(
         "document.getElementById('line-doing').textContent.includes('click the patch')"
     )
@@ -189,7 +185,7 @@ def _drive(page: Any, plant: Plant, size: tuple[int, int], shot: Path) -> None:
     page.wait_for_selector("#assist[open]")
     before = len(plant.commands())
     page.click("#assist button[data-action=resume]")
-    _wait(lambda: plant.commands()[before:] == ["resume"])
+    wait_for(lambda: plant.commands()[before:] == ["resume"], 10.0, "the resume command")
     plant.stage("paused")
     page.wait_for_selector("#assist", state="hidden")
     # a jog named in the image's words: tool z- lifts the camera (camera z < 0)
@@ -236,11 +232,13 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
             viewer.wait_for_function("window.umbra.state.control !== ''")
             assert viewer.is_disabled(stop)  # not the holder
             pages[0].click(stop)
-            _wait(
+            wait_for(
                 lambda: (
                     [type(s).__name__ for port, s in list(plant.sent) if port == "stop_run"]
                     == ["StopRun"]
-                )
+                ),
+                10.0,
+                "one StopRun",
             )
             with ModuleHarness(SimWorld, frames=FRAMES, attended=True) as world:
                 world.push("operator", next(s for port, s in plant.sent if port == "stop_run"))

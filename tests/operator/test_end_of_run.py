@@ -6,13 +6,13 @@ that server is gone."""
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import Any
 
 import pytest
 
 from tests.operator.browser import chromium, needs_chromium, open_console
 from tests.operator.test_browser_console import Stepper
+from tests.poll import wait_for
 from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.operator.console import OperatorConsole
 from umbra.runtime.harness import ModuleHarness
@@ -59,14 +59,6 @@ def silent_s(page: Any) -> float:
     return float(page.evaluate("SILENT_S"))
 
 
-def _until(page: Any, check: Callable[[], bool], timeout_s: float, what: str) -> None:
-    """Wait for ``check`` (Playwright's events are handled while the page waits)."""
-    deadline = time.monotonic() + timeout_s
-    while not check():
-        assert time.monotonic() < deadline, f"no {what} within {timeout_s} s"
-        page.wait_for_timeout(20)
-
-
 def test_a_page_cut_off_before_the_end_shows_the_verdict_when_it_reconnects() -> None:
     h = ModuleHarness(OperatorConsole, {})
     h.__enter__()
@@ -92,7 +84,13 @@ def test_a_page_cut_off_before_the_end_shows_the_verdict_when_it_reconnects() ->
             ended_at = time.monotonic()
             h.__exit__(None, None, None)  # the run ends: the console stops, its server lingers
             assert h.module._server is None
-            _until(cut_page, lambda: cut.refused >= 1, 5.0, "reconnection tried while cut")
+            wait_for(
+                lambda: cut.refused >= 1,
+                5.0,
+                "reconnection tried while cut",
+                interval_s=0,
+                step=lambda: cut_page.wait_for_timeout(20),
+            )
             assert not cut_page.evaluate("window.umbra.ended")  # it heard nothing of the end
             cut.mend()
             cut_page.wait_for_function("window.umbra.ended", timeout=END_SHOWN_S * 1000)

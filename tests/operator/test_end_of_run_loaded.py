@@ -10,12 +10,12 @@ from __future__ import annotations
 import re
 import time
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 from tests.operator.browser import REPO, GraphRun, chromium, needs_chromium
 from tests.operator.test_end_of_run import END_SHOWN_S, LOAD_PER_CORE
+from tests.poll import wait_for
 from tests.view3d.browser_support import block_outside_loopback
 from umbra.modules.world.trial_faults import Overload
 
@@ -52,14 +52,6 @@ class TimedRun(GraphRun):
     def first(self, pattern: str) -> tuple[float, str] | None:
         """The first line matching ``pattern`` and when it came."""
         return next(((t, s) for t, s in list(self.timed) if re.search(pattern, s)), None)
-
-
-def _wait(page: Any, check: Any, timeout_s: float, what: str) -> Any:
-    deadline = time.monotonic() + timeout_s
-    while not (value := check()):
-        assert time.monotonic() < deadline, f"no {what} within {timeout_s} s"
-        page.wait_for_timeout(20)
-    return value
 
 
 def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path: Path) -> None:
@@ -102,12 +94,22 @@ def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path:
                 )
                 print("loaded; stopping the run", flush=True)
                 holder.evaluate(f"document.querySelector('{stop}').click()")  # no waits
-                judged_at, _line = _wait(
-                    holder, lambda: run.first(VERDICT), 60.0, "verdict in the run's output"
+                judged_at, _line = wait_for(
+                    lambda: run.first(VERDICT),
+                    60.0,
+                    "verdict in the run's output",
+                    interval_s=0,
+                    step=lambda: holder.wait_for_timeout(20),
                 )
                 # the run's end: the judge's process has written its summary (its last act)
                 judge_summary = tmp_path / "run" / "summary-smart.json"
-                _wait(holder, judge_summary.exists, 120.0, "the judge's process to end")
+                wait_for(
+                    judge_summary.exists,
+                    120.0,
+                    "the judge's process to end",
+                    interval_s=0,
+                    step=lambda: holder.wait_for_timeout(20),
+                )
                 ended_at = time.monotonic()
                 print(f"the judge's process ended {ended_at - judged_at:.1f} s after the verdict")
                 pages = {"holder": holder, "watcher": watcher}
@@ -132,8 +134,10 @@ def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path:
 
 
 def _wait_line(run: TimedRun, pattern: str, timeout_s: float = 60.0) -> str:
-    deadline = time.monotonic() + timeout_s
-    while (found := run.first(pattern)) is None:
-        assert time.monotonic() < deadline, f"no line {pattern!r}:\n{run.text()[-2000:]}"
-        time.sleep(0.05)
+    found = wait_for(
+        lambda: run.first(pattern),
+        timeout_s,
+        lambda: f"a line {pattern!r}:\n{run.text()[-2000:]}",
+        0.05,
+    )
     return found[1]

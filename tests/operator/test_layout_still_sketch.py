@@ -8,7 +8,6 @@ drawn in both."""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +15,7 @@ import pytest
 
 from tests.operator.browser import GraphRun, chromium, needs_chromium, take_control
 from tests.operator.test_layout_still import BOXES_JS, _inside
+from tests.poll import wait_for
 from tests.sketch.test_sketch_browser import Operator
 from umbra.modules.world.scene_objects import SketchScene
 from umbra.modules.world.trial_faults import Overload
@@ -65,10 +65,12 @@ class FrameOperator(Operator):
     def drag(self, side: str, i: int, uv: Any) -> None:
         self.page.evaluate(f"document.getElementById('view-{side}').scrollIntoView()")
         box = self.page.locator(f"#svg-{side}").bounding_box()
-        grip = _wait(  # the page redraws its handles: the one drawn now
+        # the page redraws its handles: the one drawn now
+        grip = wait_for(
             lambda: self.page.locator(f"[data-testid=handle-{side}{i}]").bounding_box(),
             5,
             f"handle {side}{i}",
+            interval_s=0.2,
         )
         self.mouse.move(grip["x"] + grip["width"] / 2, grip["y"] + grip["height"] / 2)
         self.mouse.down()
@@ -76,16 +78,6 @@ class FrameOperator(Operator):
             box["x"] + uv[0] * box["width"] / 640, box["y"] + uv[1] * box["height"] / 480, steps=8
         )
         self.mouse.up()
-
-
-def _wait(predicate: Any, timeout: float, what: str) -> Any:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.2)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def _snapshot(frame: Any) -> None:
@@ -101,7 +93,7 @@ def _snapshot(frame: Any) -> None:
             frame.click("[data-testid=snapshot]")
         return False
 
-    _wait(taken, 60, "a snapshot")
+    wait_for(taken, 60, "a snapshot", interval_s=0.2)
 
 
 def _panels_in_view(page: Any) -> dict[str, Any]:
@@ -179,7 +171,7 @@ def test_the_sketch_panel_has_room_and_keeps_its_place_when_the_cameras_move(
             # the panel does
             shown = page.evaluate(PIPE_JS)
             frame.evaluate("send('aim 0.62 0.15 0.3 0.3')")
-            moved = _wait(
+            moved = wait_for(
                 lambda: (
                     (now := page.evaluate(PIPE_JS))[0] > 0
                     and abs(now[1] - shown[1]) + abs(now[2] - shown[2]) > 40
@@ -187,6 +179,7 @@ def test_the_sketch_panel_has_room_and_keeps_its_place_when_the_cameras_move(
                 ),
                 60,
                 "the cameras to slew",
+                interval_s=0.2,
             )
             frame.wait_for_function(
                 "window.sketch.state.status.message.startsWith('aiming at [0.62, 0.15')",

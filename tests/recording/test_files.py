@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from mcap.stream_reader import StreamReader
 
+from tests.poll import wait_for
 from tests.recording.conftest import GRAPH, Run
 from umbra.runtime.cli.main import main
 from umbra.runtime.recording.reader import RecordingScan, read_records
@@ -52,11 +53,9 @@ def test_a_killed_run_leaves_a_file_that_reads_back(tmp_path: Path) -> None:
     )
     try:
         path = out / "recording.mcap"
-        deadline = time.monotonic() + 40
-        while time.monotonic() < deadline:  # chunks reach the disk at least once a second
-            if path.exists() and path.stat().st_size > 200_000:
-                break
-            time.sleep(0.1)
+        wait_for(  # chunks reach the disk at least once a second
+            lambda: path.exists() and path.stat().st_size > 200_000, 40, "200 kB recorded", 0.1
+        )
         time.sleep(1.2)
         os.kill(proc.pid, signal.SIGKILL)
     finally:

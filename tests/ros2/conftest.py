@@ -6,8 +6,7 @@ off."""
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -15,23 +14,6 @@ import pytest
 from examples.ros2_robot.msg_files import write_msg_files
 from umbra.runtime.links.config import free_loopback_ports
 from umbra.runtime.ros2.router import open_router
-
-
-def wait_for(
-    condition: Callable[[], object], timeout_s: float = 10.0, step: Callable[[], None] | None = None
-) -> object:
-    """Wait until ``condition()`` is truthy (calling ``step`` between looks); its value, or
-    AssertionError after ``timeout_s`` [s]."""
-    deadline = time.monotonic() + timeout_s
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise AssertionError(f"condition not met within {timeout_s} s")
-        if step is not None:
-            step()
-        time.sleep(0.02)
 
 
 @pytest.fixture

@@ -10,14 +10,13 @@ import time
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.connectors.messages import Image, JointState
 from umbra.runtime.ros2.bridge import Ros2Bridge
 from umbra.runtime.ros2.discovery import query_graph
 from umbra.runtime.ros2.mapping import Ros2Mapping
 from umbra.runtime.ros2.router import session_config
 from umbra.runtime.ros2.stamps import relate
-
-from .conftest import wait_for
 
 NAMES = ("shoulder", "elbow", "wrist")
 
@@ -45,7 +44,13 @@ def test_the_peer_decodes_our_joint_states_and_lists_our_publisher(router_port, 
             velocity=np.array([0.0, 0.2, -0.3]),
             origin=origin,
         )
-        wait_for(lambda: got, step=lambda: bridge.publish("/joint_states", sample))
+        wait_for(
+            lambda: got,
+            10.0,
+            "the joint state",
+            interval_s=0.02,
+            step=lambda: bridge.publish("/joint_states", sample),
+        )
         msg = got[0]
         assert list(msg.name) == list(NAMES)
         np.testing.assert_array_equal(msg.position, [0.1, -0.5, 1.25])
@@ -74,7 +79,11 @@ def test_the_peer_decodes_our_joint_states_and_lists_our_publisher(router_port, 
 def test_another_domain_sees_nothing(router_port, sdk):
     js = Ros2Mapping("/joint_states", "sensor_msgs/msg/JointState", "JointState", "out")
     with _bridge(router_port, js, domain=7) as bridge:
-        wait_for(lambda: query_graph(bridge.session, 7).nodes() == ["/umbra"])
+        wait_for(
+            lambda: query_graph(bridge.session, 7).nodes() == ["/umbra"],
+            10.0,
+            "the graph to show /umbra",
+        )
         topics = dict(
             sdk.get_topic_names_and_types(domain_id=0, router_port=router_port, timeout=0.5)
         )
@@ -114,7 +123,7 @@ def test_we_decode_the_peers_image(router_port, sdk):
                 data=rgb.reshape(-1),
             )
 
-        wait_for(lambda: got, step=send)
+        wait_for(lambda: got, 10.0, "the image", interval_s=0.02, step=send)
         image = got[0]
         assert image.pixels.shape == (72, 128, 3)
         np.testing.assert_array_equal(image.pixels[0, 0], [0, 0, 255])  # red, in BGR

@@ -10,14 +10,13 @@ import time
 import numpy as np
 import zenoh
 
+from tests.poll import wait_for
 from umbra.runtime.ros2.attachment import Attachment
 from umbra.runtime.ros2.bridge import Ros2Bridge
 from umbra.runtime.ros2.keys import data_key
 from umbra.runtime.ros2.mapping import Ros2Mapping
 from umbra.runtime.ros2.msgtypes import message_class, to_cdr, type_hash
 from umbra.runtime.ros2.router import session_config
-
-from .conftest import wait_for
 
 JS = "sensor_msgs/msg/JointState"
 
@@ -54,6 +53,9 @@ def test_strangers_samples_are_refused_with_reasons(router_port):
             before = stats.refused
             wait_for(
                 lambda: stats.refused > before,
+                10.0,
+                f"the refusal {why!r}",
+                interval_s=0.02,
                 step=lambda: stranger.put(key, payload, attachment=attachment),
             )
             assert why in stats.last_refusal
@@ -63,6 +65,9 @@ def test_strangers_samples_are_refused_with_reasons(router_port):
         refused_with("not a CDR", b"\x00\x01\x00\x00garbage", Attachment(1, 0, gid).encode())
         wait_for(
             lambda: got,
+            10.0,
+            "the sample",
+            interval_s=0.02,
             step=lambda: stranger.put(
                 key, _joint_state_cdr(2.0), attachment=Attachment(5, 0, gid).encode()
             ),
@@ -81,6 +86,9 @@ def test_strangers_samples_are_refused_with_reasons(router_port):
         n = len(got)
         wait_for(
             lambda: len(got) > n,
+            10.0,
+            "one more sample",
+            interval_s=0.02,
             step=lambda: stranger.put(
                 key, _joint_state_cdr(4.0), attachment=Attachment(next(seqs), 0, gid).encode()
             ),

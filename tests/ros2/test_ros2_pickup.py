@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.poll import wait_for
 from umbra.connectors.errors import CheckFailed
 from umbra.runtime.graph.check import check_text
 
-from .conftest import wait_for
 from .robot_process import ROOT, interrupt, judged, start_robot
 from .run_graph import start_run
 
@@ -29,7 +29,9 @@ def test_a_ros2_robot_grasps_as_the_native_graph_does(router_port: int, tmp_path
     run = start_run(GRAPH, tmp_path / "out", "--ros2", "--ros2-router", router)
     try:
         alive = lambda: robot.poll() is None and run.poll() is None  # noqa: E731
-        record = wait_for(lambda: judged(verdict) or not alive(), timeout_s=200.0)
+        record = wait_for(
+            lambda: judged(verdict) or not alive(), 200.0, "the verdict or the run's end"
+        )
         assert alive(), (robot.poll(), run.poll())
     finally:
         code, _, err = interrupt(run)

@@ -17,12 +17,12 @@ from pathlib import Path
 import pytest
 
 from examples.ros2_robot.msg_files import write_msg_files
+from tests.poll import wait_for
 from umbra.runtime.links.config import free_loopback_ports, read_user_config
 from umbra.runtime.ros2.keys import data_key
 from umbra.runtime.ros2.msgtypes import from_cdr, type_hash
 from umbra.runtime.ros2.router import open_router, session_config
 
-from .conftest import wait_for
 from .run_graph import start_run, write_graph
 
 IMAGE, TOPIC = "sensor_msgs/msg/Image", "/wrist_camera/image_raw"
@@ -139,7 +139,7 @@ def test_a_run_publishes_through_a_mutual_tls_router_that_refuses_outsiders(tmp_
         "--ros2-config", str(keys / "ros2@umbra.json5"), "--duration", "4",
     )  # fmt: skip
     try:
-        wait_for(lambda: len(got["ours"]) >= 5 and len(frames) >= 5, timeout_s=60.0)
+        wait_for(lambda: len(got["ours"]) >= 5 and len(frames) >= 5, 60.0, "5 samples and 5 frames")
         _, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:

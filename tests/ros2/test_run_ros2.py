@@ -10,9 +10,9 @@ import time
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.runtime.links.config import free_loopback_ports
 
-from .conftest import wait_for
 from .run_graph import start_run, write_graph
 
 
@@ -76,7 +76,13 @@ def test_a_run_publishes_to_ros2_and_takes_from_it(router_port, sdk, tmp_path):
     )
     pub, send, sent = _image_publisher(sdk, router_port)
     try:
-        wait_for(lambda: len(frames) >= 3 and len(contours) >= 3, timeout_s=40.0, step=send)
+        wait_for(
+            lambda: len(frames) >= 3 and len(contours) >= 3,
+            40.0,
+            "3 frames and 3 contours",
+            interval_s=0.02,
+            step=send,
+        )
         err = _finish(proc)
     finally:
         if proc.poll() is None:
@@ -154,7 +160,7 @@ def test_a_split_run_has_a_node_per_process_and_keeps_its_links_off_the_router(
     )
     pub, send, _sent = _image_publisher(sdk, router_port)
     try:
-        wait_for(lambda: len(contours) >= 3, timeout_s=60.0, step=send)
+        wait_for(lambda: len(contours) >= 3, 60.0, "3 contours", interval_s=0.02, step=send)
         topics = dict(sdk.get_topic_names_and_types(router_port=router_port, timeout=1.0))
         info = sdk.get_topic_info(
             "/wrist_camera/image_raw", router_port=router_port, timeout=1.0, verbose=True

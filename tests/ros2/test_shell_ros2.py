@@ -6,11 +6,11 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.runtime.links.config import free_loopback_ports
 
 
@@ -25,10 +25,7 @@ def _umbra(*args: str) -> subprocess.Popen[str]:
 
 def _publishing_until_done(proc: subprocess.Popen[str], publish, timeout_s: float = 30.0):
     """Publish every 50 ms until ``proc`` ends; its (stdout, stderr)."""
-    deadline = time.monotonic() + timeout_s
-    while proc.poll() is None and time.monotonic() < deadline:
-        publish()
-        time.sleep(0.05)
+    wait_for(lambda: proc.poll() is not None, timeout_s, "the command to end", 0.05, step=publish)
     return proc.communicate(timeout=10)
 
 

@@ -10,7 +10,8 @@ import threading
 import numpy as np
 import pytest
 
-from .conftest import wait_for
+from tests.poll import wait_for
+
 from .robot_process import ROOT
 from .run_graph import start_run
 
@@ -71,7 +72,8 @@ def test_the_split_pickup_grasps_with_ros2_and_ros2_sees_it(router_port, sdk, tm
                 and infos.count >= 10
                 and ("tool", "camera") in statics.frames
             ),
-            timeout_s=120.0,
+            120.0,
+            "joints, images, camera infos and the static frame",
         )
         _, err = run.communicate(timeout=200)
     finally:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from tests.runtime.fixtures import StopLog, make_registry
 from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.messages import Scalar
@@ -207,9 +208,7 @@ def test_sigint_stops_with_130_and_writes_summary(tmp_path: Path) -> None:
         stderr=subprocess.PIPE,
         text=True,
     )
-    deadline = time.monotonic() + 30
-    while not (out / "recording.mcap").exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
+    wait_for((out / "recording.mcap").exists, 30, "the recording file", 0.05)
     time.sleep(0.3)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from tests.operator.helpers import Page
+from tests.poll import wait_for
 from umbra.modules.operator.console import OperatorConsole
 from umbra.runtime.harness import ModuleHarness
 
@@ -47,21 +48,21 @@ class Rig(threading.Thread):
             next_tick += 0.01
             time.sleep(max(0.0, next_tick - time.monotonic()))
 
-    def wait(self, cond, timeout: float = 5.0) -> None:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
+    def wait(self, cond, timeout: float = 5.0, what: str = "") -> None:
+        """Until ``cond()`` holds (looked at under the stepper's lock); ``timeout`` [s] at most."""
+
+        def held() -> bool:
             with self.lock:
-                if cond():
-                    return
-            time.sleep(0.005)
-        raise AssertionError("condition not reached in time")
+                return bool(cond())
+
+        wait_for(held, timeout, what, 0.005)
 
     def operator(self) -> Page:
         """A page that joined and took control."""
         page = Page(self.h.module.url)
-        self.wait(lambda: page.session in self.h.module.arbiter.sessions)
+        self.wait(lambda: page.session in self.h.module.arbiter.sessions, 5.0, "the page joined")
         page.send("take")
-        self.wait(lambda: self.h.module.arbiter.holder == page.session)
+        self.wait(lambda: self.h.module.arbiter.holder == page.session, 5.0, "the page in control")
         return page
 
     def abort_latency(self, page: Page) -> float:

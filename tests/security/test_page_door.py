@@ -20,6 +20,7 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 
 from tests.operator.helpers import Page
+from tests.poll import wait_for
 from tests.security.console_rig import T_TOOL_CAMERA
 from umbra.connectors.limits import (
     MAX_PAGE_BODY_BYTES,
@@ -192,7 +193,9 @@ def test_socket_messages_past_their_size_are_refused_by_the_protocol(
             page.raw("x" * (MAX_PAGE_MESSAGE_BYTES + 1))
             with pytest.raises(ConnectionClosed):
                 page.recv_text("never", timeout=5)
-            _wait(lambda: h.module.summary()["oversize"] == 1)
+            wait_for(
+                lambda: h.module.summary()["oversize"] == 1, 5.0, "the oversize message counted"
+            )
         finally:
             page.close()
         # a flood of well-formed messages past the budget is closed (1008, with the reason)
@@ -204,15 +207,8 @@ def test_socket_messages_past_their_size_are_refused_by_the_protocol(
                 page.recv_text("never", timeout=5)
         finally:
             page.close()
-        _wait(lambda: h.module.summary()["closed_abusers"] == 1)
+        wait_for(lambda: h.module.summary()["closed_abusers"] == 1, 5.0, "the abuser closed")
         assert "messages per second" in caplog.text
-
-
-def _wait(cond, timeout: float = 5.0) -> None:
-    end = time.monotonic() + timeout
-    while not cond():
-        assert time.monotonic() < end, "condition not reached in time"
-        time.sleep(0.01)
 
 
 def _as_nobody() -> list[str] | None:

@@ -60,7 +60,9 @@ def test_the_holders_abort_lands_under_every_flood() -> None:
             s = rig.h.module.summary()
             assert s["closed_abusers"] >= 1 and rig.h.module.counts["abort"] == 5 * ABORTS
             # no ghost viewers once the floods stopped: the operator's page alone
-            rig.wait(lambda: list(rig.h.module.arbiter.sessions) == [page.session], 10)
+            rig.wait(
+                lambda: list(rig.h.module.arbiter.sessions) == [page.session], 10, "one session"
+            )
             assert rig.h.module._app.stats.viewers == 1
             assert rig.h.module.arbiter.holder == page.session
         finally:
@@ -74,12 +76,12 @@ def test_a_holders_page_closed_mid_flood_gives_control_back() -> None:
         page = rig.operator()
         with flood("junk", rig.h.module.url, 4.0):
             page.close()
-            rig.wait(lambda: rig.h.module.arbiter.holder is None, 2.0)
+            rig.wait(lambda: rig.h.module.arbiter.holder is None, 2.0, "control released")
             # another operator takes control during the flood, and aborts
             second = rig.operator()
             try:
                 assert rig.abort_latency(second) <= 1.0
             finally:
                 second.close()
-        rig.wait(lambda: not rig.h.module.arbiter.sessions, 10)
+        rig.wait(lambda: not rig.h.module.arbiter.sessions, 10, "no session")
         assert rig.h.module._app.stats.viewers == 0

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from tests.browser import launch, needs_chromium
+from tests.poll import wait_for
 from umbra.modules.world.scene_objects import SketchScene
 
 GRAPH = str(Path(__file__).resolve().parents[2] / "graphs" / "active_sketch_page.yaml")
@@ -54,16 +55,6 @@ def _state(base: str) -> dict:
     )
     with urllib.request.urlopen(request, timeout=5) as r:
         return json.loads(r.read())
-
-
-def _wait(predicate, timeout: float, what: str):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.2)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def _project(P, points) -> np.ndarray:
@@ -111,7 +102,7 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
             status = st.get("status")
             return st if status and status["message"].startswith("aiming") else None
 
-        _wait(ready, 90, "the page and the cameras' aim")
+        wait_for(ready, 90, "the page and the cameras' aim", interval_s=0.2)
         time.sleep(3.0)  # PTUs slew, zoom settles, fresh frames
         yield base, summaries
     finally:
@@ -206,10 +197,11 @@ class Operator:
 
     def drag(self, side: str, i: int, uv) -> None:
         box = self.page.locator(f"#svg-{side}").bounding_box()
-        handle = _wait(
+        handle = wait_for(
             lambda: self.page.locator(f"[data-testid=handle-{side}{i}]").bounding_box(),
             5,
             f"handle {side}{i}",
+            interval_s=0.2,
         )
         self.page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
         self.page.mouse.down()
@@ -263,15 +255,19 @@ class Operator:
     def until(self, condition: str, button: str, timeout: float) -> None:
         """Wait for ``condition``; a halt on the way (a guard stop when the loaded machine
         stalls a tick) is met as an operator would: press ``button`` again."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if self.page.evaluate(condition):
-                return
+
+        def press_if_halted() -> None:
             if self.page.evaluate("(window.sketch.state.vcr || {}).mode") == "halted":
                 time.sleep(0.5)
                 self.page.click(f"[data-testid={button}]")
-            time.sleep(0.2)
-        raise AssertionError(f"timed out waiting for {condition}: {self.state()['vcr']}")
+
+        wait_for(
+            lambda: self.page.evaluate(condition),
+            timeout,
+            lambda: f"{condition}: {self.state()['vcr']}",
+            0.2,
+            step=press_if_halted,
+        )
 
     def slider(self, testid: str, value: float) -> None:
         self.page.fill(f"[data-testid={testid}]", str(value))

@@ -14,7 +14,7 @@ import json
 import logging
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -26,6 +26,7 @@ import pytest
 from websockets.sync.client import connect
 
 from tests.operator.browser import chromium, needs_chromium
+from tests.poll import wait_for
 from umbra.connectors.messages import Image
 from umbra.connectors.path_messages import VcrState
 from umbra.connectors.sketch_messages import SketchPrimitive
@@ -104,16 +105,6 @@ class Browser:
         self.client.close()
 
 
-def _wait(cond: Callable[[], Any], timeout: float = 5.0) -> Any:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = cond()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError("condition not reached in time")
-
-
 def _what(text: str) -> str:
     """How the page names a command in its replies: the verb, with the action or macro."""
     words = text.split()
@@ -137,7 +128,7 @@ def test_state_menus_and_checked_commands() -> None:
     with _page() as (h, stepper):
         stepper.push(h, "primitive", triad)
         op = Browser(h.module.url)
-        state = _wait(lambda: (s := op.state())["version"] > 0 and s)
+        state = wait_for(op.state, 5.0, "the first state", ok=lambda s: s["version"] > 0)
         assert state["menus"]["point"][0][0] == "move_to"
         assert state["menus"]["none"][1][0] == "stow"
         entry = state["primitives"][0]
@@ -146,7 +137,7 @@ def test_state_menus_and_checked_commands() -> None:
             ["make_box", "keep the box as scene geometry (no motion)", "Make box"]
         ]
         assert state["menus"]["line"][0][2] == "Grab pipe"  # the button's label: words
-        name = _wait(lambda: op.state()["control"]["you"])
+        name = wait_for(lambda: op.state()["control"]["you"], 5.0, "a name")
         assert op.control("take") == (200, {"ok": True, "message": f"{name} took control"})
         assert op.command("aim 0.55 0.05 0.35 0.3") == (200, {"ok": True, "message": "sent aim"})
         code, reply = op.command("vcr speed 7")
@@ -179,14 +170,19 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
                 outcome=Outcome.MISSED,
             ),
         )
-        state = _wait(lambda: (s := op.state()).get("verdict") and s)
+        state = wait_for(op.state, 5.0, "the verdict", ok=lambda s: s.get("verdict"))
         assert state["verdict"] == {
             "macro": "grab_pipe",
             "label": "Grab pipe",
             "text": text,
             "success": False,
         }
-        reply = _wait(lambda: (r := op.client.get(op.root + "/sketch/live/a.jpg")).is_success and r)
+        reply = wait_for(
+            lambda: op.client.get(op.root + "/sketch/live/a.jpg"),
+            5.0,
+            "the live image",
+            ok=lambda r: r.is_success,
+        )
         assert reply.headers["content-type"] == "image/jpeg"
         frame = cv2.imdecode(np.frombuffer(reply.content, np.uint8), cv2.IMREAD_COLOR)
         assert frame.shape == (120, 160, 3)
@@ -197,10 +193,11 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
         assert {p.content for p in polls} == {reply.content}
         assert h.module.web.live_encodes["a"] == 1
         stepper.push(h, "live_a", Image(pixels=255 - pixels, frame="cam_left"))
-        newer = _wait(
-            lambda: (
-                (r := op.client.get(op.root + "/sketch/live/a.jpg")).content != reply.content and r
-            )
+        newer = wait_for(
+            lambda: op.client.get(op.root + "/sketch/live/a.jpg"),
+            5.0,
+            "a newer live image",
+            ok=lambda r: r.content != reply.content,
         )
         assert (
             cv2.imdecode(np.frombuffer(newer.content, np.uint8), cv2.IMREAD_COLOR)[10, 10].min()
@@ -218,8 +215,8 @@ def test_a_viewer_without_control_is_refused_and_counted_the_holder_passes(
     caplog.set_level(logging.INFO)
     with _page() as (h, stepper):
         alice, bob = Browser(h.module.url), Browser(h.module.url)
-        a_name = _wait(lambda: alice.state()["control"]["you"])
-        b_name = _wait(lambda: bob.state()["control"]["you"])
+        a_name = wait_for(lambda: alice.state()["control"]["you"], 5.0, "alice's name")
+        b_name = wait_for(lambda: bob.state()["control"]["you"], 5.0, "bob's name")
         assert a_name != b_name and a_name.startswith("sketch viewer ")
         # nobody holds control: nobody commands
         code, reply = alice.command("snapshot")
@@ -263,7 +260,7 @@ def test_a_viewer_without_control_is_refused_and_counted_the_holder_passes(
         assert stepper.commands(h) == texts
         # control passes: released, taken by the other browser
         assert alice.control("release")[0] == 200
-        assert _wait(lambda: bob.state()["control"]["holder"] == "")
+        wait_for(lambda: bob.state()["control"]["holder"] == "", 5.0, "control released")
         assert bob.control("take")[0] == 200
         assert alice.command("vcr play")[0] == 403
         assert bob.command("vcr play")[0] == 200
@@ -284,7 +281,11 @@ def test_a_viewer_without_control_is_refused_and_counted_the_holder_passes(
 def test_a_silent_browser_leaves_and_its_control_is_free() -> None:
     with _page(lost_after=0.4) as (h, _):
         alice, bob = Browser(h.module.url), Browser(h.module.url)
-        _wait(lambda: alice.state()["control"]["you"] and bob.state()["control"]["you"])
+        wait_for(
+            lambda: alice.state()["control"]["you"] and bob.state()["control"]["you"],
+            5.0,
+            "both names",
+        )
         assert alice.control("take")[0] == 200
         control = h.module._control
         assert len(control.sessions) == 2
@@ -339,15 +340,15 @@ def test_one_holder_for_the_console_and_the_sketch_page_of_one_server() -> None:
         alice = Browser(sketch.module.url)
         alice_console = ConsolePage(console.module.url, alice.client.cookies)
         arbiter = console.module.arbiter
-        _wait(lambda: alice_console.session in arbiter.sessions)
-        alice_name = _wait(lambda: alice.state()["control"]["you"])
+        wait_for(lambda: alice_console.session in arbiter.sessions, 5.0, "alice's session")
+        alice_name = wait_for(lambda: alice.state()["control"]["you"], 5.0, "alice's name")
         assert alice_name == alice_console.name  # one browser, one name
         bob = Browser(sketch.module.url)  # another person, on the sketch page only
-        bob_name = _wait(lambda: bob.state()["control"]["you"])
+        bob_name = wait_for(lambda: bob.state()["control"]["you"], 5.0, "bob's name")
         # control taken on the console is control on the sketch page
         alice_console.send("take")
-        _wait(lambda: arbiter.holder == alice_console.session)
-        assert _wait(lambda: alice.state()["control"]["mine"])
+        wait_for(lambda: arbiter.holder == alice_console.session, 5.0, "alice holding control")
+        wait_for(lambda: alice.state()["control"]["mine"], 5.0, "alice's control")
         assert alice.command("snapshot")[0] == 200
         code, reply = bob.command("vcr play")
         assert code == 403 and reply["error"] == f"refused vcr play: {alice_name} holds control"
@@ -356,10 +357,10 @@ def test_one_holder_for_the_console_and_the_sketch_page_of_one_server() -> None:
         # released on the sketch page: free on the console too; taken on the sketch page by
         # the other person, the console's holder is refused
         assert alice.control("release")[0] == 200
-        _wait(lambda: arbiter.holder is None)
+        wait_for(lambda: arbiter.holder is None, 5.0, "control released")
         assert bob.control("take")[0] == 200
         alice_console.send("action", action="abort")
-        _wait(lambda: console.module.counts["refused"] == 1)
+        wait_for(lambda: console.module.counts["refused"] == 1, 5.0, "a refusal")
         assert not console.outputs("operator")
         notice = console.module.board.lines[-1].text
         assert notice == f"refused abort: {bob_name} holds control"
@@ -369,11 +370,11 @@ def test_one_holder_for_the_console_and_the_sketch_page_of_one_server() -> None:
         assert alice.control("take")[0] == 200
         assert arbiter.holder == alice_console.session  # the console page says "(you)"
         alice_console.send("action", action="abort")
-        _wait(lambda: console.module.counts["abort"] == 1)
+        wait_for(lambda: console.module.counts["abort"] == 1, 5.0, "an abort")
         assert console.output("operator").action == "abort"
         # the console page closes: the sketch page of the same browser keeps control
         alice_console.close()
-        _wait(lambda: alice_console.session not in arbiter.sessions)
+        wait_for(lambda: alice_console.session not in arbiter.sessions, 5.0, "alice's session gone")
         assert arbiter.holder_name() == alice_name
         assert alice.command("vcr pause")[0] == 200
         assert bob.command("vcr play")[0] == 403
@@ -409,7 +410,7 @@ def test_every_route_of_the_page_needs_the_token(tmp_path: Path) -> None:
         # the address with the token: the page, and its requests carry the cookie it sets
         op = Browser(url)
         assert op.client.cookies.get("umbra_token") == "s3cret-token-for-the-sketch"
-        assert _wait(lambda: op.state()["control"]["you"])
+        wait_for(lambda: op.state()["control"]["you"], 5.0, "a name")
         assert op.control("take")[0] == 200
         assert op.command("snapshot")[0] == 200
         # another site's page cannot post to it, even with the cookies
@@ -454,7 +455,7 @@ def test_a_request_step_never_answered_is_dropped_not_sent_late(
 def test_a_lost_page_pauses_the_path_it_set_moving() -> None:
     with _page(lost_after=0.4) as (h, stepper):
         op = Browser(h.module.url)
-        _wait(lambda: op.state()["control"]["you"])
+        wait_for(lambda: op.state()["control"]["you"], 5.0, "a name")
         assert op.control("take")[0] == 200
         assert op.command("vcr play")[0] == 200
         stepper.push(h, "vcr_state", VcrState(path_id="path1", mode="playing", progress=0.1))
@@ -463,7 +464,7 @@ def test_a_lost_page_pauses_the_path_it_set_moving() -> None:
             time.sleep(0.1)
         assert stepper.commands(h) == ["vcr play"]
         time.sleep(0.6)  # the page is gone
-        assert _wait(lambda: stepper.commands(h) == ["vcr play", "vcr pause"])
+        wait_for(lambda: stepper.commands(h) == ["vcr play", "vcr pause"], 5.0, "play, then pause")
         assert h.module.summary()["paused_for_lost_page"] == 1
         time.sleep(0.2)  # once
         assert len(stepper.commands(h)) == 2
@@ -527,7 +528,7 @@ def test_in_chromium_one_holder_for_both_pages_and_a_viewer_cannot_play() -> Non
         assert stepper.commands(sketch) == []
         # the holder plays from the sketch page
         page.click("[data-testid=play]")
-        _wait(lambda: stepper.commands(sketch) == ["vcr play"])
+        wait_for(lambda: stepper.commands(sketch) == ["vcr play"], 5.0, "play")
         page.wait_for_function(
             "document.getElementById('notice').textContent === 'sent vcr play'", timeout=10000
         )
@@ -552,5 +553,7 @@ def test_in_chromium_one_holder_for_both_pages_and_a_viewer_cannot_play() -> Non
             timeout=10000,
         )
         watcher.click("[data-testid=pause]")
-        _wait(lambda: stepper.commands(sketch) == ["vcr play", "vcr pause"])
+        wait_for(
+            lambda: stepper.commands(sketch) == ["vcr play", "vcr pause"], 5.0, "play, then pause"
+        )
         assert console.module.arbiter.refused == sketch.module.summary()["control_refused"] == 2

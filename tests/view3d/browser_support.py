@@ -3,41 +3,12 @@
 from __future__ import annotations
 
 import io
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from tests.browser import launch, needs_chromium  # noqa: F401 - re-exported for the tests
 from umbra.modules.view3d.geometry import matrix_from_wxyz
-
-
-def wait_for(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
-    """Poll ``condition`` until it returns a true value; fail with ``what`` after ``timeout``."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-
-
-def wait_value(
-    read: Callable[[], Any], ok: Callable[[Any], bool], timeout: float = 20.0, what: str = ""
-) -> Any:
-    """Poll ``read()`` until ``ok`` holds for its value and return that value; fail with the
-    last value read after ``timeout``."""
-    deadline = time.monotonic() + timeout
-    value = None
-    while time.monotonic() < deadline:
-        value = read()
-        if ok(value):
-            return value
-        time.sleep(0.05)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}; last value {value}")
 
 
 def block_outside_loopback(page) -> None:

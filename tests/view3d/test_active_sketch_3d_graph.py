@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.view3d.browser_support import block_outside_loopback, launch, needs_chromium, wait_for
+from tests.poll import wait_for
+from tests.view3d.browser_support import block_outside_loopback, launch, needs_chromium
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
 
@@ -58,7 +59,7 @@ def test_ptu_cameras_solids_and_sketch_items_in_the_3d_view(tmp_path: Path) -> N
                     return found.group(1)
             return None
 
-        url = wait_for(address, timeout=60, what="the 3-D view's address")
+        url = wait_for(address, 60, "the 3-D view's address", interval_s=0.05)
         with sync_playwright() as p:
             browser = launch(p)
             page = browser.new_page(viewport={"width": 1200, "height": 800})

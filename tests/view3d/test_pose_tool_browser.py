@@ -10,6 +10,7 @@ page, "Save mount": the saved mount is the true one, within the clicks' precisio
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -19,14 +20,13 @@ import numpy as np
 import pytest
 import yaml
 
+from tests.poll import wait_for
 from tests.view3d.browser_support import (
     block_outside_loopback,
     canvas_box,
     launch,
     needs_chromium,
     project_to_page,
-    wait_for,
-    wait_value,
 )
 from umbra.connectors.messages import CameraModel, Image, Pose
 from umbra.connectors.scene_messages import SceneObjects
@@ -186,22 +186,28 @@ def click_where(page, view, client, reports, canvas, pose, point, done, undo) ->
     browser has reported its camera at the pose; a click whose ray does not start at the pose
     all the same is undone and made again."""
     for _ in range(5):
-        wait_for(lambda: not view.moving(client.client_id), what="the viewer's flight to end")
+        wait_for(
+            lambda: not view.moving(client.client_id),
+            20.0,
+            "the viewer's flight to end",
+            interval_s=0.05,
+        )
         wait_for(
             lambda: _viewer_at(client, pose) and reports.at(pose),
-            what="the browser settled at the viewer pose",
+            20.0,
+            "the browser settled at the viewer pose",
+            interval_s=0.05,
         )
         x, y = project_to_page(client, canvas, point)[0]
         rays = len(reports.rays)
         page.mouse.click(x, y)
-        wait_for(lambda n=rays: len(reports.rays) > n, what="the click in Python")
+        wait_for(lambda n=rays: len(reports.rays) > n, 20.0, "the click in Python", interval_s=0.05)
         if np.linalg.norm(reports.rays[-1][0] - pose.position) < 1e-4:
-            wait_for(done, what="the click's effect")
+            wait_for(done, 20.0, "the click's effect", interval_s=0.05)
             return
         # the browser had not drawn the move yet: undo whatever that click did, click again
-        deadline = time.monotonic() + 2.0
-        while not done() and time.monotonic() < deadline:
-            time.sleep(0.05)
+        with contextlib.suppress(AssertionError):  # it may never come: then nothing to undo
+            wait_for(done, 2.0, "the late click's effect", 0.05)
         if done():
             undo()
     raise AssertionError("the browser's camera never settled at the viewer pose")
@@ -216,9 +222,13 @@ def test_pose_tool_in_the_page_recovers_a_wrong_mount(browser, tmp_path: Path) -
         page = browser.new_page(viewport={"width": 1500, "height": 760})
         block_outside_loopback(page)
         page.goto(module.address)
-        client = wait_for(lambda: _client(module), what="the browser to connect")
-        canvas = wait_value(
-            lambda: canvas_box(page), lambda c: 0 < c.width < 1400, what="the docked panel"
+        client = wait_for(lambda: _client(module), 20.0, "the browser to connect", interval_s=0.05)
+        canvas = wait_for(
+            lambda: canvas_box(page),
+            20.0,
+            "the docked panel",
+            interval_s=0.05,
+            ok=lambda c: 0 < c.width < 1400,
         )
         assert canvas.width / canvas.height > MODEL.width / MODEL.height * (MODEL.fy / MODEL.fx)
 
@@ -247,12 +257,21 @@ def test_pose_tool_in_the_page_recovers_a_wrong_mount(browser, tmp_path: Path) -
                     view.cameras["left"].frustum is not None
                     and np.allclose(view.cameras["left"].frustum.T_world_camera, b)
                 ),
-                what="the camera at its new PTU pose",
+                20.0,
+                "the camera at its new PTU pose",
+                interval_s=0.05,
             )
             sent = view.cameras["left"].frames_sent
-            wait_for(lambda s=sent: view.cameras["left"].frames_sent >= s, what="the frame")
+            wait_for(
+                lambda s=sent: view.cameras["left"].frames_sent >= s,
+                20.0,
+                "the frame",
+                interval_s=0.05,
+            )
             page.get_by_role("button", name="Snapshot left").click()
-            wait_for(lambda n=k + 1: len(view.snapshots) == n, what=f"snapshot {k + 1}")
+            wait_for(
+                lambda n=k + 1: len(view.snapshots) == n, 20.0, f"snapshot {k + 1}", interval_s=0.05
+            )
         ids = list(view.snapshots)
         assert ids == ["left-1", "left-2", "left-3"]
         assert {"/objects/crate", "/objects/block", "/workcell/table"} <= set(view.meshes)
@@ -323,7 +342,7 @@ def test_pose_tool_in_the_page_recovers_a_wrong_mount(browser, tmp_path: Path) -
 
         # -- solve, residuals in the page, save ---------------------------------------------
         page.get_by_role("button", name="Solve mount").click()
-        wait_for(lambda: "RMS" in tool.note.content, what="the solution")
+        wait_for(lambda: "RMS" in tool.note.content, 20.0, "the solution", interval_s=0.05)
         result = tool.tool.result
         truth = T_HEAD_LEFT @ ERROR
         before = pose_error(T_HEAD_LEFT, truth)
@@ -332,15 +351,20 @@ def test_pose_tool_in_the_page_recovers_a_wrong_mount(browser, tmp_path: Path) -
         assert np.degrees(angle) < 0.1 and offset < 0.002, (np.degrees(angle), offset)
         assert result.rms_px < 0.5
         rows = page.locator("tr").filter(has_text="left-")
-        wait_for(lambda: rows.count() == len(tool.tool.complete_pairs()), what="residual rows")
+        wait_for(
+            lambda: rows.count() == len(tool.tool.complete_pairs()),
+            20.0,
+            "residual rows",
+            interval_s=0.05,
+        )
         assert rows.first.inner_text().split()[0] == "left-1"
         page.screenshot(path=str(tmp_path / "pose_tool.png"))
         page.get_by_role("button", name="Save mount").click()
         mount_file = tmp_path / "mount_ptu_head_left.yaml"
-        wait_for(mount_file.exists, what="the saved mount")
+        wait_for(mount_file.exists, 20.0, "the saved mount", interval_s=0.05)
         saved = yaml.safe_load(mount_file.read_text())["frames"]["ptu_head->left"]
         np.testing.assert_allclose(saved["xyz"], tool.tool.corrected_mount()[:3, 3], atol=2e-6)
-        wait_for(lambda: "saved" in tool.note.content, what="the saved note")
+        wait_for(lambda: "saved" in tool.note.content, 20.0, "the saved note", interval_s=0.05)
         h.step(dt=0.05)
         mount = h.output("mount")
         assert (mount.parent, mount.child) == ("ptu_head", "left")

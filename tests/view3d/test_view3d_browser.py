@@ -11,6 +11,7 @@ import msgspec
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from tests.view3d.browser_support import (
     block_outside_loopback,
     canvas_box,
@@ -19,8 +20,6 @@ from tests.view3d.browser_support import (
     needs_chromium,
     project_to_page,
     screenshot,
-    wait_for,
-    wait_value,
 )
 from umbra.connectors.messages import CameraModel, Image, Pose
 from umbra.connectors.sketch_messages import SketchBox
@@ -64,13 +63,19 @@ class View:
         self.page = browser.new_page(viewport={"width": 1100, "height": 700})
         block_outside_loopback(self.page)
         self.page.goto(self.module.address)
-        self.client = wait_for(self._client, what="the browser to connect to viser")
+        self.client = wait_for(
+            self._client, 20.0, "the browser to connect to viser", interval_s=0.05
+        )
         self.settle_layout()
 
     def settle_layout(self) -> None:
         """Wait until the control panel is docked beside the canvas (the canvas narrows)."""
-        self.canvas = wait_value(
-            lambda: canvas_box(self.page), lambda c: 0 < c.width < 1000, what="the docked panel"
+        self.canvas = wait_for(
+            lambda: canvas_box(self.page),
+            20.0,
+            "the docked panel",
+            interval_s=0.05,
+            ok=lambda c: 0 < c.width < 1000,
         )
 
     def _client(self):
@@ -111,7 +116,12 @@ def view(browser, tmp_path_factory):
     image[:] = MAGENTA[::-1]  # BGR
     v.feed("left_model", LEFT_MODEL)
     v.feed("left_image", Image(pixels=image))
-    wait_for(lambda: v.module.page.cameras["left"].frames_sent > 0, what="a video frame sent")
+    wait_for(
+        lambda: v.module.page.cameras["left"].frames_sent > 0,
+        20.0,
+        "a video frame sent",
+        interval_s=0.05,
+    )
     yield v
     v.close()
 
@@ -133,7 +143,9 @@ def _behind_camera(view: View) -> None:
             np.linalg.norm(view.client.camera.position - T[:3, 3]) < 1e-4
             and np.linalg.norm(view.client.camera.look_at - pose.look_at) < 1e-4
         ),
-        what="the viewer camera to move",
+        20.0,
+        "the viewer camera to move",
+        interval_s=0.05,
     )
 
 
@@ -160,7 +172,9 @@ def test_video_pixels_inside_the_frustum_projection(view: View) -> None:
             inner.shape[0],
         )
 
-    _, count = wait_value(video_in_place, lambda r: r[0], what="video in the frustum")
+    _, count = wait_for(
+        video_in_place, 20.0, "video in the frustum", interval_s=0.05, ok=lambda r: r[0]
+    )
     assert count > 5000  # the image covers a real area of the page
 
 
@@ -178,7 +192,9 @@ def test_zoom_narrows_the_frustum_and_its_video(view: View) -> None:
             lambda: (
                 abs(view.module.page.cameras["left"].frustum.fov_y - narrow_frustum.fov_y) < 1e-12
             ),
-            what="the zoomed frustum",
+            20.0,
+            "the zoomed frustum",
+            interval_s=0.05,
         )
 
         def video_in_narrow() -> bool:
@@ -198,13 +214,15 @@ def test_zoom_narrows_the_frustum_and_its_video(view: View) -> None:
                 and _fraction_near(ring, MAGENTA, 60) < 0.05
             )
 
-        wait_for(video_in_narrow, what="the video in the narrowed frustum")
+        wait_for(video_in_narrow, 20.0, "the video in the narrowed frustum", interval_s=0.05)
     finally:
         view.feed("left_model", LEFT_MODEL)
         wide_fov = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT).fov_y
         wait_for(
             lambda: abs(view.module.page.cameras["left"].frustum.fov_y - wide_fov) < 1e-12,
-            what="the frustum back to its width",
+            20.0,
+            "the frustum back to its width",
+            interval_s=0.05,
         )
 
 
@@ -223,14 +241,25 @@ def test_transparency_slider_blends_the_video_with_the_model(view: View) -> None
         return shot[inside_quad(quad, shot.shape[:2], 10.0)].astype(float)
 
     slider.press("Home")  # opacity 0: only the model behind the image
-    wait_for(lambda: view.module.page.cameras["left"].opacity == 0.0, what="opacity 0")
+    wait_for(
+        lambda: view.module.page.cameras["left"].opacity == 0.0, 20.0, "opacity 0", interval_s=0.05
+    )
     _behind_camera(view)  # arrow keys also steer viser's camera: put it back
-    behind = wait_value(
-        inner, lambda px: _fraction_near(px, MAGENTA, 100) < 0.01, what="a transparent video"
+    behind = wait_for(
+        inner,
+        20.0,
+        "a transparent video",
+        interval_s=0.05,
+        ok=lambda px: _fraction_near(px, MAGENTA, 100) < 0.01,
     )
     for _ in range(6):  # 6 steps of 0.05: opacity 0.3
         slider.press("ArrowRight")
-    wait_for(lambda: abs(view.module.page.cameras["left"].opacity - 0.3) < 1e-9, what="0.3")
+    wait_for(
+        lambda: abs(view.module.page.cameras["left"].opacity - 0.3) < 1e-9,
+        20.0,
+        "0.3",
+        interval_s=0.05,
+    )
     _behind_camera(view)
     usable = behind[:, 1] > 100
 
@@ -238,14 +267,22 @@ def test_transparency_slider_blends_the_video_with_the_model(view: View) -> None
         return float(np.median(1.0 - px[usable, 1] / behind[usable, 1]))
 
     assert usable.mean() > 0.5
-    seen = wait_value(
-        lambda: alpha(inner()), lambda a: abs(a - 0.3) < 0.05, what="alpha 0.3 in the page"
+    seen = wait_for(
+        lambda: alpha(inner()),
+        20.0,
+        "alpha 0.3 in the page",
+        interval_s=0.05,
+        ok=lambda a: abs(a - 0.3) < 0.05,
     )
     assert abs(seen - 0.3) < 0.05
     slider.press("End")
     _behind_camera(view)
-    wait_value(
-        inner, lambda px: _fraction_near(px, MAGENTA, 30) > 0.95, what="the opaque video again"
+    wait_for(
+        inner,
+        20.0,
+        "the opaque video again",
+        interval_s=0.05,
+        ok=lambda px: _fraction_near(px, MAGENTA, 30) > 0.95,
     )
 
 
@@ -269,7 +306,9 @@ def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
         lambda: (
             np.linalg.norm(view.client.camera.position - view.module.page.overview.position) < 1e-4
         ),
-        what="the overview",
+        20.0,
+        "the overview",
+        interval_s=0.05,
     )
     view.page.get_by_role("button", name="View from left").click()
     frustum = frustum_from_model(LEFT_MODEL, T_BASE_CAM_LEFT)
@@ -278,7 +317,7 @@ def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
         return _viewer_error(view.client, T_BASE_CAM_LEFT, frustum.fov_y)
 
     # the browser reports its camera as it moves; once there, it stays there
-    wait_value(error, _within, what="the viewer at the camera (1 mm, 0.1 deg)")
+    wait_for(error, 20.0, "the viewer at the camera (1 mm, 0.1 deg)", interval_s=0.05, ok=_within)
     time.sleep(0.5)
     final = error()
     assert _within(final), final
@@ -287,15 +326,18 @@ def test_camera_view_button_puts_the_viewer_at_the_camera(view: View) -> None:
     overview = view.module.page.overview
     start = np.asarray(view.client.camera.position).copy()
     total = np.linalg.norm(overview.position - start)
-    wait_value(
+    wait_for(
         lambda: np.asarray(view.client.camera.position).copy(),
-        lambda p: 0.05 < np.linalg.norm(p - start) < total - 0.05,
-        timeout=5.0,
-        what="a pose between the camera and the overview (animated)",
+        5.0,
+        "a pose between the camera and the overview (animated)",
+        interval_s=0.05,
+        ok=lambda p: 0.05 < np.linalg.norm(p - start) < total - 0.05,
     )
     wait_for(
         lambda: np.linalg.norm(view.client.camera.position - overview.position) < 1e-3,
-        what="the overview",
+        20.0,
+        "the overview",
+        interval_s=0.05,
     )
 
 
@@ -310,26 +352,34 @@ def test_camera_view_rides_with_a_moving_camera_until_overview(view: View) -> No
     try:
         view.page.get_by_role("button", name="View from left").click()
         view.feed("left_pose", Pose(matrix=moved[0], parent="base", child="left"))
-        wait_value(
+        wait_for(
             lambda: _viewer_error(view.client, moved[0], frustum.fov_y),
-            _within,
-            what="the viewer at the camera's pose of during the flight",
+            20.0,
+            "the viewer at the camera's pose of during the flight",
+            interval_s=0.05,
+            ok=_within,
         )
         wait_for(
             lambda: view.module.page.following(view.client.client_id) == "left",
-            what="the flight's end",
+            20.0,
+            "the flight's end",
+            interval_s=0.05,
         )
         view.feed("left_pose", Pose(matrix=moved[1], parent="base", child="left"))
-        wait_value(
+        wait_for(
             lambda: _viewer_error(view.client, moved[1], frustum.fov_y),
-            _within,
-            what="the viewer riding with the moved camera (1 mm, 0.1 deg)",
+            20.0,
+            "the viewer riding with the moved camera (1 mm, 0.1 deg)",
+            interval_s=0.05,
+            ok=_within,
         )
         view.page.get_by_role("button", name="Overview").click()
         overview = view.module.page.overview
         wait_for(
             lambda: np.linalg.norm(view.client.camera.position - overview.position) < 1e-3,
-            what="the overview",
+            20.0,
+            "the overview",
+            interval_s=0.05,
         )
         view.feed("left_pose", Pose(matrix=moved[2], parent="base", child="left"))
         wait_for(
@@ -337,7 +387,9 @@ def test_camera_view_rides_with_a_moving_camera_until_overview(view: View) -> No
                 view.module.page.cameras["left"].frustum is not None
                 and np.allclose(view.module.page.cameras["left"].frustum.T_world_camera, moved[2])
             ),
-            what="the camera moved on the page",
+            20.0,
+            "the camera moved on the page",
+            interval_s=0.05,
         )
         time.sleep(0.5)
         assert np.linalg.norm(view.client.camera.position - overview.position) < 1e-3
@@ -348,7 +400,9 @@ def test_camera_view_rides_with_a_moving_camera_until_overview(view: View) -> No
             lambda: np.allclose(
                 view.module.page.cameras["left"].frustum.T_world_camera, T_BASE_CAM_LEFT
             ),
-            what="the camera back in place",
+            20.0,
+            "the camera back in place",
+            interval_s=0.05,
         )
 
 
@@ -368,7 +422,9 @@ def test_triad_box_appears_and_survives_page_and_scene_reload(
                 np.linalg.norm(v.client.camera.position - pose.position) < 1e-4
                 and np.linalg.norm(v.client.camera.look_at - pose.look_at) < 1e-4
             ),
-            what="viewer",
+            20.0,
+            "viewer",
+            interval_s=0.05,
         )
         u, w = project_to_page(v.client, v.canvas, top[None])[0].round().astype(int)
         patch = screenshot(v.page)[w - 4 : w + 5, u - 4 : u + 5].reshape(-1, 3).astype(int)
@@ -377,21 +433,30 @@ def test_triad_box_appears_and_survives_page_and_scene_reload(
         ochre &= patch[:, 1] >= patch[:, 2]
         return bool(ochre.mean() > 0.8)
 
-    wait_for(lambda: box_seen(view), what="the box in the page")
+    wait_for(lambda: box_seen(view), 20.0, "the box in the page", interval_s=0.05)
     scene_path = Path(view.module.summary()["scene_file"])
-    wait_for(lambda: scene_path.exists() and "box-1" in scene_path.read_text(), what="saved")
+    wait_for(
+        lambda: scene_path.exists() and "box-1" in scene_path.read_text(),
+        20.0,
+        "saved",
+        interval_s=0.05,
+    )
     view.page.reload()
-    view.client = wait_for(view._client, what="the reloaded page to connect")
+    view.client = wait_for(view._client, 20.0, "the reloaded page to connect", interval_s=0.05)
     view.settle_layout()
-    wait_for(lambda: box_seen(view), what="the box after a page reload")
+    wait_for(lambda: box_seen(view), 20.0, "the box after a page reload", interval_s=0.05)
     # a new view (a new run) loading the scene file shows the box too
     again = View(browser, {"port": 0, "load_scene": str(scene_path)}, tmp_path)
     try:
-        wait_for(lambda: box_seen(again), what="the box from the reloaded scene file")
+        wait_for(
+            lambda: box_seen(again), 20.0, "the box from the reloaded scene file", interval_s=0.05
+        )
         saved_again = Path(again.module.summary()["scene_file"])
         wait_for(
             lambda: saved_again.exists() and "box-1" in saved_again.read_text(),
-            what="the loaded scene saved in the new run's folder",
+            20.0,
+            "the loaded scene saved in the new run's folder",
+            interval_s=0.05,
         )
     finally:
         again.close()

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.view3d.browser_support import block_outside_loopback, launch, needs_chromium, wait_for
+from tests.poll import wait_for
+from tests.view3d.browser_support import block_outside_loopback, launch, needs_chromium
 from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.view3d.view3d import View3D
 from umbra.runtime.harness import ModuleHarness
@@ -43,7 +44,7 @@ def test_the_3d_page_ends_with_the_verdict_and_keeps_it_once_the_server_is_gone(
             view = h.module
             closed: list[bool] = []
             early = _open(browser, view.address, closed)
-            wait_for(lambda: view.page.clients() == 1, what="the page to connect")
+            wait_for(lambda: view.page.clients() == 1, 20.0, "the page to connect", interval_s=0.05)
             h.push("verdict", Verdict(stage="judged", message=VERDICT, outcome=Outcome.SUCCEEDED))
             h.step(dt=0.05)
             early.wait_for_function(f"document.body.innerText.includes({VERDICT!r})", timeout=20000)
@@ -56,7 +57,12 @@ def test_the_3d_page_ends_with_the_verdict_and_keeps_it_once_the_server_is_gone(
                 )
                 assert "the run has ended" in _text(page)
             view.page.stop()  # what the process's end does to the lingering server
-            wait_for(lambda: closed or early.wait_for_timeout(50), what="the socket to close")
+            wait_for(
+                lambda: closed or early.wait_for_timeout(50),
+                20.0,
+                "the socket to close",
+                interval_s=0.05,
+            )
             early.wait_for_function(  # viser's client knows: it dims the panel it can't send from
                 "[...document.querySelectorAll('div')].some((d) => d.style.opacity === '0.5')",
                 timeout=10000,

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.view3d.browser_support import wait_for
+from tests.poll import wait_for
 from umbra.connectors.errors import UserError
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
@@ -63,8 +63,9 @@ def test_sketch_items_are_kept_saved_and_reloaded(tmp_path: Path) -> None:
                 and "/sketch/boxes/b1" in page.meshes
                 and {"/sketch/primitives/l1/edges", "/sketch/primitives/pl1/plane"} <= set(nodes)
             ),
-            timeout=10,
-            what="items on the page",
+            10,
+            "items on the page",
+            interval_s=0.05,
         )
         assert page.snapshot_dropdown.options == ("s1/a", "s1/b")
         np.testing.assert_allclose(page.snapshots["s1/b"][1].T_world_camera, T_b)
@@ -72,7 +73,7 @@ def test_sketch_items_are_kept_saved_and_reloaded(tmp_path: Path) -> None:
         corners = page.meshes["/sketch/boxes/b1"].vertices
         assert corners[:, 2].min() == pytest.approx(0.25 + 0.1 - 0.05)
         path = Path(h.module.summary()["scene_file"])
-        wait_for(lambda: path.exists() and "pl1" in path.read_text(), timeout=10, what="saved")
+        wait_for(lambda: path.exists() and "pl1" in path.read_text(), 10, "saved", interval_s=0.05)
     scene = load_scene(path)
     assert sorted(scene.snapshots) == ["s1/a", "s1/b"] and list(scene.boxes) == ["b1"]
     assert sorted(scene.primitives) == ["l1", "pl1"]
@@ -89,8 +90,9 @@ def test_sketch_items_are_kept_saved_and_reloaded(tmp_path: Path) -> None:
                 and "/sketch/boxes/b1" in page.meshes
                 and "/sketch/primitives/pl1/plane" in page.server.scene._handle_from_node_name
             ),
-            timeout=10,
-            what="items reloaded",
+            10,
+            "items reloaded",
+            interval_s=0.05,
         )
 
 
@@ -142,7 +144,7 @@ def test_pose_tool_widgets_from_clicks_to_the_mount_output(tmp_path: Path) -> No
         snapshot = page.take_snapshot("left")
         assert snapshot is not None
         h.step(dt=0.05)
-        wait_for(lambda: snapshot.id in page.snapshots, timeout=10, what="the snapshot")
+        wait_for(lambda: snapshot.id in page.snapshots, 10, "the snapshot", interval_s=0.05)
         frustum = frustum_from_model(model, T_cam)
         depth = widgets.tool.image_depth(snapshot.id)
         for X in ([0.3, -0.2, 0.25], [0.65, -0.2, 0.25], [0.65, 0.3, 0.25], [0.35, 0.25, 0.25]):

@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterator
-from typing import TypeVar
 
 import pytest
 import serial
 
 from umbra.modules.calib.visca.client import ViscaSettings, ViscaZoomClient
 from umbra.modules.calib.visca.sim_camera import SimFcbCamera
-
-T = TypeVar("T")
 
 #: Short timeouts so fault tests take a fraction of a second each.
 FAST = {
@@ -24,28 +20,12 @@ FAST = {
 }
 
 
-def wait_for(probe: Callable[[], T], ok: Callable[[T], bool], timeout_s: float) -> T:
-    """Poll ``probe`` until ``ok`` holds; return the last value (the caller asserts on it)."""
-    deadline = time.monotonic() + timeout_s
-    value = probe()
-    while not ok(value) and time.monotonic() < deadline:
-        time.sleep(0.02)
-        value = probe()
-    return value
-
-
 @pytest.fixture
 def wire(sim: SimFcbCamera) -> Iterator[serial.Serial]:
     """pyserial on the simulated camera's pty, for raw bytes."""
     port = serial.Serial(sim.path, 9600, timeout=2.0)
     yield port
     port.close()
-
-
-@pytest.fixture(name="wait_for")
-def wait_for_fixture() -> Callable[..., object]:
-    """:func:`wait_for` for tests (test files cannot import a conftest)."""
-    return wait_for
 
 
 @pytest.fixture

@@ -7,13 +7,13 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from tests.poll import wait_for
 from umbra.connectors.errors import UserError
 from umbra.modules.calib.visca import protocol as vp
 from umbra.modules.calib.visca.client import LinkStatus, ViscaSettings, ViscaZoomClient, ZoomReading
 from umbra.modules.calib.visca.sim_camera import Fault, SimFcbCamera
 
 MakeClient = Callable[..., ViscaZoomClient]
-Wait = Callable[..., ZoomReading]
 
 
 @pytest.fixture
@@ -27,22 +27,18 @@ def settled_at(raw: int) -> Callable[[ZoomReading], bool]:
     return lambda r: r.raw == raw and not r.moving and r.ok
 
 
-def test_start_sets_the_address_and_clears_the_interface(
-    client_on: MakeClient, wait_for: Wait
-) -> None:
+def test_start_sets_the_address_and_clears_the_interface(client_on: MakeClient) -> None:
     with SimFcbCamera(address=4) as camera:
         client = client_on(camera)
         assert client.wait_ready(3.0)
         assert camera.address == 1
-        reading = wait_for(client.latest, lambda r: r.raw >= 0, 2.0)
+        reading = wait_for(client.latest, 2.0, "a position", ok=lambda r: r.raw >= 0)
         assert reading.ok and reading.ready
         assert reading.raw == 0 and reading.zoom == 0.0
         assert client.counters.initialisations == 1
 
 
-def test_zoom_to_half_travels_and_the_polled_position_converges(
-    client_on: MakeClient, wait_for: Wait
-) -> None:
+def test_zoom_to_half_travels_and_the_polled_position_converges(client_on: MakeClient) -> None:
     with SimFcbCamera(full_range_s=2.4) as camera:  # the FCB's own pace
         client = client_on(camera, reply_timeout_s=0.5)
         assert client.wait_ready(3.0)
@@ -53,7 +49,9 @@ def test_zoom_to_half_travels_and_the_polled_position_converges(
             seen.append(client.latest())
             return seen[-1]
 
-        final = wait_for(probe, settled_at(0x2000), 2.4 * 0.5 * 3 + 2.0)
+        final = wait_for(
+            probe, 2.4 * 0.5 * 3 + 2.0, "the zoom settled at 0x2000", ok=settled_at(0x2000)
+        )
         assert final.raw == 0x2000 and final.zoom == 0.5 and final.target == 0.5
         assert camera.position_raw() == 0x2000
         travelling = [r.raw for r in seen if 0 < r.raw < 0x2000]
@@ -65,26 +63,22 @@ def test_zoom_to_half_travels_and_the_polled_position_converges(
         assert client.counters.garbled == 0 and client.counters.camera_errors == 0
 
 
-def test_a_new_target_during_a_move_wins(
-    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
-) -> None:
+def test_a_new_target_during_a_move_wins(sim: SimFcbCamera, client_on: MakeClient) -> None:
     client = client_on(sim)
     assert client.wait_ready(3.0)
     client.zoom_to(1.0)
-    wait_for(client.latest, lambda r: r.raw > 0x0800, 3.0)
+    wait_for(client.latest, 3.0, "the zoom past 0x0800", ok=lambda r: r.raw > 0x0800)
     client.zoom_to(0.25)
-    final = wait_for(client.latest, settled_at(0x1000), 4.0)
+    final = wait_for(client.latest, 4.0, "the zoom settled at 0x1000", ok=settled_at(0x1000))
     assert final.raw == 0x1000 and final.ok, final.status
     assert sim.position_raw() == 0x1000
     assert sim.target_raw() == 0x1000
 
 
-def test_out_of_range_requests_are_clamped(
-    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
-) -> None:
+def test_out_of_range_requests_are_clamped(sim: SimFcbCamera, client_on: MakeClient) -> None:
     client = client_on(sim)
     client.zoom_to(3.0)
-    final = wait_for(client.latest, settled_at(0x4000), 4.0)
+    final = wait_for(client.latest, 4.0, "the zoom settled at 0x4000", ok=settled_at(0x4000))
     assert final.zoom == 1.0 and final.target == 1.0
 
 
@@ -97,43 +91,43 @@ def test_out_of_range_requests_are_clamped(
     ids=["garbled", "silent"],
 )
 def test_a_broken_link_gives_a_clear_status_then_recovers(
-    sim: SimFcbCamera, client_on: MakeClient, fault: Fault, prefix: str, words: str, wait_for: Wait
+    sim: SimFcbCamera, client_on: MakeClient, fault: Fault, prefix: str, words: str
 ) -> None:
     client = client_on(sim)
     assert client.wait_ready(3.0)
-    wait_for(client.latest, lambda r: r.raw == 0, 2.0)
+    wait_for(client.latest, 2.0, "the zoom at 0", ok=lambda r: r.raw == 0)
     retries_before = client.counters.retries
     sim.inject(fault)
-    broken = wait_for(client.latest, lambda r: not r.ok, 3.0)
+    broken = wait_for(client.latest, 3.0, "the broken link", ok=lambda r: not r.ok)
     assert broken.status.startswith(prefix), broken.status
     assert words in broken.status and sim.path in broken.status
     assert "tries" in broken.status
     assert client.counters.retries > retries_before
     client.zoom_to(0.75)  # requested while broken: must not raise, must happen after healing
     sim.heal()
-    healed = wait_for(client.latest, settled_at(0x3000), 5.0)
+    healed = wait_for(client.latest, 5.0, "the zoom settled at 0x3000", ok=settled_at(0x3000))
     assert healed.ok and healed.raw == 0x3000, healed.status
     assert sim.position_raw() == 0x3000
 
 
-def test_garbage_is_counted(sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait) -> None:
+def test_garbage_is_counted(sim: SimFcbCamera, client_on: MakeClient) -> None:
     client = client_on(sim)
     assert client.wait_ready(3.0)
     sim.inject(Fault.GARBLE)
-    wait_for(client.latest, lambda r: r.link is LinkStatus.GARBLED, 3.0)
+    wait_for(client.latest, 3.0, "garbage seen", ok=lambda r: r.link is LinkStatus.GARBLED)
     assert client.counters.garbled > 0
 
 
 def test_a_silent_camera_is_set_up_again_after_it_returns(
-    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+    sim: SimFcbCamera, client_on: MakeClient
 ) -> None:
     client = client_on(sim)
     assert client.wait_ready(3.0)
     sim.inject(Fault.SILENT)
-    wait_for(client.latest, lambda r: not r.ready, 3.0)
+    wait_for(client.latest, 3.0, "the camera not ready", ok=lambda r: not r.ready)
     assert not client.latest().ready
     sim.heal()
-    healed = wait_for(client.latest, lambda r: r.ready and r.ok, 3.0)
+    healed = wait_for(client.latest, 3.0, "the camera ready again", ok=lambda r: r.ready and r.ok)
     assert healed.ready and healed.ok, healed.status
     assert client.counters.initialisations >= 2
 
@@ -148,41 +142,43 @@ def test_a_silent_camera_is_set_up_again_after_it_returns(
     ids=["not_executable", "syntax", "buffer_full"],
 )
 def test_an_error_reply_gives_a_clear_status_then_recovers(
-    sim: SimFcbCamera, client_on: MakeClient, code: vp.ErrorCode, words: str, wait_for: Wait
+    sim: SimFcbCamera, client_on: MakeClient, code: vp.ErrorCode, words: str
 ) -> None:
     client = client_on(sim)
     assert client.wait_ready(3.0)
     sim.inject(Fault.ERROR, code)
     client.zoom_to(0.3)
-    refused = wait_for(client.latest, lambda r: r.link is LinkStatus.CAMERA_ERROR, 3.0)
+    refused = wait_for(
+        client.latest, 3.0, "the camera's error", ok=lambda r: r.link is LinkStatus.CAMERA_ERROR
+    )
     assert refused.status.startswith("camera_error: camera answered"), refused.status
     assert words in refused.status
     assert client.counters.camera_errors >= 1 and client.counters.retries >= 1
     assert sim.position_raw() == 0
     sim.heal()
     raw = vp.zoom_normalized_to_raw(0.3)
-    healed = wait_for(client.latest, settled_at(raw), 5.0)
+    healed = wait_for(client.latest, 5.0, f"the zoom settled at {raw:#06x}", ok=settled_at(raw))
     assert healed.ok and healed.raw == raw, healed.status
 
 
-def test_wrong_address_is_reported(
-    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
-) -> None:
+def test_wrong_address_is_reported(sim: SimFcbCamera, client_on: MakeClient) -> None:
     client = client_on(sim, address=2)
-    reading = wait_for(client.latest, lambda r: r.link is LinkStatus.CAMERA_ERROR, 3.0)
+    reading = wait_for(
+        client.latest, 3.0, "the camera's error", ok=lambda r: r.link is LinkStatus.CAMERA_ERROR
+    )
     assert "found 1 camera(s)" in reading.status and "address is 2" in reading.status
     assert not reading.ready and math.isnan(reading.zoom)
 
 
-def test_camera_vanishing_gives_port_error_and_stop_still_works(
-    client_on: MakeClient, wait_for: Wait
-) -> None:
+def test_camera_vanishing_gives_port_error_and_stop_still_works(client_on: MakeClient) -> None:
     camera = SimFcbCamera(full_range_s=1.0)
     camera.start()
     client = client_on(camera)
     assert client.wait_ready(3.0)
     camera.stop()  # the pty disappears: reads on the client's side fail
-    gone = wait_for(client.latest, lambda r: r.link is LinkStatus.PORT_ERROR, 3.0)
+    gone = wait_for(
+        client.latest, 3.0, "the port error", ok=lambda r: r.link is LinkStatus.PORT_ERROR
+    )
     assert gone.status.startswith("port_error: serial port /dev/"), gone.status
     client.zoom_to(0.5)  # still no exception
     client.stop()
@@ -207,7 +203,7 @@ def test_bad_settings_are_user_errors(overrides: dict, words: str) -> None:
 
 
 def test_hold_and_stop_drive_a_continuous_zoom_and_a_lost_stop_is_sent_again(
-    sim: SimFcbCamera, client_on: MakeClient, wait_for: Wait
+    sim: SimFcbCamera, client_on: MakeClient
 ) -> None:
     from umbra.modules.calib.visca.commands import ZoomDirection
 
@@ -215,17 +211,17 @@ def test_hold_and_stop_drive_a_continuous_zoom_and_a_lost_stop_is_sent_again(
     assert client.wait_ready(3.0)
     client.zoom_hold(ZoomDirection.TELE, 0)  # slowest: 8 s for the range of this camera
     client.zoom_hold(ZoomDirection.TELE, 0)  # held: the same request again is no new command
-    moving = wait_for(client.latest, lambda r: r.moving and r.raw > 0, 2.0)
+    moving = wait_for(client.latest, 2.0, "the zoom moving", ok=lambda r: r.moving and r.raw > 0)
     assert moving.moving and sim.target_raw() == 0x4000
     sim.inject(Fault.SILENT)  # the stop is lost on the wire...
     client.zoom_stop()
-    wait_for(client.latest, lambda r: r.link is LinkStatus.NO_REPLY, 2.0)
+    wait_for(client.latest, 2.0, "the lost stop", ok=lambda r: r.link is LinkStatus.NO_REPLY)
     sim.heal()  # ...and sent again until the camera takes it
-    wait_for(lambda: sim, lambda camera: not camera.moving(), 3.0)
+    wait_for(lambda: sim, 3.0, "the camera to stop", ok=lambda camera: not camera.moving())
     assert not sim.moving() and 0 < sim.position_raw() < 0x4000 // 2
     assert client.counters.zoom_moves >= 3  # tele once, the stop at least twice
     client.zoom_hold(ZoomDirection.WIDE)  # standard speed toward wide
-    wait_for(lambda: sim.target_raw(), lambda target: target == 0, 2.0)
+    wait_for(lambda: sim.target_raw(), 2.0, "the target wide", ok=lambda target: target == 0)
     assert sim.target_raw() == 0 and sim.moving()
 
 

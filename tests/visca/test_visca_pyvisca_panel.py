@@ -7,11 +7,11 @@ replies the FCB command list gives (ACK ``90 4z FF``, completion ``90 5z FF``, n
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 
 import pytest
 
+from tests.poll import wait_for
 from tests.visca.pyvisca_wire import inquire, replies
 from umbra.modules.calib.visca import protocol as vp
 from umbra.modules.calib.visca.sim_camera import SimFcbCamera
@@ -52,15 +52,6 @@ def focus_mode(ptz: object) -> str:
     return {b"\x02": "auto", b"\x03": "manual"}[inquire(ptz, "81090438FF")]
 
 
-def poll_until(read: Callable[[], int], ok: Callable[[int], bool], timeout_s: float = 5.0) -> int:
-    """Inquire until ``ok`` holds (or the time is up); the last answer."""
-    deadline = time.monotonic() + timeout_s
-    value = read()
-    while not ok(value) and time.monotonic() < deadline:
-        value = read()
-    return value
-
-
 def test_focus_far_near_stop_and_auto(camera: SimFcbCamera, ptz: object) -> None:
     assert focus_mode(ptz) == "auto" and focus_position(ptz) == AF_RAW  # power-on state
     ptz.focus_far(7)  # 81 01 04 08 27 FF: manual focus control during auto focus
@@ -71,7 +62,13 @@ def test_focus_far_near_stop_and_auto(camera: SimFcbCamera, ptz: object) -> None
 
     ptz.focus_near(7)  # 81 01 04 08 37 FF: completes at once, the focus moves on
     assert replies(ptz, 2) == DONE
-    moving = poll_until(lambda: focus_position(ptz), lambda p: p > AF_RAW + 0x2000)
+    moving = wait_for(
+        lambda: focus_position(ptz),
+        5.0,
+        "the focus moving near",
+        interval_s=0,
+        ok=lambda p: p > AF_RAW + 0x2000,
+    )
     assert AF_RAW + 0x2000 < moving < FOCUS_RAW_NEAR
     ptz.focus_stop()  # 81 01 04 08 00 FF
     assert replies(ptz, 2) == DONE
@@ -81,7 +78,13 @@ def test_focus_far_near_stop_and_auto(camera: SimFcbCamera, ptz: object) -> None
 
     ptz.focus_far(0)  # the slowest speed: 8 s over the range
     assert replies(ptz, 2) == DONE
-    poll_until(lambda: focus_position(ptz), lambda p: p < near - 0x800)
+    wait_for(
+        lambda: focus_position(ptz),
+        5.0,
+        "the focus moving far",
+        interval_s=0,
+        ok=lambda p: p < near - 0x800,
+    )
     ptz.focus_stop()
     assert replies(ptz, 2) == DONE
     far = focus_position(ptz)
@@ -90,7 +93,13 @@ def test_focus_far_near_stop_and_auto(camera: SimFcbCamera, ptz: object) -> None
     ptz.autofocus()  # 81 01 04 38 02 FF: the auto focus runs to the sharp position
     assert replies(ptz, 2) == DONE
     assert focus_mode(ptz) == "auto" and camera.focus_auto()
-    assert poll_until(lambda: focus_position(ptz), lambda p: p == AF_RAW) == AF_RAW
+    wait_for(
+        lambda: focus_position(ptz),
+        5.0,
+        "the auto focus position",
+        interval_s=0,
+        ok=lambda p: p == AF_RAW,
+    )
 
 
 def test_focus_direct_holds_its_socket_until_arrival(camera: SimFcbCamera, ptz: object) -> None:
@@ -104,7 +113,13 @@ def test_focus_direct_holds_its_socket_until_arrival(camera: SimFcbCamera, ptz: 
     assert focus_position(ptz) == 0xE000
     ptz.comm("8101041801FF")  # one-push AF trigger in manual focus: focuses once
     assert replies(ptz, 2) == DONE
-    assert poll_until(lambda: focus_position(ptz), lambda p: p == AF_RAW) == AF_RAW
+    wait_for(
+        lambda: focus_position(ptz),
+        5.0,
+        "the auto focus position",
+        interval_s=0,
+        ok=lambda p: p == AF_RAW,
+    )
     assert focus_mode(ptz) == "manual"
 
 
@@ -138,7 +153,13 @@ def test_memory_set_move_recall_restores_zoom_and_focus(camera: SimFcbCamera, pt
     ptz.preset_recall(2)
     assert replies(ptz, 2) == DONE
     assert ptz.get_zoom() == 0 and focus_mode(ptz) == "auto"
-    assert poll_until(lambda: focus_position(ptz), lambda p: p == AF_RAW) == AF_RAW
+    wait_for(
+        lambda: focus_position(ptz),
+        5.0,
+        "the auto focus position",
+        interval_s=0,
+        ok=lambda p: p == AF_RAW,
+    )
 
 
 def test_a_new_zoom_cancels_a_running_recall(camera: SimFcbCamera, ptz: object) -> None:

@@ -10,9 +10,10 @@ from pathlib import Path
 import pytest
 import serial
 
+from tests.poll import wait_for
 from tests.visca.raw_wire import position
 from umbra.connectors import Module, Parameters, param
-from umbra.connectors.messages import Scalar
+from umbra.connectors.messages import Scalar, ZoomState
 from umbra.modules.calib.visca.sim_camera import SimFcbCamera
 from umbra.modules.calib.visca.sony import Sony
 from umbra.modules.generic.constant import Constant
@@ -43,12 +44,13 @@ def assert_lens_stays(camera: SimFcbCamera, watch_s: float = 0.3) -> int:
 
 def hold_until_moving(h: ModuleHarness, camera: SimFcbCamera, value: float) -> None:
     """Send hold samples (the rocker held) until the camera's zoom has left raw 0."""
-    deadline = time.monotonic() + 5.0
-    while camera.position_raw() < 0x200 and time.monotonic() < deadline:
+
+    def hold() -> None:
         h.push("zoom_hold", Scalar(value=value))
         h.step(0.02)
-        time.sleep(0.02)
-    assert camera.position_raw() >= 0x200 and camera.moving()
+
+    wait_for(lambda: camera.position_raw() >= 0x200, 5.0, "the zoom off raw 0", 0.02, step=hold)
+    assert camera.moving()
 
 
 def test_a_held_zoom_is_stopped_when_the_module_stops() -> None:
@@ -65,10 +67,13 @@ def test_a_zoom_direct_still_travelling_is_stopped_when_the_module_stops() -> No
     with SimFcbCamera(full_range_s=FULL_RANGE_S) as camera:
         with ModuleHarness(Sony, {**FAST, "port": camera.path}) as h:
             h.push("zoom_command", Scalar(value=1.0))
-            deadline = time.monotonic() + 5.0
-            while camera.position_raw() < 0x400 and time.monotonic() < deadline:
-                h.step(0.02)
-                time.sleep(0.02)
+            wait_for(
+                lambda: camera.position_raw() >= 0x400,
+                5.0,
+                "the zoom past 0x400",
+                0.02,
+                step=lambda: h.step(0.02),
+            )
             assert camera.moving()
         assert h.module.summary()["end_zoom_stops"] == 1
         assert 0x400 <= assert_lens_stays(camera) < 0x4000
@@ -78,15 +83,18 @@ def test_no_stop_is_sent_when_no_zoom_runs() -> None:
     with SimFcbCamera(full_range_s=0.5) as camera:
         with ModuleHarness(Sony, {**FAST, "port": camera.path}) as h:
             h.push("zoom_command", Scalar(value=0.5))
-            deadline = time.monotonic() + 5.0
-            state = None
-            while time.monotonic() < deadline:
+
+            def stepped() -> ZoomState | None:
                 h.step(0.02)
-                state = h.output("zoom")
-                if state is not None and state.raw == 0x2000 and not state.moving:
-                    break
-                time.sleep(0.02)
-            assert state is not None and state.raw == 0x2000 and not state.moving
+                return h.output("zoom")
+
+            wait_for(
+                stepped,
+                5.0,
+                "the zoom at rest at 0x2000",
+                0.02,
+                ok=lambda s: s.raw == 0x2000 and not s.moving,
+            )
             commands = camera.counters.commands
         assert h.module.summary()["end_zoom_stops"] == 0
         assert camera.counters.commands == commands  # nothing sent at the end

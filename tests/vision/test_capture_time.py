@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.modules.vision import capture as capture_module
 from umbra.modules.vision.capture import CaptureReader, CaptureSource
 from umbra.modules.vision.capture_time import MAX_DRIVER_LAG_S, capture_time
@@ -82,10 +83,9 @@ class _MediaPositionLike(_V4L2Like):
 def _newest(reader: CaptureReader):
     reader.start()
     try:
-        deadline = time.monotonic() + 5.0
-        while (frame := reader.latest()) is None or frame.number < 3:
-            assert time.monotonic() < deadline, "no frames from the fake device"
-            time.sleep(0.01)
+        frame = wait_for(
+            reader.latest, 5.0, "frame 3 from the fake device", ok=lambda f: f.number >= 3
+        )
         return frame, reader._capture.exposed[frame.number - 1]
     finally:
         reader.close()

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
 from types import SimpleNamespace
 
 import numpy as np
 import zenoh
 
+from tests.poll import wait_for
 from tests.wire import spec_decoder
 from tests.wire.samples import every_type, example, same
 from umbra.connectors.messages import Image
@@ -35,15 +35,6 @@ def _plan(types: dict[str, type]) -> SimpleNamespace:
         key = f"{PREFIX}/src{name}/out"
         links.append(LinkPlan(connection, key, cls, reliable=cls is not Image))  # type: ignore[arg-type]
     return SimpleNamespace(key_prefix=PREFIX, links=links, modules=modules)
-
-
-def _until(check: Callable[[], bool], timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return True
-        time.sleep(0.01)
-    return check()
 
 
 def _session(listen: list[str], connect: list[str]) -> zenoh.Session:
@@ -76,13 +67,13 @@ def test_a_plain_zenoh_subscriber_decodes_every_type_from_the_spec() -> None:
         producer.announce()
         for link in plan.links:  # the subscription has reached the producer
             pub = producer._pubs[link.key][0]
-            assert _until(lambda pub=pub: pub.matching_status.matching)
+            wait_for(lambda pub=pub: pub.matching_status.matching, 10.0, "the publisher to match")
         sent = {name: example(cls) for name, cls in types.items()}
         for name, msg in sent.items():
             sinks[name](msg, 0.0)
-        assert _until(lambda: len(got) >= len(types))
+        wait_for(lambda: len(got) >= len(types), 10.0, "one sample of each type")
         producer.close()  # the end of every stream: a DELETE per key
-        assert _until(lambda: len(got) >= 2 * len(types))
+        wait_for(lambda: len(got) >= 2 * len(types), 10.0, "two samples of each type")
     finally:
         sub.undeclare()
         foreign.close()
@@ -124,25 +115,28 @@ def test_a_foreign_subscriber_gets_image_bytes_never_a_pool_descriptor() -> None
         producer.announce()
         consumer.announce()
         assert producer.wait_ready(threading.Event(), timeout=10)
-        assert _until(lambda: "consumer" in producer._peer_pid)  # it proved it shares /dev/shm
+        # it proved it shares /dev/shm
+        wait_for(lambda: "consumer" in producer._peer_pid, 10.0, "the consumer's pid")
 
         def stats() -> dict:
             return producer.stats()["publish"][0]
 
         send(Image(pixels=FRAMES[0], seq=1), 0.0)  # only the graph's processes: the pool
-        assert _until(lambda: len(received) == 1)
+        wait_for(lambda: len(received) == 1, 10.0, "the first sample")
         assert stats()["pool_samples"] == 1
         foreign = _session([], [f"tcp/127.0.0.1:{port_a}"])
         sub = foreign.declare_subscriber(
             link.key,
             lambda s: foreign_got.append((str(s.encoding), s.payload.to_bytes())),
         )
-        assert _until(lambda: len(list(producer._session.info.transports())) == 2)
+        wait_for(
+            lambda: len(list(producer._session.info.transports())) == 2, 10.0, "two transports"
+        )
         time.sleep(0.2)  # the foreign subscription reaches the producer
         for i in range(2, 6):
             send(Image(pixels=FRAMES[i], seq=i), 0.0)
-            assert _until(lambda i=i: len(received) == i)
-        assert _until(lambda: len(foreign_got) == 4)
+            wait_for(lambda i=i: len(received) == i, 10.0, f"{i} samples")
+        wait_for(lambda: len(foreign_got) == 4, 10.0, "4 foreign samples")
         assert stats()["pool_samples"] == 1 and stats()["pool_declined"] == 4
         layouts = spec_decoder.layouts(DOC.read_text())
         for (encoding, payload), i in zip(foreign_got, range(2, 6), strict=True):
@@ -155,9 +149,11 @@ def test_a_foreign_subscriber_gets_image_bytes_never_a_pool_descriptor() -> None
         sub.undeclare()
         foreign.close()
         foreign = None  # gone: the pool again
-        assert _until(lambda: len(list(producer._session.info.transports())) == 1)
+        wait_for(
+            lambda: len(list(producer._session.info.transports())) == 1, 10.0, "one transport left"
+        )
         send(Image(pixels=FRAMES[7], seq=7), 0.0)
-        assert _until(lambda: len(received) == 6)
+        wait_for(lambda: len(received) == 6, 10.0, "6 samples")
         assert stats()["pool_samples"] == 2
     finally:
         if foreign is not None:
