@@ -131,6 +131,7 @@ class Flood:
             **self.counts,
             "late_min_s": late[0] if late else None,
             "late_max_s": late[-1] if late else None,
+            "late_s": late,
             "open_past_deadline": self.open_past_deadline,
         }
 

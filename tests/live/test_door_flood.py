@@ -271,7 +271,14 @@ def test_a_flood_without_the_token_leaves_the_live_server_bounded_and_serving(
     )
     assert report["open_past_deadline"] == 0, report
     assert report["closed_late"] >= 1
-    assert report["late_min_s"] >= MAX_PAGE_REQUEST_S - 0.5, report
+    # the admitted half-open ones: closed at the head's deadline, not before. A connection the
+    # kernel completed while the server's accept queue was full is established on the server's
+    # side only when the kernel retransmits its SYN-ACK (1 s later, then 3 s): the flood sees it
+    # closed "late", at those times, though the server refused it as soon as it accepted it
+    late = report["late_s"]
+    at_deadline = [d for d in late if d >= MAX_PAGE_REQUEST_S - 0.5]
+    early = [d for d in late if d < MAX_PAGE_REQUEST_S - 0.5]
+    assert at_deadline and all(abs(d - 1.0) < 0.3 or abs(d - 3.0) < 0.5 for d in early), late
     assert report["late_max_s"] <= MAX_PAGE_REQUEST_S + 2.0, report
     assert table.refused >= report["opened"] / 2 and table.most <= MAX_PAGE_CONNECTIONS
     assert table.half_open >= 1
