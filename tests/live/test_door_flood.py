@@ -136,6 +136,9 @@ def test_the_live_server_admits_by_the_doors_limits_before_the_token(
         # another address (the viewer's) has its own share: it gets in, with the token
         assert viewer_gets(port, f"?token={TOKEN}", TOPIC) == "data"
         assert table.by_client["127.0.0.2"] == 3  # (all still held meanwhile)
+        # the viewer's connection is gone on the server's side too (else it would hold one of
+        # the six places below and leave the count at five when it goes)
+        wait_for(lambda: len(table.open) == 3, 5.0, "only the three from 127.0.0.2 open")
         # the server's limit: 6 in all, whoever they come from
         held += [(_connect(port, "127.0.0.3"), time.monotonic()) for _ in range(3)]
         wait_for(lambda: len(table.open) == 6, 5.0, "6 open connections")
