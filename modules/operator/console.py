@@ -267,7 +267,7 @@ class OperatorConsole(Module[ConsoleParams]):
         before, expired = self.deadman.held, self.deadman.expired
         held = self.deadman.current(wall)
         if before is not None and self.deadman.expired > expired:  # its page went silent
-            self.events._notice(self.deadman.stopped[before.session], before.session, "error")
+            self.events.notice(self.deadman.stopped[before.session], before.session, "error")
         if held is not None and not self.arbiter.holds(held.session):
             self.deadman.release()
             held = None
@@ -284,7 +284,7 @@ class OperatorConsole(Module[ConsoleParams]):
         ):
             why = f"jog stopped: the arm's guard held it at zero: {guard.code.words}"
             self.deadman.stop(held.session, why)
-            self.events._notice(why, held.session, "error", detail=guard.reason)
+            self.events.notice(why, held.session, "error", detail=guard.reason)
             held = None
         if held is not None:
             if keepalive or wall - self._jog_sent_at >= KEEPALIVE_S:

@@ -31,7 +31,7 @@ class ConsoleEvents:
         self._logged_refusal: dict[str, tuple[float, int]] = {}  #: session -> (wall, count)
         self._person_zoomed = False  #: a person zoomed: automatic zoom requests stop
 
-    def _notice(
+    def notice(
         self,
         text: str,
         session: str = "*",
@@ -65,20 +65,20 @@ class ConsoleEvents:
             self._logged_refusal[session] = (wall, self._c.counts["refused"])
             who = self._c.arbiter.sessions.get(session, "console")
             self._c.log.warning("%s: %s", who, text_log)
-        self._notice(text, session, "error", log=False)
+        self.notice(text, session, "error", log=False)
 
     # -- events from the pages ----------------------------------------------------------------
     def handle(self, event: Event, now: float) -> None:
         s = event.session
         if event.kind == "join":
             self._c.arbiter.join(s, event.payload, event.browser)
-            self._notice(f"{event.payload} is watching")
+            self.notice(f"{event.payload} is watching")
         elif event.kind == "leave":
             self._c.deadman.release(s)
             self._logged_refusal.pop(s, None)
             name = self._c.arbiter.sessions.get(s, s)
             if self._c.arbiter.leave(s):
-                self._notice(f"{name} disconnected; control is free")
+                self.notice(f"{name} disconnected; control is free")
         elif event.kind == "msg":
             self._message(s, event.payload.type, event.payload.fields, now, event.wall)
 
@@ -90,7 +90,7 @@ class ConsoleEvents:
             if kind == "release" and decision.ok:
                 self._c.deadman.release(s)
             if decision.ok:
-                self._notice(decision.message)
+                self.notice(decision.message)
             else:
                 self._refuse(s, decision.message)
             return
@@ -124,7 +124,7 @@ class ConsoleEvents:
         self._c.seed_sent_wall.append((wall, time.monotonic()))
         self._c.counts["seeds"] += 1
         where = ", ".join(f"{v:.1f}" for v in seed.uv)
-        self._notice(f"{what} seed sent to the snake at [{where}] px")
+        self.notice(f"{what} seed sent to the snake at [{where}] px")
 
     def _action(self, s: str, action: str, now: float) -> None:
         if action == STOP_ACTION:
@@ -140,7 +140,7 @@ class ConsoleEvents:
             )
         self._c.operator.send(GrabCommand(action=grab))
         self._c.counts[action] += 1
-        self._notice(f"{action} sent to vsServo")
+        self.notice(f"{action} sent to vsServo")
 
     def _stop_run(self) -> None:
         """*Stop*: ask the run's judge (the world) to end the run; it says the verdict."""
@@ -151,7 +151,7 @@ class ConsoleEvents:
             )
         self._c.stop_run.send(StopRun(by=self._c.arbiter.holder_name()))
         self._c.counts[STOP_ACTION] += 1
-        self._notice("stop sent: the run ends (its summary and recordings are written)")
+        self.notice("stop sent: the run ends (its summary and recordings are written)")
 
     def _zoom_message(self, camera: str, value: float) -> None:
         if camera not in self._c._zoom:
@@ -200,4 +200,4 @@ class ConsoleEvents:
             servo = self._c.servo.value
             if servo is not None and servo.stage in ACTIVE_STAGES:
                 self._c.operator.send(GrabCommand(action=GrabAction.PAUSE))
-                self._notice("jog: the grab is paused (resume it when done)")
+                self.notice("jog: the grab is paused (resume it when done)")
