@@ -37,12 +37,19 @@ def open_console(browser: Any, url: str, width: int = 1500, height: int = 950) -
     return page
 
 
-def take_control(page: Any) -> None:
+def take_control(page: Any, timeout_ms: float = 10000) -> None:
+    """Click *Take control* and wait until the console names this page the holder."""
     page.click("#take")
     page.wait_for_function(
         "window.umbra.state && window.umbra.state.control_session === window.umbra.session",
-        timeout=10000,
+        timeout=timeout_ms,
     )
+
+
+def release_control(page: Any) -> None:
+    """Click *Release control* and wait until the console says nobody holds it."""
+    page.click("#release")
+    page.wait_for_function("!window.umbra.state.control")
 
 
 def image_to_screen_map(page: Any) -> Callable[[float, float], tuple[float, float]]:

@@ -14,7 +14,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.operator.browser import chromium, click_image, needs_chromium, take_control
+from tests.operator.browser import (
+    chromium,
+    click_image,
+    needs_chromium,
+    release_control,
+    take_control,
+)
 from tests.operator.helpers import image, rectangle_contour
 from tests.poll import wait_for
 from tests.world.test_attended import FRAMES
@@ -220,8 +226,7 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
                 if not pages:
                     _layout_persists(page)
                 _drive(page, plant, size, tmp_path / f"station-{size[0]}.png")
-                page.click("#release")
-                page.wait_for_function("!window.umbra.state.control")
+                release_control(page)
                 pages.append(page)
             # Stop: only the holder may; the world (attended: it would never end the run by
             # itself) ends it, "stopped by the operator", and the pages show the run's end

@@ -55,8 +55,8 @@ class CutSocket:
 
 
 def silent_s(page: Any) -> float:
-    """How long [s] the page keeps a silent socket (its ``SILENT_S``)."""
-    return float(page.evaluate("SILENT_S"))
+    """How long [s] the page keeps a silent socket (its ``LOST_S``)."""
+    return float(page.evaluate("LOST_S"))
 
 
 def test_a_page_cut_off_before_the_end_shows_the_verdict_when_it_reconnects() -> None:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.operator.browser import REPO, GraphRun, chromium, needs_chromium
+from tests.operator.browser import REPO, GraphRun, chromium, needs_chromium, take_control
 from tests.operator.test_end_of_run import END_SHOWN_S, LOAD_PER_CORE
 from tests.poll import wait_for
 from tests.view3d.browser_support import block_outside_loopback
@@ -77,11 +77,7 @@ def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path:
             block_outside_loopback(view)
             view.goto(view_url)
             view.wait_for_function("document.body.innerText.includes('stage')", timeout=30000)
-            holder.click("#take")
-            holder.wait_for_function(
-                "window.umbra.state && window.umbra.state.control_session === window.umbra.session",
-                timeout=60000,
-            )
+            take_control(holder, timeout_ms=60000)
             stop = "#commands button[data-action=stop]"
             holder.wait_for_function(f"!document.querySelector('{stop}').disabled", timeout=60000)
             print("pages open, control taken", flush=True)

@@ -14,7 +14,14 @@ from typing import Any
 
 import pytest
 
-from tests.operator.browser import REPO, chromium, click_image, needs_chromium, take_control
+from tests.operator.browser import (
+    REPO,
+    chromium,
+    click_image,
+    needs_chromium,
+    release_control,
+    take_control,
+)
 from tests.operator.helpers import image, rectangle_contour
 from tests.poll import wait_for
 from umbra.connectors.messages import Contour
@@ -152,8 +159,7 @@ def test_the_picture_age_is_shown_and_agrees_with_the_consoles_refusals() -> Non
                 )
                 take_control(page)
                 _check_page(page, h, plant, size)
-                page.click("#release")
-                page.wait_for_function("!window.umbra.state.control")
+                release_control(page)
                 page.close()
     finally:
         plant.halt.set()

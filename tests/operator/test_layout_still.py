@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.operator.browser import chromium, needs_chromium, take_control
+from tests.operator.browser import chromium, needs_chromium, release_control, take_control
 from tests.operator.test_browser_station import SNAKE_REASON, Plant
 from umbra.connectors.messages import JointState, Poses
 from umbra.modules.operator.console import OperatorConsole
@@ -173,8 +173,7 @@ def test_the_live_image_holds_still_and_every_panel_stays_in_view() -> None:
                 page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
                 shot = ROOT / "docs" / "images" / f"station-layout-{size[0]}x{size[1]}.png"
                 _hold_still(page, plant, size, shot)
-                page.click("#release")
-                page.wait_for_function("!window.umbra.state.control")
+                release_control(page)
                 page.close()
     finally:
         plant.halt.set()

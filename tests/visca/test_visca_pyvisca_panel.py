@@ -47,6 +47,17 @@ def focus_position(ptz: object) -> int:
     return vp.from_nibbles(inquire(ptz, "81090448FF"))
 
 
+def wait_for_auto_focus(ptz: object) -> None:
+    """Until the focus reports the simulated lens's sharp position (``AF_RAW``)."""
+    wait_for(
+        lambda: focus_position(ptz),
+        5.0,
+        "the auto focus position",
+        interval_s=0,
+        ok=lambda p: p == AF_RAW,
+    )
+
+
 def focus_mode(ptz: object) -> str:
     """CAM_FocusModeInq ``81 09 04 38 FF`` -> ``90 50 02 FF`` (auto) / ``03`` (manual)."""
     return {b"\x02": "auto", b"\x03": "manual"}[inquire(ptz, "81090438FF")]
@@ -93,13 +104,7 @@ def test_focus_far_near_stop_and_auto(camera: SimFcbCamera, ptz: object) -> None
     ptz.autofocus()  # 81 01 04 38 02 FF: the auto focus runs to the sharp position
     assert replies(ptz, 2) == DONE
     assert focus_mode(ptz) == "auto" and camera.focus_auto()
-    wait_for(
-        lambda: focus_position(ptz),
-        5.0,
-        "the auto focus position",
-        interval_s=0,
-        ok=lambda p: p == AF_RAW,
-    )
+    wait_for_auto_focus(ptz)
 
 
 def test_focus_direct_holds_its_socket_until_arrival(camera: SimFcbCamera, ptz: object) -> None:
@@ -113,13 +118,7 @@ def test_focus_direct_holds_its_socket_until_arrival(camera: SimFcbCamera, ptz: 
     assert focus_position(ptz) == 0xE000
     ptz.comm("8101041801FF")  # one-push AF trigger in manual focus: focuses once
     assert replies(ptz, 2) == DONE
-    wait_for(
-        lambda: focus_position(ptz),
-        5.0,
-        "the auto focus position",
-        interval_s=0,
-        ok=lambda p: p == AF_RAW,
-    )
+    wait_for_auto_focus(ptz)
     assert focus_mode(ptz) == "manual"
 
 
@@ -153,13 +152,7 @@ def test_memory_set_move_recall_restores_zoom_and_focus(camera: SimFcbCamera, pt
     ptz.preset_recall(2)
     assert replies(ptz, 2) == DONE
     assert ptz.get_zoom() == 0 and focus_mode(ptz) == "auto"
-    wait_for(
-        lambda: focus_position(ptz),
-        5.0,
-        "the auto focus position",
-        interval_s=0,
-        ok=lambda p: p == AF_RAW,
-    )
+    wait_for_auto_focus(ptz)
 
 
 def test_a_new_zoom_cancels_a_running_recall(camera: SimFcbCamera, ptz: object) -> None:

@@ -8,11 +8,12 @@ const $ = (id) => document.getElementById(id);
 const umbra = (window.umbra = { painted: 0, frame: 0, size: [640, 480], state: null, notices: [],
   session: "", name: "", latencies: [], ended: false, handlers: {} });
 let socket = null, seq = 0;
-const LOST_S = 5;  // how long [s] without an answer before the page says the run may be gone
-// how long [s] an open socket may stay silent (the server sends its state 10 times a second)
-// before the page drops it and opens another: a connection that lost its messages without
-// closing (a half-open one) must not hold the page on a live-looking state
-const SILENT_S = 5;
+// how long [s] the page waits without hearing from the run: a closed socket that does not come
+// back is then said to be a run that may be gone; an open socket that stays silent (the server
+// sends its state at the console's state_rate_hz) is dropped and another opened, so that a
+// connection that lost its messages without closing (a half-open one) cannot hold the page on a
+// live-looking state
+const LOST_S = 5;
 
 umbra.on = (kind, fn) => { (umbra.handlers[kind] = umbra.handlers[kind] || []).push(fn); };
 umbra.emit = (kind, data) => { for (const fn of umbra.handlers[kind] || []) fn(data); };
@@ -60,5 +61,5 @@ umbra.connect = () => {
 };
 setInterval(() => {  // a silent socket is dropped (its close opens another)
   if (socket && socket.readyState === 1 && !umbra.ended &&
-      performance.now() - umbra.heardAt > SILENT_S * 1000) socket.close();
+      performance.now() - umbra.heardAt > LOST_S * 1000) socket.close();
 }, 1000);
