@@ -14,6 +14,7 @@ from typing import Any
 
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.config import Endpoints
+from umbra.runtime.links.control_line import ControlCommand
 
 
 @dataclass
@@ -24,7 +25,7 @@ class Child:
     servo: bool
     tail: deque[str] = field(default_factory=lambda: deque(maxlen=8))
     told_at: float | None = None
-    told: str = ""
+    told: ControlCommand | None = None  #: the launcher's last command to it (None: none yet)
     termed: bool = False
     code: int | None = None
     segments: set[str] = field(default_factory=set)  #: /dev/shm files it was seen to map

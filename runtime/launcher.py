@@ -56,6 +56,8 @@ from umbra.runtime.links.config import (
     loopback_mesh,
 )
 from umbra.runtime.links.config_facts import config_facts
+from umbra.runtime.links.control_line import FINISH_GRACE, ControlCommand, ControlLine
+from umbra.runtime.links.end_ack import END_ACK_S
 from umbra.runtime.links.exposure import check_exposure, config_for
 from umbra.runtime.links.runs import BY_HAND, checked_run_id, new_run_id
 from umbra.runtime.links.shm_sweep import mapped_segments, remove_orphans
@@ -65,8 +67,9 @@ from umbra.runtime.scheduler import INTERRUPTED
 
 #: Seconds a process has to stop once told (abort), before SIGTERM; SIGKILL after as long again.
 STOP_GRACE = 5.0
-#: Extra seconds given to a process told to ``finish`` (it drains its inputs first).
-FINISH_EXTRA = 6.0
+#: Extra seconds given to a process told to ``finish``: it drains its inputs first, and waits for
+#: its consumers to read its ends of stream when it closes.
+FINISH_EXTRA = FINISH_GRACE + END_ACK_S
 _POLL = 0.02
 #: Seconds between looks at the shared memory each child maps (``umbra.runtime.links.shm_sweep``):
 #: a segment mapped less than this before a child dies may be missed (a look costs ~1.5 ms).
@@ -295,11 +298,13 @@ class Supervisor:
             )
 
     # -- commands --------------------------------------------------------------------------------
-    def _tell(self, child: Child, command: str, reason: str) -> None:
+    def _tell(
+        self, child: Child, command: ControlCommand, reason: str, finished: str | None = None
+    ) -> None:
         if not child.running or child.told_at is not None:
             return
         child.told_at, child.told = time.monotonic(), command
-        line = f"{command} {' '.join(reason.split())}\n".encode()
+        line = ControlLine(command, reason, finished).encode()
         try:
             assert child.popen.stdin is not None
             child.popen.stdin.write(line)
@@ -311,7 +316,7 @@ class Supervisor:
         for child in self.children:
             if not child.running or child.told_at is None:
                 continue
-            grace = STOP_GRACE + (FINISH_EXTRA if child.told == "finish" else 0.0)
+            grace = STOP_GRACE + (FINISH_EXTRA if child.told is ControlCommand.FINISH else 0.0)
             waited = now - child.told_at
             if waited > 2 * grace:
                 child.popen.kill()
@@ -397,11 +402,11 @@ class Supervisor:
                         reason = f"process `{child.name}` finished: {reason_of(self.out, child)}"
                         verdict = (0, reason)
                         for other in self.children:
-                            self._tell(other, "finish", reason)
+                            self._tell(other, ControlCommand.FINISH, reason, child.name)
                     continue
                 if verdict is not None and verdict[0] != 0:
                     continue  # stopped as told, or died while stopping: the first cause stands
-                if child.told == "abort":
+                if child.told is ControlCommand.ABORT:
                     continue
                 cause = cause_of(self.out, child)
                 code = 2 if child.code == 2 else 1
@@ -411,9 +416,11 @@ class Supervisor:
                 now >= abort_rest_at or not any(c.running for c in self.children if c.servo)
             ):
                 for child in self.children:
-                    if child.told != "abort":
+                    if child.told is not ControlCommand.ABORT:
                         child.told_at = None  # a finishing process is now aborted
-                        self._tell(child, "abort", verdict[1] if verdict else "stopped")
+                        self._tell(
+                            child, ControlCommand.ABORT, verdict[1] if verdict else "stopped"
+                        )
                 abort_rest_at = None
             if not any(c.running for c in self.children):
                 assert verdict is not None
@@ -425,6 +432,6 @@ class Supervisor:
         """Tell the servo side to stop now; the rest once it has (or after STOP_GRACE)."""
         for child in self.children:
             if child.servo:
-                child.told_at = None if child.told == "finish" else child.told_at
-                self._tell(child, "abort", reason)
+                child.told_at = None if child.told is ControlCommand.FINISH else child.told_at
+                self._tell(child, ControlCommand.ABORT, reason)
         return now if not any(c.servo and c.running for c in self.children) else now + STOP_GRACE

@@ -7,7 +7,9 @@ process, which sends seeds back) would each wait for the other's streams to end,
 ends before it stops. So a finishing process waits only for producers *upstream* of it: those
 outside its own strongly connected component of the graph's process-level data flow. Those
 finish without waiting for it, so the wait always ends, and a chain (``A -> B -> C``) still
-hands its last samples down.
+hands its last samples down. The streams of the process whose end caused the finish are waited
+for even when it is a mutual peer: it has ended, so they end too, and what it sent last (the
+judge's verdict, say) reaches the modules before they stop.
 """
 
 from __future__ import annotations

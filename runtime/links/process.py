@@ -11,11 +11,12 @@ Started by the launcher (``supervised``: commands arrive one per line on stdin) 
 4. run the scheduler until the run ends; the safety guards zero their outputs first;
 5. end every output stream, withdraw the token, close the session; write ``summary-NAME.json``.
 
-Control commands (supervised): ``finish REASON`` — another process ended normally: keep running
-until every input stream from upstream has ended (or its producer is gone) and every received
-sample has been handled, then stop with status 0 (``umbra.runtime.links.finish_order``: streams
-of processes that this one also feeds are not waited for); ``abort REASON`` — the run failed
-elsewhere or was interrupted: stop now. End of input (the launcher is gone) aborts too.
+Control commands (supervised, ``umbra.runtime.links.control_line``): ``finish`` — another process
+ended normally: keep running until every input stream from upstream and from the process that
+ended has ended (or its producer is gone) and every received sample has been handled, then stop
+with status 0 (``umbra.runtime.links.finish_order``: streams of the other processes that this one
+also feeds are not waited for); ``abort`` — the run failed elsewhere or was interrupted: stop
+now. End of input (the launcher is gone) aborts too.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ from umbra.runtime.links.auth import load_auth
 from umbra.runtime.links.bounds import inbound_limit
 from umbra.runtime.links.config import Endpoints, build_config, describe
 from umbra.runtime.links.config_facts import ConfigFacts, config_facts
+from umbra.runtime.links.control_line import FINISH_GRACE, ControlCommand, parse_control_line
+from umbra.runtime.links.end_ack import END_ACK_ABORTED_S, END_ACK_S
 from umbra.runtime.links.finish_order import mutual_peers
 from umbra.runtime.links.publish_all import AllOutputs
 from umbra.runtime.links.runs import BY_HAND, RunFile, describe_outputs, write_run_file
@@ -47,8 +50,6 @@ from umbra.runtime.run import write_summary
 from umbra.runtime.scheduler import INTERRUPTED, Scheduler, SchedulerOptions
 from umbra.runtime.stats import RunResult
 
-#: How long a process told to ``finish`` waits for its input streams to end [s].
-FINISH_GRACE = 5.0
 #: Exit status of a process stopped because the run failed elsewhere.
 ABORTED = 1
 #: Zenoh's limit on the size of one received message (reassembled from fragments) [bytes].
@@ -117,23 +118,29 @@ class _Control:
 
     def _read(self) -> None:
         for line in self._stream:
-            command, _, reason = line.strip().partition(" ")
-            if command == "finish":
-                self._finish(reason or "another process finished")
-            elif command == "abort":
-                self._abort(reason or "stopped by the launcher")
-            elif command:
-                self._log.warning("unknown launcher command %r ignored", command)
+            if not line.strip():
+                continue
+            told = parse_control_line(line)
+            if isinstance(told, str):
+                self._log.warning("%s: ignored", told)
+            elif told.command is ControlCommand.FINISH:
+                self._finish(told.reason or "another process finished", told.finished)
+            else:
+                self._abort(told.reason or "stopped by the launcher")
         self._abort("the launcher is gone (its control pipe closed)")
 
     def _abort(self, reason: str) -> None:
         self._scheduler.request_stop(reason, ABORTED)
         self._stop.set()
 
-    def _finish(self, reason: str) -> None:
+    def _finish(self, reason: str, finished: str | None) -> None:
+        # the streams of the process that ended are waited for even when it is a mutual peer:
+        # it ended, so they end (a verdict it sent just before reaches this process's modules)
+        closed = frozenset({finished} if finished else ())
+        besides = self._peers - closed
         deadline = time.monotonic() + FINISH_GRACE
         while time.monotonic() < deadline and not self._stop.is_set():
-            ended = self._transport.inputs_ended(besides=self._peers)
+            ended = self._transport.inputs_ended(besides=besides, closed=closed)
             if ended and self._scheduler.pending_link_samples == 0:
                 break
             time.sleep(0.005)
@@ -266,6 +273,7 @@ def run_linked_process(
         else None
     )
     stop = threading.Event()
+    result: RunResult | None = None
     try:
         transport.announce()
         if control is not None:
@@ -290,7 +298,8 @@ def run_linked_process(
             tuning.close()
         if everything is not None:
             everything.close()
-        transport.close()
+        ended_normally = result is not None and result.exit_code == 0
+        transport.close(END_ACK_S if ended_normally else END_ACK_ABORTED_S)
         if run_file is not None:
             run_file.unlink(missing_ok=True)
     result.extra.update(options.extra)

@@ -30,6 +30,11 @@ from umbra.runtime.links.stats import PublishStats
 from umbra.runtime.links.wire import sample_encoding
 
 
+def link_priority(link: LinkPlan) -> zenoh.Priority:
+    """The zenoh priority of ``link``'s samples (and of the end of its stream)."""
+    return zenoh.Priority.DATA if link.bulk else zenoh.Priority.DATA_HIGH
+
+
 def declare_publisher(session: zenoh.Session, link: LinkPlan) -> Any:
     """The zenoh publisher of ``link``'s output, with the link's quality of service."""
     return session.declare_publisher(
@@ -38,8 +43,21 @@ def declare_publisher(session: zenoh.Session, link: LinkPlan) -> Any:
         congestion_control=(
             zenoh.CongestionControl.BLOCK if link.reliable else zenoh.CongestionControl.DROP
         ),
-        priority=zenoh.Priority.DATA if link.bulk else zenoh.Priority.DATA_HIGH,
+        priority=link_priority(link),
         express=True,
+    )
+
+
+def end_stream(session: zenoh.Session, pub: Any, link: LinkPlan) -> None:
+    """Mark the end of ``link``'s stream: a ``delete`` stamped as the publisher's samples are,
+    behind them (same priority), and never dropped (``BLOCK``, even on a link whose samples may
+    be: a consumer that lost it would wait for an end that never comes)."""
+    session.delete(
+        link.key,
+        congestion_control=zenoh.CongestionControl.BLOCK,
+        priority=link_priority(link),
+        express=True,
+        source_info=zenoh.SourceInfo(pub.id, 0),
     )
 
 

@@ -65,6 +65,8 @@ class Receiving:
     ended: set[str]
     state_changed: Callable[[], None]
     log: RateLimitedLog
+    #: called with a link's key when its end of stream arrives (after ``state_changed``)
+    stream_ended: Callable[[str], None] = lambda key: None
 
     def refused(self, stats: SubscribeStats, why: str) -> None:
         """Log a refused sample: at most one line per key every period."""
@@ -117,6 +119,7 @@ def receiver(
             stats.ended += 1
             ended.add(key)
             shared.state_changed()
+            shared.stream_ended(key)
             return
         payload = sample.payload
         if checks and len(payload) > bound:  # before any copy or decode

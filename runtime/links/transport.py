@@ -41,6 +41,7 @@ from umbra.runtime.graph.plan import GraphPlan, LinkPlan
 from umbra.runtime.links.bounds import max_sample_bytes
 from umbra.runtime.links.clock_sync import ClockSync
 from umbra.runtime.links.config import LEASE_MS
+from umbra.runtime.links.end_ack import END_ACK_S, EndAcks
 from umbra.runtime.links.identity import (
     ALIVE,
     Sessions,
@@ -55,7 +56,7 @@ from umbra.runtime.links.late import LatePeers
 from umbra.runtime.links.log_limit import RateLimitedLog
 from umbra.runtime.links.pool import HostMarker, PoolReader, marker_pid
 from umbra.runtime.links.pool_handoff import PoolHandoff
-from umbra.runtime.links.publishing import declare_publisher, publish_sink
+from umbra.runtime.links.publishing import declare_publisher, end_stream, publish_sink
 from umbra.runtime.links.receiving import Decoders, Receiving, receiver
 from umbra.runtime.links.session import close_session
 from umbra.runtime.links.shm import ShmWriter
@@ -111,6 +112,7 @@ class ZenohTransport:
         self._processes = self._graph_processes(plan)
         self._warn = RateLimitedLog(self._log)
         self._pubs: dict[str, tuple[Any, PublishStats]] = {}
+        self._pub_links: dict[str, LinkPlan] = {}  #: the first link of each published output
         self._subs: dict[str, tuple[Any, SubscribeStats, list[Callable[[Message], None]]]] = {}
         self._arrived: dict[str, list[Callable[[], None]]] = {}
         self._alive: set[str] = set()
@@ -153,8 +155,19 @@ class ZenohTransport:
             live_sessions=self._sessions.live_sessions,
             stamp=checks,
         )
+        #: the ends of stream read, said to their producers, and this process's own heard
+        #: (``end_ack``): ``close`` waits for its consumers' word
+        self.end_acks = EndAcks(
+            session, self.prefix, process, self._session_id, token_key, self._log
+        )
         self._receiving = Receiving(
-            self._reader, Decoders(), checks, self._ended, self._state_changed, self._warn
+            self._reader,
+            Decoders(),
+            checks,
+            self._ended,
+            self._state_changed,
+            self._warn,
+            self._stream_ended,
         )
         self._token: Any = None
         self._closed = False
@@ -244,6 +257,16 @@ class ZenohTransport:
         mine = [k for k, p in self._producer_of.items() if p == name and k in self._subs]
         return bool(mine) and all(k in self._ended for k in mine)
 
+    def _stream_ended(self, key: str) -> None:
+        """A stream's end arrived: once every stream of its producer that this process takes
+        has ended, tell the producer (its close waits for that: ``end_ack``)."""
+        producer = self._producer_of.get(key)
+        if producer is None or not self._stopped(producer):
+            return
+        session = self._sessions.session_of(producer)
+        if session is not None:
+            self.end_acks.acknowledge(producer, session)
+
     def _declare_gone(self, token: Token) -> None:
         """The live ``token`` is gone for good: its process is gone (or stopped)."""
         name = token.process
@@ -304,6 +327,7 @@ class ZenohTransport:
         pub = declare_publisher(self._session, link)
         stats = PublishStats(link.key, [str(link.connection)], link.reliable)
         self._pubs[link.key] = (pub, stats)
+        self._pub_links[link.key] = link
         pooled = self._handoff.publisher(link, stats) if not link.reliable else None
         return publish_sink(
             pub,
@@ -414,12 +438,19 @@ class ZenohTransport:
         entry = self._subs.get(link.key)
         return entry[1].age(now) if entry else float("inf")
 
-    def inputs_ended(self, besides: frozenset[str] = frozenset()) -> bool:
+    def inputs_ended(
+        self, besides: frozenset[str] = frozenset(), closed: frozenset[str] = frozenset()
+    ) -> bool:
         """True when no more samples will come: every subscribed stream ended or its producing
-        process is gone (streams of the processes in ``besides`` not counted)."""
+        process is gone (streams of the processes in ``besides`` not counted). The streams of
+        the processes in ``closed`` (they ended normally, so each marked the end of its streams)
+        count only once their end mark arrived: the samples they sent before it came first,
+        while the producer's being gone can be seen before a busy process has read them."""
         alive = self.alive_processes()
         return all(
-            key in self._ended or stats.producer not in alive or stats.producer in besides
+            key in self._ended
+            or (stats.producer not in alive and stats.producer not in closed)
+            or (stats.producer in besides and stats.producer not in closed)
             for key, (_s, stats, _d) in self._subs.items()
         )
 
@@ -441,19 +472,29 @@ class ZenohTransport:
             "clocks": self.clocks.summary(),
         }
 
-    def close(self) -> None:
-        """Mark the end of every output stream, undeclare everything, close the session."""
+    def close(self, ack_s: float = END_ACK_S) -> None:
+        """Mark the end of every output stream, wait at most ``ack_s`` [s] for the consumers to
+        have read them (``end_ack``), undeclare everything, close the session."""
         if self._closed:
             return
         self._closed = True
         self._late.close()
-        for pub, _stats in self._pubs.values():
+        for key, (pub, _stats) in self._pubs.items():
             try:
-                pub.delete(source_info=zenoh.SourceInfo(pub.id, 0))
+                end_stream(self._session, pub, self._pub_links[key])
             except Exception as exc:
-                self._log.debug("end of stream on %s failed: %s", pub.key_expr, exc)
+                self._log.debug("end of stream on %s failed: %s", key, exc)
+        consumers = set().union(*(self._consumers_of.get(k, set()) for k in self._pubs))
+        silent = self.end_acks.wait(consumers - {self.process}, self.alive_processes, ack_s)
+        if silent:
+            self._log.info(
+                "closing although %s had not read the ends of stream within %g s",
+                ", ".join(f"`{p}`" for p in sorted(silent)),
+                ack_s,
+            )
         if self._pubs:
-            time.sleep(END_GRACE)  # ends of stream first: consumers then see a clean stop
+            time.sleep(END_GRACE)  # ends of stream first: other readers then see a clean stop
+        self.end_acks.close()
         self.clocks.close()
         try:
             if self._token is not None:

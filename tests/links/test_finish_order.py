@@ -10,8 +10,8 @@ from pathlib import Path
 
 from tests.links.conftest import REPO, run_umbra
 from umbra.runtime.graph.check import load_graph
+from umbra.runtime.links.control_line import FINISH_GRACE
 from umbra.runtime.links.finish_order import mutual_peers
-from umbra.runtime.links.process import FINISH_GRACE
 
 #: `a` counts to 50 and ends the run; `b` doubles into `c`, and `c` ticks back into `b`: `b` and
 #: `c` feed each other, `a` is upstream of both.

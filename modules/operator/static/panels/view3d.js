@@ -3,12 +3,15 @@
 // placed primitives, the path being played and the arm's place on it), each frame's name and the
 // task's stage; drag to
 // orbit, wheel to zoom. "view from" switches between that overview and the view from the
-// graph's camera pose (its field of view; offered only when the graph has a camera). Drawn only while the panel is shown, at most 5 times a second (a
-// software-rendered WebGL must not take the live video's frames). three.js is loaded the first
+// graph's camera pose (its field of view; offered only when the graph has a camera). Drawn only
+// while the panel is shown, at most 5 times a second, and not while the page is behind (its
+// picture older than the console accepts actions on): a software-rendered WebGL must not take
+// the live video's frames or the run's state. three.js is loaded the first
 // time the panel has something to draw: a page without the panel never parses it.
 "use strict";
 (() => {
 let THREE = null, loading = false;
+const MIN_DRAW_PERIOD_MS = 200;  // at most 5 draws a second
 
 const panel = document.querySelector('section[data-panel="view3d"]'), box = $("view3d");
 let view = null;
@@ -232,8 +235,15 @@ umbra.on("state", (s) => {
     return;
   }
   if (!view) view = make();
+  // a page that is behind (its picture older than the console accepts actions on) draws no 3-D,
+  // and says so: the software WebGL would take what the live video and the run's state need
+  const age = umbra.frameAge(), bound = s.frame_age;
+  if (age !== null && bound && age > bound.limit_ms) {
+    $("view3d-stage").textContent = `3-D view paused: this page is behind (picture ${Math.round(age)} ms old)`;
+    return;
+  }
   const now = performance.now();
-  if (now - view.last < 200) return;
+  if (now - view.last < MIN_DRAW_PERIOD_MS) return;
   view.last = now;
   draw();
 });
