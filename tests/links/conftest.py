@@ -12,7 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.links.pairs import Pair, open_pair
 from tests.poll import wait_for
+from umbra.runtime.graph.check import load_graph
+from umbra.runtime.graph.plan import GraphPlan
 
 REPO = Path(__file__).resolve().parents[2]
 PROBES = {
@@ -203,3 +206,18 @@ def run_umbra(
         timeout=timeout,
         stdin=subprocess.DEVNULL,
     )
+
+
+@pytest.fixture
+def counter_plan() -> GraphPlan:
+    """``graphs/counter_split.yaml``: a counter in ``umbra`` feeding ``smart``."""
+    return load_graph(str(REPO / "graphs" / "counter_split.yaml"))
+
+
+@pytest.fixture
+def pair(counter_plan: GraphPlan) -> Iterator[Pair]:
+    """The producer and the consumer of ``counter_plan``, closed after the test."""
+    p = open_pair(counter_plan)
+    yield p
+    p.producer.close()
+    p.consumer.close()

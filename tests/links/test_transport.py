@@ -4,18 +4,15 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 
 import numpy as np
-import pytest
 import zenoh
 
-from tests.links.conftest import REPO
+from tests.links.pairs import Pair, open_pair, ready_pair
 from tests.poll import wait_for
 from umbra.connectors import Module, Output
 from umbra.connectors.messages import Image, Message, Scalar
-from umbra.runtime.graph.check import check_spec, load_graph
+from umbra.runtime.graph.check import check_spec
 from umbra.runtime.graph.parse import parse_graph_text
 from umbra.runtime.graph.plan import GraphPlan, LinkPlan
 from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
@@ -46,62 +43,11 @@ connections:
 """
 
 
-@dataclass
-class Pair:
-    producer: ZenohTransport
-    consumer: ZenohTransport
-    consumer_endpoint: str
-    producer_endpoint: str = ""
-
-
-def _pair(plan: GraphPlan, frame_pool: bool = True) -> Pair:
-    port_a, port_b = free_loopback_ports(2)
-    a = zenoh.open(build_config(Endpoints(listen=[f"tcp/127.0.0.1:{port_a}"])))
-    b = zenoh.open(
-        build_config(Endpoints([f"tcp/127.0.0.1:{port_b}"], [f"tcp/127.0.0.1:{port_a}"]))
-    )
-    # peers do not route for each other: a foreign publisher must connect to the consumer
-    return Pair(
-        ZenohTransport(a, plan, "umbra", frame_pool=frame_pool),
-        ZenohTransport(b, plan, "smart", frame_pool=frame_pool),
-        f"tcp/127.0.0.1:{port_b}",
-        f"tcp/127.0.0.1:{port_a}",
-    )
-
-
-@pytest.fixture
-def counter_plan() -> GraphPlan:
-    return load_graph(str(REPO / "graphs" / "counter_split.yaml"))
-
-
-@pytest.fixture
-def pair(counter_plan: GraphPlan) -> Iterator[Pair]:
-    p = _pair(counter_plan)
-    yield p
-    p.producer.close()
-    p.consumer.close()
-
-
-def _ready(pair: Pair, links: list[LinkPlan], got: list[Message]) -> Callable[[Message], None]:
-    sinks = [pair.producer.publisher(link) for link in links]
-    for link in links:
-        pair.consumer.subscribe(link, got.append)
-    pair.producer.announce()
-    pair.consumer.announce()
-    assert pair.producer.wait_ready(threading.Event(), timeout=10)
-
-    def send(msg: Message) -> None:
-        for sink in sinks:
-            sink(msg, 0.0)
-
-    return send
-
-
 def test_samples_arrive_in_order_once_per_output(counter_plan: GraphPlan, pair: Pair) -> None:
     links = counter_plan.links[:2]  # counter.count -> double.input and -> record.count
     assert links[0].key == links[1].key == "umbra/counter_split/counter/count"
     got: list[Message] = []
-    send = _ready(pair, links, got)
+    send = ready_pair(pair, links, got)
     for i in range(1, 301):
         send(Scalar(value=i * 0.5, seq=i, stamp=100.0 + i))
     wait_for(lambda: len(got) >= 600, 5.0, "600 samples")
@@ -122,7 +68,7 @@ def test_foreign_and_old_samples_are_dropped_and_counted(
 ) -> None:
     link = counter_plan.links[0]
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     foreign = zenoh.open(build_config(Endpoints(connect=[pair.consumer_endpoint])))
     try:
         raw = foreign.declare_publisher(link.key, congestion_control=zenoh.CongestionControl.BLOCK)
@@ -148,9 +94,9 @@ def test_foreign_and_old_samples_are_dropped_and_counted(
 
 def test_clean_end_and_death_of_the_producer(counter_plan: GraphPlan) -> None:
     link = counter_plan.links[0]
-    pair = _pair(counter_plan)
+    pair = open_pair(counter_plan)
     try:
-        _ready(pair, [link], [])
+        ready_pair(pair, [link], [])
         wait_for(lambda: pair.consumer.producer_alive(link), 5.0, "the producer alive")
         assert not pair.consumer.inputs_ended()
         pair.producer.close()  # end of stream, token withdrawn, session closed
@@ -169,7 +115,7 @@ def _image_pair(frame_pool: bool) -> tuple[Pair, LinkPlan]:
     plan = check_spec(parse_graph_text(IMAGE_GRAPH, "video.yaml"), registry)
     (link,) = plan.links
     assert not link.reliable  # video may drop old frames
-    return _pair(plan, frame_pool), link
+    return open_pair(plan, frame_pool), link
 
 
 FRAMES = np.random.default_rng(1).integers(0, 256, (20, 480, 640, 3), dtype=np.uint8)
@@ -179,7 +125,7 @@ def test_images_on_one_host_are_read_in_place_from_the_frame_pool() -> None:
     pair, link = _image_pair(frame_pool=True)
     try:
         got: list[Message] = []
-        send = _ready(pair, [link], got)
+        send = ready_pair(pair, [link], got)
         # same /dev/shm: same host
         wait_for(lambda: "smart" in pair.producer._peer_pid, 5.0, "the producer's pid")
         for i, pixels in enumerate(FRAMES[:3], 1):
@@ -217,7 +163,7 @@ def test_images_without_the_pool_travel_through_zenoh_shared_memory() -> None:
             link.key, lambda s: seen_shm.append(s.payload.as_shm() is not None)
         )
         got: list[Message] = []
-        send = _ready(pair, [link], got)
+        send = ready_pair(pair, [link], got)
         for i, pixels in enumerate(FRAMES[:3], 1):
             send(Image(pixels=pixels, seq=i))
             wait_for(lambda i=i: len(got) == i, 5.0, f"{i} samples")

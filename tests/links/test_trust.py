@@ -15,20 +15,14 @@ import json
 import secrets
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import pytest
 import zenoh
 
 from tests.links.conftest import REPO
-from tests.links.test_transport import (
-    IMAGE_GRAPH,
-    Camera,
-    Pair,
-    Viewer,
-    _pair,
-    _ready,
-)
+from tests.links.pairs import Pair, open_pair, ready_pair
+from tests.links.test_transport import IMAGE_GRAPH, Camera, Viewer
 from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import Image, Message, Scalar, Twist
@@ -75,19 +69,6 @@ class Attacker:
         self.session.close()
 
 
-@pytest.fixture
-def counter_plan() -> GraphPlan:
-    return load_graph(str(REPO / "graphs" / "counter_split.yaml"))
-
-
-@pytest.fixture
-def pair(counter_plan: GraphPlan) -> Iterator[Pair]:
-    p = _pair(counter_plan)
-    yield p
-    p.producer.close()
-    p.consumer.close()
-
-
 def _sub(pair: Pair) -> dict:
     (sub,) = pair.consumer.stats()["subscribe"]
     return sub
@@ -98,7 +79,7 @@ def test_a_gone_producer_stays_gone_whatever_arrives_in_its_name(
 ) -> None:
     link = counter_plan.links[0]
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     attacker = Attacker(pair, link.key)
     try:
         send(Scalar(value=1.0, seq=1))
@@ -128,7 +109,7 @@ def test_one_huge_sequence_number_does_not_make_genuine_samples_old(
 ) -> None:
     link = counter_plan.links[0]
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     send(Scalar(value=1.0, seq=1))
     send(Scalar(value=2.0, seq=2**62))  # beyond any plausible count
     send(Scalar(value=3.0, seq=2 + 2**21))  # a jump further than any plausible loss
@@ -148,7 +129,7 @@ def test_samples_larger_than_the_type_allows_are_dropped_before_decoding(
     bound = max_sample_bytes(Scalar)
     assert bound == ENVELOPE_BYTES  # a Scalar holds no array
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     attacker = Attacker(pair, link.key)
     try:
         send(Scalar(value=1.0, seq=1))
@@ -172,7 +153,7 @@ def test_a_second_token_of_a_live_process_does_not_take_over(
 ) -> None:
     link = counter_plan.links[0]
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     attacker = Attacker(pair, link.key)
     try:
         send(Scalar(value=1.0, seq=1))
@@ -198,7 +179,7 @@ def test_a_second_token_of_a_live_process_does_not_take_over(
 def test_a_restarted_producer_starts_a_new_count(counter_plan: GraphPlan, pair: Pair) -> None:
     link = counter_plan.links[0]
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     for i in range(1, 51):
         send(Scalar(value=float(i), seq=i))
     wait_for(lambda: len(got) == 50, 5.0, "50 samples")
@@ -257,10 +238,10 @@ def test_a_key_prefix_holding_an_alive_chunk_still_names_its_processes() -> None
     plan = load_graph(str(REPO / "graphs" / "counter_split.yaml"), prefix="umbra/_alive")
     (link,) = {link.key: link for link in plan.links}.values()
     assert link.key == "umbra/_alive/counter/count"
-    pair = _pair(plan)
+    pair = open_pair(plan)
     try:
         got: list[Message] = []
-        send = _ready(pair, [link], got)  # the producer sees its consumer come up
+        send = ready_pair(pair, [link], got)  # the producer sees its consumer come up
         send(Scalar(value=1.0, seq=1))
         wait_for(lambda: len(got) == 1, 5.0, "the first sample")
         assert pair.consumer.alive_processes() == {"umbra"}
@@ -274,7 +255,7 @@ def test_tokens_of_processes_the_graph_does_not_have_are_ignored(
 ) -> None:
     link = counter_plan.links[0]
     got: list[Message] = []
-    send = _ready(pair, [link], got)
+    send = ready_pair(pair, [link], got)
     attacker = Attacker(pair, link.key)
     try:
         own = str(attacker.session.zid())
