@@ -26,6 +26,12 @@ with ``A`` the offset covariance [gray levels²] and ``f`` the floor [chromatici
 learned at one gain thus holds at another. Dark pixels carry no usable chromaticity, so pixels
 whose mean gray level is below ``min_gray`` never count as the target.
 
+Clipping. A channel at the sensor's top (``CLIP_GRAY``) no longer scales with the light, so a
+bright patch whose strongest channel saturates drifts off its own chromaticity. Before the gate,
+such a pixel's clipped channel is put back where the target's colour ray through its unclipped
+channels has it (:func:`unclip`), when that is above the clip and below ``UNCLIP_MAX``; any other
+clipped pixel is judged as it is.
+
 Images are H x W x 3 uint8 in BGR order (OpenCV's).
 """
 
@@ -140,9 +146,51 @@ def is_target(
     model: ColorModel, bgr: ArrayLike, k_sigma: float = 3.0, min_gray: float = 20.0
 ) -> NDArray[np.bool_]:
     """True where a BGR pixel is within ``k_sigma`` Mahalanobis of the model and not dark."""
-    r, g, total = chromaticity(bgr)
+    pixels = np.asarray(bgr, dtype=np.float32)
+    r, g, total = chromaticity(unclip(model, pixels.reshape(-1, 3)).reshape(pixels.shape))
     inside = mahalanobis_squared(model, r, g, total) <= k_sigma * k_sigma
     return inside & (total >= 3.0 * min_gray)
+
+
+#: A channel at or above this gray level is taken as clipped by the sensor: its true value is
+#: that or more.
+CLIP_GRAY = 250.0
+#: Highest value a clipped channel is put back at [gray levels]: a lighting gain of 1.6 on a
+#: full channel. A pixel whose unclipped channels would put it higher is brighter than any
+#: target seen so and stays as it is (a white background behind a red patch: its green and blue
+#: are the red patch's at four times the gain).
+UNCLIP_MAX = 1.6 * 255.0
+#: Least length of the target's colour ray (unit sum) over the unclipped channels: below it they
+#: carry too little of the target's colour to stand for it.
+_MIN_UNCLIPPED_SHARE = 0.1
+
+
+def unclip(model: ColorModel, pixels: NDArray[np.float32]) -> NDArray[np.float32]:
+    """``pixels`` (K x 3 BGR, float) with each clipped channel put back where the target's
+    colour would have it, on the pixels whose unclipped channels fit the target's colour ray at
+    a brightness that clips those channels, and at most ``UNCLIP_MAX`` (a bright patch whose
+    strongest channel saturates: its chromaticity is the target's again); every other pixel is
+    returned as it is, so a clipped pixel of another colour stays as far from the target as it
+    was. The gate then judges the pixel's unclipped channels."""
+    clipped = pixels >= np.float32(CLIP_GRAY)
+    rows = np.flatnonzero(clipped.any(axis=1) & ~clipped.all(axis=1))
+    if rows.size == 0:
+        return pixels
+    red, green = model.mean
+    ray = np.array([1.0 - red - green, green, red], dtype=np.float32)  # B, G, R per unit sum
+    sub, off = pixels[rows], clipped[rows]
+    on = np.where(off, np.float32(0.0), ray)
+    weight = np.einsum("kc,kc->k", on, on)
+    scale = np.einsum("kc,kc->k", sub, on) / np.maximum(weight, np.float32(1e-12))
+    expected = scale[:, None] * ray
+    put_back = (expected >= np.float32(CLIP_GRAY)) & (expected <= np.float32(UNCLIP_MAX))
+    fits = (weight >= np.float32(_MIN_UNCLIPPED_SHARE**2)) & np.all(~off | put_back, axis=1)
+    if not fits.any():
+        return pixels
+    out = pixels.copy()
+    fixed = rows[fits]
+    out[fixed] = np.where(off[fits], expected[fits], sub[fits])
+    return out
 
 
 def offset_matrix(model: ColorModel) -> NDArray[np.float32]:

@@ -4,7 +4,8 @@ Each vertex reads a window of ``2 r + 1`` cells on the grid of every σ-th pixel
 grid scale, 1 at full resolution), as a ``(2 r + 2)²`` block with area weights on its first and
 last rows and columns (a box filter followed by bilinear interpolation, so the pressure is
 continuous in the vertex position). Each pixel votes target when it passes the colour gate of
-:func:`umbra.modules.vision.color.gate_test`; ``p = 2 f - 1`` with ``f`` the weighted share of
+:func:`umbra.modules.vision.color.gate_test`, its clipped channels put back first
+(:func:`umbra.modules.vision.color.unclip`); ``p = 2 f - 1`` with ``f`` the weighted share of
 votes.
 
 :class:`PressureField` holds what does not change between the iterations of one frame (the
@@ -18,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.modules.vision.color import ColorModel, offset_matrix
+from umbra.modules.vision.color import ColorModel, offset_matrix, unclip
 
 FloatArray = NDArray[np.float64]
 
@@ -43,6 +44,7 @@ class PressureField:
         self.scale = scale
         self.span = 2 * radius + 2
         self.steps = np.arange(self.span) - radius
+        self.model = model
         self.matrix = offset_matrix(model)
         (a11, a12), (_, a22) = model.offset_covariance
         self.floor = np.float32(model.chroma_floor**2)
@@ -70,7 +72,7 @@ class PressureField:
             cols = np.clip(cols, 0, self.width - 1)
             rows = np.clip(rows, 0, self.height - 1)
         index = (rows * self.width)[:, :, None] + cols[:, None, :]
-        pixels = self.flat.take(index.ravel(), axis=0).astype(np.float32)
+        pixels = unclip(self.model, self.flat.take(index.ravel(), axis=0).astype(np.float32))
         x1, x2, total = (pixels @ self.matrix).T
         # The gate x^T (A + floor s² I)^-1 x <= k², multiplied out (no division).
         floor = self.floor * total * total

@@ -100,3 +100,31 @@ def test_adapt_follows_a_color_cast_and_ignores_outliers() -> None:
     np.testing.assert_array_equal(unchanged.mean, model.mean)
     with pytest.raises(ValueError, match="rate"):
         color.adapt(model, samples, rate=1.5)
+
+
+def test_a_patch_whose_brightest_channel_clips_is_still_the_target() -> None:
+    """A red patch (RGB 200, 40, 40) under rising light: its red channel saturates at 255 while
+    green and blue go on growing. Without the clipped channel put back its chromaticity drifts
+    off the model's (the gate refuses it from a gain of 1.5); with it, it is the target up to
+    ``UNCLIP_MAX`` (a gain of 2.04 here), and other clipped colours are not."""
+    model = color.from_rgb((200, 40, 40), noise_gray=4.0)
+    truth = np.array([40.0, 40.0, 200.0])  # BGR
+    for gain in (1.0, 1.4, 1.5, 1.6, 2.0):
+        seen = np.minimum(np.round(gain * truth), 255.0)
+        assert color.is_target(model, seen[None, :]).all(), gain
+        r, g, total = color.chromaticity(seen[None, :])
+        far = color.mahalanobis_squared(model, r, g, total)[0] > 9.0
+        assert far == (gain >= 1.5), gain  # the raw pixel: the drift the put-back removes
+    beyond = np.minimum(np.round(2.1 * truth), 255.0)[None, :]  # red would be 420
+    assert not color.is_target(model, beyond).any()
+    put_back = color.unclip(model, np.array([[80.0, 80.0, 255.0]], dtype=np.float32))
+    np.testing.assert_allclose(put_back, [[80.0, 80.0, 400.0]], rtol=1e-6)
+    others = np.array(
+        [
+            [255.0, 255.0, 255.0],  # white: every channel clipped, nothing to go by
+            [220.0, 240.0, 255.0],  # a white stone with red clipped: red would be ~1150
+            [40.0, 255.0, 255.0],  # yellow: green clipped too, and the model says it is low
+            [110.0, 110.0, 255.0],  # reddish, but red would be 550: brighter than any patch
+        ]
+    )
+    assert not color.is_target(model, others).any()
