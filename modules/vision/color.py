@@ -172,13 +172,18 @@ def unclip(model: ColorModel, pixels: NDArray[np.float32]) -> NDArray[np.float32
     strongest channel saturates: its chromaticity is the target's again); every other pixel is
     returned as it is, so a clipped pixel of another colour stays as far from the target as it
     was. The gate then judges the pixel's unclipped channels."""
-    clipped = pixels >= np.float32(CLIP_GRAY)
-    rows = np.flatnonzero(clipped.any(axis=1) & ~clipped.all(axis=1))
+    top = np.float32(CLIP_GRAY)
+    if pixels.size == 0 or pixels.max() < top:  # the usual case: nothing clipped
+        return pixels
+    b, g, r = pixels[:, 0], pixels[:, 1], pixels[:, 2]  # (a max over axis 1 is 100x slower)
+    some = (b >= top) | (g >= top) | (r >= top)
+    rows = np.flatnonzero(some & ((b < top) | (g < top) | (r < top)))
     if rows.size == 0:
         return pixels
     red, green = model.mean
     ray = np.array([1.0 - red - green, green, red], dtype=np.float32)  # B, G, R per unit sum
-    sub, off = pixels[rows], clipped[rows]
+    sub = pixels[rows]
+    off = sub >= top
     on = np.where(off, np.float32(0.0), ray)
     weight = np.einsum("kc,kc->k", on, on)
     scale = np.einsum("kc,kc->k", sub, on) / np.maximum(weight, np.float32(1e-12))
