@@ -40,6 +40,7 @@ from fastapi import WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, Response
 
 from umbra.connectors.access.rate import MessageBudget
+from umbra.modules.operator.console_params import PAGE_SILENT_S
 from umbra.modules.operator.mailbox import Lanes, Latest
 from umbra.modules.operator.protocol import MessageChecker, ProtocolError, ReplayedMessage
 from umbra.modules.operator.web_server import WebServer
@@ -238,7 +239,8 @@ class ConsoleApp:
         self.lanes.joined(Event("join", session, name, time.monotonic(), browser))
         sender: asyncio.Task[None] | None = None
         try:
-            await ws.send_text(json.dumps({"type": "welcome", "session": session, "name": name}))
+            welcome = {"type": "welcome", "session": session, "name": name}
+            await ws.send_text(json.dumps({**welcome, "silent_s": PAGE_SILENT_S}))
             sender = asyncio.create_task(self._send_loop(ws, flight))
             while True:
                 message = await ws.receive()

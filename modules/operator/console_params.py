@@ -9,6 +9,11 @@ from pydantic import Field, field_validator
 from umbra.connectors import param
 from umbra.modules.arm.arm_params import ArmParams
 
+#: How long [s] a page waits without hearing from the run before it drops its socket (a
+#: half-open connection) or, with the socket closed, says the run may be gone. The console
+#: sends it in its welcome; its state comes at least twice in that time (``state_rate_hz``).
+PAGE_SILENT_S = 5.0
+
 #: A side of the patch drawn in the 3-D panel [m].
 PatchSide = Annotated[float, Field(gt=0, lt=10)]
 
@@ -35,7 +40,13 @@ class ConsoleParams(ArmParams):
     camera_frame: str = param("camera", "frame of the jog output (REG_VEL's frame)")
     tool_frame: str = param("tool", "frame of tool-frame jogs")
     jpeg_quality: int = param(80, "JPEG quality of the video", ge=10, le=100)
-    state_rate_hz: float = param(10.0, "page updates per second", unit="Hz", gt=0, le=60)
+    state_rate_hz: float = param(
+        10.0,
+        "page updates per second (at least two in the time a page waits on a silent socket)",
+        unit="Hz",
+        ge=2.0 / PAGE_SILENT_S,
+        le=60,
+    )
     zoom_names: list[str] = param(
         [],
         "cameras with a zoom slider, in the order of outputs zoom_1, zoom_2 (max 2, distinct)",

@@ -58,7 +58,7 @@ class Page:
         )
         headers = {"Origin": origin} if origin else None
         self.ws: ClientConnection = connect(ws_url, open_timeout=5, additional_headers=headers)
-        welcome = self.recv_text("welcome")
+        welcome = self.welcome = self.recv_text("welcome")
         self.session = welcome["session"]
         self.name = welcome["name"]
         self.seq = 0

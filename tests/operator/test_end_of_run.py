@@ -15,6 +15,7 @@ from tests.operator.test_browser_console import Stepper
 from tests.poll import wait_for
 from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.operator.console import OperatorConsole
+from umbra.modules.operator.console_params import PAGE_SILENT_S
 from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, needs_chromium]
@@ -55,8 +56,11 @@ class CutSocket:
 
 
 def silent_s(page: Any) -> float:
-    """How long [s] the page keeps a silent socket (its ``LOST_S``)."""
-    return float(page.evaluate("LOST_S"))
+    """How long [s] the page keeps a silent socket (the console's ``PAGE_SILENT_S``, as the
+    page was told it)."""
+    told = float(page.evaluate("window.umbra.silentS"))
+    assert told == PAGE_SILENT_S
+    return told
 
 
 def test_a_page_cut_off_before_the_end_shows_the_verdict_when_it_reconnects() -> None:

@@ -8,12 +8,12 @@ const $ = (id) => document.getElementById(id);
 const umbra = (window.umbra = { painted: 0, frame: 0, size: [640, 480], state: null, notices: [],
   session: "", name: "", latencies: [], ended: false, handlers: {} });
 let socket = null, seq = 0;
-// how long [s] the page waits without hearing from the run: a closed socket that does not come
-// back is then said to be a run that may be gone; an open socket that stays silent (the server
-// sends its state at the console's state_rate_hz) is dropped and another opened, so that a
-// connection that lost its messages without closing (a half-open one) cannot hold the page on a
-// live-looking state
-const LOST_S = 5;
+// how long [s] the page waits without hearing from the run (the console's PAGE_SILENT_S, sent in
+// its welcome; 0 before the first): a closed socket that does not come back is then said to be a
+// run that may be gone; an open socket that stays silent (the server sends its state at least
+// twice in that time) is dropped and another opened, so that a connection that lost its
+// messages without closing (a half-open one) cannot hold the page on a live-looking state
+umbra.silentS = 0;
 
 umbra.on = (kind, fn) => { (umbra.handlers[kind] = umbra.handlers[kind] || []).push(fn); };
 umbra.emit = (kind, data) => { for (const fn of umbra.handlers[kind] || []) fn(data); };
@@ -35,11 +35,11 @@ umbra.connect = () => {
     const hadSession = umbra.session !== "";
     umbra.session = ""; seq = 0;
     if (umbra.ended) return;  // the run's end was said: nothing more to hear
-    // a run that died without saying so: after LOST_S the page says what it knows, and the
+    // a run that died without saying so: after silentS the page says what it knows, and the
     // commands are shown disabled at once (the state drawn again without this page's session)
     umbra.lostAt = umbra.lostAt || performance.now();
     const s = Math.round((performance.now() - umbra.lostAt) / 1000);
-    umbra.emit("connection", s < LOST_S ? "disconnected: reconnecting" :
+    umbra.emit("connection", !umbra.silentS || s < umbra.silentS ? "disconnected: reconnecting" :
       `no answer from the run for ${s} s: it ended or failed; reconnecting`);
     if (hadSession && umbra.state) umbra.emit("state", umbra.state);
     setTimeout(umbra.connect, 1000);
@@ -48,7 +48,10 @@ umbra.connect = () => {
     umbra.heardAt = performance.now();
     if (typeof ev.data !== "string") { umbra.emit("frame", ev.data); return; }
     const m = JSON.parse(ev.data);
-    if (m.type === "welcome") { umbra.session = m.session; umbra.name = m.name; umbra.send("hello", { name: m.name }); }
+    if (m.type === "welcome") {
+      umbra.session = m.session; umbra.name = m.name; umbra.silentS = m.silent_s;
+      umbra.send("hello", { name: m.name });
+    }
     else if (m.type === "notice") umbra.emit("notice", m);
     else if (m.type === "state") {
       // the run's end, as soon as it is said (the first thing a page reconnecting after it hears)
@@ -60,6 +63,6 @@ umbra.connect = () => {
   };
 };
 setInterval(() => {  // a silent socket is dropped (its close opens another)
-  if (socket && socket.readyState === 1 && !umbra.ended &&
-      performance.now() - umbra.heardAt > LOST_S * 1000) socket.close();
+  if (socket && socket.readyState === 1 && !umbra.ended && umbra.silentS &&
+      performance.now() - umbra.heardAt > umbra.silentS * 1000) socket.close();
 }, 1000);
