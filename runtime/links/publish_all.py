@@ -23,7 +23,11 @@ from umbra.connectors.messages import Message
 from umbra.connectors.module import Module
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.acl import output_key
+from umbra.runtime.links.publishing import end_stream
 from umbra.runtime.links.wire import sample_encoding
+
+#: Priority of the samples sent for observers only: below every link of the graph.
+OBSERVED_PRIORITY = zenoh.Priority.DATA_LOW
 
 
 class _Watched:
@@ -51,6 +55,7 @@ class AllOutputs:
         log: logging.Logger | None = None,
     ) -> None:
         self._log = log or logging.getLogger("umbra.links")
+        self._session = session
         self._codec = Codec()  # used by the scheduler's ticks only, which never overlap
         self._pubs: list[tuple[Any, Any, zenoh.SourceInfo]] = []
         self.sent = 0
@@ -74,7 +79,7 @@ class AllOutputs:
             key,
             encoding=sample_encoding(name, COMPACT_VERSION),
             congestion_control=zenoh.CongestionControl.DROP,
-            priority=zenoh.Priority.DATA_LOW,
+            priority=OBSERVED_PRIORITY,
             express=True,
         )
         watched = _Watched()
@@ -105,9 +110,9 @@ class AllOutputs:
 
     def close(self) -> None:
         """End every stream (a DELETE per key, ``docs/wire-format.md`` section 4), undeclare."""
-        for pub, listener, source in self._pubs:
+        for pub, listener, _source in self._pubs:
             try:
-                pub.delete(source_info=source)
+                end_stream(self._session, pub, OBSERVED_PRIORITY)
                 listener.undeclare()
                 pub.undeclare()
             except Exception as exc:

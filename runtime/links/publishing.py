@@ -48,14 +48,14 @@ def declare_publisher(session: zenoh.Session, link: LinkPlan) -> Any:
     )
 
 
-def end_stream(session: zenoh.Session, pub: Any, link: LinkPlan) -> None:
-    """Mark the end of ``link``'s stream: a ``delete`` stamped as the publisher's samples are,
-    behind them (same priority), and never dropped (``BLOCK``, even on a link whose samples may
-    be: a consumer that lost it would wait for an end that never comes)."""
+def end_stream(session: zenoh.Session, pub: Any, priority: zenoh.Priority) -> None:
+    """Mark the end of ``pub``'s stream: a ``delete`` on its key stamped as its samples are,
+    behind them (their ``priority``), and never dropped (``BLOCK``, even where the samples may
+    be: a reader that lost it would wait for an end that never comes; wire format section 4)."""
     session.delete(
-        link.key,
+        pub.key_expr,
         congestion_control=zenoh.CongestionControl.BLOCK,
-        priority=link_priority(link),
+        priority=priority,
         express=True,
         source_info=zenoh.SourceInfo(pub.id, 0),
     )

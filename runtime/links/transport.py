@@ -56,7 +56,12 @@ from umbra.runtime.links.late import LatePeers
 from umbra.runtime.links.log_limit import RateLimitedLog
 from umbra.runtime.links.pool import HostMarker, PoolReader, marker_pid
 from umbra.runtime.links.pool_handoff import PoolHandoff
-from umbra.runtime.links.publishing import declare_publisher, end_stream, publish_sink
+from umbra.runtime.links.publishing import (
+    declare_publisher,
+    end_stream,
+    link_priority,
+    publish_sink,
+)
 from umbra.runtime.links.receiving import Decoders, Receiving, receiver
 from umbra.runtime.links.session import close_session
 from umbra.runtime.links.shm import ShmWriter
@@ -481,7 +486,7 @@ class ZenohTransport:
         self._late.close()
         for key, (pub, _stats) in self._pubs.items():
             try:
-                end_stream(self._session, pub, self._pub_links[key])
+                end_stream(self._session, pub, link_priority(self._pub_links[key]))
             except Exception as exc:
                 self._log.debug("end of stream on %s failed: %s", key, exc)
         consumers = set().union(*(self._consumers_of.get(k, set()) for k in self._pubs))

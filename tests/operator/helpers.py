@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
-from typing import Any
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any, Protocol, TypeVar
 
 import httpx
 import numpy as np
@@ -12,6 +15,7 @@ from websockets.sync.client import ClientConnection, connect
 from umbra.connectors.messages import Contour, Image
 from umbra.modules.vision.contour_message import contour_message
 from umbra.modules.vision.features import polygon_features
+from umbra.runtime.harness import ModuleHarness
 
 
 def image(width: int = 640, height: int = 480) -> Image:
@@ -87,3 +91,38 @@ class Page:
 
     def close(self) -> None:
         self.ws.close()
+
+
+class SteppingPlant(Protocol):
+    """A thread that steps the console in its harness ``h`` until ``halt`` is set."""
+
+    h: ModuleHarness
+    halt: threading.Event
+
+    def start(self) -> None: ...
+
+    def join(self, timeout: float | None = None) -> None: ...
+
+
+S = TypeVar("S", bound=SteppingPlant)
+
+
+@contextmanager
+def stepping(plant: S) -> Iterator[S]:
+    """``plant``'s harness entered and ``plant`` running; halted and the harness closed after
+    (unless the test did so first: :func:`stop_stepping`)."""
+    plant.h.__enter__()
+    plant.start()
+    try:
+        yield plant
+    finally:
+        stop_stepping(plant)
+
+
+def stop_stepping(plant: SteppingPlant) -> None:
+    """Halt ``plant`` and close its harness, once (the run's end, in the middle of a test)."""
+    if plant.halt.is_set():
+        return
+    plant.halt.set()
+    plant.join(5)
+    plant.h.__exit__(None, None, None)

@@ -21,7 +21,7 @@ from tests.operator.browser import (
     release_control,
     take_control,
 )
-from tests.operator.helpers import image, rectangle_contour
+from tests.operator.helpers import image, rectangle_contour, stepping, stop_stepping
 from tests.poll import wait_for
 from tests.world.test_attended import FRAMES
 from umbra.connectors.messages import Message
@@ -212,64 +212,52 @@ def test_the_station_at_1280x800_and_1920x1080(tmp_path: Path) -> None:
     T = np.eye(4)
     T[:3, 3] = [0, 0, -0.12]
     h = ModuleHarness(OperatorConsole, {}, frames={"tool->camera": T})
-    h.__enter__()
-    plant = Plant(h)
-    plant.start()
-    stopped = False
-    try:
-        with chromium() as browser:
-            pages = []
-            for size in ((1280, 800), (1920, 1080)):
-                page = browser.new_page(viewport={"width": size[0], "height": size[1]})
-                page.goto(h.module.url)
-                page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
-                if not pages:
-                    _layout_persists(page)
-                _drive(page, plant, size, tmp_path / f"station-{size[0]}.png")
-                release_control(page)
-                pages.append(page)
-            # Stop: only the holder may; the world (attended: it would never end the run by
-            # itself) ends it, "stopped by the operator", and the pages show the run's end
-            viewer = pages[1]
-            take_control(pages[0])
-            stop = "#commands button[data-action=stop]"
-            pages[0].wait_for_function(f"!document.querySelector('{stop}').disabled")
-            viewer.wait_for_function("window.umbra.state.control !== ''")
-            assert viewer.is_disabled(stop)  # not the holder
-            pages[0].click(stop)
-            wait_for(
-                lambda: (
-                    [type(s).__name__ for port, s in list(plant.sent) if port == "stop_run"]
-                    == ["StopRun"]
-                ),
-                10.0,
-                "one StopRun",
+    with stepping(Plant(h)) as plant, chromium() as browser:
+        pages = []
+        for size in ((1280, 800), (1920, 1080)):
+            page = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            page.goto(h.module.url)
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            if not pages:
+                _layout_persists(page)
+            _drive(page, plant, size, tmp_path / f"station-{size[0]}.png")
+            release_control(page)
+            pages.append(page)
+        # Stop: only the holder may; the world (attended: it would never end the run by
+        # itself) ends it, "stopped by the operator", and the pages show the run's end
+        viewer = pages[1]
+        take_control(pages[0])
+        stop = "#commands button[data-action=stop]"
+        pages[0].wait_for_function(f"!document.querySelector('{stop}').disabled")
+        viewer.wait_for_function("window.umbra.state.control !== ''")
+        assert viewer.is_disabled(stop)  # not the holder
+        pages[0].click(stop)
+        wait_for(
+            lambda: (
+                [type(s).__name__ for port, s in list(plant.sent) if port == "stop_run"]
+                == ["StopRun"]
+            ),
+            10.0,
+            "one StopRun",
+        )
+        with ModuleHarness(SimWorld, frames=FRAMES, attended=True) as world:
+            world.push("operator", next(s for port, s in plant.sent if port == "stop_run"))
+            world.step(dt=0.01)
+            assert world.stop_request == (VERDICT, 0)
+            with plant.lock:
+                plant.extra.append(("world", world.output("status")))
+        for page in pages:
+            page.wait_for_function(
+                "document.getElementById('line-verdict').textContent.includes('stopped by')"
             )
-            with ModuleHarness(SimWorld, frames=FRAMES, attended=True) as world:
-                world.push("operator", next(s for port, s in plant.sent if port == "stop_run"))
-                world.step(dt=0.01)
-                assert world.stop_request == (VERDICT, 0)
-                with plant.lock:
-                    plant.extra.append(("world", world.output("status")))
-            for page in pages:
-                page.wait_for_function(
-                    "document.getElementById('line-verdict').textContent.includes('stopped by')"
-                )
-            plant.halt.set()
-            plant.join(5)
-            h.__exit__(None, None, None)
-            stopped = True
-            for page in pages:
-                page.wait_for_function("window.umbra.ended", timeout=10000)
-                assert page.inner_text("#conn") == "run ended"
-                assert VERDICT in page.inner_text("#ended")
-                assert page.is_disabled("#take")
-                assert page.is_disabled("#commands button[data-action=abort]")
-            pages[0].screenshot(path=str(tmp_path / "station-ended.png"))
-    finally:
-        plant.halt.set()
-        if not stopped:
-            h.__exit__(None, None, None)
+        stop_stepping(plant)  # the run's end: the pages see their socket close
+        for page in pages:
+            page.wait_for_function("window.umbra.ended", timeout=10000)
+            assert page.inner_text("#conn") == "run ended"
+            assert VERDICT in page.inner_text("#ended")
+            assert page.is_disabled("#take")
+            assert page.is_disabled("#commands button[data-action=abort]")
+        pages[0].screenshot(path=str(tmp_path / "station-ended.png"))
 
 
 def test_active_sketch_is_a_panel_of_the_station_behind_the_same_door() -> None:

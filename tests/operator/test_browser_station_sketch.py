@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from tests.operator.browser import chromium, needs_chromium
+from tests.operator.helpers import stepping
 from tests.operator.test_browser_station import Plant
 from tests.operator.test_sketch_scene import T_BASE_TABLE, path, snapshot
 from umbra.connectors.messages import Poses
@@ -52,7 +53,6 @@ def _labels_apart(page: Any) -> list[str]:
 
 def test_the_3d_panel_draws_snapshots_primitives_and_the_path_being_played() -> None:
     h = ModuleHarness(OperatorConsole, {}, frames={"base->table": T_BASE_TABLE})
-    h.__enter__()
     plant = Plant(h)
     links = np.stack([np.eye(4), np.eye(4)])
     links[0][:3, 3] = [0.0, 0.0, 0.6]
@@ -60,56 +60,48 @@ def test_the_3d_panel_draws_snapshots_primitives_and_the_path_being_played() -> 
     plant.steady = {
         "link_poses": Poses(matrices=links, children=["shoulder", "flange"], frame="base")
     }
-    plant.start()
-    try:
-        with chromium() as browser:
-            page = browser.new_page(viewport={"width": 1920, "height": 1080})
-            page.goto(h.module.url)
-            page.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 2")
-            page.wait_for_timeout(400)
-            orange_before = _pixels(page, 0xFF8C00)
-            with plant.lock:
-                plant.extra += [
-                    ("snapshot", snapshot()),
-                    (
-                        "primitive",
-                        SketchPrimitive(
-                            primitive_id="pipe",
-                            kind="line",
-                            points=np.array([[0.35, 0.0, 0.1], [0.65, 0.0, 0.1]]),
-                            edges=np.array([[0, 1]]),
-                            frame="table",
-                        ),
+    with stepping(plant), chromium() as browser:
+        page = browser.new_page(viewport={"width": 1920, "height": 1080})
+        page.goto(h.module.url)
+        page.wait_for_function("window.umbra.view3d && window.umbra.view3d.links === 2")
+        page.wait_for_timeout(400)
+        orange_before = _pixels(page, 0xFF8C00)
+        with plant.lock:
+            plant.extra += [
+                ("snapshot", snapshot()),
+                (
+                    "primitive",
+                    SketchPrimitive(
+                        primitive_id="pipe",
+                        kind="line",
+                        points=np.array([[0.35, 0.0, 0.1], [0.65, 0.0, 0.1]]),
+                        edges=np.array([[0, 1]]),
+                        frame="table",
                     ),
-                    ("path", path()),
-                ]
-                plant.steady["vcr_state"] = VcrState(
-                    path_id="p1", mode="playing", s=0.5, progress=0.5
-                )
-            page.wait_for_function(
-                "(() => { const k = window.umbra.view3d.sketch; return k && k.snapshots === 1"
-                " && k.primitives === 1 && k.path === 11 && k.at !== null; })()",
-                timeout=15000,
-            )
-            sketch = page.evaluate("window.umbra.view3d.sketch")
-            assert sketch["at"] == [0.6, -0.2, 0.35] and sketch["progress"] == 0.5
-            page.wait_for_timeout(400)
-            names = page.eval_on_selector_all(
-                "#view3d-labels .frame-name", "els => els.map(e => e.textContent)"
-            )
-            for name in ("snapshot s1", "line pipe", "path grab pipe", "playing 50 %", "flange"):
-                assert name in names, (name, names)
-            assert _labels_apart(page) == []
-            assert _pixels(page, 0xFF8C00) > orange_before + 20  # the snapshots' frusta
-            assert _pixels(page, 0xFF44FF) > 5  # the primitive
-            assert _pixels(page, 0x33DD55) > 20  # the played part of the path and the marker
-            # the player moves on: the marker follows
-            with plant.lock:
-                plant.steady["vcr_state"] = VcrState(path_id="p1", mode="done", s=1.0, progress=1.0)
-            page.wait_for_function("window.umbra.view3d.sketch.progress === 1", timeout=15000)
-            assert page.evaluate("window.umbra.view3d.sketch.at") == [0.7, -0.2, 0.35]
-            page.locator("#view3d").screenshot(path=str(ROOT / "docs/images/station-3d-sketch.png"))
-    finally:
-        plant.halt.set()
-        plant.join(5)
-        h.__exit__(None, None, None)
+                ),
+                ("path", path()),
+            ]
+            plant.steady["vcr_state"] = VcrState(path_id="p1", mode="playing", s=0.5, progress=0.5)
+        page.wait_for_function(
+            "(() => { const k = window.umbra.view3d.sketch; return k && k.snapshots === 1"
+            " && k.primitives === 1 && k.path === 11 && k.at !== null; })()",
+            timeout=15000,
+        )
+        sketch = page.evaluate("window.umbra.view3d.sketch")
+        assert sketch["at"] == [0.6, -0.2, 0.35] and sketch["progress"] == 0.5
+        page.wait_for_timeout(400)
+        names = page.eval_on_selector_all(
+            "#view3d-labels .frame-name", "els => els.map(e => e.textContent)"
+        )
+        for name in ("snapshot s1", "line pipe", "path grab pipe", "playing 50 %", "flange"):
+            assert name in names, (name, names)
+        assert _labels_apart(page) == []
+        assert _pixels(page, 0xFF8C00) > orange_before + 20  # the snapshots' frusta
+        assert _pixels(page, 0xFF44FF) > 5  # the primitive
+        assert _pixels(page, 0x33DD55) > 20  # the played part of the path and the marker
+        # the player moves on: the marker follows
+        with plant.lock:
+            plant.steady["vcr_state"] = VcrState(path_id="p1", mode="done", s=1.0, progress=1.0)
+        page.wait_for_function("window.umbra.view3d.sketch.progress === 1", timeout=15000)
+        assert page.evaluate("window.umbra.view3d.sketch.at") == [0.7, -0.2, 0.35]
+        page.locator("#view3d").screenshot(path=str(ROOT / "docs/images/station-3d-sketch.png"))

@@ -22,7 +22,7 @@ from tests.operator.browser import (
     release_control,
     take_control,
 )
-from tests.operator.helpers import image, rectangle_contour
+from tests.operator.helpers import image, rectangle_contour, stepping
 from tests.poll import wait_for
 from umbra.connectors.messages import Contour
 from umbra.connectors.states import ServoState
@@ -149,22 +149,12 @@ def _check_page(page: Any, h: ModuleHarness, plant: WallPlant, size: tuple[int, 
 
 def test_the_picture_age_is_shown_and_agrees_with_the_consoles_refusals() -> None:
     h = ModuleHarness(OperatorConsole, {"stale_page_s": STALE_PAGE_S})
-    h.__enter__()
-    plant = WallPlant(h)
-    plant.start()
-    try:
-        with Overload(factor=1), chromium() as browser:
-            for size in ((1280, 800), (1920, 1080)):
-                page = browser.new_page(viewport={"width": size[0], "height": size[1]})
-                page.goto(h.module.url)
-                page.wait_for_function(
-                    "window.umbra.painted > 2 && window.umbra.state", timeout=30000
-                )
-                take_control(page)
-                _check_page(page, h, plant, size)
-                release_control(page)
-                page.close()
-    finally:
-        plant.halt.set()
-        plant.join(5)
-        h.__exit__(None, None, None)
+    with stepping(WallPlant(h)) as plant, Overload(factor=1), chromium() as browser:
+        for size in ((1280, 800), (1920, 1080)):
+            page = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            page.goto(h.module.url)
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state", timeout=30000)
+            take_control(page)
+            _check_page(page, h, plant, size)
+            release_control(page)
+            page.close()

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from tests.operator.browser import chromium, needs_chromium, release_control, take_control
+from tests.operator.helpers import stepping
 from tests.operator.test_browser_station import SNAKE_REASON, Plant
 from umbra.connectors.messages import JointState, Poses
 from umbra.modules.operator.console import OperatorConsole
@@ -160,22 +161,14 @@ def _hold_still(page: Any, plant: Plant, size: tuple[int, int], shot: Path) -> N
 def test_the_live_image_holds_still_and_every_panel_stays_in_view() -> None:
     T = np.eye(4)
     T[:3, 3] = [0, 0, -0.12]
-    h = ModuleHarness(OperatorConsole, {}, frames={"tool->camera": T})
-    h.__enter__()
-    plant = Plant(h)
+    plant = Plant(ModuleHarness(OperatorConsole, {}, frames={"tool->camera": T}))
     _steady(plant)
-    plant.start()
-    try:
-        with Overload(factor=1), chromium() as browser:
-            for size in SIZES:
-                page = browser.new_page(viewport={"width": size[0], "height": size[1]})
-                page.goto(h.module.url)
-                page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
-                shot = ROOT / "docs" / "images" / f"station-layout-{size[0]}x{size[1]}.png"
-                _hold_still(page, plant, size, shot)
-                release_control(page)
-                page.close()
-    finally:
-        plant.halt.set()
-        plant.join(5)
-        h.__exit__(None, None, None)
+    with stepping(plant), Overload(factor=1), chromium() as browser:
+        for size in SIZES:
+            page = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            page.goto(plant.h.module.url)
+            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state")
+            shot = ROOT / "docs" / "images" / f"station-layout-{size[0]}x{size[1]}.png"
+            _hold_still(page, plant, size, shot)
+            release_control(page)
+            page.close()

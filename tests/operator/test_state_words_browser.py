@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tests.operator.browser import chromium, needs_chromium, take_control
-from tests.operator.helpers import rectangle_contour
+from tests.operator.helpers import rectangle_contour, stepping
 from tests.operator.test_frame_age_browser import WallPlant
 from umbra.connectors.states import ServoReason, ServoStage, ServoState
 from umbra.connectors.tracking import SnakeCheck
@@ -31,39 +31,30 @@ def test_the_line_says_what_a_click_does_after_a_jog_and_a_failed_tracker_in_wor
     T = np.eye(4)
     T[:3, 3] = [0, 0, -0.12]  # the camera 12 cm behind the tool: tool-frame jogs
     h = ModuleHarness(OperatorConsole, {}, frames={"tool->camera": T})
-    h.__enter__()
     plant = WallPlant(h)
     plant.servo = ServoState(
         stage=ServoStage.ACQUIRE, message="waiting", code=ServoReason.NOT_SEEDED
     )
-    plant.start()
-    try:
-        with chromium() as browser:
-            page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(h.module.url)
-            page.wait_for_function("window.umbra.painted > 2 && window.umbra.state", timeout=30000)
-            _says(page, "#click-does", CLICK_WITHOUT_CONTROL)  # no control: a click does nothing
-            take_control(page)
-            _says(page, "#click-does", "seeds the tracker; the approach then starts by itself")
-            # a jog: the console pauses the grab, vsServo answers paused
-            page.evaluate("window.umbra.holdJog(0, 1)")
-            _says(page, "#click-does", "the arm holds until you press Resume")
-            page.evaluate("window.umbra.releaseJog()")
-            plant.servo = ServoState(
-                stage=ServoStage.PAUSED, message="paused", code=ServoReason.PAUSED
-            )
-            _says(page, "#click-does", "seeds the tracker; the arm holds until you press Resume")
-            assert "starts by itself" not in page.inner_text("#commands")
-            assert page.inner_text("#line-tracker") == ""
-            # the tracker fails while paused: said in its checks' words
-            plant.contour = msgspec.structs.replace(
-                rectangle_contour("failed", "no colour edge under 100% of the contour"),
-                checks=(SnakeCheck.NO_EDGE,),
-            )
-            _says(page, "#line-tracker", "the tracker failed: the tracker lost the patch's edge")
-            assert "click the patch to re-seed it" in page.inner_text("#line-tracker")
-            assert page.is_visible("#line-tracker")
-    finally:
-        plant.halt.set()
-        plant.join(5)
-        h.__exit__(None, None, None)
+    with stepping(plant), chromium() as browser:
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(h.module.url)
+        page.wait_for_function("window.umbra.painted > 2 && window.umbra.state", timeout=30000)
+        _says(page, "#click-does", CLICK_WITHOUT_CONTROL)  # no control: a click does nothing
+        take_control(page)
+        _says(page, "#click-does", "seeds the tracker; the approach then starts by itself")
+        # a jog: the console pauses the grab, vsServo answers paused
+        page.evaluate("window.umbra.holdJog(0, 1)")
+        _says(page, "#click-does", "the arm holds until you press Resume")
+        page.evaluate("window.umbra.releaseJog()")
+        plant.servo = ServoState(stage=ServoStage.PAUSED, message="paused", code=ServoReason.PAUSED)
+        _says(page, "#click-does", "seeds the tracker; the arm holds until you press Resume")
+        assert "starts by itself" not in page.inner_text("#commands")
+        assert page.inner_text("#line-tracker") == ""
+        # the tracker fails while paused: said in its checks' words
+        plant.contour = msgspec.structs.replace(
+            rectangle_contour("failed", "no colour edge under 100% of the contour"),
+            checks=(SnakeCheck.NO_EDGE,),
+        )
+        _says(page, "#line-tracker", "the tracker failed: the tracker lost the patch's edge")
+        assert "click the patch to re-seed it" in page.inner_text("#line-tracker")
+        assert page.is_visible("#line-tracker")
