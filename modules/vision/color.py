@@ -243,7 +243,8 @@ def adapt(
     """
     if not 0.0 <= rate <= 1.0:
         raise ValueError(f"adaptation rate must be within [0, 1], got {rate}")
-    r, g, total = chromaticity(np.asarray(bgr_samples).reshape(-1, 3))
+    pixels = unclip(model, np.asarray(bgr_samples, dtype=np.float32).reshape(-1, 3))
+    r, g, total = chromaticity(pixels)
     distance = mahalanobis_squared(model, r, g, total)
     keep = (distance <= gate_sigma * gate_sigma) & (total >= 3.0 * min_gray)
     if rate == 0.0 or int(keep.sum()) < 8:

@@ -123,6 +123,8 @@ class SnakeTracker:
         else:
             start_vertices = self._predicted(self.vertices)
             result = evolve(image, start_vertices, self.model, self.params, max_iterations=budget)
+            if acquiring and result.converged:
+                result = self._grown_with_its_interior(image, result, budget)
         elapsed = time.perf_counter() - start
         self._acquiring = False
         self.vertices = result.vertices
@@ -158,6 +160,32 @@ class SnakeTracker:
                 self.model, samples, self.params.adapt_rate, min_gray=self.params.min_gray
             )
         return TrackUpdate(outline, sanity, result.iterations, result.converged, elapsed)
+
+    def _grown_with_its_interior(
+        self, image: NDArray[np.uint8], first: SnakeResult, budget: int
+    ) -> SnakeResult:
+        """Acquisition's second pass: the colour learned again from the interior the first pass
+        found, and the snake evolved again from there with it, within what is left of the budget
+        (the second pass takes a few iterations when the first already lay on the edge). A second
+        pass that does not converge leaves the first pass and the seed's model as they were.
+
+        A seed sees a few pixels at the patch's centre; towards the edges the patch's colour
+        varies more than there (JPEG's chroma spread over its 16-pixel blocks, shading), and a
+        model that never saw it stops the snake pixels short of the edge, further than the edge
+        fit reaches. The samples inside the first contour, gated by the seed's model as adaptation
+        gates them (:func:`umbra.modules.vision.color.adapt` at rate 1), replace the seed's
+        statistics."""
+        assert self.model is not None
+        samples = interior_samples(image, first.vertices, self.params)
+        model = color.adapt(self.model, samples, 1.0, min_gray=self.params.min_gray)
+        left = budget - first.iterations
+        if model is self.model or left < 1:  # nothing learned, or no budget left
+            return first
+        second = evolve(image, first.vertices, model, self.params, max_iterations=left)
+        if not second.converged:
+            return first
+        self.model = model
+        return replace(second, iterations=first.iterations + second.iterations)
 
     def _predicted(self, vertices: FloatArray) -> FloatArray:
         """Where the contour should be on the new frame if the target keeps the motion of the
