@@ -51,7 +51,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.modules.vision.color import ColorModel, is_target
+from umbra.modules.vision.color import ColorModel, is_target, unclip
 from umbra.modules.vision.polygon import following
 
 FloatArray = NDArray[np.float64]
@@ -159,7 +159,9 @@ def fit_edges(
         offsets = unit * p.half_length_px
         at = np.arange(len(vertices))
         for _ in range(2):
-            profile = _profile(image, vertices[at], normals[at], shift[at], offsets)
+            profile = _unclipped(
+                model, _profile(image, vertices[at], normals[at], shift[at], offsets)
+            )
             inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
             contrast, power = _contrast(inner, outer, found[at])
             fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
@@ -250,11 +252,23 @@ def _profile(image, vertices, normals, shift, offsets) -> NDArray[np.float32]:
     return sample_bilinear(image, points)
 
 
+def _unclipped(model: ColorModel, profile: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Profiles (N, K, C) with each sample's clipped channel put back where the target's colour
+    has it (:func:`umbra.modules.vision.color.unclip`: on the patch's side of the edge of a
+    patch whose brightest channel saturates), so that channel mixes linearly across the edge
+    and its half-contrast point is the edge's, not one moved out to where the clip ends."""
+    flat = profile.reshape(-1, profile.shape[-1])
+    return unclip(model, flat).reshape(profile.shape)
+
+
 def _contrast(inner, outer, found) -> tuple[NDArray, NDArray]:
     """The colour step between the profile's ends (N x C) over the channels that are not
     clipped at either end (a saturated or black channel does not mix linearly: its edge looks
     shifted towards the clipped side), and its squared length (N; 1 where none)."""
     linear = (np.maximum(inner, outer) < _CLIP_HIGH) & (np.minimum(inner, outer) > _CLIP_LOW)
+    # A channel the target's colour put back above the sensor's top (see _unclipped) mixes
+    # linearly again on the patch's side.
+    linear |= (inner > _PUT_BACK) & (outer < _CLIP_HIGH) & (outer > _CLIP_LOW)
     step = inner - outer
     contrast = np.where(linear, step, 0.0)
     power = np.einsum("nc,nc->n", contrast, contrast)
@@ -320,6 +334,8 @@ def _half_crossing(
 _STRAIGHT = float(np.cos(np.deg2rad(20.0)))
 #: Channel levels beyond which a sample is taken as clipped by the sensor [gray levels].
 _CLIP_HIGH, _CLIP_LOW = 240.0, 2.0
+#: An end's channel above this was put back above the sensor's top [gray levels].
+_PUT_BACK = 256.0
 
 
 @lru_cache(maxsize=8)

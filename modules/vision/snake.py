@@ -30,7 +30,10 @@ the cost does not depend on the image size.
 
 When the iterations end, the contour is *measured* (:mod:`umbra.modules.vision.edge_fit`): each
 vertex is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
-profile, and the sharp convex corners the even vertices cut off are put back. That measured
+profile; when the contour follows a quadrilateral a rectangle can look like, the edge points on
+each side are put on the curve fitted to that whole side
+(:mod:`umbra.modules.vision.straight_sides`); and the sharp convex corners the even vertices cut
+off are put back. That measured
 outline (:attr:`SnakeResult.contour`) is what the tracker reports; the snake's own vertices
 (:attr:`SnakeResult.vertices`) stay where the pressure put them, to start the next frame from.
 """
@@ -54,6 +57,7 @@ from umbra.modules.vision.polygon import (
     with_positive_area,
 )
 from umbra.modules.vision.pressure import PressureField
+from umbra.modules.vision.straight_sides import straighten_sides
 
 FloatArray = NDArray[np.float64]
 
@@ -85,6 +89,9 @@ class SnakeParams:
       the iterations end [px] (0: report the snake's vertices as they are).
     - ``corner_turn_deg``: a turn sharper than this over one segment is a corner to put back
       [deg].
+    - ``side_fit_px``: when the contour follows a view of a rectangle, the edge points within
+      this of the quadratic fitted to their side are put on it (0: off; see
+      :mod:`umbra.modules.vision.straight_sides`) [px].
     - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share
       is not on a target (a featureless or colourless image): failed.
     - ``border_margin_px``: a contour that comes this close to the image border is cut by it:
@@ -115,6 +122,7 @@ class SnakeParams:
     adapt_inset_px: float = 6.0
     edge_half_length_px: float = 4.0
     corner_turn_deg: float = 40.0
+    side_fit_px: float = 1.0
     min_edge_fraction: float = 0.5
     border_margin_px: float = 1.0
     min_chroma: float = 0.02
@@ -346,9 +354,9 @@ def measure_contour(
     params: SnakeParams,
     scale: int = 1,
 ) -> tuple[FloatArray, float]:
-    """The outline on the fitted colour edge with its corners put back, and the share of
-    vertices that found an edge (see :mod:`umbra.modules.vision.edge_fit`). With the edge fit off,
-    the vertices as they are and 1."""
+    """The outline on the fitted colour edge, its sides fitted whole, its corners put back,
+    and the share of vertices that found an edge (see :mod:`umbra.modules.vision.edge_fit`).
+    With the edge fit off, the vertices as they are and 1."""
     if params.edge_half_length_px <= 0.0:
         return vertices, 1.0
     fit = fit_edges(
@@ -361,8 +369,11 @@ def measure_contour(
         EdgeFitParams(half_length_px=params.edge_half_length_px),
         scale,
     )
+    points = fit.vertices
+    if params.side_fit_px > 0.0:
+        points = straighten_sides(points, fit.found, params.side_fit_px)
     contour = complete_corners(
-        fit.vertices, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px * scale
+        points, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px * scale
     )
     return contour, fit.found_fraction
 

@@ -80,6 +80,13 @@ class SnakeSettings(Parameters):
     corner_turn_deg: float = param(
         _D["corner_turn_deg"], "sharper turns are corners put back", unit="deg", gt=0, le=180
     )
+    side_fit_px: float = param(
+        _D["side_fit_px"],
+        "edge points this close to their side's fitted curve are put on it (0: off)",
+        unit="px",
+        ge=0,
+        le=8,
+    )
     min_edge_fraction: float = param(
         _D["min_edge_fraction"], "fewer vertices on an edge: failed", ge=0, le=1
     )

@@ -128,3 +128,20 @@ def test_a_patch_whose_brightest_channel_clips_is_still_the_target() -> None:
         ]
     )
     assert not color.is_target(model, others).any()
+
+
+def test_adapt_learns_a_clipped_patch_as_the_gate_sees_it() -> None:
+    """Adaptation takes the pixels the gate takes: a red patch at a gain of 1.6 (red clipped at
+    255, green and blue at 64) is on the model's colour once red is put back, so every sample
+    teaches and the mean stays on the patch's chromaticity; judged raw, the samples lie off it
+    and the model would drift to the clipped colour."""
+    model = color.from_rgb((200, 40, 40), noise_gray=4.0)
+    rng = np.random.default_rng(11)
+    seen = np.clip(np.round(rng.normal([64.0, 64.0, 320.0], 2.0, size=(200, 3))), 0, 255)
+    r, g, total = color.chromaticity(seen)
+    assert np.median(color.mahalanobis_squared(model, r, g, total)) > 9.0  # raw: off the colour
+    adapted = color.adapt(model, seen, rate=1.0)
+    assert adapted is not model
+    np.testing.assert_allclose(adapted.mean, model.mean, atol=0.01)
+    raw_mean = np.array([r.mean(), g.mean()])
+    assert np.linalg.norm(raw_mean - model.mean) > 0.05

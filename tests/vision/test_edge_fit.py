@@ -148,3 +148,29 @@ def test_measured_outline_of_a_rendered_patch_has_no_area_bias(renderer, gain: f
     assert np.mean(raw_biases) < -0.005
     assert abs(np.mean(biases)) < 0.002
     assert np.max(np.abs(biases)) < 0.004
+
+
+@pytest.mark.parametrize("blur_sigma_px", [0.6, 1.2])
+def test_an_edge_whose_patch_channel_clips_is_found_where_it_is(blur_sigma_px: float) -> None:
+    """A red patch at a lighting gain of 1.6 (its red would be 320: the sensor clips it at 255)
+    on a dark background, blurred before the clip as a lens blurs: the clipped red channel
+    carries most of the edge's contrast and, left clipped, half its step lies 0.2-0.45 px
+    outside the edge (0.20 px at a blur of 0.6 px, 0.38 px at 1.2). With the clipped samples put
+    back on the patch's colour ray the edge is found to 0.1 px (a sample mixed with a little
+    background is put back as if it were all patch: -0.08 px at 0.6)."""
+    size, fine, offset = 200, 8, 0.3
+    grid = (np.arange(size * fine) + 0.5) / fine - 0.5
+    uu, _ = np.meshgrid(grid, grid)
+    coverage = (uu < 100.0 + offset).reshape(size, fine, size, fine).mean(axis=(1, 3))
+    patch, background = np.array([64.0, 64.0, 320.0]), np.array([20.0, 24.0, 22.0])
+    image = coverage[:, :, None] * patch + (1.0 - coverage[:, :, None]) * background
+    image = cv2.GaussianBlur(image, (0, 0), blur_sigma_px)
+    image = np.clip(np.rint(image), 0, 255).astype(np.uint8)
+    model = color.from_rgb((200, 40, 40), 4.0)
+    v = np.linspace(40.0, 160.0, 30)
+    vertices = np.column_stack([np.full(v.size, 99.0), v])
+    normals = np.repeat([[1.0, 0.0]], v.size, axis=0)
+    fit = fit_edges(image, vertices, normals, model, 3.0, 20.0)
+    assert fit.found.all()
+    residual = fit.vertices[:, 0] - (100.0 + offset)
+    assert np.abs(residual).max() < 0.1, residual

@@ -111,8 +111,10 @@ def test_harsh_held_out_frames_at_640x480_track_without_false_alarms() -> None:
     """At 640 x 480 (patches of 120-300 px under perspective, JPEG 70-95, twice the noise, gains
     up to 1.6 that clip a channel), 40 frames of seed 4340: every whole patch passes its sanity
     checks (the shapes are tested on the patch seen head-on; tested on the image, 22 of the bench's
-    60 such frames failed), the outline's IoU is at least 0.98 on every frame and its median at
-    least 0.99, and the median area bias stays within 0.35 % in every band of gain."""
+    60 such frames failed), the outline's IoU is at least 0.985 on every frame (0.9895 measured;
+    before acquisition learned from the interior and the sides were fitted whole, 0.98) and its
+    median at least 0.99, and the median area bias stays within 0.3 % in every band of gain
+    (-0.28 % above a gain of 1.35, where white backgrounds clip: left to do)."""
     conditions = replace(ps.HARSH, span_px=(120.0, 300.0))
     rng = np.random.default_rng(4341)
     ious, by_gain, failed = [], {}, []
@@ -131,8 +133,8 @@ def test_harsh_held_out_frames_at_640x480_track_without_false_alarms() -> None:
         bias = abs(signed_area(update.vertices)) / frame.area_px2 - 1.0
         by_gain.setdefault(band, []).append(bias)
     assert not failed, failed
-    assert min(ious) >= 0.98, ious
+    assert min(ious) >= 0.985, ious
     assert float(np.median(ious)) >= 0.99, ious
     assert len(by_gain) == 4
     for band, biases in by_gain.items():
-        assert abs(float(np.median(biases))) <= 0.0035, (band, biases)
+        assert abs(float(np.median(biases))) <= 0.003, (band, biases)
