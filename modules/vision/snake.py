@@ -30,8 +30,9 @@ the cost does not depend on the image size.
 
 When the iterations end, the contour is *measured* (:mod:`umbra.modules.vision.edge_fit`): each
 vertex is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
-profile; when the contour follows a quadrilateral a rectangle can look like, the edge points on
-each side are put on the curve fitted to that whole side
+profile; when the contour follows a quadrilateral a rectangle can look like (and the snake works
+on the full pixel grid), the edge points on each side are put on the curve fitted to that whole
+side
 (:mod:`umbra.modules.vision.straight_sides`); and the sharp convex corners the even vertices cut
 off are put back. That measured
 outline (:attr:`SnakeResult.contour`) is what the tracker reports; the snake's own vertices
@@ -89,7 +90,9 @@ class SnakeParams:
       the iterations end [px] (0: report the snake's vertices as they are).
     - ``corner_turn_deg``: a turn sharper than this over one segment is a corner to put back
       [deg].
-    - ``side_fit_px``: when the contour follows a view of a rectangle, the edge points within
+    - ``side_fit_px``: when the contour follows a view of a rectangle and the snake works on
+      the full pixel grid (σ = 1: a patch up to about 150 px a side, where a single edge
+      point's noise is a measurable share of the area; 0.2 ms a frame), the edge points within
       this of the quadratic fitted to their side are put on it (0: off; see
       :mod:`umbra.modules.vision.straight_sides`) [px].
     - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share
@@ -370,7 +373,7 @@ def measure_contour(
         scale,
     )
     points = fit.vertices
-    if params.side_fit_px > 0.0:
+    if params.side_fit_px > 0.0 and scale == 1:
         points = straighten_sides(points, fit.found, params.side_fit_px)
     contour = complete_corners(
         points, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px * scale

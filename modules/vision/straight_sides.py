@@ -31,9 +31,11 @@ FloatArray = NDArray[np.float64]
 
 #: The passes of the fit that drops the points off the curve, each keeping those within this
 #: many times ``max_offset_px`` of the last pass's curve (a first fit through every point is
-#: pulled by a notch or a neighbour side's end: the widest reach first); the last pass's points
-#: are moved.
-_REACH = (4.0, 2.0, 1.0, 1.0)
+#: pulled by a notch: the widest reach first); the last pass's points are moved.
+_REACH = (4.0, 2.0, 1.0)
+_POWERS = np.arange(5)
+_SIDES = np.arange(4)[:, None]
+_SQUARE = np.add.outer(np.arange(3), np.arange(3))
 
 #: The share of a side's length at either end whose points are left as measured.
 _END = 0.05
@@ -59,42 +61,39 @@ def straighten_sides(
         return points
     side = _nearest_side(points, quad)
     edge = quad[[1, 2, 3, 0]] - quad
-    length = np.maximum(np.hypot(edge[:, 0], edge[:, 1]), 1e-9)
+    length = np.hypot(edge[:, 0], edge[:, 1])
+    if length.min() <= 1e-9:
+        return points
     direction = edge / length[:, None]
-    normal = np.column_stack([direction[:, 1], -direction[:, 0]])
+    # Each point's side frame: along (in units of the side's length) and across [px].
+    frame = np.stack([direction / length[:, None], direction[:, ::-1] * [1.0, -1.0]], axis=1)
     rel = points - quad[side]
-    # Position along the side in units of its length (a well-conditioned design), offset across.
-    s = np.einsum("nc,nc->n", rel, direction[side]) / length[side]
-    d = np.einsum("nc,nc->n", rel, normal[side])
-    powers = s[:, None] ** np.arange(5)  # (N, 5): s^0 .. s^4
-    data = np.column_stack([powers, d[:, None] * powers[:, :3]])  # (N, 8)
-    one_hot = side == np.arange(4)[:, None]  # (4, N)
-    square = np.add.outer(np.arange(3), np.arange(3))
-    # The ends of a side near its corners are left out: which side a point there belongs to is
-    # ambiguous, and the corners are put back by lines through the sides' fitted points.
-    found = found & (s >= _END) & (s <= 1.0 - _END)
-    keep = found.copy()
-    residual = np.zeros(len(points))
+    s, d = np.einsum("nkc,nc->kn", frame[side], rel)
+    # Points near a side's ends are left out: which side a point there belongs to is ambiguous,
+    # and the corners are put back by lines through the sides' fitted points.
+    use = found & (s >= _END) & (s <= 1.0 - _END)
+    powers = s[:, None] ** _POWERS  # (N, 5): s^0 .. s^4
+    data = np.concatenate([powers, d[:, None] * powers[:, :3]], axis=1)  # (N, 8)
+    one_hot = side == _SIDES  # (4, N)
+    keep = use
+    residual = d
+    coef = np.zeros((4, 3))
     for reach in _REACH:
         sums = (one_hot & keep) @ data  # (4, 8): each side's moments of s, and of d s^k
-        enough = sums[:, 0] >= min_points
-        normal_eq = sums[:, square]  # (4, 3, 3)
-        normal_eq[~enough] = np.eye(3)  # a side without enough points: any solution, unused
+        normal_eq = sums[:, _SQUARE]  # (4, 3, 3)
+        normal_eq[sums[:, 0] < min_points] = np.eye(3)  # too few points: any solution, unused
         coef = np.linalg.solve(normal_eq, sums[:, 5:, None])[..., 0]  # (4, 3)
         fitted = coef[side]  # (N, 3): each point's side's coefficients
         residual = d - (fitted[:, 0] + s * (fitted[:, 1] + s * fitted[:, 2]))
-        now = found & (np.abs(residual) <= reach * max_offset_px)
-        if reach == 1.0 and np.array_equal(now, keep):
-            break
-        keep = now
-    kept = np.bincount(side, keep, minlength=4)
+        keep = use & (np.abs(residual) <= reach * max_offset_px)
+    kept = np.count_nonzero(one_hot & keep, axis=1)
     # A side is a side when enough of its points lie on its curve, most of those it measured,
     # and that curve is nearly straight (a quarter of a circle bows by 21 % of its chord).
-    sides = (kept >= min_points) & (kept >= 0.5 * np.bincount(side, found, minlength=4))
+    sides = (kept >= min_points) & (kept >= 0.5 * np.count_nonzero(one_hot & use, axis=1))
     sides &= 0.25 * np.abs(coef[:, 2]) <= _MAX_BOW * length
     move = keep & sides[side]
     out = points.copy()
-    out[move] -= residual[move, None] * normal[side[move]]
+    out[move] -= residual[move, None] * frame[side[move], 1]
     return out
 
 
