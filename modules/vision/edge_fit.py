@@ -334,8 +334,9 @@ def _half_crossing(
 _STRAIGHT = float(np.cos(np.deg2rad(20.0)))
 #: Channel levels beyond which a sample is taken as clipped by the sensor [gray levels].
 _CLIP_HIGH, _CLIP_LOW = 240.0, 2.0
-#: An end's channel above this was put back above the sensor's top [gray levels].
-_PUT_BACK = 256.0
+#: An 8-bit sensor reads at most this: an end's channel above it was put back by
+#: :func:`umbra.modules.vision.color.unclip` [gray levels].
+_PUT_BACK = float(np.iinfo(np.uint8).max)
 
 
 @lru_cache(maxsize=8)

@@ -32,11 +32,10 @@ When the iterations end, the contour is *measured* (:mod:`umbra.modules.vision.e
 vertex is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
 profile; when the contour follows a quadrilateral a rectangle can look like (and the snake works
 on the full pixel grid), the edge points on each side are put on the curve fitted to that whole
-side
-(:mod:`umbra.modules.vision.straight_sides`); and the sharp convex corners the even vertices cut
-off are put back. That measured
-outline (:attr:`SnakeResult.contour`) is what the tracker reports; the snake's own vertices
-(:attr:`SnakeResult.vertices`) stay where the pressure put them, to start the next frame from.
+side (:mod:`umbra.modules.vision.straight_sides`); and the sharp convex corners the even
+vertices cut off are put back. That measured outline (:attr:`SnakeResult.contour`) is what the
+tracker reports; the snake's own vertices (:attr:`SnakeResult.vertices`) stay where the pressure
+put them, to start the next frame from.
 """
 
 from __future__ import annotations
@@ -92,7 +91,7 @@ class SnakeParams:
       [deg].
     - ``side_fit_px``: when the contour follows a view of a rectangle and the snake works on
       the full pixel grid (σ = 1: a patch up to about 150 px a side, where a single edge
-      point's noise is a measurable share of the area; 0.2 ms a frame), the edge points within
+      point's noise is a measurable share of the area; 0.35 ms a frame), the edge points within
       this of the quadratic fitted to their side are put on it (0: off; see
       :mod:`umbra.modules.vision.straight_sides`) [px].
     - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share

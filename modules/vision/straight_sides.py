@@ -59,12 +59,12 @@ def straighten_sides(
     quadrilateral it follows put on that side's fitted quadratic; only points where an edge was
     measured (``found``) take part. Unchanged when the contour is not a view of a rectangle.
     The four sides are fitted together (their moments in one product, one batched 3 x 3 solve
-    per pass): about 0.2 ms for 60 points, half of it finding the quadrilateral."""
+    per pass): 0.25-0.35 ms a frame for 60 points, a third of it finding the quadrilateral."""
     quad = quadrilateral(points)
     if quad is None or not is_rectangle_view(quad):
         return points
-    side = _nearest_side(points, quad)
     edge = quad[[1, 2, 3, 0]] - quad
+    side = _nearest_side(points, quad, edge)
     length = np.hypot(edge[:, 0], edge[:, 1])
     if length.min() <= 1e-9:
         return points
@@ -101,12 +101,10 @@ def straighten_sides(
     return out
 
 
-def _nearest_side(points: FloatArray, quad: FloatArray) -> NDArray[np.intp]:
-    """Index k of the side ``quad[k] -> quad[k + 1]`` each point (N x 2) lies nearest to."""
-    start = quad
-    edge = quad[[1, 2, 3, 0]] - quad
+def _nearest_side(points: FloatArray, quad: FloatArray, edge: FloatArray) -> NDArray[np.intp]:
+    """Index k of the side ``quad[k] -> quad[k] + edge[k]`` each point (N x 2) lies nearest to."""
     length2 = np.maximum(np.einsum("kc,kc->k", edge, edge), 1e-12)
-    rel = points[:, None, :] - start[None, :, :]  # (N, 4, 2)
+    rel = points[:, None, :] - quad[None, :, :]  # (N, 4, 2)
     along = np.clip(np.einsum("nkc,kc->nk", rel, edge) / length2, 0.0, 1.0)
     gap = rel - along[..., None] * edge[None, :, :]
     return np.argmin(np.einsum("nkc,nkc->nk", gap, gap), axis=1)
