@@ -14,8 +14,10 @@ never queued for ``step``.
 
 Video: each new camera image is JPEG-encoded once (in one encoder thread, only while a page
 watches) and sent as a binary websocket message ``[4-byte header length][JSON header][JPEG]``.
-A page has at most ``MAX_IN_FLIGHT`` frames sent and not yet reported painted (a lost report
-expires after ``ACK_TIMEOUT_S``), so frames never queue: the latest wins.
+A page has at most two frames and two states sent and not yet reported shown, so neither
+queues: the latest wins (:mod:`umbra.modules.operator.page_flow`). The run's last state is sent
+to every open page, which says it has shown it, before the console's process ends; the socket is
+then closed cleanly.
 """
 
 from __future__ import annotations
@@ -42,14 +44,15 @@ from fastapi.responses import HTMLResponse, Response
 from umbra.connectors.access.rate import MessageBudget
 from umbra.modules.operator.console_params import PAGE_SILENT_S
 from umbra.modules.operator.mailbox import Lanes, Latest
+from umbra.modules.operator.page_flow import PageFlow
 from umbra.modules.operator.protocol import MessageChecker, ProtocolError, ReplayedMessage
 from umbra.modules.operator.web_server import WebServer
 from umbra.modules.webdoor.viewer import VIEWER_SCOPE
 
 _LOG = logging.getLogger("umbra.operator")
 
-ACK_TIMEOUT_S = 1.0
-MAX_IN_FLIGHT = 2  #: frames on their way to a page (hides the round trip; never a queue)
+#: the close code and reason of a socket whose page has shown the run's end
+_ENDED = (1000, "run ended")
 
 
 @dataclass(frozen=True)
@@ -140,9 +143,10 @@ class ConsoleApp:
         self._lock = threading.Lock()
         self._page = _static("station.html")
         self._files = _station_files()
-        #: per open socket: the state version it last sent (web thread writes, ``flush_final``
+        #: per open socket: what is on its way to its page (web thread writes, ``flush_final``
         #: reads)
-        self._sent_state: dict[int, int] = {}
+        self._flows: dict[int, PageFlow] = {}
+        self._final_version = 0  #: the version of the run's last state (0: the run goes on)
         app = server.app
         app.add_api_route("/", self._index, methods=["GET"])
         app.add_api_route("/station/{folder}/{name}", self._file, methods=["GET"])
@@ -167,13 +171,13 @@ class ConsoleApp:
 
     def flush_final(self, state: dict[str, Any], timeout: float) -> None:
         """Hand the pages their last state (the run's end) and wait, at most ``timeout`` [s],
-        until every open socket has sent it (called by the stopping module, not the web
-        thread)."""
+        until every open page has shown it (a client that does not say what it showed: until
+        it was sent). Called by the stopping module, not the web thread."""
         self.state.put(state)
-        version = self.state.get()[0]
+        version = self._final_version = self.state.get()[0]
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if all(v >= version for v in list(self._sent_state.values())):
+            if all(flow.final_done(version) for flow in list(self._flows.values())):
                 return
             threading.Event().wait(0.02)
 
@@ -232,7 +236,7 @@ class ConsoleApp:
         name = f"viewer {next(self._names)} ({client.host if client else '?'})"
         checker = MessageChecker(session)
         budget = MessageBudget()
-        flight = _InFlight()
+        flow = PageFlow()
         self.stats.viewers += 1
         self.stats.viewers_max = max(self.stats.viewers_max, self.stats.viewers)
         browser = ws.scope.get(VIEWER_SCOPE, "")
@@ -241,7 +245,7 @@ class ConsoleApp:
         try:
             welcome = {"type": "welcome", "session": session, "name": name}
             await ws.send_text(json.dumps({**welcome, "silent_s": PAGE_SILENT_S}))
-            sender = asyncio.create_task(self._send_loop(ws, flight))
+            sender = asyncio.create_task(self._send_loop(ws, flow))
             while True:
                 message = await ws.receive()
                 if message["type"] == "websocket.disconnect":
@@ -249,7 +253,7 @@ class ConsoleApp:
                     break
                 why = budget.spend(time.monotonic())
                 if not why:
-                    why = await self._one(ws, session, checker, budget, flight, message)
+                    why = await self._one(ws, session, checker, budget, flow, message)
                 if why:
                     self.stats.closed_abusers += 1
                     _LOG.warning("console: closed the socket of %s: %s", name, why)
@@ -269,7 +273,7 @@ class ConsoleApp:
         session: str,
         checker: MessageChecker,
         budget: MessageBudget,
-        flight: _InFlight,
+        flow: PageFlow,
         message: Mapping[str, Any],
     ) -> str:
         """Check one message and queue it for ``step``; "" or why the socket must close."""
@@ -291,7 +295,10 @@ class ConsoleApp:
         if msg.type == "painted":
             if msg.fields["latency_ms"] > 0:  # 0: overtaken by a newer frame, not drawn
                 self._painted(msg.fields["latency_ms"])
-            flight.painted()
+            flow.frames.acknowledge()
+            return ""
+        if msg.type == "seen":
+            flow.states.acknowledge(msg.fields["state"])
             return ""
         if not self.lanes.put(session, Event("msg", session, msg, time.monotonic())):
             self.stats.lane_full += 1
@@ -315,39 +322,46 @@ class ConsoleApp:
         """The state as JSON, serialized once per version for every page."""
         cached = self._state_json
         if cached[0] != version:
-            cached = self._state_json = (version, json.dumps({"type": "state", **state}))
+            text = json.dumps({"type": "state", "version": version, **state})
+            cached = self._state_json = (version, text)
         return cached[1]
 
-    async def _send_loop(self, ws: WebSocket, flight: _InFlight) -> None:
-        """Send each new state snapshot, and the newest frame while fewer than
-        ``MAX_IN_FLIGHT`` frames await their painted report."""
-        frame_version = sent_state = 0
+    async def _send_loop(self, ws: WebSocket, flow: PageFlow) -> None:
+        """Send the newest state and the newest frame whenever the page has room for them
+        (:mod:`~umbra.modules.operator.page_flow`); close the socket cleanly once the page has
+        shown the run's end."""
+        frame_version = 0
         key = id(ws)
-        self._sent_state[key] = 0
+        self._flows[key] = flow
         try:
             while True:
+                if self._final_version and flow.states.shown(self._final_version):
+                    await ws.close(*_ENDED)  # nothing more to say: no reset loses a word
+                    return
                 state_version, state = self.state.get()
-                if state is not None and state_version > sent_state:
-                    sent_state = state_version
+                if state is not None and state_version > flow.state_sent and flow.states.can_send():
+                    flow.states.sent(state_version)
                     await ws.send_text(self._state_text(state_version, state))
-                    self._sent_state[key] = sent_state
-                can_send = flight.can_send()
+                    flow.state_sent = state_version
                 version, data = self._encoded.get()
-                if can_send and data is not None and version > frame_version:
+                if data is not None and version > frame_version and flow.frames.can_send():
                     frame_version = version
-                    flight.sent()
+                    flow.frames.sent(version)
                     await ws.send_bytes(data)
                     self.stats.frames_sent += 1
                     continue
-                waits: list[asyncio.Future[object]] = [
-                    asyncio.ensure_future(self.state.wait_newer(sent_state, 0.25))
+                waits = [
+                    asyncio.ensure_future(
+                        self.state.wait_newer(flow.state_sent, 0.25)
+                        if flow.states.can_send()
+                        else flow.states.event.wait()
+                    ),
+                    asyncio.ensure_future(
+                        self._encoded.wait_newer(frame_version, 0.25)
+                        if flow.frames.can_send()
+                        else flow.frames.event.wait()
+                    ),
                 ]
-                if can_send:
-                    waits.append(
-                        asyncio.ensure_future(self._encoded.wait_newer(frame_version, 0.25))
-                    )
-                else:
-                    waits.append(asyncio.ensure_future(flight.event.wait()))
                 _, pending = await asyncio.wait(
                     waits, timeout=0.25, return_when=asyncio.FIRST_COMPLETED
                 )
@@ -356,27 +370,4 @@ class ConsoleApp:
         except (asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
             return
         finally:
-            self._sent_state.pop(key, None)
-
-
-class _InFlight:
-    """Frames sent to one page and not yet reported painted (web thread only)."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.deadline = 0.0
-        self.event = asyncio.Event()
-
-    def can_send(self) -> bool:
-        if self.count and time.monotonic() > self.deadline:
-            self.count = 0  # reports lost (a busy page): start over
-        return self.count < MAX_IN_FLIGHT
-
-    def sent(self) -> None:
-        self.count += 1
-        self.deadline = time.monotonic() + ACK_TIMEOUT_S
-        self.event.clear()
-
-    def painted(self) -> None:
-        self.count = max(0, self.count - 1)
-        self.event.set()
+            self._flows.pop(key, None)

@@ -32,6 +32,7 @@ _SCHEMA: dict[str, dict[str, str]] = {
     "action": {"action": "str"},
     "jog": {"held": "bool", "axes": "axes", "jog_frame": "str", "speed": "num", "frame": "int"},
     "painted": {"frame": "int", "latency_ms": "num"},
+    "seen": {"state": "int"},  #: the page has drawn state ``version`` (and every one before)
     "zoom": {"camera": "str", "value": "num"},
 }
 

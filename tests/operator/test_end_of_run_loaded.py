@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
+from playwright.sync_api import Page
 
 from tests.operator.browser import REPO, GraphRun, chromium, needs_chromium, take_control
 from tests.operator.test_end_of_run import END_SHOWN_S, LOAD_PER_CORE
@@ -140,7 +141,9 @@ def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path:
                     holder.wait_for_timeout(20)
             print(f"end shown after the run's end [s]: {shown}", flush=True)
             for page in (holder, watcher):
-                assert VERDICT in page.inner_text("#ended"), page.inner_text("#ended")
+                assert VERDICT in page.inner_text("#ended"), _what_the_page_and_run_said(
+                    page, run, judged_at
+                )
                 assert page.inner_text("#conn") == "run ended"
             assert f"Run ended: {VERDICT}" in view.inner_text("body")
             view.screenshot(path=str(REPO / "docs" / "images" / "view3d-ended.png"))
@@ -148,6 +151,16 @@ def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path:
         assert len(shown) == 3 and max(shown.values()) <= END_SHOWN_S, shown
     finally:
         run.kill()
+
+
+def _what_the_page_and_run_said(page: Page, run: TimedRun, judged_at: float) -> str:
+    """A station page's connection and phase, and the run's output timed from the verdict [s]."""
+    said = page.evaluate(
+        "({conn: document.querySelector('#conn').textContent, ended: window.umbra.ended, "
+        "phase: window.umbra.state && window.umbra.state.phase})"
+    )
+    lines = "".join(f"{t - judged_at:+7.2f} s {line}" for t, line in list(run.timed)[-60:])
+    return f"the page: {said}\nthe run's output, timed from the verdict:\n{lines}"
 
 
 def _wait_line(run: TimedRun, pattern: str, timeout_s: float = 60.0) -> str:

@@ -21,6 +21,12 @@ umbra.send = (type, fields = {}) => {
   if (!socket || socket.readyState !== 1 || !umbra.session || umbra.ended) return;
   socket.send(JSON.stringify({ session: umbra.session, seq: ++seq, type, ...fields }));
 };
+// the page has drawn state `version`: the server sends the next one only then (never a queue),
+// and waits for it to know the run's end was shown (said after the end too, unlike umbra.send)
+const seen = (version) => {
+  if (socket && socket.readyState === 1 && umbra.session && Number.isInteger(version))
+    socket.send(JSON.stringify({ session: umbra.session, seq: ++seq, type: "seen", state: version }));
+};
 umbra.holds = () => !!(umbra.state && umbra.state.control_session &&
                        umbra.state.control_session === umbra.session);
 
@@ -59,6 +65,7 @@ umbra.connect = () => {
       umbra.state = m; umbra.ended = umbra.ended || end;
       umbra.emit("state", m);
       if (end) umbra.emit("ended", m);
+      seen(m.version);
     }
   };
 };

@@ -49,7 +49,13 @@
   umbra.on("frame", async (buf) => {
     const n = new DataView(buf).getUint32(0);
     const head = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
-    const bitmap = await createImageBitmap(new Blob([new Uint8Array(buf, 4 + n)], { type: "image/jpeg" }));
+    let bitmap;
+    try {
+      bitmap = await createImageBitmap(new Blob([new Uint8Array(buf, 4 + n)], { type: "image/jpeg" }));
+    } catch (err) {  // not drawn, but answered: the server sends a frame only for an answer
+      umbra.send("painted", { frame: head.frame, latency_ms: 0 });
+      return;
+    }
     requestAnimationFrame(() => {
       const c = $("video");
       if (head.frame < umbra.frame) { bitmap.close(); umbra.send("painted", { frame: head.frame, latency_ms: 0 }); return; }
