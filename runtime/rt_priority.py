@@ -36,6 +36,9 @@ GIL_SWITCH_S = 0.0005
 MIN_PRIORITY = 1
 MAX_PRIORITY = 99
 TASKS = "/proc/self/task"
+#: Most looks at the process's threads when moving them (each finds those started during the
+#: last; a process that starts threads faster than they are moved is held after the last)
+_LOOKS = 10
 
 
 def is_priority(value: object) -> bool:
@@ -76,16 +79,24 @@ class RealtimePriority:
         if self.priority is None or self.reason:
             return
         param = os.sched_param(self.priority)
+        looked: set[int] = set()
         try:
-            for tid in _threads():
-                try:
-                    before = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
-                    if before[0] in BACKGROUND_POLICIES:
-                        continue  # it asked for the background (a recorder): it stays there
-                    os.sched_setscheduler(tid, os.SCHED_FIFO, param)
-                except ProcessLookupError:
-                    continue  # the thread ended meanwhile
-                self._before[tid] = before
+            # again while a look finds threads the last one did not: a thread not moved yet may
+            # start one meanwhile, under its own policy (a zenoh session opening a link)
+            for _ in range(_LOOKS):
+                new = [tid for tid in _threads() if tid not in looked]
+                if not new:
+                    break
+                looked.update(new)
+                for tid in new:
+                    try:
+                        before = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
+                        if before[0] in BACKGROUND_POLICIES:
+                            continue  # it asked for the background (a recorder): it stays there
+                        os.sched_setscheduler(tid, os.SCHED_FIFO, param)
+                    except ProcessLookupError:
+                        continue  # the thread ended meanwhile
+                    self._before[tid] = before
         except OSError as exc:
             self.reason = f"cannot set SCHED_FIFO: {exc.strerror or exc}"
             self.release()

@@ -50,10 +50,14 @@ def test_a_ring_of_processes_ends_without_the_grace_and_keeps_its_tail(tmp_path:
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     said = done.stdout + done.stderr
     assert f"input streams still open {FINISH_GRACE:.0f} s after" not in said, said[-2000:]
-    received = {
-        p: {s["key"]: s["received"] for s in json.loads(
+    links = {
+        p: {s["key"]: s for s in json.loads(
             (tmp_path / "out" / f"summary-{p}.json").read_text())["links"]["subscribe"]}
         for p in ("b", "c")
     }  # fmt: skip
-    assert received["b"]["umbra/ring/counter/count"] == 50  # upstream: waited for to the end
-    assert received["c"]["umbra/ring/double/output"] >= 45, received
+    counts = links["b"]["umbra/ring/counter/count"]
+    assert counts["received"] == 50, counts  # upstream: waited for to the end, every sample
+    # a mutual peer's stream: heard to near its end (the last sequence number heard; a loaded
+    # machine may drop samples of this best-effort link on the way, which are counted missing)
+    doubled = links["c"]["umbra/ring/double/output"]
+    assert doubled["received"] + doubled["missing"] >= 45, doubled
