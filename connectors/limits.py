@@ -61,8 +61,9 @@ MAX_PAGE_CONNECTIONS_PER_CLIENT = 32
 MAX_PAGE_ACCEPT_BACKLOG = 128
 #: Longest a request may take to arrive whole, head then body [s] (a websocket upgrade: its head).
 MAX_PAGE_REQUEST_S = 5.0
-#: Messages a page may send on its socket per second, sustained (a held jog and the painted
-#: reports of 30 fps video are about 55) and in a burst; beyond either its socket is closed.
+#: Messages a page may send on its socket per second, sustained (a held jog, the painted reports
+#: of 30 fps video and the seen reports of the console's states are about 65, 115 at the console's
+#: highest state rate) and in a burst; beyond either its socket is closed.
 MAX_PAGE_MESSAGES_PER_S = 120.0
 MAX_PAGE_MESSAGE_BURST = 240
 #: Malformed or refused-as-replayed messages after which a page's socket is closed.
