@@ -14,10 +14,10 @@ never queued for ``step``.
 
 Video: each new camera image is JPEG-encoded once (in one encoder thread, only while a page
 watches) and sent as a binary websocket message ``[4-byte header length][JSON header][JPEG]``.
-A page has at most two frames and two states sent and not yet reported shown, so neither
-queues: the latest wins (:mod:`umbra.modules.operator.page_flow`). The run's last state is sent
-to every open page, which says it has shown it, before the console's process ends; the socket is
-then closed cleanly.
+A page has at most ``page_flow.MAX_IN_FLIGHT`` frames and as many states sent and not yet
+reported shown, so neither queues: the latest wins (:mod:`umbra.modules.operator.page_flow`).
+The run's last state is sent to every open page, which says it has shown it, before the
+console's process ends; the socket is then closed cleanly.
 """
 
 from __future__ import annotations
@@ -339,10 +339,10 @@ class ConsoleApp:
                     await ws.close(*_ENDED)  # nothing more to say: no reset loses a word
                     return
                 state_version, state = self.state.get()
-                if state is not None and state_version > flow.state_sent and flow.states.can_send():
+                newer = state_version > flow.states.newest_sent
+                if state is not None and newer and flow.states.can_send():
                     flow.states.sent(state_version)
                     await ws.send_text(self._state_text(state_version, state))
-                    flow.state_sent = state_version
                 version, data = self._encoded.get()
                 if data is not None and version > frame_version and flow.frames.can_send():
                     frame_version = version
@@ -352,7 +352,7 @@ class ConsoleApp:
                     continue
                 waits = [
                     asyncio.ensure_future(
-                        self.state.wait_newer(flow.state_sent, 0.25)
+                        self.state.wait_newer(flow.states.newest_sent, 0.25)
                         if flow.states.can_send()
                         else flow.states.event.wait()
                     ),

@@ -35,6 +35,7 @@ class InFlight:
     def __init__(self, paced: bool) -> None:
         self.paced = paced
         self.versions: list[int] = []  #: sent and not yet acknowledged, oldest first
+        self.newest_sent = 0  #: the newest version sent (0: none yet)
         self.acknowledged = 0  #: the newest version the page acknowledged (0: none yet)
         self.acks = False  #: the page has acknowledged one of this kind
         self.deadline = 0.0
@@ -50,6 +51,7 @@ class InFlight:
 
     def sent(self, version: int) -> None:
         self.versions.append(version)
+        self.newest_sent = version
         self.deadline = time.monotonic() + ACK_TIMEOUT_S
         self.event.clear()
 
@@ -70,16 +72,15 @@ class InFlight:
 
 class PageFlow:
     """One page's frames and states on their way (web thread writes; ``flush_final`` reads
-    ``state_sent`` and ``states`` from the stopping module's thread)."""
+    ``states`` from the stopping module's thread)."""
 
     def __init__(self) -> None:
         self.frames = InFlight(paced=True)
         self.states = InFlight(paced=False)
-        self.state_sent = 0  #: the newest state version sent to this page
 
     def final_done(self, version: int) -> bool:
         """The run's last state (``version``) has been shown by this page, or sent to a client
         that does not say what it showed."""
         if self.states.acks:
             return self.states.shown(version)
-        return self.state_sent >= version
+        return self.states.newest_sent >= version

@@ -73,7 +73,7 @@ def test_in_flight_counts_by_version_and_never_expires_once_acknowledged() -> No
     frames.deadline = 0.0  # once it has acknowledged, nothing expires
     assert not frames.can_send() and frames.versions == [10, 11]
     flow = PageFlow()
-    flow.state_sent = 4
+    flow.states.sent(4)
     assert flow.final_done(4) and not flow.final_done(5)  # a client that does not say: sent
     flow.states.acknowledge(3)
     assert not flow.final_done(4)  # a page that says: shown

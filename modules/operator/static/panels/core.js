@@ -17,16 +17,14 @@ umbra.silentS = 0;
 
 umbra.on = (kind, fn) => { (umbra.handlers[kind] = umbra.handlers[kind] || []).push(fn); };
 umbra.emit = (kind, data) => { for (const fn of umbra.handlers[kind] || []) fn(data); };
-umbra.send = (type, fields = {}) => {
-  if (!socket || socket.readyState !== 1 || !umbra.session || umbra.ended) return;
+const post = (type, fields) => {
+  if (!socket || socket.readyState !== 1 || !umbra.session) return;
   socket.send(JSON.stringify({ session: umbra.session, seq: ++seq, type, ...fields }));
 };
+umbra.send = (type, fields = {}) => { if (!umbra.ended) post(type, fields); };
 // the page has drawn state `version`: the server sends the next one only then (never a queue),
 // and waits for it to know the run's end was shown (said after the end too, unlike umbra.send)
-const seen = (version) => {
-  if (socket && socket.readyState === 1 && umbra.session && Number.isInteger(version))
-    socket.send(JSON.stringify({ session: umbra.session, seq: ++seq, type: "seen", state: version }));
-};
+const seen = (version) => { if (Number.isInteger(version)) post("seen", { state: version }); };
 umbra.holds = () => !!(umbra.state && umbra.state.control_session &&
                        umbra.state.control_session === umbra.session);
 
