@@ -16,7 +16,10 @@ the clipped side.
 
 1. *Centring*: the step of equal area ``e = ∫ t ds - L`` over the whole profile (on a coarse
    grid σ > 1, over a σ times longer profile). It is exact for a clean edge, but the whole
-   profile's texture and an off-centre profile move it.
+   profile's texture and an off-centre profile move it. A vertex whose profile has no edge to
+   measure is centred again from a profile twice as long: on a dark background a blurred
+   patch's halo has the patch's chromaticity, so the snake may rest a few pixels off the edge
+   with both ends of its profile in the halo.
 2. *Crossing*: on a profile centred there, the first point from the patch's side where t falls
    through one half (a straight line through the samples within a pixel of it): for an edge
    smeared by any symmetric kernel (lens, motion, the pixels' area, bilinear sampling) the
@@ -27,6 +30,10 @@ the clipped side.
    what lies beyond it). Where the result lay more than ``recentre_px`` off its profile's
    centre, 2 and 3 are repeated on a profile centred on it, so that its ends lie as far out on
    either side of the edge (blur reaching one end more than the other biases c_in or c_out).
+   Where every channel with contrast is clipped at an end (a white background, a patch
+   saturated in all its bright channels), 2 and 3 give way to the profile's steepest point,
+   channel by channel where the channel is not clipped (a symmetric blur's line spread peaks at
+   the edge whatever the ends read).
 
 A fitted point further than ``max_kink_px`` off the curve through its neighbours' (a speck of
 texture, another edge in the profile) is dropped. Where there is no edge to measure (the ends
@@ -45,6 +52,7 @@ most), never the whole image. Pixels: u right, v down, pixel centres at integer 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -131,28 +139,24 @@ def fit_edges(
     count = round(2.0 * p.half_length_px / p.sample_px) + 1
     ends = max(round(p.end_px / p.sample_px) + 1, 1)
     weights, unit = _profile_weights(count, ends)
-    total = float(count - 1)  # the trapezoid weights' sum
-    shift = np.zeros(len(vertices))
-    found = np.ones(len(vertices), dtype=bool)
     # Centring: the step of equal area over a profile σ times longer on a coarse grid (the
     # colour tests are made here); then, on a profile centred there, the first half-contrast
     # crossing from the patch's side, refined by the step of equal area over a window centred
     # on it alone.
     length = p.half_length_px * scale
-    profile = _profile(image, vertices, normals, shift, unit * length)
-    inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
-    contrast = inner - outer
-    power = np.einsum("nc,nc->n", contrast, contrast)
-    found &= power >= p.min_contrast**2
-    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
-    found &= target[: len(inner)] & ~target[len(inner) :]
-    # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
-    # samples, so summed first.
-    moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
-    integral = (p.sample_px * scale) * moment / np.where(found, power, 1.0)
-    shift = np.where(found, integral - length, 0.0)
-    found &= np.abs(shift) <= p.max_shift_px * scale
-    shift = np.where(found, shift, 0.0)
+
+    def is_patch(colours: NDArray[np.float32]) -> NDArray[np.bool_]:
+        return is_target(model, colours, k_sigma, min_gray)
+
+    shift, found = _centring(image, vertices, normals, is_patch, p, length)
+    # A vertex whose profile's ends did not both lie clear of the edge (the snake came to rest a
+    # few pixels off it, in a blurred patch's halo on a dark background, whose pixels have the
+    # patch's chromaticity) is centred again from a profile twice as long.
+    again = np.flatnonzero(~found)
+    if again.size:
+        shift[again], found[again] = _centring(
+            image, vertices[again], normals[again], is_patch, p, 2.0 * length
+        )
     if p.crossing:
         # The second profile is centred on the first one's edge, so that its ends lie as far out
         # on either side; only where that edge lay more than ``recentre_px`` off the centre.
@@ -163,11 +167,20 @@ def fit_edges(
                 model, _profile(image, vertices[at], normals[at], shift[at], offsets)
             )
             inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
-            contrast, power = _contrast(inner, outer, found[at])
+            contrast, power, clipped = _contrast(inner, outer, found[at])
             fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
             fraction /= power[:, None]
             edge, crossed = _half_crossing(fraction, offsets, p.sample_px)
             edge = _centred_step(fraction, offsets, edge, p.window_px)
+            if np.any(clipped):
+                steep, ok = _steepest(
+                    profile[clipped],
+                    inner[clipped] - outer[clipped],
+                    offsets,
+                    edge[clipped],
+                    p.window_px,
+                )
+                edge[clipped] = np.where(ok, steep, edge[clipped])
             found[at] &= crossed
             shift[at] = np.where(found[at], shift[at] + edge, 0.0)
             found &= np.abs(shift) <= p.max_shift_px * scale
@@ -184,6 +197,39 @@ def fit_edges(
     if p.smooth_reach > 0:
         shift += _along_the_curve(vertices + shift[:, None] * normals, normals, found, p)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
+
+
+def _centring(
+    image: NDArray[np.uint8],
+    vertices: FloatArray,
+    normals: FloatArray,
+    is_patch: Callable[[NDArray[np.float32]], NDArray[np.bool_]],
+    p: EdgeFitParams,
+    length: float,
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Each vertex's move along its normal (N px) to the step of equal area over the profile
+    ``[-length, length]`` px about it, and whether there is an edge to measure there: the ends
+    differ by ``min_contrast``, the inner one is the target's colour by ``is_patch`` (colours
+    K x 3 -> K) and the outer one is not, and the move is within ``max_shift_px`` per
+    ``half_length_px`` of profile."""
+    count = round(2.0 * p.half_length_px / p.sample_px) + 1
+    ends = max(round(p.end_px / p.sample_px) + 1, 1)
+    weights, unit = _profile_weights(count, ends)
+    profile = _profile(image, vertices, normals, np.zeros(len(vertices)), unit * length)
+    inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
+    contrast = inner - outer
+    power = np.einsum("nc,nc->n", contrast, contrast)
+    found = power >= p.min_contrast**2
+    target = is_patch(np.concatenate([inner, outer]))
+    found &= target[: len(inner)] & ~target[len(inner) :]
+    # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
+    # samples, so summed first.
+    moment = np.einsum("nc,nc->n", summed - (count - 1) * outer, contrast)
+    spacing = 2.0 * length / (count - 1)
+    integral = spacing * moment / np.where(found, power, 1.0)
+    shift = np.where(found, integral - length, 0.0)
+    found &= np.abs(shift) <= p.max_shift_px * length / p.half_length_px
+    return np.where(found, shift, 0.0), found
 
 
 def _along_the_curve(
@@ -261,10 +307,11 @@ def _unclipped(model: ColorModel, profile: NDArray[np.float32]) -> NDArray[np.fl
     return unclip(model, flat).reshape(profile.shape)
 
 
-def _contrast(inner, outer, found) -> tuple[NDArray, NDArray]:
+def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
     """The colour step between the profile's ends (N x C) over the channels that are not
     clipped at either end (a saturated or black channel does not mix linearly: its edge looks
-    shifted towards the clipped side), and its squared length (N; 1 where none)."""
+    shifted towards the clipped side), its squared length (N; 1 where none), and where the
+    full step had to be taken instead (N: every channel with contrast clipped)."""
     linear = (np.maximum(inner, outer) < _CLIP_HIGH) & (np.minimum(inner, outer) > _CLIP_LOW)
     # A channel the target's colour put back above the sensor's top (see _unclipped) mixes
     # linearly again on the patch's side.
@@ -277,7 +324,7 @@ def _contrast(inner, outer, found) -> tuple[NDArray, NDArray]:
     if np.any(weak):
         contrast = np.where(weak[:, None], step, contrast)
         power = np.einsum("nc,nc->n", contrast, contrast)
-    return contrast, np.where(found & (power > 0.0), power, 1.0)
+    return contrast, np.where(found & (power > 0.0), power, 1.0), weak & found
 
 
 def _centred_step(
@@ -302,6 +349,52 @@ def _centred_step(
 
     area = area_to(centre + window_px) - area_to(centre - window_px)
     return np.clip(centre - window_px + area, centre - window_px, centre + window_px)
+
+
+def _steepest(
+    profile: NDArray[np.float32],
+    step: FloatArray,
+    offsets: FloatArray,
+    centre: FloatArray,
+    reach_px: float,
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Where each profile (N, K, C colours at ``offsets`` K px) falls fastest within
+    ``reach_px`` of ``centre`` (N px), channel by channel: a symmetric blur's line spread peaks
+    at the edge, whatever the colours at the ends. Where every channel with contrast clips (a
+    white background, a patch saturated in all its bright channels), the half-contrast point
+    between the clipped ends lies towards the clipped side; a channel's steepest point does
+    not, as long as the channel reads below the sensor's top there and on either side. Each
+    channel's peak of its central difference (in the direction of its ``step``, N x C: inner
+    minus outer) is placed by a parabola through it and its neighbours, and the channels
+    whose peak is seen are averaged, weighted by their step squared. Returns (edge px, found:
+    a channel's peak seen within the reach)."""
+    spacing = float(offsets[1] - offsets[0])
+    sign = np.sign(step)[:, None, :]
+    slope = sign * (profile[:, :-2] - profile[:, 2:])  # (N, K - 2, C), at offsets[1:-1]
+    middle = offsets[1:-1]
+    lit = (profile < _CLIP_HIGH) & (profile > _CLIP_LOW)
+    seen = lit[:, :-2] & lit[:, 1:-1] & lit[:, 2:]  # the difference reads no clipped sample
+    near = np.abs(middle[None, :] - centre[:, None]) <= reach_px  # (N, K - 2)
+    candidates = np.where(seen & near[:, :, None], slope, -np.inf)
+    k = np.argmax(candidates, axis=1)  # (N, C)
+    inside = (k > 0) & (k < len(middle) - 1)
+    k = np.clip(k, 1, len(middle) - 2)
+    rows = np.arange(len(profile))[:, None]
+    channels = np.arange(profile.shape[2])[None, :]
+    y0 = candidates[rows, k - 1, channels]
+    y1 = candidates[rows, k, channels]
+    y2 = candidates[rows, k + 1, channels]
+    peak = inside & np.isfinite(y0) & np.isfinite(y1) & np.isfinite(y2) & (y1 > 0.0)
+    y0, y1, y2 = (np.where(peak, y, 0.0) for y in (y0, y1, y2))
+    curvature = y0 - 2.0 * y1 + y2
+    peak &= curvature < 0.0
+    delta = np.where(peak, 0.5 * (y0 - y2) / np.where(peak, curvature, -1.0), 0.0)
+    position = middle[k] + np.clip(delta, -0.5, 0.5) * spacing  # (N, C)
+    weight = np.where(peak, step * step, 0.0)
+    total = weight.sum(axis=1)
+    found = total > 0.0
+    edge = (weight * position).sum(axis=1) / np.where(found, total, 1.0)
+    return np.where(found, edge, centre), found
 
 
 def _half_crossing(

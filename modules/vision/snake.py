@@ -31,8 +31,9 @@ the cost does not depend on the image size.
 When the iterations end, the contour is *measured* (:mod:`umbra.modules.vision.edge_fit`): each
 vertex is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
 profile; when the contour follows a quadrilateral a rectangle can look like (and the snake works
-on the full pixel grid), the edge points on each side are put on the curve fitted to that whole
-side (:mod:`umbra.modules.vision.straight_sides`); and the sharp convex corners the even
+on a fine enough grid), the edge points on each side are put on the curve fitted to that whole
+side (:mod:`umbra.modules.vision.straight_sides`) and the corners where those curves meet
+(:mod:`umbra.modules.vision.side_corners`); and the other sharp convex corners the even
 vertices cut off are put back. That measured outline (:attr:`SnakeResult.contour`) is what the
 tracker reports; the snake's own vertices (:attr:`SnakeResult.vertices`) stay where the pressure
 put them, to start the next frame from.
@@ -57,9 +58,18 @@ from umbra.modules.vision.polygon import (
     with_positive_area,
 )
 from umbra.modules.vision.pressure import PressureField
-from umbra.modules.vision.straight_sides import straighten_sides
+from umbra.modules.vision.side_corners import meet_corners
+from umbra.modules.vision.straight_sides import fit_sides
 
 FloatArray = NDArray[np.float64]
+
+#: Up to this pixel grid step σ the outline is measured finely: the snake's vertices are
+#: resampled at the full grid's segment length before the edge fit (a σ = 2 snake spaces them
+#: 17 px apart: a corner it rounds is cut by several pixels, and a short side holds too few
+#: points to be fitted), and the sides are fitted whole and meet at the corners. At σ = 1-2 (a
+#: patch up to about 300 px a side) a pixel of the outline is a measurable share of the area;
+#: beyond, the cost of twice the points is not repaid.
+FINE_MEASURE_SCALE = 2
 
 
 @dataclass(frozen=True)
@@ -89,11 +99,11 @@ class SnakeParams:
       the iterations end [px] (0: report the snake's vertices as they are).
     - ``corner_turn_deg``: a turn sharper than this over one segment is a corner to put back
       [deg].
-    - ``side_fit_px``: when the contour follows a view of a rectangle and the snake works on
-      the full pixel grid (σ = 1: a patch up to about 150 px a side, where a single edge
-      point's noise is a measurable share of the area; 0.35 ms a frame), the edge points within
-      this of the quadratic fitted to their side are put on it (0: off; see
-      :mod:`umbra.modules.vision.straight_sides`) [px].
+    - ``side_fit_px``: when the contour follows a view of a rectangle and the outline is
+      measured finely (σ up to :data:`FINE_MEASURE_SCALE`: a patch up to about 300 px a side,
+      where a single edge point's noise is a measurable share of the area), the edge points
+      within this of the quadratic fitted to their side are put on it and the corners where
+      the sides meet (0: off; see :mod:`umbra.modules.vision.straight_sides`) [px].
     - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share
       is not on a target (a featureless or colourless image): failed.
     - ``border_margin_px``: a contour that comes this close to the image border is cut by it:
@@ -356,11 +366,20 @@ def measure_contour(
     params: SnakeParams,
     scale: int = 1,
 ) -> tuple[FloatArray, float]:
-    """The outline on the fitted colour edge, its sides fitted whole, its corners put back,
-    and the share of vertices that found an edge (see :mod:`umbra.modules.vision.edge_fit`).
-    With the edge fit off, the vertices as they are and 1."""
+    """The outline on the fitted colour edge, its sides fitted whole and its corners where they
+    meet (:mod:`umbra.modules.vision.side_corners`; up to ``FINE_MEASURE_SCALE``), its other
+    corners put back, and the share of points that found an edge (see
+    :mod:`umbra.modules.vision.edge_fit`). With the edge fit off, the vertices as they are and 1.
+
+    A corner is met when the contour passes within half a segment (``max_segment_px``) of
+    where the sides meet and the sides' fitted points reach within two segments of it: the
+    snake's tension rounds a corner by a few pixels, while an occluder that cuts a corner at 15 %
+    of the sides or more stands further off and is left for the sanity checks."""
     if params.edge_half_length_px <= 0.0:
         return vertices, 1.0
+    if 1 < scale <= FINE_MEASURE_SCALE:
+        perimeter = float(segment_lengths(vertices).sum())
+        vertices = resample_uniform(vertices, max(round(perimeter / params.target_segment_px), 3))
     fit = fit_edges(
         image,
         vertices,
@@ -371,11 +390,16 @@ def measure_contour(
         EdgeFitParams(half_length_px=params.edge_half_length_px),
         scale,
     )
-    points = fit.vertices
-    if params.side_fit_px > 0.0 and scale == 1:
-        points = straighten_sides(points, fit.found, params.side_fit_px)
+    points, found = fit.vertices, fit.found
+    if params.side_fit_px > 0.0 and scale <= FINE_MEASURE_SCALE:
+        sides = fit_sides(points, found, params.side_fit_px)
+        if sides is not None:
+            reach_px, depth_px = 2.0 * params.max_segment_px, 0.5 * params.max_segment_px
+            points, found, met = meet_corners(sides, found, reach_px, depth_px)
+            if met == 4:  # every corner is where its sides meet: none left to put back
+                return points, fit.found_fraction
     contour = complete_corners(
-        points, fit.found, np.deg2rad(params.corner_turn_deg), params.max_segment_px * scale
+        points, found, np.deg2rad(params.corner_turn_deg), params.max_segment_px * scale
     )
     return contour, fit.found_fraction
 

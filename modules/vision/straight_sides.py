@@ -12,7 +12,7 @@ point on it.
 Only points that lie within ``max_offset_px`` of that curve take part and are moved (the fit is
 repeated without the others): a notch, a bulge, a rounded corner or a speck of texture stands
 off the curve and stays where the edge fit put it, so the contour still shows damage to the
-sanity checks. The points within ``_END`` of a side's ends are left as measured too (which side
+sanity checks. The points within ``END_SHARE`` of a side's ends are left as measured too (which side
 they belong to is ambiguous): the corners are put back by
 :func:`umbra.modules.vision.edge_fit.complete_corners`, which then meets lines through points on
 the fitted sides. A side is fitted only when at least ``min_points`` points, and most of those it
@@ -23,6 +23,8 @@ Pixels: u right, v down.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,11 +44,29 @@ _SIDES = np.arange(4)[:, None]
 _SQUARE = np.add.outer(np.arange(3), np.arange(3))
 
 #: The share of a side's length at either end whose points are left as measured.
-_END = 0.05
+END_SHARE = 0.05
 
 #: Largest bow of a side's fitted curve at its middle, in units of its length: lens distortion
 #: bows a patch's side by a percent or two; a circle's quarter by 21 %.
 _MAX_BOW = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class SideFit:
+    """The four sides of a contour that follows a view of a rectangle, each fitted whole.
+
+    Side k runs from ``quad[k]`` along ``edge[k]`` (px); ``fitted[k]``: its points lie on its
+    curve (see :func:`straighten_sides`). Per contour point: ``side`` its side's index,
+    ``along`` how far along it it lies (in units of its length, 0 at ``quad[k]``), and
+    ``on_curve`` whether it was put on its side's curve (``points`` has it there)."""
+
+    points: FloatArray
+    quad: FloatArray
+    edge: FloatArray
+    fitted: NDArray[np.bool_]
+    side: NDArray[np.intp]
+    along: FloatArray
+    on_curve: NDArray[np.bool_]
 
 
 def straighten_sides(
@@ -57,17 +77,29 @@ def straighten_sides(
 ) -> FloatArray:
     """``points`` (N x 2 px, a closed contour's edge points) with those on each side of the
     quadrilateral it follows put on that side's fitted quadratic; only points where an edge was
-    measured (``found``) take part. Unchanged when the contour is not a view of a rectangle.
-    The four sides are fitted together (their moments in one product, one batched 3 x 3 solve
-    per pass): 0.25-0.35 ms a frame for 60 points, a third of it finding the quadrilateral."""
+    measured (``found``) take part. Unchanged when the contour is not a view of a rectangle."""
+    fit = fit_sides(points, found, max_offset_px, min_points)
+    return points if fit is None else fit.points
+
+
+def fit_sides(
+    points: FloatArray,
+    found: NDArray[np.bool_],
+    max_offset_px: float,
+    min_points: int = 6,
+) -> SideFit | None:
+    """The sides of the quadrilateral ``points`` (N x 2 px) follows, fitted (see
+    :func:`straighten_sides`); None when the contour is not a view of a rectangle. The four
+    sides are fitted together (their moments in one product, one batched 3 x 3 solve per pass):
+    0.25-0.35 ms a frame for 60 points, a third of it finding the quadrilateral."""
     quad = quadrilateral(points)
     if quad is None or not is_rectangle_view(quad):
-        return points
+        return None
     edge = quad[[1, 2, 3, 0]] - quad
     side = _nearest_side(points, quad, edge)
     length = np.hypot(edge[:, 0], edge[:, 1])
     if length.min() <= 1e-9:
-        return points
+        return None
     direction = edge / length[:, None]
     # Each point's side frame: along (in units of the side's length) and across [px].
     frame = np.stack([direction / length[:, None], direction[:, ::-1] * [1.0, -1.0]], axis=1)
@@ -75,7 +107,7 @@ def straighten_sides(
     s, d = np.einsum("nkc,nc->kn", frame[side], rel)
     # Points near a side's ends are left out: which side a point there belongs to is ambiguous,
     # and the corners are put back by lines through the sides' fitted points.
-    use = found & (s >= _END) & (s <= 1.0 - _END)
+    use = found & (s >= END_SHARE) & (s <= 1.0 - END_SHARE)
     powers = s[:, None] ** _POWERS  # (N, 5): s^0 .. s^4
     data = np.concatenate([powers, d[:, None] * powers[:, :3]], axis=1)  # (N, 8)
     one_hot = side == _SIDES  # (4, N)
@@ -98,7 +130,7 @@ def straighten_sides(
     move = keep & sides[side]
     out = points.copy()
     out[move] -= residual[move, None] * frame[side[move], 1]
-    return out
+    return SideFit(out, quad, edge, sides, side, s, move)
 
 
 def _nearest_side(points: FloatArray, quad: FloatArray, edge: FloatArray) -> NDArray[np.intp]:

@@ -174,3 +174,84 @@ def test_an_edge_whose_patch_channel_clips_is_found_where_it_is(blur_sigma_px: f
     assert fit.found.all()
     residual = fit.vertices[:, 0] - (100.0 + offset)
     assert np.abs(residual).max() < 0.1, residual
+
+
+def _vertical_edge(
+    patch_bgr: np.ndarray, background_bgr: np.ndarray, blur_sigma_px: float, edge_px: float
+) -> np.ndarray:
+    """A 200 x 200 frame: the patch left of the vertical line u = ``edge_px``, area-sampled
+    (8x), Gaussian blur as a lens blurs (before the sensor clips), then clipped to 8 bits."""
+    size, fine = 200, 8
+    grid = (np.arange(size * fine) + 0.5) / fine - 0.5
+    uu, _ = np.meshgrid(grid, grid)
+    coverage = (uu < edge_px).reshape(size, fine, size, fine).mean(axis=(1, 3))[:, :, None]
+    image = coverage * patch_bgr + (1.0 - coverage) * background_bgr
+    image = cv2.GaussianBlur(image, (0, 0), blur_sigma_px)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("inside", [True, False])
+def test_a_vertex_resting_in_a_dark_backgrounds_halo_finds_the_edge(inside: bool) -> None:
+    """A magenta patch on a near-black background, blurred by 1.2 px, noise 3 gray levels: the
+    halo of mixed pixels beyond the edge has nearly the patch's chromaticity and is bright
+    enough to count as the patch, so a snake rests up to 3.5 px off the edge. Vertices 2.5 to
+    3.5 px inside it (the outer end of a 4 px profile still in the halo) or outside it (the
+    inner end there) all find it to a tenth of a pixel; with a single profile length, 2 of
+    these 24 inside and 1 outside found no edge (and stayed where the snake left them)."""
+    edge_px = 100.3
+    image = _vertical_edge(
+        np.array([230.0, 60.0, 240.0]), np.array([14.0, 24.0, 16.0]), 1.2, edge_px
+    )
+    rng = np.random.default_rng(1)
+    image = np.clip(image + rng.normal(0.0, 3.0, image.shape), 0, 255).astype(np.uint8)
+    model = color.fit(image[:, 60:90].reshape(-1, 3))
+    v = np.linspace(40.0, 160.0, 24)
+    off = (-1.0 if inside else 1.0) * rng.uniform(2.5, 3.5, v.size)
+    vertices = np.column_stack([edge_px + off, v])
+    normals = np.repeat([[1.0, 0.0]], v.size, axis=0)
+    fit = fit_edges(image, vertices, normals, model, 3.0, 20.0)
+    assert fit.found.all(), fit.found
+    residual = fit.vertices[:, 0] - edge_px
+    assert np.abs(residual).max() < 0.12, residual
+
+
+@pytest.mark.parametrize(
+    ("wall", "blur_sigma_px", "tolerance_px"),
+    [(280.0, 1.0, 0.1), (280.0, 1.4, 0.1), (300.0, 1.4, 0.15)],
+)
+def test_an_edge_against_a_white_background_that_clips_is_found_where_it_is(
+    wall: float, blur_sigma_px: float, tolerance_px: float
+) -> None:
+    """A green patch against a white wall at a gain that clips it (280-300 in every channel:
+    the sensor reads 255), blurred before the clip: every channel with contrast is clipped on
+    the background's side, so the half step between the ends lies 0.27-0.49 px inside the edge.
+    The profile's steepest point, channel by channel where it is not clipped, is the edge: found
+    to 0.1-0.15 px."""
+    edge_px = 100.3
+    patch = np.array([70.0, 190.0, 40.0])
+    image = _vertical_edge(patch, np.full(3, wall), blur_sigma_px, edge_px)
+    fit = _fit_vertical(image, color.from_rgb(patch[::-1], 6.0))
+    assert fit.found.all()
+    residual = fit.vertices[:, 0] - edge_px
+    assert np.abs(residual).max() < tolerance_px, residual
+
+
+def test_an_edge_clipped_before_its_steepest_point_is_still_measured() -> None:
+    """A brighter wall (330) behind a sharper edge (0.8 px): the profile clips before its
+    steepest point, which is then not seen; the half step between the ends still measures the
+    edge (0.46 px inside it, as before the steepest point was looked for), rather than no edge
+    being found there (a whole contour against such a wall would fail as featureless)."""
+    edge_px = 100.3
+    patch = np.array([70.0, 190.0, 40.0])
+    image = _vertical_edge(patch, np.full(3, 330.0), 0.8, edge_px)
+    fit = _fit_vertical(image, color.from_rgb(patch[::-1], 6.0))
+    assert fit.found.all()
+    assert np.abs(fit.vertices[:, 0] - edge_px).max() < 0.5
+
+
+def _fit_vertical(image: np.ndarray, model: color.ColorModel):
+    """The edge fit of 30 vertices at u = 99 (1.3 px inside the edge), normals along +u."""
+    v = np.linspace(40.0, 160.0, 30)
+    vertices = np.column_stack([np.full(v.size, 99.0), v])
+    normals = np.repeat([[1.0, 0.0]], v.size, axis=0)
+    return fit_edges(image, vertices, normals, model, 3.0, 20.0)

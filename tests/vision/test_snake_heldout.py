@@ -113,8 +113,9 @@ def test_harsh_held_out_frames_at_640x480_track_without_false_alarms() -> None:
     checks (the shapes are tested on the patch seen head-on; tested on the image, 22 of the bench's
     60 such frames failed), the outline's IoU is at least 0.985 on every frame (0.9895 measured;
     before acquisition learned from the interior and the sides were fitted whole, 0.98) and its
-    median at least 0.99, and the median area bias stays within 0.3 % in every band of gain
-    (-0.28 % above a gain of 1.35, where white backgrounds clip: left to do)."""
+    median at least 0.99, and the median area bias stays within 0.25 % in every band of gain
+    (0.25 % measured, -0.21 % above a gain of 1.35 where white backgrounds clip; -0.28 % before
+    the steepest point measured edges against a clipped background)."""
     conditions = replace(ps.HARSH, span_px=(120.0, 300.0))
     rng = np.random.default_rng(4341)
     ious, by_gain, failed = [], {}, []
@@ -137,4 +138,26 @@ def test_harsh_held_out_frames_at_640x480_track_without_false_alarms() -> None:
     assert float(np.median(ious)) >= 0.99, ious
     assert len(by_gain) == 4
     for band, biases in by_gain.items():
-        assert abs(float(np.median(biases))) <= 0.003, (band, biases)
+        assert abs(float(np.median(biases))) <= 0.0025, (band, biases)
+
+
+@pytest.mark.slow
+@pytest.mark.untimed
+def test_ninety_five_in_a_hundred_harsh_frames_at_640x480_reach_iou_0_99() -> None:
+    """120 harsh held-out frames at 640 x 480 (seeds 4350-4352): the 5th percentile of the
+    outline's IoU is at least 0.9895 (0.991 measured) and its median at least 0.995 (0.996).
+    Before the corners were put where the sides meet, the outline of patches over 150 px was
+    measured at the coarse grid's spacing, a halo's vertices left unmeasured and edges against
+    a clipped background read at their half step: 5th percentile 0.987, 9 frames below 0.99
+    (now 6)."""
+    conditions = replace(ps.HARSH, span_px=(120.0, 300.0))
+    ious = []
+    for seed in (4350, 4351, 4352):
+        rng = np.random.default_rng(seed + 1)
+        for index in range(40):
+            seed_offset = rng.uniform(-0.15, 0.15, 2)
+            photo = ps.HELD_OUT_PHOTOS[index % len(ps.HELD_OUT_PHOTOS)]
+            frame = ps.render(photo, np.random.default_rng([seed, index]), (640, 480), conditions)
+            ious.append(polygon_iou(outline_on(frame, seed_offset), frame.corners, (480, 640)))
+    assert float(np.percentile(ious, 5)) >= 0.9895, sorted(ious)[:8]
+    assert float(np.median(ious)) >= 0.995, float(np.median(ious))
