@@ -16,10 +16,7 @@ the clipped side.
 
 1. *Centring*: the step of equal area ``e = ∫ t ds - L`` over the whole profile (on a coarse
    grid σ > 1, over a σ times longer profile). It is exact for a clean edge, but the whole
-   profile's texture and an off-centre profile move it. A vertex whose profile has no edge to
-   measure is centred again from a profile twice as long: on a dark background a blurred
-   patch's halo has the patch's chromaticity, so the snake may rest a few pixels off the edge
-   with both ends of its profile in the halo.
+   profile's texture and an off-centre profile move it.
 2. *Crossing*: on a profile centred there, the first point from the patch's side where t falls
    through one half (a straight line through the samples within a pixel of it): for an edge
    smeared by any symmetric kernel (lens, motion, the pixels' area, bilinear sampling) the
@@ -149,14 +146,6 @@ def fit_edges(
         return is_target(model, colours, k_sigma, min_gray)
 
     shift, found = _centring(image, vertices, normals, is_patch, p, length)
-    # A vertex whose profile's ends did not both lie clear of the edge (the snake came to rest a
-    # few pixels off it, in a blurred patch's halo on a dark background, whose pixels have the
-    # patch's chromaticity) is centred again from a profile twice as long.
-    again = np.flatnonzero(~found)
-    if again.size:
-        shift[again], found[again] = _centring(
-            image, vertices[again], normals[again], is_patch, p, 2.0 * length
-        )
     if p.crossing:
         # The second profile is centred on the first one's edge, so that its ends lie as far out
         # on either side; only where that edge lay more than ``recentre_px`` off the centre.

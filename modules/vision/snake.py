@@ -80,6 +80,9 @@ class SnakeParams:
 
     - ``k_sigma``: Mahalanobis radius of the target color [standard deviations].
     - ``min_gray``: pixels darker than this mean gray level (0..255) never count as target.
+    - ``dim_share``: nor do pixels darker than this share of the patch's own mean gray level
+      on the frame (the tracker measures it inside the contour; 0: off): a blurred patch's
+      halo on a dark background, or a dark surface of the patch's hue, has its chromaticity.
     - ``step_px``: largest pressure displacement of a vertex per iteration [px].
     - ``tension``: fraction of the way to the neighbours' midpoint per iteration (0..0.5).
     - ``window_radius_px``: half-width of the pixel window read around each vertex [px].
@@ -117,6 +120,7 @@ class SnakeParams:
 
     k_sigma: float = 3.0
     min_gray: float = 20.0
+    dim_share: float = 0.4
     step_px: float = 2.0
     tension: float = 0.2
     window_radius_px: int = 2

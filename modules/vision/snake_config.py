@@ -42,6 +42,12 @@ class SnakeSettings(Parameters):
 
     k_sigma: float = param(_D["k_sigma"], "color gate radius", unit="sigma", gt=0, tunable=True)
     min_gray: float = param(_D["min_gray"], "darker pixels never count", unit="gray levels", ge=0)
+    dim_share: float = param(
+        _D["dim_share"],
+        "pixels darker than this share of the patch's brightness on the frame never count (0: off)",
+        ge=0,
+        lt=1,
+    )
     step_px: float = param(
         _D["step_px"], "largest pressure move per iteration", unit="px", gt=0, tunable=True
     )

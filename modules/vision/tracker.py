@@ -118,13 +118,15 @@ class SnakeTracker:
         budget = self.params.max_iterations if acquiring else self.params.track_iterations
         gray = color_is_gray(self.model, self.params.min_chroma)
         start = time.perf_counter()
+        lit = self.params
         if gray:  # nothing to tell the target from: do not grow over the whole image
             result = SnakeResult(self.vertices, 0, False, 0.0, edge_fraction=0.0)
         else:
             start_vertices = self._predicted(self.vertices)
-            result = evolve(image, start_vertices, self.model, self.params, max_iterations=budget)
+            lit = self._lit(image, start_vertices)
+            result = evolve(image, start_vertices, self.model, lit, max_iterations=budget)
             if acquiring and result.converged:
-                result = self._grown_with_its_interior(image, result, budget)
+                result = self._grown_with_its_interior(image, result, budget, lit)
         elapsed = time.perf_counter() - start
         self._acquiring = False
         self.vertices = result.vertices
@@ -155,14 +157,12 @@ class SnakeTracker:
                 checks=latched.checks,
             )
         elif self.params.adapt_rate > 0.0:
-            samples = interior_samples(image, result.vertices, self.params)
-            self.model = color.adapt(
-                self.model, samples, self.params.adapt_rate, min_gray=self.params.min_gray
-            )
+            samples = interior_samples(image, result.vertices, lit)
+            self.model = color.adapt(self.model, samples, lit.adapt_rate, min_gray=lit.min_gray)
         return TrackUpdate(outline, sanity, result.iterations, result.converged, elapsed)
 
     def _grown_with_its_interior(
-        self, image: NDArray[np.uint8], first: SnakeResult, budget: int
+        self, image: NDArray[np.uint8], first: SnakeResult, budget: int, lit: SnakeParams
     ) -> SnakeResult:
         """Acquisition's second pass: the colour learned again from the interior the first pass
         found, and the snake evolved again from there with it, within what is left of the budget
@@ -176,16 +176,37 @@ class SnakeTracker:
         gates them (:func:`umbra.modules.vision.color.adapt` at rate 1), replace the seed's
         statistics."""
         assert self.model is not None
-        samples = interior_samples(image, first.vertices, self.params)
-        model = color.adapt(self.model, samples, 1.0, min_gray=self.params.min_gray)
+        samples = interior_samples(image, first.vertices, lit)
+        model = color.adapt(self.model, samples, 1.0, min_gray=lit.min_gray)
         left = budget - first.iterations
         if model is self.model or left < 1:  # nothing learned, or no budget left
             return first
-        second = evolve(image, first.vertices, model, self.params, max_iterations=left)
+        second = evolve(image, first.vertices, model, lit, max_iterations=left)
         if not second.converged:
             return first
         self.model = model
         return replace(second, iterations=first.iterations + second.iterations)
+
+    def _lit(self, image: NDArray[np.uint8], vertices: FloatArray) -> SnakeParams:
+        """The snake's parameters on this frame: ``min_gray`` raised to ``dim_share`` of the
+        patch's brightness in it (the median gray level of the target-coloured pixels halfway
+        from the centroid of ``vertices`` (px) to each vertex), when that is higher. A
+        patch's chromaticity does not change with the light, so a blurred patch's halo on a
+        dark background, or a dark surface of the patch's hue, passes the colour gate: the
+        snake grew into it. Measured on the frame itself, the floor follows any change of the
+        light at once. Unchanged when fewer than 8 pixels inside are the target's colour."""
+        p = self.params
+        if p.dim_share <= 0.0 or self.model is None:
+            return p
+        height, width = image.shape[:2]
+        inside = (0.5 * (vertices + vertices.mean(axis=0)) + 0.5).astype(np.intp)
+        np.clip(inside, 0, [width - 1, height - 1], out=inside)
+        samples = image[inside[:, 1], inside[:, 0]].astype(np.float32)
+        patch = samples[color.is_target(self.model, samples, p.k_sigma, p.min_gray)]
+        if len(patch) < _LEAST_LIT_SAMPLES:
+            return p
+        floor = p.dim_share * float(np.median(patch.sum(axis=1))) / 3.0
+        return replace(p, min_gray=floor) if floor > p.min_gray else p
 
     def _predicted(self, vertices: FloatArray) -> FloatArray:
         """Where the contour should be on the new frame if the target keeps the motion of the
@@ -261,6 +282,8 @@ def _motion(
     return step, turn, scale
 
 
+#: Fewest target-coloured pixels inside the contour that tell the patch's brightness on a frame.
+_LEAST_LIT_SAMPLES = 8
 #: Largest turn per frame the motion guess carries over [rad].
 _MAX_PREDICTED_TURN_RAD = np.deg2rad(10.0)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import cv2
 import numpy as np
 import pytest
 
@@ -20,6 +21,7 @@ from umbra.modules.vision.scene import (
     distractor_touching,
     pose,
 )
+from umbra.modules.vision.snake import SnakeParams
 from umbra.modules.vision.tracker import SnakeTracker
 
 from .conftest import METRES_PER_PIXEL, T_WORLD_CAMERA
@@ -168,3 +170,46 @@ def test_failure_latches_until_reseeded(renderer) -> None:
 def test_update_before_seed_is_an_error() -> None:
     with pytest.raises(RuntimeError, match="not been seeded"):
         SnakeTracker().update(np.zeros((10, 10, 3), np.uint8))
+
+
+def _beside_a_dark_surface_of_its_hue(
+    gain: float, dark_share: float, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """A 320 x 240 frame: a green patch (a quadrilateral, area-sampled 8x) whose left part lies
+    on a surface of its own hue at ``dark_share`` of its brightness (a dark green table), the
+    rest on gray; blur 1 px, the light ``gain``, noise 3 gray levels. Returns it and the patch's
+    corners (px)."""
+    rng = np.random.default_rng(seed)
+    height, width, fine = 240, 320, 8
+    patch = np.array([50.0, 190.0, 70.0])
+    image = np.zeros((height * fine, width * fine, 3), np.float32) + np.array([120.0, 110.0, 100.0])
+    image[:, : width * fine // 2] = dark_share * patch
+    corners = np.array([[110.3, 70.6], [230.2, 80.1], [222.7, 170.4], [104.1, 160.8]])
+    cv2.fillPoly(image, [np.round((corners + 0.5) * fine - 0.5).astype(np.int32)], patch.tolist())
+    image = cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA)
+    image = cv2.GaussianBlur(image, (0, 0), 1.0) * gain + rng.normal(0.0, 3.0, (height, width, 3))
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8), corners
+
+
+@pytest.mark.parametrize("dark_share", [0.2, 0.3])
+def test_a_dark_surface_of_the_patchs_hue_is_not_the_patch(dark_share: float) -> None:
+    """Chromaticity does not change with the light, so a dark green table beside a green patch
+    (at 20-30 % of its brightness) passes the colour gate. The tracker measures the patch's
+    brightness on each frame and pixels under ``dim_share`` of it do not count: the outline
+    stays on the patch (IoU 0.996), also on the next frame with the light halved at once.
+    Without the floor (``dim_share=0``) the snake grew over the table and failed (IoU 0.25)."""
+    for dim_share, tracks in ((SnakeParams().dim_share, True), (0.0, False)):
+        image, corners = _beside_a_dark_surface_of_its_hue(1.0, dark_share, 0)
+        tracker = SnakeTracker(SnakeParams(dim_share=dim_share))
+        tracker.seed_at_point(image, corners.mean(axis=0))
+        update = tracker.update(image)
+        iou = polygon_iou(update.vertices, corners, image.shape[:2])
+        if not tracks:
+            assert update.status == "failed" and iou < 0.5, (update.status, iou)
+            continue
+        assert update.status == "tracking", update.sanity.reason
+        assert iou >= 0.99, iou
+        halved, _ = _beside_a_dark_surface_of_its_hue(0.5, dark_share, 1)
+        update = tracker.update(halved)
+        assert update.status == "tracking", update.sanity.reason
+        assert polygon_iou(update.vertices, corners, image.shape[:2]) >= 0.99
