@@ -38,7 +38,7 @@ the whole-frame threshold at 1280x720 and above; IoU >= 0.99 and area bias withi
 every size and gain. Issue 31: on the held-out photographs, median |area bias| <= 0.2 % and
 IoU >= 0.99 on every frame.
 
-    python benchmarks/bench_snake.py [--quick] [--photos-only]
+    python benchmarks/bench_snake.py [--quick] [--photos-only] [--photo-seeds 11,12,...]
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import table, write_results
+from benchmarks.snake_heldout import SEEDS as HELDOUT_SEEDS
 from benchmarks.snake_heldout import bench_heldout, print_heldout
 from benchmarks.snake_heldout import goals as heldout_goals
 from umbra.modules.calib.camera_model import Intrinsics
@@ -403,13 +404,22 @@ def main() -> int:
     parser.add_argument(
         "--photos-only", action="store_true", help="section 3 alone (photographs, 1920x1080)"
     )
+    parser.add_argument(
+        "--photo-seeds",
+        default=",".join(map(str, HELDOUT_SEEDS)),
+        help="section 3's seeds, comma-separated, 40 frames each (another than the reference "
+        "seed: section 3 alone, written as snake_photos_more)",
+    )
     args = parser.parse_args()
-    photos = bench_heldout(10 if args.quick else 40, tune_bounds, threshold_polygon)
+    seeds = tuple(int(s) for s in args.photo_seeds.split(","))
+    more = seeds != HELDOUT_SEEDS
+    photos = bench_heldout(10 if args.quick else 40, tune_bounds, threshold_polygon, seeds)
     print_heldout(photos)
-    if args.photos_only:
+    if args.photos_only or more:
         for goal, ok in heldout_goals(photos).items():
             print(f"goal: {goal} -> {'met' if ok else 'MISSED'}")
-        path = write_results("snake_photos", {"photos": photos}, quick=args.quick)
+        name = "snake_photos_more" if more else "snake_photos"
+        path = write_results(name, {"photos": photos, "seeds": list(seeds)}, quick=args.quick)
         print(f"\nwrote {path}")
         return 0
     print()
