@@ -407,8 +407,8 @@ def main() -> int:
     parser.add_argument(
         "--photo-seeds",
         default=",".join(map(str, HELDOUT_SEEDS)),
-        help="section 3's seeds, comma-separated, 40 frames each (another than the reference "
-        "seed: section 3 alone, written as snake_photos_more)",
+        help="section 3's seeds, comma-separated, 40 frames each (seeds other than the "
+        "reference one run section 3 alone and write snake_photos_more)",
     )
     args = parser.parse_args()
     seeds = tuple(int(s) for s in args.photo_seeds.split(","))

@@ -49,7 +49,6 @@ most), never the whole image. Pixels: u right, v down, pixel centres at integer 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -136,16 +135,28 @@ def fit_edges(
     count = round(2.0 * p.half_length_px / p.sample_px) + 1
     ends = max(round(p.end_px / p.sample_px) + 1, 1)
     weights, unit = _profile_weights(count, ends)
+    total = float(count - 1)  # the trapezoid weights' sum
+    shift = np.zeros(len(vertices))
+    found = np.ones(len(vertices), dtype=bool)
     # Centring: the step of equal area over a profile σ times longer on a coarse grid (the
     # colour tests are made here); then, on a profile centred there, the first half-contrast
     # crossing from the patch's side, refined by the step of equal area over a window centred
     # on it alone.
     length = p.half_length_px * scale
-
-    def is_patch(colours: NDArray[np.float32]) -> NDArray[np.bool_]:
-        return is_target(model, colours, k_sigma, min_gray)
-
-    shift, found = _centring(image, vertices, normals, is_patch, p, length)
+    profile = _profile(image, vertices, normals, shift, unit * length)
+    inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
+    contrast = inner - outer
+    power = np.einsum("nc,nc->n", contrast, contrast)
+    found &= power >= p.min_contrast**2
+    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
+    found &= target[: len(inner)] & ~target[len(inner) :]
+    # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
+    # samples, so summed first.
+    moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
+    integral = (p.sample_px * scale) * moment / np.where(found, power, 1.0)
+    shift = np.where(found, integral - length, 0.0)
+    found &= np.abs(shift) <= p.max_shift_px * scale
+    shift = np.where(found, shift, 0.0)
     if p.crossing:
         # The second profile is centred on the first one's edge, so that its ends lie as far out
         # on either side; only where that edge lay more than ``recentre_px`` off the centre.
@@ -186,39 +197,6 @@ def fit_edges(
     if p.smooth_reach > 0:
         shift += _along_the_curve(vertices + shift[:, None] * normals, normals, found, p)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
-
-
-def _centring(
-    image: NDArray[np.uint8],
-    vertices: FloatArray,
-    normals: FloatArray,
-    is_patch: Callable[[NDArray[np.float32]], NDArray[np.bool_]],
-    p: EdgeFitParams,
-    length: float,
-) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """Each vertex's move along its normal (N px) to the step of equal area over the profile
-    ``[-length, length]`` px about it, and whether there is an edge to measure there: the ends
-    differ by ``min_contrast``, the inner one is the target's colour by ``is_patch`` (colours
-    K x 3 -> K) and the outer one is not, and the move is within ``max_shift_px`` per
-    ``half_length_px`` of profile."""
-    count = round(2.0 * p.half_length_px / p.sample_px) + 1
-    ends = max(round(p.end_px / p.sample_px) + 1, 1)
-    weights, unit = _profile_weights(count, ends)
-    profile = _profile(image, vertices, normals, np.zeros(len(vertices)), unit * length)
-    inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
-    contrast = inner - outer
-    power = np.einsum("nc,nc->n", contrast, contrast)
-    found = power >= p.min_contrast**2
-    target = is_patch(np.concatenate([inner, outer]))
-    found &= target[: len(inner)] & ~target[len(inner) :]
-    # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
-    # samples, so summed first.
-    moment = np.einsum("nc,nc->n", summed - (count - 1) * outer, contrast)
-    spacing = 2.0 * length / (count - 1)
-    integral = spacing * moment / np.where(found, power, 1.0)
-    shift = np.where(found, integral - length, 0.0)
-    found &= np.abs(shift) <= p.max_shift_px * length / p.half_length_px
-    return np.where(found, shift, 0.0), found
 
 
 def _along_the_curve(

@@ -70,6 +70,13 @@ FloatArray = NDArray[np.float64]
 #: patch up to about 300 px a side) a pixel of the outline is a measurable share of the area;
 #: beyond, the cost of twice the points is not repaid.
 FINE_MEASURE_SCALE = 2
+#: A corner is put where the sides meet when the contour passes within this many segments
+#: (``max_segment_px``) of that point and the sides' fitted points reach within
+#: ``CORNER_REACH_SEGMENTS`` of it: the snake's tension rounds a corner by a few pixels, while an
+#: occluder that cuts a corner at 15 % of the sides or more stands further off and is left for
+#: the sanity checks (see :mod:`umbra.modules.vision.side_corners`).
+CORNER_DEPTH_SEGMENTS = 0.5
+CORNER_REACH_SEGMENTS = 2.0
 
 
 @dataclass(frozen=True)
@@ -373,12 +380,8 @@ def measure_contour(
     """The outline on the fitted colour edge, its sides fitted whole and its corners where they
     meet (:mod:`umbra.modules.vision.side_corners`; up to ``FINE_MEASURE_SCALE``), its other
     corners put back, and the share of points that found an edge (see
-    :mod:`umbra.modules.vision.edge_fit`). With the edge fit off, the vertices as they are and 1.
-
-    A corner is met when the contour passes within half a segment (``max_segment_px``) of
-    where the sides meet and the sides' fitted points reach within two segments of it: the
-    snake's tension rounds a corner by a few pixels, while an occluder that cuts a corner at 15 %
-    of the sides or more stands further off and is left for the sanity checks."""
+    :mod:`umbra.modules.vision.edge_fit`; corners met by ``CORNER_DEPTH_SEGMENTS`` and
+    ``CORNER_REACH_SEGMENTS``). With the edge fit off, the vertices as they are and 1."""
     if params.edge_half_length_px <= 0.0:
         return vertices, 1.0
     if 1 < scale <= FINE_MEASURE_SCALE:
@@ -398,7 +401,8 @@ def measure_contour(
     if params.side_fit_px > 0.0 and scale <= FINE_MEASURE_SCALE:
         sides = fit_sides(points, found, params.side_fit_px)
         if sides is not None:
-            reach_px, depth_px = 2.0 * params.max_segment_px, 0.5 * params.max_segment_px
+            reach_px = CORNER_REACH_SEGMENTS * params.max_segment_px
+            depth_px = CORNER_DEPTH_SEGMENTS * params.max_segment_px
             points, found, met = meet_corners(sides, found, reach_px, depth_px)
             if met == 4:  # every corner is where its sides meet: none left to put back
                 return points, fit.found_fraction

@@ -12,10 +12,10 @@ point on it.
 Only points that lie within ``max_offset_px`` of that curve take part and are moved (the fit is
 repeated without the others): a notch, a bulge, a rounded corner or a speck of texture stands
 off the curve and stays where the edge fit put it, so the contour still shows damage to the
-sanity checks. The points within ``END_SHARE`` of a side's ends are left as measured too (which side
-they belong to is ambiguous): the corners are put back by
-:func:`umbra.modules.vision.edge_fit.complete_corners`, which then meets lines through points on
-the fitted sides. A side is fitted only when at least ``min_points`` points, and most of those it
+sanity checks. The points within ``END_SHARE`` of a side's ends are left as measured too
+(which side they belong to is ambiguous): :func:`fit_sides` says which points lie on which
+side's curve, and :mod:`umbra.modules.vision.side_corners` puts the corners where the sides
+meet. A side is fitted only when at least ``min_points`` points, and most of those it
 measured, lie on a curve that bows by at most ``_MAX_BOW`` of its length (a circle's quarter
 bows by 21 %); a contour that is not a view of a rectangle is returned as it is.
 

@@ -156,7 +156,7 @@ class SnakeTracker:
                 reasons=latched.reasons,
                 checks=latched.checks,
             )
-        elif self.params.adapt_rate > 0.0:
+        elif lit.adapt_rate > 0.0:
             samples = interior_samples(image, result.vertices, lit)
             self.model = color.adapt(self.model, samples, lit.adapt_rate, min_gray=lit.min_gray)
         return TrackUpdate(outline, sanity, result.iterations, result.converged, elapsed)

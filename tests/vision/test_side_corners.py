@@ -6,7 +6,12 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.modules.vision.side_corners import meet_corners
+from umbra.modules.vision.snake import CORNER_DEPTH_SEGMENTS, CORNER_REACH_SEGMENTS, SnakeParams
 from umbra.modules.vision.straight_sides import fit_sides
+
+#: The reach and depth the snake meets corners with (24 px and 6 px with the default segments).
+REACH_PX = CORNER_REACH_SEGMENTS * SnakeParams().max_segment_px
+DEPTH_PX = CORNER_DEPTH_SEGMENTS * SnakeParams().max_segment_px
 
 #: A patch under perspective (px, positive area in u right, v down): corners of 80-100 deg.
 QUAD = np.array([[100.0, 100.0], [228.0, 112.0], [220.0, 214.0], [96.0, 200.0]])
@@ -52,7 +57,7 @@ def test_corners_the_snake_rounded_are_put_where_the_sides_meet() -> None:
             fit = fit_sides(contour, found, 1.0)
             assert fit is not None
             before = corner_errors(contour, QUAD)
-            met_contour, met_found, met = meet_corners(fit, found, 24.0, 6.0)
+            met_contour, met_found, met = meet_corners(fit, found, REACH_PX, DEPTH_PX)
             assert met == 4
             assert len(met_found) == len(met_contour) < len(contour)
             assert before.min() > 0.5 * cut  # the corners really were cut
@@ -74,7 +79,7 @@ def test_a_corner_cut_off_by_an_occluder_is_left_as_measured() -> None:
     found = np.ones(len(points), dtype=bool)
     fit = fit_sides(points, found, 1.0)
     assert fit is not None
-    contour, _, met = meet_corners(fit, found, 24.0, 6.0)
+    contour, _, met = meet_corners(fit, found, REACH_PX, DEPTH_PX)
     assert met == 3
     errors = corner_errors(contour, QUAD)
     assert errors[2] > 10.0
