@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import zenoh
 
+from tests.poll import wait_for
 from umbra.connectors.messages import Message
 from umbra.runtime.graph.plan import GraphPlan, LinkPlan
 from umbra.runtime.links.config import Endpoints, build_config, free_loopback_ports
@@ -44,13 +45,20 @@ def open_pair(plan: GraphPlan, frame_pool: bool = True) -> Pair:
 
 def ready_pair(pair: Pair, links: list[LinkPlan], got: list[Message]) -> Callable[[Message], None]:
     """Publish ``links`` on the producer, collect them in ``got`` on the consumer, both tokens
-    up and the producer ready; the sink that sends a sample on every link."""
+    up and seen by the other side, and the producer ready; the sink that sends a sample on every
+    link. (A sample that comes before the consumer has seen its producer's token waits for it at
+    most ``trust.MAX_HOLD_S``: on a starved machine the first samples would be dropped.)"""
     sinks = [pair.producer.publisher(link) for link in links]
     for link in links:
         pair.consumer.subscribe(link, got.append)
     pair.producer.announce()
     pair.consumer.announce()
     assert pair.producer.wait_ready(threading.Event(), timeout=10)
+    wait_for(
+        lambda: pair.producer.process in pair.consumer.alive_processes(),
+        10,
+        "the consumer to see the producer's token",
+    )
 
     def send(msg: Message) -> None:
         for sink in sinks:
