@@ -68,6 +68,12 @@ MAX_PAGE_MESSAGES_PER_S = 120.0
 MAX_PAGE_MESSAGE_BURST = 240
 #: Malformed or refused-as-replayed messages after which a page's socket is closed.
 MAX_PAGE_BAD_MESSAGES = 20
+#: Updates of one kind (video frames, states, the 3-D view's scene) a page server sends a page
+#: and the page has not yet said it applied: hides the round trip, never a queue.
+MAX_PAGE_IN_FLIGHT = 2
+#: Longest a page server waits for a page to say it applied an update before it sends another
+#: all the same [s]: a page that does not say (a script, a stuck tab) is paced, never stopped.
+PAGE_ACK_TIMEOUT_S = 1.0
 
 # -- the live Foxglove server (runtime/live): what one viewer may make it hold --
 #: Largest message a viewer may send (a subscription to every channel of a big graph is ~4 KiB).

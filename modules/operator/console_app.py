@@ -14,7 +14,7 @@ never queued for ``step``.
 
 Video: each new camera image is JPEG-encoded once (in one encoder thread, only while a page
 watches) and sent as a binary websocket message ``[4-byte header length][JSON header][JPEG]``.
-A page has at most ``page_flow.MAX_IN_FLIGHT`` frames and as many states sent and not yet
+A page has at most ``limits.MAX_PAGE_IN_FLIGHT`` frames and as many states sent and not yet
 reported shown, so neither queues: the latest wins (:mod:`umbra.modules.operator.page_flow`).
 The run's last state is sent to every open page, which says it has shown it, before the
 console's process ends; the socket is then closed cleanly.

@@ -2,17 +2,17 @@
 
 A page says what it has shown: ``painted`` for each video frame (drawn, or overtaken by a newer
 one), ``seen`` with the version of each state it has drawn. The server keeps at most
-:data:`MAX_IN_FLIGHT` frames and as many states on their way to a page and not yet acknowledged,
-and sends the newest of each when one is acknowledged (the latest wins). A page on a starved
-machine, which shows a message seconds after it arrives, therefore falls behind by two messages,
-not by everything sent meanwhile; and the run's last state reaches it, and is known to have been
-shown, before the console's process ends (``ConsoleApp.flush_final``).
+:data:`~umbra.connectors.limits.MAX_PAGE_IN_FLIGHT` frames and as many states on their way to a page
+and not yet acknowledged, and sends the newest of each when one is acknowledged (the latest wins). A
+page on a starved machine, which shows a message seconds after it arrives, therefore falls behind by
+two messages, not by everything sent meanwhile; and the run's last state reaches it, and is known to
+have been shown, before the console's process ends (``ConsoleApp.flush_final``).
 
-A client that has never acknowledged a kind is not held back by it (a script reading the states,
-an older page): its states come at the console's rate, and its frames at one per
-:data:`ACK_TIMEOUT_S` while it has two unacknowledged. Once it has acknowledged one, nothing
-expires: a page whose acknowledgements stop hears nothing more and its own silent-socket check
-(``PAGE_SILENT_S``) opens a new socket.
+A client that has never acknowledged a kind is not held back by it (a script reading the states, an
+older page): its states come at the console's rate, and its frames at one per
+:data:`~umbra.connectors.limits.PAGE_ACK_TIMEOUT_S` while it has two unacknowledged. Once it has
+acknowledged one, nothing expires: a page whose acknowledgements stop hears nothing more and its own
+silent-socket check (``PAGE_SILENT_S``) opens a new socket.
 """
 
 from __future__ import annotations
@@ -20,16 +20,12 @@ from __future__ import annotations
 import asyncio
 import time
 
-#: messages of one kind (frames, states) sent to a page and not yet acknowledged (hides the
-#: round trip; never a queue)
-MAX_IN_FLIGHT = 2
-#: [s] after which a client that has never acknowledged a frame gets another
-ACK_TIMEOUT_S = 1.0
+from umbra.connectors.limits import MAX_PAGE_IN_FLIGHT, PAGE_ACK_TIMEOUT_S
 
 
 class InFlight:
     """Messages of one kind sent to one page and not yet acknowledged, by version (web thread
-    only). ``paced``: a client that never acknowledges gets one more per ``ACK_TIMEOUT_S``
+    only). ``paced``: a client that never acknowledges gets one more per ``PAGE_ACK_TIMEOUT_S``
     (frames); otherwise it is not held back (states)."""
 
     def __init__(self, paced: bool) -> None:
@@ -47,12 +43,12 @@ class InFlight:
                 return True
             if self.versions and time.monotonic() > self.deadline:
                 self.versions.clear()  # a client that does not acknowledge: paced, not stopped
-        return len(self.versions) < MAX_IN_FLIGHT
+        return len(self.versions) < MAX_PAGE_IN_FLIGHT
 
     def sent(self, version: int) -> None:
         self.versions.append(version)
         self.newest_sent = version
-        self.deadline = time.monotonic() + ACK_TIMEOUT_S
+        self.deadline = time.monotonic() + PAGE_ACK_TIMEOUT_S
         self.event.clear()
 
     def acknowledge(self, version: int | None = None) -> None:

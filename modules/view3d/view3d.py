@@ -132,7 +132,9 @@ class View3D(Module[View3DParams]):
     else ``wrist_intrinsics`` for the wrist camera.
 
     Cost: ``step`` only keeps the newest samples; a thread of its own sends at most
-    ``max_fps`` updates per second, and nothing at all while no browser is connected.
+    ``max_fps`` updates per second, none before every browser has applied the one before
+    (:mod:`~umbra.modules.view3d.viewer_pace`), and nothing at all while no browser is
+    connected.
     """
 
     TYPE = "View3D"
@@ -240,6 +242,7 @@ class View3D(Module[View3DParams]):
             "address": getattr(self, "address", "").split("?")[0],  # not the token: a file
             "refused_requests": self.page.door.refused if getattr(self, "page", None) else 0,
             "updates_sent": 0 if push is None else push.updates,
+            "updates_held": 0 if push is None else push.held,
             "video_frames_sent": {k: s.frames_sent for k, s in self.page.cameras.items()}
             if getattr(self, "page", None) is not None
             else {},
@@ -331,6 +334,7 @@ class View3D(Module[View3DParams]):
                     values={
                         "browsers": float(self.page.clients()),
                         "updates_sent": float(self.push.updates),
+                        "updates_held": float(self.push.held),
                     },
                 )
             )

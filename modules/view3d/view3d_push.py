@@ -1,5 +1,7 @@
 """View3D's sender: a thread of its own that sends the newest samples to the page at most
-``max_fps`` times a second (nothing while no browser is connected), each part on its own; and
+``max_fps`` times a second and no faster than the browsers apply them
+(:mod:`~umbra.modules.view3d.viewer_pace`; nothing while no browser is connected), each part on
+its own; and
 the scene file (a part that :class:`~umbra.modules.view3d.view3d.View3D` owns)."""
 
 from __future__ import annotations
@@ -57,6 +59,7 @@ class ViewPush:
         self._scene_dirty = False
         self.saves = 0
         self.updates = 0  #: updates sent to a browser
+        self.held = 0  #: turns without an update: a browser had not applied the last one
         self._skipped_idle = 0
         self._shown: dict[str, object] = {}  # the samples on the page now, by input
         self.failed = 0  # parts of updates that failed (malformed samples)
@@ -102,11 +105,14 @@ class ViewPush:
                 items, self.new_items = self.new_items, []
             try:
                 self._add_items(items)
-                if self._v.page.clients() > 0:
-                    self.send(latest)
-                    self.updates += 1
-                else:
+                if self._v.page.clients() == 0:
                     self._skipped_idle += 1
+                elif self._v.page.pace.ready():
+                    self.send(latest)
+                    self._v.page.pace.sent()
+                    self.updates += 1
+                else:  # a browser is still applying the last update: the newest goes next
+                    self.held += 1
                 if self._scene_dirty:
                     self._save()
             except Exception as error:  # a bad sample must not kill the page

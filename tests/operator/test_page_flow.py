@@ -15,7 +15,8 @@ from websockets.exceptions import ConnectionClosed
 from tests.operator.helpers import Page, image
 from tests.operator.test_console_module import _harness, _pump
 from tests.poll import wait_for
-from umbra.modules.operator.page_flow import MAX_IN_FLIGHT, InFlight, PageFlow
+from umbra.connectors.limits import MAX_PAGE_IN_FLIGHT
+from umbra.modules.operator.page_flow import InFlight, PageFlow
 
 
 class Reader:
@@ -64,7 +65,7 @@ def test_in_flight_counts_by_version_and_never_expires_once_acknowledged() -> No
     frames.sent(7)
     frames.sent(8)
     assert not frames.can_send()
-    frames.deadline = 0.0  # a client that never acknowledged: one more after ACK_TIMEOUT_S
+    frames.deadline = 0.0  # a client that never acknowledged: one more after PAGE_ACK_TIMEOUT_S
     assert frames.can_send() and frames.versions == []
     frames.sent(9)
     frames.acknowledge()
@@ -88,7 +89,7 @@ def test_a_page_that_acknowledges_gets_two_states_and_frames_ahead_and_then_the_
             acker.page.send("painted", frame=0, latency_ms=1.0)
             before = len(acker.states), acker.frames
             # the page that never acknowledges is the clock: twenty states and two frame
-            # timeouts (ACK_TIMEOUT_S each) later, the other still has only two of each ahead
+            # timeouts (PAGE_ACK_TIMEOUT_S each) later, the other still has only two of each ahead
             states0, frames0 = len(legacy.states), legacy.frames
             _pump(
                 h,
@@ -100,10 +101,12 @@ def test_a_page_that_acknowledges_gets_two_states_and_frames_ahead_and_then_the_
                 timeout=20.0,
             )
             acker.read()
-            assert len(acker.states) - before[0] == MAX_IN_FLIGHT, len(acker.states) - before[0]
-            assert acker.frames - before[1] <= MAX_IN_FLIGHT  # (one may have been on its way)
+            assert len(acker.states) - before[0] == MAX_PAGE_IN_FLIGHT, (
+                len(acker.states) - before[0]
+            )
+            assert acker.frames - before[1] <= MAX_PAGE_IN_FLIGHT  # (one may have been on its way)
             held = acker.seen()  # the newest one drawn: the next is the newest there is
-            _pump(h, lambda: (acker.read(), len(acker.states) > before[0] + MAX_IN_FLIGHT)[-1])
+            _pump(h, lambda: (acker.read(), len(acker.states) > before[0] + MAX_PAGE_IN_FLIGHT)[-1])
             assert acker.states[-1]["version"] > held + 1  # the ones between were never sent
         finally:
             acker.page.close()
