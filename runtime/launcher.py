@@ -378,8 +378,9 @@ class Supervisor:
                     child.code = rc
                     ended.append(child)
                     how = f"exit {rc}" if rc >= 0 else cause_of(self.out, child)
-                    self.say(f"process `{child.name}` ended ({how})")
+                    # its shared memory first: once the end is said, nothing of it is left
                     removed = remove_orphans(child.segments)
+                    self.say(f"process `{child.name}` ended ({how})")
                     if removed and rc != 0:
                         self.say(f"removed {removed} shared-memory files of dead processes")
             if len(self._signals) > interrupts_seen:
