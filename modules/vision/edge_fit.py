@@ -12,7 +12,12 @@ between the colour at the inner end ``c_in`` and at the outer end ``c_out`` (1 i
 outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly). Channels that
 are clipped at either end (a saturated patch at a high lighting gain, a black background) do
 not mix linearly and are left out of the contrast: a clipped channel's edge looks moved towards
-the clipped side.
+the clipped side. In the crossing passes below the contrast is weighed by the inverse of the
+colours' covariance about the profiles' ends, ``t(s) = (p - c_out)ᵀ W Δ / Δᵀ W Δ`` with
+``W = Σ⁻¹`` over the channels used (generalised least squares): a channel that the background's
+texture or JPEG's half-resolution colour makes noisier counts less (20 gray levels of texture in
+one channel: 0.14 px RMS off with ``W = I``, 0.05 px with it; JPEG at quality 70: 0.10 against
+0.07 px).
 
 1. *Centring*: the step of equal area ``e = ∫ t ds - L`` over the whole profile (on a coarse
    grid σ > 1, over a σ times longer profile). It is exact for a clean edge, but the whole
@@ -162,12 +167,16 @@ def fit_edges(
         # on either side; only where that edge lay more than ``recentre_px`` off the centre.
         offsets = unit * p.half_length_px
         at = np.arange(len(vertices))
-        for _ in range(2):
+        spread: FloatArray | None = None
+        for turn in range(2):
             profile = _unclipped(
                 model, _profile(image, vertices[at], normals[at], shift[at], offsets)
             )
             inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
             contrast, power, clipped = _contrast(inner, outer, found[at])
+            if turn == 0:  # measured over every profile; the second turn redoes a few
+                spread = _spread(profile, inner, outer, ends, found[at])
+            contrast, power = _noise_weighted(contrast, power, spread)
             fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
             fraction /= power[:, None]
             edge, crossed = _half_crossing(fraction, offsets, p.sample_px)
@@ -294,6 +303,60 @@ def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]
     return contrast, np.where(found & (power > 0.0), power, 1.0), weak & found
 
 
+def _spread(
+    profile: NDArray[np.float32],
+    inner: NDArray[np.float32],
+    outer: NDArray[np.float32],
+    ends: int,
+    found: NDArray[np.bool_],
+) -> FloatArray | None:
+    """The colours' covariance (C x C, gray levels²) about the profiles' end levels, over the
+    ends of the profiles that found an edge: the sensor's noise, JPEG's coarser colour and the
+    background's texture, channel by channel and between channels. None with fewer than
+    :data:`_MIN_SPREAD_PROFILES` profiles."""
+    if int(found.sum()) < _MIN_SPREAD_PROFILES:
+        return None
+    channels = profile.shape[-1]
+    if not found.all():
+        profile, inner, outer = profile[found], inner[found], outer[found]
+    inside = (profile[:, :ends] - inner[:, None]).reshape(-1, channels)
+    outside = (profile[:, -ends:] - outer[:, None]).reshape(-1, channels)
+    moments = inside.T @ inside + outside.T @ outside
+    spread = moments.astype(np.float64) / (len(inside) + len(outside))
+    return spread + _SPREAD_FLOOR * np.eye(channels)
+
+
+def _noise_weighted(
+    contrast: FloatArray, power: FloatArray, spread: FloatArray | None
+) -> tuple[FloatArray, FloatArray]:
+    """The direction each profile is read along (N x C) and its product with the step (N):
+    the step weighted by the inverse of the colours' ``spread`` over the channels the step uses
+    (generalised least squares: a channel that JPEG or the background's texture makes noisier,
+    or two that vary together, count less), scaled so that the mean channel counts as before.
+    As it was without a spread."""
+    if spread is None:
+        return contrast, power
+    used = contrast != 0.0
+    if used.all():  # the usual case: every channel in every profile
+        direction = contrast @ _scaled_inverse(spread)
+    else:
+        codes = used @ (1 << np.arange(used.shape[1]))  # which channels each profile uses
+        direction = np.zeros_like(contrast)
+        for code in np.unique(codes):
+            pattern = (int(code) >> np.arange(used.shape[1])) & 1 == 1
+            if pattern.any():
+                rows = codes == code
+                weight = _scaled_inverse(spread[np.ix_(pattern, pattern)])
+                direction[np.ix_(rows, pattern)] = contrast[np.ix_(rows, pattern)] @ weight
+    product = np.einsum("nc,nc->n", contrast, direction)
+    return direction, np.where(product > 0.0, product, power)
+
+
+def _scaled_inverse(spread: FloatArray) -> FloatArray:
+    """``spread``'s inverse, scaled so that a channel of the mean variance weighs one."""
+    return np.linalg.inv(spread) * (np.trace(spread) / len(spread))
+
+
 def _centred_step(
     fraction: FloatArray, offsets: FloatArray, centre: FloatArray, window_px: float
 ) -> FloatArray:
@@ -392,6 +455,12 @@ def _half_crossing(
 
 #: Cosine of the largest turn between two neighbours' normals where a contour is taken as smooth.
 _STRAIGHT = float(np.cos(np.deg2rad(20.0)))
+#: Fewest profiles with an edge whose ends measure the colours' spread (fewer: channels weigh
+#: by their step alone).
+_MIN_SPREAD_PROFILES = 8
+#: Added to each channel's measured variance [gray levels²]: a channel flat at its ends (a
+#: clipped one, a uniform background) is not trusted without bound.
+_SPREAD_FLOOR = 1.0
 #: Channel levels beyond which a sample is taken as clipped by the sensor [gray levels].
 _CLIP_HIGH, _CLIP_LOW = 240.0, 2.0
 #: An 8-bit sensor reads at most this: an end's channel above it was put back by
