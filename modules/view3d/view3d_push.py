@@ -1,8 +1,7 @@
 """View3D's sender: a thread of its own that sends the newest samples to the page at most
 ``max_fps`` times a second and no faster than the browsers apply them
 (:mod:`~umbra.modules.view3d.viewer_pace`; nothing while no browser is connected), each part on
-its own; and
-the scene file (a part that :class:`~umbra.modules.view3d.view3d.View3D` owns)."""
+its own; and the scene file (a part that :class:`~umbra.modules.view3d.view3d.View3D` owns)."""
 
 from __future__ import annotations
 

@@ -230,14 +230,17 @@ class Operator:
         return self.state()["primitives"][-1]
 
     def check_epipolar(self, snap: dict) -> None:
-        """Every right-hand handle lies on the epipolar line of its left-hand mate."""
+        """Every right-hand handle lies on the epipolar line of its left-hand mate, to 1e-4 px:
+        the page keeps it on the server's epipolar curve once that has come (points projected
+        along camera a's ray out to 10 km: a CI run measured one 2.5e-6 px off the line), on
+        the line from ``F`` before."""
         a = np.array(self.page.evaluate("window.sketch.a"))
         b = np.array(self.page.evaluate("window.sketch.b"))
         F = np.array(snap["F"])
         for i in range(len(a)):
             line = F @ np.append(a[i], 1.0)
             distance = abs(line @ np.append(b[i], 1.0)) / np.hypot(line[0], line[1])
-            assert distance < 1e-6, f"right-hand handle {i} is {distance} px off its line"
+            assert distance < 1e-4, f"right-hand handle {i} is {distance} px off its line"
 
     def plan(self, macro: str) -> dict:
         before = json.dumps((self.state().get("path") or {}).get("id"))

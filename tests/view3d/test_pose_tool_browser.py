@@ -24,7 +24,6 @@ from tests.poll import wait_for
 from tests.view3d.browser_support import (
     block_outside_loopback,
     canvas_box,
-    launch,
     needs_chromium,
     project_to_page,
 )
@@ -125,16 +124,6 @@ def rendered(pixels: np.ndarray) -> np.ndarray:
             cv2.circle(image, centre, 6 * 16, (255, 255, 255), -1, cv2.LINE_AA, shift=4)
             cv2.circle(image, centre, 2 * 16, (0, 0, 255), -1, cv2.LINE_AA, shift=4)
     return image
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        chromium = launch(p)
-        yield chromium
-        chromium.close()
 
 
 def _client(module):

@@ -16,7 +16,6 @@ from tests.view3d.browser_support import (
     block_outside_loopback,
     canvas_box,
     inside_quad,
-    launch,
     needs_chromium,
     project_to_page,
     screenshot,
@@ -118,16 +117,6 @@ class View:
     def close(self) -> None:
         self.page.close()
         self.harness.__exit__(None, None, None)
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        chromium = launch(p)
-        yield chromium
-        chromium.close()
 
 
 @pytest.fixture(scope="module")

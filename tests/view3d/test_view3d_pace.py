@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tests.poll import wait_for
-from tests.view3d.browser_support import launch, needs_chromium
+from tests.view3d.browser_support import needs_chromium
 from tests.view3d.test_view3d_browser import LEFT_MODEL, MAGENTA, View
 from umbra.connectors.limits import MAX_PAGE_IN_FLIGHT, PAGE_ACK_TIMEOUT_S
 from umbra.connectors.messages import Image, JointState
@@ -46,16 +46,6 @@ BUSY = """(busy_ms) => {
   while (Date.now() - from < busy_ms) {}
   return [from, Date.now()];
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        chromium = launch(p)
-        yield chromium
-        chromium.close()
 
 
 class CountingBrowser:
