@@ -13,14 +13,13 @@ import pytest
 
 from tests.poll import wait_for
 from tests.view3d.browser_support import (
-    block_outside_loopback,
-    canvas_box,
     inside_quad,
     needs_chromium,
     project_to_page,
     screenshot,
 )
-from umbra.connectors.messages import CameraModel, Image, Pose
+from tests.view3d.view_page import LEFT_MODEL, MAGENTA, T_BASE_CAM_LEFT, View
+from umbra.connectors.messages import Image, Pose
 from umbra.connectors.sketch_messages import SketchBox
 from umbra.modules.calib.rotations import vector_from_rotation
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
@@ -30,93 +29,9 @@ from umbra.modules.view3d.geometry import (
     viewer_pose_from_camera,
     viewer_pose_looking_at,
 )
-from umbra.modules.view3d.view3d import View3D
 from umbra.modules.view3d.viewer_video import FRUSTUM_SCALES
-from umbra.runtime.harness import ModuleHarness
 
 pytestmark = [pytest.mark.browser, needs_chromium]
-
-MAGENTA = np.array([255, 0, 255])  # the left camera's video, RGB
-T_BASE_CAM_LEFT = np.eye(4)
-_look = viewer_pose_looking_at([0.6, -0.9, 1.1], [0.6, 0.0, 0.25], 0.8)
-T_BASE_CAM_LEFT[:3, :3] = matrix_from_wxyz(_look.wxyz)
-T_BASE_CAM_LEFT[:3, 3] = _look.position
-FRAMES = {
-    "base->table": transform_from_xyz_rpy_deg([0, 0, 0.25], [0, 0, 0]),
-    "flange->tool": transform_from_xyz_rpy_deg([0, 0, 0.14], [0, 0, 0]),
-    "tool->camera": transform_from_xyz_rpy_deg([0, 0, -0.12], [0, 0, 0]),
-    "base->cam_left": T_BASE_CAM_LEFT,
-}
-LEFT_MODEL = CameraModel(
-    fx=600.0, fy=600.0, u0=320.0, v0=240.0, width=640, height=480, mount="cam_left", frame="left"
-)
-
-
-class View:
-    """A View3D module in a harness and one Chromium page showing it."""
-
-    def __init__(self, browser, params: dict, output_dir: Path) -> None:
-        self.harness = ModuleHarness(View3D, params, frames=FRAMES, output_dir=output_dir)
-        self.harness.__enter__()
-        self.module = self.harness.module
-        self.page = browser.new_page(viewport={"width": 1100, "height": 700})
-        block_outside_loopback(self.page)
-        self.page.goto(self.module.address)
-        self.client = wait_for(
-            self._client, 20.0, "the browser to connect to viser", interval_s=0.05
-        )
-        self.settle_layout()
-
-    def settle_layout(self) -> None:
-        """Wait until the control panel is docked beside the canvas (the canvas narrows)."""
-        self.canvas = wait_for(
-            lambda: canvas_box(self.page),
-            20.0,
-            "the docked panel",
-            interval_s=0.05,
-            ok=lambda c: 0 < c.width < 1000,
-        )
-
-    def _client(self):
-        clients = list(self.module.page.server.get_clients().values())
-        if not clients:
-            return None
-        try:
-            clients[0].camera.position  # noqa: B018  (raises until the browser reported it)
-        except AssertionError:
-            return None
-        return clients[0]
-
-    def move_viewer(self, pose, what: str, tolerance_m: float = 1e-4) -> None:
-        """Put the page's viewer at ``pose`` and wait until the browser reports it there. On a
-        loaded machine the page's socket may close and viser's page reconnects as a new client
-        (seen once in the default suite: the pose queued on the closed connection, the test
-        waiting 20 s for a viewer that never got it): the pose is sent again to whichever
-        client the page is now, and ``self.client`` follows it."""
-        sent_to: list[object] = [None]
-
-        def there() -> bool:
-            client = self._client()
-            if client is None:
-                return False
-            if client is not sent_to[0]:
-                self.client = client
-                self.module.page.set_viewer(client, pose)
-                sent_to[0] = client
-            return bool(
-                np.linalg.norm(client.camera.position - pose.position) < tolerance_m
-                and np.linalg.norm(client.camera.look_at - pose.look_at) < tolerance_m
-            )
-
-        wait_for(there, 20.0, what, interval_s=0.05)
-
-    def feed(self, port: str, sample) -> None:
-        self.harness.push(port, sample)
-        self.harness.step(dt=0.05)
-
-    def close(self) -> None:
-        self.page.close()
-        self.harness.__exit__(None, None, None)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import pytest
 
 from tests.poll import wait_for
 from tests.view3d.browser_support import needs_chromium
-from tests.view3d.test_view3d_browser import LEFT_MODEL, MAGENTA, View
+from tests.view3d.view_page import LEFT_MODEL, MAGENTA, View
 from umbra.connectors.limits import MAX_PAGE_IN_FLIGHT, PAGE_ACK_TIMEOUT_S
 from umbra.connectors.messages import Image, JointState
 
