@@ -27,6 +27,7 @@ from tests.view3d.browser_support import (
     needs_chromium,
     project_to_page,
 )
+from tests.view3d.view_page import first_client
 from umbra.connectors.messages import CameraModel, Image, Pose
 from umbra.connectors.scene_messages import SceneObjects
 from umbra.modules.calib.pose_tool import pose_error
@@ -126,17 +127,6 @@ def rendered(pixels: np.ndarray) -> np.ndarray:
     return image
 
 
-def _client(module):
-    clients = list(module.page.server.get_clients().values())
-    if not clients:
-        return None
-    try:
-        clients[0].camera.position  # noqa: B018  (raises until the browser reported it)
-    except AssertionError:
-        return None
-    return clients[0]
-
-
 def _viewer_at(client, pose) -> bool:
     return bool(
         np.linalg.norm(client.camera.position - pose.position) < 1e-4
@@ -211,7 +201,9 @@ def test_pose_tool_in_the_page_recovers_a_wrong_mount(browser, tmp_path: Path) -
         page = browser.new_page(viewport={"width": 1500, "height": 760})
         block_outside_loopback(page)
         page.goto(module.address)
-        client = wait_for(lambda: _client(module), 20.0, "the browser to connect", interval_s=0.05)
+        client = wait_for(
+            lambda: first_client(module), 20.0, "the browser to connect", interval_s=0.05
+        )
         canvas = wait_for(
             lambda: canvas_box(page),
             20.0,

@@ -31,6 +31,18 @@ LEFT_MODEL = CameraModel(
 )
 
 
+def first_client(module: View3D):
+    """The first browser on ``module``'s page once it has reported its camera (None before)."""
+    clients = list(module.page.server.get_clients().values())
+    if not clients:
+        return None
+    try:
+        clients[0].camera.position  # noqa: B018  (raises until the browser reported it)
+    except AssertionError:
+        return None
+    return clients[0]
+
+
 class View:
     """A View3D module in a harness and one Chromium page showing it."""
 
@@ -57,14 +69,7 @@ class View:
         )
 
     def _client(self):
-        clients = list(self.module.page.server.get_clients().values())
-        if not clients:
-            return None
-        try:
-            clients[0].camera.position  # noqa: B018  (raises until the browser reported it)
-        except AssertionError:
-            return None
-        return clients[0]
+        return first_client(self.module)
 
     def move_viewer(self, pose, what: str, tolerance_m: float = 1e-4) -> None:
         """Put the page's viewer at ``pose`` and wait until the browser reports it there. On a
