@@ -173,10 +173,16 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 pressed = time.monotonic()
                 page.mouse.down()
                 page.wait_for_timeout(600)
-                held = [s.vector for _, s in stepper.outputs("jog")]
-                assert len(held) >= 6 and all(vec[0] > 0.009 for vec in held)
+                held = stepper.outputs("jog")
+                assert sum(s.vector[0] > 0.009 for _, s in held) >= 6, held
                 kept = [t for t in arrivals if t >= pressed]
                 assert kept, "no keep-alive came while the button was held"
+                # A held jog stops only where the page's keep-alive came late (a loaded machine
+                # can hold the page's timer back): never while they keep coming in time.
+                stops = [t for t, s in held if not s.vector[0] > 0.009]
+                if stops:
+                    gaps = np.diff([pressed, *kept])
+                    assert gaps.max() > h.module.params.deadman_s, (stops, gaps)
                 # at each keep-alive or, between two, at the keep-alive period: not every step
                 period_bound = (time.monotonic() - pressed) / KEEPALIVE_S + 1
                 assert len(held) <= len(kept) + period_bound, (len(held), len(kept))
