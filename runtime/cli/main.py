@@ -9,11 +9,13 @@ from __future__ import annotations
 import argparse
 import ast
 import atexit
+import faulthandler
 import importlib
 import importlib.util
 import logging
 import os
 import re
+import signal
 import sys
 from collections.abc import Sequence
 from importlib.metadata import entry_points
@@ -196,7 +198,9 @@ def entry() -> NoReturn:
     frames, and glibc aborts the process ("FATAL: exception not rethrown", SIGABRT) after a run
     that went well. Everything :func:`main` writes (summaries, recordings) is written and closed
     before it returns; the exit handlers and logging are flushed here, then the process ends with
-    :func:`main`'s status."""
+    :func:`main`'s status. SIGUSR1 prints every thread's Python stack to stderr and the run goes
+    on: what a process that does not stop is waiting for."""
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     code = main()
     try:
         atexit._run_exitfuncs()  # what finalizing would run first (temporary files, ...)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -133,7 +135,22 @@ class Running:
         return wait_for(line, timeout, lambda: f"a line with {text!r}" + tail())
 
     def finish(self, timeout: float = 60.0) -> int:
-        code = self.popen.wait(timeout=timeout)
+        """The exit status. A process still running after ``timeout`` s is asked for its
+        threads' stacks (SIGUSR1), killed, and the test fails with them and its output."""
+        try:
+            code = self.popen.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.popen.send_signal(signal.SIGUSR1)
+            with contextlib.suppress(AssertionError):  # no dump: the output says what it can
+                wait_for(lambda: any("most recent call first" in x for x in self.stderr), 5.0)
+            self.popen.kill()
+            self.popen.wait(timeout=10)
+            for t in self.threads:
+                t.join(timeout=5)
+            raise AssertionError(
+                f"still running {timeout:g} s after it was asked to stop; its output:\n"
+                + "\n".join(self.stdout[-40:] + self.stderr[-300:])
+            ) from None
         for t in self.threads:
             t.join(timeout=5)
         return code
