@@ -1,6 +1,11 @@
-"""Small module types used by the runtime tests (registered directly, not by entry points)."""
+"""Small module types used by the runtime tests (registered directly, not by entry points), and
+a real-clock run of ``umbra`` to signal."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -107,3 +112,22 @@ def make_registry() -> Registry:
     for cls in (TwistSink, Guard, Kin, Driver, ToolTwistSource, Fresh, Boom, StopLog):
         reg.add(cls)
     return reg
+
+
+def start_recording_run(tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
+    """``umbra run`` of a real-clock graph that records a counter until it is stopped, in
+    ``tmp_path`` (stderr piped as text, stdout dropped); the process and its output folder."""
+    graph = tmp_path / "g.yaml"
+    graph.write_text(
+        "graph: g\nclock: real\nmodules:\n  c: {type: Counter, rate: 50}\n"
+        "  rec: {type: Recorder, params: {channels: [x]}}\n"
+        "connections: [c.count -> rec.x]\n"
+    )
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph), "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    return proc, out

@@ -5,8 +5,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -14,7 +12,7 @@ import numpy as np
 import pytest
 
 from tests.poll import wait_for
-from tests.runtime.fixtures import StopLog, make_registry
+from tests.runtime.fixtures import StopLog, make_registry, start_recording_run
 from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.messages import Scalar
 from umbra.modules.generic.recording import read_recording
@@ -195,19 +193,7 @@ def test_max_age_violations_are_counted_and_not_delivered(tmp_path: Path) -> Non
 
 
 def test_sigint_stops_with_130_and_writes_summary(tmp_path: Path) -> None:
-    graph = tmp_path / "g.yaml"
-    graph.write_text(
-        "graph: g\nclock: real\nmodules:\n  c: {type: Counter, rate: 50}\n"
-        "  rec: {type: Recorder, params: {channels: [x]}}\n"
-        "connections: [c.count -> rec.x]\n"
-    )
-    out = tmp_path / "out"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph), "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc, out = start_recording_run(tmp_path)
     wait_for((out / "recording.mcap").exists, 30, "the recording file", 0.05)
     time.sleep(0.3)
     proc.send_signal(signal.SIGINT)

@@ -5,31 +5,18 @@ from __future__ import annotations
 
 import json
 import signal
-import subprocess
-import sys
 import threading
 from pathlib import Path
 
 import pytest
 
 from tests.poll import wait_for
+from tests.runtime.fixtures import start_recording_run
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGUSR1"), reason="needs POSIX signals")
 def test_sigusr1_prints_every_threads_stack_and_the_run_goes_on(tmp_path: Path) -> None:
-    graph = tmp_path / "g.yaml"
-    graph.write_text(
-        "graph: g\nclock: real\nmodules:\n  c: {type: Counter, rate: 50}\n"
-        "  rec: {type: Recorder, params: {channels: [x]}}\n"
-        "connections: [c.count -> rec.x]\n"
-    )
-    out = tmp_path / "out"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "umbra.runtime.cli.main", "run", str(graph), "--out", str(out)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc, out = start_recording_run(tmp_path)
     lines: list[str] = []
     assert proc.stderr is not None
     reader = threading.Thread(target=lambda: lines.extend(proc.stderr), daemon=True)

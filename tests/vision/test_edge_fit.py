@@ -244,14 +244,8 @@ def test_an_edge_whose_steepest_point_the_clip_hides_is_found_past_the_last_diff
             patch_bgr=patch,
             background_bgr=np.array([290.0, 281.0, 296.0]),
         )
-        along = np.array([-normal[1], normal[0]])
-        t = np.linspace(-60.0, 60.0, 30)
-        start = rng.uniform(-1.5, 0.5, t.size)
-        on_edge = np.array([100.0, 100.0]) + offset_px * normal + t[:, None] * along
-        vertices = on_edge + start[:, None] * normal
-        fit = fit_edges(image, vertices, np.repeat(normal[None, :], t.size, 0), model, 3.0, 20.0)
-        assert fit.found.mean() >= 0.85
-        means.append(np.mean((fit.vertices @ normal - edge)[fit.found]))
+        residual = _fit_across(image, normal, offset_px, edge, model, 30, (-1.5, 0.5), rng)
+        means.append(residual.mean())
     assert abs(np.mean(means)) < 0.15, np.mean(means)
 
 
@@ -286,17 +280,33 @@ def _edges_of_half_planes(damage) -> tuple[float, float]:
         angle, offset_px = rng.uniform(0.0, np.pi), rng.uniform(-0.5, 0.5)
         image, normal, edge = half_plane_image(offset_px, angle, 0.9, 2.0, rng)
         image = damage(image, rng)
-        along = np.array([-normal[1], normal[0]])
-        t = np.linspace(-60.0, 60.0, 40)
-        start = rng.uniform(-1.0, 1.0, t.size)
-        on_edge = np.array([100.0, 100.0]) + offset_px * normal + t[:, None] * along
-        vertices = on_edge + start[:, None] * normal
-        fit = fit_edges(image, vertices, np.repeat(normal[None, :], t.size, 0), MODEL, 3.0, 20.0)
-        residual = (fit.vertices @ normal - edge)[fit.found]
-        assert fit.found.mean() >= 0.85
+        residual = _fit_across(image, normal, offset_px, edge, MODEL, 40, (-1.0, 1.0), rng)
         biases.append(abs(residual.mean()))
         spreads.append(np.sqrt(np.mean(residual**2)))
     return max(biases), float(np.mean(spreads))
+
+
+def _fit_across(
+    image: np.ndarray,
+    normal: np.ndarray,
+    offset_px: float,
+    edge: float,
+    model: color.ColorModel,
+    count: int,
+    start_px: tuple[float, float],
+    rng,
+) -> np.ndarray:
+    """Residuals [px, along ``normal``] of the vertices that found the straight edge
+    ``normal . x = edge`` of a :func:`half_plane_image`: ``count`` vertices over 120 px of it,
+    each started off it by a uniform draw within ``start_px``; at least 85 % find it."""
+    along = np.array([-normal[1], normal[0]])
+    t = np.linspace(-60.0, 60.0, count)
+    start = rng.uniform(*start_px, t.size)
+    on_edge = np.array([100.0, 100.0]) + offset_px * normal + t[:, None] * along
+    vertices = on_edge + start[:, None] * normal
+    fit = fit_edges(image, vertices, np.repeat(normal[None, :], t.size, 0), model, 3.0, 20.0)
+    assert fit.found.mean() >= 0.85
+    return (fit.vertices @ normal - edge)[fit.found]
 
 
 def test_a_channel_the_background_textures_counts_less() -> None:
