@@ -405,7 +405,6 @@ def _steepest(
     sign = np.sign(step)[:, None, :]
     slope = sign * (profile[:, :-2] - profile[:, 2:])  # (N, K - 2, C), at offsets[1:-1]
     middle = offsets[1:-1]
-    last = len(middle) - 1
     lit = (profile < _CLIP_HIGH) & (profile > _CLIP_LOW)
     seen = lit[:, :-2] & lit[:, 1:-1] & lit[:, 2:]  # the difference reads no clipped sample
     near = np.abs(middle[None, :] - centre[:, None]) <= reach_px  # (N, K - 2)
@@ -413,16 +412,18 @@ def _steepest(
     k = np.argmax(candidates, axis=1)  # (N, C)
     rows = np.arange(len(profile))[:, None]
     channels = np.arange(profile.shape[2])[None, :]
+    # Two places more on either side, none of them a difference or clipped: index i is i + 2.
+    margin = ((0, 0), (2, 2), (0, 0))
+    padded = np.pad(candidates, margin, constant_values=-np.inf)
+    hidden = np.pad(~seen, margin, constant_values=False)
 
     def value(index: NDArray[np.intp]) -> FloatArray:
         """The candidate difference at ``index`` (N x C); -inf outside the profile."""
-        inside = (index >= 0) & (index <= last)
-        return np.where(inside, candidates[rows, np.clip(index, 0, last), channels], -np.inf)
+        return padded[rows, index + 2, channels]
 
     def clipped(index: NDArray[np.intp]) -> NDArray[np.bool_]:
         """Whether the difference at ``index`` (N x C) reads a clipped sample."""
-        inside = (index >= 0) & (index <= last)
-        return inside & ~seen[rows, np.clip(index, 0, last), channels]
+        return hidden[rows, index + 2, channels]
 
     before, at, after = value(k - 1), value(k), value(k + 1)
     both = np.isfinite(before) & np.isfinite(after)
