@@ -42,8 +42,8 @@ class SketchPage(Module["SketchPage.Params"]):
     and counted. The page shows who holds control, with Take / Release buttons; without a
     console in the graph the page is the only way in, and any viewer may take control while
     nobody holds it. A browser whose page has not polled for ``lost_after`` seconds has left
-    (control held only there is free again). Beyond loopback every route of the page needs the
-    access token (``token_file``, or a random one printed at start, when this page starts the
+    (control held only there is free again). Every route of the page needs the access token, on
+    loopback too (``token_file``, or a random one printed at start, when this page starts the
     server; else the console's).
 
     A lost console: the page polls its state every 0.2 s; when a path the operator set moving

@@ -39,10 +39,20 @@ from umbra.runtime.ros2.mapping import Direction, Ros2Mapping
 from umbra.runtime.ros2.msgtypes import from_cdr, to_cdr, type_hash
 from umbra.runtime.ros2.names import namespace_problem, node_name_problem
 from umbra.runtime.ros2.outbound import OUTBOUND
+from umbra.runtime.ros2.qos import QosProfile, Reliability
 from umbra.runtime.ros2.stamps import relate
 
 #: Highest ROS 2 domain id (``ROS_DOMAIN_ID``; rmw_zenoh takes any non-negative number, DDS 232).
 MAX_DOMAIN = 232
+
+
+def zenoh_reliability(qos: QosProfile) -> zenoh.Reliability:
+    """The zenoh reliability a publisher of ``qos`` asks for, as rmw_zenoh maps it: best effort
+    for a best-effort profile (a best-effort link such as UDP may carry it, where the session
+    has one), reliable otherwise."""
+    if qos.reliability is Reliability.BEST_EFFORT:
+        return zenoh.Reliability.BEST_EFFORT
+    return zenoh.Reliability.RELIABLE
 
 
 @dataclass
@@ -127,7 +137,9 @@ class Ros2Bridge:
             key = data_key(domain, m.topic, m.ros_type, h)
             if kind is EntityKind.PUBLISHER:
                 pub = self._session.declare_publisher(
-                    key, congestion_control=zenoh.CongestionControl.DROP
+                    key,
+                    congestion_control=zenoh.CongestionControl.DROP,
+                    reliability=zenoh_reliability(m.qos),
                 )
                 self._outs[m.topic] = _Out(m, ep, pub, ep.gid())
             else:

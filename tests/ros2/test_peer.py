@@ -9,12 +9,14 @@ import time
 
 import numpy as np
 import pytest
+import zenoh
 
 from tests.poll import wait_for
 from umbra.connectors.messages import Image, JointState
 from umbra.runtime.ros2.bridge import Ros2Bridge
 from umbra.runtime.ros2.discovery import query_graph
 from umbra.runtime.ros2.mapping import Ros2Mapping
+from umbra.runtime.ros2.qos import SENSOR_DATA
 from umbra.runtime.ros2.router import session_config
 from umbra.runtime.ros2.stamps import relate
 
@@ -136,3 +138,50 @@ def test_we_decode_the_peers_image(router_port, sdk):
         ours = {t.name: t for t in query_graph(bridge.session, 0).topics()}
         assert ours["/wrist_camera/image_raw"].subscribers == ("/umbra",)
         pub.close()
+
+
+def test_a_best_effort_profile_publishes_best_effort(router_port, sdk):
+    """A mapping whose QoS is best effort (``sensor_data``) asks zenoh for best effort, as
+    rmw_zenoh does; rclcpp's default stays reliable. Both are what the peer reads from our
+    tokens, and both still reach it over the router's TCP."""
+    got: dict[str, list] = {"/camera/image_raw": [], "/joint_states": []}
+    subs = [
+        sdk.ROS2Subscriber(topic, ros_type, got[topic].append, router_port=router_port, domain_id=0)
+        for topic, ros_type in (
+            ("/camera/image_raw", "sensor_msgs/msg/Image"),
+            ("/joint_states", "sensor_msgs/msg/JointState"),
+        )
+    ]
+    image = Ros2Mapping(
+        "/camera/image_raw", "sensor_msgs/msg/Image", "Image", "out", qos=SENSOR_DATA
+    )
+    js = Ros2Mapping("/joint_states", "sensor_msgs/msg/JointState", "JointState", "out")
+    frame = Image(pixels=np.zeros((4, 6, 3), dtype=np.uint8), origin=time.monotonic())
+    state = JointState(names=NAMES, position=np.zeros(3), origin=time.monotonic())
+    with _bridge(router_port, image, js) as bridge:
+        reliability = {t: out.publisher.reliability for t, out in bridge._outs.items()}
+        assert reliability == {
+            "/camera/image_raw": zenoh.Reliability.BEST_EFFORT,
+            "/joint_states": zenoh.Reliability.RELIABLE,
+        }
+        wait_for(
+            lambda: all(got.values()),
+            10.0,
+            "both topics at the peer",
+            interval_s=0.02,
+            step=lambda: (
+                bridge.publish("/camera/image_raw", frame),
+                bridge.publish("/joint_states", state),
+            ),
+        )
+        qos = {
+            topic: sdk.get_topic_info(
+                topic, domain_id=0, router_port=router_port, timeout=1.0, verbose=True
+            )
+            .publishers[0]
+            .qos
+            for topic in got
+        }
+        assert qos == {"/camera/image_raw": "2::,5:,:,:,,", "/joint_states": "::,10:,:,:,,"}
+    for sub in subs:
+        sub.close()
