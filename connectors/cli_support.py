@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from typing import Any
 
@@ -68,3 +69,13 @@ def _default(obj: Any) -> Any:
     if isinstance(obj, np.generic):
         return obj.item()
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def check_seconds(option: str, value: float | None, hint: str = "") -> None:
+    """Refuse (``UserError``) a time span given on the command line that is not a positive,
+    finite number of seconds; ``None`` (the option left out) passes. ``hint`` is added to the
+    message in parentheses."""
+    if value is None or (value > 0 and math.isfinite(value)):
+        return
+    extra = f" ({hint})" if hint else ""
+    raise UserError(f"{option} must be a positive, finite number of seconds{extra}, found {value}")

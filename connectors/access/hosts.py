@@ -15,6 +15,31 @@ from urllib.parse import urlsplit
 from umbra.connectors.access.secret import is_loopback
 
 WILDCARDS = ("0.0.0.0", "::", "")
+#: Highest TCP port number; 0 asks the system for a free one.
+MAX_TCP_PORT = 65535
+
+
+def port_problem(port: int) -> str:
+    """Why ``port`` cannot be a TCP port to listen on ("" when it can)."""
+    if 0 <= port <= MAX_TCP_PORT:
+        return ""
+    return f"expected a port from 0 to {MAX_TCP_PORT} (0: any free one), found {port}"
+
+
+def origin_problem(origin: str) -> str:
+    """Why ``origin`` is not a page origin ``scheme://host[:port]`` ("" when it is)."""
+    parts = urlsplit(origin.strip())
+    if parts.scheme in ("http", "https") and parts.hostname and parts.path in ("", "/"):
+        try:
+            parts.port  # noqa: B018 (raises on a port that is not a number)
+        except ValueError:
+            pass
+        else:
+            return ""
+    return (
+        "expected a page origin http(s)://host[:port], e.g. http://127.0.0.1:8080, "
+        f"found {origin!r}"
+    )
 
 
 def _netloc(host: str, port: int) -> str:

@@ -125,7 +125,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     pose.add_argument("--json", action="store_true", help="print one JSON object")
 
-    tri = actions.add_parser("triangulate", help="3-D point and ray gap from two pixels")
+    tri = actions.add_parser("triangulate", help="3-D point and ray gap from two or more pixels")
     tri.add_argument("cameras", metavar="YAML", help="named, posed cameras")
     tri.add_argument(
         "--pixel",

@@ -7,6 +7,7 @@ from typing import Annotated
 from pydantic import Field, field_validator
 
 from umbra.connectors import param
+from umbra.connectors.access.hosts import MAX_TCP_PORT
 from umbra.modules.arm.arm_params import ArmParams
 
 #: How long [s] a page waits without hearing from the run before it drops its socket (a
@@ -24,7 +25,7 @@ class ConsoleParams(ArmParams):
 
     serve: bool = param(True, "serve the page (false: no web server, for batch trials)")
     host: str = param("127.0.0.1", "address to listen on (the access token is always needed)")
-    port: int = param(0, "TCP port (0: a free one, printed at start)", ge=0, le=65535)
+    port: int = param(0, "TCP port (0: a free one, printed at start)", ge=0, le=MAX_TCP_PORT)
     token_file: str = param("", "file whose first line is the access token (else a random one)")
     stale_page_s: float = param(
         0.5, "actions on an image older than this are refused", unit="s", gt=0

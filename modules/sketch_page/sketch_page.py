@@ -8,6 +8,7 @@ import time
 import cv2
 
 from umbra.connectors import Input, Module, Output, Parameters, param
+from umbra.connectors.access.hosts import MAX_TCP_PORT
 from umbra.connectors.access.secret import resolve_token
 from umbra.connectors.messages import Image, Status, Text
 from umbra.connectors.path_messages import ToolPath, VcrState
@@ -56,7 +57,9 @@ class SketchPage(Module["SketchPage.Params"]):
 
     class Params(Parameters):
         host: str = param("", "web server host (empty: the console's, or 127.0.0.1)")
-        port: int = param(0, "web server port (0: the console's, or a free one)", ge=0, le=65535)
+        port: int = param(
+            0, "web server port (0: the console's, or a free one)", ge=0, le=MAX_TCP_PORT
+        )
         token_file: str = param(
             "", "file whose first line is the access token (when this page starts the server)"
         )

@@ -10,6 +10,7 @@ import numpy as np
 from pydantic import field_validator, model_validator
 
 from umbra.connectors import Input, Module, Output, ParamProblem, UserError, from_param, param
+from umbra.connectors.access.hosts import MAX_TCP_PORT
 from umbra.connectors.access.secret import resolve_token
 from umbra.connectors.limits import MIN_RATE_HZ
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Status
@@ -34,7 +35,7 @@ class View3DParams(ArmParams):
     """Parameters of the 3-D view (the arm's DH table comes from ArmParams)."""
 
     host: str = param("127.0.0.1", "address the page listens on (loopback by default)")
-    port: int = param(8090, "TCP port of the page; 0: any free port", ge=0, le=65535)
+    port: int = param(8090, "TCP port of the page; 0: any free port", ge=0, le=MAX_TCP_PORT)
     token_file: str = param(
         "", "file whose first line is the page's access token (else a random one, printed)"
     )

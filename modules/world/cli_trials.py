@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from umbra.connectors.cli_support import print_json
+from umbra.connectors.cli_support import check_seconds, print_json
 from umbra.connectors.errors import UserError
 from umbra.modules.world.trial_faults import MAX_STALE_TRAVEL_MM
 from umbra.modules.world.trial_runner import TrialGraph, run_single, run_split
@@ -38,14 +38,16 @@ GUIDE = "docs/guide/pickup.md"  # the guide page this command's --help points to
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("graph", metavar="GRAPH", help="a tool pick-up graph")
     parser.add_argument("-n", type=int, default=20, help="number of trials (default 20)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the randomization")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the randomization (default 0, at least 0)"
+    )
     parser.add_argument(
         "--fault", choices=FAULTS, default="none", help="inject a fault mid-approach in every trial"
     )
     parser.add_argument(
         "--split",
         action="store_true",
-        help="run each trial split over two processes (real clock, zenoh)",
+        help="run each trial split over the graph's processes (real clock, zenoh)",
     )
     parser.add_argument("--workers", type=int, default=1, help="trials run in parallel")
     parser.add_argument(
@@ -55,7 +57,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="a trial without a grasp ends after S seconds of clock time",
     )
-    parser.add_argument("--out", type=Path, metavar="DIR", help="keep each trial's output here")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="keep each trial's output here (default: a new temporary folder, named on stderr)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--only", metavar="A:B", help=argparse.SUPPRESS)  # a worker's share
     parser.add_argument("--jsonl", action="store_true", help=argparse.SUPPRESS)
@@ -175,13 +182,22 @@ def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
 
 
 def main(args: argparse.Namespace) -> int:
-    if args.n < 1 or args.workers < 1 or not args.timeout > 0:
-        raise UserError("-n, --workers must be at least 1 and --timeout positive")
+    for name, value, ok, expected in (
+        ("-n", args.n, args.n >= 1, "at least 1"),
+        ("--seed", args.seed, args.seed >= 0, "a non-negative integer"),
+        ("--workers", args.workers, args.workers >= 1, "at least 1"),
+    ):
+        if not ok:
+            raise UserError(f"{name}: expected {expected}, found {value}")
+    check_seconds("--timeout", args.timeout)
     if args.fault == "kill_umbra" and not args.split:
         raise UserError("--fault kill_umbra kills the vision process: it needs --split")
     logging.basicConfig(level=logging.ERROR, format="%(levelname)s %(name)s: %(message)s")
     graph = TrialGraph(args.graph)
-    out = args.out or Path(tempfile.mkdtemp(prefix="umbra-trials-"))
+    out = args.out
+    if out is None:
+        out = Path(tempfile.mkdtemp(prefix="umbra-trials-"))
+        print(f"umbra trials: each trial's output goes to {out} (--out to choose)", file=sys.stderr)
     first, last = 0, args.n
     if args.only:
         first, last = (int(v) for v in args.only.split(":"))
@@ -221,7 +237,7 @@ def _print_table(summary: dict[str, Any], results: list[TrialResult]) -> None:
         v = None if d is None else d.get(k)
         return "-" if v is None else f"{v * scale:.3g}"
 
-    how = "split over two processes" if summary["split"] else "one process, sim clock"
+    how = "split over the graph's processes" if summary["split"] else "one process, sim clock"
     print(f"{summary['trials']} trials ({how}), {summary['wall_time_s']} s")
     if "safety" not in summary:
         print(

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import queue
 import sys
 import time
 from typing import TYPE_CHECKING
 
-from umbra.connectors.errors import UserError
+from umbra.connectors.cli_support import check_seconds
 from umbra.runtime.cli.observing import (
     add_observer_args,
     full_key,
@@ -30,7 +29,9 @@ GUIDE = "docs/guide/recording.md"  # the guide page this command's --help points
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("key", metavar="KEY", help="PREFIX/MODULE/PORT or MODULE/PORT")
+    parser.add_argument(
+        "key", metavar="KEY", help="PREFIX/MODULE/PORT or MODULE/PORT; a ROS 2 /topic with --ros2"
+    )
     add_observer_args(parser)
     parser.add_argument("--once", action="store_true", help="print one sample and exit")
     parser.add_argument("--json", action="store_true", help="one JSON object per sample")
@@ -48,8 +49,7 @@ LOOK_PERIOD = 0.2
 
 
 def main(args: argparse.Namespace) -> int:
-    if args.timeout is not None and not (args.timeout > 0 and math.isfinite(args.timeout)):
-        raise UserError(f"--timeout must be a positive number of seconds, found {args.timeout}")
+    check_seconds("--timeout", args.timeout)
     if wants_ros2(args):
         return ros2_shell.echo(args, args.key)
     observation = open_observation(args)

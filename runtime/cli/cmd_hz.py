@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import math
 import statistics
 import sys
 import threading
@@ -12,6 +11,7 @@ import time
 from collections import deque
 from typing import TYPE_CHECKING
 
+from umbra.connectors.cli_support import check_seconds
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.observing import (
     add_observer_args,
@@ -42,8 +42,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     if args.window < 2:
         raise UserError(f"--window must be at least 2 samples, found {args.window}")
-    if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
-        raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
+    check_seconds("--duration", args.duration)
     observation = open_observation(args)
     arrivals: deque[float] = deque(maxlen=args.window)
     lock = threading.Lock()

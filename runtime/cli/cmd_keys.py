@@ -34,7 +34,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="an address or host name a process is reached at, written into its certificate "
         "(repeatable; localhost and 127.0.0.1 are always there)",
     )
-    parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
+    parser.add_argument(
+        "--prefix",
+        metavar="KEY",
+        help="zenoh key prefix (default: the graph's `links.prefix`, else umbra/<graph>)",
+    )
     parser.add_argument(
         "--observer",
         action="append",

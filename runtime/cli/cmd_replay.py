@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from umbra.connectors.errors import UserError
+from umbra.connectors.cli_support import check_seconds
 from umbra.runtime.cli.common import parse_module_set
 
 NAME = "replay"
@@ -70,8 +70,7 @@ def main(args: argparse.Namespace) -> int:
     from umbra.runtime.run import run_process
     from umbra.runtime.scheduler import SchedulerOptions
 
-    if args.duration is not None and not args.duration > 0:
-        raise UserError(f"--duration must be a positive number of seconds, found {args.duration}")
+    check_seconds("--duration", args.duration)
     plan = load_graph(args.graph, overrides=parse_module_set(args.set))
     enable_recording(plan, args)
     replaced = [n.strip() for item in args.replace for n in item.split(",") if n.strip()]

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from umbra.connectors.cli_support import check_seconds
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.common import parse_module_set
 from umbra.runtime.graph.names import endpoint_problem
@@ -32,7 +32,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="a person runs this run from the operator's page: simulated operators stay off, "
         "the run never ends on its own (no duration; a judge's verdict is published and "
-        "printed, then the run waits); stop it with Ctrl-C (exit 130, summaries written)",
+        "printed, then the run waits); the page's Stop run ends it (exit 0, 1 for a missed "
+        "grasp), as Ctrl-C does (exit 130); summaries and recordings are written either way",
     )
     parser.add_argument(
         "--set",
@@ -47,7 +48,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--process",
         metavar="NAME",
-        help="run only this process, e.g. on another host (default endpoints: a loopback mesh "
+        help="run only this process, e.g. on another host (without --listen/--connect: the "
+        "graph's `links:` endpoints, else the --zenoh-config file's, else a loopback mesh "
         "on tcp/127.0.0.1:7447+i for the i-th process; the processes you start by hand on this "
         "host authenticate each other with credentials derived from your secret in "
         "$XDG_RUNTIME_DIR/umbra/ or ~/.cache/umbra/, unless --zenoh-config authenticates)",
@@ -86,7 +88,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "credentials: neither the launcher's per-run ones nor, with --process, those derived "
         "from your secret (anyone who reaches an endpoint can drive the graph)",
     )
-    parser.add_argument("--prefix", metavar="KEY", help="zenoh key prefix (default umbra/<graph>)")
+    parser.add_argument(
+        "--prefix",
+        metavar="KEY",
+        help="zenoh key prefix (default: the graph's `links.prefix`, else umbra/<graph>)",
+    )
     parser.add_argument(
         "--cpu-latency-us",
         type=int,
@@ -224,11 +230,7 @@ def main(args: argparse.Namespace) -> int:
     from umbra.runtime.run import default_output_dir, run_process
     from umbra.runtime.scheduler import SchedulerOptions
 
-    if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
-        raise UserError(
-            f"--duration must be a positive, finite number of seconds (leave it out to run"
-            f" until stopped), found {args.duration}"
-        )
+    check_seconds("--duration", args.duration, "leave it out to run until stopped")
     latency = args.cpu_latency_us
     if latency is not None and not is_latency_us(latency):
         raise UserError(
@@ -240,6 +242,15 @@ def main(args: argparse.Namespace) -> int:
                 raise UserError(f"--{option}: error: {endpoint_problem(endpoint)}")
     plan = load_graph(args.graph, overrides=parse_module_set(args.set), prefix=args.prefix)
     enable_recording(plan, args)
+    single = args.single_process or (len(plan.processes) == 1 and not args.process)
+    if single:
+        for option, value in (("--zenoh-config", args.zenoh_config), ("--run-id", args.run_id)):
+            if value:
+                raise UserError(
+                    f"{option}: a run in one process has no links to configure nor a run ID "
+                    f"for observers, found {str(value)!r}: leave it out, or run the graph's "
+                    "processes apart"
+                )
     clock = args.clock or plan.spec.clock
     if args.attended and clock != "real":
         raise UserError(
@@ -253,7 +264,6 @@ def main(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr
     )
-    single = args.single_process or (len(plan.processes) == 1 and not args.process)
     if single:
         options = SchedulerOptions(
             clock=clock,

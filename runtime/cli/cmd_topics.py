@@ -11,6 +11,7 @@ import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypedDict
 
+from umbra.connectors.cli_support import check_seconds
 from umbra.connectors.errors import UserError
 from umbra.runtime.cli.observing import add_observer_args, open_observation, run_ended_text
 from umbra.runtime.ros2 import shell as ros2_shell
@@ -73,8 +74,7 @@ class Seen:
 
 
 def main(args: argparse.Namespace) -> int:
-    if not (args.window > 0 and math.isfinite(args.window)):
-        raise UserError(f"--window must be a positive number of seconds, found {args.window}")
+    check_seconds("--window", args.window)
     ros2 = ros2_shell.list_topics(args, min(args.window, 1.0)) if wants_ros2(args) else None
     try:
         observation = open_observation(args, list_runs=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import ipaddress
 import re
 
+from umbra.connectors.access.hosts import MAX_TCP_PORT
 from umbra.connectors.access.secret import is_loopback
 
 #: Longest graph, process or module name [characters].
@@ -56,8 +57,10 @@ def endpoint_problem(endpoint: str) -> str:
     host, sep, port = address.rpartition(":")
     if not sep or not host:
         return f"endpoint `{endpoint}` needs HOST:PORT after `{protocol}/`"
-    if not port.isdigit() or not 0 <= int(port) <= 65535:
-        return f"endpoint `{endpoint}`: port must be a number from 0 to 65535, found `{port}`"
+    if not port.isdigit() or not 0 <= int(port) <= MAX_TCP_PORT:
+        return (
+            f"endpoint `{endpoint}`: port must be a number from 0 to {MAX_TCP_PORT}, found `{port}`"
+        )
     if host.startswith("[") and host.endswith("]"):
         host_ok = _is_ip(host[1:-1], 6)
     else:

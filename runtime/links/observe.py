@@ -147,9 +147,9 @@ def choose_run(graph: str | None, folder: Path | None = None, run_id: str | None
             )
         mine = found  # one ID in several graphs (processes started by hand): name the graph
     if not mine:
-        what = f"graph `{graph}`" if graph else "no graph"
+        what = f"no run of graph `{graph}` is up" if graph else "no graph runs"
         raise UserError(
-            f"error: {what} runs on this host for this user (no live run file in "
+            f"error: {what} on this host for this user (no live run file in "
             f"{_runs_folder_text(folder)}); start one with `umbra run GRAPH`, or observe a "
             f"run elsewhere with --zenoh-config OBSERVER.json5 --connect ENDPOINT"
         )

@@ -7,6 +7,7 @@ import secrets
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from umbra.connectors.access.hosts import origin_problem, port_problem
 from umbra.connectors.access.secret import is_loopback, resolve_token
 from umbra.connectors.errors import UserError
 from umbra.runtime.links.acl import TUNER_USER
@@ -60,6 +61,11 @@ class LiveRun:
     def __init__(
         self, plan: GraphPlan, options: LiveOptions, clock: Any, log: logging.Logger | None = None
     ) -> None:
+        if problem := port_problem(options.port):
+            raise UserError(f"--foxglove-port: {problem}")
+        for origin in options.origins:
+            if problem := origin_problem(origin):
+                raise UserError(f"--foxglove-origin: {problem}")
         if not is_loopback(options.host) and not options.insecure:
             raise UserError(
                 f"--foxglove-host: expected a loopback address (the live server speaks plain "

@@ -35,7 +35,10 @@ if TYPE_CHECKING:  # imported where used: `umbra --help` loads this file without
 def add_shell_args(parser: argparse.ArgumentParser) -> None:
     """``--ros2``, ``--ros2-domain``, ``--ros2-router`` of ``umbra topics`` and ``umbra echo``."""
     parser.add_argument(
-        "--ros2", action="store_true", help="the ROS 2 side too: topics of a ROS 2 domain"
+        "--ros2",
+        action="store_true",
+        help="topics: the ROS 2 domain's topics beside the run's; echo: KEY is a ROS 2 topic "
+        "(/name), read from the ROS 2 domain instead of a run",
     )
     parser.add_argument(
         "--ros2-domain", type=int, metavar="N", help="ROS 2 domain id (default 0); implies --ros2"

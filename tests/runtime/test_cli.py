@@ -77,6 +77,17 @@ def test_set_overrides_a_parameter(graph: Path, tmp_path: Path) -> None:
         (["run", "GRAPH", "--duration", "-1"], "--duration must be a positive, finite number"),
         (["run", "GRAPH", "--duration", "inf"], "--duration must be a positive, finite number"),
         (["run", "GRAPH", "--attended"], "--attended: a person acts in real time: expected the"),
+        (["run", "GRAPH", "--run-id", "abc"], "--run-id: a run in one process has no links"),
+        (
+            ["run", "GRAPH", "--foxglove", "--foxglove-port", "70000"],
+            "--foxglove-port: expected a port from 0 to 65535 (0: any free one), found 70000",
+        ),
+        (
+            ["run", "GRAPH", "--foxglove", "--foxglove-origin", "127.0.0.1:8080"],
+            "--foxglove-origin: expected a page origin http(s)://host[:port]",
+        ),
+        (["replay", "x.mcap", "GRAPH", "--duration", "inf"], "--duration must be a positive, fin"),
+        (["trials", "GRAPH", "--seed", "-1"], "--seed: expected a non-negative integer, found -1"),
         (["run", "GRAPH", "--set", "gain=2"], "--set expects MODULE.PARAM=VALUE"),
         (["run", "GRAPH", "--set", "nope.gain=2"], "--set: unknown module `nope`"),
         (["run", "GRAPH", "--set", "g.gain=abc"], "--set g.gain: error: parameter `gain`"),
