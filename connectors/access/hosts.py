@@ -29,13 +29,13 @@ def port_problem(port: int) -> str:
 def origin_problem(origin: str) -> str:
     """Why ``origin`` is not a page origin ``scheme://host[:port]`` ("" when it is)."""
     parts = urlsplit(origin.strip())
-    if parts.scheme in ("http", "https") and parts.hostname and parts.path in ("", "/"):
-        try:
-            parts.port  # noqa: B018 (raises on a port that is not a number)
-        except ValueError:
-            pass
-        else:
-            return ""
+    try:
+        numeric_port = parts.port is None or parts.port >= 0  # raises on a port not a number
+    except ValueError:
+        numeric_port = False
+    page = parts.scheme in ("http", "https") and bool(parts.hostname) and parts.path in ("", "/")
+    if page and numeric_port:
+        return ""
     return (
         "expected a page origin http(s)://host[:port], e.g. http://127.0.0.1:8080, "
         f"found {origin!r}"

@@ -229,3 +229,15 @@ def test_access_token_rules(tmp_path) -> None:
     assert token_matches("abc", "abc")
     assert not token_matches("abc", None) and not token_matches("abc", "abd")
     assert not token_matches("", None) and not token_matches("", "")  # no token: nobody
+
+
+def test_a_page_origin_and_a_port_are_checked_by_their_one_rule() -> None:
+    from umbra.connectors.access.hosts import MAX_TCP_PORT, origin_problem, port_problem
+
+    for origin in ("http://127.0.0.1:8080", "https://app.foxglove.dev", "http://[::1]:9/"):
+        assert origin_problem(origin) == "", origin
+    for origin in ("127.0.0.1:8080", "ftp://host", "http://host/page", "http://host:port", ""):
+        assert "expected a page origin" in origin_problem(origin), origin
+    assert port_problem(0) == port_problem(MAX_TCP_PORT) == ""
+    assert port_problem(MAX_TCP_PORT + 1).endswith(f"found {MAX_TCP_PORT + 1}")
+    assert port_problem(-1) != ""
