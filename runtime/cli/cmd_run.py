@@ -244,7 +244,13 @@ def main(args: argparse.Namespace) -> int:
     enable_recording(plan, args)
     single = args.single_process or (len(plan.processes) == 1 and not args.process)
     if single:
-        for option, value in (("--zenoh-config", args.zenoh_config), ("--run-id", args.run_id)):
+        unused = (
+            ("--zenoh-config", args.zenoh_config),
+            ("--listen", " ".join(args.listen)),
+            ("--connect", " ".join(args.connect)),
+            ("--run-id", args.run_id),
+        )
+        for option, value in unused:
             if value:
                 raise UserError(
                     f"{option}: a run in one process has no links to configure nor a run ID "

@@ -79,6 +79,10 @@ def test_set_overrides_a_parameter(graph: Path, tmp_path: Path) -> None:
         (["run", "GRAPH", "--attended"], "--attended: a person acts in real time: expected the"),
         (["run", "GRAPH", "--run-id", "abc"], "--run-id: a run in one process has no links"),
         (
+            ["run", "GRAPH", "--connect", "tcp/127.0.0.1:7447"],
+            "--connect: a run in one process has no links",
+        ),
+        (
             ["run", "GRAPH", "--foxglove", "--foxglove-port", "70000"],
             "--foxglove-port: expected a port from 0 to 65535 (0: any free one), found 70000",
         ),
