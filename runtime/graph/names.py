@@ -9,7 +9,7 @@ from __future__ import annotations
 import ipaddress
 import re
 
-from umbra.connectors.access.hosts import MAX_TCP_PORT
+from umbra.connectors.access.hosts import MAX_TCP_PORT, port_problem
 from umbra.connectors.access.secret import is_loopback
 
 #: Longest graph, process or module name [characters].
@@ -57,7 +57,7 @@ def endpoint_problem(endpoint: str) -> str:
     host, sep, port = address.rpartition(":")
     if not sep or not host:
         return f"endpoint `{endpoint}` needs HOST:PORT after `{protocol}/`"
-    if not port.isdigit() or not 0 <= int(port) <= MAX_TCP_PORT:
+    if not port.isdigit() or port_problem(int(port)):
         return (
             f"endpoint `{endpoint}`: port must be a number from 0 to {MAX_TCP_PORT}, found `{port}`"
         )
