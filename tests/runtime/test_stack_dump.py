@@ -31,7 +31,9 @@ def test_sigusr1_prints_every_threads_stack_and_the_run_goes_on(tmp_path: Path) 
         )
         assert proc.poll() is None, "".join(lines)  # the run went on
         dump = "".join(lines)
-        assert "Current thread" in dump and 'File "' in dump, dump
+        # Which OS thread takes the signal (and so which one faulthandler calls "Current") is the
+        # kernel's choice; what matters is that the scheduler's own frames are in the dump.
+        assert 'scheduler.py", line' in dump, dump
     finally:
         proc.send_signal(signal.SIGINT)
         proc.wait(timeout=30)
