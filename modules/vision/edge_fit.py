@@ -142,7 +142,6 @@ def fit_edges(
     weights, unit = _profile_weights(count, ends)
     total = float(count - 1)  # the trapezoid weights' sum
     shift = np.zeros(len(vertices))
-    found = np.ones(len(vertices), dtype=bool)
     # Centring: the step of equal area over a profile σ times longer on a coarse grid (the
     # colour tests are made here); then, on a profile centred there, the first half-contrast
     # crossing from the patch's side, refined by the step of equal area over a window centred
@@ -152,9 +151,7 @@ def fit_edges(
     inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
     contrast = inner - outer
     power = np.einsum("nc,nc->n", contrast, contrast)
-    found &= power >= p.min_contrast**2
-    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
-    found &= target[: len(inner)] & ~target[len(inner) :]
+    found = _an_edge_between(inner, outer, power, model, k_sigma, min_gray, p.min_contrast)
     # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
     # samples, so summed first.
     moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
@@ -163,40 +160,7 @@ def fit_edges(
     found &= np.abs(shift) <= p.max_shift_px * scale
     shift = np.where(found, shift, 0.0)
     if p.crossing:
-        # The second profile is centred on the first one's edge, so that its ends lie as far out
-        # on either side; only where that edge lay more than ``recentre_px`` off the centre.
-        offsets = unit * p.half_length_px
-        at = np.arange(len(vertices))
-        spread: FloatArray | None = None
-        for turn in range(2):
-            profile = _unclipped(
-                model, _profile(image, vertices[at], normals[at], shift[at], offsets)
-            )
-            inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
-            contrast, power, clipped = _contrast(inner, outer, found[at])
-            if turn == 0:  # measured over every profile; the second turn redoes a few
-                spread = _spread(profile, inner, outer, ends, found[at])
-            contrast, power = _noise_weighted(contrast, power, spread)
-            fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
-            fraction /= power[:, None]
-            edge, crossed = _half_crossing(fraction, offsets, p.sample_px)
-            edge = _centred_step(fraction, offsets, edge, p.window_px)
-            if np.any(clipped):
-                steep, ok = _steepest(
-                    profile[clipped],
-                    inner[clipped] - outer[clipped],
-                    offsets,
-                    edge[clipped],
-                    p.window_px,
-                )
-                edge[clipped] = np.where(ok, steep, edge[clipped])
-            found[at] &= crossed
-            shift[at] = np.where(found[at], shift[at] + edge, 0.0)
-            found &= np.abs(shift) <= p.max_shift_px * scale
-            shift = np.where(found, shift, 0.0)
-            at = at[found[at] & (np.abs(edge) > p.recentre_px)]
-            if at.size == 0:
-                break
+        _cross(image, vertices, normals, model, shift, found, p, p.max_shift_px * scale)
     found &= ~_off_the_curve(vertices + shift[:, None] * normals, normals, found, p.max_kink_px)
     shift = np.where(found, shift, 0.0)
     # A vertex without an edge of its own (a corner's diagonal profile that ends on the other
@@ -206,6 +170,111 @@ def fit_edges(
     if p.smooth_reach > 0:
         shift += _along_the_curve(vertices + shift[:, None] * normals, normals, found, p)
     return EdgeFit(vertices + shift[:, None] * normals, shift, found)
+
+
+def measure_near_edge(
+    image: NDArray[np.uint8],
+    points: FloatArray,
+    normals: FloatArray,
+    model: ColorModel,
+    k_sigma: float,
+    min_gray: float,
+    params: EdgeFitParams | None = None,
+) -> EdgeFit:
+    """Edge points for ``points`` (N x 2 px) that already lie within about a pixel of the edge
+    (on a side's fitted curve), along their unit outward ``normals`` (N x 2): the crossing
+    passes of :func:`fit_edges` alone, the colour tests made on their profiles' ends, and no
+    second profile centred on the edge found (a profile of ``±half_length_px`` holds an edge a
+    pixel off its centre). Nothing is centred first, and nothing is done along a contour (no
+    kinks dropped, gaps bridged or points smoothed): the caller fits a curve through them.
+    ``found``: an edge was measured; ``vertices`` the points moved onto it."""
+    p = params or EdgeFitParams()
+    shift = np.zeros(len(points))
+    found = np.ones(len(points), dtype=bool)
+    if len(points):
+        ends_test = (k_sigma, min_gray)
+        _cross(image, points, normals, model, shift, found, p, p.max_shift_px, ends_test, turns=1)
+    shift = np.where(found, shift, 0.0)
+    return EdgeFit(points + shift[:, None] * normals, shift, found)
+
+
+def _an_edge_between(
+    inner: NDArray[np.float32],
+    outer: NDArray[np.float32],
+    power: FloatArray,
+    model: ColorModel,
+    k_sigma: float,
+    min_gray: float,
+    min_contrast: float,
+) -> NDArray[np.bool_]:
+    """Whether each profile (its ``inner`` and ``outer`` end colours, N x C, and their step's
+    squared length ``power``, N) holds an edge of the target: the ends differ by
+    ``min_contrast`` gray levels or more, the inner end is the target's colour and the outer
+    end is not."""
+    target = is_target(model, np.concatenate([inner, outer]), k_sigma, min_gray)
+    return (power >= min_contrast**2) & target[: len(inner)] & ~target[len(inner) :]
+
+
+def _cross(
+    image: NDArray[np.uint8],
+    vertices: FloatArray,
+    normals: FloatArray,
+    model: ColorModel,
+    shift: FloatArray,
+    found: NDArray[np.bool_],
+    p: EdgeFitParams,
+    max_shift_px: float,
+    test_ends: tuple[float, float] | None = None,
+    turns: int = 2,
+) -> None:
+    """The crossing passes, in place on ``shift`` and ``found`` (N): on a profile centred on
+    each vertex moved by its ``shift``, the first half-contrast crossing from the patch's side,
+    refined by the step of equal area over a window centred on it (the steepest point where
+    every channel with contrast clips); where that lay more than ``recentre_px`` off the
+    profile's centre, once more on a profile centred there (``turns`` 2; 1: not). With
+    ``test_ends`` (``k_sigma``, ``min_gray``), the first profile's ends are also tested for an
+    edge of the target."""
+    count = round(2.0 * p.half_length_px / p.sample_px) + 1
+    ends = max(round(p.end_px / p.sample_px) + 1, 1)
+    weights, unit = _profile_weights(count, ends)
+    # The second profile is centred on the first one's edge, so that its ends lie as far out
+    # on either side; only where that edge lay more than ``recentre_px`` off the centre.
+    offsets = unit * p.half_length_px
+    at = np.arange(len(vertices))
+    spread: FloatArray | None = None
+    for turn in range(turns):
+        raw = _profile(image, vertices[at], normals[at], shift[at], offsets)
+        if turn == 0 and test_ends is not None:
+            inner, outer, _ = np.einsum("nkc,jk->jnc", raw, weights)
+            step = inner - outer
+            power = np.einsum("nc,nc->n", step, step)
+            found &= _an_edge_between(inner, outer, power, model, *test_ends, p.min_contrast)
+        profile = _unclipped(model, raw)
+        inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
+        contrast, power, clipped = _contrast(inner, outer, found[at])
+        if turn == 0:  # measured over every profile; the second turn redoes a few
+            spread = _spread(profile, inner, outer, ends, found[at])
+        contrast, power = _noise_weighted(contrast, power, spread)
+        fraction = np.einsum("nkc,nc->nk", profile - outer[:, None, :], contrast)
+        fraction /= power[:, None]
+        edge, crossed = _half_crossing(fraction, offsets, p.sample_px)
+        edge = _centred_step(fraction, offsets, edge, p.window_px)
+        if np.any(clipped):
+            steep, ok = _steepest(
+                profile[clipped],
+                inner[clipped] - outer[clipped],
+                offsets,
+                edge[clipped],
+                p.window_px,
+            )
+            edge[clipped] = np.where(ok, steep, edge[clipped])
+        found[at] &= crossed
+        shift[at] = np.where(found[at], shift[at] + edge, 0.0)
+        found &= np.abs(shift) <= max_shift_px
+        shift[:] = np.where(found, shift, 0.0)
+        at = at[found[at] & (np.abs(edge) > p.recentre_px)]
+        if at.size == 0:
+            break
 
 
 def _along_the_curve(

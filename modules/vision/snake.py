@@ -47,7 +47,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbra.modules.vision.color import ColorModel
-from umbra.modules.vision.edge_fit import EdgeFitParams, complete_corners, fit_edges
+from umbra.modules.vision.edge_fit import (
+    EdgeFitParams,
+    complete_corners,
+    fit_edges,
+    measure_near_edge,
+)
 from umbra.modules.vision.polygon import (
     as_polygon,
     circle,
@@ -59,6 +64,7 @@ from umbra.modules.vision.polygon import (
 )
 from umbra.modules.vision.pressure import PressureField
 from umbra.modules.vision.side_corners import meet_corners
+from umbra.modules.vision.side_profiles import remeasure_sides
 from umbra.modules.vision.straight_sides import fit_sides
 
 FloatArray = NDArray[np.float64]
@@ -114,6 +120,9 @@ class SnakeParams:
       where a single edge point's noise is a measurable share of the area), the edge points
       within this of the quadratic fitted to their side are put on it and the corners where
       the sides meet (0: off; see :mod:`umbra.modules.vision.straight_sides`) [px].
+    - ``side_profiles``: with ``side_fit_px`` on, each fitted side is measured again by this
+      many profiles along it (at most one a pixel), and its curve fitted to them (0: off; see
+      :mod:`umbra.modules.vision.side_profiles`).
     - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share
       is not on a target (a featureless or colourless image): failed.
     - ``border_margin_px``: a contour that comes this close to the image border is cut by it:
@@ -146,6 +155,7 @@ class SnakeParams:
     edge_half_length_px: float = 4.0
     corner_turn_deg: float = 40.0
     side_fit_px: float = 1.0
+    side_profiles: int = 32
     min_edge_fraction: float = 0.5
     border_margin_px: float = 1.0
     min_chroma: float = 0.02
@@ -387,6 +397,7 @@ def measure_contour(
     if 1 < scale <= FINE_MEASURE_SCALE:
         perimeter = float(segment_lengths(vertices).sum())
         vertices = resample_uniform(vertices, max(round(perimeter / params.target_segment_px), 3))
+    edge_params = EdgeFitParams(half_length_px=params.edge_half_length_px)
     fit = fit_edges(
         image,
         vertices,
@@ -394,12 +405,22 @@ def measure_contour(
         model,
         params.k_sigma,
         params.min_gray,
-        EdgeFitParams(half_length_px=params.edge_half_length_px),
+        edge_params,
         scale,
     )
     points, found = fit.vertices, fit.found
     if params.side_fit_px > 0.0 and scale <= FINE_MEASURE_SCALE:
         sides = fit_sides(points, found, params.side_fit_px)
+        if sides is not None and params.side_profiles > 0:
+            sides = remeasure_sides(
+                sides,
+                outward_normals(points),
+                lambda at, normals: measure_near_edge(
+                    image, at, normals, model, params.k_sigma, params.min_gray, edge_params
+                ),
+                params.side_profiles,
+                params.side_fit_px,
+            )
         if sides is not None:
             reach_px = CORNER_REACH_SEGMENTS * params.max_segment_px
             depth_px = CORNER_DEPTH_SEGMENTS * params.max_segment_px

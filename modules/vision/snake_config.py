@@ -93,6 +93,12 @@ class SnakeSettings(Parameters):
         ge=0,
         le=8,
     )
+    side_profiles: int = param(
+        _D["side_profiles"],
+        "each fitted side is measured again by this many profiles, one a pixel at most (0: off)",
+        ge=0,
+        le=1_000,
+    )
     min_edge_fraction: float = param(
         _D["min_edge_fraction"], "fewer vertices on an edge: failed", ge=0, le=1
     )

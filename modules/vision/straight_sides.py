@@ -58,7 +58,9 @@ class SideFit:
     Side k runs from ``quad[k]`` along ``edge[k]`` (px); ``fitted[k]``: its points lie on its
     curve (see :func:`straighten_sides`). Per contour point: ``side`` its side's index,
     ``along`` how far along it it lies (in units of its length, 0 at ``quad[k]``), and
-    ``on_curve`` whether it was put on its side's curve (``points`` has it there)."""
+    ``on_curve`` whether it was put on its side's curve (``points`` has it there). Per side:
+    ``curve`` (4 x 3) its curve's offset across it as a quadratic of ``along`` (see
+    :func:`side_curves`), measured along the unit vector ``across`` (4 x 2) [px]."""
 
     points: FloatArray
     quad: FloatArray
@@ -67,6 +69,8 @@ class SideFit:
     side: NDArray[np.intp]
     along: FloatArray
     on_curve: NDArray[np.bool_]
+    curve: FloatArray
+    across: FloatArray
 
 
 def straighten_sides(
@@ -101,27 +105,17 @@ def fit_sides(
     if length.min() <= 1e-9:
         return None
     direction = edge / length[:, None]
+    across = direction[:, ::-1] * [1.0, -1.0]
     # Each point's side frame: along (in units of the side's length) and across [px].
-    frame = np.stack([direction / length[:, None], direction[:, ::-1] * [1.0, -1.0]], axis=1)
+    frame = np.stack([direction / length[:, None], across], axis=1)
     rel = points - quad[side]
     s, d = np.einsum("nkc,nc->kn", frame[side], rel)
     # Points near a side's ends are left out: which side a point there belongs to is ambiguous,
     # and the corners are put back by lines through the sides' fitted points.
     use = found & (s >= END_SHARE) & (s <= 1.0 - END_SHARE)
-    powers = s[:, None] ** _POWERS  # (N, 5): s^0 .. s^4
-    data = np.concatenate([powers, d[:, None] * powers[:, :3]], axis=1)  # (N, 8)
+    coef, keep = side_curves(s, d, side, use, max_offset_px, min_points)
+    residual = d - on_curve(coef, side, s)
     one_hot = side == _SIDES  # (4, N)
-    keep = use
-    residual = d
-    coef = np.zeros((4, 3))
-    for reach in _REACH:
-        sums = (one_hot & keep) @ data  # (4, 8): each side's moments of s, and of d s^k
-        normal_eq = sums[:, _SQUARE]  # (4, 3, 3)
-        normal_eq[sums[:, 0] < min_points] = np.eye(3)  # too few points: any solution, unused
-        coef = np.linalg.solve(normal_eq, sums[:, 5:, None])[..., 0]  # (4, 3)
-        fitted = coef[side]  # (N, 3): each point's side's coefficients
-        residual = d - (fitted[:, 0] + s * (fitted[:, 1] + s * fitted[:, 2]))
-        keep = use & (np.abs(residual) <= reach * max_offset_px)
     kept = np.count_nonzero(one_hot & keep, axis=1)
     # A side is a side when enough of its points lie on its curve, most of those it measured,
     # and that curve is nearly straight (a quarter of a circle bows by 21 % of its chord).
@@ -129,8 +123,80 @@ def fit_sides(
     sides &= 0.25 * np.abs(coef[:, 2]) <= _MAX_BOW * length
     move = keep & sides[side]
     out = points.copy()
-    out[move] -= residual[move, None] * frame[side[move], 1]
-    return SideFit(out, quad, edge, sides, side, s, move)
+    out[move] -= residual[move, None] * across[side[move]]
+    return SideFit(out, quad, edge, sides, side, s, move, coef, across)
+
+
+def side_curves(
+    along: FloatArray,
+    across: FloatArray,
+    side: NDArray[np.intp],
+    use: NDArray[np.bool_],
+    max_offset_px: float,
+    min_points: int,
+    bow_z: float = 0.0,
+    shared_noise: float = 1.0,
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Each side's curve: the quadratic ``across = c0 + c1 s + c2 s²`` [px] of the position
+    ``along`` it (s, in units of its length) fitted in least squares to the points (N) of that
+    ``side`` (0-3) with ``use``, in passes that each keep those within ``_REACH`` times
+    ``max_offset_px`` of the last pass's curve. Returns the coefficients (4 x 3; those of a side
+    with fewer than ``min_points`` points mean nothing) and which points the last pass kept
+    (N). The four sides are fitted together (their moments in one product, one batched 3 x 3
+    solve per pass). With ``bow_z`` > 0, a side whose ``c2`` lies within ``bow_z`` standard
+    errors of 0 (its points' scatter about the curve, times ``shared_noise`` where neighbouring
+    points share their noise) is the least-squares line through the points kept instead."""
+    powers = along[:, None] ** _POWERS  # (N, 5): s^0 .. s^4
+    data = np.concatenate([powers, across[:, None] * powers[:, :3]], axis=1)  # (N, 8)
+    one_hot = side == _SIDES  # (4, N)
+    keep = use
+    coef = np.zeros((4, 3))
+    for reach in _REACH:
+        sums = (one_hot & keep) @ data  # (4, 8): each side's moments of s, and of d s^k
+        normal_eq = sums[:, _SQUARE]  # (4, 3, 3)
+        normal_eq[sums[:, 0] < min_points] = np.eye(3)  # too few points: any solution, unused
+        coef = np.linalg.solve(normal_eq, sums[:, 5:, None])[..., 0]  # (4, 3)
+        residual = across - on_curve(coef, side, along)
+        keep = use & (np.abs(residual) <= reach * max_offset_px)
+    if bow_z > 0.0:
+        coef = _unless_bowed(coef, along, across, side, keep, bow_z, shared_noise, min_points)
+    return coef, keep
+
+
+def _unless_bowed(
+    coef: FloatArray,
+    along: FloatArray,
+    across: FloatArray,
+    side: NDArray[np.intp],
+    keep: NDArray[np.bool_],
+    bow_z: float,
+    shared_noise: float,
+    min_points: int,
+) -> FloatArray:
+    """``coef`` (4 x 3) with each side whose ``c2`` is not ``bow_z`` standard errors clear of 0
+    refitted as a line (``c2`` = 0) through its ``keep`` points (see :func:`side_curves`)."""
+    one_hot = (side == _SIDES) & keep  # (4, N)
+    count = one_hot.sum(axis=1)
+    powers = along[:, None] ** _POWERS
+    sums = one_hot @ np.concatenate([powers, across[:, None] * powers[:, :2]], axis=1)
+    normal_eq = sums[:, _SQUARE]
+    enough = count > 3
+    normal_eq[~enough] = np.eye(3)
+    residual = across - on_curve(coef, side, along)
+    scatter = shared_noise * (one_hot @ residual**2) / np.maximum(count - 3, 1)
+    variance = scatter * np.linalg.inv(normal_eq)[:, 2, 2]
+    straight = enough & (count >= min_points) & (coef[:, 2] ** 2 <= bow_z**2 * variance)
+    line_eq = normal_eq[:, :2, :2]
+    line = np.linalg.solve(line_eq, sums[:, 5:7, None])[..., 0]  # (4, 2)
+    flat = np.concatenate([line, np.zeros((4, 1))], axis=1)
+    return np.where(straight[:, None], flat, coef)
+
+
+def on_curve(coef: FloatArray, side: NDArray[np.intp], along: FloatArray) -> FloatArray:
+    """The offset across its side [px] of the curve ``coef`` (4 x 3, see :func:`side_curves`) of
+    each point's ``side`` (N) at its position ``along`` it (N)."""
+    fitted = coef[side]  # (N, 3): each point's side's coefficients
+    return fitted[:, 0] + along * (fitted[:, 1] + along * fitted[:, 2])
 
 
 def _nearest_side(points: FloatArray, quad: FloatArray, edge: FloatArray) -> NDArray[np.intp]:
