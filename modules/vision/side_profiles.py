@@ -18,7 +18,8 @@ moved onto the new one; the corners are then met as before
 (:mod:`umbra.modules.vision.side_corners`). On 30 harsh frames of the tuning photographs at
 640 x 480 this takes the sides' RMS offset from 0.125 to 0.085 px; on 480 harsh held-out ones
 (``benchmarks/bench_snake.py --photos-only --photo-seeds 11,12,13,14,21,22,23,24,25,26,27,28``)
-the frames below IoU 0.99 from 6 to 3.
+the frames below IoU 0.99 from 6 to 3, and the mean IoU from 0.9960 to 0.9967. It costs about
+1.1 ms a tracking update where the sides are fitted (a patch up to about 300 px a side).
 
 Pixels: u right, v down.
 """

@@ -32,11 +32,12 @@ When the iterations end, the contour is *measured* (:mod:`umbra.modules.vision.e
 vertex is moved along its normal onto the colour edge, fitted to a tenth of a pixel from the edge
 profile; when the contour follows a quadrilateral a rectangle can look like (and the snake works
 on a fine enough grid), the edge points on each side are put on the curve fitted to that whole
-side (:mod:`umbra.modules.vision.straight_sides`) and the corners where those curves meet
-(:mod:`umbra.modules.vision.side_corners`); and the other sharp convex corners the even
-vertices cut off are put back. That measured outline (:attr:`SnakeResult.contour`) is what the
-tracker reports; the snake's own vertices (:attr:`SnakeResult.vertices`) stay where the pressure
-put them, to start the next frame from.
+side (:mod:`umbra.modules.vision.straight_sides`), each side is measured again by profiles along
+its whole length (:mod:`umbra.modules.vision.side_profiles`), and the corners are put where
+those curves meet (:mod:`umbra.modules.vision.side_corners`); and the other sharp convex
+corners the even vertices cut off are put back. That measured outline
+(:attr:`SnakeResult.contour`) is what the tracker reports; the snake's own vertices
+(:attr:`SnakeResult.vertices`) stay where the pressure put them, to start the next frame from.
 """
 
 from __future__ import annotations
@@ -387,8 +388,9 @@ def measure_contour(
     params: SnakeParams,
     scale: int = 1,
 ) -> tuple[FloatArray, float]:
-    """The outline on the fitted colour edge, its sides fitted whole and its corners where they
-    meet (:mod:`umbra.modules.vision.side_corners`; up to ``FINE_MEASURE_SCALE``), its other
+    """The outline on the fitted colour edge, its sides fitted whole and measured again along
+    their length (:mod:`umbra.modules.vision.side_profiles`) and its corners where they meet
+    (:mod:`umbra.modules.vision.side_corners`; up to ``FINE_MEASURE_SCALE``), its other
     corners put back, and the share of points that found an edge (see
     :mod:`umbra.modules.vision.edge_fit`; corners met by ``CORNER_DEPTH_SEGMENTS`` and
     ``CORNER_REACH_SEGMENTS``). With the edge fit off, the vertices as they are and 1."""
