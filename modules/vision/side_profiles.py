@@ -14,7 +14,8 @@ crossing passes (:func:`~umbra.modules.vision.edge_fit.measure_near_edge`), and 
 fitted to them by the same rule as before
 (:func:`~umbra.modules.vision.straight_sides.side_curves`), except that it bows only where the
 bow stands clear of the profiles' noise (``BOW_Z``). The contour's points on the side's curve are
-moved onto the new one; the corners are then met as before
+moved onto the new one where their own edge lies near it (``STAY_REACH``: the bent end of a side
+next to a cut corner stays bent); the corners are then met as before
 (:mod:`umbra.modules.vision.side_corners`). On 30 harsh frames of the tuning photographs at
 640 x 480 this takes the sides' RMS offset from 0.125 to 0.085 px; on 480 harsh held-out ones
 (``benchmarks/bench_snake.py --photos-only --photo-seeds 11,12,13,14,21,22,23,24,25,26,27,28``)
@@ -50,6 +51,11 @@ BOW_Z = 3.0
 #: 8 pixels, which hold two or three profiles 2-4 px apart): the scatter about a side's curve is
 #: counted this many times over.
 SHARED_NOISE = 3.0
+#: A point on a side's curve is moved onto the new curve when the edge it was measured at lies
+#: within this many times ``max_offset_px`` of it (the reach of the side fit's second pass: the
+#: new curve may lie a few tenths of a pixel off the old one, and a point left as measured
+#: keeps its noise); else it is left as measured.
+STAY_REACH = 2.0
 #: Closest spacing of a side's profiles [px]: closer ones read the same pixels (the bilinear
 #: samples span two).
 MIN_SPACING_PX = 1.0
@@ -60,6 +66,7 @@ EdgeMeasure = Callable[[FloatArray, FloatArray], EdgeFit]
 
 def remeasure_sides(
     fit: SideFit,
+    measured_points: FloatArray,
     outward: FloatArray,
     measure: EdgeMeasure,
     profiles: int,
@@ -67,11 +74,15 @@ def remeasure_sides(
     min_points: int = 6,
 ) -> SideFit:
     """``fit`` with each of its fitted sides' curves measured again by ``profiles`` profiles
-    (see the module's text) and its points on a side's curve moved onto the new one.
-    ``outward`` (N x 2) holds the unit outward normals of ``fit.points``; ``max_offset_px`` and
-    ``min_points`` are :func:`~umbra.modules.vision.straight_sides.side_curves`'. A side whose
-    new profiles leave fewer than ``min_points`` points, or fewer than half of them, on its
-    curve keeps its curve."""
+    (see the module's text) and its points on a side's curve moved onto the new one, if the
+    edge point each was measured at (``measured_points``, N x 2 px, the points ``fit`` was
+    fitted to) lies within ``STAY_REACH`` times ``max_offset_px`` of the new curve; the others
+    are put back where they were measured and are on no curve (the end of a side that a cut
+    corner bent away stays bent, for the sanity checks to see). ``outward`` (N x 2) holds the
+    unit outward normals of the points; ``max_offset_px`` and ``min_points`` are
+    :func:`~umbra.modules.vision.straight_sides.side_curves`'. A side whose new profiles leave
+    fewer than ``min_points`` points, or fewer than half of them, on its curve keeps its
+    curve."""
     length = np.hypot(*fit.edge.T)
     usable = length * (1.0 - 2.0 * MARGIN_SHARE)
     most = np.floor(usable / MIN_SPACING_PX).astype(int) + 1
@@ -102,9 +113,13 @@ def remeasure_sides(
     on_new = np.count_nonzero((side == np.arange(4)[:, None]) & kept, axis=1)
     better = fit.fitted & (on_new >= min_points) & (2 * on_new >= on_side)
     curve = np.where(better[:, None], curve, fit.curve)
-    move = fit.on_curve & better[fit.side]
+    # Each point's measured offset across its side, against the new curve there.
+    rel = measured_points - fit.quad[fit.side]
+    offset = np.einsum("nc,nc->n", rel, fit.across[fit.side]) - on_curve(curve, fit.side, fit.along)
+    renewed = fit.on_curve & better[fit.side]
+    stays = renewed & (np.abs(offset) <= STAY_REACH * max_offset_px)
     moved = fit.points.copy()
-    step = on_curve(curve, fit.side[move], fit.along[move])
-    step -= on_curve(fit.curve, fit.side[move], fit.along[move])
-    moved[move] += step[:, None] * fit.across[fit.side[move]]
-    return replace(fit, points=moved, curve=curve)
+    moved[stays] = measured_points[stays] - offset[stays, None] * fit.across[fit.side[stays]]
+    off = renewed & ~stays
+    moved[off] = measured_points[off]
+    return replace(fit, points=moved, curve=curve, on_curve=fit.on_curve & ~off)

@@ -416,6 +416,7 @@ def measure_contour(
         if sides is not None and params.side_profiles > 0:
             sides = remeasure_sides(
                 sides,
+                points,
                 outward_normals(points),
                 lambda at, normals: measure_near_edge(
                     image, at, normals, model, params.k_sigma, params.min_gray, edge_params

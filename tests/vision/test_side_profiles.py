@@ -111,3 +111,31 @@ def test_a_bow_within_the_noise_is_a_line_and_a_real_one_is_kept() -> None:
     assert abs(straight[0, 0] - 0.5) < 0.2
     bowed, _ = side_curves(along, 8.0 * along * (1 - along) + noise, side, use, 1.0, 6, bow_z=3.0)
     assert abs(bowed[0, 2] + 8.0) < 0.3 * 8.0, bowed[0]
+
+
+def test_a_corner_cut_off_still_fails_its_checks() -> None:
+    """A corner cut off at a fifth of its sides (painted over with the background's colour just
+    beyond it, after the camera) fails the sanity checks on each of 24 harsh small frames, and
+    the same frames uncut pass: measuring the sides again does not straighten the bent ends of
+    the sides next to the cut (their edge points stay where they were measured)."""
+    rng = np.random.default_rng(31)
+    for index in range(24):
+        frame = ps.render(ps.TUNING_PHOTOS[index % 6], rng, SIZE, HARSH_SMALL)
+        corners = frame.corners
+        k = index % 4
+        tip, after, before = corners[k], corners[(k + 1) % 4], corners[(k - 1) % 4]
+        cut = np.array([tip, tip + 0.2 * (after - tip), tip + 0.2 * (before - tip)])
+        centre = corners.mean(axis=0)
+        # the background's colour at a point past the corner, outside the patch
+        reach = 0.15 * np.ptp(corners, axis=0).max()
+        beyond = tip + reach * (tip - centre) / np.hypot(*(tip - centre))
+        u, v = np.clip(np.round(beyond).astype(int), 3, [SIZE[0] - 4, SIZE[1] - 4])
+        colour = np.median(frame.image[v - 3 : v + 4, u - 3 : u + 4].reshape(-1, 3), axis=0)
+        damaged = frame.image.copy()
+        polygon = np.round(cut * 16).astype(np.int32)
+        cv2.fillPoly(damaged, [polygon], colour.tolist(), lineType=cv2.LINE_AA, shift=4)
+        for image, whole in ((frame.image, True), (damaged, False)):
+            tracker = SnakeTracker()
+            tracker.seed_at_point(image, centre)
+            status = tracker.update(image).status
+            assert (status == "tracking") == whole, (index, whole, status)
