@@ -109,9 +109,8 @@ def remeasure_sides(
     curve, kept = side_curves(
         along, across, side, measured.found, max_offset_px, min_points, BOW_Z, SHARED_NOISE
     )
-    on_side = np.count_nonzero(side == np.arange(4)[:, None], axis=1)
-    on_new = np.count_nonzero((side == np.arange(4)[:, None]) & kept, axis=1)
-    better = fit.fitted & (on_new >= min_points) & (2 * on_new >= on_side)
+    on_new = np.bincount(side[kept], minlength=4)
+    better = fit.fitted & (on_new >= min_points) & (2 * on_new >= counts)
     curve = np.where(better[:, None], curve, fit.curve)
     # Each point's measured offset across its side, against the new curve there.
     rel = measured_points - fit.quad[fit.side]
