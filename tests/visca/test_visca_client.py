@@ -232,8 +232,10 @@ def test_start_powers_a_camera_in_standby_on_and_reads_its_version(
 
     with SimFcbCamera(full_range_s=1.0, power_on_s=0.4) as camera:
         camera.logic.powered = False  # found in standby, as after a power cut
-        client = client_on(camera, completion_timeout_s=2.0)
-        assert client.wait_ready(4.0)
+        # A reply slower than FAST's 0.1 s (a loaded machine) would make the client time out on
+        # the power-on's ack, retry, and find the camera already on: not what this test is about.
+        client = client_on(camera, completion_timeout_s=2.0, reply_timeout_s=1.0)
+        assert client.wait_ready(8.0)
         assert camera.powered and client.counters.power_ons == 1
         assert client.version == Version(vendor=SONY_VENDOR_ID, model=0x0000, rom=0x0100, sockets=2)
         client.zoom_to(0.25)
