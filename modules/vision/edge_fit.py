@@ -194,7 +194,6 @@ def measure_near_edge(
     if len(points):
         ends_test = (k_sigma, min_gray)
         _cross(image, points, normals, model, shift, found, p, p.max_shift_px, ends_test, turns=1)
-    shift = np.where(found, shift, 0.0)
     return EdgeFit(points + shift[:, None] * normals, shift, found)
 
 
