@@ -12,7 +12,9 @@ between the colour at the inner end ``c_in`` and at the outer end ``c_out`` (1 i
 outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly). Channels that
 are clipped at either end (a saturated patch at a high lighting gain, a black background) do
 not mix linearly and are left out of the contrast: a clipped channel's edge looks moved towards
-the clipped side. In the crossing passes below the contrast is weighed by the inverse of the
+the clipped side. A channel the patch saturates is first put back where the target's colour
+has it, then where the edge's mixing of the unclipped channels draws it
+(:mod:`umbra.modules.vision.edge_mixing`), and counts again. In the crossing passes below the contrast is weighed by the inverse of the
 colours' covariance about the profiles' ends, ``t(s) = (p - c_out)ᵀ W Δ / Δᵀ W Δ`` with
 ``W = Σ⁻¹`` over the channels used (generalised least squares): a channel that the background's
 texture or JPEG's half-resolution colour makes noisier counts less (20 gray levels of texture in
@@ -61,6 +63,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbra.modules.vision.color import ColorModel, is_target, unclip
+from umbra.modules.vision.edge_mixing import unclip_by_mixing
 from umbra.modules.vision.polygon import following
 
 FloatArray = NDArray[np.float64]
@@ -248,7 +251,7 @@ def _cross(
             step = inner - outer
             power = np.einsum("nc,nc->n", step, step)
             found &= _an_edge_between(inner, outer, power, model, *test_ends, p.min_contrast)
-        profile = _unclipped(model, raw)
+        profile = _unclipped(model, raw, ends, p.min_contrast)
         inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
         contrast, power, clipped = _contrast(inner, outer, found[at])
         if turn == 0:  # measured over every profile; the second turn redoes a few
@@ -342,13 +345,19 @@ def _profile(image, vertices, normals, shift, offsets) -> NDArray[np.float32]:
     return sample_bilinear(image, points)
 
 
-def _unclipped(model: ColorModel, profile: NDArray[np.float32]) -> NDArray[np.float32]:
+def _unclipped(
+    model: ColorModel, profile: NDArray[np.float32], ends: int, min_contrast: float
+) -> NDArray[np.float32]:
     """Profiles (N, K, C) with each sample's clipped channel put back where the target's colour
     has it (:func:`umbra.modules.vision.color.unclip`: on the patch's side of the edge of a
-    patch whose brightest channel saturates), so that channel mixes linearly across the edge
-    and its half-contrast point is the edge's, not one moved out to where the clip ends."""
+    patch whose brightest channel saturates), then, where the channels that do not clip tell
+    how the edge mixes, on the line that mixing draws
+    (:func:`umbra.modules.vision.edge_mixing.unclip_by_mixing`, over ``ends`` samples an end
+    and ``min_contrast`` gray levels of their step), so that channel mixes linearly across the
+    edge and its half-contrast point is the edge's, not one moved out to where the clip ends."""
     flat = profile.reshape(-1, profile.shape[-1])
-    return unclip(model, flat).reshape(profile.shape)
+    by_model = unclip(model, flat).reshape(profile.shape)
+    return unclip_by_mixing(profile, by_model, ends, _CLIP_HIGH, _CLIP_LOW, min_contrast)
 
 
 def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
