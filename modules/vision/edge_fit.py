@@ -10,16 +10,16 @@ normal over ``[-L, L]`` pixels and the samples are reduced to the mixing fractio
 
 between the colour at the inner end ``c_in`` and at the outer end ``c_out`` (1 inside, 0
 outside; linear in the pixel, so a blurred or anti-aliased edge mixes linearly). Channels that
-are clipped at either end (a saturated patch at a high lighting gain, a black background) do
-not mix linearly and are left out of the contrast: a clipped channel's edge looks moved towards
-the clipped side. A channel the patch saturates is first put back where the target's colour
-has it, then where the edge's mixing of the unclipped channels draws it
-(:mod:`umbra.modules.vision.edge_mixing`), and counts again. In the crossing passes below the contrast is weighed by the inverse of the
-colours' covariance about the profiles' ends, ``t(s) = (p - c_out)ᵀ W Δ / Δᵀ W Δ`` with
-``W = Σ⁻¹`` over the channels used (generalised least squares): a channel that the background's
-texture or JPEG's half-resolution colour makes noisier counts less (20 gray levels of texture in
-one channel: 0.14 px RMS off with ``W = I``, 0.05 px with it; JPEG at quality 70: 0.10 against
-0.07 px).
+are clipped at either end (a saturated patch at a high lighting gain, a black background) do not
+mix linearly and are left out of the contrast: a clipped channel's edge looks moved towards the
+clipped side. A channel the patch saturates is first put back where the target's colour has it,
+then where the edge's mixing of the unclipped channels draws it
+(:mod:`umbra.modules.vision.edge_mixing`), and counts again. In the crossing passes below the
+contrast is weighed by the inverse of the colours' covariance about the profiles' ends,
+``t(s) = (p - c_out)ᵀ W Δ / Δᵀ W Δ`` with ``W = Σ⁻¹`` over the channels used (generalised least
+squares): a channel that the background's texture or JPEG's half-resolution colour makes
+noisier counts less (20 gray levels of texture in one channel: 0.14 px RMS off with ``W = I``,
+0.05 px with it; JPEG at quality 70: 0.10 against 0.07 px).
 
 1. *Centring*: the step of equal area ``e = ∫ t ds - L`` over the whole profile (on a coarse
    grid σ > 1, over a σ times longer profile). It is exact for a clean edge, but the whole
@@ -63,7 +63,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbra.modules.vision.color import ColorModel, is_target, unclip
-from umbra.modules.vision.edge_mixing import unclip_by_mixing
+from umbra.modules.vision.edge_mixing import read_linearly, unclip_by_mixing
 from umbra.modules.vision.polygon import following
 
 FloatArray = NDArray[np.float64]
@@ -365,7 +365,7 @@ def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]
     clipped at either end (a saturated or black channel does not mix linearly: its edge looks
     shifted towards the clipped side), its squared length (N; 1 where none), and where the
     full step had to be taken instead (N: every channel with contrast clipped)."""
-    linear = (np.maximum(inner, outer) < _CLIP_HIGH) & (np.minimum(inner, outer) > _CLIP_LOW)
+    linear = read_linearly(inner, outer, _CLIP_HIGH, _CLIP_LOW)
     # A channel the target's colour put back above the sensor's top (see _unclipped) mixes
     # linearly again on the patch's side.
     linear |= (inner > _PUT_BACK) & (outer < _CLIP_HIGH) & (outer > _CLIP_LOW)

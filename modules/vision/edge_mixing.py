@@ -54,8 +54,7 @@ def unclip_by_mixing(
     inner = raw[:, :ends].mean(axis=1)
     outer = raw[:, -ends:].mean(axis=1)
     outer_linear = (outer < top) & (outer > floor)
-    linear = (inner < top) & (inner > floor) & outer_linear
-    step = np.where(linear, inner - outer, 0.0)
+    step = np.where(read_linearly(inner, outer, top, floor), inner - outer, 0.0)
     power = np.einsum("nc,nc->n", step, step)
     hidden = (inner >= top) & outer_linear & (power >= min_contrast**2)[:, None]
     if not hidden.any():
@@ -79,3 +78,12 @@ def unclip_by_mixing(
         line = outer[rows, None, channel] + step_hidden[usable, None] * t
         out[rows, :, channel] = np.where(level >= top, np.maximum(line, level), level)
     return out
+
+
+def read_linearly(
+    inner: NDArray[np.floating], outer: NDArray[np.floating], top: float, floor: float
+) -> NDArray[np.bool_]:
+    """Which channels of each profile (its ``inner`` and ``outer`` end colours, N x C) the
+    sensor read between ``floor`` and ``top`` at both ends: clipped at neither, so they mix
+    linearly across the edge."""
+    return (np.maximum(inner, outer) < top) & (np.minimum(inner, outer) > floor)
