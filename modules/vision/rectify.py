@@ -11,7 +11,10 @@ corner stays one under that map, so the checks judge the damage as they would ju
 patch facing the camera (each in proportion to the patch's side it lies across).
 
 The quadrilateral is the one the contour's vertices lie closest to, of the convex ones with
-corners among the vertices of the simplified contour. It is taken as a view of a rectangle only
+corners among the vertices of the simplified contour where it turns by
+:data:`MIN_CORNER_TURN_DEG` or more: a vertex along a straight run (the middle of the chord that
+cuts a corner off) is no corner, and a quadrilateral with a corner there would fold the cut's two
+ends into its sides, halving how far they stand out. It is taken as a view of a rectangle only
 when a camera can see a rectangle so: every interior angle at least :data:`MIN_CORNER_DEG` (a
 rectangle turned 45 deg in its plane and tilted 75 deg away still shows 30 deg) and no side
 shorter than :data:`MIN_SIDE_RATIO` times the side opposite it (the far side of a plane twice as
@@ -37,6 +40,11 @@ FloatArray = NDArray[np.float64]
 MIN_CORNER_DEG = 30.0
 #: Smallest ratio of two opposite sides of a quadrilateral taken as a view of a rectangle.
 MIN_SIDE_RATIO = 0.5
+#: Least turn of the simplified contour at a vertex that may be a corner [deg]: half the least
+#: turn of a view of a rectangle at its corners (180 deg less its largest interior angle, 150 deg
+#: at :data:`MIN_CORNER_DEG`), so that a rounded corner simplified to two vertices still counts.
+#: On corners cut at a fifth of the sides, the vertices halfway along the cut turn by 2-11 deg.
+MIN_CORNER_TURN_DEG = 15.0
 #: The contour is simplified, from within this share of its perimeter up, to at most
 #: ``_MAX_CANDIDATES`` vertices before the corners are chosen among them.
 _TOLERANCE = 0.002
@@ -47,9 +55,10 @@ _MAX_CANDIDATES = 8
 
 def quadrilateral(polygon: FloatArray) -> FloatArray | None:
     """The quadrilateral (4 x 2 px, positive area) that ``polygon`` (N x 2 px) follows: of the
-    convex ones with corners among the vertices of the simplified contour, the one its vertices
-    lie closest to (least sum of distances to its outline), so that a bulge, a notch or a cut
-    corner stands off it rather than bending it; None when there is none."""
+    convex ones with corners among the vertices of the simplified contour that turn by
+    :data:`MIN_CORNER_TURN_DEG` or more (among all of them when fewer than four do), the one its
+    vertices lie closest to (least sum of distances to its outline), so that a bulge, a notch or
+    a cut corner stands off it rather than bending it; None when there is none."""
     import cv2
 
     outline = polygon.astype(np.float32).reshape(-1, 1, 2)
@@ -63,6 +72,9 @@ def quadrilateral(polygon: FloatArray) -> FloatArray | None:
     points: FloatArray = np.asarray(simplified, dtype=np.float64).reshape(-1, 2)
     if signed_area(points) < 0.0:
         points = points[::-1].copy()
+    corners = points[_turns(points) >= math.radians(MIN_CORNER_TURN_DEG)]
+    if len(corners) >= 4:
+        points = corners
     quads = points[_quadruples(len(points))]  # (K, 4, 2) in the outline's order
     quads = quads[_convex(quads)]
     if len(quads) == 0:
@@ -76,6 +88,15 @@ def quadrilateral(polygon: FloatArray) -> FloatArray | None:
     beyond = normals @ polygon.T - offsets[..., None]  # (K, 4, N); matmul: 3x einsum's speed
     cost = np.abs(beyond.max(axis=1)).sum(axis=1)
     return quads[int(np.argmin(cost))]
+
+
+def _turns(points: FloatArray) -> FloatArray:
+    """How far a closed outline of positive area (N x 2 px) turns at each vertex [rad, positive
+    where it turns as a convex corner does]."""
+    incoming = points - np.roll(points, 1, axis=0)
+    outgoing = np.roll(points, -1, axis=0) - points
+    cross = incoming[:, 0] * outgoing[:, 1] - incoming[:, 1] * outgoing[:, 0]
+    return np.arctan2(cross, np.einsum("nc,nc->n", incoming, outgoing))
 
 
 def _convex(quads: FloatArray) -> NDArray[np.bool_]:
