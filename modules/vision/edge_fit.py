@@ -365,10 +365,10 @@ def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]
     clipped at either end (a saturated or black channel does not mix linearly: its edge looks
     shifted towards the clipped side), its squared length (N; 1 where none), and where the
     full step had to be taken instead (N: every channel with contrast clipped)."""
-    linear = read_linearly(inner, outer, _CLIP_HIGH, _CLIP_LOW)
-    # A channel the target's colour put back above the sensor's top (see _unclipped) mixes
-    # linearly again on the patch's side.
-    linear |= (inner > _PUT_BACK) & (outer < _CLIP_HIGH) & (outer > _CLIP_LOW)
+    outer_linear = read_linearly(outer, _CLIP_HIGH, _CLIP_LOW)
+    # A channel put back above the sensor's top (see _unclipped) mixes linearly again on the
+    # patch's side.
+    linear = (read_linearly(inner, _CLIP_HIGH, _CLIP_LOW) | (inner > _PUT_BACK)) & outer_linear
     step = inner - outer
     contrast = np.where(linear, step, 0.0)
     power = np.einsum("nc,nc->n", contrast, contrast)
@@ -482,7 +482,7 @@ def _steepest(
     sign = np.sign(step)[:, None, :]
     slope = sign * (profile[:, :-2] - profile[:, 2:])  # (N, K - 2, C), at offsets[1:-1]
     middle = offsets[1:-1]
-    lit = (profile < _CLIP_HIGH) & (profile > _CLIP_LOW)
+    lit = read_linearly(profile, _CLIP_HIGH, _CLIP_LOW)
     seen = lit[:, :-2] & lit[:, 1:-1] & lit[:, 2:]  # the difference reads no clipped sample
     near = np.abs(middle[None, :] - centre[:, None]) <= reach_px  # (N, K - 2)
     candidates = np.where(seen & near[:, :, None], slope, -np.inf)
@@ -562,8 +562,8 @@ _MIN_SPREAD_PROFILES = 8
 _SPREAD_FLOOR = 1.0
 #: Channel levels beyond which a sample is taken as clipped by the sensor [gray levels].
 _CLIP_HIGH, _CLIP_LOW = 240.0, 2.0
-#: An 8-bit sensor reads at most this: an end's channel above it was put back by
-#: :func:`umbra.modules.vision.color.unclip` [gray levels].
+#: An 8-bit sensor reads at most this: an end's channel above it was put back (see
+#: :func:`_unclipped`) [gray levels].
 _PUT_BACK = float(np.iinfo(np.uint8).max)
 
 

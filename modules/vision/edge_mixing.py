@@ -54,8 +54,8 @@ def unclip_by_mixing(
         return profile
     inner = raw[:, :ends].mean(axis=1)
     outer = raw[:, -ends:].mean(axis=1)
-    outer_linear = (outer < top) & (outer > floor)
-    step = np.where(read_linearly(inner, outer, top, floor), inner - outer, 0.0)
+    outer_linear = read_linearly(outer, top, floor)
+    step = np.where(read_linearly(inner, top, floor) & outer_linear, inner - outer, 0.0)
     power = np.einsum("nc,nc->n", step, step)
     hidden = (inner >= top) & outer_linear & (power >= min_contrast**2)[:, None]
     if not hidden.any():
@@ -81,10 +81,7 @@ def unclip_by_mixing(
     return out
 
 
-def read_linearly(
-    inner: NDArray[np.floating], outer: NDArray[np.floating], top: float, floor: float
-) -> NDArray[np.bool_]:
-    """Which channels of each profile (its ``inner`` and ``outer`` end colours, N x C) the
-    sensor read between ``floor`` and ``top`` at both ends: clipped at neither, so they mix
-    linearly across the edge."""
-    return (np.maximum(inner, outer) < top) & (np.minimum(inner, outer) > floor)
+def read_linearly(levels: NDArray[np.floating], top: float, floor: float) -> NDArray[np.bool_]:
+    """Where the sensor read ``levels`` (gray levels, any shape) between ``floor`` and ``top``:
+    clipped at neither end of its range, so they mix linearly across an edge."""
+    return (levels < top) & (levels > floor)
