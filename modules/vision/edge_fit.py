@@ -64,7 +64,7 @@ from numpy.typing import NDArray
 
 from umbra.modules.vision.color import ColorModel, is_target, unclip
 from umbra.modules.vision.edge_mixing import read_linearly, unclip_by_mixing
-from umbra.modules.vision.polygon import following
+from umbra.modules.vision.polygon import following, turns
 
 FloatArray = NDArray[np.float64]
 
@@ -246,12 +246,15 @@ def _cross(
     spread: FloatArray | None = None
     for turn in range(turns):
         raw = _profile(image, vertices[at], normals[at], shift[at], offsets)
+        # The ends' colours as the sensor read them: the ends test and the put-back's.
+        read_inner, read_outer = raw[:, :ends].mean(axis=1), raw[:, -ends:].mean(axis=1)
         if turn == 0 and test_ends is not None:
-            inner, outer, _ = np.einsum("nkc,jk->jnc", raw, weights)
-            step = inner - outer
+            step = read_inner - read_outer
             power = np.einsum("nc,nc->n", step, step)
-            found &= _an_edge_between(inner, outer, power, model, *test_ends, p.min_contrast)
-        profile = _unclipped(model, raw, ends, p.min_contrast)
+            found &= _an_edge_between(
+                read_inner, read_outer, power, model, *test_ends, p.min_contrast
+            )
+        profile = _unclipped(model, raw, read_inner, read_outer, p.min_contrast)
         inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
         contrast, power, clipped = _contrast(inner, outer, found[at])
         if turn == 0:  # measured over every profile; the second turn redoes a few
@@ -346,18 +349,23 @@ def _profile(image, vertices, normals, shift, offsets) -> NDArray[np.float32]:
 
 
 def _unclipped(
-    model: ColorModel, profile: NDArray[np.float32], ends: int, min_contrast: float
+    model: ColorModel,
+    profile: NDArray[np.float32],
+    inner: NDArray[np.float32],
+    outer: NDArray[np.float32],
+    min_contrast: float,
 ) -> NDArray[np.float32]:
     """Profiles (N, K, C) with each sample's clipped channel put back where the target's colour
     has it (:func:`umbra.modules.vision.color.unclip`: on the patch's side of the edge of a
     patch whose brightest channel saturates), then, where the channels that do not clip tell
     how the edge mixes, on the line that mixing draws
-    (:func:`umbra.modules.vision.edge_mixing.unclip_by_mixing`, over ``ends`` samples an end
-    and ``min_contrast`` gray levels of their step), so that channel mixes linearly across the
-    edge and its half-contrast point is the edge's, not one moved out to where the clip ends."""
+    (:func:`umbra.modules.vision.edge_mixing.unclip_by_mixing`, from the profiles' end colours
+    ``inner`` and ``outer`` as read, N x C, and ``min_contrast`` gray levels of their step), so
+    that channel mixes linearly across the edge and its half-contrast point is the edge's, not
+    one moved out to where the clip ends."""
     flat = profile.reshape(-1, profile.shape[-1])
     by_model = unclip(model, flat).reshape(profile.shape)
-    return unclip_by_mixing(profile, by_model, ends, _CLIP_HIGH, _CLIP_LOW, min_contrast)
+    return unclip_by_mixing(profile, by_model, inner, outer, _CLIP_HIGH, _CLIP_LOW, min_contrast)
 
 
 def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
@@ -621,21 +629,17 @@ def complete_corners(
     if count < max(4, max_cut + 3):
         return vertices
     edges = following(vertices) - vertices  # edge i runs from vertex i to vertex i + 1
-    u, v = vertices[:, 0], vertices[:, 1]
-    orientation = 1.0 if np.dot(u, following(v)) >= np.dot(following(u), v) else -1.0
     before = following(edges, -1)  # the edge into vertex i
-    cross = before[:, 0] * edges[:, 1] - before[:, 1] * edges[:, 0]
-    dot = before[:, 0] * edges[:, 0] + before[:, 1] * edges[:, 1]
-    turn = orientation * np.arctan2(cross, dot)  # at vertex i, outward (convex) positive
+    turn = turns(vertices)  # at vertex i, outward (convex) positive
     # Cyclic windows by slicing arrays extended past the end: column k is vertex i + k.
     reach = max_cut + 2
     index = np.arange(count)[:, None] + np.arange(-1, reach)[None, :]
     index %= count
-    turns = turn[index]  # (N, max_cut + 3): vertex i - 1 .. i + max_cut + 1
+    around = turn[index]  # (N, max_cut + 3): vertex i - 1 .. i + max_cut + 1
     good = found[index]
-    straight = np.abs(turns) < _STRAIGHT_TURN
-    convex = np.cumprod(turns[:, 1:] > -_STRAIGHT_TURN, axis=1).astype(bool)
-    total = np.cumsum(turns[:, 1:], axis=1)
+    straight = np.abs(around) < _STRAIGHT_TURN
+    convex = np.cumprod(around[:, 1:] > -_STRAIGHT_TURN, axis=1).astype(bool)
+    total = np.cumsum(around[:, 1:], axis=1)
     starts, cuts, tips = [], [], []
     for g in range(1, max_cut + 1):  # the shortest stretches first
         ok = (total[:, g] > min_turn_rad) & convex[:, g]

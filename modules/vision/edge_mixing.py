@@ -37,7 +37,8 @@ _LEAST_RAMP = 0.15
 def unclip_by_mixing(
     raw: NDArray[np.float32],
     profile: NDArray[np.float32],
-    ends: int,
+    inner: NDArray[np.float32],
+    outer: NDArray[np.float32],
     top: float,
     floor: float,
     min_contrast: float,
@@ -46,14 +47,13 @@ def unclip_by_mixing(
     the colour model) with, on each profile whose ``raw`` (the same, as read) inner end reads
     a channel at or above ``top`` while its outer end reads it between ``floor`` and ``top``,
     that channel's samples at or above ``top`` put back on the line ``out + k t`` (see the
-    module's text). ``t`` comes from the channels that read between ``floor`` and ``top`` at
-    both ends, which must differ by ``min_contrast`` gray levels or more; the ends are the
-    means of ``ends`` samples. Where the ramp shows too little under the top, or the line
-    does not reach it inside, the profile stays as the colour model put it back."""
+    module's text). ``inner`` and ``outer`` (N x C) are the colours of the ends of ``raw``.
+    ``t`` comes from the channels that read between ``floor`` and ``top`` at both ends, which
+    must differ by ``min_contrast`` gray levels or more. Where the ramp shows too little under
+    the top, or the line does not reach it inside, the profile stays as the colour model put it
+    back."""
     if raw.size == 0 or float(raw.max()) < top:
         return profile
-    inner = raw[:, :ends].mean(axis=1)
-    outer = raw[:, -ends:].mean(axis=1)
     outer_linear = read_linearly(outer, top, floor)
     step = np.where(read_linearly(inner, top, floor) & outer_linear, inner - outer, 0.0)
     power = np.einsum("nc,nc->n", step, step)

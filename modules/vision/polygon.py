@@ -43,6 +43,18 @@ def with_positive_area(polygon: FloatArray) -> FloatArray:
     return polygon if signed_area(polygon) >= 0.0 else polygon[::-1].copy()
 
 
+def turns(polygon: FloatArray) -> FloatArray:
+    """How far the outline turns at each vertex [rad, in (-pi, pi]]: from the segment into vertex
+    i to the segment out of it, positive where it turns as a convex corner of the polygon does
+    (whichever its vertex order)."""
+    out = following(polygon) - polygon  # segment i runs from vertex i to vertex i + 1
+    into = following(out, -1)
+    cross = into[:, 0] * out[:, 1] - into[:, 1] * out[:, 0]
+    dot = into[:, 0] * out[:, 0] + into[:, 1] * out[:, 1]
+    orientation = 1.0 if signed_area(polygon) >= 0.0 else -1.0
+    return orientation * np.arctan2(cross, dot)
+
+
 def segment_lengths(polygon: FloatArray) -> FloatArray:
     """Length [px] of each segment ``i -> i+1`` (the last one closes the polygon)."""
     step = following(polygon) - polygon

@@ -32,7 +32,7 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.modules.vision.polygon import signed_area
+from umbra.modules.vision.polygon import signed_area, turns
 
 FloatArray = NDArray[np.float64]
 
@@ -72,7 +72,7 @@ def quadrilateral(polygon: FloatArray) -> FloatArray | None:
     points: FloatArray = np.asarray(simplified, dtype=np.float64).reshape(-1, 2)
     if signed_area(points) < 0.0:
         points = points[::-1].copy()
-    corners = points[_turns(points) >= math.radians(MIN_CORNER_TURN_DEG)]
+    corners = points[turns(points) >= math.radians(MIN_CORNER_TURN_DEG)]
     if len(corners) >= 4:
         points = corners
     quads = points[_quadruples(len(points))]  # (K, 4, 2) in the outline's order
@@ -88,15 +88,6 @@ def quadrilateral(polygon: FloatArray) -> FloatArray | None:
     beyond = normals @ polygon.T - offsets[..., None]  # (K, 4, N); matmul: 3x einsum's speed
     cost = np.abs(beyond.max(axis=1)).sum(axis=1)
     return quads[int(np.argmin(cost))]
-
-
-def _turns(points: FloatArray) -> FloatArray:
-    """How far a closed outline of positive area (N x 2 px) turns at each vertex [rad, positive
-    where it turns as a convex corner does]."""
-    incoming = points - np.roll(points, 1, axis=0)
-    outgoing = np.roll(points, -1, axis=0) - points
-    cross = incoming[:, 0] * outgoing[:, 1] - incoming[:, 1] * outgoing[:, 0]
-    return np.arctan2(cross, np.einsum("nc,nc->n", incoming, outgoing))
 
 
 def _convex(quads: FloatArray) -> NDArray[np.bool_]:

@@ -18,6 +18,13 @@ OFFSETS = np.arange(-4.0, 4.001, 0.5)
 ENDS = 3
 
 
+def _put_back(read: np.ndarray, given: np.ndarray) -> np.ndarray:
+    """:func:`unclip_by_mixing` of profiles ``read`` (N, K, 3) as the colour model put them back
+    (``given``), with the ends' colours the means of ``ENDS`` samples as read."""
+    inner, outer = read[:, :ENDS].mean(axis=1), read[:, -ENDS:].mean(axis=1)
+    return unclip_by_mixing(read, given, inner, outer, TOP, FLOOR, MIN_CONTRAST)
+
+
 def _profiles(
     patch: np.ndarray, background: np.ndarray, blur_px: float, noise: float, rng
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -41,7 +48,7 @@ def test_clipped_samples_are_put_back_on_the_line_the_mixing_draws() -> None:
     for blur_px in (0.8, 1.3):
         background = np.array([30.0, 22.0, 25.0]) + rng.uniform(-10.0, 10.0, (60, 3))
         truth, read = _profiles(patch, background, blur_px, 1.5, rng)
-        put_back = unclip_by_mixing(read, read, ENDS, TOP, FLOOR, MIN_CONTRAST)
+        put_back = _put_back(read, read)
         clipped = read[..., 0] >= TOP
         assert clipped.sum() > 300
         error = (put_back[..., 0] - truth[..., 0])[clipped] / (patch[0] - background[:, 0].mean())
@@ -66,7 +73,7 @@ def test_profiles_that_cannot_tell_the_hidden_step_are_left_alone() -> None:
     for name, (patch, colour) in cases.items():
         _, read = _profiles(patch, np.repeat(colour[None], 20, axis=0), 1.0, 1.5, rng)
         given = read + 1.0  # what the colour model put back, told apart from what was read
-        out = unclip_by_mixing(read, given, ENDS, TOP, FLOOR, MIN_CONTRAST)
+        out = _put_back(read, given)
         assert np.array_equal(out, given), name
 
 
