@@ -3,6 +3,7 @@ browser tests show: the frames of a small workcell and the left PTU camera looki
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from umbra.modules.view3d.geometry import matrix_from_wxyz, viewer_pose_looking_
 from umbra.modules.view3d.view3d import View3D
 from umbra.runtime.harness import ModuleHarness
 
+_RESEND_S = 2.0  # [s] a pose the browser has not reported is sent again after this
 MAGENTA = np.array([255, 0, 255])  # the left camera's video, RGB
 T_BASE_CAM_LEFT = np.eye(4)
 _look = viewer_pose_looking_at([0.6, -0.9, 1.1], [0.6, 0.0, 0.25], 0.8)
@@ -72,21 +74,28 @@ class View:
         return first_client(self.module)
 
     def move_viewer(self, pose, what: str, tolerance_m: float = 1e-4) -> None:
-        """Put the page's viewer at ``pose`` and wait until the browser reports it there. On a
-        loaded machine the page's socket may close and viser's page reconnects as a new client
-        (seen once in the default suite: the pose queued on the closed connection, the test
-        waiting 20 s for a viewer that never got it): the pose is sent again to whichever
-        client the page is now, and ``self.client`` follows it."""
+        """Put the page's viewer at ``pose`` and wait until the browser reports it there.
+
+        The pose is sent again in two cases seen on loaded machines:
+        - the page's socket closed and viser's page reconnected as a new client (the pose had
+          queued on the closed connection): it goes to whichever client the page is now, and
+          ``self.client`` follows it;
+        - the browser applied it and then moved on (arrow keys pressed on a slider also steer
+          viser's camera, and a late key-hold frame landed after the pose): it is sent again
+          every ``_RESEND_S`` [s] until the browser reports it.
+        """
         sent_to: list[object] = [None]
+        sent_at = [0.0]
 
         def there() -> bool:
             client = self._client()
             if client is None:
                 return False
-            if client is not sent_to[0]:
+            if client is not sent_to[0] or time.monotonic() - sent_at[0] > _RESEND_S:
                 self.client = client
                 self.module.page.set_viewer(client, pose)
                 sent_to[0] = client
+                sent_at[0] = time.monotonic()
             return bool(
                 np.linalg.norm(client.camera.position - pose.position) < tolerance_m
                 and np.linalg.norm(client.camera.look_at - pose.look_at) < tolerance_m
