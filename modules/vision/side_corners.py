@@ -12,17 +12,23 @@ carried a few pixels on to the corner, is noisy: with points 0.2 px off the side
 0.68 px off against the lines' 0.20 px; lens distortion bows a side 120 px long by a few tenths
 of a pixel, which moves its line's end by two thirds of that.)
 
-Only a corner the snake merely rounded is put back: the contour passes within ``depth_px`` of
-the meeting point, which lies ahead of both sides' fitted points, and those (and every point
-replaced) lie within ``reach_px`` of it (plus the share of a side left out of its fit at each
-end). A corner cut off by an occluder stands further off (cut at 15 % of a 120 px patch's sides,
-its chord passes 13 px from the corner), and a bitten or bent one leaves its sides' fitted points
-far from where they meet: either is left as measured, so the sanity checks still see it.
+Only a corner the snake merely rounded is put back: the meeting point lies ahead of both sides'
+fitted points, those (and every point replaced) lie within ``reach_px`` of it (plus the share of
+a side left out of its fit at each end), and the contour passes within ``depth_px`` of it or the
+image reads as the patch all the way from the contour to it (the caller's test, clear of the
+sides' blur). A corner cut off by an occluder is neither: its chord stands further off (cut at
+15 % of a 120 px patch's sides, 13 px from the corner) and what lies beyond it is the occluder.
+A bitten or bent corner leaves its sides' fitted points far from where they meet. Either is left
+as measured, so the sanity checks still see it. (The snake's points lie a segment apart, and
+blur and noise stop its gate short of a corner's tip: on the harsh held-out frames its contour
+passes 6-12 px from corners the image shows whole.)
 
 Pixels: u right, v down.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,15 +36,26 @@ from numpy.typing import NDArray
 from umbra.modules.vision.straight_sides import END_SHARE, SideFit
 
 FloatArray = NDArray[np.float64]
+#: Whether the image reads as the patch at each point (K x 2 px): K booleans.
+PatchTest = Callable[[FloatArray], NDArray[np.bool_]]
+#: Samples of a corner's colour lie this far or more from its sides' lines, clear of their
+#: edges' blur [px].
+CLEAR_PX = 3.0
 
 
 def meet_corners(
-    fit: SideFit, found: NDArray[np.bool_], reach_px: float, depth_px: float
+    fit: SideFit,
+    found: NDArray[np.bool_],
+    reach_px: float,
+    depth_px: float,
+    reads_as_patch: PatchTest | None = None,
 ) -> tuple[FloatArray, NDArray[np.bool_], int]:
     """The contour of ``fit`` (N x 2 px) with each corner between two fitted sides put where
     their lines meet (the points between their fitted points replaced by one), which of its
     points lie on a measured edge (``found``, the corners counting as measured), and how many
-    corners were put there (0-4)."""
+    corners were put there (0-4). ``reads_as_patch`` (points K x 2 px -> K booleans) lets a
+    corner the contour passes further than ``depth_px`` from be put back where the image is the
+    patch up to it; without it, only ``depth_px`` counts."""
     points = fit.points
     count = len(points)
     first, last = _end_points(fit)
@@ -70,7 +87,11 @@ def meet_corners(
         if at in inserted or np.any(np.hypot(*(points[between] - corner[k]).T) > reach[k]):
             continue
         path = points[[int(end[k]), *between.tolist(), int(start[k])]]
-        if _distance_to_path(corner[k], path) > depth_px:
+        nearest = _nearest_on_path(corner[k], path)
+        if np.hypot(*(nearest - corner[k])) > depth_px and not (
+            reads_as_patch is not None
+            and _patch_up_to(corner[k], nearest, (ta[k], tb[k]), reads_as_patch)
+        ):
             continue
         keep[between] = False
         inserted[at] = corner[k]
@@ -137,11 +158,40 @@ def _between(last: int, first: int, count: int) -> tuple[int, NDArray[np.intp]]:
     return start, (start + np.arange(1, gap)) % count
 
 
-def _distance_to_path(point: FloatArray, path: FloatArray) -> float:
-    """Distance (px) from ``point`` (2) to the polyline ``path`` (K x 2)."""
+def _nearest_on_path(point: FloatArray, path: FloatArray) -> FloatArray:
+    """The point (2 px) of the polyline ``path`` (K x 2 px) nearest ``point`` (2 px)."""
     a, b = path[:-1], path[1:]
     edge = b - a
     length2 = np.maximum(np.einsum("kc,kc->k", edge, edge), 1e-12)
     t = np.clip(np.einsum("kc,kc->k", point - a, edge) / length2, 0.0, 1.0)
-    gap = a + t[:, None] * edge - point
-    return float(np.sqrt(np.einsum("kc,kc->k", gap, gap).min()))
+    on_path = a + t[:, None] * edge
+    gap = on_path - point
+    return on_path[int(np.argmin(np.einsum("kc,kc->k", gap, gap)))]
+
+
+def _patch_up_to(
+    corner: FloatArray,
+    nearest: FloatArray,
+    directions: tuple[FloatArray, FloatArray],
+    reads_as_patch: PatchTest,
+) -> bool:
+    """Whether the image reads as the patch all the way from the contour's point ``nearest``
+    (2 px) to where the sides meet at ``corner`` (2 px): sampled a pixel apart along that line
+    from the contour on, wherever a sample lies ``CLEAR_PX`` or more from both sides' lines
+    (unit ``directions``, 2 each). A corner the snake's tension rounded is the patch's colour
+    up to its tip; one an occluder cut off is not (and the contour runs along the occluder's
+    edge, where the colours mix). False where no sample fits."""
+    gap = nearest - corner
+    depth = float(np.hypot(*gap))
+    if depth <= 0.0:
+        return False
+    toward = gap / depth
+    # A point r along ``toward`` from the corner lies r |toward x d| from the line along d.
+    sine = min(abs(float(toward[0] * d[1] - toward[1] * d[0])) for d in directions)
+    if sine <= 0.0:
+        return False
+    first = CLEAR_PX / sine
+    if first > depth:
+        return False
+    r = np.arange(depth, first - 1e-9, -1.0)
+    return bool(np.all(reads_as_patch(corner + r[:, None] * toward)))

@@ -47,12 +47,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.modules.vision.color import ColorModel
+from umbra.modules.vision.color import ColorModel, is_target
 from umbra.modules.vision.edge_fit import (
     EdgeFitParams,
     complete_corners,
     fit_edges,
     measure_near_edge,
+    sample_bilinear,
 )
 from umbra.modules.vision.polygon import (
     as_polygon,
@@ -77,10 +78,11 @@ FloatArray = NDArray[np.float64]
 #: patch up to about 300 px a side) a pixel of the outline is a measurable share of the area;
 #: beyond, the cost of twice the points is not repaid.
 FINE_MEASURE_SCALE = 2
-#: A corner is put where the sides meet when the contour passes within this many segments
-#: (``max_segment_px``) of that point and the sides' fitted points reach within
-#: ``CORNER_REACH_SEGMENTS`` of it: the snake's tension rounds a corner by a few pixels, while an
-#: occluder that cuts a corner at 15 % of the sides or more stands further off and is left for
+#: A corner is put where the sides meet when the sides' fitted points reach within
+#: ``CORNER_REACH_SEGMENTS`` (``max_segment_px``) of that point and the contour passes within
+#: ``CORNER_DEPTH_SEGMENTS`` of it, or further where the image reads as the patch up to it: the
+#: snake's tension rounds a corner by a few pixels, while an occluder that cuts a corner at 15 %
+#: of the sides or more stands further off, with the occluder beyond its chord, and is left for
 #: the sanity checks (see :mod:`umbra.modules.vision.side_corners`).
 CORNER_DEPTH_SEGMENTS = 0.5
 CORNER_REACH_SEGMENTS = 2.0
@@ -427,7 +429,15 @@ def measure_contour(
         if sides is not None:
             reach_px = CORNER_REACH_SEGMENTS * params.max_segment_px
             depth_px = CORNER_DEPTH_SEGMENTS * params.max_segment_px
-            points, found, met = meet_corners(sides, found, reach_px, depth_px)
+            points, found, met = meet_corners(
+                sides,
+                found,
+                reach_px,
+                depth_px,
+                lambda uv: is_target(
+                    model, sample_bilinear(image, uv), params.k_sigma, params.min_gray
+                ),
+            )
             if met == 4:  # every corner is where its sides meet: none left to put back
                 return points, fit.found_fraction
     contour = complete_corners(

@@ -3,8 +3,13 @@ them."""
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
+from numpy.typing import NDArray
 
+from umbra.modules.vision import photo_scene
+from umbra.modules.vision.color import from_rgb, is_target
+from umbra.modules.vision.edge_fit import sample_bilinear
 from umbra.modules.vision.side_corners import meet_corners
 from umbra.modules.vision.snake import CORNER_DEPTH_SEGMENTS, CORNER_REACH_SEGMENTS, SnakeParams
 from umbra.modules.vision.straight_sides import fit_sides
@@ -84,3 +89,74 @@ def test_a_corner_cut_off_by_an_occluder_is_left_as_measured() -> None:
     errors = corner_errors(contour, QUAD)
     assert errors[2] > 10.0
     assert np.delete(errors, 2).max() < 0.3
+
+
+#: The patch's and the background's colours (BGR) in the pictures below.
+PATCH_BGR = np.array([40.0, 60.0, 210.0])
+BACKGROUND_BGR = np.array([150.0, 120.0, 60.0])
+
+
+def picture(quad: np.ndarray, cut: np.ndarray | None = None) -> NDArray[np.uint8]:
+    """A 320 x 260 picture of the patch ``quad`` drawn by area coverage (as a camera draws it),
+    then blurred (sigma 1.2 px, a lens); ``cut`` (3 x 2 px) is a triangle an occluder of the
+    background's colour covers."""
+    shape = (260, 320)
+    share = np.zeros(shape, np.float32)
+    coverage, (u0, v0) = photo_scene.patch_coverage(quad, shape)
+    share[v0 : v0 + coverage.shape[0], u0 : u0 + coverage.shape[1]] = coverage
+    if cut is not None:
+        covered, (u1, v1) = photo_scene.patch_coverage(cut, shape)
+        window = share[v1 : v1 + covered.shape[0], u1 : u1 + covered.shape[1]]
+        window *= 1.0 - covered
+    image = BACKGROUND_BGR + share[..., None] * (PATCH_BGR - BACKGROUND_BGR)
+    return np.rint(cv2.GaussianBlur(image, (0, 0), 1.2)).astype(np.uint8)
+
+
+def patch_test(image: NDArray[np.uint8]):
+    """Whether ``image`` reads as the patch at points (K x 2 px), as the snake asks it."""
+    model = from_rgb(PATCH_BGR[::-1])
+    return lambda uv: is_target(model, sample_bilinear(image, uv), 3.0, 20.0)
+
+
+def test_a_deeply_rounded_corner_is_put_back_where_the_image_is_the_patch_to_its_tip() -> None:
+    """Corners rounded by 12 px (the contour passes 8-9 px from them, beyond ``depth_px``: a
+    snake's points 17 px apart on a blurred, noisy patch): without a look at the image none is
+    put back; where the picture reads as the patch up to each corner, all four are, within
+    0.6 px (the sides' lines, through points 0.2 px off them, carried 12 px on)."""
+    rng = np.random.default_rng(13)
+    points = rounded(QUAD, 12.0)
+    points += rng.normal(0.0, 0.2, points.shape)
+    found = np.ones(len(points), dtype=bool)
+    fit = fit_sides(points, found, 1.0)
+    assert fit is not None
+    assert meet_corners(fit, found, REACH_PX, DEPTH_PX)[2] == 0
+    contour, _, met = meet_corners(fit, found, REACH_PX, DEPTH_PX, patch_test(picture(QUAD)))
+    assert met == 4
+    assert corner_errors(contour, QUAD).max() < 0.6
+
+
+def test_a_corner_an_occluder_cut_is_left_cut_whatever_the_image_shows_elsewhere() -> None:
+    """The corner cut at 15 % of its sides, an occluder of the background's colour over it in
+    the picture and the contour along the occluder's edge: the image does not read as the
+    patch between the contour and where the sides meet, so it stays cut, while the three
+    corners rounded by 12 px are put back (within 0.6 px)."""
+    rng = np.random.default_rng(14)
+    points = rounded(QUAD, 12.0)
+    tip = QUAD[2]
+    ends = tip + 0.15 * np.array([QUAD[1] - tip, QUAD[3] - tip])
+    near = np.hypot(*(points - tip).T) < 0.15 * np.hypot(*(QUAD[1] - tip))
+    start = int(np.flatnonzero(near)[0])
+    chord = np.linspace(ends[0], ends[1], 4)
+    points = np.vstack([points[:start], chord, points[start:][~near[start:]]])
+    points += rng.normal(0.0, 0.2, points.shape)
+    found = np.ones(len(points), dtype=bool)
+    fit = fit_sides(points, found, 1.0)
+    assert fit is not None
+    occluder = np.array([tip, ends[0], ends[1]])
+    contour, _, met = meet_corners(
+        fit, found, REACH_PX, DEPTH_PX, patch_test(picture(QUAD, occluder))
+    )
+    assert met == 3
+    errors = corner_errors(contour, QUAD)
+    assert errors[2] > 10.0
+    assert np.delete(errors, 2).max() < 0.6
