@@ -43,6 +43,19 @@ def rounded(quad: np.ndarray, cut_px: float, spacing_px: float = 8.5) -> np.ndar
     return np.vstack(points)
 
 
+def cut_at_corner_2(points: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``points`` (a contour of ``QUAD``) with corner 2 cut at 15 % of its sides (the chord an
+    occluder's straight edge leaves, 13 px from the corner), every point then 0.2 px off at
+    random; and the triangle cut off (3 x 2 px)."""
+    tip = QUAD[2]
+    ends = tip + 0.15 * np.array([QUAD[1] - tip, QUAD[3] - tip])
+    near = np.hypot(*(points - tip).T) < 0.15 * np.hypot(*(QUAD[1] - tip))
+    start = int(np.flatnonzero(near)[0])
+    chord = np.linspace(ends[0], ends[1], 4)
+    points = np.vstack([points[:start], chord, points[start:][~near[start:]]])
+    return points + rng.normal(0.0, 0.2, points.shape), np.array([tip, ends[0], ends[1]])
+
+
 def corner_errors(contour: np.ndarray, quad: np.ndarray) -> np.ndarray:
     """Distance (px) from each of the quadrilateral's corners to the nearest contour point."""
     gaps = contour[None, :, :] - quad[:, None, :]
@@ -73,14 +86,7 @@ def test_a_corner_cut_off_by_an_occluder_is_left_as_measured() -> None:
     """A corner cut at 15 % of its sides (an occluder's straight edge across it: its chord
     passes 13 px from the corner, beyond ``depth_px``) stays cut; the three others are put
     back."""
-    rng = np.random.default_rng(12)
-    points = rounded(QUAD, 5.0)
-    cut = QUAD[2] + 0.15 * np.array([QUAD[1] - QUAD[2], QUAD[3] - QUAD[2]])
-    near = np.hypot(*(points - QUAD[2]).T) < 0.15 * np.hypot(*(QUAD[1] - QUAD[2]))
-    start = int(np.flatnonzero(near)[0])
-    chord = np.linspace(cut[0], cut[1], 4)
-    points = np.vstack([points[:start], chord, points[start:][~near[start:]]])
-    points += rng.normal(0.0, 0.2, points.shape)
+    points, _ = cut_at_corner_2(rounded(QUAD, 5.0), np.random.default_rng(12))
     found = np.ones(len(points), dtype=bool)
     fit = fit_sides(points, found, 1.0)
     assert fit is not None
@@ -140,19 +146,10 @@ def test_a_corner_an_occluder_cut_is_left_cut_whatever_the_image_shows_elsewhere
     the picture and the contour along the occluder's edge: the image does not read as the
     patch between the contour and where the sides meet, so it stays cut, while the three
     corners rounded by 12 px are put back (within 0.6 px)."""
-    rng = np.random.default_rng(14)
-    points = rounded(QUAD, 12.0)
-    tip = QUAD[2]
-    ends = tip + 0.15 * np.array([QUAD[1] - tip, QUAD[3] - tip])
-    near = np.hypot(*(points - tip).T) < 0.15 * np.hypot(*(QUAD[1] - tip))
-    start = int(np.flatnonzero(near)[0])
-    chord = np.linspace(ends[0], ends[1], 4)
-    points = np.vstack([points[:start], chord, points[start:][~near[start:]]])
-    points += rng.normal(0.0, 0.2, points.shape)
+    points, occluder = cut_at_corner_2(rounded(QUAD, 12.0), np.random.default_rng(14))
     found = np.ones(len(points), dtype=bool)
     fit = fit_sides(points, found, 1.0)
     assert fit is not None
-    occluder = np.array([tip, ends[0], ends[1]])
     contour, _, met = meet_corners(
         fit, found, REACH_PX, DEPTH_PX, patch_test(picture(QUAD, occluder))
     )
