@@ -76,32 +76,36 @@ class View:
     def move_viewer(self, pose, what: str, tolerance_m: float = 1e-4) -> None:
         """Put the page's viewer at ``pose`` and wait until the browser reports it there.
 
-        The pose is sent again in two cases seen on loaded machines:
+        Between looks the pose is sent again (``wait_for``'s ``step``) in two cases seen on
+        loaded machines:
         - the page's socket closed and viser's page reconnected as a new client (the pose had
           queued on the closed connection): it goes to whichever client the page is now, and
           ``self.client`` follows it;
-        - the browser applied it and then moved on (arrow keys pressed on a slider also steer
-          viser's camera, and a late key-hold frame landed after the pose): it is sent again
-          every ``_RESEND_S`` [s] until the browser reports it.
+        - the browser never reported it after arrow keys had been pressed on a slider (they
+          also steer viser's camera): it is sent again every ``_RESEND_S`` [s].
         """
         sent_to: list[object] = [None]
         sent_at = [0.0]
 
-        def there() -> bool:
+        def send() -> None:
             client = self._client()
             if client is None:
-                return False
+                return
             if client is not sent_to[0] or time.monotonic() - sent_at[0] > _RESEND_S:
                 self.client = client
                 self.module.page.set_viewer(client, pose)
                 sent_to[0] = client
                 sent_at[0] = time.monotonic()
-            return bool(
+
+        def there() -> bool:
+            client = self._client()
+            return client is not None and bool(
                 np.linalg.norm(client.camera.position - pose.position) < tolerance_m
                 and np.linalg.norm(client.camera.look_at - pose.look_at) < tolerance_m
             )
 
-        wait_for(there, 20.0, what, interval_s=0.05)
+        send()
+        wait_for(there, 20.0, what, interval_s=0.05, step=send)
 
     def feed(self, port: str, sample) -> None:
         self.harness.push(port, sample)

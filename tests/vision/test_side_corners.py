@@ -120,8 +120,8 @@ def picture(quad: np.ndarray, cut: np.ndarray | None = None) -> NDArray[np.uint8
 
 def patch_test(image: NDArray[np.uint8]):
     """Whether ``image`` reads as the patch at points (K x 2 px), as the snake asks it."""
-    model = from_rgb(PATCH_BGR[::-1])
-    return lambda uv: is_target(model, sample_bilinear(image, uv), 3.0, 20.0)
+    model, gate = from_rgb(PATCH_BGR[::-1]), SnakeParams()
+    return lambda uv: is_target(model, sample_bilinear(image, uv), gate.k_sigma, gate.min_gray)
 
 
 def test_a_deeply_rounded_corner_is_put_back_where_the_image_is_the_patch_to_its_tip() -> None:
