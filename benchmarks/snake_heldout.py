@@ -5,8 +5,9 @@ photographs, lens and motion blur, gain 0.55-1.45, colour casts, shot and read n
 half the frames), scored separately on the tuning photographs and on the held-out ones, at
 1920x1080; and on the held-out ones under a harsher camera
 (:data:`umbra.modules.vision.photo_scene.HARSH`: JPEG at quality 70-95 on every frame, twice the
-noise, gains up to 1.6 that clip a channel) at 1920x1080 and at 640x480 (patches of 120-300 px).
-For every frame, in this run:
+noise, gains up to 1.6 that clip a channel) at 1920x1080 and at 640x480 (patches of 120-300 px),
+and at 640x480 once more with the codes sRGB-encoded, as webcams write them (the tracker is told
+so: ``image_encoding: srgb``). For every frame, in this run:
 
 - **ours**: the tracker acquires from a click within 15 % of the patch centre (colour learned
   there), as the operator seeds it; IoU and area bias of its outline against the quadrilateral,
@@ -33,6 +34,7 @@ from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.vision import photo_scene as ps
 from umbra.modules.vision.metrics import polygon_iou
 from umbra.modules.vision.polygon import signed_area
+from umbra.modules.vision.snake import SnakeParams
 from umbra.modules.vision.tracker import SnakeTracker
 
 #: the generator's own camera
@@ -46,6 +48,11 @@ SETS = {
         ps.HELD_OUT_PHOTOS,
         (640, 480),
         replace(ps.HARSH, span_px=(120.0, 300.0)),
+    ),
+    "held-out harsh sRGB 640x480": (
+        ps.HELD_OUT_PHOTOS,
+        (640, 480),
+        replace(ps.HARSH, span_px=(120.0, 300.0), encoding="srgb"),
     ),
 }
 #: bands of lighting gain the area bias is reported in
@@ -96,7 +103,7 @@ def bench_photos(
             conditions=conditions,
         )
         gains.append(frame.conditions["gain"])
-        tracker = SnakeTracker()
+        tracker = SnakeTracker(SnakeParams(image_encoding=conditions.encoding))
         tracker.seed_at_point(
             frame.image, frame.corners.mean(axis=0) + offset * np.ptp(frame.corners, 0)
         )
@@ -163,7 +170,12 @@ def bench_heldout(count: int, tune_bounds, threshold, seeds: tuple[int, ...] = S
 
 def goals(result: dict) -> dict[str, bool]:
     out = {}
-    for name in ("held-out", "held-out harsh 1920x1080", "held-out harsh 640x480"):
+    for name in (
+        "held-out",
+        "held-out harsh 1920x1080",
+        "held-out harsh 640x480",
+        "held-out harsh sRGB 640x480",
+    ):
         ours = result[name]["ours"]
         out[f"{name}: median |area bias| <= 0.2 %"] = ours["abs_area_bias_pct_p50"] <= 0.2
         out[f"{name}: IoU >= 0.99 on every frame"] = ours["iou_min"] >= 0.99

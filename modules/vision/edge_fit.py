@@ -49,6 +49,10 @@ measured edge), each fitted point is put on the quadratic least-squares curve th
 its neighbours: the noise of single profiles (sensor noise, JPEG blocks) averages out along the
 edge, and a straight or evenly curved edge stays where it is.
 
+All of this is measured on light: where the camera encodes it by a curve (sRGB), each pixel
+read is turned back into light first (:mod:`umbra.modules.vision.transfer`); the colour tests
+stay on the codes the colour model learned.
+
 Only ``N x (2 L / step + 1) x 4`` pixels are read per pass for N vertices (three passes at
 most), never the whole image. Pixels: u right, v down, pixel centres at integer coordinates.
 """
@@ -65,6 +69,7 @@ from numpy.typing import NDArray
 from umbra.modules.vision.color import ColorModel, is_target, unclip
 from umbra.modules.vision.edge_mixing import read_linearly, unclip_by_mixing
 from umbra.modules.vision.polygon import following, turns
+from umbra.modules.vision.transfer import Encoding, light_table, to_light
 
 FloatArray = NDArray[np.float64]
 
@@ -82,7 +87,9 @@ class EdgeFitParams:
     half-width of the equal-area window about the crossing [px]; ``recentre_px``: a crossing
     further than this from its profile's centre is measured again on a centred profile [px];
     ``smooth_reach``: each fitted point is put on the quadratic through it and this many
-    neighbours on either side where the edge is smooth (0: off) [vertices]."""
+    neighbours on either side where the edge is smooth (0: off) [vertices]; ``encoding``: how
+    the image's codes stand for light (:mod:`umbra.modules.vision.transfer`): the edge is
+    measured on light, the colour tests on the codes the colour model learned."""
 
     half_length_px: float = 4.0
     sample_px: float = 0.5
@@ -95,6 +102,7 @@ class EdgeFitParams:
     window_px: float = 2.5
     recentre_px: float = 0.5
     smooth_reach: int = 2
+    encoding: Encoding = "linear"
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,6 +134,41 @@ def sample_bilinear(image: NDArray[np.uint8], points_uv: FloatArray) -> NDArray[
     return sampled.reshape(*points_uv.shape[:-1], image.shape[2]).astype(np.float32)
 
 
+def sample_light(
+    image: NDArray[np.uint8], points_uv: FloatArray, encoding: Encoding
+) -> NDArray[np.float32]:
+    """The light (N, K, C float32, 0..255 scale) at points (N, K, 2 px) of an H x W x C uint8
+    image whose codes are ``encoding``: each of the 4 pixels around a point is turned into light
+    first, then interpolated bilinearly (light mixes linearly, codes of a curve do not); points
+    outside read the border. With ``linear`` codes, :func:`sample_bilinear`."""
+    return sample_codes_and_light(image, points_uv, encoding)[1]
+
+
+def sample_codes_and_light(
+    image: NDArray[np.uint8], points_uv: FloatArray, encoding: Encoding
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """The codes and the light (each N, K, C float32) at points (N, K, 2 px), from one read of
+    the 4 pixels around each point: codes interpolated as :func:`sample_bilinear` does, light as
+    :func:`sample_light` does. With ``linear`` codes, both are the same array."""
+    if encoding == "linear":
+        codes = sample_bilinear(image, points_uv)
+        return codes, codes
+    height, width = image.shape[:2]
+    u = np.clip(points_uv[..., 0], 0.0, width - 1.0)
+    v = np.clip(points_uv[..., 1], 0.0, height - 1.0)
+    u0 = np.minimum(np.floor(u).astype(np.intp), max(width - 2, 0))
+    v0 = np.minimum(np.floor(v).astype(np.intp), max(height - 2, 0))
+    u1, v1 = np.minimum(u0 + 1, width - 1), np.minimum(v0 + 1, height - 1)
+    fu = (u - u0).astype(np.float32)[..., None]
+    fv = (v - v0).astype(np.float32)[..., None]
+    corners = (image[v0, u0], image[v0, u1], image[v1, u0], image[v1, u1])
+    weights = ((1.0 - fv) * (1.0 - fu), (1.0 - fv) * fu, fv * (1.0 - fu), fv * fu)
+    table = light_table(encoding)
+    codes = sum(w * c for w, c in zip(weights, corners, strict=True))
+    light = sum(w * table[c] for w, c in zip(weights, corners, strict=True))
+    return np.asarray(codes, dtype=np.float32), np.asarray(light, dtype=np.float32)
+
+
 def fit_edges(
     image: NDArray[np.uint8],
     vertices: FloatArray,
@@ -150,11 +193,15 @@ def fit_edges(
     # crossing from the patch's side, refined by the step of equal area over a window centred
     # on it alone.
     length = p.half_length_px * scale
-    profile = _profile(image, vertices, normals, shift, unit * length)
-    inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
+    codes, profile = _profile(image, vertices, normals, shift, unit * length, p.encoding)
+    inner, outer, summed = np.einsum("nkc,jk->jnc", codes, weights)
     contrast = inner - outer
     power = np.einsum("nc,nc->n", contrast, contrast)
     found = _an_edge_between(inner, outer, power, model, k_sigma, min_gray, p.min_contrast)
+    if profile is not codes:  # the colour tests on codes; the step of equal area on light
+        inner, outer, summed = np.einsum("nkc,jk->jnc", profile, weights)
+        contrast = inner - outer
+        power = np.einsum("nc,nc->n", contrast, contrast)
     # The integral of t = (p - outer) . contrast / power, by the trapezoid rule: linear in the
     # samples, so summed first.
     moment = np.einsum("nc,nc->n", summed - total * outer, contrast)
@@ -245,18 +292,18 @@ def _cross(
     at = np.arange(len(vertices))
     spread: FloatArray | None = None
     for turn in range(turns):
-        raw = _profile(image, vertices[at], normals[at], shift[at], offsets)
-        # The ends' colours as the sensor read them: the ends test and the put-back's.
-        read_inner, read_outer = raw[:, :ends].mean(axis=1), raw[:, -ends:].mean(axis=1)
+        raw, light = _profile(image, vertices[at], normals[at], shift[at], offsets, p.encoding)
         if turn == 0 and test_ends is not None:
+            # The ends' colours as the sensor read them, in the codes the colour model knows.
+            read_inner, read_outer = raw[:, :ends].mean(axis=1), raw[:, -ends:].mean(axis=1)
             step = read_inner - read_outer
             power = np.einsum("nc,nc->n", step, step)
             found &= _an_edge_between(
                 read_inner, read_outer, power, model, *test_ends, p.min_contrast
             )
-        profile = _unclipped(model, raw, read_inner, read_outer, p.min_contrast)
+        profile = _unclipped(model, raw, light, ends, p.min_contrast, p.encoding)
         inner, outer, _ = np.einsum("nkc,jk->jnc", profile, weights)
-        contrast, power, clipped = _contrast(inner, outer, found[at])
+        contrast, power, clipped = _contrast(inner, outer, found[at], p.encoding)
         if turn == 0:  # measured over every profile; the second turn redoes a few
             spread = _spread(profile, inner, outer, ends, found[at])
         contrast, power = _noise_weighted(contrast, power, spread)
@@ -271,6 +318,7 @@ def _cross(
                 offsets,
                 edge[clipped],
                 p.window_px,
+                p.encoding,
             )
             edge[clipped] = np.where(ok, steep, edge[clipped])
         found[at] &= crossed
@@ -340,43 +388,64 @@ def _off_the_curve(
     return found & around & smooth & (np.abs(middle) > max_kink_px + allowance)
 
 
-def _profile(image, vertices, normals, shift, offsets) -> NDArray[np.float32]:
-    """Colours (N, K, C) sampled at ``offsets`` (K px) along each normal about the vertex moved
-    by ``shift`` (N px)."""
+def _profile(
+    image, vertices, normals, shift, offsets, encoding: Encoding
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Codes and light (each N, K, C; :func:`sample_codes_and_light`) sampled at ``offsets``
+    (K px) along each normal about the vertex moved by ``shift`` (N px)."""
     centres = vertices + shift[:, None] * normals
     points = centres[:, None, :] + offsets[None, :, None] * normals[:, None, :]
-    return sample_bilinear(image, points)
+    return sample_codes_and_light(image, points, encoding)
 
 
 def _unclipped(
     model: ColorModel,
-    profile: NDArray[np.float32],
-    inner: NDArray[np.float32],
-    outer: NDArray[np.float32],
+    raw: NDArray[np.float32],
+    light: NDArray[np.float32],
+    ends: int,
     min_contrast: float,
+    encoding: Encoding,
 ) -> NDArray[np.float32]:
-    """Profiles (N, K, C) with each sample's clipped channel put back where the target's colour
-    has it (:func:`umbra.modules.vision.color.unclip`: on the patch's side of the edge of a
-    patch whose brightest channel saturates), then, where the channels that do not clip tell
-    how the edge mixes, on the line that mixing draws
-    (:func:`umbra.modules.vision.edge_mixing.unclip_by_mixing`, from the profiles' end colours
-    ``inner`` and ``outer`` as read, N x C, and ``min_contrast`` gray levels of their step), so
-    that channel mixes linearly across the edge and its half-contrast point is the edge's, not
-    one moved out to where the clip ends."""
-    flat = profile.reshape(-1, profile.shape[-1])
-    by_model = unclip(model, flat).reshape(profile.shape)
-    return unclip_by_mixing(profile, by_model, inner, outer, _CLIP_HIGH, _CLIP_LOW, min_contrast)
+    """Profiles (N, K, C: ``light``, the light of the ``raw`` codes) with each sample's clipped
+    channel put back where the target's colour has it
+    (:func:`umbra.modules.vision.color.unclip`, on the codes the colour model knows: on the
+    patch's side of the edge of a patch whose brightest channel saturates), then, where the
+    channels that do not clip tell how the edge mixes, on the line that mixing draws
+    (:func:`umbra.modules.vision.edge_mixing.unclip_by_mixing`, from the means of the profiles'
+    ``ends`` samples and ``min_contrast`` gray levels of their step), so that channel mixes
+    linearly across the edge and its half-contrast point is the edge's, not one moved out to
+    where the clip ends."""
+    flat = raw.reshape(-1, raw.shape[-1])
+    by_model = unclip(model, flat).reshape(raw.shape)
+    if encoding != "linear":
+        changed = by_model != raw
+        put_back = to_light(np.where(changed, by_model, 0.0), encoding) if changed.any() else light
+        by_model = np.where(changed, put_back, light)
+    inner, outer = light[:, :ends].mean(axis=1), light[:, -ends:].mean(axis=1)
+    top, floor, _ = _clip_levels(encoding)
+    return unclip_by_mixing(light, by_model, inner, outer, top, floor, min_contrast)
 
 
-def _contrast(inner, outer, found) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
-    """The colour step between the profile's ends (N x C) over the channels that are not
-    clipped at either end (a saturated or black channel does not mix linearly: its edge looks
-    shifted towards the clipped side), its squared length (N; 1 where none), and where the
-    full step had to be taken instead (N: every channel with contrast clipped)."""
-    outer_linear = read_linearly(outer, _CLIP_HIGH, _CLIP_LOW)
+@lru_cache(maxsize=4)
+def _clip_levels(encoding: Encoding) -> tuple[float, float, float]:
+    """The light of ``_CLIP_HIGH``, ``_CLIP_LOW`` and ``_PUT_BACK`` under ``encoding``."""
+    levels = to_light(np.array([_CLIP_HIGH, _CLIP_LOW, _PUT_BACK]), encoding)
+    return float(levels[0]), float(levels[1]), float(levels[2])
+
+
+def _contrast(
+    inner, outer, found, encoding: Encoding
+) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """The colour step between the profile's ends (N x C, light under ``encoding``) over the
+    channels that are not clipped at either end (a saturated or black channel does not mix
+    linearly: its edge looks shifted towards the clipped side), its squared length (N; 1 where
+    none), and where the full step had to be taken instead (N: every channel with contrast
+    clipped)."""
+    top, floor, put_back = _clip_levels(encoding)
+    outer_linear = read_linearly(outer, top, floor)
     # A channel put back above the sensor's top (see _unclipped) mixes linearly again on the
     # patch's side.
-    linear = (read_linearly(inner, _CLIP_HIGH, _CLIP_LOW) | (inner > _PUT_BACK)) & outer_linear
+    linear = (read_linearly(inner, top, floor) | (inner > put_back)) & outer_linear
     step = inner - outer
     contrast = np.where(linear, step, 0.0)
     power = np.einsum("nc,nc->n", contrast, contrast)
@@ -472,25 +541,27 @@ def _steepest(
     offsets: FloatArray,
     centre: FloatArray,
     reach_px: float,
+    encoding: Encoding,
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """Where each profile (N, K, C colours at ``offsets`` K px) falls fastest within
-    ``reach_px`` of ``centre`` (N px), channel by channel: a symmetric blur's line spread peaks
-    at the edge, whatever the colours at the ends. Where every channel with contrast clips (a
-    white background, a patch saturated in all its bright channels), the half-contrast point
-    between the clipped ends lies towards the clipped side; a channel's steepest point does
-    not, as long as the channel reads below the sensor's top there. Each channel's peak of its
-    central difference (in the direction of its ``step``, N x C: inner minus outer) is placed
-    by a parabola through it and its neighbours. Where the clip hides the difference just past
-    the steepest one seen, the parabola goes through that one and the two before it and may
-    place the peak up to one sample beyond it (against a wall at 1.14x the sensor's top, edges
-    at any angle: 0.05-0.09 px inside the edge on average, up to 0.24 px when such peaks were
-    left out). The channels whose peak is placed are averaged, weighted by their step squared.
-    Returns (edge px, found: a channel's peak placed within the reach)."""
+    """Where each profile (N, K, C light under ``encoding`` at ``offsets`` K px) falls fastest
+    within ``reach_px`` of ``centre`` (N px), channel by channel: a symmetric blur's line spread
+    peaks at the edge, whatever the colours at the ends. Where every channel with contrast clips (a
+    white background, a patch saturated in all its bright channels), the half-contrast point between
+    the clipped ends lies towards the clipped side; a channel's steepest point does not, as long as
+    the channel reads below the sensor's top there. Each channel's peak of its central difference
+    (in the direction of its ``step``, N x C: inner minus outer) is placed by a parabola through it
+    and its neighbours. Where the clip hides the difference just past the steepest one seen, the
+    parabola goes through that one and the two before it and may place the peak up to one sample
+    beyond it (against a wall at 1.14x the sensor's top, edges at any angle: 0.05-0.09 px inside the
+    edge on average, up to 0.24 px when such peaks were left out). The channels whose peak is placed
+    are averaged, weighted by their step squared. Returns (edge px, found: a channel's peak placed
+    within the reach)."""
     spacing = float(offsets[1] - offsets[0])
     sign = np.sign(step)[:, None, :]
     slope = sign * (profile[:, :-2] - profile[:, 2:])  # (N, K - 2, C), at offsets[1:-1]
     middle = offsets[1:-1]
-    lit = read_linearly(profile, _CLIP_HIGH, _CLIP_LOW)
+    top, floor, _ = _clip_levels(encoding)
+    lit = read_linearly(profile, top, floor)
     seen = lit[:, :-2] & lit[:, 1:-1] & lit[:, 2:]  # the difference reads no clipped sample
     near = np.abs(middle[None, :] - centre[:, None]) <= reach_px  # (N, K - 2)
     candidates = np.where(seen & near[:, :, None], slope, -np.inf)

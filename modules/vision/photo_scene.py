@@ -19,8 +19,9 @@ means, so that tuning and scoring can be split:
 - **Camera**, in the order of the physics, on linear radiance in gray-level units: a smooth
   illumination gradient over the whole scene; a lighting gain (0.55 to 1.45) and a colour cast
   (per-channel gains 0.8 to 1.25); lens blur (Gaussian, sigma 0.4 to 1.3 px) and sometimes a
-  short motion blur; shot and read noise (sigma up to ~8 gray levels at mid-gray); 8-bit
-  quantization with clipping; and JPEG compression (quality 75 to 95) on half the frames.
+  short motion blur; shot and read noise (sigma up to ~8 gray levels at mid-gray); clipping;
+  on an sRGB camera the sRGB curve; 8-bit quantization; and JPEG compression (quality 75 to 95)
+  on half the frames.
 
 Frames are 1920 x 1080 by default. Pixel centres at integer coordinates, u right, v down;
 images H x W x 3 uint8 BGR.
@@ -30,6 +31,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Literal
 
 import cv2
 import numpy as np
@@ -62,13 +64,16 @@ class CameraConditions:
     """How hard the camera makes the frame: the lighting ``gain_range``; the patch's long side
     ``span_px`` (low, high) in the image [px]; ``noise_scale`` times the shot and read noise;
     JPEG on a ``jpeg_share`` of the frames at a quality drawn from ``jpeg_quality`` (low,
-    high, both included). The defaults are the generator's own frames."""
+    high, both included); the codes written are proportional to light (``linear``) or the
+    light encoded by the sRGB curve before quantization (``srgb``, as webcams write). The
+    defaults are the generator's own frames."""
 
     gain_range: tuple[float, float] = (0.55, 1.45)
     span_px: tuple[float, float] = (160.0, 520.0)
     noise_scale: float = 1.0
     jpeg_share: float = 0.5
     jpeg_quality: tuple[int, int] = (75, 95)
+    encoding: Literal["linear", "srgb"] = "linear"
 
 
 #: Frames harder than the tuning ones: JPEG at quality 70 to 95 on every frame, twice the
@@ -266,7 +271,10 @@ def render(
     shot = rng.uniform(0.05, 0.25)  # gray levels² per gray level
     sigma = camera.noise_scale * np.sqrt(read * read + shot * np.maximum(scene, 0.0))
     scene += sigma * rng.standard_normal(scene.shape, dtype=np.float32)
-    image = np.clip(np.rint(scene), 0, 255).astype(np.uint8)
+    scene = np.clip(scene, 0.0, 255.0)
+    if camera.encoding == "srgb":
+        scene = _srgb_codes(scene)
+    image = np.rint(scene).astype(np.uint8)
     low, high = camera.jpeg_quality
     quality = int(rng.integers(low, high + 1)) if rng.random() < camera.jpeg_share else 0
     if quality:
@@ -282,6 +290,15 @@ def render(
         "jpeg_quality": quality,
     }
     return PhotoFrame(image, corners, abs(_shoelace(corners)), photo, rgb, record)
+
+
+def _srgb_codes(light: NDArray[np.float32]) -> NDArray[np.float32]:
+    """sRGB codes (0..255) of ``light`` (0..255), by IEC 61966-2-1's curve. Written here from
+    the standard, apart from :mod:`umbra.modules.vision.transfer`, so that a mistake there does
+    not cancel out against this generator."""
+    x = light / np.float32(255.0)
+    encoded = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    return (255.0 * encoded).astype(np.float32)
 
 
 def frames(

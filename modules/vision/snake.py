@@ -68,6 +68,7 @@ from umbra.modules.vision.pressure import PressureField
 from umbra.modules.vision.side_corners import meet_corners
 from umbra.modules.vision.side_profiles import remeasure_sides
 from umbra.modules.vision.straight_sides import fit_sides
+from umbra.modules.vision.transfer import Encoding
 
 FloatArray = NDArray[np.float64]
 
@@ -126,6 +127,8 @@ class SnakeParams:
     - ``side_profiles``: with ``side_fit_px`` on, each fitted side is measured again by this
       many profiles along it (at most one a pixel), and its curve fitted to them (0: off; see
       :mod:`umbra.modules.vision.side_profiles`).
+    - ``image_encoding``: how the camera's codes stand for light, ``linear`` or ``srgb`` (see
+      :mod:`umbra.modules.vision.transfer`): the sub-pixel edge is measured on light.
     - ``min_edge_fraction``: a contour with an edge under fewer of its vertices than this share
       is not on a target (a featureless or colourless image): failed.
     - ``border_margin_px``: a contour that comes this close to the image border is cut by it:
@@ -159,6 +162,7 @@ class SnakeParams:
     corner_turn_deg: float = 40.0
     side_fit_px: float = 1.0
     side_profiles: int = 32
+    image_encoding: Encoding = "linear"
     min_edge_fraction: float = 0.5
     border_margin_px: float = 1.0
     min_chroma: float = 0.02
@@ -401,7 +405,9 @@ def measure_contour(
     if 1 < scale <= FINE_MEASURE_SCALE:
         perimeter = float(segment_lengths(vertices).sum())
         vertices = resample_uniform(vertices, max(round(perimeter / params.target_segment_px), 3))
-    edge_params = EdgeFitParams(half_length_px=params.edge_half_length_px)
+    edge_params = EdgeFitParams(
+        half_length_px=params.edge_half_length_px, encoding=params.image_encoding
+    )
     fit = fit_edges(
         image,
         vertices,

@@ -19,6 +19,7 @@ from pydantic import model_validator
 from umbra.connectors.params import Parameters, ParamProblem, param
 from umbra.modules.vision.sanity import SanityLimits
 from umbra.modules.vision.snake import SnakeParams
+from umbra.modules.vision.transfer import Encoding
 
 #: User-facing limit names that differ from the SanityLimits field, with their conversion.
 _DEGREE_LIMITS = {"max_rotation_deg": "max_rotation_rad"}
@@ -98,6 +99,11 @@ class SnakeSettings(Parameters):
         "each fitted side is measured again by this many profiles, one a pixel at most (0: off)",
         ge=0,
         le=1_000,
+    )
+    image_encoding: Encoding = param(
+        _D["image_encoding"],
+        "how the camera's codes stand for light: linear (raw, machine vision) or srgb (webcams,"
+        " phones, most JPEG cameras); the sub-pixel edge is measured on light",
     )
     min_edge_fraction: float = param(
         _D["min_edge_fraction"], "fewer vertices on an edge: failed", ge=0, le=1

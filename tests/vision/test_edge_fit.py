@@ -31,10 +31,12 @@ def half_plane_image(
     rng,
     patch_bgr: np.ndarray = PATCH_BGR,
     background_bgr: np.ndarray = BACKGROUND_BGR,
+    encode=None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """A 200 x 200 image: patch colour where n . (x - c) < offset, n at ``angle_rad``; area
     sampled exactly (16x supersampling), then Gaussian blur (as a lens blurs, before the sensor
-    clips) and noise. Returns the image, the unit normal n and the offset c . n + offset of the
+    clips) and noise, all on light; then ``encode`` (light 0..255 to codes 0..255; None: codes
+    are light). Returns the image, the unit normal n and the offset c . n + offset of the
     edge line n . x = that value."""
     size, fine = 200, 16
     normal = np.array([np.cos(angle_rad), np.sin(angle_rad)])
@@ -47,6 +49,8 @@ def half_plane_image(
     if blur_sigma_px > 0:
         image = cv2.GaussianBlur(image, (0, 0), blur_sigma_px)
     image = image + rng.normal(0.0, noise, image.shape)
+    if encode is not None:
+        image = encode(np.clip(image, 0.0, 255.0))
     edge = float(centre @ normal + offset_px)
     return np.clip(np.rint(image), 0, 255).astype(np.uint8), normal, edge
 
