@@ -22,7 +22,12 @@ def test_sigusr1_prints_every_threads_stack_and_the_run_goes_on(tmp_path: Path) 
     reader = threading.Thread(target=lambda: lines.extend(proc.stderr), daemon=True)
     reader.start()
     try:
-        wait_for((out / "recording.mcap").exists, 30, "the recording file", 0.05)
+        recording = out / "recording.mcap"
+        wait_for(recording.exists, 30, "the recording file", 0.05)
+        # The file is opened before the recorder's thread starts; once that thread has flushed
+        # to it, the run's loop and that thread are both up.
+        opened = recording.stat().st_size
+        wait_for(lambda: recording.stat().st_size > opened, 30, "the recorder's first flush", 0.05)
         proc.send_signal(signal.SIGUSR1)
         wait_for(
             lambda: sum("most recent call first" in line for line in lines) >= 2,
