@@ -417,10 +417,11 @@ def _unclipped(
     where the clip ends."""
     flat = raw.reshape(-1, raw.shape[-1])
     by_model = unclip(model, flat).reshape(raw.shape)
-    if encoding != "linear":
+    if encoding != "linear":  # the light of a put-back sample; every other one as sampled
         changed = by_model != raw
-        put_back = to_light(np.where(changed, by_model, 0.0), encoding) if changed.any() else light
-        by_model = np.where(changed, put_back, light)
+        by_model = (
+            np.where(changed, to_light(by_model, encoding), light) if changed.any() else light
+        )
     inner, outer = light[:, :ends].mean(axis=1), light[:, -ends:].mean(axis=1)
     top, floor, _ = _clip_levels(encoding)
     return unclip_by_mixing(light, by_model, inner, outer, top, floor, min_contrast)

@@ -31,11 +31,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Literal
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from umbra.modules.vision.transfer import Encoding
 
 FloatArray = NDArray[np.float64]
 
@@ -73,7 +74,7 @@ class CameraConditions:
     noise_scale: float = 1.0
     jpeg_share: float = 0.5
     jpeg_quality: tuple[int, int] = (75, 95)
-    encoding: Literal["linear", "srgb"] = "linear"
+    encoding: Encoding = "linear"
 
 
 #: Frames harder than the tuning ones: JPEG at quality 70 to 95 on every frame, twice the
