@@ -113,9 +113,22 @@ def test_fault_on_one_drive_stops_all_and_names_it(
     assert "joint 'j3' (node 3)" in status.message and "0x2310" in status.message
 
     wait_for(lambda: stopped(drives), 2.0, "every drive to stop")
-    assert all(d.target_velocity_counts_s == 0 for d in drives)
+    # Each drive takes the master's quick stop (target 0) on a SYNC of its own bus thread: the
+    # faulted drive stood still at once and may take it after the others have stopped.
+    wait_for(
+        lambda: all(d.target_velocity_counts_s == 0 for d in drives),
+        2.0,
+        lambda: f"target 0 on every drive; found {[d.target_velocity_counts_s for d in drives]}",
+    )
     assert drives[2].state is State.FAULT
     assert not arm.set_velocities(rates)
+    # Nothing was sent: two more SYNCs on every drive (pending RPDOs apply on SYNC) keep target 0.
+    syncs = [d.sync_count for d in drives]
+    wait_for(
+        lambda: all(d.sync_count >= n + 2 for d, n in zip(drives, syncs, strict=True)),
+        2.0,
+        "two more SYNCs on every drive",
+    )
     assert all(d.target_velocity_counts_s == 0 for d in drives)
 
 
