@@ -66,7 +66,13 @@ def test_enable_drive_read_back_and_stop(sim_drives: MakeDrives, make_arm: MakeA
     )
     ran_s = 0.2 + drive_for(arm, rates, 0.4)
     wait_for(lambda: np.all(arm.read().velocities_rad_s == 0), 2.0, "standstill")
-    time.sleep(0.05)  # one more TPDO after standstill
+    still_at = time.monotonic()
+
+    def fed_back_since_standstill() -> bool:  # one more TPDO from every drive after standstill
+        now = time.monotonic()  # read() takes its own "now" after this one
+        return bool(np.all(now - arm.read().ages_s > still_at))
+
+    wait_for(fed_back_since_standstill, 2.0, "a TPDO from every drive after standstill")
     after = arm.read()
     travelled = after.positions_rad - before
 

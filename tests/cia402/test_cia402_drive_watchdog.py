@@ -94,9 +94,17 @@ def test_a_frozen_master_leaves_drives_that_stop_by_themselves(
         start = true_position(drives[0], frozen_at)
         wait_for(lambda: drives[0].velocity_counts_s == 0, 2.0, "the drive to stop alone")
         stopped_after = time.monotonic() - frozen_at
-        time.sleep(0.2)
+        # the other drive stops alone too (on its own bus thread, a moment apart), and both
+        # end the quick stop disabled
+        wait_for(
+            lambda: (
+                drives[1].velocity_counts_s == 0
+                and all(d.state is State.SWITCH_ON_DISABLED for d in drives)
+            ),
+            2.0,
+            lambda: f"both drives stopped and disabled; found {[d.state for d in drives]}",
+        )
         travel_rad = (drives[0].position_counts - start) / COUNTS_PER_RAD
-        assert drives[1].velocity_counts_s == 0
     # The target is held until the watchdog time, then the quick stop ramp (option code 2).
     ramp_s = RATE / QUICK_STOP_DECEL
     bound = RATE * (timeout_s + 0.02) + RATE**2 / (2 * QUICK_STOP_DECEL)  # 0.02: SYNC slack
@@ -126,7 +134,7 @@ def test_without_the_watchdog_a_frozen_master_leaves_the_drive_running(
     arm.set_velocities([RATE])
     wait_for(lambda: drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD, 1.0, "full speed")
     with arm._lock:
-        time.sleep(0.6)
+        time.sleep(0.6)  # a window: longer than a watchdog would take
         assert drives[0].velocity_counts_s == RATE * COUNTS_PER_RAD
     assert drives[0].master_losses == 0
 
@@ -178,7 +186,12 @@ def test_sigstop_of_the_master_process_stops_its_drives_within_their_watchdog(
     try:
         assert proc.stdout.readline().strip() == "ready"
         reader.start()
-        time.sleep(1.0)
+
+        def at_full_speed() -> bool:  # the latest row: the drive at full speed, the arm running
+            row = json.loads(lines[-1]) if lines else None
+            return row is not None and row[2] == 10000 and row[3] == "running"
+
+        wait_for(at_full_speed, 10.0, lambda: f"the drive at full speed; rows {lines[-3:]}")
         stopped_at = time.monotonic()  # CLOCK_MONOTONIC: the same clock in both processes
         proc.send_signal(signal.SIGSTOP)
         time.sleep(stop_s)
@@ -268,7 +281,7 @@ def test_a_drive_without_sync_still_ramps_down_on_its_own_clock(
     enable(node, network)
     node.sdo[obj.TARGET_VELOCITY].raw = 10_000
     network.sync.transmit()
-    time.sleep(0.05)
+    time.sleep(0.05)  # pacing: the second SYNC a cycle after the first
     network.sync.transmit()  # two SYNCs: the drive runs at its target
     wait_for(lambda: drive.velocity_counts_s == 10_000, 1.0, "the target speed")
     network.send_message(0x700 + 100, bytes([5]))  # one heartbeat arms the consumer, then none

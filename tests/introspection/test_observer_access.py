@@ -75,7 +75,7 @@ def test_an_observer_reads_but_its_commands_never_arrive_and_strangers_read_noth
             pub.put(codec.encode(forged), source_info=None)  # as itself
             pub.put(codec.encode(forged), source_info=source)  # in the producer's name
             time.sleep(0.02)
-        time.sleep(0.3)
+        time.sleep(0.3)  # a window: the forged commands reach nobody
         for stranger in strangers:  # refused when they opened their session
             assert list(stranger.info.transports()) == []
         with lock:

@@ -76,7 +76,7 @@ def test_an_observer_certificate_reads_its_keys_and_nothing_else(
     try:
         observer.subscribe(on_sample, COUNT)
         observer.subscribe(on_sample, DOUBLE)
-        time.sleep(2.0)
+        time.sleep(2.0)  # a window: the granted key streams, the denied one stays silent
     finally:
         observer.close()
     assert len(got[COUNT]) > 50 and got[DOUBLE] == []

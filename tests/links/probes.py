@@ -91,13 +91,22 @@ class ProbeGuard(Module):
     TYPE = "ProbeGuard"
     SAFETY_GUARD = True
 
+    class Params(Parameters):
+        tell_after: int = param(0, "twists sent before it says so once (0: never)", ge=0)
+
     value = Input(Scalar, trigger=True, doc="speed along x")
     twist = Output(Twist, frame="camera", doc="guarded twist")
+
+    def start(self) -> None:
+        self.sent = 0
 
     def step(self, now: float) -> None:
         sample = self.value.get(now)
         if sample is not None:
             self.twist.send(Twist(vector=np.array([sample.value, 0, 0, 0, 0, 0.0]), frame="camera"))
+            self.sent += 1
+            if self.sent == self.params.tell_after:
+                self.log.info("guard: %d twists sent", self.sent)
 
 
 class Boom(Module):

@@ -137,7 +137,7 @@ def test_by_hand_noise_attacks_and_replay_after_kill(
                 later = Twist(vector=FOREIGN.vector, frame="camera", seq=10**6 + i)
                 pub.put(codec.encode(later), source_info=source)
                 time.sleep(0.02)
-            time.sleep(0.2)
+            time.sleep(0.2)  # a window: the replays are judged, none goes through
             attack_end = time.monotonic()
         finally:
             attacker.close()
@@ -189,7 +189,7 @@ def test_by_hand_with_derived_credentials_a_peer_without_them_cannot_connect(
                 pub = attacker.declare_publisher(
                     key, congestion_control=zenoh.CongestionControl.BLOCK
                 )
-                time.sleep(1.0)
+                time.sleep(1.0)  # a window: the handshakes are refused
                 assert list(attacker.info.peers_zid()) == []  # refused by both processes
                 spy.undeclare()
                 assert overheard == []  # 100 genuine commands went by, none to it
@@ -246,7 +246,7 @@ def test_under_the_launcher_strangers_cannot_connect_and_insiders_cannot_command
         # a stranger: no credentials
         stranger = zenoh.open(build_config(Endpoints(connect=endpoints)))
         try:
-            time.sleep(1.0)
+            time.sleep(1.0)  # a window: the handshakes are refused
             assert list(stranger.info.peers_zid()) == []  # refused by every process
         finally:
             stranger.close()

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from tests.links.probes import ProbeGuard
+from tests.poll import wait_for
 from umbra.connectors import Input, Module, Output
 from umbra.connectors.messages import Image, Message, Scalar
 from umbra.connectors.ports import Sink
@@ -277,8 +278,16 @@ def _dispatch_run(
     def stop_when_done() -> None:
         for t in threads:
             t.join()
-        time.sleep(0.05)
-        sched.request_stop("test done", 0)
+        try:  # the last values handed over to the loop are handled
+            wait_for(
+                lambda: len(watch.values) >= senders * per_sender,
+                30.0,
+                lambda: f"{senders * per_sender} values handled, found {len(watch.values)}",
+            )
+        except AssertionError as exc:
+            errors.append(exc)
+        finally:
+            sched.request_stop("test done", 0)
 
     threading.Thread(target=stop_when_done).start()
     result = sched.run()

@@ -8,11 +8,11 @@ import secrets
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
+from tests.poll import wait_for
 from umbra.runtime.links.shm_sweep import mapped_segments, remove_orphans
 
 HOLDER = """
@@ -45,7 +45,11 @@ def test_segments_of_a_killed_process_are_removed_unless_someone_maps_them() -> 
         for h in holders:
             os.kill(h.pid, signal.SIGKILL)
             h.wait()
-        time.sleep(0.05)
+        wait_for(
+            lambda: not any(os.path.exists(f"/proc/{h.pid}") for h in holders),
+            5.0,
+            "the killed holders gone from /proc",
+        )
         remove_orphans({theirs, shared})
         assert not os.path.exists(theirs)  # nobody maps it any more: removed at once
         assert os.path.exists(shared)  # still mapped by a living process: kept

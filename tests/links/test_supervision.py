@@ -6,7 +6,6 @@ import json
 import os
 import re
 import signal
-import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -25,7 +24,7 @@ clock: real
 processes: {umbra: {}, smart: {}, view: {}}
 modules:
   counter: {type: Counter, process: umbra, rate: 100, params: {start: 1}}
-  guard: {type: ProbeGuard, process: smart}
+  guard: {type: ProbeGuard, process: smart, params: {tell_after: 20}}
   record: {type: Recorder, process: smart, params: {channels: [twist], path: twist.mcap}}
   watch: {type: LinkWatch, process: smart, rate: 100}
   boom: {type: Boom, process: view, params: {at: %(boom_at)s}}
@@ -70,7 +69,7 @@ def test_killed_process_fails_the_run_and_the_servo_side_zeroes(
     run = umbra("run", _graph(tmp_path), "--out", "out", "--duration", "60")
     pid = _pid(run, "umbra")
     run.wait_for("link up")
-    time.sleep(0.3)  # let some commands through first
+    run.wait_for("guard: 20 twists sent")  # some commands through first
     os.kill(pid, signal.SIGKILL)
     run.wait_for("process `umbra` ended")
     left = [name for name in os.listdir("/dev/shm") if f"-{pid}-" in name]

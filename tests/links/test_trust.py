@@ -23,6 +23,7 @@ import zenoh
 from tests.links.conftest import REPO
 from tests.links.pairs import Pair, open_pair, ready_pair
 from tests.links.test_transport import IMAGE_GRAPH, Camera, Viewer
+from tests.matching import wait_subscriptions_reached
 from tests.poll import wait_for
 from umbra.connectors.codec import Codec
 from umbra.connectors.messages import Image, Message, Scalar, Twist
@@ -52,7 +53,9 @@ class Attacker:
         )
         self.codec = Codec()
         wait_for(lambda: len(list(self.session.info.peers_zid())) == 2, 5.0, "two peers")
-        time.sleep(0.3)  # the spy's subscription reaches the producer
+        wait_subscriptions_reached(
+            self.session, pair.producer._session, 5.0, "the spy's subscription at the producer"
+        )
 
     def wait_matching(self) -> None:
         wait_for(lambda: self.pub.matching_status.matching, 5.0, "the publisher to match")
@@ -116,7 +119,7 @@ def test_one_huge_sequence_number_does_not_make_genuine_samples_old(
     send(Scalar(value=4.0, seq=2))
     send(Scalar(value=5.0, seq=3))
     wait_for(lambda: len(got) == 3, 5.0, "3 samples")
-    time.sleep(0.05)
+    time.sleep(0.05)  # a window: the dropped samples stay dropped
     assert [m.value for m in got] == [1.0, 4.0, 5.0]
     sub = _sub(pair)
     assert sub["implausible"] == 2 and sub["stale_dropped"] == 0 and sub["last_seq"] == 3
@@ -168,7 +171,7 @@ def test_a_second_token_of_a_live_process_does_not_take_over(
         pair.producer._session.close()  # the genuine producer dies; the impostor's token stays
         wait_for(lambda: not pair.consumer.producer_alive(link), 5.0, "the producer gone")
         attacker.put(Scalar(value=77.0, seq=3), None)
-        time.sleep(0.1)
+        time.sleep(0.1)  # a window: the impostor's sample is not delivered
         assert not pair.consumer.producer_alive(link)
         assert [m.value for m in got] == [1.0]
         token.undeclare()

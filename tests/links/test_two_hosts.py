@@ -130,7 +130,7 @@ def test_link_down_fires_the_watchdog_and_data_flows_again_when_it_returns(
     consumer.wait_for("process `umbra` is late", timeout=10)
     assert _ip("-n", hosts.a, "link", "set", hosts.veth_a, "up").returncode == 0
     consumer.wait_for("link healthy again", timeout=20)
-    time.sleep(0.3)
+    time.sleep(0.3)  # a window: nothing restarts the producer
     assert producer.popen.poll() is None  # nothing was restarted
     for run in (consumer, producer):
         run.popen.send_signal(signal.SIGINT)

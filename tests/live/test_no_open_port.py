@@ -126,7 +126,7 @@ def test_a_viewer_that_stops_reading_gets_fresh_data_when_it_reads_again() -> No
             conn.recv(timeout=5)
             time.sleep(0.5)  # stalled: the server keeps publishing
             door.publish(rare, time.time_ns(), b"once")  # a message sent once, mid-pause
-            time.sleep(1.0)
+            time.sleep(1.0)  # still stalled: more frames pile up for it
             stale, got_rare = 0, False  # frames held for the viewer since the pause
             while True:
                 message = conn.recv(timeout=5)

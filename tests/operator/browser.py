@@ -5,7 +5,6 @@ from __future__ import annotations
 import re
 import subprocess
 import threading
-import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -100,7 +99,8 @@ class GraphRun:
         self.lines: list[str] = []
         self.url = ""
         self._got = threading.Event()
-        threading.Thread(target=self._read, daemon=True).start()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
@@ -120,7 +120,8 @@ class GraphRun:
         try:
             return self.proc.wait(timeout)
         finally:
-            time.sleep(0.2)
+            if self.proc.poll() is not None:  # its last lines read (the pipe's end)
+                self._reader.join(timeout=10)
 
     def text(self) -> str:
         return "".join(self.lines)

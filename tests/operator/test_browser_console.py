@@ -6,7 +6,6 @@ the test drives the page like an operator and checks the module's outputs.
 
 from __future__ import annotations
 
-import functools
 import threading
 import time
 from typing import Any
@@ -74,6 +73,29 @@ class Stepper(threading.Thread):
 def _moving(stepper: Stepper, since: float) -> bool:
     """Whether the console sent a non-zero jog since wall time ``since``."""
     return any(np.any(s.vector) for _, s in stepper.outputs("jog", since))
+
+
+def _hold_until_moving(page: Any, stepper: Stepper, axis: int, sign: int) -> float:
+    """Hold a jog on ``page`` until the console forwards it, as an operator would: a hold the
+    console stopped (on a loaded machine the page's picture can be older than the console's
+    bound) is released and, once the console has taken the release, pressed again. Returns the
+    wall time of the press that moved."""
+    hold = f"window.umbra.holdJog({axis}, {sign})"
+    pressed, held = time.monotonic(), True
+    page.evaluate(hold)
+
+    def again() -> None:
+        nonlocal pressed, held
+        stopped = page.evaluate("Boolean(window.umbra.state && window.umbra.state.jog_stopped)")
+        if stopped and held:
+            page.evaluate("window.umbra.releaseJog()")
+            held = False
+        elif not stopped and not held:
+            pressed, held = time.monotonic(), True
+            page.evaluate(hold)
+
+    wait_for(lambda: _moving(stepper, pressed), 20.0, "a jog", step=again)
+    return pressed
 
 
 def _spy_keepalives(console: OperatorConsole) -> list[float]:
@@ -170,10 +192,20 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 x_plus = page.locator("#jog button", has_text="x+")
                 box = x_plus.bounding_box()
                 page.mouse.move(box["x"] + 5, box["y"] + 5)
-                pressed = time.monotonic()
-                page.mouse.down()
-                page.wait_for_timeout(600)
-                held = stepper.outputs("jog")
+                for _ in range(5):  # pressed again where the picture was too old (a busy page)
+                    pressed = time.monotonic()
+                    page.mouse.down()
+                    page.wait_for_timeout(600)
+                    if "stale page" not in page.evaluate("window.umbra.state.jog_stopped"):
+                        break
+                    page.mouse.up()
+                    wait_for(
+                        lambda: not page.evaluate("window.umbra.state.jog_stopped"),
+                        10.0,
+                        "the release taken",
+                        step=lambda: page.wait_for_timeout(20),
+                    )
+                held = stepper.outputs("jog", pressed)
                 assert sum(s.vector[0] > 0.009 for _, s in held) >= 6, held
                 kept = [t for t in arrivals if t >= pressed]
                 assert kept, "no keep-alive came while the button was held"
@@ -197,9 +229,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                     "document.dispatchEvent(new Event('visibilitychange'));"
                     "delete document.hidden",
                 ):
-                    started = time.monotonic()
-                    page.evaluate("window.umbra.holdJog(2, 1)")
-                    wait_for(functools.partial(_moving, stepper, started), 10.0, "a jog")
+                    _hold_until_moving(page, stepper, 2, 1)
                     page.evaluate(release)
                     stopped = time.monotonic()
                     page.wait_for_timeout(400)
@@ -210,13 +240,11 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 # expires (deadman_s after the last keep-alive), then sends zero
                 cdp = page.context.new_cdp_session(page)
                 cdp.send("Debugger.enable")
-                started = time.monotonic()
-                page.evaluate("window.umbra.holdJog(0, -1)")
-                wait_for(lambda: _moving(stepper, started), 10.0, "a jog")
+                _hold_until_moving(page, stepper, 0, -1)
                 expired = h.module.deadman.expired
                 cdp.send("Debugger.pause")
                 frozen = time.monotonic()
-                time.sleep(0.6)
+                time.sleep(0.6)  # the page stays frozen this long
                 late = [t for t, s in stepper.outputs("jog", frozen) if np.any(s.vector)]
                 last_keepalive = max(arrivals)
                 deadman_s = h.module.params.deadman_s
@@ -236,7 +264,7 @@ def test_overlay_seeds_control_and_the_dead_man_jog_in_chromium() -> None:
                 page.evaluate("clearInterval = () => {}")
                 page.close()
                 gone = time.monotonic()
-                time.sleep(0.6)
+                time.sleep(0.6)  # a window: the gone page moves nothing
                 assert not _moving(stepper, gone + 0.3)
                 assert not np.any(stepper.outputs("jog")[-1][1].vector)
         finally:

@@ -7,13 +7,13 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 from mcap.stream_reader import StreamReader
 
 from tests.poll import wait_for
+from tests.recorded import messages_on_disk
 from tests.recording.conftest import GRAPH, Run
 from umbra.runtime.cli.main import main
 from umbra.runtime.recording.reader import RecordingScan, read_records
@@ -56,7 +56,15 @@ def test_a_killed_run_leaves_a_file_that_reads_back(tmp_path: Path) -> None:
         wait_for(  # chunks reach the disk at least once a second
             lambda: path.exists() and path.stat().st_size > 200_000, 40, "200 kB recorded", 0.1
         )
-        time.sleep(1.2)
+        wanted = {"/camera/image", "/world/camera_pose", "/kinematics/joint_rates"}
+        wait_for(  # the file holds what is read back below before the run is killed
+            lambda: (
+                (topics := messages_on_disk(path))["/camera/image"] >= 20 and wanted <= set(topics)
+            ),
+            40,
+            "20 images and every topic on disk",
+            0.2,
+        )
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         proc.wait(timeout=10)

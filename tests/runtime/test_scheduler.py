@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from tests.poll import wait_for
+from tests.recorded import messages_on_disk
 from tests.runtime.fixtures import StopLog, make_registry, start_recording_run
 from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.messages import Scalar
@@ -195,7 +196,12 @@ def test_max_age_violations_are_counted_and_not_delivered(tmp_path: Path) -> Non
 def test_sigint_stops_with_130_and_writes_summary(tmp_path: Path) -> None:
     proc, out = start_recording_run(tmp_path)
     wait_for((out / "recording.mcap").exists, 30, "the recording file", 0.05)
-    time.sleep(0.3)
+    wait_for(
+        lambda: sum(messages_on_disk(out / "recording.mcap").values()) > 5,
+        30,
+        "6 samples recorded",
+        0.1,
+    )
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 130, err

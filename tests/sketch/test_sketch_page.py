@@ -473,7 +473,7 @@ def test_a_lost_page_pauses_the_path_it_set_moving() -> None:
         op.state()
         assert op.control("take")[0] == 200
         assert op.command("vcr pause")[0] == 200
-        time.sleep(0.6)
+        time.sleep(0.6)  # a window: no second pause comes
         assert stepper.commands(h) == ["vcr play", "vcr pause", "vcr pause"]
         op.close()
 
@@ -524,7 +524,7 @@ def test_in_chromium_one_holder_for_both_pages_and_a_viewer_cannot_play() -> Non
             p.wait_for_function(
                 "document.getElementById('refused').textContent === '1 refused'", timeout=10000
             )
-        time.sleep(0.3)
+        time.sleep(0.3)  # a window: the refused play sends nothing
         assert stepper.commands(sketch) == []
         # the holder plays from the sketch page
         page.click("[data-testid=play]")

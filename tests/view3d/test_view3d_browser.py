@@ -301,7 +301,7 @@ def test_camera_view_rides_with_a_moving_camera_until_overview(view: View) -> No
             "the camera moved on the page",
             interval_s=0.05,
         )
-        time.sleep(0.5)
+        time.sleep(0.5)  # a window: the viewer does not follow the camera
         assert np.linalg.norm(view.client.camera.position - overview.position) < 1e-3
         assert view.module.page.following(view.client.client_id) is None
     finally:

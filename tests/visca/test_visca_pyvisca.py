@@ -11,6 +11,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from tests.poll import wait_for
 from tests.visca.pyvisca_wire import replies
 from umbra.modules.calib.visca.sim_camera import SimFcbCamera
 from umbra.modules.calib.visca.zoom_motion import ZoomSpeeds
@@ -73,14 +74,14 @@ def test_zoom_in_out_stop_at_variable_speeds(camera: SimFcbCamera, ptz: object) 
 def test_standard_speed_tele_and_wide_with_raw_packets(camera: SimFcbCamera, ptz: object) -> None:
     ptz.comm("8101040702FF")  # CAM_Zoom Tele (standard)
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
-    time.sleep(0.1)
+    wait_for(lambda: camera.position_raw() > 0, 5.0, "the lens under way to tele")
     ptz.comm("8101040700FF")
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
     tele = ptz.get_zoom()
     assert tele > 0
     ptz.comm("8101040703FF")  # CAM_Zoom Wide (standard)
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
-    time.sleep(0.1)
+    wait_for(lambda: camera.position_raw() < tele, 5.0, "the lens under way to wide")
     ptz.zoom_stop()
     assert replies(ptz, 2) == ["9041ff", "9051ff"]
     assert ptz.get_zoom() < tele

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 
 import pytest
 import serial
 
+from tests.poll import wait_for
 from tests.visca.raw_wire import h, read_packet
 from umbra.modules.calib.visca import protocol as vp
 from umbra.modules.calib.visca.sim_camera import Fault, SimFcbCamera
@@ -65,7 +65,7 @@ def test_if_clear_stops_a_running_zoom_without_completion(
 ) -> None:
     wire.write(h("81 01 04 47 04 00 00 00 FF"))
     assert read_packet(wire) == h("90 41 FF")
-    time.sleep(0.2)
+    wait_for(lambda: sim.position_raw() > 0, 5.0, "the zoom under way")
     wire.write(h("81 01 00 01 FF"))
     assert read_packet(wire) == h("90 50 FF")
     stopped = sim.position_raw()

@@ -9,6 +9,7 @@ import time
 import pytest
 import serial
 
+from tests.poll import wait_for
 from tests.visca.raw_wire import h, position, read_packet
 from umbra.modules.calib.visca import commands as vc
 from umbra.modules.calib.visca import protocol as vp
@@ -22,14 +23,14 @@ def test_standard_tele_acks_completes_at_once_and_moves_until_stop(
     wire.write(h("81 01 04 07 02 FF"))
     assert read_packet(wire) == h("90 41 FF")
     assert read_packet(wire) == h("90 51 FF")  # completes at once; the lens moves on
-    time.sleep(0.3)
+    wait_for(lambda: sim.position_raw() > 0, 5.0, "the lens under way")
     assert sim.moving() and sim.target_raw() == 0x4000
     wire.write(h("81 01 04 07 00 FF"))
     assert read_packet(wire) == h("90 41 FF")  # the socket was freed by the completion
     assert read_packet(wire) == h("90 51 FF")
     stopped = sim.position_raw()
     assert 0 < stopped < 0x4000 and not sim.moving()
-    time.sleep(0.2)
+    time.sleep(0.2)  # a window: the lens stays where it stopped
     assert position(wire) == stopped == sim.position_raw()
     wire.write(h("81 01 04 07 03 FF"))  # standard wide back to the wide end
     assert read_packet(wire) == h("90 41 FF") and read_packet(wire) == h("90 51 FF")
@@ -45,9 +46,9 @@ def test_variable_speed_tele_moves_at_the_modelled_rate(speed: int) -> None:
     with SimFcbCamera(speeds=speeds) as camera, serial.Serial(camera.path, timeout=2) as port:
         port.write(vc.encode_zoom_move(1, vc.ZoomDirection.TELE, speed))
         assert read_packet(port) == h("90 41 FF") and read_packet(port) == h("90 51 FF")
-        time.sleep(0.1)
+        wait_for(lambda: camera.position_raw() > 0, 5.0, "the lens under way")
         first, t1 = position(port), time.monotonic()
-        time.sleep(0.5)
+        time.sleep(0.5)  # the span the rate is measured over
         second, t2 = position(port), time.monotonic()
         assert 0 < first < second < 0x4000
         assert (second - first) / (t2 - t1) == pytest.approx(rate, rel=0.25)
@@ -106,7 +107,7 @@ def test_cancel_stops_a_zoom_direct_and_names_its_socket(
 ) -> None:
     wire.write(h("81 01 04 47 04 00 00 00 FF"))
     assert read_packet(wire) == h("90 41 FF")
-    time.sleep(0.2)
+    wait_for(lambda: sim.position_raw() > 0, 5.0, "the zoom under way")
     wire.write(h("81 21 FF"))
     assert read_packet(wire) == h("90 61 04 FF")  # command cancelled, socket 1
     stopped = sim.position_raw()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import select
 import socket
 import subprocess
 import sys
@@ -16,6 +17,7 @@ import cv2
 import numpy as np
 import pytest
 
+from tests.poll import wait_for
 from umbra.connectors import UserError
 from umbra.modules.vision.capture_source import CaptureSource, probe_stream
 from umbra.modules.vision.digicam import DigiCam
@@ -126,7 +128,12 @@ def test_a_stream_whose_host_never_answers_times_out() -> None:
             client.setblocking(False)
             with contextlib.suppress(BlockingIOError):
                 client.connect(("127.0.0.1", port))
-        time.sleep(0.2)
+
+        def queue_full() -> bool:  # a queued handshake completed: the one place is taken
+            _, done, _ = select.select([], queued, [], 0)
+            return any(c.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR) == 0 for c in done)
+
+        wait_for(queue_full, 10.0, "a queued connection (the accept queue full)")
         url = f"rtsp://127.0.0.1:{port}/cam"
         started = time.monotonic()
         with pytest.raises(

@@ -4,12 +4,12 @@ a plain zenoh subscriber with the decoder written from the spec (``spec_decoder`
 from __future__ import annotations
 
 import threading
-import time
 from types import SimpleNamespace
 
 import numpy as np
 import zenoh
 
+from tests.matching import wait_subscriptions_reached
 from tests.poll import wait_for
 from tests.wire import spec_decoder
 from tests.wire.samples import every_type, example, same
@@ -132,7 +132,9 @@ def test_a_foreign_subscriber_gets_image_bytes_never_a_pool_descriptor() -> None
         wait_for(
             lambda: len(list(producer._session.info.transports())) == 2, 10.0, "two transports"
         )
-        time.sleep(0.2)  # the foreign subscription reaches the producer
+        wait_subscriptions_reached(
+            foreign, producer._session, 10.0, "the foreign subscription at the producer"
+        )
         for i in range(2, 6):
             send(Image(pixels=FRAMES[i], seq=i), 0.0)
             wait_for(lambda i=i: len(received) == i, 10.0, f"{i} samples")
