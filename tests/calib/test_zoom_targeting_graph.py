@@ -202,7 +202,9 @@ def test_umbra_run_from_the_command_line(tmp_path: Path) -> None:
     )
     assert check.returncode == 0, check.stderr
     proc = subprocess.run(
-        [*command, "run", str(GRAPH), "--duration", "2.5", "--out", str(out),
+        # the graph's whole 6 s: the zoom motors run on the wall clock, and beside busy loops
+        # 2.5 s saw zooms of 0 .. 0.10 only
+        [*command, "run", str(GRAPH), "--out", str(out),
          "--set", "marks.click_noise_px=0", "--quiet"],
         capture_output=True, text=True, env=env, timeout=60, cwd=tmp_path,
     )  # fmt: skip
