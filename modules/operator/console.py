@@ -32,7 +32,7 @@ from umbra.modules.operator.console_params import ConsoleParams
 from umbra.modules.operator.console_view import ConsoleView
 from umbra.modules.operator.control import ControlArbiter
 from umbra.modules.operator.cpu import process_cpu_s
-from umbra.modules.operator.jog import KEEPALIVE_S, DeadMan, JogLimits, jog_twist
+from umbra.modules.operator.jog import KEEPALIVE_S, DeadMan, JogLimits, JogStop, jog_twist
 from umbra.modules.operator.jog_labels import jog_labels
 from umbra.modules.operator.mailbox import Lanes
 from umbra.modules.operator.message_board import MessageBoard
@@ -267,7 +267,7 @@ class OperatorConsole(Module[ConsoleParams]):
         before, expired = self.deadman.held, self.deadman.expired
         held = self.deadman.current(wall)
         if before is not None and self.deadman.expired > expired:  # its page went silent
-            self.events.notice(self.deadman.stopped[before.session], before.session, "error")
+            self.events.notice(self.deadman.stopped[before.session].detail, before.session, "error")
         if held is not None and not self.arbiter.holds(held.session):
             self.deadman.release()
             held = None
@@ -282,8 +282,8 @@ class OperatorConsole(Module[ConsoleParams]):
             and not guard.passing
             and self.guard.received_at > self._jog_since
         ):
-            why = f"jog stopped: the arm's guard held it at zero: {guard.code.words}"
-            self.deadman.stop(held.session, why)
+            why = f"{JogStop.GUARD.words}: {guard.code.words}"
+            self.deadman.stop(held.session, JogStop.GUARD, why)
             self.events.notice(why, held.session, "error", detail=guard.reason)
             held = None
         if held is not None:

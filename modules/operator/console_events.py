@@ -14,6 +14,7 @@ import numpy as np
 from umbra.connectors.commands import GrabAction, GrabCommand, Seed, StopRun
 from umbra.connectors.messages import Scalar
 from umbra.modules.operator.actions import Refused, box_seed, check_snake_healthy, point_seed
+from umbra.modules.operator.jog import JogStop
 from umbra.modules.operator.protocol import STOP_ACTION
 from umbra.modules.servo.stages import ACTIVE_STAGES
 
@@ -185,7 +186,7 @@ class ConsoleEvents:
                 self._c.history.frame_for(f["frame"], now, self._c.params.stale_page_s)
             except Refused as exc:
                 why = f"jog refused: {exc}"
-                self._c.deadman.stop(s, why)
+                self._c.deadman.stop(s, JogStop.STALE_PICTURE, why)
                 raise Refused(why) from None
         if f["held"] and f["jog_frame"] == "tool" and self._c._T_tool_camera is None:
             raise Refused(

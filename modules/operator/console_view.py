@@ -186,6 +186,7 @@ class ConsoleView:
         guard = self._c.guard.get(now)
         world = self._c.world.get(now)
         held = self._c.deadman.held
+        stopped = self._c.deadman.stopped.get(self._c.arbiter.holder or "")
         phase = phase_of(self._c.history.latest is not None, self._c._phase_ended)
         contour = self._c.contour.get(now)
         line = state_line(
@@ -230,8 +231,8 @@ class ConsoleView:
             else {"axes": held.axes, "frame": held.jog_frame, "speed": held.speed},
             "jog_labels": self._c._jog_labels,
             "jog_keepalive_ms": KEEPALIVE_S * 1e3,
-            #: why the holder's held jog was stopped (it stays so until released), "" none
-            "jog_stopped": self._c.deadman.stopped.get(self._c.arbiter.holder or "", ""),
+            #: why the holder's held jog was stopped (it stays so until released), None: not
+            "jog_stopped": None if stopped is None else stopped.view(),
             "assist": self._c._assist,
             "zoom": [{"name": k, "value": round(v, 3)} for k, v in self._c._zoom.items()],
             "notices": self._c.board.for_page(),

@@ -9,8 +9,9 @@ the jog when the console itself goes silent. :class:`DeadMan` gives the twist to
 zero once no keep-alive came for ``deadman_s`` (a frozen page, a dropped socket) or after a
 release. A hold that was stopped (its keep-alives came too late, the console refused one, or
 the register held the jog at zero) stays stopped until the page releases it: the arm stops once
-and the page says why (:attr:`DeadMan.stopped`), instead of moving in bursts as keep-alives come
-and go. Time is the wall clock of the operator's hands (monotonic seconds), passed in. Pure.
+and the page says why (:attr:`DeadMan.stopped`: a :class:`JogStop` code, its words, and the
+exact text), instead of moving in bursts as keep-alives come and go. Time is the wall clock of
+the operator's hands (monotonic seconds), passed in. Pure.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.connectors.reasons import Worded
 from umbra.modules.geometry.transforms import twist_camera_from_tool
 
 FloatArray = NDArray[np.float64]
@@ -70,6 +72,27 @@ def jog_twist(
     raise ValueError(f"jog frame must be `tool` or `camera`, got {jog_frame!r}")
 
 
+class JogStop(Worded):
+    """Why a held jog was stopped; it stays stopped until its page releases it."""
+
+    STALE_PICTURE = "stale_picture", "jog refused: your picture is not live"
+    SILENT_PAGE = "silent_page", "jog stopped: the page's keep-alives came too late"
+    GUARD = "guard", "jog stopped: the arm's guard held it at zero"
+
+
+@dataclass(frozen=True)
+class JogStopped:
+    """A stopped hold: why (``code``) and the exact text (``detail``, for logs and the page's
+    second line)."""
+
+    code: JogStop
+    detail: str
+
+    def view(self) -> dict[str, str]:
+        """What the page is sent: ``code``, the operator's ``words`` and the ``detail``."""
+        return {"code": str(self.code), "words": self.code.words, "detail": self.detail}
+
+
 @dataclass
 class HeldJog:
     """A jog being held: by whom, what, and the wall time of its latest keep-alive [s]."""
@@ -91,7 +114,7 @@ class DeadMan:
         self.held: HeldJog | None = None
         self.expired = 0  #: jogs dropped for silence (no keep-alive in time)
         #: session -> why its hold was stopped; its keep-alives are ignored until it releases
-        self.stopped: dict[str, str] = {}
+        self.stopped: dict[str, JogStopped] = {}
 
     def update(
         self, session: str, held: bool, axes: list[float], speed: float, jog_frame: str, now: float
@@ -106,12 +129,13 @@ class DeadMan:
             return  # this hold was stopped (and said why): it waits for its release
         self.held = HeldJog(session, list(axes), speed, jog_frame, now)
 
-    def stop(self, session: str, why: str) -> None:
-        """Stop the hold of ``session`` for ``why`` (the console refused it) until it is
+    def stop(self, session: str, code: JogStop, detail: str) -> JogStopped:
+        """Stop the hold of ``session`` for ``code`` (``detail``: the exact text) until it is
         released."""
-        self.stopped[session] = why
+        why = self.stopped[session] = JogStopped(code, detail)
         if self.held is not None and self.held.session == session:
             self.held = None
+        return why
 
     def release(self, session: str | None = None) -> None:
         """Drop the jog (of ``session`` only, when given): a disconnect or loss of control."""
@@ -130,6 +154,7 @@ class DeadMan:
         if silent > self.deadman_s:
             self.stop(
                 self.held.session,
+                JogStop.SILENT_PAGE,
                 f"jog stopped: no keep-alive from the page for {silent:.2f} s, expected one "
                 f"every {KEEPALIVE_S:.2f} s and at most {self.deadman_s:.2f} s apart (the page "
                 "or its machine is too slow)",

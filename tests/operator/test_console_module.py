@@ -17,6 +17,7 @@ from umbra.connectors.errors import UserError
 from umbra.connectors.states import ServoReason, ServoStage, ServoState
 from umbra.connectors.tracking import SnakeCheck
 from umbra.modules.operator.console import OperatorConsole
+from umbra.modules.operator.jog import JogStop
 from umbra.runtime.harness import ModuleHarness
 
 T_TOOL_CAMERA = np.eye(4)
@@ -167,7 +168,8 @@ def test_nobody_jogs_on_a_frozen_page_but_a_live_one_jogs_and_a_release_always_g
                 h.push("image", image())
                 h.step(dt=0.005)
                 time.sleep(0.005)
-            assert h.module.view.state(h.now)["jog_stopped"].startswith("jog refused: stale")
+            stopped = h.module.view.state(h.now)["jog_stopped"]
+            assert stopped["code"] == JogStop.STALE_PICTURE, stopped
             assert not any(np.any(t.vector) for t in h.outputs("jog"))
             page.send(  # released, then pressed again on the live picture: it jogs
                 "jog", held=False, axes=[0, 0, 0, 0], jog_frame="camera", speed=1.0, frame=live

@@ -14,7 +14,7 @@ import pytest
 from tests.operator.helpers import Page, image
 from tests.operator.test_console_module import _harness, _operator, _pump
 from umbra.connectors.states import GuardReason, GuardStage, GuardState
-from umbra.modules.operator.jog import KEEPALIVE_S
+from umbra.modules.operator.jog import KEEPALIVE_S, JogStop
 from umbra.runtime.harness import ModuleHarness
 
 pytestmark = pytest.mark.slow
@@ -78,9 +78,11 @@ def test_late_keepalives_move_the_arm_in_one_motion_and_silence_stops_it_once() 
             after = [m for _, m in _run(h, 0.4)]
             assert after[-1:] == [False] and after.count(False) == 1, after
             state = h.module.view.state(h.now)
-            assert state["jog_stopped"].startswith("jog stopped: no keep-alive from the page")
+            stopped = state["jog_stopped"]
+            assert stopped["code"] == JogStop.SILENT_PAGE, stopped
+            assert stopped["words"] == JogStop.SILENT_PAGE.words
             notices = [n.text for n in h.module.board.lines if n.level == "error"]
-            assert notices and notices[-1] == state["jog_stopped"]
+            assert notices and notices[-1] == stopped["detail"]
             # the same hold's keep-alives, coming again, do not start a second burst
             for _ in range(4):
                 _hold(page, h.module.image.value.seq)
@@ -88,7 +90,7 @@ def test_late_keepalives_move_the_arm_in_one_motion_and_silence_stops_it_once() 
             assert h.module.summary()["deadman_expired"] == 1
             # released and pressed again: it moves, and the page's line is clear
             _hold(page, h.module.image.value.seq, held=False)
-            _pump(h, lambda: h.module.view.state(h.now)["jog_stopped"] == "")
+            _pump(h, lambda: h.module.view.state(h.now)["jog_stopped"] is None)
             again: list[tuple[float, bool]] = []
 
             def moving_again() -> bool:
@@ -131,9 +133,10 @@ def test_a_jog_the_guard_holds_at_zero_stops_once_with_the_guards_words() -> Non
                 after += _run(h, KEEPALIVE_S)
             flags = [m for _, m in after]
             assert False in flags and True not in flags[flags.index(False) :], flags
-            words = f"jog stopped: the arm's guard held it at zero: {GuardReason.WATCHDOG.words}"
-            assert h.module.view.state(h.now)["jog_stopped"] == words
-            line = next(n for n in h.module.board.lines if n.text == words)
+            stopped = h.module.view.state(h.now)["jog_stopped"]
+            assert stopped["code"] == JogStop.GUARD, stopped
+            assert stopped["detail"] == f"{JogStop.GUARD.words}: {GuardReason.WATCHDOG.words}"
+            line = next(n for n in h.module.board.lines if n.text == stopped["detail"])
             assert line.level == "error" and line.detail == zero.reason
         finally:
             page.close()

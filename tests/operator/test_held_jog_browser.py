@@ -14,6 +14,7 @@ import pytest
 
 from tests.operator.browser import GraphRun, chromium, needs_chromium, open_console, take_control
 from tests.operator.test_browser_e2e import NO_SIM_CLICK, _graph_recording_the_jog, _hold
+from umbra.modules.operator.jog import JogStop
 from umbra.modules.world.trial_faults import Overload
 
 pytestmark = [
@@ -31,9 +32,9 @@ LOAD_FACTOR = 5
 #: the longest the arm may go on after the guard first zeroed the jog [s]: the guard's status
 #: reaching the console, which then stops the hold
 STOP_LAG_S = 0.3
-#: what the jog pad says when a hold cannot go on (the console's words, or the page's own
-#: when its picture is past the console's bound)
-STOP_WORDS = ("jog stopped", "jog refused", "jogs on a picture older than")
+#: what the jog pad says when a hold cannot go on (the words of the console's code, or the
+#: page's own when its picture is past the console's bound)
+STOP_WORDS = (*(code.words for code in JogStop), "jogs on a picture older than")
 
 #: samples the jog pad's line every 50 ms into window.__hints (the test's own script)
 _SAMPLE_HINTS = """window.__hints = []; setInterval(() =>
@@ -89,9 +90,8 @@ def test_a_held_jog_under_load_moves_in_one_motion_or_stops_once_and_says_why(
                 time.sleep(HOLD_S)
                 page.mouse.up()
                 page.wait_for_function(
-                    "!document.getElementById('jog-hint').textContent.includes('jog stopped')",
-                    timeout=30000,
-                )  # released: the line is clear again
+                    "!window.umbra.state.jog_stopped", timeout=30000
+                )  # released: the hold is no longer stopped
                 hints = page.evaluate("window.__hints")
         run.kill()
     finally:

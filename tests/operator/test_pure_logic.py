@@ -29,7 +29,7 @@ from umbra.modules.operator.actions import (
     point_seed,
 )
 from umbra.modules.operator.control import ControlArbiter
-from umbra.modules.operator.jog import DeadMan, JogLimits, jog_twist
+from umbra.modules.operator.jog import DeadMan, JogLimits, JogStop, jog_twist
 from umbra.modules.operator.protocol import MessageChecker, ProtocolError, ReplayedMessage
 from umbra.modules.operator.view_state import joints_view, overlay, servo_view, zero_banner
 from umbra.modules.vision.sanity import SanityLimits
@@ -102,7 +102,7 @@ def test_dead_man_drops_the_jog_on_release_silence_and_disconnect() -> None:
     assert d.current(10.1) is not None
     assert d.current(10.16) is None and d.expired == 1  # keep-alives stopped: zero
     d.update("s1", True, [0, 0, 1, 0], 1.0, "tool", now=10.5)  # the late hold stays stopped
-    assert d.current(10.51) is None and "no keep-alive" in d.stopped["s1"]
+    assert d.current(10.51) is None and d.stopped["s1"].code == JogStop.SILENT_PAGE
     d.update("s1", False, [0, 0, 0, 0], 1.0, "tool", now=10.9)  # until released
     d.update("s1", True, [0, 0, 1, 0], 1.0, "tool", now=11.0)
     d.update("s2", False, [0, 0, 0, 0], 1.0, "tool", now=11.01)  # another page's release

@@ -12,6 +12,7 @@ from umbra.connectors.messages import registered_message_types
 from umbra.connectors.reasons import Worded, missing_words, worded_enums
 from umbra.connectors.states import GuardReason, GuardStage, GuardState, ServoReason, ServoStage
 from umbra.connectors.tracking import SnakeCheck, TrackStatus
+from umbra.modules.operator.jog import JogStop
 from umbra.modules.operator.state_line import RUNNING, state_line
 from umbra.modules.servo.vsservo import VsServo
 from umbra.modules.vision.contour_message import contour_message
@@ -27,7 +28,7 @@ def _reason_enums() -> list[type[Worded]]:
 
 def test_every_reason_code_has_operator_words() -> None:
     enums = _reason_enums()
-    assert {GuardReason, ServoReason, SnakeCheck} <= set(enums)
+    assert {GuardReason, ServoReason, SnakeCheck, JogStop} <= set(enums)
     missing = [name for codes in enums for name in missing_words(codes)]
     assert missing == [], "give each code its operator words beside it: NAME = 'code', 'words'"
 

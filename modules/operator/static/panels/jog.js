@@ -1,7 +1,8 @@
 // Jog pad: buttons named by where they take the camera in the live image (the frame and axis
 // beneath), held to move: a keep-alive at the console's period (state.jog_keepalive_ms);
 // released on up, blur, hide or unload. A hold the console stopped (a picture too old, or
-// keep-alives too late) stays stopped until released: the pad says why, in the console's words.
+// keep-alives too late, the guard held it) stays stopped until released: the pad says why in the
+// words of the console's code (state.jog_stopped.words), its exact text on hover.
 "use strict";
 (() => {
   let held = null, timer = null, drawn = "";
@@ -18,10 +19,11 @@
     if (!s) return;
     const age = umbra.frameAge(), b = s.frame_age, stopped = umbra.holds() && s.jog_stopped;
     const old = held && b && age !== null && age > b.limit_ms;
-    el.textContent = stopped ? `${s.jog_stopped} · release and press again` : old ?
+    el.textContent = stopped ? `${s.jog_stopped.words} · release and press again` : old ?
       `jog: your picture is ${Math.round(age)} ms old; jogs on a picture older than ${b.limit_ms} ms are refused` :
       `${$("jog-frame").value} frame · as seen in the live image`;
     el.className = stopped || old ? "bad" : "dim";
+    el.title = stopped ? s.jog_stopped.detail : "";
   }
   function holdJog(axis, sign) {
     if (!umbra.state) return;  // no word from the console yet (its keep-alive period)
