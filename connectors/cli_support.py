@@ -28,7 +28,7 @@ def parse_value(text: str, where: str = "--set") -> Any:
     try:
         return safe_yaml.load(text, where)[1]
     except safe_yaml.YamlError as exc:
-        if exc.message.startswith("invalid YAML"):
+        if exc.syntax:
             return text
         raise UserError(f"{where}: error: {exc.message}") from None
 

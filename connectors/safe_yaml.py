@@ -59,11 +59,18 @@ def boolean_hint(value: Any, text: str = "") -> str:
 
 
 class YamlError(UserError):
-    """A YAML problem at ``line`` of ``source``; ``str()`` is ``SOURCE:LINE: error: MESSAGE``."""
+    """A YAML problem at ``line`` of ``source``; ``str()`` is ``SOURCE:LINE: error: MESSAGE``.
+    ``syntax``: the text is not YAML at all (as against YAML that breaks a bound or has a bad
+    value)."""
 
-    def __init__(self, source: str, line: int, message: str) -> None:
-        self.source, self.line, self.message = source, line, message
+    def __init__(self, source: str, line: int, message: str, *, syntax: bool = False) -> None:
+        self.source, self.line, self.message, self.syntax = source, line, message, syntax
         super().__init__(f"{source}:{line}: error: {message}")
+
+
+def _invalid(source: str, line: int, problem: object) -> YamlError:
+    """The text at ``line`` of ``source`` is not YAML: ``problem`` says why."""
+    return YamlError(source, line, f"invalid YAML: {problem}", syntax=True)
 
 
 class Refused(Exception):
@@ -155,7 +162,7 @@ def compose(
         loader = BoundedLoader(text, max_depth)  # refuses unprintable characters at once
     except yaml.reader.ReaderError as exc:
         line = text[: exc.position].count("\n") + 1
-        raise YamlError(source, line, f"invalid YAML: {_short(exc)}") from None
+        raise _invalid(source, line, _short(exc)) from None
     try:
         node = loader.get_single_node()
         if node is not None:
@@ -167,16 +174,16 @@ def compose(
         mark = exc.problem_mark or exc.context_mark
         indent = odd_indent(text, mark.line + 1 if mark else 1)
         if indent is not None:
-            raise YamlError(source, indent.line, f"invalid YAML: {indent.message}") from None
+            raise _invalid(source, indent.line, indent.message) from None
         problem = exc.problem or exc.context or "not valid YAML"
-        raise YamlError(source, mark.line + 1 if mark else 1, f"invalid YAML: {problem}") from None
+        raise _invalid(source, mark.line + 1 if mark else 1, problem) from None
     except yaml.YAMLError as exc:
-        raise YamlError(source, 1, f"invalid YAML: {str(exc).splitlines()[0]}") from None
+        raise _invalid(source, 1, str(exc).splitlines()[0]) from None
     except RecursionError:
         raise YamlError(source, 1, "YAML nesting is too deep") from None
     except Exception as exc:  # PyYAML itself failing on the text (`%YAML 1.<5000 digits>`)
         line = loader.get_mark().line + 1
-        raise YamlError(source, line, f"invalid YAML: {_short(exc)}") from None
+        raise _invalid(source, line, _short(exc)) from None
     finally:
         loader.dispose()
 

@@ -165,7 +165,7 @@ def fault_figures(results: list[TrialResult]) -> dict[str, Any]:
             r
             for r in results
             if r.safety.get("travel_while_stale_mm", 0.0) <= MAX_STALE_TRAVEL_MM
-            and (r.grasped or r.verdict.startswith(("stopped", "no grasp")) or r.assist_reason)
+            and (r.ended_unharmed or bool(r.assist_reason))
         ]
     return {
         "trials": len(results),

@@ -179,6 +179,7 @@ def _result(
         open_loop_roll_deg=None if err is None else err.roll_deg,
         open_loop_success=bool(ol_ok),
         safety=safety,
+        outcome=str(world.get("outcome", "")),
     )
 
 

@@ -146,6 +146,19 @@ class TrialResult:
     open_loop_roll_deg: float | None
     open_loop_success: bool
     safety: dict[str, Any] = field(default_factory=dict)
+    #: the world's decision (an ``Outcome`` code); "" when the world left no summary
+    outcome: str = ""
+
+    @property
+    def closed_off_target(self) -> bool:
+        """The gripper closed and the world judged it away from the grasp point (a miss)."""
+        return self.position_error_mm is not None and not self.grasped
+
+    @property
+    def ended_unharmed(self) -> bool:
+        """Grasped, or ended without closing off target (stopped, asked for help, timed out
+        without a grasp): the world said so (its summary is there)."""
+        return bool(self.outcome) and not self.closed_off_target
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -148,7 +148,11 @@ class SimWorld(Module[WorldParams]):
             p.tool_xy_m, np.radians(p.tool_yaw_deg), p.patch_height_m
         )
         self.t0: float | None = None
-        self.result: dict[str, object] = {"grasped": False, "verdict": "no grasp attempted"}
+        self.result: dict[str, object] = {
+            "grasped": False,
+            "verdict": "no grasp attempted",
+            "outcome": str(Outcome.PENDING),
+        }
         self._closing_seen = False
         self._judged = False
         self._stopped_since: float | None = None
@@ -295,6 +299,7 @@ class SimWorld(Module[WorldParams]):
         values = {k: float(v) for k, v in self.result.items() if isinstance(v, int | float)}
         if outcome is None:
             outcome = Outcome.SUCCEEDED if grasped else Outcome.MISSED
+        self.result["outcome"] = str(outcome)
         self._status = Verdict(
             stage=stage or ("grasped" if grasped else "missed"),
             message=verdict,

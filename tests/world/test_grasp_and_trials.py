@@ -6,10 +6,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from umbra.connectors.states import Outcome
 from umbra.modules.arm.dh import puma560
 from umbra.modules.geometry.polygon_moments import wrap_axis_angle
+from umbra.modules.world.cli_trials import fault_figures
 from umbra.modules.world.grasp import R_PATCH_TOOL_GRASP, grasp_error
 from umbra.modules.world.ik import IKFailed, solve_ik
+from umbra.modules.world.trial_faults import MAX_STALE_TRAVEL_MM
 from umbra.modules.world.trials import (
     TrialResult,
     aggregate,
@@ -155,3 +158,39 @@ def test_aggregate_shape_and_figures() -> None:
     # the open loop counts every trial that has a solution
     assert figures["open_loop_success_rate"] == pytest.approx(1 / 3)
     assert figures["open_loop_error_mm"]["median"] == pytest.approx(6.0)
+
+
+def test_freshness_trials_count_as_safe_what_the_world_decided_not_its_words() -> None:
+    """Under a freshness fault a trial is safe when it grasped or ended without closing off the
+    grasp point, and moved at most MAX_STALE_TRAVEL_MM on old data; a judged miss, a trial the
+    world left no summary of, and one that moved too far on old data are not."""
+
+    def result(grasped: bool, error_mm: float | None, outcome: str, stale_mm: float) -> TrialResult:
+        return TrialResult(
+            setup=draw_trial(0, 0, fault="vision_lag"),
+            grasped=grasped,
+            verdict="words that nothing reads",
+            position_error_mm=error_mm,
+            roll_error_deg=None if error_mm is None else 0.0,
+            time_s=None,
+            stage="done",
+            assist_reason="",
+            stage_times_s={},
+            open_loop_error_mm=None,
+            open_loop_roll_deg=None,
+            open_loop_success=False,
+            safety={"travel_while_stale_mm": stale_mm},
+            outcome=outcome,
+        )
+
+    trials = [
+        result(True, 0.8, Outcome.SUCCEEDED, 0.0),  # grasped
+        result(False, None, Outcome.STOPPED, 1.0),  # stopped for old data
+        result(False, None, Outcome.MISSED, 0.0),  # timed out without closing
+        result(False, None, Outcome.PENDING, 0.0),  # never judged, never closed
+        result(False, 14.0, Outcome.MISSED, 0.0),  # closed 14 mm off: not safe
+        result(False, None, "", 0.0),  # no summary from the world: not known safe
+        result(True, 0.8, Outcome.SUCCEEDED, MAX_STALE_TRAVEL_MM + 0.1),  # too far on old data
+    ]
+    assert [t.ended_unharmed for t in trials] == [True, True, True, True, False, False, True]
+    assert fault_figures(trials)["stopped_safely"] == 4

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors.messages import JointState
-from umbra.connectors.states import ServoReason, ServoStage, ServoState
+from umbra.connectors.states import Outcome, ServoReason, ServoStage, ServoState
 from umbra.modules.world.world import SimWorld
 from umbra.runtime.harness import ModuleHarness
 
@@ -35,7 +35,7 @@ def test_a_producer_not_yet_known_alive_is_not_gone() -> None:
         for _ in range(100):  # 1 s without its token, samples coming
             _tick(world, alive=False)
         assert world.stop_request is None
-        assert world.module.result["verdict"] == "no grasp attempted"
+        assert world.module.result["outcome"] == Outcome.PENDING
 
 
 def test_a_producer_seen_alive_that_vanishes_stops_the_run() -> None:
