@@ -135,13 +135,15 @@ class ServoState(Status, frozen=True, kw_only=True):
 
 
 class Outcome(Code):
-    """What a judge of the run decided: nothing yet, success, a miss, or a stop before success
-    (the operator's *Stop*, an assistance request nobody answered, data too old to go on)."""
+    """What a judge of the run decided: nothing yet, success, a miss, a stop before success
+    (the operator's *Stop*, an assistance request nobody answered, data too old to go on), or
+    done: played to its end, with nothing to judge (an Active Sketch macro such as ``ready``)."""
 
     PENDING = "pending"
     SUCCEEDED = "succeeded"
     MISSED = "missed"
     STOPPED = "stopped"
+    DONE = "done"
 
 
 class Verdict(Status, frozen=True, kw_only=True):

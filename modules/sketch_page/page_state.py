@@ -121,6 +121,7 @@ def page_state(
             "macro": verdict.stage,
             "label": macro_label(verdict.stage),
             "text": verdict.message,
+            "outcome": str(verdict.outcome),
             "success": verdict.outcome == Outcome.SUCCEEDED,
         }
     return state

@@ -1,8 +1,8 @@
 """The end of a macro in words an operator reads: success or miss, with the judge's numbers.
 
 :func:`macro_verdict` turns the :class:`~umbra.modules.world.sketch_judge.Verdicts` measured while a
-macro played into ``(outcome, text, figures)``: ``outcome`` is ``"succeeded"``, ``"missed"`` or
-``"done"`` (a macro the world does not judge: ready, stow, move_to, ...), ``text`` says what
+macro played into ``(outcome, text, figures)``: ``outcome`` is ``Outcome.SUCCEEDED``, ``MISSED``
+or ``DONE`` (a macro the world does not judge: ready, stow, move_to, ...), ``text`` says what
 happened with the numbers (mm, deg, %), ``figures`` holds them (mm, deg, 1). Criteria are the
 judge's own (:meth:`Verdicts.success`): this module only words them.
 """
@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from umbra.connectors.states import Outcome
 from umbra.modules.world.sketch_judge import (
     COVERAGE_GOAL,
     DEVICE_TOLERANCE_M,
@@ -28,12 +29,12 @@ from umbra.modules.world.sketch_judge import (
 RELEASE_MACROS = ("place_device",)
 
 
-def macro_verdict(macro: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
+def macro_verdict(macro: str, v: Verdicts) -> tuple[Outcome, str, dict[str, float]]:
     """``(outcome, text, figures)`` of ``macro`` from what the judge measured (see module
     docstring). Call it when the macro ended: the gripper closed (grasp macros), the device was
     released, or the path was played to its end."""
     ok = v.success(macro)
-    outcome = "succeeded" if ok else "missed"
+    outcome = Outcome.SUCCEEDED if ok else Outcome.MISSED
     if macro in GRASP_MACROS:
         return _grasp(outcome, v)
     if macro == "move_around_axis":
@@ -63,17 +64,18 @@ def macro_verdict(macro: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
         return outcome, _prefix(outcome, text), {**figures, "success": float(ok)}
     if macro == "place_device":
         if not np.isfinite(v.device_error_m):
-            return "missed", "missed: the device was not released near its spot", {"success": 0.0}
+            missed = "missed: the device was not released near its spot"
+            return Outcome.MISSED, missed, {"success": 0.0}
         err = v.device_error_m * 1e3
         text = (
             f"device released {err:.1f} mm from its spot "
             f"(tolerance {DEVICE_TOLERANCE_M * 1e3:.0f} mm)"
         )
         return outcome, _prefix(outcome, text), {"device_error_mm": err, "success": float(ok)}
-    return "done", f"done: {macro} played to its end (the world does not judge it)", {}
+    return Outcome.DONE, f"done: {macro} played to its end (the world does not judge it)", {}
 
 
-def _grasp(outcome: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
+def _grasp(outcome: Outcome, v: Verdicts) -> tuple[Outcome, str, dict[str, float]]:
     """A grasp macro's words; ``outcome`` is the judge's (a grasp macro's target is the pipe:
     a grab that caught the door's handle instead is a miss of it, said with what it caught)."""
     if not np.isfinite(v.grasp_distance_m):
@@ -83,20 +85,24 @@ def _grasp(outcome: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
                 f"the gripper caught the door's handle, {mm:.1f} mm off its axis, not the pipe "
                 "(Move Around Axis opens the door with it)"
             )
-            figures = {"handle_distance_mm": mm, "success": float(outcome == "succeeded")}
+            figures = {"handle_distance_mm": mm, "success": float(outcome == Outcome.SUCCEEDED)}
             return outcome, _prefix(outcome, text), figures
         if np.isfinite(v.closed_distance_m):
             text = f"missed: gripper closed {v.closed_distance_m * 1e3:.0f} mm off the pipe axis"
-            return "missed", text, {"grasp_distance_mm": v.closed_distance_m * 1e3, "success": 0.0}
-        return "missed", "missed: the gripper never closed", {"success": 0.0}
+            return (
+                Outcome.MISSED,
+                text,
+                {"grasp_distance_mm": v.closed_distance_m * 1e3, "success": 0.0},
+            )
+        return Outcome.MISSED, "missed: the gripper never closed", {"success": 0.0}
     mm = v.grasp_distance_m * 1e3
     deg = math.degrees(v.grasp_angle_rad)
     figures = {
         "grasp_distance_mm": mm,
         "grasp_angle_deg": deg,
-        "success": float(outcome == "succeeded"),
+        "success": float(outcome == Outcome.SUCCEEDED),
     }
-    if outcome == "succeeded":
+    if outcome == Outcome.SUCCEEDED:
         return outcome, f"grasped: {mm:.1f} mm off the pipe axis, {deg:.1f} deg off it", figures
     where = "" if v.grasp_inside else ", past the pipe's end"
     text = (
@@ -107,5 +113,5 @@ def _grasp(outcome: str, v: Verdicts) -> tuple[str, str, dict[str, float]]:
     return outcome, text, figures
 
 
-def _prefix(outcome: str, text: str) -> str:
-    return f"{'succeeded' if outcome == 'succeeded' else 'missed'}: {text}"
+def _prefix(outcome: Outcome, text: str) -> str:
+    return f"{outcome}: {text}"

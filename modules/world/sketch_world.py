@@ -8,7 +8,7 @@ from umbra.connectors import Input, Module, Output, param
 from umbra.connectors.messages import JointState, Poses, Status
 from umbra.connectors.path_messages import ToolPath, VcrState
 from umbra.connectors.scene_messages import SceneObjects
-from umbra.connectors.states import Outcome, Verdict
+from umbra.connectors.states import Verdict
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import arm_frames
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
@@ -183,13 +183,11 @@ class SketchWorld(Module["SketchWorld.Params"]):
         self._judged = True
         outcome, text, figures = macro_verdict(self._macro, v)
         figures = {k: round(float(x), 3) for k, x in figures.items()}
-        self.verdict.send(
-            Verdict(stage=self._macro, message=text, values=figures, outcome=Outcome(outcome))
-        )
+        self.verdict.send(Verdict(stage=self._macro, message=text, values=figures, outcome=outcome))
         entry: dict[str, object] = {
             "macro": self._macro,
             "path_id": self._path_id,
-            "outcome": outcome,
+            "outcome": str(outcome),
             "verdict": text,
         }
         self._macro_verdicts.append(entry | figures)

@@ -175,6 +175,7 @@ def test_the_macro_verdict_and_the_live_camera_reach_the_page() -> None:
             "macro": "grab_pipe",
             "label": "Grab pipe",
             "text": text,
+            "outcome": "missed",
             "success": False,
         }
         reply = wait_for(

@@ -8,6 +8,7 @@ import pytest
 
 from umbra.connectors.messages import JointState
 from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.states import Outcome
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import rot_z
 from umbra.modules.sketch.tool_poses import DOWN, tool_pose
@@ -147,3 +148,18 @@ def test_sketch_world_judges_a_macro_when_the_player_reports_its_path_done() -> 
         (verdict,) = h.outputs("verdict")
         assert verdict.stage == "surface_scan"
         assert verdict.message == "missed: covered 0 % of the surface (goal 95 %)"
+
+
+def test_a_macro_the_world_does_not_judge_ends_done_when_played_to_its_end() -> None:
+    """``ready`` played to its end: one verdict, outcome DONE (not a success, not a miss)."""
+    names = ArmParams().joint_names
+    q = np.radians(READY_DEG)
+    with ModuleHarness(SketchWorld) as h:
+        h.push("path", _path("ready", "p3"))
+        h.push("joint_state", JointState(names=names, position=q, gripper=1.0))
+        h.push("vcr_state", VcrState(path_id="p3", mode="done", progress=1.0))
+        h.step(dt=DT)
+        (verdict,) = h.outputs("verdict")
+        assert verdict.stage == "ready" and verdict.outcome == Outcome.DONE
+        (entry,) = h.module.summary()["macro_verdicts"]
+        assert entry["outcome"] == "done"

@@ -163,7 +163,7 @@ function draw() {
   $("status").textContent = $("status").title = st.status ? `${st.status.stage}: ${st.status.message}` : "";
   const vd = st.verdict;
   $("verdict").textContent = vd ? `${vd.label}: ${vd.text}` : "";
-  $("verdict").className = vd ? (vd.text.startsWith("done") ? "done" : vd.success ? "ok" : "miss") : "";
+  $("verdict").className = vd ? (vd.outcome === "done" ? "done" : vd.success ? "ok" : "miss") : "";
 }
 // Where the arm is along the previewed path: the player's progress (0..1 of the path
 // parameter) interpolated between the preview's waypoints (their own s, 0..1).
