@@ -8,7 +8,8 @@ matrices for the test tools, every primitive with its vertices reprojected from 
 centroid (m, base: where the cameras aim), largest sigma (mm) and warnings in words (a vertex
 whose depth is poorly constrained, and what to do: ``modules/sketch/depth_check.py``), the macro
 menu of each kind of primitive, and the planned tool path projected into both images, and the
-last macro's verdict (success or miss, with the numbers).
+last macro's verdict (success or miss, with the numbers), and each camera's pan/tilt unit and
+zoom as their devices report them (:mod:`umbra.modules.sketch_page.camera_view`).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ def page_state(
     vcr: VcrState | None,
     status: Status | None,
     verdict: Verdict | None = None,
+    cameras: list[dict[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """The page's JSON state (see module docstring)."""
     state: dict[str, Any] = {
@@ -54,6 +56,7 @@ def page_state(
         "vcr": None,
         "status": None,
         "verdict": None,
+        "cameras": cameras or [],
     }
     pair = None
     if snapshot is not None:

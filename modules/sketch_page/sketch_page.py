@@ -10,12 +10,14 @@ import cv2
 from umbra.connectors import Input, Module, Output, Parameters, param
 from umbra.connectors.access.hosts import MAX_TCP_PORT
 from umbra.connectors.access.secret import resolve_token
-from umbra.connectors.messages import Image, Status, Text
+from umbra.connectors.messages import Image, Status, Text, ZoomState
 from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.ptu_messages import PtuState
 from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
 from umbra.connectors.states import Verdict
 from umbra.modules.operator.web_server import acquire_server, release_server
 from umbra.modules.sketch.stereo import StereoPair
+from umbra.modules.sketch_page.camera_view import camera_view
 from umbra.modules.sketch_page.page_control import PageControl
 from umbra.modules.sketch_page.page_state import page_state
 from umbra.modules.sketch_page.page_web import PageWeb
@@ -67,6 +69,12 @@ class SketchPage(Module["SketchPage.Params"]):
         lost_after: float = param(
             2.0, "a page that has not polled for this long has left", unit="s", gt=0
         )
+        device_silent_s: float = param(
+            1.0,
+            "a PTU or zoom camera that has not reported for this long is shown as silent",
+            unit="s",
+            gt=0,
+        )
 
     snapshot = Input(StereoSnapshot, required=False, doc="snapshots (Sketch)")
     primitive = Input(SketchPrimitive, required=False, doc="placed primitives (Sketch)")
@@ -82,6 +90,10 @@ class SketchPage(Module["SketchPage.Params"]):
         Image, required=False, doc="camera a's live frames (as the PTU slews it to watch)"
     )
     live_b = Input(Image, required=False, doc="camera b's live frames")
+    ptu_a = Input(PtuState, required=False, doc="camera a's pan/tilt unit: moving, angles")
+    ptu_b = Input(PtuState, required=False, doc="camera b's pan/tilt unit: moving, angles")
+    zoom_a = Input(ZoomState, required=False, doc="camera a's zoom (SONY.zoom)")
+    zoom_b = Input(ZoomState, required=False, doc="camera b's zoom (SONY.zoom)")
     command = Output(Text, events=True, doc="the page's commands (to Sketch.console)")
 
     def start(self) -> None:
@@ -93,6 +105,7 @@ class SketchPage(Module["SketchPage.Params"]):
         self.page_control = PageControl(self, self.web)  #: control and commands (step)
         self._primitives: list[SketchPrimitive] = []
         self._vcr_key: tuple[str, str, float, float, str] | None = None
+        self._cameras: list[dict[str, object]] = []  #: the devices as the page last showed them
         self._now = 0.0  #: the current step's time [s]
         self.web.add_routes(self._server.app)
         self._server.add_link("/sketch", "Active Sketch")
@@ -139,6 +152,9 @@ class SketchPage(Module["SketchPage.Params"]):
             key = (vcr.path_id, vcr.mode, round(vcr.progress, 3), vcr.speed, vcr.reason)
             changed |= key != self._vcr_key
             self._vcr_key = key
+        cameras = self._camera_views(now)
+        changed |= cameras != self._cameras
+        self._cameras = cameras
         if changed:
             self.web.state.put(
                 page_state(
@@ -148,6 +164,7 @@ class SketchPage(Module["SketchPage.Params"]):
                     self.vcr_state.get(now),
                     self.sketch_status.get(now),
                     self.verdict.get(now),
+                    cameras,
                 )
             )
         for side, port in (("a", self.live_a), ("b", self.live_b)):
@@ -164,6 +181,14 @@ class SketchPage(Module["SketchPage.Params"]):
         self.web.inbox.set_holders(frozenset((holder,)) if holder else frozenset())
         control.publish_control()
         control.watch_page(vcr, seen, wall)
+
+    def _camera_views(self, now: float) -> list[dict[str, object]]:
+        """Each camera's PTU and zoom as the page shows them (:func:`camera_view`)."""
+        silent = self.params.device_silent_s
+        return [
+            camera_view(side, ptu.get(now), ptu.age(now), zoom.get(now), zoom.age(now), silent)
+            for side, ptu, zoom in (("a", self.ptu_a, self.zoom_a), ("b", self.ptu_b, self.zoom_b))
+        ]
 
     def stop(self) -> None:
         self.page_control.leave_all()

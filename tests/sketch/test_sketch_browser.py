@@ -57,6 +57,19 @@ def _state(base: str) -> dict:
         return json.loads(r.read())
 
 
+def _cameras_still(state: dict, zoom_ok=lambda zoom: True) -> bool:
+    """Both cameras' PTUs and zooms report they are still, at a zoom ``zoom_ok`` accepts."""
+    cameras = state.get("cameras") or []
+    return len(cameras) == 2 and all(
+        c["still"] and c["ptu"] and c["zoom"] and zoom_ok(c["zoom"]["zoom"]) for c in cameras
+    )
+
+
+def _pointing(state: dict) -> list[tuple[float, float]]:
+    """Each camera's PTU (pan, tilt) [deg]."""
+    return [(c["ptu"]["pan_deg"], c["ptu"]["tilt_deg"]) for c in state["cameras"]]
+
+
 def _project(P, points) -> np.ndarray:
     h = np.c_[points, np.ones(len(points))] @ np.asarray(P).T
     return h[:, :2] / h[:, 2:3]
@@ -103,7 +116,12 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
             return st if status and status["message"].startswith("aiming") else None
 
         wait_for(ready, 90, "the page and the cameras' aim", interval_s=0.2)
-        time.sleep(3.0)  # PTUs slew, zoom settles, fresh frames
+        wait_for(  # the PTUs slewed and the zoom settled at the script's 0.3
+            lambda: _cameras_still(_state(base), lambda zoom: abs(zoom - 0.3) < 0.02),
+            60,
+            lambda: f"the cameras still at zoom 0.3: {_state(base)['cameras']}",
+            interval_s=0.2,
+        )
         yield base, summaries
     finally:
         os.killpg(run.pid, signal.SIGINT)
@@ -340,7 +358,7 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
             f"{'refused vcr play: ' + name + ' holds control'!r}",
             timeout=10000,
         )
-        time.sleep(1.5)
+        time.sleep(1.5)  # a window: nothing may play in it
         after = watcher.evaluate("window.sketch.state.vcr")
         assert (after or {}).get("mode") != "playing", after
         assert (after or {}).get("progress", 0.0) == (before or {}).get("progress", 0.0)
@@ -375,7 +393,6 @@ def test_drag_line_onto_pipe_grab_pipe_with_vcr(tmp_path: Path):
         _fits(page, 1280)
         page.screenshot(path=str(DOCS / "sketch_page.png"))  # the README's picture
         browser.close()
-        time.sleep(1.5)
     world = _world(summaries)
     assert world["succeeded"] == ["grab_pipe"]
     assert world["grasp_distance_mm"] < 5.0
@@ -400,14 +417,31 @@ def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):
         # the cameras watch the pipe, zoomed in: the door is out of view. Zoom out, find the
         # handle, aim at it and zoom in again
         op.slider("zoom", 0.0)
-        time.sleep(3.0)
+        wait_for(
+            lambda: _cameras_still(op.state(), lambda zoom: zoom < 0.05),
+            30,
+            lambda: f"both cameras zoomed out: {op.state()['cameras']}",
+            interval_s=0.2,
+        )
         assert max(op.snapshot()["zoom"]) < 0.05
         point = op.place("point", door.handle_center[None, :])
         assert np.linalg.norm(np.array(point["points_m"][0]) - door.handle_center) < 0.02
         assert page.evaluate("document.getElementById('select').value") == point["id"]
         op.slider("zoom", 0.2)
+        before = _pointing(op.state())
         page.click("[data-testid=aim]")
-        time.sleep(4.0)
+        wait_for(  # both PTUs turned to the handle and stopped, both zooms settled at 0.2
+            lambda: (
+                _cameras_still(op.state(), lambda zoom: abs(zoom - 0.2) < 0.02)
+                and all(
+                    np.hypot(*np.subtract(now, was)) > 1.0
+                    for now, was in zip(_pointing(op.state()), before, strict=True)
+                )
+            ),
+            60,
+            lambda: f"the cameras aimed at the handle: {op.state()['cameras']}",
+            interval_s=0.2,
+        )
         snap = op.snapshot()
         assert min(snap["zoom"]) > 0.15
         # the handle is now near the middle of both images
@@ -418,15 +452,22 @@ def test_aim_from_the_page_grab_the_handle_and_open_the_door(tmp_path: Path):
         grab = op.plan("grab_pipe")
         page.click("[data-testid=play]")
         op.until(_done(grab), "play", 90)
-        time.sleep(1.5)  # the gripper closes on the bar
+        page.wait_for_function(  # the gripper closed on the bar: the world judged the grab
+            "window.sketch.state.verdict && window.sketch.state.verdict.macro === 'grab_pipe'",
+            timeout=30000,
+        )
         hinge = op.place("line", np.stack([door.hinge_top, door.hinge]))  # top to bottom
         assert "Move around axis" in page.inner_text("[data-testid=menu]")
         assert hinge["kind"] == "line"
         swing = op.plan("move_around_axis")
         page.click("[data-testid=play]")
         op.until(_done(swing), "play", 90)  # this path's end, not the grab's
+        page.wait_for_function(  # the world judged the swing
+            "window.sketch.state.verdict && "
+            "window.sketch.state.verdict.macro === 'move_around_axis'",
+            timeout=30000,
+        )
         browser.close()
-        time.sleep(1.0)
     world = _world(summaries)
     assert "move_around_axis" in world["succeeded"], world
     assert world["door_angle_deg"] > 80.0

@@ -27,8 +27,9 @@ from websockets.sync.client import connect
 
 from tests.operator.browser import chromium, needs_chromium
 from tests.poll import wait_for
-from umbra.connectors.messages import Image
+from umbra.connectors.messages import Image, ZoomState
 from umbra.connectors.path_messages import VcrState
+from umbra.connectors.ptu_messages import PtuState
 from umbra.connectors.sketch_messages import SketchPrimitive
 from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.operator.console import OperatorConsole
@@ -149,6 +150,44 @@ def test_state_menus_and_checked_commands() -> None:
         assert op.command("plan make_box triad1")[0] == 200
         assert stepper.commands(h) == ["aim 0.55 0.05 0.35 0.3", "plan make_box triad1"]
         assert op.state()["control"]["refused"] == 3  # the malformed ones
+        op.close()
+
+
+def test_the_cameras_ptus_and_zoom_reach_the_page_as_they_report_and_silence_is_said() -> None:
+    """Camera a's PTU slewing, then still; its zoom; camera b wired to nothing. Once the PTU
+    and the zoom stop reporting for ``device_silent_s``, the page says so, not "still"."""
+    with _page(device_silent_s=0.3) as (h, stepper):
+        op = Browser(h.module.url)
+
+        def camera(side: str, ok) -> dict:
+            state = wait_for(
+                op.state, 5.0, f"camera {side}", ok=lambda s: ok(s["cameras"][ord(side) - 97])
+            )
+            return state["cameras"][ord(side) - 97]
+
+        stepper.push(h, "ptu_a", PtuState(pan=0.5, tilt=-0.1, moving=True))
+        stepper.push(h, "zoom_a", ZoomState(zoom=0.304, moving=False))
+        a = camera("a", lambda c: c["ptu"] is not None and c["zoom"] is not None)
+        assert a["ptu"] == {
+            "moving": True,
+            "pan_deg": 28.6,
+            "tilt_deg": -5.7,
+            "status": "ok",
+            "silent": False,
+        }
+        assert a["zoom"] == {"zoom": 0.3, "moving": False, "status": "ok", "silent": False}
+        assert a["still"] is False
+        b = op.state()["cameras"][1]
+        assert b == {"side": "b", "ptu": None, "zoom": None, "still": False}
+
+        def still_and_reporting() -> bool:
+            stepper.push(h, "ptu_a", PtuState(pan=0.52, tilt=-0.1, moving=False))
+            stepper.push(h, "zoom_a", ZoomState(zoom=0.304, moving=False))
+            return bool(op.state()["cameras"][0]["still"])
+
+        wait_for(still_and_reporting, 5.0, "camera a still")
+        silent = camera("a", lambda c: c["ptu"]["silent"] and c["zoom"]["silent"])
+        assert silent["still"] is False and silent["ptu"]["moving"] is False
         op.close()
 
 

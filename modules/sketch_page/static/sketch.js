@@ -161,9 +161,25 @@ function draw() {
   $("vcr").textContent = v ? `${v.path} ${v.mode} ${(100 * v.progress).toFixed(1)} % x${v.speed.toFixed(1)} ${v.reason}` : "";
   $("progress").value = v ? v.progress : 0;
   $("status").textContent = $("status").title = st.status ? `${st.status.stage}: ${st.status.message}` : "";
+  drawCameras(st.cameras || []);
   const vd = st.verdict;
   $("verdict").textContent = vd ? `${vd.label}: ${vd.text}` : "";
   $("verdict").className = vd ? (vd.outcome === "done" ? "done" : vd.success ? "ok" : "miss") : "";
+}
+// Each camera's pan/tilt unit and zoom as the devices report them: slewing, zooming, or still
+// where they point; a device silent past the server's bound is said to be silent, not still.
+function drawCameras(cameras) {
+  const part = (c) => {
+    const p = c.ptu, z = c.zoom, words = [];
+    if (p) words.push(p.silent ? "PTU silent" : `${p.moving ? "slewing" : "still"}, ` +
+      `pan ${p.pan_deg.toFixed(1)}° tilt ${p.tilt_deg.toFixed(1)}°` + (p.status === "ok" ? "" : ` (${p.status})`));
+    if (z) words.push(z.silent ? "zoom silent" : `${z.moving ? "zooming" : "zoom"} ${z.zoom.toFixed(2)}` +
+      (z.status === "ok" ? "" : ` (${z.status})`));
+    return `${c.side}: ${words.join(", ")}`;
+  };
+  const shown = cameras.filter((c) => c.ptu || c.zoom);
+  $("cameras").textContent = $("cameras").title = shown.map(part).join("\n");
+  $("cameras").className = shown.every((c) => c.still) ? "dim" : "busy";
 }
 // Where the arm is along the previewed path: the player's progress (0..1 of the path
 // parameter) interpolated between the preview's waypoints (their own s, 0..1).
