@@ -70,7 +70,12 @@ class ViewerMoves:
         start = self.current_viewer(client)
 
         def current() -> bool:
-            return self._generation.get(client.client_id) == generation
+            """This move is still the browser's latest, and the browser is still there (a
+            browser that left mid-move is sent nothing more)."""
+            return (
+                self._generation.get(client.client_id) == generation
+                and client.client_id in self.server.get_clients()
+            )
 
         def fly() -> None:
             steps = max(1, int(self.animation_s * 30))

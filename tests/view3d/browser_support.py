@@ -35,14 +35,16 @@ class Canvas:
     height: float
 
 
-def canvas_box(page) -> Canvas:
+def canvas_box(page) -> Canvas | None:
+    """The page's largest canvas, or None while it has none (a page reloading)."""
     box = page.evaluate(
         """() => { let best = null; for (const c of document.querySelectorAll('canvas')) {
              const r = c.getBoundingClientRect();
              if (!best || r.width * r.height > best.width * best.height) best = r; }
-           return {left: best.left, top: best.top, width: best.width, height: best.height}; }"""
+           return best && {left: best.left, top: best.top, width: best.width,
+                           height: best.height}; }"""
     )
-    return Canvas(box["left"], box["top"], box["width"], box["height"])
+    return None if box is None else Canvas(box["left"], box["top"], box["width"], box["height"])
 
 
 def screenshot(page) -> np.ndarray:

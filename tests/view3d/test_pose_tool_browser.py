@@ -209,7 +209,7 @@ def test_pose_tool_in_the_page_recovers_a_wrong_mount(browser, tmp_path: Path) -
             20.0,
             "the docked panel",
             interval_s=0.05,
-            ok=lambda c: 0 < c.width < 1400,
+            ok=lambda c: c is not None and 0 < c.width < 1400,
         )
         assert canvas.width / canvas.height > MODEL.width / MODEL.height * (MODEL.fy / MODEL.fx)
 

@@ -67,7 +67,7 @@ class View:
             20.0,
             "the docked panel",
             interval_s=0.05,
-            ok=lambda c: 0 < c.width < 1000,
+            ok=lambda c: c is not None and 0 < c.width < 1000,
         )
 
     def _client(self):
