@@ -97,8 +97,9 @@ class SnakeParams:
 
     - ``k_sigma``: Mahalanobis radius of the target color [standard deviations].
     - ``min_gray``: pixels darker than this mean gray level (0..255) never count as target.
-    - ``dim_share``: nor do pixels darker than this share of the patch's own mean gray level
-      on the frame (the tracker measures it inside the contour; 0: off): a blurred patch's
+    - ``dim_share``: nor do pixels darker than this share of the patch's own light on the
+      frame (its mean gray level, the tracker measures it inside the contour, as light under
+      ``image_encoding``; 0: off): a blurred patch's
       halo on a dark background, or a dark surface of the patch's hue, has its chromaticity.
     - ``step_px``: largest pressure displacement of a vertex per iteration [px].
     - ``tension``: fraction of the way to the neighbours' midpoint per iteration (0..0.5).

@@ -45,7 +45,7 @@ class SnakeSettings(Parameters):
     min_gray: float = param(_D["min_gray"], "darker pixels never count", unit="gray levels", ge=0)
     dim_share: float = param(
         _D["dim_share"],
-        "pixels darker than this share of the patch's brightness on the frame never count (0: off)",
+        "pixels darker than this share of the patch's light on the frame never count (0: off)",
         ge=0,
         lt=1,
     )

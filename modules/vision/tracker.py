@@ -38,6 +38,7 @@ from umbra.modules.vision.snake import (
     seed_region,
     seed_samples,
 )
+from umbra.modules.vision.transfer import to_codes, to_light
 
 FloatArray = NDArray[np.float64]
 
@@ -188,13 +189,14 @@ class SnakeTracker:
         return replace(second, iterations=first.iterations + second.iterations)
 
     def _lit(self, image: NDArray[np.uint8], vertices: FloatArray) -> SnakeParams:
-        """The snake's parameters on this frame: ``min_gray`` raised to ``dim_share`` of the
-        patch's brightness in it (the median gray level of the target-coloured pixels halfway
-        from the centroid of ``vertices`` (px) to each vertex), when that is higher. A
-        patch's chromaticity does not change with the light, so a blurred patch's halo on a
-        dark background, or a dark surface of the patch's hue, passes the colour gate: the
-        snake grew into it. Measured on the frame itself, the floor follows any change of the
-        light at once. Unchanged when fewer than 8 pixels inside are the target's colour."""
+        """The snake's parameters on this frame: ``min_gray`` raised to the gray level of
+        ``dim_share`` of the patch's light in it (of the median gray level of the
+        target-coloured pixels halfway from the centroid of ``vertices`` (px) to each vertex),
+        when that is higher. A patch's chromaticity does not change with the light, so a
+        blurred patch's halo on a dark background, or a dark surface of the patch's hue, passes
+        the colour gate: the snake grew into it. Measured on the frame itself, the floor
+        follows any change of the light at once. Unchanged when fewer than 8 pixels inside are
+        the target's colour."""
         p = self.params
         if p.dim_share <= 0.0 or self.model is None:
             return p
@@ -205,7 +207,13 @@ class SnakeTracker:
         patch = samples[color.is_target(self.model, samples, p.k_sigma, p.min_gray)]
         if len(patch) < _LEAST_LIT_SAMPLES:
             return p
-        floor = p.dim_share * float(np.median(patch.sum(axis=1))) / 3.0
+        # a share of the patch's light, in the codes the gate reads (an sRGB code of 0.4 of
+        # the patch's code is 0.13 of its light)
+        gray = float(np.median(patch.sum(axis=1))) / 3.0
+        floor = p.dim_share * gray
+        if p.image_encoding != "linear":
+            light = to_light(np.array([gray]), p.image_encoding)
+            floor = float(to_codes(p.dim_share * light, p.image_encoding)[0])
         return replace(p, min_gray=floor) if floor > p.min_gray else p
 
     def _predicted(self, vertices: FloatArray) -> FloatArray:

@@ -23,6 +23,7 @@ from umbra.modules.vision.scene import (
 )
 from umbra.modules.vision.snake import SnakeParams
 from umbra.modules.vision.tracker import SnakeTracker
+from umbra.modules.vision.transfer import Encoding, to_codes
 
 from .conftest import METRES_PER_PIXEL, T_WORLD_CAMERA
 
@@ -173,12 +174,12 @@ def test_update_before_seed_is_an_error() -> None:
 
 
 def _beside_a_dark_surface_of_its_hue(
-    gain: float, dark_share: float, seed: int
+    gain: float, dark_share: float, seed: int, encoding: Encoding = "linear"
 ) -> tuple[np.ndarray, np.ndarray]:
     """A 320 x 240 frame: a green patch (a quadrilateral, area-sampled 8x) whose left part lies
-    on a surface of its own hue at ``dark_share`` of its brightness (a dark green table), the
-    rest on gray; blur 1 px, the light ``gain``, noise 3 gray levels. Returns it and the patch's
-    corners (px)."""
+    on a surface of its own hue at ``dark_share`` of its light (a dark green table), the rest
+    on gray; blur 1 px, the light ``gain``, noise 3 gray levels, the light written as codes of
+    ``encoding``. Returns it and the patch's corners (px)."""
     rng = np.random.default_rng(seed)
     height, width, fine = 240, 320, 8
     patch = np.array([50.0, 190.0, 70.0])
@@ -188,6 +189,7 @@ def _beside_a_dark_surface_of_its_hue(
     cv2.fillPoly(image, [np.round((corners + 0.5) * fine - 0.5).astype(np.int32)], patch.tolist())
     image = cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA)
     image = cv2.GaussianBlur(image, (0, 0), 1.0) * gain + rng.normal(0.0, 3.0, (height, width, 3))
+    image = to_codes(np.clip(image, 0.0, 255.0), encoding)
     return np.clip(np.rint(image), 0, 255).astype(np.uint8), corners
 
 
@@ -213,3 +215,19 @@ def test_a_dark_surface_of_the_patchs_hue_is_not_the_patch(dark_share: float) ->
         update = tracker.update(halved)
         assert update.status == "tracking", update.sanity.reason
         assert polygon_iou(update.vertices, corners, image.shape[:2]) >= 0.99
+
+
+@pytest.mark.parametrize("dark_share", [0.2, 0.3])
+def test_the_dim_floor_is_a_share_of_the_patchs_light_whatever_the_codes(
+    dark_share: float,
+) -> None:
+    """The same table written as sRGB codes: at 20-30 % of the patch's light its codes are
+    48-58 % of the patch's, above ``dim_share`` of them. The floor is taken of the light, so the
+    table still does not count (before, read as a share of the codes, the snake grew over it:
+    IoU 0.25, failed; now 0.995-0.996)."""
+    image, corners = _beside_a_dark_surface_of_its_hue(1.0, dark_share, 0, "srgb")
+    tracker = SnakeTracker(SnakeParams(image_encoding="srgb"))
+    tracker.seed_at_point(image, corners.mean(axis=0))
+    update = tracker.update(image)
+    assert update.status == "tracking", update.sanity.reason
+    assert polygon_iou(update.vertices, corners, image.shape[:2]) >= 0.99
