@@ -82,8 +82,8 @@ class JogStop(Worded):
 
 @dataclass(frozen=True)
 class JogStopped:
-    """A stopped hold: why (``code``) and the exact text (``detail``, for logs and the page's
-    second line)."""
+    """A stopped hold: why (``code``) and the exact text (``detail``, for logs and the pad's
+    tooltip)."""
 
     code: JogStop
     detail: str
@@ -129,13 +129,12 @@ class DeadMan:
             return  # this hold was stopped (and said why): it waits for its release
         self.held = HeldJog(session, list(axes), speed, jog_frame, now)
 
-    def stop(self, session: str, code: JogStop, detail: str) -> JogStopped:
+    def stop(self, session: str, code: JogStop, detail: str) -> None:
         """Stop the hold of ``session`` for ``code`` (``detail``: the exact text) until it is
         released."""
-        why = self.stopped[session] = JogStopped(code, detail)
+        self.stopped[session] = JogStopped(code, detail)
         if self.held is not None and self.held.session == session:
             self.held = None
-        return why
 
     def release(self, session: str | None = None) -> None:
         """Drop the jog (of ``session`` only, when given): a disconnect or loss of control."""
