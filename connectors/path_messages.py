@@ -18,6 +18,7 @@ import msgspec
 import numpy as np
 
 from umbra.connectors.messages import Message
+from umbra.connectors.reasons import Code
 
 _EMPTY = np.zeros(0)
 _F8 = "float64"
@@ -87,15 +88,41 @@ class VcrCommand(Message, frozen=True, kw_only=True):
     s: float = 0.0
 
 
+class VcrMode(Code):
+    """What the VCR player is doing with its path."""
+
+    IDLE = "idle"  #: no path, or one refused
+    PLAYING = "playing"
+    BACKING = "backing"
+    SEEKING = "seeking"  #: moving to a path parameter asked for
+    PAUSING = "pausing"  #: slowing to a stop on the path
+    PAUSED = "paused"
+    AT_STOP = "at_stop"  #: at a stop point (a gripper event) on the path
+    GRIPPING = "gripping"  #: waiting there for the gripper
+    HALTING = "halting"  #: slowing to a stop for a halt (lost console, stale data, guard)
+    HALTED = "halted"
+    DONE = "done"  #: played to its end
+
+
+#: Modes in which the path parameter may be changing: the player drives the arm.
+VCR_MOVING = frozenset(
+    {VcrMode.PLAYING, VcrMode.BACKING, VcrMode.SEEKING, VcrMode.PAUSING, VcrMode.HALTING}
+)
+#: Modes in which a path is under way: moving, at a stop point, or waiting for the gripper there.
+VCR_BUSY = VCR_MOVING | {VcrMode.AT_STOP, VcrMode.GRIPPING}
+#: Modes in which a path is under way and goes on without a new command (not already stopping).
+VCR_GOING = VCR_BUSY - {VcrMode.PAUSING, VcrMode.HALTING}
+
+
 class VcrState(Message, frozen=True, kw_only=True):
-    """The VCR player's state: ``mode`` ("idle", "playing", "backing", "pausing", "paused",
-    "halted", "done"), path parameter ``s`` and its rate ``s_dot`` [1/s of s], ``speed`` override,
-    ``progress`` 0 .. 1, ``reason`` for a halt (lost console, stale command, guard stop)."""
+    """The VCR player's state: ``mode`` (:class:`VcrMode`), path parameter ``s`` and its rate
+    ``s_dot`` [1/s of s], ``speed`` override, ``progress`` 0 .. 1, ``reason`` for a halt (lost
+    console, stale command, guard stop)."""
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
         "path_id": "the loaded path",
-        "mode": '"idle", "playing", "backing", "pausing", "paused", "halted", "done"',
+        "mode": "VcrMode: " + ", ".join(f'"{m}"' for m in VcrMode),
         "s": "path parameter",
         "s_dot": "1/s (of s)",
         "speed": "override, fraction of the planned speed",
@@ -104,7 +131,7 @@ class VcrState(Message, frozen=True, kw_only=True):
     }
 
     path_id: str
-    mode: str
+    mode: VcrMode
     s: float = 0.0
     s_dot: float = 0.0
     speed: float = 1.0

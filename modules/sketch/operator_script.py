@@ -9,14 +9,13 @@ from pydantic import field_validator
 
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
 from umbra.connectors.messages import Status, Text
-from umbra.connectors.path_messages import VcrState
+from umbra.connectors.path_messages import VcrMode, VcrState
 from umbra.connectors.ptu_messages import PtuState
 from umbra.connectors.scene_messages import SceneObjects
 from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
 from umbra.modules.sketch.command_text import VERBS, parse
 from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.sketch.stereo import StereoPair
-from umbra.modules.trajectory.vcr import MODES
 from umbra.modules.world.scene_objects import targets_from_objects
 
 _OWN = ("wait", "settle", "wait_vcr")
@@ -46,8 +45,8 @@ def script_step_problem(step: str) -> str:
     if verb == "settle":
         return "" if not rest else "expected `settle` alone"
     if verb == "wait_vcr":
-        if len(rest) != 1 or rest[0] not in MODES:
-            return f"expected `wait_vcr MODE` with MODE one of {', '.join(MODES)}"
+        if len(rest) != 1 or rest[0] not in set(VcrMode):
+            return f"expected `wait_vcr MODE` with MODE one of {', '.join(VcrMode)}"
         return ""
     if verb == "place" and len(rest) == 2 and rest[1].startswith("@"):
         return (
@@ -171,7 +170,7 @@ class SketchOperatorSim(Module["SketchOperatorSim.Params"]):
             self._still_since = None
         elif words[0] == "wait_vcr":
             state = self.vcr_state.get(now)
-            if state is not None and state.mode == "halted" and words[1] != "halted":
+            if state is not None and state.mode == VcrMode.HALTED and words[1] != VcrMode.HALTED:
                 self._resume_after_halt(state.reason, now)
                 return
             self._halted_since = None

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.connectors.path_messages import ToolPath
+from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrMode
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.dls import DLSSettings, solve_dls
@@ -33,7 +33,7 @@ from umbra.modules.sketch.primitives import place_primitive, triad_box
 from umbra.modules.sketch.rig import RigCamera, default_rig
 from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 from umbra.modules.trajectory.player import PathPlayer
-from umbra.modules.trajectory.vcr import ARGUMENT, MOVING_MODES, VcrError, check_command
+from umbra.modules.trajectory.vcr import ARGUMENT, VcrError, check_command
 from umbra.modules.vision.sketch_render import render_scene
 from umbra.modules.world.scene_objects import SketchScene
 from umbra.modules.world.sketch_judge import SketchJudge
@@ -305,7 +305,7 @@ class SketchSession:
                 player.command(action, **kwargs, q_measured=self.arm.q_reported)
             out = player.step(self.dt, self.arm.q_reported)
             guard = self._tick(out.twist_tool, out.gripper)
-            if guard and out.mode in MOVING_MODES:
+            if guard and out.mode in VCR_MOVING:
                 player.halt(f"guard stop: {guard}", freeze=True)
             log.t.append(self.time - start)
             log.mode.append(out.mode)
@@ -316,7 +316,7 @@ class SketchSession:
             log.qd.append(self.arm.qd)
             log.tool.append(self.T_base_tool[:3, 3])
             log.guard.append(guard)
-            if out.mode == "done" and not pending and not self.arm.gripper_moving:
+            if out.mode == VcrMode.DONE and not pending and not self.arm.gripper_moving:
                 settle += 1
                 if settle > int(0.3 / self.dt):
                     break

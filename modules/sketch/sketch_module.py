@@ -7,7 +7,7 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
-from umbra.connectors.path_messages import ToolPath, VcrCommand, VcrState
+from umbra.connectors.path_messages import VCR_BUSY, ToolPath, VcrCommand, VcrState
 from umbra.connectors.ptu_messages import PtuCommand, PtuState
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.arm_params import ArmParams
@@ -19,7 +19,6 @@ from umbra.modules.sketch.path_check import PathLimits, plan_path
 from umbra.modules.sketch.primitives import PrimitiveError, place_primitive, triad_box
 from umbra.modules.sketch.session import Q_READY, Q_STOW
 from umbra.modules.sketch.stereo import StereoNoise, StereoPair
-from umbra.modules.trajectory.player import BUSY_MODES
 
 
 class _SnapshotRefused(UserError):
@@ -284,7 +283,7 @@ class Sketch(Module["Sketch.Params"]):
         if state is None:
             raise UserError("plan: no joint state from the arm yet")
         vcr = self.vcr_state.get(now)
-        if vcr is not None and vcr.mode in BUSY_MODES:
+        if vcr is not None and vcr.mode in VCR_BUSY:
             raise UserError(
                 f"plan: the arm is moving ({vcr.path_id} {vcr.mode}); pause it, then plan"
             )

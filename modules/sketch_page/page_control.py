@@ -12,7 +12,7 @@ import secrets
 from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.messages import Text
-from umbra.connectors.path_messages import VcrState
+from umbra.connectors.path_messages import VCR_GOING, VcrState
 from umbra.modules.operator.control import Decision
 from umbra.modules.sketch.command_text import parse
 from umbra.modules.sketch_page.page_web import PageRequest, PageWeb
@@ -143,8 +143,8 @@ class PageControl:
         if self._driver is None:
             return
         silent = wall - seen.get(self._driver, -math.inf)
-        if vcr is None or vcr.mode not in ("playing", "backing", "seeking", "gripping"):
-            return  # not moving
+        if vcr is None or vcr.mode not in VCR_GOING:
+            return  # not under way, or already stopping
         if silent > self._p.params.lost_after:
             self._driver = None
             self.lost += 1

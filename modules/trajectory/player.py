@@ -30,11 +30,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbra.connectors.commands import GripperAction
-from umbra.connectors.path_messages import ToolPath
+from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrMode
 from umbra.modules.arm.dh import DHTable
 from umbra.modules.arm.jacobian import jacobian_and_pose
 from umbra.modules.trajectory.joint_path import JointPath
-from umbra.modules.trajectory.vcr import MOVING_MODES, STARTS, Vcr, VcrError, VcrLimits
+from umbra.modules.trajectory.vcr import STARTS, Vcr, VcrError, VcrLimits
 
 FloatArray = NDArray[np.float64]
 
@@ -47,7 +47,7 @@ class PlayerOutput:
     twist_tool: FloatArray
     gripper: GripperAction | None
     q_desired: FloatArray
-    mode: str
+    mode: VcrMode
     s: float
     s_dot: float
     s_ddot: float
@@ -57,9 +57,6 @@ class PlayerOutput:
 MAX_WAYPOINTS = 20_000
 RESYNC_WINDOW = 0.3  #: path units (rad of joint arc)
 SETTLE_BAND = 0.01  #: rad: standing still, a smaller tracking error is still corrected
-#: Modes of the player's output in which a path is under way: the VCR's moving modes, a stop
-#: point reached and the wait for the gripper there.
-BUSY_MODES = (*MOVING_MODES, "gripping", "at_stop")
 
 
 def _check_path(path: ToolPath, table: DHTable, rate: float) -> None:
@@ -146,9 +143,9 @@ class PathPlayer:
         (rad), a start from standstill is refused (VcrError) when the arm is off the path."""
         st = self.vcr.state
         end = self.joint_path.length
-        if action in STARTS and q_measured is not None and st.mode not in MOVING_MODES:
+        if action in STARTS and q_measured is not None and st.mode not in VCR_MOVING:
             q = np.asarray(q_measured, dtype=float)
-            if st.mode == "halted":  # the arm may have coasted on after a hard stop: take up
+            if st.mode == VcrMode.HALTED:  # the arm may have coasted on after a hard stop: take up
                 # the path where the arm is (the nearest point near where it froze)
                 near = self.joint_path.nearest_s(q, 200, around=st.s, window=self.resync_window)
                 st.s = near
@@ -187,19 +184,19 @@ class PathPlayer:
                 self._after_hold = ""
         before = self.vcr.state.mode
         st = self.vcr.step(dt)
-        if st.mode == "at_stop" and before != "at_stop":
-            opening = self.events[st.s][1 if st.direction == "playing" else 0]
-            self._grip(opening, then="play" if st.direction == "playing" else "back")
+        if st.mode == VcrMode.AT_STOP and before != VcrMode.AT_STOP:
+            opening = self.events[st.s][1 if st.direction == VcrMode.PLAYING else 0]
+            self._grip(opening, then="play" if st.direction == VcrMode.PLAYING else "back")
         end = self.joint_path.length
         if st.s < end - 1e-9:
             self._end_done = False
-        if st.mode == "done" and not self._end_done:
+        if st.mode == VcrMode.DONE and not self._end_done:
             self._end_done = True
             if end in self.events:
                 self._grip(self.events[end][1], then="")
         q_d = self.joint_path.q(st.s)
         error = q_d - q_meas
-        if st.mode in MOVING_MODES and self._hold <= 0:
+        if st.mode in VCR_MOVING and self._hold <= 0:
             qd = self.joint_path.dq_ds(st.s) * st.s_dot + self.gain * error
         elif np.max(np.abs(error)) <= SETTLE_BAND:
             qd = self.gain * error  # standing on the path: the last of the lag settles
@@ -209,7 +206,7 @@ class PathPlayer:
         twist_base = J @ qd
         R = T_base_tool[:3, :3]
         twist_tool = np.concatenate([R.T @ twist_base[:3], R.T @ twist_base[3:]])
-        mode = "gripping" if self._hold > 0 else st.mode
+        mode = VcrMode.GRIPPING if self._hold > 0 else st.mode
         gripper, self._pending_gripper = self._pending_gripper, None
         return PlayerOutput(twist_tool, gripper, q_d, mode, st.s, st.s_dot, st.s_ddot, st.reason)
 

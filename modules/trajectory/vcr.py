@@ -24,23 +24,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from umbra.connectors.path_messages import VcrMode
+
 if TYPE_CHECKING:  # imported where used: checking a graph loads this file without it
     from ruckig import InputParameter
 
-MODES = (
-    "idle",
-    "playing",
-    "backing",
-    "seeking",
-    "pausing",
-    "paused",
-    "at_stop",
-    "halting",
-    "halted",
-    "done",
-)
-#: Modes in which the path parameter may be changing (the player drives the arm).
-MOVING_MODES = ("playing", "backing", "seeking", "pausing", "halting")
 #: Every VCR command, and the argument each takes: ``speed`` (0.1 .. 1), ``s`` (path units)
 #: or nothing.
 ARGUMENT = {
@@ -111,14 +99,14 @@ class VcrLimits:
 class VcrState:
     """Where the player is: mode, ``s``, ``s_dot``, ``s_ddot``, speed override, halt reason."""
 
-    mode: str = "idle"
+    mode: VcrMode = VcrMode.IDLE
     s: float = 0.0
     s_dot: float = 0.0
     s_ddot: float = 0.0
     speed: float = 1.0
     reason: str = ""
     target: float = 0.0
-    direction: str = ""  #: "playing" or "backing" when at a stop point
+    direction: VcrMode = VcrMode.IDLE  #: PLAYING or BACKING when at a stop point
 
 
 class Vcr:
@@ -134,7 +122,7 @@ class Vcr:
         self.stops = sorted(
             {float(x) for x in np.asarray(stops, dtype=float).ravel() if 0.0 < x < length}
         )
-        self.state = VcrState(mode="paused")
+        self.state = VcrState(mode=VcrMode.PAUSED)
         self._otg = Ruckig(1)
         self._trajectory = Trajectory(1)
         self._plan_key: tuple | None = None  # (interface, goal, velocity limit) of the plan
@@ -150,31 +138,31 @@ class Vcr:
             st.speed = float(np.clip(speed, SPEED_MIN, SPEED_MAX))
         if action in ("play", "resume"):
             if st.s >= self.length - 1e-9:
-                st.mode = "done"
+                st.mode = VcrMode.DONE
                 return
-            st.mode, st.reason = "playing", ""
+            st.mode, st.reason = VcrMode.PLAYING, ""
         elif action == "back":
-            st.mode, st.reason = "backing", ""
+            st.mode, st.reason = VcrMode.BACKING, ""
         elif action in ("pause", "stop"):
-            if st.mode not in ("paused", "halted", "done"):
-                st.mode = "pausing"
+            if st.mode not in (VcrMode.PAUSED, VcrMode.HALTED, VcrMode.DONE):
+                st.mode = VcrMode.PAUSING
         elif action == "seek":
-            st.mode, st.reason, st.target = "seeking", "", float(s)  # type: ignore[arg-type]
+            st.mode, st.reason, st.target = VcrMode.SEEKING, "", float(s)  # type: ignore[arg-type]
 
     def halt(self, reason: str, *, freeze: bool = False) -> None:
         """Stop on the path and stay stopped until the next play/back: smoothly (jerk-limited)
         or, with ``freeze`` (the guard already stopped the arm), at once."""
         st = self.state
-        if st.mode in ("paused", "done", "idle") and not freeze:
+        if st.mode in (VcrMode.PAUSED, VcrMode.DONE, VcrMode.IDLE) and not freeze:
             st.reason = st.reason or reason
             return
         st.reason = reason
         self._plan_key = None
         if freeze:
             st.s_dot = st.s_ddot = 0.0
-            st.mode = "halted"
-        elif st.mode != "halted":
-            st.mode = "halting"
+            st.mode = VcrMode.HALTED
+        elif st.mode != VcrMode.HALTED:
+            st.mode = VcrMode.HALTING
 
     # -- time ---------------------------------------------------------------------------------
     def step(self, dt: float) -> VcrState:
@@ -182,12 +170,14 @@ class Vcr:
         if not (np.isfinite(dt) and dt > 0):
             raise VcrError(f"time step must be finite and > 0, got {dt}")
         st = self.state
-        if st.mode in ("pausing", "halting") or (st.mode == "halted" and not self._still()):
+        if st.mode in (VcrMode.PAUSING, VcrMode.HALTING) or (
+            st.mode == VcrMode.HALTED and not self._still()
+        ):
             self._advance_velocity(dt)
             if self._still():
                 st.s_dot = st.s_ddot = 0.0
-                st.mode = "halted" if st.mode == "halting" else "paused"
-        elif st.mode in ("playing", "backing", "seeking"):
+                st.mode = VcrMode.HALTED if st.mode == VcrMode.HALTING else VcrMode.PAUSED
+        elif st.mode in (VcrMode.PLAYING, VcrMode.BACKING, VcrMode.SEEKING):
             goal = self._goal()
             self._advance_position(goal, dt)
             if abs(st.s - goal) < 1e-9 and self._still():
@@ -197,25 +187,25 @@ class Vcr:
 
     def _goal(self) -> float:
         st = self.state
-        if st.mode == "seeking":
+        if st.mode == VcrMode.SEEKING:
             ahead = [x for x in self.stops if min(st.s, st.target) < x < max(st.s, st.target)]
             if not ahead:
                 return st.target
             return min(ahead) if st.target > st.s else max(ahead)
-        if st.mode == "playing":
+        if st.mode == VcrMode.PLAYING:
             return min([x for x in self.stops if x > st.s + 1e-9] + [self.length])
         return max([x for x in self.stops if x < st.s - 1e-9] + [0.0])
 
-    def _arrived(self, goal: float) -> str:
+    def _arrived(self, goal: float) -> VcrMode:
         st = self.state
-        if goal in self.stops and st.mode in ("playing", "backing"):
+        if goal in self.stops and st.mode in (VcrMode.PLAYING, VcrMode.BACKING):
             st.direction = st.mode
-            return "at_stop"  # a gripper event: the caller acts, then resumes
-        if st.mode == "seeking":
-            return "paused"
-        if st.mode == "playing" and goal >= self.length:
-            return "done"
-        return "paused"
+            return VcrMode.AT_STOP  # a gripper event: the caller acts, then resumes
+        if st.mode == VcrMode.SEEKING:
+            return VcrMode.PAUSED
+        if st.mode == VcrMode.PLAYING and goal >= self.length:
+            return VcrMode.DONE
+        return VcrMode.PAUSED
 
     def _still(self) -> bool:
         st = self.state

@@ -8,12 +8,12 @@ from umbra.connectors import Input, Module, Output, from_param, param
 from umbra.connectors.commands import GripperCommand
 from umbra.connectors.limits import MAX_PATH_AGE_S
 from umbra.connectors.messages import JointState, Twist
-from umbra.connectors.path_messages import ToolPath, VcrCommand, VcrState
+from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrCommand, VcrMode, VcrState
 from umbra.connectors.states import GuardState
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 from umbra.modules.trajectory.player import PathPlayer, PlayerOutput
-from umbra.modules.trajectory.vcr import ARGUMENT, MOVING_MODES, STARTS, VcrError
+from umbra.modules.trajectory.vcr import ARGUMENT, STARTS, VcrError
 
 
 class VcrPlayer(Module["VcrPlayer.Params"]):
@@ -104,12 +104,12 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
             return
         mode = self.player.vcr.state.mode
         age = self.joint_state.age(now)
-        if age > self.params.max_state_age and mode in MOVING_MODES:
+        if age > self.params.max_state_age and mode in VCR_MOVING:
             self._halt(f"joint state is stale ({age:.3f} s old)", freeze=True)
-        if self.command.link_gone and mode in MOVING_MODES:
+        if self.command.link_gone and mode in VCR_MOVING:
             self._halt("console lost")
         guard = self.guard.get(now)
-        if guard is not None and not guard.passing and mode in MOVING_MODES:
+        if guard is not None and not guard.passing and mode in VCR_MOVING:
             self._halt(f"guard stop: {guard.reason}", freeze=True)
         out = self.player.step(dt, np.asarray(state.position, dtype=float))
         self._send(out)
@@ -132,7 +132,7 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
             self._problem = old
             self.log.warning("VCR_PLAYER %s: %s", self.name, old)
             return
-        if self.player is not None and self.player.vcr.state.mode in MOVING_MODES:
+        if self.player is not None and self.player.vcr.state.mode in VCR_MOVING:
             self._refused += 1
             self._problem = (
                 f"path {path.path_id} refused: {self.player.path.path_id} is "
@@ -164,7 +164,7 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
                 f"stale command {command.action!r}: {age:.3f} s old, expected at most "
                 f"{self.params.max_command_age:.3f} s"
             )
-            if self.player is not None and self.player.vcr.state.mode in MOVING_MODES:
+            if self.player is not None and self.player.vcr.state.mode in VCR_MOVING:
                 self._halt(self._problem)
             return
         if self.player is None:
@@ -195,7 +195,7 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
 
     def _halt(self, reason: str, freeze: bool = False) -> None:
         assert self.player is not None
-        if self.player.vcr.state.mode == "halting" and not freeze:
+        if self.player.vcr.state.mode == VcrMode.HALTING and not freeze:
             return  # already stopping smoothly on the path
         self._halts += 1
         self.player.halt(reason, freeze=freeze)
@@ -221,7 +221,7 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
     def _send_idle(self) -> None:
         self.twist.send(Twist(vector=np.zeros(6), frame=self.params.tool_frame))
         path_id = self.player.path.path_id if self.player else ""
-        self.state.send(VcrState(path_id=path_id, mode="idle", reason=self._problem))
+        self.state.send(VcrState(path_id=path_id, mode=VcrMode.IDLE, reason=self._problem))
 
     def stop(self) -> None:
         self._final = self.summary()
@@ -234,7 +234,7 @@ class VcrPlayer(Module["VcrPlayer.Params"]):
         st = player.vcr.state if player else None
         return {
             "path": player.path.path_id if player else "",
-            "mode": st.mode if st else "idle",
+            "mode": str(st.mode if st else VcrMode.IDLE),
             "progress": float(st.s / player.joint_path.length) if player and st else 0.0,
             "halts": self._halts,
             "refused_commands": self._refused,

@@ -6,7 +6,7 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, param
 from umbra.connectors.messages import JointState, Poses, Status
-from umbra.connectors.path_messages import ToolPath, VcrState
+from umbra.connectors.path_messages import ToolPath, VcrMode, VcrState
 from umbra.connectors.scene_messages import SceneObjects
 from umbra.connectors.states import Verdict
 from umbra.modules.arm.arm_params import ArmParams
@@ -176,7 +176,7 @@ class SketchWorld(Module["SketchWorld.Params"]):
         ended = (
             (self._macro in GRASP_MACROS and v.closes > 0)
             or (self._macro in RELEASE_MACROS and v.opens > 0)
-            or (vcr is not None and vcr.path_id == self._path_id and vcr.mode == "done")
+            or (vcr is not None and vcr.path_id == self._path_id and vcr.mode == VcrMode.DONE)
         )
         if not ended:
             return

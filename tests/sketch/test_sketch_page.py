@@ -28,7 +28,7 @@ from websockets.sync.client import connect
 from tests.operator.browser import chromium, needs_chromium
 from tests.poll import wait_for
 from umbra.connectors.messages import Image, ZoomState
-from umbra.connectors.path_messages import VcrState
+from umbra.connectors.path_messages import VcrMode, VcrState
 from umbra.connectors.ptu_messages import PtuState
 from umbra.connectors.sketch_messages import SketchPrimitive
 from umbra.connectors.states import Outcome, Verdict
@@ -492,13 +492,15 @@ def test_a_request_step_never_answered_is_dropped_not_sent_late(
         op.close()
 
 
-def test_a_lost_page_pauses_the_path_it_set_moving() -> None:
+@pytest.mark.parametrize("mode", [VcrMode.PLAYING, VcrMode.AT_STOP, VcrMode.GRIPPING])
+def test_a_lost_page_pauses_the_path_it_set_moving(mode: VcrMode) -> None:
+    """Also while the path waits at a stop point for the gripper: it goes on after that."""
     with _page(lost_after=0.4) as (h, stepper):
         op = Browser(h.module.url)
         wait_for(lambda: op.state()["control"]["you"], 5.0, "a name")
         assert op.control("take")[0] == 200
         assert op.command("vcr play")[0] == 200
-        stepper.push(h, "vcr_state", VcrState(path_id="path1", mode="playing", progress=0.1))
+        stepper.push(h, "vcr_state", VcrState(path_id="path1", mode=mode, progress=0.1))
         for _ in range(8):  # the page keeps polling: nothing happens
             op.state()
             time.sleep(0.1)
