@@ -236,14 +236,12 @@ class JointRates(Message, frozen=True, kw_only=True):
         "rates": f"{_F8} (N,), commanded rad/s or m/s",
         "near_singularity": "solver flag",
         "near_limit": "solver flag",
-        "gripper": '"", "open" or "close"',
     }
 
     names: tuple[str, ...]
     rates: np.ndarray
     near_singularity: bool = False
     near_limit: bool = False
-    gripper: str = ""  #: "", "open" or "close"
 
     HAS_JOINTS: ClassVar[bool] = True
 
