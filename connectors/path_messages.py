@@ -65,6 +65,18 @@ class ToolPath(Message, frozen=True, kw_only=True):
     HAS_JOINTS: ClassVar[bool] = True
 
 
+class VcrAction(Code):
+    """What a VCR command asks of the player."""
+
+    PLAY = "play"  #: forward along the path
+    BACK = "back"  #: reverse along the same path
+    PAUSE = "pause"  #: a jerk-limited stop on the path
+    RESUME = "resume"  #: play on
+    SPEED = "speed"  #: set the speed override
+    SEEK = "seek"  #: move along the path to ``s``
+    STOP = "stop"  #: as pause
+
+
 class VcrCommand(Message, frozen=True, kw_only=True):
     """A command to the VCR trajectory player.
 
@@ -76,13 +88,13 @@ class VcrCommand(Message, frozen=True, kw_only=True):
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "action": '"play", "back", "pause", "speed", "seek" or "stop"',
+        "action": "VcrAction: " + ", ".join(f'"{a}"' for a in VcrAction),
         "path_id": "must match the loaded path",
         "speed": "fraction of the planned speed, 0.1 .. 1 (0: keep)",
         "s": "seek target (path parameter)",
     }
 
-    action: str
+    action: VcrAction
     path_id: str = ""
     speed: float = 0.0
     s: float = 0.0

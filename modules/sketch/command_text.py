@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from umbra.connectors import UserError
+from umbra.connectors.path_messages import VcrAction
 from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
 from umbra.modules.trajectory.vcr import ARGUMENT, VcrError, check_command
@@ -41,7 +42,7 @@ class Command:
     macro: str = ""
     primitive_id: str = ""
     options: dict[str, float] = field(default_factory=dict)
-    action: str = ""
+    action: VcrAction | None = None
     speed: float | None = None
     s: float | None = None
 
@@ -120,10 +121,10 @@ def parse(text: str) -> Command:
             f"sketch command {text!r}: expected vcr ACTION [NUMBER] with ACTION one of "
             f"{', '.join(VCR_ACTIONS)}"
         )
-    action = rest[0]
+    action = VcrAction(rest[0])
     values = _numbers(rest[1:], f"vcr {action}", text)
     takes = ARGUMENT[action]
-    if len(values) > bool(takes) or (action in ("speed", "seek") and not values):
+    if len(values) > bool(takes) or (action in (VcrAction.SPEED, VcrAction.SEEK) and not values):
         what = {"seek": " S", "speed": " SPEED"}.get(action, " [SPEED]" if takes else "")
         raise UserError(f"sketch command {text!r}: expected vcr {action}{what}")
     speed = values[0] if values and takes == "speed" else None

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrMode
+from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrAction, VcrMode
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.dls import DLSSettings, solve_dls
@@ -33,7 +33,7 @@ from umbra.modules.sketch.primitives import place_primitive, triad_box
 from umbra.modules.sketch.rig import RigCamera, default_rig
 from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 from umbra.modules.trajectory.player import PathPlayer
-from umbra.modules.trajectory.vcr import ARGUMENT, VcrError, check_command
+from umbra.modules.trajectory.vcr import ACTIONS, ARGUMENT, VcrError, check_command
 from umbra.modules.vision.sketch_render import render_scene
 from umbra.modules.world.scene_objects import SketchScene
 from umbra.modules.world.sketch_judge import SketchJudge
@@ -302,7 +302,7 @@ class SketchSession:
         while self.time - start < timeout:
             while pending and pending[0][0] <= self.time - start + 1e-9:
                 _, action, kwargs = pending.pop(0)
-                player.command(action, **kwargs, q_measured=self.arm.q_reported)
+                player.command(VcrAction(action), **kwargs, q_measured=self.arm.q_reported)
             out = player.step(self.dt, self.arm.q_reported)
             guard = self._tick(out.twist_tool, out.gripper)
             if guard and out.mode in VCR_MOVING:
@@ -371,9 +371,9 @@ def _check_step(when: float, action: str, kwargs: dict, length: float) -> None:
     where = f"script step {when}:{action}"
     if not (np.isfinite(when) and when >= 0):
         raise SessionError(f"{where}: expected a time >= 0 s, got {when}")
-    takes = ARGUMENT.get(action, "")
+    takes = ARGUMENT.get(VcrAction(action), "") if action in ACTIONS else ""
     unknown = set(kwargs) - {takes}
-    if action in ARGUMENT and unknown:
+    if action in ACTIONS and unknown:
         raise SessionError(f"{where}: takes {takes or 'nothing'}, got {sorted(unknown)}")
     try:
         check_command(action, kwargs.get("speed"), kwargs.get("s"), length)

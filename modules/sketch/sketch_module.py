@@ -7,7 +7,7 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
-from umbra.connectors.path_messages import VCR_BUSY, ToolPath, VcrCommand, VcrState
+from umbra.connectors.path_messages import VCR_BUSY, ToolPath, VcrAction, VcrCommand, VcrState
 from umbra.connectors.ptu_messages import PtuCommand, PtuState
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.arm_params import ArmParams
@@ -342,9 +342,11 @@ class Sketch(Module["Sketch.Params"]):
         return f"box {box.box_id} kept: centre {centre} m, size {size} m"
 
     def _vcr(self, cmd: Command, now: float) -> str:
+        assert cmd.action is not None  # the parser sets it on every vcr command
         if not self.current_path:
             raise UserError("vcr: plan a macro first")
-        if cmd.action in ("play", "resume") and self.current_path not in self._started_paths:
+        starts = (VcrAction.PLAY, VcrAction.RESUME)
+        if cmd.action in starts and self.current_path not in self._started_paths:
             self._started_paths.add(self.current_path)
             watch = self._watch.get(self.current_path)
             if watch is not None:

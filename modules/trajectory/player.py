@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbra.connectors.commands import GripperAction
-from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrMode
+from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrAction, VcrMode
 from umbra.modules.arm.dh import DHTable
 from umbra.modules.arm.jacobian import jacobian_and_pose
 from umbra.modules.trajectory.joint_path import JointPath
@@ -127,14 +127,14 @@ class PathPlayer:
         limits = VcrLimits.for_stop_time(rate, stop_time_s)
         self.vcr = Vcr(self.joint_path.length, limits, stops=list(self.events))
         self._hold = 0.0  # seconds left of a gripper wait
-        self._after_hold = ""  # VCR action to take when the wait is over
+        self._after_hold: VcrAction | None = None  # VCR action to take when the wait is over
         self._end_done = False  # the event at the path's end has been made
         self._pending_gripper: GripperAction | None = None
 
     # -- commands -----------------------------------------------------------------------------
     def command(
         self,
-        action: str,
+        action: VcrAction,
         speed: float | None = None,
         s: float | None = None,
         q_measured: ArrayLike | None = None,
@@ -156,21 +156,22 @@ class PathPlayer:
                     f"{self.path.path_id} at s={st.s:.3f}; expected at most "
                     f"{np.degrees(self.max_start_error):.1f} deg (it was moved: plan again)"
                 )
-        if action == "back" and self._end_done and st.s >= end - 1e-9 and end in self.events:
-            self._grip(self.events[end][0], then="back")  # undo the end's event, then back
+        back = VcrAction.BACK
+        if action == back and self._end_done and st.s >= end - 1e-9 and end in self.events:
+            self._grip(self.events[end][0], then=back)  # undo the end's event, then back
             return
-        if action in ("pause", "stop"):
-            self._after_hold = ""
-        if action in ("play", "resume", "back") and self._hold > 0:
-            self._after_hold = "play" if action != "back" else "back"
+        if action in (VcrAction.PAUSE, VcrAction.STOP):
+            self._after_hold = None
+        if action in (VcrAction.PLAY, VcrAction.RESUME, back) and self._hold > 0:
+            self._after_hold = VcrAction.PLAY if action != back else back
             if speed is not None:
-                self.vcr.command("speed", speed=speed)
+                self.vcr.command(VcrAction.SPEED, speed=speed)
             return
         self.vcr.command(action, speed=speed, s=s)
 
     def halt(self, reason: str, *, freeze: bool = False) -> None:
         """Stop on the path (see :meth:`Vcr.halt`); a gripper wait is abandoned."""
-        self._after_hold = ""
+        self._after_hold = None
         self.vcr.halt(reason, freeze=freeze)
 
     # -- time ---------------------------------------------------------------------------------
@@ -179,21 +180,22 @@ class PathPlayer:
         q_meas = np.asarray(q_measured, dtype=float)
         if self._hold > 0:
             self._hold -= dt
-            if self._hold <= 0 and self._after_hold:
+            if self._hold <= 0 and self._after_hold is not None:
                 self.vcr.command(self._after_hold)
-                self._after_hold = ""
+                self._after_hold = None
         before = self.vcr.state.mode
         st = self.vcr.step(dt)
         if st.mode == VcrMode.AT_STOP and before != VcrMode.AT_STOP:
             opening = self.events[st.s][1 if st.direction == VcrMode.PLAYING else 0]
-            self._grip(opening, then="play" if st.direction == VcrMode.PLAYING else "back")
+            then = VcrAction.PLAY if st.direction == VcrMode.PLAYING else VcrAction.BACK
+            self._grip(opening, then=then)
         end = self.joint_path.length
         if st.s < end - 1e-9:
             self._end_done = False
         if st.mode == VcrMode.DONE and not self._end_done:
             self._end_done = True
             if end in self.events:
-                self._grip(self.events[end][1], then="")
+                self._grip(self.events[end][1], then=None)
         q_d = self.joint_path.q(st.s)
         error = q_d - q_meas
         if st.mode in VCR_MOVING and self._hold <= 0:
@@ -210,7 +212,7 @@ class PathPlayer:
         gripper, self._pending_gripper = self._pending_gripper, None
         return PlayerOutput(twist_tool, gripper, q_d, mode, st.s, st.s_dot, st.s_ddot, st.reason)
 
-    def _grip(self, opening: float, then: str) -> None:
+    def _grip(self, opening: float, then: VcrAction | None) -> None:
         self._pending_gripper = GripperAction.CLOSE if opening < 0.5 else GripperAction.OPEN
         self._hold = self.gripper_time
         self._after_hold = then

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from umbra.connectors.path_messages import VcrMode
+from umbra.connectors.path_messages import VcrAction, VcrMode
 
 if TYPE_CHECKING:  # imported where used: checking a graph loads this file without it
     from ruckig import InputParameter
@@ -32,17 +32,18 @@ if TYPE_CHECKING:  # imported where used: checking a graph loads this file witho
 #: Every VCR command, and the argument each takes: ``speed`` (0.1 .. 1), ``s`` (path units)
 #: or nothing.
 ARGUMENT = {
-    "play": "speed",
-    "back": "speed",
-    "pause": "",
-    "resume": "speed",
-    "speed": "speed",
-    "seek": "s",
-    "stop": "",
+    VcrAction.PLAY: "speed",
+    VcrAction.BACK: "speed",
+    VcrAction.PAUSE: "",
+    VcrAction.RESUME: "speed",
+    VcrAction.SPEED: "speed",
+    VcrAction.SEEK: "s",
+    VcrAction.STOP: "",
 }
-ACTIONS = tuple(ARGUMENT)
+#: The actions' names, as a person writes them.
+ACTIONS = tuple(str(action) for action in VcrAction)
 #: Commands that set the path parameter moving from standstill.
-STARTS = ("play", "resume", "back", "seek")
+STARTS = frozenset({VcrAction.PLAY, VcrAction.RESUME, VcrAction.BACK, VcrAction.SEEK})
 #: Range of the speed override (fraction of the path's nominal rate).
 SPEED_MIN, SPEED_MAX = 0.1, 1.0
 #: Round-off allowed at the ends of the speed range (the VCR clips into it).
@@ -56,25 +57,27 @@ class VcrError(ValueError):
 
 def check_command(
     action: str, speed: float | None = None, s: float | None = None, length: float | None = None
-) -> None:
+) -> VcrAction:
     """The one rule for a VCR command, wherever it is written (text, script, message): VcrError
     saying what was expected unless ``action`` is known, ``speed`` (when given, or required by
     ``speed``) is finite within ``SPEED_MIN .. SPEED_MAX``, and a seek has a finite target
-    ``s`` >= 0, within ``0 .. length`` when the path's ``length`` is known (path units)."""
-    if action not in ARGUMENT:
+    ``s`` >= 0, within ``0 .. length`` when the path's ``length`` is known (path units).
+    Returns the action, typed."""
+    if action not in ACTIONS:
         raise VcrError(f"unknown VCR action {action!r}; expected one of {', '.join(ACTIONS)}")
     speeds = f"a speed within {SPEED_MIN:g} .. {SPEED_MAX:g}"
-    if action == "speed" and speed is None:
+    if action == VcrAction.SPEED and speed is None:
         raise VcrError(f"expected {speeds}")
     if speed is not None and not (
         np.isfinite(speed) and SPEED_MIN - _SPEED_SLACK <= speed <= SPEED_MAX + _SPEED_SLACK
     ):
         raise VcrError(f"expected {speeds}, got {speed}")
-    if action == "seek":
+    if action == VcrAction.SEEK:
         top = np.inf if length is None else length
         if s is None or not (np.isfinite(s) and 0.0 <= s <= top):
             within = ">= 0" if length is None else f"within 0 .. {length:.4g}"
             raise VcrError(f"expected a seek target {within}, got {s}")
+    return VcrAction(action)
 
 
 @dataclass(frozen=True)
@@ -131,22 +134,22 @@ class Vcr:
     # -- commands -----------------------------------------------------------------------------
     def command(self, action: str, speed: float | None = None, s: float | None = None) -> None:
         """Obey a VCR command: play, back, pause, resume (= play), speed, seek, stop."""
-        check_command(action, speed, s, self.length)
+        action = check_command(action, speed, s, self.length)
         st = self.state
         self._plan_key = None
         if speed is not None:
             st.speed = float(np.clip(speed, SPEED_MIN, SPEED_MAX))
-        if action in ("play", "resume"):
+        if action in (VcrAction.PLAY, VcrAction.RESUME):
             if st.s >= self.length - 1e-9:
                 st.mode = VcrMode.DONE
                 return
             st.mode, st.reason = VcrMode.PLAYING, ""
-        elif action == "back":
+        elif action == VcrAction.BACK:
             st.mode, st.reason = VcrMode.BACKING, ""
-        elif action in ("pause", "stop"):
+        elif action in (VcrAction.PAUSE, VcrAction.STOP):
             if st.mode not in (VcrMode.PAUSED, VcrMode.HALTED, VcrMode.DONE):
                 st.mode = VcrMode.PAUSING
-        elif action == "seek":
+        elif action == VcrAction.SEEK:
             st.mode, st.reason, st.target = VcrMode.SEEKING, "", float(s)  # type: ignore[arg-type]
 
     def halt(self, reason: str, *, freeze: bool = False) -> None:
