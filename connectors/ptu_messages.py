@@ -15,8 +15,16 @@ from typing import ClassVar
 import numpy as np
 
 from umbra.connectors.messages import Message
+from umbra.connectors.reasons import Code
 
 _F8 = "float64"
+
+
+class PtuMode(Code):
+    """How a PTU command aims: at angles, or at a point."""
+
+    ANGLES = "angles"  #: go to ``pan``, ``tilt``
+    POINT = "point"  #: aim the camera's optical axis at ``point``
 
 
 class PtuCommand(Message, frozen=True, kw_only=True):
@@ -25,14 +33,14 @@ class PtuCommand(Message, frozen=True, kw_only=True):
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "mode": '"angles" or "point"',
+        "mode": "PtuMode: " + ", ".join(f'"{m}"' for m in PtuMode),
         "pan": "rad",
         "tilt": "rad",
         "point": f"{_F8} (3,), m in `frame`",
         "frame": "frame of `point`",
     }
 
-    mode: str
+    mode: PtuMode
     pan: float = 0.0
     tilt: float = 0.0
     point: np.ndarray = np.zeros(3)

@@ -6,7 +6,7 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
 from umbra.connectors.messages import CameraModel, Pose
-from umbra.connectors.ptu_messages import PtuCommand, PtuState
+from umbra.connectors.ptu_messages import PtuCommand, PtuMode, PtuState
 from umbra.modules.calib.camera_message import pinhole_from_message
 from umbra.modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
 from umbra.modules.ptu.sim_ptu import SimPtu
@@ -99,15 +99,16 @@ class Ptu(Module["Ptu.Params"]):
         )
 
     def _obey(self, command: PtuCommand, now: float) -> None:
-        if command.mode == "angles":
+        if command.mode == PtuMode.ANGLES:
             self._point = None
             try:
                 self.unit.command(command.pan, command.tilt)
                 self._status = "ok"
             except PtuLimitError as exc:
                 self._refuse(str(exc))
-        elif command.mode != "point":
-            self._refuse(f"unknown PTU mode {command.mode!r}; expected angles or point")
+        elif command.mode != PtuMode.POINT:  # a message made in this process, not decoded
+            known = ", ".join(PtuMode)
+            self._refuse(f"unknown PTU mode {command.mode!r}; expected one of {known}")
         elif command.frame != self.params.world_frame:
             self._refuse(
                 f"aim point in frame `{command.frame}`, expected `{self.params.world_frame}`"

@@ -8,7 +8,7 @@ import numpy as np
 from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
 from umbra.connectors.path_messages import VCR_BUSY, ToolPath, VcrAction, VcrCommand, VcrState
-from umbra.connectors.ptu_messages import PtuCommand, PtuState
+from umbra.connectors.ptu_messages import PtuCommand, PtuMode, PtuState
 from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
@@ -193,7 +193,7 @@ class Sketch(Module["Sketch.Params"]):
 
     def _aim(self, point: np.ndarray) -> None:
         for out in (self.ptu_a, self.ptu_b):
-            out.send(PtuCommand(mode="point", point=point, frame=self.params.world_frame))
+            out.send(PtuCommand(mode=PtuMode.POINT, point=point, frame=self.params.world_frame))
         self._moved_at = {side: self._now for side in self._moved_at}
 
     def _zoom(self, zoom: float) -> None:

@@ -11,6 +11,8 @@ from hypothesis.extra import numpy as hnp
 
 from umbra.connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError
 from umbra.connectors.messages import Contour, Image, JointRates, Scalar, Text, Twist, Vector
+from umbra.connectors.path_messages import VcrAction, VcrCommand, VcrMode, VcrState
+from umbra.connectors.ptu_messages import PtuCommand, PtuMode
 
 SAMPLES = [
     Scalar(value=2.5, stamp=1.25, seq=3),
@@ -128,3 +130,26 @@ def test_any_numeric_array_round_trips(values: np.ndarray, framed: bool) -> None
     got = codec.decode(data, Vector).values
     assert got.dtype == values.dtype and got.shape == values.shape
     np.testing.assert_array_equal(got, values)
+
+
+@pytest.mark.parametrize(
+    ("message", "field"),
+    [
+        (PtuCommand(mode=PtuMode.POINT), "mode"),
+        (VcrCommand(action=VcrAction.PLAY), "action"),
+        (VcrState(path_id="p", mode=VcrMode.PLAYING), "mode"),
+    ],
+)
+def test_a_code_the_type_does_not_declare_is_refused_on_decoding(
+    message: msgspec.Struct, field: str
+) -> None:
+    """A code field (an enum) decodes only to a declared member: a peer's unknown word is
+    refused at the link, before any module reads it."""
+    codec = Codec()
+    decoded = codec.decode(codec.encode(message), type(message))
+    assert getattr(decoded, field) is getattr(message, field)  # the member itself
+    made_up = msgspec.structs.replace(message, **{field: "sideways"})  # as a foreign peer might
+    for framed in (False, True):
+        data = codec.encode_framed(made_up) if framed else codec.encode(made_up)
+        with pytest.raises(DecodeError):
+            codec.decode(data, type(message))
