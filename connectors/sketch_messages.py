@@ -22,6 +22,7 @@ import msgspec
 import numpy as np
 
 from umbra.connectors.messages import CameraModel, Message
+from umbra.connectors.reasons import Code
 
 _EMPTY = np.zeros(0)
 _F8 = "float64"
@@ -136,6 +137,15 @@ class StereoSnapshot(Message, frozen=True, kw_only=True):
         return model.K @ T_camera_base[:3, :]
 
 
+class PrimitiveKind(Code):
+    """What an Active Sketch primitive is, by its vertices."""
+
+    POINT = "point"  #: 1 vertex
+    LINE = "line"  #: 2
+    PLANE = "plane"  #: 3: lines a-b, b-c
+    TRIAD = "triad"  #: 4: lines from vertex 0 to 1, 2, 3
+
+
 class SketchPrimitive(Message, frozen=True, kw_only=True):
     """A geometric primitive placed in both images of a snapshot and triangulated to 3-D.
 
@@ -150,7 +160,7 @@ class SketchPrimitive(Message, frozen=True, kw_only=True):
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
         "primitive_id": "names the primitive",
-        "kind": '"point", "line", "plane" or "triad"',
+        "kind": "PrimitiveKind: " + ", ".join(f'"{k}"' for k in PrimitiveKind),
         "snapshot_id": "the snapshot it was placed on",
         "pixels_a": f"{_F8} (N, 2), px in image a",
         "pixels_b": f"{_F8} (N, 2), px in image b",
@@ -162,7 +172,7 @@ class SketchPrimitive(Message, frozen=True, kw_only=True):
     }
 
     primitive_id: str
-    kind: str
+    kind: PrimitiveKind
     snapshot_id: str = ""
     pixels_a: np.ndarray = _EMPTY2
     pixels_b: np.ndarray = _EMPTY2

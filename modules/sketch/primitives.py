@@ -16,18 +16,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive
+from umbra.connectors.sketch_messages import PrimitiveKind, SketchBox, SketchPrimitive
 from umbra.modules.sketch.depth_check import handle_spread
 from umbra.modules.sketch.stereo import StereoNoise, StereoPair
 
 FloatArray = NDArray[np.float64]
 
 #: vertices and edges of each kind (vertex index pairs)
-KINDS: dict[str, tuple[int, tuple[tuple[int, int], ...]]] = {
-    "point": (1, ()),
-    "line": (2, ((0, 1),)),
-    "plane": (3, ((0, 1), (1, 2))),
-    "triad": (4, ((0, 1), (0, 2), (0, 3))),
+KINDS: dict[PrimitiveKind, tuple[int, tuple[tuple[int, int], ...]]] = {
+    PrimitiveKind.POINT: (1, ()),
+    PrimitiveKind.LINE: (2, ((0, 1),)),
+    PrimitiveKind.PLANE: (3, ((0, 1), (1, 2))),
+    PrimitiveKind.TRIAD: (4, ((0, 1), (0, 2), (0, 3))),
 }
 
 
@@ -35,14 +35,18 @@ class PrimitiveError(ValueError):
     """A primitive that cannot be built or read as asked (wrong vertex count, degenerate)."""
 
 
+def primitive_kind(kind: str) -> PrimitiveKind:
+    """``kind`` as written (a command, a file), typed; PrimitiveError unless it is one."""
+    try:
+        return PrimitiveKind(kind)
+    except ValueError:
+        known = ", ".join(PrimitiveKind)
+        raise PrimitiveError(f"unknown primitive kind {kind!r}; expected one of {known}") from None
+
+
 def vertex_count(kind: str) -> int:
     """How many vertices a primitive of ``kind`` has."""
-    try:
-        return KINDS[kind][0]
-    except KeyError:
-        raise PrimitiveError(
-            f"unknown primitive kind {kind!r}; expected one of {list(KINDS)}"
-        ) from None
+    return KINDS[primitive_kind(kind)][0]
 
 
 def place_primitive(
@@ -61,10 +65,11 @@ def place_primitive(
 
     Args:
         pair: the snapshot's stereo pair.
-        kind: "point", "line", "plane" or "triad".
+        kind: a :class:`PrimitiveKind` ("point", "line", "plane" or "triad").
         pixels_a, pixels_b: (N, 2) image pixels of the vertices in images a and b.
         noise: pixel, handle and calibration sigmas for the covariances.
     """
+    kind = primitive_kind(kind)
     n = vertex_count(kind)
     uv_a = np.asarray(pixels_a, dtype=float).reshape(-1, 2)
     uv_b = np.asarray(pixels_b, dtype=float).reshape(-1, 2)

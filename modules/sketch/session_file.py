@@ -14,15 +14,16 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import Annotated, Any
 
 import msgspec
 
 from umbra.connectors.errors import UserError
 from umbra.connectors.limits import MAX_SKETCH_SESSION_BYTES as MAX_SESSION_BYTES
 from umbra.connectors.limits import MAX_SKETCH_SESSION_EVENTS as MAX_SESSION_EVENTS
+from umbra.connectors.path_messages import VcrAction
+from umbra.connectors.sketch_messages import PrimitiveKind
 from umbra.connectors.user_files import decode_text, read_bytes
-from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
 
 #: Largest coordinate or option value kept in a session (a bound, not physics: finite numbers).
@@ -33,12 +34,6 @@ Name = Annotated[str, msgspec.Meta(max_length=200)]
 _NUMBER = r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d{1,2})?"
 #: A pixel as the command line takes it, ``U,V`` (finite numbers: no nan, no 1e999).
 Pixel = Annotated[str, msgspec.Meta(max_length=100, pattern=f"^{_NUMBER},{_NUMBER}$")]
-if TYPE_CHECKING:  # choices made from data are no static type: the checker sees their strings
-    VcrAction = str
-    PrimitiveKind = str
-else:  # msgspec checks a value against the choices
-    VcrAction = Literal.__getitem__(VCR_ACTIONS)
-    PrimitiveKind = Literal.__getitem__(tuple(KINDS))
 
 
 class _Event(msgspec.Struct, tag_field="cmd", forbid_unknown_fields=True):
@@ -87,7 +82,7 @@ Event = Aim | Snapshot | Place | Macros | Plan | Play
 #: The values a field of a choice may take, by field name (for the error that names them).
 _CHOICES: dict[str, tuple[str, ...]] = {
     "cmd": tuple(str(e.__struct_config__.tag) for e in (Aim, Snapshot, Place, Macros, Plan, Play)),
-    "kind": tuple(KINDS),
+    "kind": tuple(str(kind) for kind in PrimitiveKind),
     "script": VCR_ACTIONS,
 }
 

@@ -27,11 +27,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbra.connectors.errors import UserError
+from umbra.connectors.sketch_messages import PrimitiveKind
 from umbra.modules.geometry.transforms import is_rigid
 
 FORMAT = "umbra-scene"
 VERSION = 1
-PRIMITIVE_KINDS = ("point", "line", "plane", "triad")
+PRIMITIVE_KINDS = tuple(str(kind) for kind in PrimitiveKind)
 MAX_ITEMS = 10_000
 
 
