@@ -71,7 +71,7 @@ SAMPLES = [
     Text(text="seed 320,240", stamp=0.3, seq=3),
     Twist(vector=np.array([0.01, -0.02, 0.03, 0.0, 0.1, -0.2]), frame="camera", stamp=0.4, seq=4),
     JointState(names=("j1", "j2"), position=np.array([0.1, -0.2]), velocity=np.array([0.0, 1e-9])),
-    JointRates(names=("j1", "j2"), rates=np.array([0.5, -0.5]), near_limit=True, gripper="open"),
+    JointRates(names=("j1", "j2"), rates=np.array([0.5, -0.5]), near_limit=True),
     ZoomState(zoom=0.25, raw=4096, moving=True),
     Status(stage="approach", values={"error_x": 0.0117, "error_z": 0.18}, assist=False),
     CameraModel(fx=800.0, fy=801.0, u0=640.0, v0=360.0, dist=np.array([0.1, -0.2, 0, 0, 0.01])),
