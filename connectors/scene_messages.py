@@ -12,8 +12,16 @@ import msgspec
 import numpy as np
 
 from umbra.connectors.messages import Message
+from umbra.connectors.reasons import Code
 
 _F8 = "float64"
+
+
+class SolidKind(Code):
+    """The shape of a scene object."""
+
+    BOX = "box"  #: sizes: edge lengths x, y, z, centred on the pose
+    CYLINDER = "cylinder"  #: sizes: radius, radius, length along the pose's z, centred
 
 
 class SceneObjects(Message, frozen=True, kw_only=True):
@@ -28,7 +36,7 @@ class SceneObjects(Message, frozen=True, kw_only=True):
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
         "names": "N object names",
-        "kinds": 'N kinds, "box" or "cylinder"',
+        "kinds": "N kinds, SolidKind: " + ", ".join(f'"{k}"' for k in SolidKind),
         "poses": f"{_F8} (N, 4, 4), m: T_frame_object",
         "sizes": f"{_F8} (N, 3), m: box edges, or radius, radius, length",
         "colors": "uint8 (N, 3), RGB",
@@ -37,7 +45,7 @@ class SceneObjects(Message, frozen=True, kw_only=True):
     }
 
     names: tuple[str, ...]
-    kinds: tuple[str, ...]
+    kinds: tuple[SolidKind, ...]
     poses: np.ndarray
     sizes: np.ndarray
     colors: np.ndarray

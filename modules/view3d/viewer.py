@@ -29,6 +29,7 @@ import viser
 from viser import FrameHandle, LabelHandle, LineSegmentsHandle, PointCloudHandle
 
 from umbra.connectors.access.secret import TOKEN_QUERY
+from umbra.connectors.scene_messages import SolidKind
 from umbra.modules.view3d.geometry import (
     Frustum,
     Mesh,
@@ -255,7 +256,7 @@ class ViewerPage(ViewerMoves, ViewerSketch):
                 continue
             red, green, blue = (int(c) for c in color)  # colors are N x 3 (SceneObjects)
             rgb = (red, green, blue)
-            if kind == "cylinder":
+            if kind == SolidKind.CYLINDER:
                 self.meshes[node] = cylinder_mesh(node, T, float(size[0]), float(size[2]))
                 self.server.scene.add_cylinder(
                     node,
@@ -265,8 +266,10 @@ class ViewerPage(ViewerMoves, ViewerSketch):
                     wxyz=wxyz_from_matrix(T[:3, :3]),
                     position=tuple(T[:3, 3]),
                 )
-            else:
+            elif kind == SolidKind.BOX:
                 self.add_box(node, T, size, rgb)
+            else:  # made in this process (a decoded one is always a SolidKind)
+                refused.append(str(name))
         return refused
 
     def set_arm(

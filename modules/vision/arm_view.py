@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbra.connectors.messages import Poses
-from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.scene_messages import SceneObjects, SolidKind
 from umbra.modules.arm.arm_solids import arm_boxes, box_corners
 from umbra.modules.vision.scene import RGB, Occluder
 
@@ -85,7 +85,7 @@ def with_arm(
     return msgspec.structs.replace(
         objects,
         names=(*objects.names, *names),
-        kinds=(*objects.kinds, *("box",) * len(boxes)),
+        kinds=(*objects.kinds, *(SolidKind.BOX,) * len(boxes)),
         poses=np.concatenate([objects.poses, np.stack([b[0] for b in boxes])]),
         sizes=np.concatenate([objects.sizes, np.stack([b[1] for b in boxes])]),
         colors=np.concatenate(

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.scene_messages import SceneObjects, SolidKind
 from umbra.modules.calib.distortion import distort_points
 from umbra.modules.vision.lighting import Lighting, Sensor
 
@@ -86,7 +86,7 @@ def render_scene(
     for kind, T, size, rgb in zip(
         objects.kinds, objects.poses, objects.sizes, objects.colors, strict=True
     ):
-        build = _box_faces if kind == "box" else _cylinder_faces
+        build = {SolidKind.BOX: _box_faces, SolidKind.CYLINDER: _cylinder_faces}[kind]
         for corners, normal in build(np.asarray(T, dtype=float), np.asarray(size, dtype=float)):
             if normal @ (corners.mean(axis=0) - eye) >= 0.0:
                 continue  # turned away

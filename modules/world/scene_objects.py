@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.scene_messages import SceneObjects, SolidKind
 from umbra.modules.geometry.transforms import rot_z
 
 FloatArray = NDArray[np.float64]
@@ -207,14 +207,16 @@ class SketchScene:
         return replace(self, door=replace(self.door, angle=float(angle)))
 
     # -- solids for rendering and the 3-D view ------------------------------------------------
-    def solids(self) -> list[tuple[str, str, FloatArray, FloatArray, tuple[int, int, int]]]:
+    def solids(
+        self,
+    ) -> list[tuple[str, SolidKind, FloatArray, FloatArray, tuple[int, int, int]]]:
         """(name, kind, T_base_solid, size, RGB) of every solid; see SceneObjects for sizes."""
         out = []
         tz = self.table_z
         out.append(
             (
                 "table",
-                "box",
+                SolidKind.BOX,
                 _pose(np.eye(3), np.array([0.65, 0.0, tz - 0.02])),
                 np.array([0.8, 1.3, 0.04]),
                 (150, 130, 105),
@@ -225,7 +227,7 @@ class SketchScene:
         out.append(
             (
                 "pipe",
-                "cylinder",
+                SolidKind.CYLINDER,
                 _pose(R_pipe, p.center),
                 np.array([p.radius, p.radius, p.length]),
                 (200, 60, 40),
@@ -236,7 +238,7 @@ class SketchScene:
             out.append(
                 (
                     f"cradle_{k}",
-                    "box",
+                    SolidKind.BOX,
                     _pose(rot_z(p.yaw)[:3, :3], np.array([inner[0], inner[1], tz + 0.0125])),
                     np.array([0.02, 0.06, 0.025]),
                     (90, 90, 100),
@@ -248,7 +250,7 @@ class SketchScene:
         out.append(
             (
                 "door",
-                "box",
+                SolidKind.BOX,
                 _pose(R, panel_center),
                 np.array([d.width, d.thickness, d.height]),
                 (60, 110, 170),
@@ -257,7 +259,7 @@ class SketchScene:
         out.append(
             (
                 "cabinet",
-                "box",
+                SolidKind.BOX,
                 _pose(np.eye(3), d.hinge + np.array([0.2, -d.width / 2, d.height / 2 - 0.01])),
                 np.array([0.36, d.width, d.height - 0.02]),
                 (120, 120, 125),
@@ -266,7 +268,7 @@ class SketchScene:
         out.append(
             (
                 "handle",
-                "cylinder",
+                SolidKind.CYLINDER,
                 _pose(_frame_with_z(d.handle_axis), d.handle_center),
                 np.array([d.handle_radius, d.handle_radius, d.handle_length]),
                 (230, 200, 40),
@@ -279,7 +281,7 @@ class SketchScene:
             out.append(
                 (
                     f"handle_post_{k}",
-                    "box",
+                    SolidKind.BOX,
                     _pose(R, post),
                     np.array([0.012, d.handle_standoff, 0.012]),
                     (230, 200, 40),
@@ -289,7 +291,7 @@ class SketchScene:
         out.append(
             (
                 "package",
-                "box",
+                SolidKind.BOX,
                 _pose(rot_z(b.yaw)[:3, :3], b.center + np.array([0, 0, b.size[2] / 2])),
                 np.array(b.size),
                 (190, 150, 90),
@@ -299,7 +301,7 @@ class SketchScene:
         out.append(
             (
                 "surface",
-                "box",
+                SolidKind.BOX,
                 _pose(rot_z(s.yaw)[:3, :3], s.center),
                 np.array([s.size[0], s.size[1], 0.002]),
                 (70, 170, 80),

@@ -13,6 +13,8 @@ from umbra.connectors.codec import FRAMED_MIN_BYTES, Codec, DecodeError
 from umbra.connectors.messages import Contour, Image, JointRates, Scalar, Text, Twist, Vector
 from umbra.connectors.path_messages import VcrAction, VcrCommand, VcrMode, VcrState
 from umbra.connectors.ptu_messages import PtuCommand, PtuMode
+from umbra.connectors.scene_messages import SceneObjects, SolidKind
+from umbra.connectors.sketch_messages import PrimitiveKind, SketchPrimitive
 
 SAMPLES = [
     Scalar(value=2.5, stamp=1.25, seq=3),
@@ -138,6 +140,7 @@ def test_any_numeric_array_round_trips(values: np.ndarray, framed: bool) -> None
         (PtuCommand(mode=PtuMode.POINT), "mode"),
         (VcrCommand(action=VcrAction.PLAY), "action"),
         (VcrState(path_id="p", mode=VcrMode.PLAYING), "mode"),
+        (SketchPrimitive(primitive_id="p", kind=PrimitiveKind.LINE), "kind"),
     ],
 )
 def test_a_code_the_type_does_not_declare_is_refused_on_decoding(
@@ -153,3 +156,19 @@ def test_a_code_the_type_does_not_declare_is_refused_on_decoding(
         data = codec.encode_framed(made_up) if framed else codec.encode(made_up)
         with pytest.raises(DecodeError):
             codec.decode(data, type(message))
+
+
+def test_a_solid_kind_the_type_does_not_declare_is_refused_on_decoding() -> None:
+    """The renderers draw a box or a cylinder; a third word from a peer never reaches them."""
+    codec = Codec()
+    objects = SceneObjects(
+        names=("a", "b"),
+        kinds=(SolidKind.BOX, SolidKind.CYLINDER),
+        poses=np.stack([np.eye(4)] * 2),
+        sizes=np.ones((2, 3)),
+        colors=np.zeros((2, 3), np.uint8),
+    )
+    assert codec.decode(codec.encode(objects), SceneObjects).kinds == objects.kinds
+    sphere = msgspec.structs.replace(objects, kinds=("box", "sphere"))
+    with pytest.raises(DecodeError):
+        codec.decode(codec.encode(sphere), SceneObjects)
