@@ -32,7 +32,7 @@ from umbra.modules.operator.console_params import ConsoleParams
 from umbra.modules.operator.console_view import ConsoleView
 from umbra.modules.operator.control import ControlArbiter
 from umbra.modules.operator.cpu import process_cpu_s
-from umbra.modules.operator.jog import KEEPALIVE_S, DeadMan, JogLimits, JogStop, jog_twist
+from umbra.modules.operator.jog import KEEPALIVE_S, DeadMan, JogFrame, JogLimits, JogStop, jog_twist
 from umbra.modules.operator.jog_labels import jog_labels
 from umbra.modules.operator.mailbox import Lanes
 from umbra.modules.operator.message_board import MessageBoard
@@ -137,7 +137,7 @@ class OperatorConsole(Module[ConsoleParams]):
         except KeyError:
             self._T_tool_camera = None  # tool-frame jogs are refused (no static frame)
         #: the jog buttons' names in both frames (the camera's mount is static)
-        self._jog_labels = {f: jog_labels(f, self._T_tool_camera) for f in ("tool", "camera")}
+        self._jog_labels = {f: jog_labels(f, self._T_tool_camera) for f in JogFrame}
         self._jog_limits = JogLimits(p.jog_linear, p.jog_angular)
         self.arbiter = ControlArbiter()
         self.deadman = DeadMan(p.deadman_s)

@@ -14,7 +14,7 @@ import numpy as np
 from umbra.connectors.commands import GrabAction, GrabCommand, Seed, StopRun
 from umbra.connectors.messages import Scalar
 from umbra.modules.operator.actions import Refused, box_seed, check_snake_healthy, point_seed
-from umbra.modules.operator.jog import JogStop
+from umbra.modules.operator.jog import JogFrame, JogStop
 from umbra.modules.operator.protocol import STOP_ACTION
 from umbra.modules.servo.stages import ACTIVE_STAGES
 
@@ -188,7 +188,7 @@ class ConsoleEvents:
                 why = f"jog refused: {exc}"
                 self._c.deadman.stop(s, JogStop.STALE_PICTURE, why)
                 raise Refused(why) from None
-        if f["held"] and f["jog_frame"] == "tool" and self._c._T_tool_camera is None:
+        if f["held"] and f["jog_frame"] == JogFrame.TOOL and self._c._T_tool_camera is None:
             raise Refused(
                 f"tool-frame jog refused: expected a static frame {self._c.params.tool_frame}->"
                 f"{self._c.params.camera_frame} in the graph, found none (jog in the camera frame)"

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.connectors.reasons import Worded
+from umbra.connectors.reasons import Code, Worded
 from umbra.modules.geometry.transforms import twist_camera_from_tool
 
 FloatArray = NDArray[np.float64]
@@ -29,6 +29,13 @@ FloatArray = NDArray[np.float64]
 #: The page's keep-alive period while a jog is held [s] (sent to the page with the state); the
 #: console forwards the held jog at this period too.
 KEEPALIVE_S = 0.04
+
+
+class JogFrame(Code):
+    """The frame a jog's axes are given in."""
+
+    TOOL = "tool"
+    CAMERA = "camera"
 
 
 @dataclass(frozen=True)
@@ -65,11 +72,11 @@ def jog_twist(
             a[3] * limits.angular * s,
         ]
     )
-    if jog_frame == "tool":
+    if jog_frame == JogFrame.TOOL:
         return twist_camera_from_tool(T_tool_camera, twist)
-    if jog_frame == "camera":
+    if jog_frame == JogFrame.CAMERA:
         return twist
-    raise ValueError(f"jog frame must be `tool` or `camera`, got {jog_frame!r}")
+    raise ValueError(f"jog frame must be one of {', '.join(JogFrame)}, got {jog_frame!r}")
 
 
 class JogStop(Worded):

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.modules.operator.jog import JogFrame
+
 #: camera axis -> (name of +, name of -), as the operator sees it in the live image
 _IMAGE_WORDS = (
     ("→ right", "← left"),
@@ -27,9 +29,9 @@ def jog_labels(
     """One entry per button: ``axis`` (0..3: x, y, z, roll of ``jog_frame``), ``sign`` (±1),
     ``label`` (world words) and ``axis_name`` (e.g. "tool z-"). ``T_tool_camera`` (the camera's
     pose in the tool frame) names tool-frame jogs; None: tool-frame jogs are not offered."""
-    if jog_frame == "camera":
+    if jog_frame == JogFrame.CAMERA:
         R_camera_frame = np.eye(3)
-    elif jog_frame == "tool" and T_tool_camera is not None:
+    elif jog_frame == JogFrame.TOOL and T_tool_camera is not None:
         R_camera_frame = np.asarray(T_tool_camera, dtype=float)[:3, :3].T  # tool axes in camera
     else:
         return []

@@ -15,12 +15,13 @@ from typing import Any
 
 from umbra.connectors.commands import GrabAction
 from umbra.connectors.limits import MAX_PAGE_MESSAGE_BYTES
+from umbra.modules.operator.jog import JogFrame
 
 MAX_MESSAGE_BYTES = MAX_PAGE_MESSAGE_BYTES  #: (the websocket protocol refuses larger ones first)
 STOP_ACTION = "stop"  #: end the run (the judge ends it): the console's ``StopRun``
 #: the page's actions: the grab's commands, and stop
 ACTIONS = (*(str(a) for a in GrabAction), STOP_ACTION)
-JOG_FRAMES = ("tool", "camera")
+JOG_FRAMES = tuple(str(frame) for frame in JogFrame)
 
 #: message type -> required fields and their kinds ("num" finite number, "int", "bool", "str")
 _SCHEMA: dict[str, dict[str, str]] = {
