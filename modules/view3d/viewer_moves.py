@@ -69,13 +69,13 @@ class ViewerMoves:
             self._following.pop(client.client_id, None)
         start = self.current_viewer(client)
 
+        def latest() -> bool:
+            """This move is still the browser's latest."""
+            return self._generation.get(client.client_id) == generation
+
         def current() -> bool:
-            """This move is still the browser's latest, and the browser is still there (a
-            browser that left mid-move is sent nothing more)."""
-            return (
-                self._generation.get(client.client_id) == generation
-                and client.client_id in self.server.get_clients()
-            )
+            """... and the browser is still there (one that left mid-move is sent nothing)."""
+            return latest() and client.client_id in self.server.get_clients()
 
         def fly() -> None:
             steps = max(1, int(self.animation_s * 30))
@@ -102,7 +102,7 @@ class ViewerMoves:
                 fly()
             finally:
                 with self._lock:
-                    if current():
+                    if latest():
                         self._moving.discard(client.client_id)
 
         with self._lock:
