@@ -11,6 +11,7 @@ from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links_api import LinkTransport
 from umbra.runtime.scheduler import Scheduler, SchedulerOptions
 from umbra.runtime.stats import RunResult
+from umbra.runtime.stop_signals import install_stop_signals, restore_signals
 
 
 def default_output_dir(plan: GraphPlan) -> Path:
@@ -29,14 +30,20 @@ def run_process(
     with the wired scheduler before it runs (the live server adds its sinks)."""
     options.output_dir.mkdir(parents=True, exist_ok=True)
     scheduler = Scheduler(plan, options, transport)
-    if prepare is not None:
-        prepare(scheduler)
+    # Until the summary is written, Ctrl-C and SIGTERM request a stop (the scheduler routes them
+    # to itself while it runs): never a KeyboardInterrupt that skips the summary.
+    old = install_stop_signals(scheduler.request_stop) if options.handle_signals else {}
     try:
-        result = scheduler.run()
+        if prepare is not None:
+            prepare(scheduler)
+        try:
+            result = scheduler.run()
+        finally:
+            if transport is not None:
+                transport.close()
+        write_summary(result, options.output_dir, options.process)
     finally:
-        if transport is not None:
-            transport.close()
-    write_summary(result, options.output_dir, options.process)
+        restore_signals(old)
     return result
 
 

@@ -274,34 +274,37 @@ def run_linked_process(
     )
     stop = threading.Event()
     result: RunResult | None = None
+    # From here until the summary is written, Ctrl-C and SIGTERM request a stop (the scheduler
+    # routes them to itself while it runs): never a KeyboardInterrupt that skips the summary.
+    old = _interruptible(stop, scheduler)
     try:
-        transport.announce()
-        if control is not None:
-            peers = mutual_peers(plan, options.process)
-            _Control(control, scheduler, transport, stop, log, peers).start()
-        old = _interruptible(stop, scheduler)
         try:
-            ready = transport.wait_ready(stop, options.ready_timeout)
-        except TimeoutError as exc:
-            scheduler.request_stop(
-                f"consumers did not come within {options.ready_timeout:g} s: {exc}", 1
-            )
-            ready = False
+            transport.announce()
+            if control is not None:
+                peers = mutual_peers(plan, options.process)
+                _Control(control, scheduler, transport, stop, log, peers).start()
+            try:
+                ready = transport.wait_ready(stop, options.ready_timeout)
+            except TimeoutError as exc:
+                scheduler.request_stop(
+                    f"consumers did not come within {options.ready_timeout:g} s: {exc}", 1
+                )
+                ready = False
+            if ready:
+                log.info("process `%s`: links ready, running", options.process)
+            result = scheduler.run()
         finally:
-            for sig, handler in old.items():
-                signal.signal(sig, handler)
-        if ready:
-            log.info("process `%s`: links ready, running", options.process)
-        result = scheduler.run()
+            if tuning is not None:
+                tuning.close()
+            if everything is not None:
+                everything.close()
+            ended_normally = result is not None and result.exit_code == 0
+            transport.close(END_ACK_S if ended_normally else END_ACK_ABORTED_S)
+            if run_file is not None:
+                run_file.unlink(missing_ok=True)
+        result.extra.update(options.extra)
+        write_summary(result, options.output_dir, options.process)
     finally:
-        if tuning is not None:
-            tuning.close()
-        if everything is not None:
-            everything.close()
-        ended_normally = result is not None and result.exit_code == 0
-        transport.close(END_ACK_S if ended_normally else END_ACK_ABORTED_S)
-        if run_file is not None:
-            run_file.unlink(missing_ok=True)
-    result.extra.update(options.extra)
-    write_summary(result, options.output_dir, options.process)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
     return result

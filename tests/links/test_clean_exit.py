@@ -74,3 +74,32 @@ def test_a_process_stopped_while_strangers_hold_connections_exits_with_its_summa
     # zenoh's own handshake deadline (10 s) would have held the close for longer than the
     # bounded handshake (2 s) and close (3 s) take together with a loaded machine's margin
     assert took < ACCEPT_TIMEOUT_MS / 1e3 + CLOSE_WAIT_S + 4.0, took
+
+
+def test_ctrl_c_pressed_again_and_again_still_leaves_the_summary(
+    plugin_env: dict[str, str], tmp_path: Path
+) -> None:
+    """An impatient operator: SIGINT every 2 ms from the moment the links are ready until the
+    process has gone. Each one lands in some phase (the loop, the safe stop, the links' close,
+    the summary); none may turn into an interrupt that skips the summary."""
+    (tmp_path / "g.yaml").write_text(GRAPH)
+    runs: list[Running] = []
+    sent = 0
+    try:
+        smart = start_umbra(
+            plugin_env, tmp_path, "run", "g.yaml", "--process", "smart", "--insecure",
+            "--listen", "tcp/127.0.0.1:0", "--out", "out",
+        )  # fmt: skip
+        runs.append(smart)
+        smart.wait_for("links ready, running", timeout=60)
+        while smart.popen.poll() is None and sent < 500:
+            smart.popen.send_signal(signal.SIGINT)
+            sent += 1
+            time.sleep(0.002)  # pacing: a repeated Ctrl-C, faster than a person
+        code = smart.finish(timeout=CLOSE_WAIT_S + 30.0)
+    finally:
+        stop_all(runs)
+    assert sent >= 2, sent  # it did not leave at the first one before a second could come
+    assert code == 130, smart.text
+    assert "Traceback" not in smart.text
+    assert json.loads((tmp_path / "out" / "summary-smart.json").read_text())["modules"]
