@@ -125,7 +125,9 @@ def parse(text: str) -> Command:
     values = _numbers(rest[1:], f"vcr {action}", text)
     takes = ARGUMENT[action]
     if len(values) > bool(takes) or (action in (VcrAction.SPEED, VcrAction.SEEK) and not values):
-        what = {"seek": " S", "speed": " SPEED"}.get(action, " [SPEED]" if takes else "")
+        what = {VcrAction.SEEK: " S", VcrAction.SPEED: " SPEED"}.get(
+            action, " [SPEED]" if takes else ""
+        )
         raise UserError(f"sketch command {text!r}: expected vcr {action}{what}")
     speed = values[0] if values and takes == "speed" else None
     s = values[0] if values and takes == "s" else None

@@ -371,9 +371,10 @@ def _check_step(when: float, action: str, kwargs: dict, length: float) -> None:
     where = f"script step {when}:{action}"
     if not (np.isfinite(when) and when >= 0):
         raise SessionError(f"{where}: expected a time >= 0 s, got {when}")
-    takes = ARGUMENT.get(VcrAction(action), "") if action in ACTIONS else ""
+    known = VcrAction(action) if action in ACTIONS else None
+    takes = "" if known is None else ARGUMENT[known]
     unknown = set(kwargs) - {takes}
-    if action in ACTIONS and unknown:
+    if known is not None and unknown:
         raise SessionError(f"{where}: takes {takes or 'nothing'}, got {sorted(unknown)}")
     try:
         check_command(action, kwargs.get("speed"), kwargs.get("s"), length)

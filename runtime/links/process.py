@@ -152,7 +152,8 @@ class _Control:
 
 
 def _interruptible(stop: threading.Event, scheduler: Scheduler) -> dict[int, Any]:
-    """SIGINT/SIGTERM while waiting for consumers: stop cleanly (exit 130)."""
+    """SIGINT/SIGTERM from before the links start until the summary is written (the scheduler
+    routes them to itself while it runs): stop cleanly (exit 130), never a KeyboardInterrupt."""
     if threading.current_thread() is not threading.main_thread():
         return {}
 
