@@ -227,15 +227,18 @@ class View3D(Module[View3DParams]):
         self.push.start()
 
     def stop(self) -> None:
+        page = getattr(self, "page", None)
+        if page is not None:
+            # the run's end and its verdict, said first (the sender's last turn and the scene's
+            # save come after), stay on the page (its header too, where viser would say
+            # "Connecting..." once the server is gone); a page that reconnects meanwhile gets
+            # them from the server, which serves on until the process ends
+            page.end(verdict_words(self.verdict.value))
         push: ViewPush | None = getattr(self, "push", None)
         if push is not None:
             push.stop()
-        if getattr(self, "page", None) is not None:
-            # the run's end and its verdict stay on the page (its header too, where viser would
-            # say "Connecting..." once the server is gone); a page that reconnects meanwhile
-            # gets them from the server, which serves on until the process ends
-            self.page.end(verdict_words(self.verdict.value))
-            linger(self.page.stop, END_LINGER_S, f"{self.name}-linger")
+        if page is not None:
+            linger(page.stop, END_LINGER_S, f"{self.name}-linger")
 
     def summary(self) -> dict[str, object]:
         push: ViewPush | None = getattr(self, "push", None)

@@ -183,20 +183,27 @@ class ViewerPage(ViewerMoves, ViewerSketch):
         self.view_buttons[name] = button
 
     def set_stage(self, text: str) -> None:
-        """The task's state line (the stage and what it is doing), shown above the cameras."""
-        self.stage_note.content = f"**stage**: {text}"
+        """The task's state line (the stage and what it is doing), shown above the cameras;
+        once the run has ended (:meth:`end`) the line keeps saying so."""
+        if not self.ended:
+            self.stage_note.content = f"**stage**: {text}"
 
     def set_verdict(self, text: str) -> None:
-        """The judge's verdict on the run ("" none yet), shown under the state line."""
+        """The judge's verdict on the run ("" none yet), shown under the state line; once the
+        run has ended (:meth:`end`) the line keeps the verdict it ended with."""
+        if not self.ended:
+            self._show_verdict(text)
+
+    def _show_verdict(self, text: str) -> None:
         self.verdict_note.content = f"**verdict**: {text}" if text else ""
 
     def end(self, verdict: str) -> None:
         """The run has ended with ``verdict`` (its words): said under the state line and in the
         panel's header, which keeps saying it once the server is gone (instead of viser's
-        "Connecting...")."""
+        "Connecting..."). What the run's last updates would still say is not shown after it."""
         self.ended = verdict
         self.stage_note.content = "**the run has ended**: this page is no longer live"
-        self.set_verdict(verdict)
+        self._show_verdict(verdict)
         self.server.gui.set_panel_label(f"Run ended: {verdict}")
 
     def label(self, name: str, text: str, T_world_frame: np.ndarray) -> None:

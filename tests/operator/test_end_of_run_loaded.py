@@ -15,7 +15,13 @@ import pytest
 from playwright.sync_api import Page
 
 from tests.operator.browser import REPO, GraphRun, chromium, needs_chromium, take_control
-from tests.operator.test_end_of_run import END_SHOWN_S, LOAD_PER_CORE
+from tests.operator.test_end_of_run import (
+    END_SHOWN_S,
+    LOAD_PER_CORE,
+    NOTE_SHOWN,
+    STATION_ENDED,
+    VIEW_ENDED,
+)
 from tests.poll import wait_for
 from tests.view3d.browser_support import block_outside_loopback
 from umbra.modules.world.trial_faults import Overload
@@ -31,19 +37,6 @@ pytestmark = [
 VERDICT = "stopped by the operator"
 NO_SIM_CLICK = ["--set", "operator.click_delay_s=1000", "--set", 'view.video=""']
 LONG = ["--duration", "600", "--set", "world.timeout_s=600"]
-
-
-#: conditions for "the page shows the run's end": the station's and the 3-D page's
-STATION_ENDED = "window.umbra.ended"
-VIEW_ENDED = "document.body.textContent.includes('Run ended: ')"
-#: installed in a page: ``window.__shownAt`` is the wall time [ms] its DOM first met the condition
-NOTE_SHOWN = """(() => {
-  window.__shownAt = null;
-  const look = () => { if (window.__shownAt === null && (%s)) window.__shownAt = Date.now(); };
-  new MutationObserver(look).observe(document.body,
-    {subtree: true, childList: true, characterData: true, attributes: true});
-  look();
-})()"""
 
 
 class TimedRun(GraphRun):
