@@ -53,3 +53,10 @@ class SceneObjects(Message, frozen=True, kw_only=True):
     frame: str = "base"
 
     FRAME_KIND: ClassVar[str] = "frame"
+
+    def __post_init__(self) -> None:
+        """Kinds made in this process as plain words become their :class:`SolidKind` (an
+        unknown word raises ``ValueError``, as decoding refuses it): every reader may rely on
+        the type."""
+        if not all(isinstance(kind, SolidKind) for kind in self.kinds):
+            msgspec.structs.force_setattr(self, "kinds", tuple(SolidKind(k) for k in self.kinds))

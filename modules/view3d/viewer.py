@@ -273,10 +273,8 @@ class ViewerPage(ViewerMoves, ViewerSketch):
                     wxyz=wxyz_from_matrix(T[:3, :3]),
                     position=tuple(T[:3, 3]),
                 )
-            elif kind == SolidKind.BOX:
+            else:  # SolidKind.BOX: SceneObjects holds SolidKinds only
                 self.add_box(node, T, size, rgb)
-            else:  # made in this process (a decoded one is always a SolidKind)
-                refused.append(str(name))
         return refused
 
     def set_arm(

@@ -26,11 +26,23 @@ import numpy as np
 
 from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import JointState, Pose, Poses
+from umbra.connectors.reasons import Code
 from umbra.connectors.states import GuardState, Outcome, Presence, ServoState, Verdict
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import TRUE_PREFIX, arm_frames
 from umbra.modules.world.grasp import grasp_error
 from umbra.modules.world.operator_stop import STOPPED_BY_OPERATOR, OperatorStop, operator_input
+
+
+class WorldState(Code):
+    """The world's state, the ``stage`` of its status: running until the grasp is judged, then
+    grasped, missed (a miss, or no grasp: the run failed, exit 1) or stopped (by the operator
+    before a grasp, exit 0)."""
+
+    RUNNING = "running"
+    GRASPED = "grasped"
+    MISSED = "missed"
+    STOPPED = "stopped"
 
 
 def T_table_patch_of(
@@ -157,7 +169,8 @@ class SimWorld(Module[WorldParams]):
         self._judged = False
         self._stopped_since: float | None = None
         self._stop_reason = ""
-        self._status = Verdict(stage="running", message="no grasp yet")
+        self._state = WorldState.RUNNING
+        self._status = Verdict(stage=self._state, message="no grasp yet")
         self._status_due = -np.inf
         self._operator = OperatorStop()
 
@@ -210,10 +223,10 @@ class SimWorld(Module[WorldParams]):
         if self._judged:
             verdict = f"{self.result['verdict']}; {STOPPED_BY_OPERATOR}"
             grasped = bool(self.result["grasped"])
-            self._finish(now, grasped, verdict, self._status.stage, self._status.outcome)
+            self._finish(now, grasped, verdict, self._state, self._status.outcome)
         else:
             verdict = f"{STOPPED_BY_OPERATOR} before a grasp"
-            self._finish(now, False, verdict, stage="stopped", outcome=Outcome.STOPPED)
+            self._finish(now, False, verdict, WorldState.STOPPED, Outcome.STOPPED)
 
     def _why_not(self, missed: str) -> str:
         """The verdict of a run without a grasp: 'stopped: data too old' first when the guard
@@ -282,12 +295,12 @@ class SimWorld(Module[WorldParams]):
         now: float,
         grasped: bool,
         verdict: str,
-        stage: str = "",
+        state: WorldState | None = None,
         outcome: Outcome | None = None,
     ) -> None:
         """Publish and log the verdict; end the run unless it is attended (a person ends an
-        attended run with *Stop*, which ends any run). ``stage``: the status's stage ("" says
-        grasped or missed); ``outcome``: None says succeeded or missed."""
+        attended run with *Stop*, which ends any run), exit 1 when the state is missed.
+        ``state``: None says grasped or missed; ``outcome``: None says succeeded or missed."""
         self._judged = True
         self.result.update(
             {
@@ -300,8 +313,11 @@ class SimWorld(Module[WorldParams]):
         if outcome is None:
             outcome = Outcome.SUCCEEDED if grasped else Outcome.MISSED
         self.result["outcome"] = str(outcome)
+        if state is None:
+            state = WorldState.GRASPED if grasped else WorldState.MISSED
+        self._state = state
         self._status = Verdict(
-            stage=stage or ("grasped" if grasped else "missed"),
+            stage=state,
             message=verdict,
             values=values,
             outcome=outcome,
@@ -309,7 +325,7 @@ class SimWorld(Module[WorldParams]):
         self._status_due = -np.inf
         self._send_status(now)
         self.log.info(verdict)
-        code = 1 if self._status.stage == "missed" else 0
+        code = 1 if state is WorldState.MISSED else 0
         if self._operator.stopped:
             self.context.request_stop(verdict, code)
         elif self.params.end_run:

@@ -169,6 +169,8 @@ def test_a_solid_kind_the_type_does_not_declare_is_refused_on_decoding() -> None
         colors=np.zeros((2, 3), np.uint8),
     )
     assert codec.decode(codec.encode(objects), SceneObjects).kinds == objects.kinds
-    sphere = msgspec.structs.replace(objects, kinds=("box", "sphere"))
+    unknown = codec.encode(objects).replace(b"cylinder", b"triangle")  # a peer's unknown word
     with pytest.raises(DecodeError):
-        codec.decode(codec.encode(sphere), SceneObjects)
+        codec.decode(unknown, SceneObjects)
+    with pytest.raises(ValueError, match="sphere"):  # nor is one made in this process
+        msgspec.structs.replace(objects, kinds=("box", "sphere"))
