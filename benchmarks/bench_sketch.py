@@ -30,6 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.common import percentiles, table, write_results
+from umbra.connectors.sketch_messages import Macro
 from umbra.modules.sketch.depth_check import depth_warnings
 from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.sketch.rig import default_rig
@@ -39,7 +40,13 @@ from umbra.modules.trajectory.player import PathPlayer
 from umbra.modules.world.scene_objects import SketchScene
 
 CLICK_PX = 0.5
-MACROS = ("grab_pipe", "move_around_axis", "surface_scan", "follow_perimeter", "place_device")
+MACROS = (
+    Macro.GRAB_PIPE,
+    Macro.MOVE_AROUND_AXIS,
+    Macro.SURFACE_SCAN,
+    Macro.FOLLOW_PERIMETER,
+    Macro.PLACE_DEVICE,
+)
 
 
 class Person:
@@ -199,18 +206,18 @@ def _by_person(s, rng, kind, points, aim_at, zoom=0.3, featureless=None, heed=""
     raise Refused(warned[0])
 
 
-def run_macro(macro: str, seed: int, heed: str = "") -> dict:
+def run_macro(macro: Macro, seed: int, heed: str = "") -> dict:
     s, rng = _session(seed)
     scene = s.scene
     warned: list[str] = []
     try:
-        if macro == "grab_pipe":
+        if macro == Macro.GRAB_PIPE:
             ends = scene.pipe.ends
             marks = ends[0] + np.outer([0.25, 0.75], ends[1] - ends[0])
             prim, warned = _by_person(
                 s, rng, "line", marks, scene.pipe.center, featureless=ends, heed=heed
             )
-        elif macro == "move_around_axis":
+        elif macro == Macro.MOVE_AROUND_AXIS:
             d = scene.door
             ends = np.stack(
                 [d.handle_center - 0.05 * d.handle_axis, d.handle_center + 0.05 * d.handle_axis]
@@ -230,7 +237,7 @@ def run_macro(macro: str, seed: int, heed: str = "") -> dict:
                 heed=heed,
             )
             warned = warned + more
-        elif macro in ("surface_scan", "follow_perimeter"):
+        elif macro in (Macro.SURFACE_SCAN, Macro.FOLLOW_PERIMETER):
             corners = scene.surface.corners
             prim, warned = _by_person(
                 s, rng, "plane", corners[[1, 0, 3]], scene.surface.center, zoom=0.4, heed=heed
@@ -239,7 +246,7 @@ def run_macro(macro: str, seed: int, heed: str = "") -> dict:
             s.grip("close")
             edge = scene.package.front_bottom_edge
             prim, warned = _by_person(s, rng, "line", edge, edge.mean(axis=0), heed=heed)
-        options = {"angle_deg": 85.0} if macro == "move_around_axis" else None
+        options = {"angle_deg": 85.0} if macro == Macro.MOVE_AROUND_AXIS else None
         path = s.plan(macro, prim.primitive_id, options)
         if not path.ok:
             return {"ok": False, "warned": bool(warned), "why": f"refused: {path.reason}"}

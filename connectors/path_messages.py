@@ -19,6 +19,7 @@ import numpy as np
 
 from umbra.connectors.messages import Message
 from umbra.connectors.reasons import Code
+from umbra.connectors.sketch_messages import Macro
 
 _EMPTY = np.zeros(0)
 _F8 = "float64"
@@ -38,7 +39,7 @@ class ToolPath(Message, frozen=True, kw_only=True):
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
         "path_id": "names the plan",
-        "macro": "macro that made it",
+        "macro": "the Macro that made it",
         "names": "n joint names",
         "s": f"{_F8} (N,), path parameter, increasing from 0",
         "joints": f"{_F8} (N, n), rad",
@@ -51,7 +52,7 @@ class ToolPath(Message, frozen=True, kw_only=True):
     }
 
     path_id: str
-    macro: str
+    macro: Macro
     names: tuple[str, ...]
     s: np.ndarray
     joints: np.ndarray

@@ -146,6 +146,25 @@ class PrimitiveKind(Code):
     TRIAD = "triad"  #: 4: lines from vertex 0 to 1, 2, 3
 
 
+class Macro(Code):
+    """An Active Sketch motion macro (LDRD report section 3), by name. Which primitive offers
+    which, what each does and the options each takes: :mod:`umbra.modules.sketch.macros`."""
+
+    READY = "ready"
+    STOW = "stow"
+    MOVE_TO = "move_to"
+    AIM_ALONG_RAY = "aim_along_ray"
+    GRAB_PIPE = "grab_pipe"
+    MOVE_AROUND_AXIS = "move_around_axis"
+    APPROACH_SIDE = "approach_side"
+    MOVE_PARALLEL = "move_parallel"
+    AIM_ALONG_AXIS = "aim_along_axis"
+    PLACE_DEVICE = "place_device"
+    SURFACE_SCAN = "surface_scan"
+    FOLLOW_PERIMETER = "follow_perimeter"
+    MAKE_BOX = "make_box"
+
+
 class SketchPrimitive(Message, frozen=True, kw_only=True):
     """A geometric primitive placed in both images of a snapshot and triangulated to 3-D.
 
@@ -213,17 +232,17 @@ class SketchBox(Message, frozen=True, kw_only=True):
 class MacroRequest(Message, frozen=True, kw_only=True):
     """The operator's choice of a motion macro for a primitive (``primitive_id`` "" = none).
 
-    ``macro``: a name from the primitive's menu (e.g. "grab_pipe", "move_around_axis");
+    ``macro``: one of the primitive's menu (e.g. ``Macro.GRAB_PIPE``);
     ``options``: named numbers for the macro (e.g. ``angle`` [rad], ``standoff`` [m]).
     """
 
     #: What each field holds on the wire (unit, dtype and shape): ``docs/wire-format.md``.
     FIELD_NOTES: ClassVar[dict[str, str]] = {
-        "macro": "macro name",
+        "macro": "Macro: " + ", ".join(f'"{m}"' for m in Macro),
         "primitive_id": '"" = none',
         "options": "map str -> float (e.g. angle rad, standoff m)",
     }
 
-    macro: str
+    macro: Macro
     primitive_id: str = ""
     options: dict[str, float] = msgspec.field(default_factory=dict)

@@ -27,8 +27,9 @@ import numpy as np
 
 from umbra.connectors.cli_support import print_json
 from umbra.connectors.errors import UserError
+from umbra.connectors.sketch_messages import Macro
 from umbra.modules.sketch.depth_check import depth_warnings
-from umbra.modules.sketch.macros import MacroError, check_options
+from umbra.modules.sketch.macros import MacroError, check_options, macro_named
 from umbra.modules.sketch.primitives import KINDS, PrimitiveError
 from umbra.modules.sketch.session import SessionError, SketchSession
 from umbra.modules.sketch.session_file import load_session_state
@@ -156,10 +157,14 @@ def _event(args: argparse.Namespace) -> dict[str, Any]:
             if not sep or not np.isfinite(options[key]):
                 raise UserError(f"plan --option: expected KEY=NUMBER (finite), got {item!r}")
         try:
-            check_options(args.macro, options)
+            macro = macro_named(args.macro)
+        except MacroError as exc:
+            raise UserError(f"plan: {exc}") from None
+        try:
+            check_options(macro, options)
         except MacroError as exc:
             raise UserError(f"plan --option: {exc}") from None
-        return {"cmd": a, "macro": args.macro, "primitive": args.primitive, "options": options}
+        return {"cmd": a, "macro": str(macro), "primitive": args.primitive, "options": options}
     if not (np.isfinite(args.timeout) and 0 < args.timeout <= 3600):
         raise UserError(f"play: expected --timeout within 0 .. 3600 s, got {args.timeout}")
     return {"cmd": a, "path": args.path, "script": _script(args.script), "timeout": args.timeout}
@@ -258,7 +263,7 @@ def _run(session: SketchSession, folder: Path, e: dict, replay: bool) -> dict[st
         }
     if cmd == "macros":
         return {"macros": dict(session.macros(e["primitive"]))}
-    if cmd == "plan" and e["macro"] == "make_box":
+    if cmd == "plan" and e["macro"] == Macro.MAKE_BOX:
         if not e["primitive"]:
             raise SessionError("make_box: expected a triad's id")
         box = session.make_box(e["primitive"])

@@ -22,6 +22,8 @@ import numpy as np
 
 from umbra.connectors import UserError
 from umbra.connectors.path_messages import VcrAction
+from umbra.connectors.sketch_messages import Macro
+from umbra.modules.sketch.macros import MacroError, macro_named
 from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.trajectory.vcr import ACTIONS as VCR_ACTIONS
 from umbra.modules.trajectory.vcr import ARGUMENT, VcrError, check_command
@@ -39,7 +41,7 @@ class Command:
     kind: str = ""
     pixels_a: np.ndarray | None = None
     pixels_b: np.ndarray | None = None
-    macro: str = ""
+    macro: Macro | None = None
     primitive_id: str = ""
     options: dict[str, float] = field(default_factory=dict)
     action: VcrAction | None = None
@@ -115,7 +117,11 @@ def parse(text: str) -> Command:
                 options[key] = _numbers([value], key, text)[0]
             else:
                 ident = w
-        return Command(verb, macro=rest[0], primitive_id=ident, options=options)
+        try:
+            macro = macro_named(rest[0])
+        except MacroError as error:
+            raise UserError(f"sketch command {text!r}: {error}") from None
+        return Command(verb, macro=macro, primitive_id=ident, options=options)
     if not rest or rest[0] not in VCR_ACTIONS:
         raise UserError(
             f"sketch command {text!r}: expected vcr ACTION [NUMBER] with ACTION one of "

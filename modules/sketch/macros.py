@@ -14,36 +14,52 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from umbra.connectors.sketch_messages import SketchPrimitive
+from umbra.connectors.sketch_messages import Macro, SketchPrimitive
 from umbra.modules.sketch.primitives import line_axis, plane_rect, point_of
 from umbra.modules.sketch.tool_poses import DOWN, arc, rotate_about_axis, tool_pose
 
 FloatArray = NDArray[np.float64]
 
 #: kind of primitive ("none" = nothing selected) -> [(macro, what it does)]
-MENU: dict[str, list[tuple[str, str]]] = {
+MENU: dict[str, list[tuple[Macro, str]]] = {
     "none": [
-        ("ready", "joints to the ready pose (tool above the table, looking down)"),
-        ("stow", "joints to the stowed pose"),
+        (Macro.READY, "joints to the ready pose (tool above the table, looking down)"),
+        (Macro.STOW, "joints to the stowed pose"),
     ],
     "point": [
-        ("move_to", "tool point to `standoff` (0.05 m) above the point, looking down"),
-        ("aim_along_ray", "tool axis along camera a's ray, `standoff` (0.15 m) before the point"),
+        (Macro.MOVE_TO, "tool point to `standoff` (0.05 m) above the point, looking down"),
+        (
+            Macro.AIM_ALONG_RAY,
+            "tool axis along camera a's ray, `standoff` (0.15 m) before the point",
+        ),
     ],
     "line": [
-        ("grab_pipe", "grasp the line's middle from above, fingers across the axis"),
-        ("move_around_axis", "sweep `angle_deg` (85) about the line, right-hand rule"),
-        ("approach_side", "grasp the middle from the arm's side, `elevation_deg` (20) below level"),
-        ("move_parallel", "move the tool along the line by its length x `fraction` (1)"),
-        ("aim_along_axis", "tool axis along the line, `standoff` (0.1 m) before its start"),
-        ("place_device", "set the held device `standoff` (0.08 m) in front of the edge"),
+        (Macro.GRAB_PIPE, "grasp the line's middle from above, fingers across the axis"),
+        (Macro.MOVE_AROUND_AXIS, "sweep `angle_deg` (85) about the line, right-hand rule"),
+        (
+            Macro.APPROACH_SIDE,
+            "grasp the middle from the arm's side, `elevation_deg` (20) below level",
+        ),
+        (Macro.MOVE_PARALLEL, "move the tool along the line by its length x `fraction` (1)"),
+        (Macro.AIM_ALONG_AXIS, "tool axis along the line, `standoff` (0.1 m) before its start"),
+        (Macro.PLACE_DEVICE, "set the held device `standoff` (0.08 m) in front of the edge"),
     ],
     "plane": [
-        ("surface_scan", "raster the rectangle at `standoff` (0.08 m), `spacing` (0.028 m)"),
-        ("follow_perimeter", "follow the rectangle's outline at `standoff` (0.08 m)"),
+        (Macro.SURFACE_SCAN, "raster the rectangle at `standoff` (0.08 m), `spacing` (0.028 m)"),
+        (Macro.FOLLOW_PERIMETER, "follow the rectangle's outline at `standoff` (0.08 m)"),
     ],
-    "triad": [("make_box", "keep the box as scene geometry (no motion)")],
+    "triad": [(Macro.MAKE_BOX, "keep the box as scene geometry (no motion)")],
 }
+
+
+def macro_named(name: str) -> Macro:
+    """The macro called ``name`` (a person's or a file's word); raises MacroError naming the
+    macros there are."""
+    try:
+        return Macro(name)
+    except ValueError:
+        known = ", ".join(Macro)
+        raise MacroError(f"there is no macro {name!r}; expected one of {known}") from None
 
 
 def macro_label(macro: str) -> str:
@@ -52,16 +68,16 @@ def macro_label(macro: str) -> str:
 
 
 #: the options each macro takes: name -> (lowest, highest) accepted value (m, deg or 1)
-OPTIONS: dict[str, dict[str, tuple[float, float]]] = {
-    "move_to": {"standoff": (0.0, 0.5)},
-    "aim_along_ray": {"standoff": (0.0, 0.5)},
-    "approach_side": {"elevation_deg": (0.0, 60.0)},
-    "move_around_axis": {"angle_deg": (-180.0, 180.0)},
-    "move_parallel": {"fraction": (-2.0, 2.0)},
-    "aim_along_axis": {"standoff": (0.0, 0.5)},
-    "place_device": {"standoff": (0.0, 0.5)},
-    "surface_scan": {"standoff": (0.02, 0.5), "spacing": (0.005, 0.2)},
-    "follow_perimeter": {"standoff": (0.02, 0.5)},
+OPTIONS: dict[Macro, dict[str, tuple[float, float]]] = {
+    Macro.MOVE_TO: {"standoff": (0.0, 0.5)},
+    Macro.AIM_ALONG_RAY: {"standoff": (0.0, 0.5)},
+    Macro.APPROACH_SIDE: {"elevation_deg": (0.0, 60.0)},
+    Macro.MOVE_AROUND_AXIS: {"angle_deg": (-180.0, 180.0)},
+    Macro.MOVE_PARALLEL: {"fraction": (-2.0, 2.0)},
+    Macro.AIM_ALONG_AXIS: {"standoff": (0.0, 0.5)},
+    Macro.PLACE_DEVICE: {"standoff": (0.0, 0.5)},
+    Macro.SURFACE_SCAN: {"standoff": (0.02, 0.5), "spacing": (0.005, 0.2)},
+    Macro.FOLLOW_PERIMETER: {"standoff": (0.02, 0.5)},
 }
 
 PREGRASP_M = 0.10
@@ -77,7 +93,7 @@ class MacroKeys:
     """Key poses (or joint targets) of a macro, with the gripper opening at each and the point the
     cameras should watch (m, base)."""
 
-    macro: str
+    macro: Macro
     poses: list[FloatArray] = field(default_factory=list)
     gripper: list[float] = field(default_factory=list)
     joint_targets: list[FloatArray] = field(default_factory=list)
@@ -85,12 +101,12 @@ class MacroKeys:
     sweep: tuple[FloatArray, FloatArray, float] | None = None  #: (point, direction, angle)
 
 
-def menu_for(primitive: SketchPrimitive | None) -> list[tuple[str, str]]:
+def menu_for(primitive: SketchPrimitive | None) -> list[tuple[Macro, str]]:
     """The macros a primitive (None: nothing selected) makes available."""
     return MENU["none" if primitive is None else primitive.kind]
 
 
-def check_options(macro: str, options: dict[str, float] | None) -> dict[str, float]:
+def check_options(macro: Macro, options: dict[str, float] | None) -> dict[str, float]:
     """The options of ``macro`` as floats; raises MacroError for an option the macro does not
     take, or a value that is not a finite number within its range (see :data:`OPTIONS`)."""
     allowed = OPTIONS.get(macro, {})
@@ -98,7 +114,7 @@ def check_options(macro: str, options: dict[str, float] | None) -> dict[str, flo
     for key, value in (options or {}).items():
         if key not in allowed:
             expected = ", ".join(allowed) if allowed else "none"
-            raise MacroError(f"macro {macro!r} has no option {key!r}; its options: {expected}")
+            raise MacroError(f"macro '{macro}' has no option {key!r}; its options: {expected}")
         low, high = allowed[key]
         try:
             number = float(value)
@@ -106,7 +122,7 @@ def check_options(macro: str, options: dict[str, float] | None) -> dict[str, flo
             number = float("nan")
         if not (np.isfinite(number) and low <= number <= high):
             raise MacroError(
-                f"macro {macro!r}: option {key} must be a number within {low:g} .. {high:g}, "
+                f"macro '{macro}': option {key} must be a number within {low:g} .. {high:g}, "
                 f"got {value!r}"
             )
         out[key] = number
@@ -114,7 +130,7 @@ def check_options(macro: str, options: dict[str, float] | None) -> dict[str, flo
 
 
 def macro_keys(
-    macro: str,
+    macro: Macro,
     primitive: SketchPrimitive | None,
     T_tool: FloatArray,
     gripper: float,
@@ -130,37 +146,39 @@ def macro_keys(
     names = [m for m, _ in menu_for(primitive)]
     if macro not in names:
         kind = "nothing selected" if primitive is None else f"a {primitive.kind}"
-        raise MacroError(f"macro {macro!r} is not on the menu for {kind}; expected one of {names}")
+        raise MacroError(
+            f"macro '{macro}' is not on the menu for {kind}; expected one of {', '.join(names)}"
+        )
     opts = check_options(macro, options)
     keys = MacroKeys(macro)
-    if macro in ("ready", "stow"):
-        target = q_ready if macro == "ready" else q_stow
+    if macro in (Macro.READY, Macro.STOW):
+        target = q_ready if macro == Macro.READY else q_stow
         if target is None:
             raise MacroError(f"no {macro} pose configured")
         keys.joint_targets = [np.asarray(target, dtype=float)]
         keys.gripper = [gripper]
         return keys
-    if macro == "make_box":
+    if macro == Macro.MAKE_BOX:
         return keys
     assert primitive is not None
     x_hint = T_tool[:3, 0]
-    if macro == "move_to":
+    if macro == Macro.MOVE_TO:
         p = point_of(primitive)
         keys.poses = [
             tool_pose(p + np.array([0.0, 0.0, opts.get("standoff", 0.05)]), DOWN, x_hint, x_hint)
         ]
         keys.gripper, keys.watch = [gripper], p
-    elif macro == "aim_along_ray":
+    elif macro == Macro.AIM_ALONG_RAY:
         if camera_centre is None:
             raise MacroError("aim_along_ray needs camera a's centre")
         p = point_of(primitive)
         ray = (p - camera_centre) / np.linalg.norm(p - camera_centre)
         pose = tool_pose(p - opts.get("standoff", 0.15) * ray, ray, x_hint, x_hint)
         keys.poses, keys.gripper, keys.watch = [pose], [gripper], p
-    elif macro in ("grab_pipe", "approach_side"):
+    elif macro in (Macro.GRAB_PIPE, Macro.APPROACH_SIDE):
         axis = line_axis(primitive)
         m = axis.middle
-        if macro == "grab_pipe":
+        if macro == Macro.GRAB_PIPE:
             approach = DOWN
         else:
             outward = m.copy()
@@ -178,19 +196,19 @@ def macro_keys(
         pre = grasp.copy()
         pre[:3, 3] = m - PREGRASP_M * approach
         keys.poses, keys.gripper, keys.watch = [pre, grasp], [1.0, 0.0], m
-    elif macro == "move_around_axis":
+    elif macro == Macro.MOVE_AROUND_AXIS:
         axis = line_axis(primitive)
         angle = float(np.radians(opts.get("angle_deg", 85.0)))
         keys.poses = list(arc(T_tool, axis.start, axis.direction, angle, np.radians(1.0))[1:])
         keys.gripper = [0.0] * len(keys.poses)
         keys.sweep = (axis.start, axis.direction, angle)
         keys.watch = rotate_about_axis(T_tool, axis.start, axis.direction, angle / 2)[:3, 3]
-    elif macro == "move_parallel":
+    elif macro == Macro.MOVE_PARALLEL:
         axis = line_axis(primitive)
         pose = T_tool.copy()
         pose[:3, 3] += opts.get("fraction", 1.0) * (axis.end - axis.start)
         keys.poses, keys.gripper, keys.watch = [pose], [gripper], pose[:3, 3]
-    elif macro == "aim_along_axis":
+    elif macro == Macro.AIM_ALONG_AXIS:
         axis = line_axis(primitive)
         pose = tool_pose(
             axis.start - opts.get("standoff", 0.1) * axis.direction,
@@ -199,7 +217,7 @@ def macro_keys(
             x_hint,
         )
         keys.poses, keys.gripper, keys.watch = [pose], [gripper], axis.start
-    elif macro == "place_device":
+    elif macro == Macro.PLACE_DEVICE:
         axis = line_axis(primitive)
         m = axis.middle
         outward = np.array([-m[0], -m[1], 0.0])  # towards the arm's base
@@ -211,11 +229,11 @@ def macro_keys(
         above = place.copy()
         above[2, 3] += PREGRASP_M
         keys.poses, keys.gripper, keys.watch = [above, place], [gripper, 1.0], spot
-    elif macro in ("surface_scan", "follow_perimeter"):
+    elif macro in (Macro.SURFACE_SCAN, Macro.FOLLOW_PERIMETER):
         rect = plane_rect(primitive)
         normal = rect.normal if rect.normal[2] >= 0 else -rect.normal
         standoff = opts.get("standoff", 0.08)
-        if macro == "surface_scan":
+        if macro == Macro.SURFACE_SCAN:
             points = _raster(rect.corner, rect.edge_u, rect.edge_v, opts.get("spacing", 0.028))
         else:
             corners = rect.perimeter()

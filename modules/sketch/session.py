@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbra.connectors.path_messages import VCR_MOVING, ToolPath, VcrAction, VcrMode
-from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.connectors.sketch_messages import Macro, SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.dh import puma560
 from umbra.modules.arm.dls import DLSSettings, solve_dls
 from umbra.modules.arm.jacobian import jacobian_and_pose, tool_twist_in_base
@@ -27,7 +27,7 @@ from umbra.modules.arm.sim_joints import SimJoints, SimJointSettings
 from umbra.modules.arm.velocity_register import RegisterSettings, VelocityRegister
 from umbra.modules.geometry.transforms import translation
 from umbra.modules.ptu.sim_ptu import SimPtu
-from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
+from umbra.modules.sketch.macros import MacroError, macro_keys, macro_named, menu_for
 from umbra.modules.sketch.path_check import PathLimits, plan_path
 from umbra.modules.sketch.primitives import place_primitive, triad_box
 from umbra.modules.sketch.rig import RigCamera, default_rig
@@ -207,7 +207,7 @@ class SketchSession:
         return pair.project("a", points), pair.project("b", points)
 
     # -- macros -------------------------------------------------------------------------------
-    def macros(self, primitive_id: str | None = None) -> list[tuple[str, str]]:
+    def macros(self, primitive_id: str | None = None) -> list[tuple[Macro, str]]:
         return menu_for(self._primitive(primitive_id))
 
     def make_box(self, primitive_id: str) -> SketchBox:
@@ -222,11 +222,13 @@ class SketchSession:
         return box
 
     def plan(
-        self, macro: str, primitive_id: str | None = None, options: dict | None = None
+        self, macro: Macro | str, primitive_id: str | None = None, options: dict | None = None
     ) -> ToolPath:
-        """Plan and check ``macro`` from the arm's current joints (``ok`` False: refused).
-        ``make_box`` has no motion: use :meth:`make_box`."""
-        if macro == "make_box":
+        """Plan and check ``macro`` (a name is taken as its :class:`Macro`, MacroError if there
+        is none) from the arm's current joints (``ok`` False: refused). ``make_box`` has no
+        motion: use :meth:`make_box`."""
+        macro = macro_named(macro)
+        if macro == Macro.MAKE_BOX:
             raise MacroError("make_box has no motion to plan; call make_box(primitive_id)")
         prim = self._primitive(primitive_id)
         cam_a = self.camera_state(0)[1][:3, 3]

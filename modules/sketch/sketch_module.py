@@ -9,7 +9,7 @@ from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
 from umbra.connectors.path_messages import VCR_BUSY, ToolPath, VcrAction, VcrCommand, VcrState
 from umbra.connectors.ptu_messages import PtuCommand, PtuMode, PtuState
-from umbra.connectors.sketch_messages import SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.connectors.sketch_messages import Macro, SketchBox, SketchPrimitive, StereoSnapshot
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 from umbra.modules.sketch.command_text import Command, parse
@@ -277,7 +277,9 @@ class Sketch(Module["Sketch.Params"]):
                 raise UserError(
                     f"plan: no primitive {cmd.primitive_id!r}; placed: {sorted(self.primitives)}"
                 )
-        if cmd.macro == "make_box":
+        if cmd.macro is None:
+            raise UserError("plan: expected a macro")
+        if cmd.macro == Macro.MAKE_BOX:
             return self._make_box(prim)
         state = self.joint_state.get(now)
         if state is None:

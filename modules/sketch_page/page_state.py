@@ -20,7 +20,7 @@ import numpy as np
 
 from umbra.connectors.messages import Status
 from umbra.connectors.path_messages import ToolPath, VcrState
-from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
+from umbra.connectors.sketch_messages import Macro, SketchPrimitive, StereoSnapshot
 from umbra.connectors.states import Outcome, Verdict
 from umbra.modules.geometry.rays import fundamental_matrix
 from umbra.modules.sketch.depth_check import depth_warnings
@@ -32,7 +32,7 @@ def _r(values: Any, digits: int = 3) -> Any:
     return np.round(np.asarray(values, dtype=float), digits).tolist()
 
 
-def _menu(items: list[tuple[str, str]]) -> list[list[str]]:
+def _menu(items: list[tuple[Macro, str]]) -> list[list[str]]:
     """Menu entries as ``[macro, what it does, its label for a person]``."""
     return [[name, help_text, macro_label(name)] for name, help_text in items]
 

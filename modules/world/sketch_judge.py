@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from umbra.connectors.sketch_messages import Macro
 from umbra.modules.world.scene_objects import SketchScene
 
 FloatArray = NDArray[np.float64]
@@ -41,7 +42,7 @@ HANDLE_LOSE_M = 0.015
 BAND_M = 0.01
 PERIMETER_TOLERANCE_M = 0.005
 #: macros that grasp (the pipe): judged when the gripper closes
-GRASP_MACROS = ("grab_pipe", "approach_side")
+GRASP_MACROS = (Macro.GRAB_PIPE, Macro.APPROACH_SIDE)
 #: share of the surface scanned, or of the outline followed, that counts as a success
 COVERAGE_GOAL = 0.95
 DEVICE_STANDOFF_M = 0.08
@@ -71,7 +72,7 @@ class Verdicts:
     opens: int = 0  #: gripper openings seen since the macro started
     events: list[str] = field(default_factory=list)
 
-    def success(self, macro: str) -> bool:
+    def success(self, macro: Macro) -> bool:
         """Did ``macro`` succeed (per the benchmark's criteria)?"""
         if macro in GRASP_MACROS:
             return bool(
@@ -79,16 +80,16 @@ class Verdicts:
                 and self.grasp_distance_m <= GRASP_TOLERANCE_M
                 and self.grasp_angle_rad <= GRASP_TOLERANCE_RAD
             )
-        if macro == "move_around_axis":
+        if macro == Macro.MOVE_AROUND_AXIS:
             return bool(self.door_max_rad >= DOOR_GOAL_RAD - 1e-9 and not self.handle_lost)
-        if macro == "surface_scan":
+        if macro == Macro.SURFACE_SCAN:
             return self.coverage >= COVERAGE_GOAL
-        if macro == "follow_perimeter":
+        if macro == Macro.FOLLOW_PERIMETER:
             return bool(
                 self.perimeter_max_dev_m <= PERIMETER_TOLERANCE_M
                 and self.perimeter_passed >= COVERAGE_GOAL
             )
-        if macro == "place_device":
+        if macro == Macro.PLACE_DEVICE:
             return bool(self.device_error_m <= DEVICE_TOLERANCE_M)
         return False
 

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from umbra.connectors.sketch_messages import Macro
 from umbra.connectors.states import Outcome
 from umbra.modules.world.sketch_judge import (
     COVERAGE_GOAL,
@@ -26,10 +27,10 @@ from umbra.modules.world.sketch_judge import (
 )
 
 #: macros that end when the gripper opens (the device is set down)
-RELEASE_MACROS = ("place_device",)
+RELEASE_MACROS = (Macro.PLACE_DEVICE,)
 
 
-def macro_verdict(macro: str, v: Verdicts) -> tuple[Outcome, str, dict[str, float]]:
+def macro_verdict(macro: Macro, v: Verdicts) -> tuple[Outcome, str, dict[str, float]]:
     """``(outcome, text, figures)`` of ``macro`` from what the judge measured (see module
     docstring). Call it when the macro ended: the gripper closed (grasp macros), the device was
     released, or the path was played to its end."""
@@ -37,7 +38,7 @@ def macro_verdict(macro: str, v: Verdicts) -> tuple[Outcome, str, dict[str, floa
     outcome = Outcome.SUCCEEDED if ok else Outcome.MISSED
     if macro in GRASP_MACROS:
         return _grasp(outcome, v)
-    if macro == "move_around_axis":
+    if macro == Macro.MOVE_AROUND_AXIS:
         angle = math.degrees(v.door_max_rad)
         goal = math.degrees(DOOR_GOAL_RAD)
         held = "the handle lost on the way" if v.handle_lost else "handle held"
@@ -49,11 +50,11 @@ def macro_verdict(macro: str, v: Verdicts) -> tuple[Outcome, str, dict[str, floa
             else f"door opened to {angle:.1f} deg of {goal:.0f}, {held}"
         )
         return outcome, _prefix(outcome, text), {"door_max_deg": angle, "success": float(ok)}
-    if macro == "surface_scan":
+    if macro == Macro.SURFACE_SCAN:
         pct = 100.0 * v.coverage
         text = f"covered {pct:.0f} % of the surface (goal {100 * COVERAGE_GOAL:.0f} %)"
         return outcome, _prefix(outcome, text), {"coverage": v.coverage, "success": float(ok)}
-    if macro == "follow_perimeter":
+    if macro == Macro.FOLLOW_PERIMETER:
         dev = v.perimeter_max_dev_m * 1e3
         pct = 100.0 * v.perimeter_passed
         text = (
@@ -62,7 +63,7 @@ def macro_verdict(macro: str, v: Verdicts) -> tuple[Outcome, str, dict[str, floa
         )
         figures = {"perimeter_passed": v.perimeter_passed, "perimeter_max_dev_mm": dev}
         return outcome, _prefix(outcome, text), {**figures, "success": float(ok)}
-    if macro == "place_device":
+    if macro == Macro.PLACE_DEVICE:
         if not np.isfinite(v.device_error_m):
             missed = "missed: the device was not released near its spot"
             return Outcome.MISSED, missed, {"success": 0.0}

@@ -8,6 +8,7 @@ from umbra.connectors import Input, Module, Output, param
 from umbra.connectors.messages import JointState, Poses, Status
 from umbra.connectors.path_messages import ToolPath, VcrMode, VcrState
 from umbra.connectors.scene_messages import SceneObjects
+from umbra.connectors.sketch_messages import Macro
 from umbra.connectors.states import Verdict
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.arm.arm_solids import arm_frames
@@ -54,7 +55,7 @@ class SketchWorld(Module["SketchWorld.Params"]):
         table_z: float = param(0.25, "table top above the arm's base", unit="m", ge=0, le=1.5)
         randomize: bool = param(False, "randomize the object poses (seeded)")
         objects_rate_hz: float = param(10.0, "how often the objects are published", gt=0, le=100)
-        end_after: list[str] = param([], "end the run when these macros have all succeeded")
+        end_after: list[Macro] = param([], "end the run when these macros have all succeeded")
         timeout_s: float = param(120.0, "with end_after: fail the run after", unit="s", gt=0)
 
     joint_state = Input(JointState, feedback=True, doc="TRUE joint angles and gripper")
@@ -91,8 +92,8 @@ class SketchWorld(Module["SketchWorld.Params"]):
             else SketchScene.nominal(p.table_z)
         )
         self.judge = SketchJudge(scene)
-        self._macro = ""
-        self._verdicts: dict[str, dict[str, float]] = {}  #: each macro's figures at success
+        self._macro: Macro | None = None  #: the macro being played (None before a path)
+        self._verdicts: dict[Macro, dict[str, float]] = {}  #: each macro's figures at success
         self._next_objects = 0.0
         self._started: float | None = None
         self._last_key: tuple | None = None
@@ -145,7 +146,7 @@ class SketchWorld(Module["SketchWorld.Params"]):
         self.context.request_stop(self._stopped, 0)
 
     def _report(self, now: float, v) -> None:
-        ok = bool(self._macro) and v.success(self._macro)
+        ok = self._macro is not None and v.success(self._macro)
         values = {
             "grasp_distance_mm": v.grasp_distance_m * 1e3,
             "grasp_angle_deg": float(np.degrees(v.grasp_angle_rad)),
@@ -156,7 +157,7 @@ class SketchWorld(Module["SketchWorld.Params"]):
             "device_error_mm": v.device_error_m * 1e3,
             "success": float(ok),
         }
-        if ok and self._macro not in self._verdicts:
+        if ok and self._macro is not None and self._macro not in self._verdicts:
             self._verdicts[self._macro] = {k: round(x, 3) for k, x in values.items()}
             self.log.info("SketchWorld: %s succeeded (%s)", self._macro, "; ".join(v.events))
         key = (self._macro, ok, len(v.events))
@@ -169,7 +170,7 @@ class SketchWorld(Module["SketchWorld.Params"]):
     def _maybe_judge(self, now: float) -> None:
         """The macro's verdict, once: at the gripper's close (grasps), its opening (placing a
         device) or the end of the path."""
-        if self._judged:
+        if self._judged or self._macro is None:
             return
         v = self.judge.verdicts
         vcr = self.vcr_state.get(now)

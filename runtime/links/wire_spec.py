@@ -14,7 +14,9 @@ documented there before it ships):
 from __future__ import annotations
 
 import argparse
+import enum
 import sys
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -41,9 +43,12 @@ def _wire_type(typ: Any) -> str:
         return "bool"
     if typ is str:
         return "str"
+    if isinstance(typ, type) and issubclass(typ, enum.Enum):
+        return f"str ({typ.__name__})"  # a code: its words are listed in the note
+    args = typing.get_args(typ)
+    if typing.get_origin(typ) is tuple and len(args) == 2 and args[1] is Ellipsis:
+        return f"array of {_wire_type(args[0])}"
     text = repr(typ).replace("typing.", "")
-    if text.startswith("tuple[str"):
-        return "array of str"
     if text.startswith("dict[str, float]"):
         return "map str→float"
     return text
@@ -54,6 +59,8 @@ def _default(field: msgspec.structs.FieldInfo) -> str:
         value = field.default
         if isinstance(value, np.ndarray):
             return f"{value.dtype} {value.shape}" if value.size != 16 else "identity 4×4"
+        if isinstance(value, enum.Enum):
+            value = value.value  # sent as its code
         return f"`{value!r}`".replace("'", '"')
     if field.default_factory is not msgspec.NODEFAULT:
         return "`{}`"

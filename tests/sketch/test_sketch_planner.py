@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from umbra.connectors.sketch_messages import SketchPrimitive
+from umbra.connectors.sketch_messages import Macro, SketchPrimitive
 from umbra.modules.arm.dh import puma560
 from umbra.modules.geometry.transforms import translation
 from umbra.modules.sketch.macros import MacroError, macro_keys, menu_for
@@ -32,7 +32,7 @@ def test_menus_by_primitive():
     assert [m for m, _ in menu_for(None)] == ["ready", "stow"]
     assert "grab_pipe" in dict(menu_for(_line([[0, 0, 0], [1, 0, 0]])))
     with pytest.raises(MacroError, match="'surface_scan' is not on the menu for a line"):
-        macro_keys("surface_scan", _line([[0, 0, 0], [1, 0, 0]]), T_READY, 1.0)
+        macro_keys(Macro.SURFACE_SCAN, _line([[0, 0, 0], [1, 0, 0]]), T_READY, 1.0)
 
 
 def test_grab_pipe_plan_is_checked_and_ends_on_the_grasp():
@@ -58,7 +58,7 @@ def test_unreachable_pipe_is_refused_for_reach():
 def test_joint_limit_violating_path_is_refused():
     q_bad = Q_READY.copy()
     q_bad[4] = np.radians(99.0)  # wrist within 1 deg of its +100 deg limit
-    keys = macro_keys("ready", None, T_READY, 1.0, q_ready=q_bad)
+    keys = macro_keys(Macro.READY, None, T_READY, 1.0, q_ready=q_bad)
     path = plan_path(keys, TABLE, T_FT, Q_READY, 1.0, PathLimits(), path_id="p")
     assert not path.ok
     assert path.reason.startswith("joint limits: j5 comes within 1.0 deg of its limit")
@@ -67,7 +67,7 @@ def test_joint_limit_violating_path_is_refused():
 def test_path_through_a_singularity_is_refused():
     # the arm stretched straight up (elbow singularity) is on the joint line to this target
     q_up = np.radians([0.0, 90.0, -90.0, 0.0, 0.0, 0.0])
-    keys = macro_keys("ready", None, T_READY, 1.0, q_ready=q_up)
+    keys = macro_keys(Macro.READY, None, T_READY, 1.0, q_ready=q_up)
     path = plan_path(keys, TABLE, T_FT, Q_READY, 1.0, PathLimits(), path_id="p")
     assert not path.ok and path.reason.startswith("singularity: the Jacobian's smallest")
 
@@ -92,7 +92,7 @@ def test_move_around_axis_sweeps_about_the_line_by_the_right_hand_rule():
     assert grab.ok, grab.reason
     q1 = grab.joints[-1]
     hinge = _line([door.hinge_top, door.hinge])  # pointing down: opens towards the arm
-    keys = macro_keys("move_around_axis", hinge, TABLE.fk(q1, T_FT), 0.0, {"angle_deg": 85})
+    keys = macro_keys(Macro.MOVE_AROUND_AXIS, hinge, TABLE.fk(q1, T_FT), 0.0, {"angle_deg": 85})
     path = plan_path(keys, TABLE, T_FT, q1, 0.0, PathLimits(), path_id="p")
     assert path.ok, path.reason
     start, end = TABLE.fk(path.joints[0], T_FT)[:3, 3], TABLE.fk(path.joints[-1], T_FT)[:3, 3]

@@ -7,7 +7,7 @@ import pytest
 
 from umbra.connectors.messages import JointState
 from umbra.connectors.path_messages import VcrCommand
-from umbra.connectors.sketch_messages import SketchPrimitive
+from umbra.connectors.sketch_messages import Macro, SketchPrimitive
 from umbra.connectors.states import GuardReason, GuardStage, GuardState
 from umbra.modules.arm.dh import puma560
 from umbra.modules.geometry.transforms import translation
@@ -26,7 +26,7 @@ DT = 0.01
 def path():
     T_ft = translation(0, 0, 0.14)
     line = SketchPrimitive(primitive_id="L", kind="line", points=SketchScene.nominal().pipe.ends)
-    keys = macro_keys("grab_pipe", line, TABLE.fk(Q_READY, T_ft), 1.0)
+    keys = macro_keys(Macro.GRAB_PIPE, line, TABLE.fk(Q_READY, T_ft), 1.0)
     return plan_path(keys, TABLE, T_ft, Q_READY, 1.0, PathLimits(), path_id="p1")
 
 
