@@ -146,6 +146,14 @@ class PrimitiveKind(Code):
     TRIAD = "triad"  #: 4: lines from vertex 0 to 1, 2, 3
 
 
+class SketchReply(Code):
+    """Sketch's reply to each command, the ``stage`` of its status: done (``message`` says
+    what was done) or refused (``message`` and ``reason`` say why)."""
+
+    OK = "ok"
+    REFUSED = "refused"
+
+
 class Macro(Code):
     """An Active Sketch motion macro (LDRD report section 3), by name. Which primitive offers
     which, what each does and the options each takes: :mod:`umbra.modules.sketch.macros`."""

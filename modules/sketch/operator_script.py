@@ -12,7 +12,7 @@ from umbra.connectors.messages import Status, Text
 from umbra.connectors.path_messages import VcrMode, VcrState
 from umbra.connectors.ptu_messages import PtuState
 from umbra.connectors.scene_messages import SceneObjects
-from umbra.connectors.sketch_messages import SketchPrimitive, StereoSnapshot
+from umbra.connectors.sketch_messages import SketchPrimitive, SketchReply, StereoSnapshot
 from umbra.modules.sketch.command_text import VERBS, parse
 from umbra.modules.sketch.primitives import KINDS
 from umbra.modules.sketch.stereo import StereoPair
@@ -137,11 +137,12 @@ class SketchOperatorSim(Module["SketchOperatorSim.Params"]):
             if reply is None or not self.sketch_status.fresh:
                 return
             self._waiting_reply = False
-            if reply.stage == "refused":
+            if reply.stage == SketchReply.REFUSED:
                 if self._settle_again():
                     self.log.info("sketch refused the snapshot (%s): settling again", reply.message)
                     return
                 self.context.request_stop(f"operator script: refused: {reply.message}", 1)
+                self._index, self._done = len(self.params.script), True  # plays nothing more
                 return
             self.log.info("sketch: %s", reply.message)
         if self._index >= len(self.params.script):

@@ -9,7 +9,13 @@ from umbra.connectors import Input, Module, Output, UserError, param
 from umbra.connectors.messages import CameraModel, Image, JointState, Pose, Scalar, Status, Text
 from umbra.connectors.path_messages import VCR_BUSY, ToolPath, VcrAction, VcrCommand, VcrState
 from umbra.connectors.ptu_messages import PtuCommand, PtuMode, PtuState
-from umbra.connectors.sketch_messages import Macro, SketchBox, SketchPrimitive, StereoSnapshot
+from umbra.connectors.sketch_messages import (
+    Macro,
+    SketchBox,
+    SketchPrimitive,
+    SketchReply,
+    StereoSnapshot,
+)
 from umbra.modules.arm.arm_params import ArmParams
 from umbra.modules.geometry.transforms import transform_from_xyz_rpy_deg
 from umbra.modules.sketch.command_text import Command, parse
@@ -102,7 +108,9 @@ class Sketch(Module["Sketch.Params"]):
     ptu_b = Output(PtuCommand, events=True, doc="PTU b commands")
     zoom_a = Output(Scalar, doc="zoom request of camera a (to SONY)")
     zoom_b = Output(Scalar, doc="zoom request of camera b (to SONY)")
-    status = Output(Status, doc="outcome of the last command, menu")
+    status = Output(
+        Status, doc="reply to the last command: stage SketchReply (ok or refused), message, menu"
+    )
 
     def start(self) -> None:
         p = self.params
@@ -165,11 +173,11 @@ class Sketch(Module["Sketch.Params"]):
         except (UserError, MacroError, PrimitiveError, ValueError) as exc:
             self._refuse(str(exc))
             return
-        self.status.send(Status(stage="ok", message=message))
+        self.status.send(Status(stage=SketchReply.OK, message=message))
 
     def _refuse(self, message: str) -> None:
         self._counts["refused"] += 1
-        self.status.send(Status(stage="refused", message=message, reason=message))
+        self.status.send(Status(stage=SketchReply.REFUSED, message=message, reason=message))
 
     # -- commands -----------------------------------------------------------------------------
     def _run(self, cmd: Command, now: float) -> str:

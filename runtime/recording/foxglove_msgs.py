@@ -30,6 +30,7 @@ from google.protobuf.timestamp_pb2 import Timestamp
 from scipy.spatial.transform import Rotation
 
 from umbra.connectors.messages import CameraModel, Contour, Image, JointState, Message, Pose, Poses
+from umbra.connectors.tracking import TrackStatus
 
 #: The joint of a ``foxglove.JointStates`` message that carries ``JointState.gripper`` (0..1).
 GRIPPER_JOINT = "gripper"
@@ -189,7 +190,7 @@ _SHADE = Color(r=0.0, g=0.0, b=0.0, a=0.6)
 def contour_annotations(sample: Contour, offset: float = 0.0) -> ImageAnnotations:
     """The snake drawn on its image: outline (green tracking, red failed), centroid, status."""
     when = timestamp_of(sample.stamp, offset)
-    color = _GREEN if sample.status == "tracking" else _RED
+    color = _GREEN if sample.status == TrackStatus.TRACKING else _RED
     out = ImageAnnotations()
     vertices = np.asarray(sample.vertices, dtype=float).reshape(-1, 2)
     if len(vertices):

@@ -6,6 +6,7 @@ import numpy as np
 
 from umbra.connectors.messages import Image, JointState, Pose, Text
 from umbra.connectors.ptu_messages import PtuState
+from umbra.connectors.sketch_messages import SketchReply
 from umbra.modules.arm.dh import puma560
 from umbra.modules.sketch.session import Q_READY, SketchSession
 from umbra.modules.sketch.sketch_module import Sketch
@@ -49,7 +50,7 @@ def test_a_snapshot_that_cannot_settle_is_refused_after_snapshot_wait():
         h.push("command", Text(text="snapshot"))
         h.run(60, 0.01)  # no new frame arrives
         status = h.output("status")
-        assert status.stage == "refused" and status.message == (
+        assert status.stage == SketchReply.REFUSED and status.message == (
             "snapshot: camera a has no frame since its view or zoom last changed; wait for the "
             "next frame (waited 0.4 s)"
         )
@@ -62,7 +63,7 @@ def test_snapshot_place_plan_and_vcr():
     with ModuleHarness(Sketch, {}) as h:
         _feed(h, session, moving=True)
         status = _say(h, "snapshot")
-        assert status.stage == "refused" and "PTU a is still slewing" in status.message
+        assert status.stage == SketchReply.REFUSED and "PTU a is still slewing" in status.message
         _feed(h, session)
         # the PTUs were seen moving just before these frames: the snapshot waits for them to
         # settle and for a frame taken after that (no reply until then)
@@ -81,24 +82,25 @@ def test_snapshot_place_plan_and_vcr():
         text = "place line " + " ".join(f"{u},{v}" for u, v in a) + " | "
         text += " ".join(f"{u},{v + 7}" for u, v in b)  # 7 px off: put back on the line
         status = _say(h, text)
-        assert status.stage == "ok" and status.message.startswith("line1 placed")
+        assert status.stage == SketchReply.OK and status.message.startswith("line1 placed")
         prim = h.output("primitive")
         assert np.max(np.linalg.norm(prim.points - pipe.ends, axis=1)) < 0.003
         assert np.max(pair.epipolar_error_px(prim.pixels_a, prim.pixels_b)) < 1e-6
         assert _say(h, "plan grab_pipe line1").message.startswith("path1 (grab_pipe) checked")
         assert h.output("path").ok and h.output("path").macro == "grab_pipe"
-        assert _say(h, "vcr play").stage == "ok"
+        assert _say(h, "vcr play").stage == SketchReply.OK
         vcr = h.output("vcr")
         assert vcr.action == "play" and vcr.path_id == "path1" and vcr.speed == 0.0
         assert h.output("ptu_a").mode == "point"  # cameras slew to watch the macro's goal
         _say(h, "vcr speed 0.4")
         assert h.output("vcr").speed == 0.4
         refused = _say(h, "plan grab_pipe line9")
-        assert refused.stage == "refused" and "no primitive 'line9'" in refused.message
+        assert refused.stage == SketchReply.REFUSED and "no primitive 'line9'" in refused.message
         far = _say(h, "place line 1,1 2,2 | 3,3")
-        assert far.stage == "refused" and "a line has 2 vertices" in far.message
+        assert far.stage == SketchReply.REFUSED and "a line has 2 vertices" in far.message
         bad = _say(h, "wiggle")
-        assert bad.stage == "refused" and "expected one of aim, zoom, snapshot" in bad.message
+        assert bad.stage == SketchReply.REFUSED
+        assert "expected one of aim, zoom, snapshot" in bad.message
 
 
 def test_refused_plans_are_shown_not_sent_and_no_plan_while_the_arm_moves():
@@ -115,7 +117,8 @@ def test_refused_plans_are_shown_not_sent_and_no_plan_while_the_arm_moves():
         text = "place line " + " ".join(f"{u},{v}" for u, v in a) + " | "
         _say(h, text + " ".join(f"{u},{v}" for u, v in b))
         refused = _say(h, "plan grab_pipe line1")
-        assert refused.stage == "refused" and "plan grab_pipe: refused: reach:" in refused.message
+        assert refused.stage == SketchReply.REFUSED
+        assert "plan grab_pipe: refused: reach:" in refused.message
         assert not h.outputs("path")  # nothing for the player
         preview = h.output("plan_preview")
         assert not preview.ok and preview.reason.startswith("reach:")  # shown, with the reason
@@ -124,9 +127,10 @@ def test_refused_plans_are_shown_not_sent_and_no_plan_while_the_arm_moves():
         # a canned motion is planned from the arm's joints: not while the player moves them
         h.push("vcr_state", VcrState(path_id="path7", mode="playing"))
         busy = _say(h, "plan stow")
-        assert busy.stage == "refused" and "the arm is moving (path7 playing)" in busy.message
+        assert busy.stage == SketchReply.REFUSED
+        assert "the arm is moving (path7 playing)" in busy.message
         h.push("vcr_state", VcrState(path_id="path7", mode="paused"))
-        assert _say(h, "plan stow").stage == "ok" and h.output("path").macro == "stow"
+        assert _say(h, "plan stow").stage == SketchReply.OK and h.output("path").macro == "stow"
         for text, message in (
             ("vcr fly", "expected vcr ACTION [NUMBER] with ACTION one of play"),
             ("vcr speed 3", "expected a speed within 0.1 .. 1"),
@@ -136,7 +140,7 @@ def test_refused_plans_are_shown_not_sent_and_no_plan_while_the_arm_moves():
             ("aim 0.6 0 0.3 5", "expected aim X Y Z [ZOOM] with 0 <= ZOOM <= 1"),
         ):
             bad = _say(h, text)
-            assert bad.stage == "refused" and message in bad.message, (text, bad.message)
+            assert bad.stage == SketchReply.REFUSED and message in bad.message, (text, bad.message)
         assert len(h.outputs("vcr")) == 0 and len(h.outputs("ptu_a")) == 0
 
 
