@@ -246,6 +246,11 @@ class JointRates(Message, frozen=True, kw_only=True):
     HAS_JOINTS: ClassVar[bool] = True
 
 
+#: A device's ``status`` when nothing is wrong (``ZoomState``, ``PtuState``); any other status
+#: says what is wrong, in words for a person.
+DEVICE_OK = "ok"
+
+
 class ZoomState(Message, frozen=True, kw_only=True):
     """Zoom of a zoom camera: normalized ``zoom`` 0 (wide) .. 1 (tele), ``raw`` device units."""
 
@@ -254,13 +259,18 @@ class ZoomState(Message, frozen=True, kw_only=True):
         "zoom": "0 wide .. 1 tele",
         "raw": "device units",
         "moving": "true while zooming",
-        "status": '"ok" or what is wrong',
+        "status": f'"{DEVICE_OK}" or what is wrong',
     }
 
     zoom: float
     raw: int = 0
     moving: bool = False
-    status: str = "ok"
+    status: str = DEVICE_OK
+
+    @property
+    def ok(self) -> bool:
+        """Nothing is wrong with the zoom camera (its ``status`` is ``DEVICE_OK``)."""
+        return self.status == DEVICE_OK
 
 
 class CameraModel(Message, frozen=True, kw_only=True):

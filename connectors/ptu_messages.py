@@ -14,7 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from umbra.connectors.messages import Message
+from umbra.connectors.messages import DEVICE_OK, Message
 from umbra.connectors.reasons import Code
 
 _F8 = "float64"
@@ -57,7 +57,7 @@ class PtuState(Message, frozen=True, kw_only=True):
         "pan_rate": "rad/s",
         "tilt_rate": "rad/s",
         "moving": "true while slewing",
-        "status": '"ok" or what is wrong',
+        "status": f'"{DEVICE_OK}" or what is wrong',
     }
 
     pan: float
@@ -65,4 +65,9 @@ class PtuState(Message, frozen=True, kw_only=True):
     pan_rate: float = 0.0
     tilt_rate: float = 0.0
     moving: bool = False
-    status: str = "ok"
+    status: str = DEVICE_OK
+
+    @property
+    def ok(self) -> bool:
+        """Nothing is wrong with the pan/tilt unit (its ``status`` is ``DEVICE_OK``)."""
+        return self.status == DEVICE_OK

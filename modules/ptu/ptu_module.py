@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from umbra.connectors import Input, Module, Output, Parameters, UserError, param
-from umbra.connectors.messages import CameraModel, Pose
+from umbra.connectors.messages import DEVICE_OK, CameraModel, Pose
 from umbra.connectors.ptu_messages import PtuCommand, PtuMode, PtuState
 from umbra.modules.calib.camera_message import pinhole_from_message
 from umbra.modules.ptu.ptu_model import PtuGeometry, PtuLimitError, aim_in_base
@@ -61,7 +61,7 @@ class Ptu(Module["Ptu.Params"]):
         self.unit = SimPtu(
             self.geometry, np.radians(p.initial_pan_deg), np.radians(p.initial_tilt_deg)
         )
-        self._status = "ok"
+        self._status = DEVICE_OK
         self._point: np.ndarray | None = None  # the point being watched (point mode)
         self._camera_seq = -1  # the camera model last aimed with
         self._last: float | None = None
@@ -103,7 +103,7 @@ class Ptu(Module["Ptu.Params"]):
             self._point = None
             try:
                 self.unit.command(command.pan, command.tilt)
-                self._status = "ok"
+                self._status = DEVICE_OK
             except PtuLimitError as exc:
                 self._refuse(str(exc))
         elif command.mode != PtuMode.POINT:  # a message made in this process, not decoded
@@ -130,7 +130,7 @@ class Ptu(Module["Ptu.Params"]):
             self._refuse(str(exc))
             return
         self._point = point
-        self._status = "ok"
+        self._status = DEVICE_OK
 
     def _refuse(self, reason: str) -> None:
         self._refused += 1

@@ -24,8 +24,9 @@ def camera_view(
     silent_s: float,
 ) -> dict[str, Any]:
     """Camera ``side``'s devices as the page shows them: ``ptu`` (``moving``, ``pan_deg``,
-    ``tilt_deg`` to 0.1 deg, ``status``, ``silent``) and ``zoom`` (``zoom`` 0 wide .. 1 tele to
-    0.01, ``moving``, ``status``, ``silent``), each None when the graph wires none or nothing
+    ``tilt_deg`` to 0.1 deg, ``ok``, ``status``, ``silent``) and ``zoom`` (``zoom`` 0 wide .. 1
+    tele to 0.01, ``moving``, ``ok``, ``status``, ``silent``; ``ok``: nothing is wrong with it,
+    else ``status`` says what), each None when the graph wires none or nothing
     came yet; ``still``: every device known reported, recently, that it is not moving. Ages
     [s] are since each report was received; ``silent_s`` [s] (> 0) the longest that is
     recent."""
@@ -35,6 +36,7 @@ def camera_view(
             "moving": bool(ptu.moving),
             "pan_deg": round(math.degrees(ptu.pan), 1),
             "tilt_deg": round(math.degrees(ptu.tilt), 1),
+            "ok": ptu.ok,
             "status": ptu.status,
             "silent": not ptu_age_s <= silent_s,
         }
@@ -42,6 +44,7 @@ def camera_view(
         view["zoom"] = {
             "zoom": round(float(zoom.zoom), 2),
             "moving": bool(zoom.moving),
+            "ok": zoom.ok,
             "status": zoom.status,
             "silent": not zoom_age_s <= silent_s,
         }

@@ -7,13 +7,14 @@ import enum
 from dataclasses import dataclass
 
 from umbra.connectors.errors import UserError
+from umbra.connectors.messages import DEVICE_OK
 from umbra.modules.calib.visca import protocol as vp
 
 
 class LinkStatus(enum.Enum):
     """Health of the link to the camera; the value is the prefix of the status text."""
 
-    OK = "ok"
+    OK = DEVICE_OK
     STARTING = "starting"
     NO_REPLY = "no_reply"
     GARBLED = "garbled"

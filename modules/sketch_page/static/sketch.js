@@ -172,9 +172,9 @@ function drawCameras(cameras) {
   const part = (c) => {
     const p = c.ptu, z = c.zoom, words = [];
     if (p) words.push(p.silent ? "PTU silent" : `${p.moving ? "slewing" : "still"}, ` +
-      `pan ${p.pan_deg.toFixed(1)}° tilt ${p.tilt_deg.toFixed(1)}°` + (p.status === "ok" ? "" : ` (${p.status})`));
+      `pan ${p.pan_deg.toFixed(1)}° tilt ${p.tilt_deg.toFixed(1)}°` + (p.ok ? "" : ` (${p.status})`));
     if (z) words.push(z.silent ? "zoom silent" : `${z.moving ? "zooming" : "zoom"} ${z.zoom.toFixed(2)}` +
-      (z.status === "ok" ? "" : ` (${z.status})`));
+      (z.ok ? "" : ` (${z.status})`));
     return `${c.side}: ${words.join(", ")}`;
   };
   const shown = cameras.filter((c) => c.ptu || c.zoom);
