@@ -119,8 +119,12 @@ class OperatorConsole(Module[ConsoleParams]):
     presence = Output(
         Presence, doc="whether a person holds control, has acted, and how many pages are open"
     )
-    zoom_1 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[0]")
-    zoom_2 = Output(Scalar, doc="zoom request 0 (wide) .. 1 (tele) for camera zoom_names[1]")
+    zoom_1 = Output(
+        Scalar, events=True, doc="zoom requests 0 (wide) .. 1 (tele) for camera zoom_names[0]"
+    )
+    zoom_2 = Output(
+        Scalar, events=True, doc="zoom requests 0 (wide) .. 1 (tele) for camera zoom_names[1]"
+    )
 
     # -- lifecycle ----------------------------------------------------------------------------
     def start(self) -> None:

@@ -106,10 +106,12 @@ class Sketch(Module["Sketch.Params"]):
     vcr = Output(VcrCommand, events=True, doc="VCR commands for the player")
     ptu_a = Output(PtuCommand, events=True, doc="PTU a commands")
     ptu_b = Output(PtuCommand, events=True, doc="PTU b commands")
-    zoom_a = Output(Scalar, doc="zoom request of camera a (to SONY)")
-    zoom_b = Output(Scalar, doc="zoom request of camera b (to SONY)")
+    zoom_a = Output(Scalar, events=True, doc="zoom requests of camera a (to SONY)")
+    zoom_b = Output(Scalar, events=True, doc="zoom requests of camera b (to SONY)")
     status = Output(
-        Status, doc="reply to the last command: stage SketchReply (ok or refused), message, menu"
+        Status,
+        events=True,
+        doc="a reply to each command: stage SketchReply (ok or refused), message, menu",
     )
 
     def start(self) -> None:

@@ -105,6 +105,7 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
         start_new_session=True,
     )
     summaries: list[dict] = []
+    failed = True
     try:
 
         def ready():
@@ -123,6 +124,7 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
             interval_s=0.2,
         )
         yield base, summaries
+        failed = False
     finally:
         os.killpg(run.pid, signal.SIGINT)
         try:
@@ -132,8 +134,15 @@ def _graph(tmp_path: Path) -> Iterator[tuple[str, list[dict]]]:
             run.wait(10)
         output = run.stdout.read() if run.stdout else ""
         summaries += [json.loads(f.read_text()) for f in tmp_path.rglob("summary*.json")]
-        if not summaries:
+        if failed or not summaries:  # what the run said, and its devices' counts
             print(output[-3000:])
+            for summary in summaries:
+                for module in summary.get("modules") or []:
+                    if module.get("type") in ("SONY", "PTU"):
+                        print(json.dumps(module)[:1500])
+                for link in summary.get("links") or []:
+                    if "zoom" in json.dumps(link):
+                        print(json.dumps(link)[:1500])
 
 
 def _fits(page, width: int) -> None:

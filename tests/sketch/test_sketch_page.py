@@ -172,10 +172,17 @@ def test_the_cameras_ptus_and_zoom_reach_the_page_as_they_report_and_silence_is_
             "moving": True,
             "pan_deg": 28.6,
             "tilt_deg": -5.7,
+            "ok": True,
             "status": "ok",
             "silent": False,
         }
-        assert a["zoom"] == {"zoom": 0.3, "moving": False, "status": "ok", "silent": False}
+        assert a["zoom"] == {
+            "zoom": 0.3,
+            "moving": False,
+            "ok": True,
+            "status": "ok",
+            "silent": False,
+        }
         assert a["still"] is False
         b = op.state()["cameras"][1]
         assert b == {"side": "b", "ptu": None, "zoom": None, "still": False}
