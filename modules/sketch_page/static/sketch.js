@@ -168,18 +168,22 @@ function draw() {
 }
 // Each camera's pan/tilt unit and zoom as the devices report them: slewing, zooming, or still
 // where they point; a device silent past the server's bound is said to be silent, not still.
+// What a device says is wrong (it is not ok) comes last on its camera's line, in red.
 function drawCameras(cameras) {
+  const wrong = (d) => d && !d.silent && !d.ok;
   const part = (c) => {
-    const p = c.ptu, z = c.zoom, words = [];
+    const p = c.ptu, z = c.zoom, words = [], problems = [];
     if (p) words.push(p.silent ? "PTU silent" : `${p.moving ? "slewing" : "still"}, ` +
-      `pan ${p.pan_deg.toFixed(1)}° tilt ${p.tilt_deg.toFixed(1)}°` + (p.ok ? "" : ` (${p.status})`));
-    if (z) words.push(z.silent ? "zoom silent" : `${z.moving ? "zooming" : "zoom"} ${z.zoom.toFixed(2)}` +
-      (z.ok ? "" : ` (${z.status})`));
-    return `${c.side}: ${words.join(", ")}`;
+      `pan ${p.pan_deg.toFixed(1)}° tilt ${p.tilt_deg.toFixed(1)}°`);
+    if (z) words.push(z.silent ? "zoom silent" : `${z.moving ? "zooming" : "zoom"} ${z.zoom.toFixed(2)}`);
+    if (wrong(p)) problems.push(`PTU: ${p.status}`);
+    if (wrong(z)) problems.push(`zoom: ${z.status}`);
+    return `${c.side}: ${words.join(", ")}` + (problems.length ? ` | ${problems.join("; ")}` : "");
   };
   const shown = cameras.filter((c) => c.ptu || c.zoom);
   $("cameras").textContent = $("cameras").title = shown.map(part).join("\n");
-  $("cameras").className = shown.every((c) => c.still) ? "dim" : "busy";
+  $("cameras").className = shown.some((c) => wrong(c.ptu) || wrong(c.zoom)) ? "trouble"
+    : shown.every((c) => c.still) ? "dim" : "busy";
 }
 // Where the arm is along the previewed path: the player's progress (0..1 of the path
 // parameter) interpolated between the preview's waypoints (their own s, 0..1).
