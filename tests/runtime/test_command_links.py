@@ -1,6 +1,7 @@
 """Requests sent once per action cross processes on ordered, lossless links (events): a zoom
 request or Sketch's reply to a command that zenoh dropped under congestion was never sent again
-(a CI run saw camera a stay at zoom 0 while camera b zoomed to the script's 0.3)."""
+(the likely cause of a CI run in which camera a stayed at zoom 0 while camera b zoomed to the
+script's 0.3)."""
 
 from __future__ import annotations
 
