@@ -17,6 +17,9 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Iterable
+from typing import TypeVar
+
+_C = TypeVar("_C", bound="Code")
 
 
 class Code(str, enum.Enum):
@@ -28,6 +31,20 @@ class Code(str, enum.Enum):
 
     def __format__(self, spec: str) -> str:
         return format(str(self.value), spec)
+
+    @classmethod
+    def listed(cls) -> str:
+        """The codes as a person reads the choices: "a, b, c"."""
+        return ", ".join(str(member) for member in cls)
+
+    @classmethod
+    def named(cls: type[_C], word: str, unknown: str, error: type[Exception] = ValueError) -> _C:
+        """The member whose code is ``word`` (a person's or a file's); else ``error`` saying
+        ``unknown`` (e.g. "unknown primitive kind"), the word and the codes there are."""
+        try:
+            return cls(word)
+        except ValueError:
+            raise error(f"{unknown} {word!r}; expected one of {cls.listed()}") from None
 
 
 class Worded(Code):

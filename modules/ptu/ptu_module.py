@@ -107,8 +107,7 @@ class Ptu(Module["Ptu.Params"]):
             except PtuLimitError as exc:
                 self._refuse(str(exc))
         elif command.mode != PtuMode.POINT:  # a message made in this process, not decoded
-            known = ", ".join(PtuMode)
-            self._refuse(f"unknown PTU mode {command.mode!r}; expected one of {known}")
+            self._refuse(f"unknown PTU mode {command.mode!r}; expected one of {PtuMode.listed()}")
         elif command.frame != self.params.world_frame:
             self._refuse(
                 f"aim point in frame `{command.frame}`, expected `{self.params.world_frame}`"

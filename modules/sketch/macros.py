@@ -55,11 +55,7 @@ MENU: dict[str, list[tuple[Macro, str]]] = {
 def macro_named(name: str) -> Macro:
     """The macro called ``name`` (a person's or a file's word); raises MacroError naming the
     macros there are."""
-    try:
-        return Macro(name)
-    except ValueError:
-        known = ", ".join(Macro)
-        raise MacroError(f"there is no macro {name!r}; expected one of {known}") from None
+    return Macro.named(name, "there is no macro", MacroError)
 
 
 def macro_label(macro: str) -> str:

@@ -46,7 +46,7 @@ def script_step_problem(step: str) -> str:
         return "" if not rest else "expected `settle` alone"
     if verb == "wait_vcr":
         if len(rest) != 1 or rest[0] not in set(VcrMode):
-            return f"expected `wait_vcr MODE` with MODE one of {', '.join(VcrMode)}"
+            return f"expected `wait_vcr MODE` with MODE one of {VcrMode.listed()}"
         return ""
     if verb == "place" and len(rest) == 2 and rest[1].startswith("@"):
         return (

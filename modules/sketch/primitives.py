@@ -37,11 +37,7 @@ class PrimitiveError(ValueError):
 
 def primitive_kind(kind: str) -> PrimitiveKind:
     """``kind`` as written (a command, a file), typed; PrimitiveError unless it is one."""
-    try:
-        return PrimitiveKind(kind)
-    except ValueError:
-        known = ", ".join(PrimitiveKind)
-        raise PrimitiveError(f"unknown primitive kind {kind!r}; expected one of {known}") from None
+    return PrimitiveKind.named(kind, "unknown primitive kind", PrimitiveError)
 
 
 def vertex_count(kind: str) -> int:

@@ -63,21 +63,20 @@ def check_command(
     ``speed``) is finite within ``SPEED_MIN .. SPEED_MAX``, and a seek has a finite target
     ``s`` >= 0, within ``0 .. length`` when the path's ``length`` is known (path units).
     Returns the action, typed."""
-    if action not in ACTIONS:
-        raise VcrError(f"unknown VCR action {action!r}; expected one of {', '.join(ACTIONS)}")
+    typed = VcrAction.named(action, "unknown VCR action", VcrError)
     speeds = f"a speed within {SPEED_MIN:g} .. {SPEED_MAX:g}"
-    if action == VcrAction.SPEED and speed is None:
+    if typed == VcrAction.SPEED and speed is None:
         raise VcrError(f"expected {speeds}")
     if speed is not None and not (
         np.isfinite(speed) and SPEED_MIN - _SPEED_SLACK <= speed <= SPEED_MAX + _SPEED_SLACK
     ):
         raise VcrError(f"expected {speeds}, got {speed}")
-    if action == VcrAction.SEEK:
+    if typed == VcrAction.SEEK:
         top = np.inf if length is None else length
         if s is None or not (np.isfinite(s) and 0.0 <= s <= top):
             within = ">= 0" if length is None else f"within 0 .. {length:.4g}"
             raise VcrError(f"expected a seek target {within}, got {s}")
-    return VcrAction(action)
+    return typed
 
 
 @dataclass(frozen=True)
