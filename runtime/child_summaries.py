@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import msgspec
+
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.config import Endpoints
 from umbra.runtime.links.control_line import ControlCommand
@@ -44,10 +46,23 @@ def read_summary(out: Path, child: Child) -> dict[str, Any] | None:
     return summary
 
 
+class _Reason(msgspec.Struct):
+    """The one field of a process's summary that the launcher needs as the process ends."""
+
+    reason: str = ""
+
+
 def reason_of(out: Path, child: Child) -> str:
-    summary = read_summary(out, child)
-    if summary and summary.get("reason"):
-        return str(summary["reason"])
+    """Why ``child`` ended: its summary's ``reason`` (decoded alone: a summary holds a run's
+    records, and a starved launcher tells the other processes only once it has read this),
+    else its last line on stderr."""
+    try:
+        text = (out / f"summary-{child.name}.json").read_bytes()
+        reason = msgspec.json.decode(text, type=_Reason)
+    except (OSError, msgspec.DecodeError):
+        reason = _Reason()
+    if reason.reason:
+        return reason.reason
     return child.tail[-1] if child.tail else "no reason given"
 
 

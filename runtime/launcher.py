@@ -24,8 +24,10 @@ given to every process (``--run-id``), which writes it into its run file
 (``umbra.runtime.links.runs``): the run's live server and the observers (``umbra topics --run ID``)
 find this run's processes by it, never another run's of the same graph.
 
-When a child ends, the ``/dev/shm`` files it left (its frame pools, its host marker, zenoh's
-segments it mapped) are removed at once (``umbra.runtime.links.shm_sweep``).
+When a child ends, the others are told first (``finish`` or ``abort``: a starved launcher has
+taken seconds over what comes next); then the ``/dev/shm`` files it left (its frame pools, its host
+marker, zenoh's segments it mapped) are removed (``umbra.runtime.links.shm_sweep``), and then its
+end is said.
 
 Clock: sim time cannot be shared between processes, so a split graph runs on the real clock; a
 graph that declares ``clock: sim`` runs on the real clock with a notice, and ``--clock sim`` with a
@@ -367,22 +369,9 @@ class Supervisor:
         next_look = time.monotonic() + SHM_LOOK_PERIOD
         while True:
             now = time.monotonic()
-            ended = []
-            if now >= next_look:  # the shared memory each child maps, for when it dies
-                next_look = now + SHM_LOOK_PERIOD
-                for child in self.children:
-                    if child.running:
-                        child.segments |= mapped_segments(child.popen.pid)
-            for child in self.children:
-                if child.running and (rc := child.popen.poll()) is not None:
-                    child.code = rc
-                    ended.append(child)
-                    how = f"exit {rc}" if rc >= 0 else cause_of(self.out, child)
-                    # its shared memory first: once the end is said, nothing of it is left
-                    removed = remove_orphans(child.segments)
-                    self.say(f"process `{child.name}` ended ({how})")
-                    if removed and rc != 0:
-                        self.say(f"removed {removed} shared-memory files of dead processes")
+            ended = [c for c in self.children if c.running and c.popen.poll() is not None]
+            for child in ended:
+                child.code = child.popen.returncode
             if len(self._signals) > interrupts_seen:
                 interrupts_seen = len(self._signals)
                 if verdict is None or verdict[0] == 0:
@@ -423,11 +412,31 @@ class Supervisor:
                             child, ControlCommand.ABORT, verdict[1] if verdict else "stopped"
                         )
                 abort_rest_at = None
+            # what a loaded machine makes slow (reading /proc, the files) comes after the others
+            # were told: the run's end reaches them at once
+            for child in ended:
+                self._say_ended(child)
+            if now >= next_look:  # the shared memory each child maps, for when it dies
+                next_look = now + SHM_LOOK_PERIOD
+                for child in self.children:
+                    if child.running:
+                        child.segments |= mapped_segments(child.popen.pid)
             if not any(c.running for c in self.children):
                 assert verdict is not None
                 return verdict
             self._escalate(now)
             time.sleep(_POLL)
+
+    def _say_ended(self, child: Child) -> None:
+        """Say that ``child`` ended, once its shared memory is gone (nothing of it is left once
+        the end is said)."""
+        rc = child.code
+        assert rc is not None
+        how = f"exit {rc}" if rc >= 0 else cause_of(self.out, child)
+        removed = remove_orphans(child.segments)
+        self.say(f"process `{child.name}` ended ({how})")
+        if removed and rc != 0:
+            self.say(f"removed {removed} shared-memory files of dead processes")
 
     def _abort(self, reason: str, now: float) -> float:
         """Tell the servo side to stop now; the rest once it has (or after STOP_GRACE)."""

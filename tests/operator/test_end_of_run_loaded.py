@@ -141,7 +141,12 @@ def test_every_page_shows_the_verdict_within_5_s_of_the_end_at_load_20(tmp_path:
             assert f"Run ended: {VERDICT}" in view.inner_text("body")
             view.screenshot(path=str(REPO / "docs" / "images" / "view3d-ended.png"))
         assert run.wait(60) == 0, run.text()[-3000:]
-        assert len(shown) == 3 and max(shown.values()) <= END_SHOWN_S, shown
+        # each process's summary [s after the judge's]: which process was late, if one was
+        ends = {
+            f.name: round(f.stat().st_mtime - end_wall, 3)
+            for f in sorted((tmp_path / "run").glob("summary-*.json"))
+        }
+        assert len(shown) == 3 and max(shown.values()) <= END_SHOWN_S, (shown, ends)
     finally:
         run.kill()
 
