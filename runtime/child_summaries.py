@@ -3,6 +3,7 @@ process's ``summary-NAME.json`` (written for it when it died without one) and ``
 
 from __future__ import annotations
 
+import contextlib
 import json
 import signal
 import subprocess
@@ -54,15 +55,23 @@ class _Reason(msgspec.Struct):
 
 def reason_of(out: Path, child: Child) -> str:
     """Why ``child`` ended: its summary's ``reason`` (decoded alone: a summary holds a run's
-    records, and a starved launcher tells the other processes only once it has read this),
-    else its last line on stderr."""
+    records, and a starved launcher tells the other processes only once it has read this; a
+    summary with a measurement that is not a number, written ``NaN`` as Python's ``json``
+    does, is read whole), else its last line on stderr."""
     try:
         text = (out / f"summary-{child.name}.json").read_bytes()
-        reason = msgspec.json.decode(text, type=_Reason)
-    except (OSError, msgspec.DecodeError):
-        reason = _Reason()
-    if reason.reason:
-        return reason.reason
+    except OSError:
+        text = b""
+    reason: object = ""
+    try:
+        reason = msgspec.json.decode(text, type=_Reason).reason
+    except msgspec.ValidationError:
+        pass  # JSON, but its reason is not words
+    except msgspec.DecodeError:
+        with contextlib.suppress(ValueError, AttributeError):
+            reason = json.loads(text).get("reason", "")
+    if isinstance(reason, str) and reason:
+        return reason
     return child.tail[-1] if child.tail else "no reason given"
 
 

@@ -85,6 +85,13 @@ def test_the_reason_is_read_alone_and_a_broken_summary_falls_back_to_the_last_li
     assert reason_of(tmp_path, child) == "the last line on stderr"
     (tmp_path / "summary-p.json").write_text('{"reason": 3}')  # not words
     assert reason_of(tmp_path, child) == "the last line on stderr"
+    # Python's json writes a measurement that is not a number as NaN, which strict JSON is not
+    (tmp_path / "summary-p.json").write_text(
+        json.dumps({"process": "p", "reason": "no grasp", "grasp_distance_mm": float("nan")})
+    )
+    assert reason_of(tmp_path, child) == "no grasp"
+    (tmp_path / "summary-p.json").write_text("[1, 2]")  # JSON, not a summary
+    assert reason_of(tmp_path, child) == "the last line on stderr"
     records = {"record": [[float(i)] * 6 for i in range(20000)]}
     (tmp_path / "summary-p.json").write_text(
         json.dumps({"process": "p", "reason": "judged", "modules": [records]})
