@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from typing import Any
 
 from umbra.connectors import safe_yaml
 from umbra.connectors.errors import UserError
+from umbra.connectors.json_text import json_text
 
 #: Longest ``--set`` value [characters].
 MAX_VALUE_CHARS = 10_000
@@ -57,8 +57,7 @@ def parse_module_set(items: list[str] | None) -> dict[str, dict[str, Any]]:
 
 def print_json(obj: Any) -> None:
     """Print one JSON object on stdout (numpy values converted)."""
-    json.dump(obj, sys.stdout, default=_default)
-    sys.stdout.write("\n")
+    sys.stdout.write(json_text(obj, default=_default) + "\n")
 
 
 def _default(obj: Any) -> Any:

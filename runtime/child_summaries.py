@@ -15,6 +15,7 @@ from typing import Any
 
 import msgspec
 
+from umbra.connectors.json_text import json_text
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links.config import Endpoints
 from umbra.runtime.links.control_line import ControlCommand
@@ -107,7 +108,7 @@ def write_summaries(
                 "modules": [],
             }
             path = out / f"summary-{child.name}.json"
-            path.write_text(json.dumps(summary, indent=2))
+            path.write_text(json_text(summary, indent=2))
         processes.append(
             {
                 "process": child.name,
@@ -129,4 +130,4 @@ def write_summaries(
         "key_prefix": plan.key_prefix,
         "processes": processes,
     }
-    (out / "summary.json").write_text(json.dumps(whole, indent=2))
+    (out / "summary.json").write_text(json_text(whole, indent=2))

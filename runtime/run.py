@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
 
+from umbra.connectors.json_text import json_text
 from umbra.runtime.graph.plan import GraphPlan
 from umbra.runtime.links_api import LinkTransport
 from umbra.runtime.scheduler import Scheduler, SchedulerOptions
@@ -51,5 +51,5 @@ def write_summary(result: RunResult, output_dir: Path, process: str | None) -> P
     """Write the run summary as JSON; returns the file's path."""
     name = "summary.json" if process is None else f"summary-{process}.json"
     path = output_dir / name
-    path.write_text(json.dumps(result.as_dict(), indent=2, default=str))
+    path.write_text(json_text(result.as_dict(), indent=2, default=str))
     return path

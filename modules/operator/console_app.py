@@ -42,6 +42,7 @@ from fastapi import WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, Response
 
 from umbra.connectors.access.rate import MessageBudget
+from umbra.connectors.json_text import json_text
 from umbra.modules.operator.console_params import PAGE_SILENT_S
 from umbra.modules.operator.mailbox import Lanes, Latest
 from umbra.modules.operator.page_flow import PageFlow
@@ -322,7 +323,7 @@ class ConsoleApp:
         """The state as JSON, serialized once per version for every page."""
         cached = self._state_json
         if cached[0] != version:
-            text = json.dumps({"type": "state", "version": version, **state})
+            text = json_text({"type": "state", "version": version, **state})
             cached = self._state_json = (version, text)
         return cached[1]
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from umbra.connectors.cli_support import check_seconds, print_json
 from umbra.connectors.errors import UserError
+from umbra.connectors.json_text import json_text
 from umbra.modules.world.trial_faults import MAX_STALE_TRAVEL_MM
 from umbra.modules.world.trial_runner import TrialGraph, run_single, run_split
 from umbra.modules.world.trials import (
@@ -212,7 +213,7 @@ def main(args: argparse.Namespace) -> int:
             result = _one(graph, setup, args.split, out, args.timeout)
             results.append(result)
             if args.jsonl:
-                print(json.dumps(result.as_dict(), default=float), flush=True)
+                print(json_text(result.as_dict(), default=float), flush=True)
             else:
                 _progress(len(results), last - first, [{"grasped": r.grasped} for r in results])
     if args.jsonl:

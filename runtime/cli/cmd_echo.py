@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import queue
 import sys
 import time
 from typing import TYPE_CHECKING
 
 from umbra.connectors.cli_support import check_seconds
+from umbra.connectors.json_text import json_text
 from umbra.runtime.cli.observing import (
     add_observer_args,
     full_key,
@@ -86,9 +86,9 @@ def main(args: argparse.Namespace) -> int:
 def _print(o: Observed, as_json: bool) -> None:
     fields = message_fields(o.message) if o.message is not None else {}
     if as_json:
-        print(json.dumps({"key": o.key, "type": o.type_name, **fields}), flush=True)
+        print(json_text({"key": o.key, "type": o.type_name, **fields}), flush=True)
         return
     print(f"--- {o.key} ({o.type_name}, {o.size} bytes)")
     for name, value in fields.items():
-        print(f"{name}: {json.dumps(value)}")
+        print(f"{name}: {json_text(value)}")
     sys.stdout.flush()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import threading
@@ -13,6 +12,7 @@ from typing import TYPE_CHECKING, TypedDict
 
 from umbra.connectors.cli_support import check_seconds
 from umbra.connectors.errors import UserError
+from umbra.connectors.json_text import json_text
 from umbra.runtime.cli.observing import add_observer_args, open_observation, run_ended_text
 from umbra.runtime.ros2 import shell as ros2_shell
 from umbra.runtime.ros2.run_args import wants_ros2
@@ -117,7 +117,7 @@ def main(args: argparse.Namespace) -> int:
     rows.sort(key=lambda r: r["key"])
     if args.json:
         for row in rows:
-            print(json.dumps(row))
+            print(json_text(row))
     else:
         _table(rows, observation.prefix, producers)
     if ros2 is not None:

@@ -199,9 +199,16 @@ def entry() -> NoReturn:
     that went well. Everything :func:`main` writes (summaries, recordings) is written and closed
     before it returns; the exit handlers and logging are flushed here, then the process ends with
     :func:`main`'s status. SIGUSR1 prints every thread's Python stack to stderr and the run goes
-    on: what a process that does not stop is waiting for."""
+    on: what a process that does not stop is waiting for. Once :func:`main` has returned, Ctrl-C
+    is ignored."""
     faulthandler.register(signal.SIGUSR1, all_threads=True)
-    code = main()
+    try:
+        code = main()
+    except KeyboardInterrupt:  # a Ctrl-C after main's own handler, as it returned
+        code = 130
+    # the status is decided and everything written: a Ctrl-C now has nothing left to stop, and
+    # Python's own handler would raise it inside an exit handler (printed with its traceback)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         atexit._run_exitfuncs()  # what finalizing would run first (temporary files, ...)
         logging.shutdown()

@@ -4,7 +4,6 @@ observer (``umbra.runtime.links.observe``) and naming a key."""
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -116,7 +115,8 @@ def full_key(observation: Observation, key: str) -> str:
 
 
 def _plain(value: Any) -> Any:
-    """``value`` as JSON-ready data: big arrays summarised, non-finite floats as strings."""
+    """``value`` as JSON-ready data: big arrays summarised (a float that is not finite is
+    written ``null`` by :func:`umbra.connectors.json_text.json_text`)."""
     import numpy as np  # loaded by the messages it is given; `umbra --help` loads this file
 
     if isinstance(value, np.ndarray):
@@ -126,8 +126,6 @@ def _plain(value: Any) -> Any:
         if value.size and value.dtype.kind in "biuf":
             out.update(min=_plain(value.min().item()), max=_plain(value.max().item()))
         return out
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
     if isinstance(value, (list, tuple)):
         return [_plain(v) for v in value]
     if isinstance(value, dict):

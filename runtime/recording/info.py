@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from umbra.connectors.json_text import json_text
 from umbra.runtime.recording.reader import RecordingScan, read_records
 from umbra.runtime.recording.writer import META_ROLE, META_TYPE
 
@@ -169,4 +169,4 @@ def format_info(info: RecordingInfo) -> str:
 
 
 def info_json(info: RecordingInfo) -> str:
-    return json.dumps(info.as_dict(), indent=2)
+    return json_text(info.as_dict(), indent=2)

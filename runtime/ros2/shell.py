@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import queue
 import sys
 import time
 from typing import TYPE_CHECKING, Any
 
 from umbra.connectors.errors import UserError
+from umbra.connectors.json_text import json_text
 from umbra.runtime.graph.names import endpoint_problem
 from umbra.runtime.graph.spec_ros2 import DEFAULT_ROS2_ROUTER as DEFAULT_ROUTER
 from umbra.runtime.ros2.attachment import Attachment
@@ -89,7 +89,7 @@ def print_topics(domain: int, router: str, topics: list[Ros2Topic], as_json: boo
     if as_json:
         for t in topics:
             row = {"ros2_topic": t.name, "types": list(t.types), "domain": domain}
-            print(json.dumps({**row, "publishers": t.publishers, "subscribers": t.subscribers}))
+            print(json_text({**row, "publishers": t.publishers, "subscribers": t.subscribers}))
         return
     print(f"ROS 2 domain {domain} via {router}: {len(topics)} topics", file=sys.stderr)
     head = ("ROS 2 TOPIC", "TYPE", "PUBLISHERS", "SUBSCRIBERS")
@@ -175,11 +175,11 @@ def _print_samples(
             print(f"umbra echo: {topic}: undecodable message: {exc}", file=sys.stderr)
             continue
         if args.json:
-            print(json.dumps({"topic": topic, "type": ros_type, "seq": seq, **fields}), flush=True)
+            print(json_text({"topic": topic, "type": ros_type, "seq": seq, **fields}), flush=True)
         else:
             print(f"--- {topic} ({ros_type}, {len(payload)} bytes, seq {seq})")
             for name, value in fields.items():
-                print(f"{name}: {json.dumps(value)}")
+                print(f"{name}: {json_text(value)}")
             sys.stdout.flush()
         if args.once:
             return 0
