@@ -57,8 +57,8 @@ class _Reason(msgspec.Struct):
 def reason_of(out: Path, child: Child) -> str:
     """Why ``child`` ended: its summary's ``reason`` (decoded alone: a summary holds a run's
     records, and a starved launcher tells the other processes only once it has read this; a
-    summary with a measurement that is not a number, written ``NaN`` as Python's ``json``
-    does, is read whole), else its last line on stderr."""
+    summary that is not strict JSON, such as one holding ``NaN`` as Python's ``json`` writes it,
+    is read whole), else its last line on stderr."""
     try:
         text = (out / f"summary-{child.name}.json").read_bytes()
     except OSError:
