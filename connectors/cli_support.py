@@ -57,17 +57,7 @@ def parse_module_set(items: list[str] | None) -> dict[str, dict[str, Any]]:
 
 def print_json(obj: Any) -> None:
     """Print one JSON object on stdout (numpy values converted)."""
-    sys.stdout.write(json_text(obj, default=_default) + "\n")
-
-
-def _default(obj: Any) -> Any:
-    import numpy as np
-
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+    sys.stdout.write(json_text(obj) + "\n")
 
 
 def check_seconds(option: str, value: float | None, hint: str = "") -> None:

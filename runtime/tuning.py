@@ -19,7 +19,6 @@ the log says why, and the run goes on.
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 from collections import deque
@@ -28,6 +27,7 @@ from typing import Any
 
 from umbra.connectors.cli_support import parse_value
 from umbra.connectors.errors import UserError
+from umbra.connectors.json_text import json_text
 from umbra.connectors.messages import ParamChange
 from umbra.connectors.module import Module
 from umbra.connectors.params import Parameters, is_safety, is_tunable, with_change
@@ -76,7 +76,8 @@ def checked(
 
 
 def as_json(value: Any) -> str:
-    return json.dumps(value, default=str)
+    """A parameter's value as JSON text (a change's record, a viewer's parameter list)."""
+    return json_text(value, default=str)
 
 
 class Tuner:

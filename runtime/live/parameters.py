@@ -12,7 +12,6 @@ message and into the run's log.
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -36,7 +35,7 @@ def viewer_value(value: Any) -> Any:
         isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
     ):
         return [float(v) for v in value]
-    return json.dumps(value, default=str)
+    return as_json(value)
 
 
 class ParameterTable:

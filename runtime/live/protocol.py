@@ -17,6 +17,8 @@ import struct
 from dataclasses import dataclass
 from typing import Any
 
+from umbra.connectors.json_text import json_text
+
 #: Subprotocols served, the server's preference first (the same protocol under both names).
 SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")
 #: Capabilities advertised: parameters a viewer may read (and set those declared tunable).
@@ -82,7 +84,7 @@ def parameter_values(parameters: list[dict[str, Any]], request_id: str | None) -
     found: dict[str, Any] = {"op": "parameterValues", "parameters": parameters}
     if request_id is not None:
         found["id"] = request_id
-    return json.dumps(found)
+    return json_text(found)
 
 
 def message_data(subscription_id: int, log_time_ns: int, payload: bytes) -> bytes:
