@@ -146,7 +146,11 @@ def test_bodies_are_refused_past_their_limit_before_they_are_read() -> None:
         assert refused and sent < 16 << 20, sent
         # a head past its limit
         big = head + "X-Junk: " + "j" * (64 << 10) + "\r\n\r\n"
-        assert _raw(port, big.encode()).startswith(b"HTTP/1.1 4")
+        try:
+            answer = _raw(port, big.encode())
+        except ConnectionResetError:  # closed on the head's unread rest: the reset beat the answer
+            answer = b"reset"
+        assert answer.startswith(b"HTTP/1.1 4") or answer == b"reset", answer[:200]
 
 
 def test_half_open_requests_are_closed_and_connections_are_bounded() -> None:
